@@ -1,0 +1,33 @@
+"""Exceptions a user can cause. Everything else is a bug."""
+
+from __future__ import annotations
+
+
+class MechrelError(Exception):
+    """Base class of every error caused by user input or by a model that cannot be evaluated."""
+
+
+class SceneError(MechrelError, ValueError):
+    """A scene file or scene value is invalid.
+
+    The message names the file (when there is one), the field path, the offending value and
+    what is allowed.
+    """
+
+    def __init__(self, message: str, *, source: str | None = None, path: str | None = None):
+        self.source = source
+        self.path = path
+        prefix = f"{source}: " if source else ""
+        super().__init__(prefix + message)
+
+
+class AssemblyError(MechrelError, RuntimeError):
+    """The mechanism cannot be assembled: position constraints stay violated."""
+
+
+class SimulationError(MechrelError, RuntimeError):
+    """A simulation failed (non-finite state, step size underflow, too many steps)."""
+
+
+class StudyError(MechrelError, ValueError):
+    """A study file or estimator argument is invalid."""

@@ -1,0 +1,1 @@
+"""mechrel.scene"""
