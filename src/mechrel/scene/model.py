@@ -1,0 +1,225 @@
+"""The scene: frozen, validated plain data describing a planar mechanism and its analysis.
+
+All values are SI (m, kg, s, rad, N, Pa, Pa s). A scene is built by
+:func:`mechrel.scene.load_scene` (TOML file, embedded name or mapping), which validates every
+field; constructing these dataclasses directly skips that validation, so prefer the loader.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from types import MappingProxyType
+from typing import Literal, Mapping
+
+Vec2 = tuple[float, float]
+
+GROUND = "ground"
+"""Reserved body name for the frame; its points are the scene's ``ground`` points."""
+
+CLEARANCE_MODELS = ("ideal", "dry", "lubricated", "transition")
+DRIVER_LAWS = ("constant-speed", "constant-acceleration", "harmonic", "smooth-start")
+QUANTITIES = ("displacement", "velocity", "acceleration")
+INTEGRATOR_NAMES = ("auto", "rk4", "dopri5", "radau", "scipy-radau", "bdf", "lsoda")
+"""Allowed values of ``[solver] integrator`` (checked by the scene loader)."""
+
+
+@dataclass(frozen=True)
+class Body:
+    """A rigid body. ``position``/``angle`` are the initial guess for assembly (m, rad);
+    ``points`` are named points in the body frame, whose origin is the centre of mass (m)."""
+
+    name: str
+    mass: float
+    inertia: float
+    position: Vec2
+    angle: float
+    points: Mapping[str, Vec2]
+
+
+@dataclass(frozen=True)
+class PointRef:
+    """A named point on a body (``body == "ground"`` for a ground point)."""
+
+    body: str
+    point: str
+
+    def __str__(self) -> str:
+        return f"{self.body}.{self.point}"
+
+
+@dataclass(frozen=True)
+class Contact:
+    """Dry-contact parameters (Lankarani–Nikravesh). Moduli in Pa, speeds in m/s."""
+
+    youngs_modulus_bearing: float = 206e9
+    youngs_modulus_journal: float = 206e9
+    poisson_bearing: float = 0.3
+    poisson_journal: float = 0.3
+    restitution: float = 0.9
+    exponent: float = 1.5
+    stiffness: Literal["conformal", "paper"] = "conformal"
+    impact_speed_floor: float = 1e-4
+
+
+@dataclass(frozen=True)
+class Friction:
+    """Modified Coulomb friction with the dynamic correction c_d (v0 < v1, m/s)."""
+
+    coefficient: float = 0.05
+    v0: float = 1e-4
+    v1: float = 1e-2
+
+
+@dataclass(frozen=True)
+class Lubricant:
+    """Pinkus–Sternlicht long bearing film. ``viscosity`` in Pa s (100 cP = 0.1 Pa s)."""
+
+    viscosity: float = 0.1
+    lam: float = 1.0
+    eps0: float = 0.1
+
+
+@dataclass(frozen=True)
+class Transition:
+    """Dry/lubricated blend over c <= |e| <= c + e1 (m); film evaluated at eps <= eps_max."""
+
+    e1: float = 1e-5
+    eps_max: float = 0.99
+
+
+@dataclass(frozen=True)
+class Joint:
+    """A kinematic joint.
+
+    ``type``: ``"revolute"`` (connects two points, 2 equations, or a clearance joint when
+    ``model != "ideal"``), ``"translational"`` (``points[0]`` slides on the ground line through
+    ``points[1]`` with unit ``direction``; the body's angle stays ``angle``; 2 equations) or
+    ``"fixed-angle"`` (body of ``points[0]`` keeps ``angle``; 1 equation).
+
+    For a revolute clearance joint, ``points[0]`` is on the bearing (hole) body and
+    ``points[1]`` on the journal (pin) body; ``clearance`` is the radial clearance c = R_B − R_S,
+    ``bearing_radius`` is R_B and ``length`` the bearing length (m). ``initial_eccentricity``
+    (m, global frame) and ``initial_eccentricity_rate`` (m/s) set the journal's initial offset.
+    """
+
+    name: str
+    type: Literal["revolute", "translational", "fixed-angle"]
+    points: tuple[PointRef, ...]
+    direction: Vec2 | None = None
+    angle: float | None = None
+    model: Literal["ideal", "dry", "lubricated", "transition"] = "ideal"
+    clearance: float = 0.0
+    bearing_radius: float | None = None
+    length: float | None = None
+    contact: Contact | None = None
+    friction: Friction | None = None
+    lubricant: Lubricant | None = None
+    transition: Transition | None = None
+    initial_eccentricity: Vec2 = (0.0, 0.0)
+    initial_eccentricity_rate: Vec2 = (0.0, 0.0)
+
+    @property
+    def is_clearance(self) -> bool:
+        return self.type == "revolute" and self.model != "ideal"
+
+
+@dataclass(frozen=True)
+class Driver:
+    """A rheonomic constraint on a body's absolute angle, θ(t) = law(t) (rad).
+
+    Laws: ``constant-speed`` θ0 + ω t; ``constant-acceleration`` θ0 + ω t + α t²/2;
+    ``harmonic`` θ0 + A sin(Ω t + φ); ``smooth-start`` reaches ω after ``ramp_time`` with a
+    quintic blend of the speed (zero acceleration at both ends)."""
+
+    name: str
+    body: str
+    law: Literal["constant-speed", "constant-acceleration", "harmonic", "smooth-start"]
+    angle0: float
+    speed: float = 0.0
+    acceleration: float = 0.0
+    amplitude: float = 0.0
+    frequency: float = 0.0
+    phase: float = 0.0
+    ramp_time: float = 0.0
+
+
+@dataclass(frozen=True)
+class Output:
+    """A body point's displacement, velocity and acceleration along the unit ``axis``."""
+
+    name: str
+    point: PointRef
+    axis: Vec2
+
+
+@dataclass(frozen=True)
+class Analysis:
+    """What to simulate and where to sample.
+
+    Exactly one of ``duration`` (s) or ``cycles`` (periods of ``cycle_driver``, a
+    constant-speed driver). Exactly one of ``sample_step`` (s) or ``sample_step_angle``
+    (rad of the cycle driver's rotation)."""
+
+    duration: float | None = None
+    cycles: float | None = None
+    cycle_driver: str | None = None
+    sample_step: float | None = None
+    sample_step_angle: float | None = None
+
+
+@dataclass(frozen=True)
+class Solver:
+    """Integrator settings. ``integrator`` names an entry of
+    :data:`mechrel.integrate.INTEGRATORS`; ``"auto"`` picks the scene type's default
+    (see docs/performance.md). ``step`` is the fixed step of RK4 (s)."""
+
+    integrator: str = "auto"
+    step: float | None = None
+    rtol: float | None = None
+    atol: float | None = None
+    max_steps: int = 10_000_000
+    baumgarte_alpha: float = 5.0
+    baumgarte_beta: float = 5.0
+    assembly_tolerance: float = 1e-12
+    onset_tolerance: float = 1e-9
+
+
+@dataclass(frozen=True)
+class Scene:
+    """A complete, validated scene."""
+
+    name: str
+    description: str
+    bodies: Mapping[str, Body]
+    ground: Mapping[str, Vec2]
+    joints: Mapping[str, Joint]
+    drivers: Mapping[str, Driver]
+    outputs: Mapping[str, Output]
+    analysis: Analysis
+    solver: Solver = field(default_factory=Solver)
+    gravity: Vec2 = (0.0, -9.81)
+    source: str | None = None
+    raw: Mapping = field(default_factory=lambda: MappingProxyType({}), repr=False, compare=False)
+
+    @property
+    def clearance_joints(self) -> tuple[Joint, ...]:
+        return tuple(j for j in self.joints.values() if j.is_clearance)
+
+    @property
+    def analysis_duration(self) -> float:
+        """The simulated time span (s): ``analysis.duration``, or ``analysis.cycles`` periods
+        2π/|ω| of the cycle driver."""
+        a = self.analysis
+        if a.duration is not None:
+            return a.duration
+        return a.cycles * 2.0 * math.pi / abs(self.drivers[a.cycle_driver].speed)
+
+    @property
+    def analysis_sample_step(self) -> float:
+        """The output sampling interval (s): ``analysis.sample_step``, or
+        ``analysis.sample_step_angle`` (rad) divided by the cycle driver's |ω|."""
+        a = self.analysis
+        if a.sample_step is not None:
+            return a.sample_step
+        return a.sample_step_angle / abs(self.drivers[a.cycle_driver].speed)
