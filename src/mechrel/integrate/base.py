@@ -1,0 +1,219 @@
+"""Integrators behind one interface.
+
+Subclass contract (after :class:`scipy.integrate.OdeSolver`)
+-------------------------------------------------------------
+A subclass of :class:`Integrator`
+
+* sets the class attributes ``name`` (the scene's ``solver.integrator`` value), ``stiff``
+  (bool), ``adaptive`` (bool) and ``defaults`` (a dict of the settings it uses: some of
+  ``step``, ``rtol``, ``atol``);
+* implements ``_advance(system, t0, y0, hist, t_out, carry) -> (Y, YD, hist, stats, t, y, carry)``
+  which integrates ``mechrel.mechanics.problem.rhs`` from ``(t0, y0)`` over the increasing
+  output instants ``t_out`` (all ≥ t0), returning the state ``Y`` and its derivative ``YD`` at
+  each instant, the history state after the last instant, the statistics vector of
+  :mod:`mechrel.integrate.events`, the final time and state, and ``carry`` (what the method
+  needs to continue seamlessly, e.g. the next step size);
+* locates contact onsets before capturing the impact speed (use
+  :func:`~mechrel.integrate.events.onset_fraction` and
+  :func:`~mechrel.integrate.events.update_history`), and never returns non-finite values
+  silently: it stops with a status code instead.
+
+:meth:`Integrator.integrate` calls ``_advance`` on consecutive chunks of the output grid (that
+is where the progress bar advances; there is no Python call per step), merges the statistics
+and raises :class:`~mechrel.errors.SimulationError` for a failed status.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+from typing import ClassVar
+
+import numpy as np
+
+from ..errors import SimulationError
+from . import events as ev
+
+
+@dataclass(frozen=True)
+class SolverStats:
+    """Statistics of one integration.
+
+    Attributes
+    ----------
+    integrator : str
+    settings : dict
+        The step/tolerances actually used.
+    n_steps, n_rhs, n_rejected : int
+        Accepted steps, right-hand-side evaluations, steps rejected by error control.
+    n_onset_rejections : int
+        Trial steps rejected to locate a contact onset.
+    n_impacts : int
+        Located contact onsets (impacts).
+    n_jacobians, n_lu : int
+        Jacobian evaluations and LU factorisations (implicit methods).
+    max_position_violation : float
+        Largest |Φ| at accepted steps (m or rad).
+    max_velocity_violation : float
+        Largest |Φ_q q̇ + Φ_t| at accepted steps (m/s or rad/s).
+    wall_time : float
+        Seconds, including compilation on a cold cache.
+    status : str
+    """
+
+    integrator: str
+    settings: dict
+    n_steps: int
+    n_rhs: int
+    n_rejected: int
+    n_onset_rejections: int
+    n_impacts: int
+    n_jacobians: int
+    n_lu: int
+    max_position_violation: float
+    max_velocity_violation: float
+    wall_time: float
+    status: str
+
+    def as_dict(self) -> dict:
+        from dataclasses import asdict
+        return asdict(self)
+
+
+@dataclass(frozen=True)
+class IntegrationResult:
+    t: np.ndarray
+    y: np.ndarray
+    ydot: np.ndarray
+    hist: np.ndarray
+    stats: SolverStats
+
+
+def _merge(total: np.ndarray, part: np.ndarray) -> None:
+    for k in (ev.S_STEPS, ev.S_RHS, ev.S_REJECTED, ev.S_ONSET_REJECTED, ev.S_IMPACTS, ev.S_JAC,
+              ev.S_LU):
+        total[k] += part[k]
+    total[ev.S_VIOL_POS] = max(total[ev.S_VIOL_POS], part[ev.S_VIOL_POS])
+    total[ev.S_VIOL_VEL] = max(total[ev.S_VIOL_VEL], part[ev.S_VIOL_VEL])
+    total[ev.S_STATUS] = part[ev.S_STATUS]
+    total[ev.S_H] = part[ev.S_H]
+
+
+class Integrator:
+    """Base class; see the module docstring for the subclass contract.
+
+    Parameters
+    ----------
+    step : float, optional
+        Fixed step (s) for fixed-step methods; initial step for adaptive ones (default: chosen
+        automatically).
+    rtol, atol : float, optional
+        Relative and absolute tolerances (adaptive methods).
+    max_steps : int
+        Upper bound on attempted steps.
+    onset_tolerance : float
+        Largest penetration (m) at which a contact onset counts as located.
+    """
+
+    name: ClassVar[str] = ""
+    stiff: ClassVar[bool] = False
+    adaptive: ClassVar[bool] = True
+    defaults: ClassVar[dict] = {}
+
+    def __init__(self, *, step=None, rtol=None, atol=None, max_steps=10_000_000,
+                 onset_tolerance=1e-9):
+        self.step = self.defaults.get("step") if step is None else float(step)
+        self.rtol = self.defaults.get("rtol") if rtol is None else float(rtol)
+        self.atol = self.defaults.get("atol") if atol is None else float(atol)
+        self.max_steps = int(max_steps)
+        self.onset_tolerance = float(onset_tolerance)
+        for field in ("step", "rtol", "atol"):
+            value = getattr(self, field)
+            if value is not None and not value > 0:
+                raise SimulationError(f"solver.{field}: must be > 0, got {value!r}")
+        if not self.adaptive and self.step is None:
+            raise SimulationError(f"solver.step: the fixed-step integrator {self.name!r} needs "
+                                  "a step (s)")
+
+    @property
+    def settings(self) -> dict:
+        keys = ("step",) if not self.adaptive else ("rtol", "atol")
+        return {k: getattr(self, k) for k in keys}
+
+    def _advance(self, system, t0, y0, hist, t_out, carry):  # pragma: no cover - abstract
+        raise NotImplementedError
+
+    def integrate(self, system, y0, hist0, t_out, *, t0=None, progress=None) -> IntegrationResult:
+        """Integrate from ``(t0, y0)`` (default ``t0 = t_out[0]``) over ``t_out``.
+
+        ``progress``: a tqdm-like object with ``update(n)``, advanced per output chunk.
+        """
+        t_out = np.ascontiguousarray(t_out, dtype=float)
+        if t_out.ndim != 1 or t_out.size == 0 or np.any(np.diff(t_out) <= 0):
+            raise SimulationError("output instants must be a non-empty increasing sequence")
+        t = float(t_out[0] if t0 is None else t0)
+        y = np.ascontiguousarray(y0, dtype=float).copy()
+        hist = np.ascontiguousarray(hist0, dtype=float).copy()
+        n_chunks = 1 if progress is None else min(50, t_out.size)
+        bounds = np.linspace(0, t_out.size, n_chunks + 1).astype(int)
+        Ys, YDs = [], []
+        total = np.zeros(ev.N_STATS)
+        carry = None
+        start = time.perf_counter()
+        for a, b in zip(bounds[:-1], bounds[1:]):
+            Y, YD, hist, stats, t, y, carry = self._advance(system, t, y, hist, t_out[a:b], carry)
+            _merge(total, stats)
+            Ys.append(Y)
+            YDs.append(YD)
+            if progress is not None:
+                progress.update(b - a)
+            if int(stats[ev.S_STATUS]) != ev.STATUS_OK:
+                break
+        wall = time.perf_counter() - start
+        status = int(total[ev.S_STATUS])
+        result_stats = SolverStats(
+            integrator=self.name, settings=self.settings,
+            n_steps=int(total[ev.S_STEPS]), n_rhs=int(total[ev.S_RHS]),
+            n_rejected=int(total[ev.S_REJECTED]),
+            n_onset_rejections=int(total[ev.S_ONSET_REJECTED]),
+            n_impacts=int(total[ev.S_IMPACTS]), n_jacobians=int(total[ev.S_JAC]),
+            n_lu=int(total[ev.S_LU]), max_position_violation=float(total[ev.S_VIOL_POS]),
+            max_velocity_violation=float(total[ev.S_VIOL_VEL]), wall_time=wall,
+            status=ev.STATUS_TEXT[status])
+        Y = np.concatenate(Ys)
+        if status != ev.STATUS_OK or not np.all(np.isfinite(Y)):
+            raise SimulationError(
+                f"integrator {self.name!r} stopped at t = {t:.6g} s: {ev.STATUS_TEXT[status]} "
+                f"after {result_stats.n_steps} steps ({self.settings}); try a smaller step or "
+                "tolerance, or a stiff integrator (solver.integrator = 'radau')")
+        return IntegrationResult(t=t_out, y=Y, ydot=np.concatenate(YDs), hist=hist,
+                                 stats=result_stats)
+
+
+class RK4(Integrator):
+    """Classical fourth-order Runge–Kutta at a fixed step (the paper's method)."""
+
+    name = "rk4"
+    adaptive = False
+    defaults = {"step": None}
+
+    def _advance(self, system, t0, y0, hist, t_out, carry):
+        from .explicit import rk4_kernel
+        Y, YD, hist, stats, t, y = rk4_kernel(system, t0, y0, hist, t_out, self.step,
+                                              self.max_steps, self.onset_tolerance)
+        return Y, YD, hist, stats, t, y, None
+
+
+class DOPRI5(Integrator):
+    """Adaptive Dormand–Prince 5(4) with PI step control and dense output."""
+
+    name = "dopri5"
+    defaults = {"rtol": 1e-8, "atol": 1e-10}
+
+    def _advance(self, system, t0, y0, hist, t_out, carry):
+        from .explicit import dopri5_kernel
+        h0 = carry if carry is not None else (self.step or 0.0)
+        Y, YD, hist, stats, t, y = dopri5_kernel(system, t0, y0, hist, t_out, h0, self.rtol,
+                                                 self.atol, self.max_steps,
+                                                 self.onset_tolerance)
+        return Y, YD, hist, stats, t, y, stats[ev.S_H]

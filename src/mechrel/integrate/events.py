@@ -1,0 +1,75 @@
+"""Contact-onset location and the history state, shared by every compiled kernel.
+
+History ``hist[k]`` is the impact speed δ̇⁻ (m/s) of contact joint k, captured at its located
+onset, and 0 while the joint is out of contact. A trial step that ends with a joint in contact
+that was not in contact at its start, with a penetration above ``onset_tol`` (m), is rejected
+and retried with the step that the secant of the gap puts at ``onset_tol / 2`` inside the
+contact; repeated until the step ends within ``(0, onset_tol]``. Only then is δ̇⁻ recorded:
+taking it at the end of an arbitrary first step in contact would bias the LN damping
+(equations.md, "Numerical character").
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from ..forces.params import P_FLOOR
+from ..mechanics.problem import gaps
+
+# Layout of the float64 statistics vector every kernel returns.
+S_STEPS, S_RHS, S_REJECTED, S_ONSET_REJECTED, S_IMPACTS, S_JAC, S_LU, S_VIOL_POS, S_VIOL_VEL, \
+    S_STATUS, S_H = range(11)
+N_STATS = 11
+STATUS_OK, STATUS_MAX_STEPS, STATUS_STEP_UNDERFLOW, STATUS_NONFINITE, STATUS_NEWTON = range(5)
+STATUS_TEXT = ("ok", "maximum number of steps reached", "step size underflow",
+               "non-finite state", "Newton iteration failed to converge")
+
+
+@njit(cache=True)
+def contact_floors(sys):
+    """Impact-speed floor (m/s) of each contact joint, in ``hist`` order."""
+    n = 0
+    for k in range(sys.cl_hist.shape[0]):
+        if sys.cl_hist[k] >= 0:
+            n += 1
+    out = np.zeros(n)
+    for k in range(sys.cl_hist.shape[0]):
+        h = sys.cl_hist[k]
+        if h >= 0:
+            out[h] = sys.cl_p[k, P_FLOOR]
+    return out
+
+
+@njit(cache=True)
+def onset_fraction(g0, g1, hist, onset_tol):
+    """Fraction of the trial step that brings the earliest new contact to ``onset_tol / 2``
+    penetration, or 1.0 when no new contact overshoots ``onset_tol``."""
+    theta = 1.0
+    for k in range(g1.shape[0]):
+        if hist[k] == 0.0 and g1[k] > onset_tol and g0[k] <= 0.0:
+            # secant of the gap over the step; g1 > onset_tol >= onset_tol/2 > g0
+            f = (0.5 * onset_tol - g0[k]) / (g1[k] - g0[k])
+            if f < theta:
+                theta = f
+    if theta < 1.0:
+        theta = min(max(theta, 1e-3), 0.999)
+    return theta
+
+
+@njit(cache=True)
+def update_history(t, y, hist, floors, sys, stats):
+    """Capture δ̇⁻ at a (located) onset and reset at separation. Returns True if hist changed."""
+    if hist.shape[0] == 0:
+        return False
+    g, gd = gaps(t, y, sys)
+    changed = False
+    for k in range(g.shape[0]):
+        if hist[k] == 0.0 and g[k] > 0.0:
+            hist[k] = max(gd[k], floors[k])
+            stats[S_IMPACTS] += 1.0
+            changed = True
+        elif hist[k] != 0.0 and g[k] <= 0.0:
+            hist[k] = 0.0
+            changed = True
+    return changed

@@ -1,0 +1,289 @@
+"""Compile a :class:`~mechrel.scene.model.Scene` into a :class:`System`: plain arrays that the
+compiled kernels read.
+
+One compiled kernel serves every scene because the scene enters only as data. The arrays are
+grouped per element type (revolute, translational, fixed angle, driver, clearance joint), and
+clearance joints are grouped by force model, so a loop over an empty group costs nothing: a
+scene without lubricated joints never enters film code (see docs/mechanics.md).
+
+Coordinates: ``q = (x_1, y_1, θ_1, …, x_nb, y_nb, θ_nb)``, body frames at the centre of mass.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import NamedTuple
+
+import numpy as np
+
+from ..errors import SceneError
+from ..scene.model import GROUND, Joint, Scene
+
+# Driver laws, in the order of the ``dr_law`` codes.
+LAW_CONSTANT_SPEED = 0
+LAW_CONSTANT_ACCELERATION = 1
+LAW_HARMONIC = 2
+LAW_SMOOTH_START = 3
+_LAW_CODES = {
+    "constant-speed": LAW_CONSTANT_SPEED,
+    "constant-acceleration": LAW_CONSTANT_ACCELERATION,
+    "harmonic": LAW_HARMONIC,
+    "smooth-start": LAW_SMOOTH_START,
+}
+# Columns of ``dr_par``.
+D_ANGLE0, D_SPEED, D_ACCEL, D_AMPLITUDE, D_FREQUENCY, D_PHASE, D_RAMP = range(7)
+N_DRIVER_PARAMS = 7
+
+
+class System(NamedTuple):
+    """The mechanism as arrays (SI units). Body index −1 means the ground.
+
+    Revolute joints (2 equations each): ``r_i + A_i s_i − r_j − A_j s_j − off = 0``; for a
+    ground point ``s_j`` is its global position. ``off`` is zero except when a clearance joint
+    is assembled at a prescribed eccentricity.
+    Translational joints (2 equations): ``n·(r_i + A_i s_i − p0) = 0`` with ``n`` the line's
+    normal, and ``θ_i − angle = 0``. Fixed angles (1 equation) and drivers (1 equation:
+    ``θ_i − f(t) = 0``).
+    Clearance joints (force elements): bearing body ``cl_b`` with point ``cl_sb``, journal body
+    ``cl_j`` with point ``cl_sj``, packed force-law parameters ``cl_p``
+    (:mod:`mechrel.forces.params`). ``cl_contact`` lists the clearance joints that can touch
+    (dry, transition): their index into ``hist``.
+    """
+
+    mass: np.ndarray  # (n,) diagonal of M: m, m, J per body
+    gravity: np.ndarray  # (2,)
+    rev_i: np.ndarray
+    rev_j: np.ndarray
+    rev_si: np.ndarray
+    rev_sj: np.ndarray
+    rev_off: np.ndarray
+    rev_offdot: np.ndarray
+    tr_i: np.ndarray
+    tr_si: np.ndarray
+    tr_p0: np.ndarray
+    tr_n: np.ndarray
+    tr_angle: np.ndarray
+    fa_i: np.ndarray
+    fa_angle: np.ndarray
+    dr_i: np.ndarray
+    dr_law: np.ndarray
+    dr_par: np.ndarray
+    cl_b: np.ndarray
+    cl_j: np.ndarray
+    cl_sb: np.ndarray
+    cl_sj: np.ndarray
+    cl_p: np.ndarray
+    cl_hist: np.ndarray  # (nc,) index into hist, −1 for joints that cannot touch (lubricated)
+    baumgarte: np.ndarray  # (2,) alpha, beta (1/s)
+
+    @property
+    def n_coordinates(self) -> int:
+        return self.mass.shape[0]
+
+    @property
+    def n_constraints(self) -> int:
+        return (2 * self.rev_i.shape[0] + 2 * self.tr_i.shape[0] + self.fa_i.shape[0]
+                + self.dr_i.shape[0])
+
+    @property
+    def n_contacts(self) -> int:
+        return int((self.cl_hist >= 0).sum())
+
+
+class CompiledScene(NamedTuple):
+    """Everything the simulation needs from a scene, resolved to indices and arrays.
+
+    ``dynamic`` treats clearance joints as force elements; ``assembly`` replaces each of them by
+    a revolute constraint held at the joint's initial eccentricity; ``ideal`` replaces them by
+    ideal revolutes (the ideal counterpart of the mechanism).
+    """
+
+    dynamic: System
+    assembly: System
+    ideal: System
+    body_names: tuple[str, ...]
+    body_index: dict
+    q_guess: np.ndarray
+    clearance_names: tuple[str, ...]
+    contact_names: tuple[str, ...]
+    driver_names: tuple[str, ...]
+    output_names: tuple[str, ...]
+    out_body: np.ndarray  # (no,) body index of each output point
+    out_s: np.ndarray  # (no, 2) point in the body frame
+    out_axis: np.ndarray  # (no, 2) unit axis
+    cycle_driver: int  # index into drivers, −1 if none
+    period: float | None  # s, cycle period of the cycle driver
+
+
+def _point(scene: Scene, ref, index):
+    """(body index or −1, local or global coordinates) of a point reference."""
+    if ref.body == GROUND:
+        return -1, np.asarray(scene.ground[ref.point], dtype=float)
+    return index[ref.body], np.asarray(scene.bodies[ref.body].points[ref.point], dtype=float)
+
+
+def _driver_row(d) -> np.ndarray:
+    row = np.zeros(N_DRIVER_PARAMS)
+    row[D_ANGLE0] = d.angle0
+    row[D_SPEED] = d.speed
+    row[D_ACCEL] = d.acceleration
+    row[D_AMPLITUDE] = d.amplitude
+    row[D_FREQUENCY] = d.frequency
+    row[D_PHASE] = d.phase
+    row[D_RAMP] = d.ramp_time
+    return row
+
+
+def clearance_parameters(joint: Joint) -> np.ndarray:
+    """Pack a clearance joint's force-law parameters (:func:`mechrel.forces.params.pack_params`)."""
+    from ..forces.contact import contact_stiffness
+    from ..forces.params import pack_params
+
+    path = f"joints.{joint.name}"
+    if joint.bearing_radius is None or joint.length is None:
+        raise SceneError(f"{path}: a '{joint.model}' clearance joint needs bearing_radius and "
+                         f"length (m); got bearing_radius={joint.bearing_radius!r}, "
+                         f"length={joint.length!r}", path=path)
+    R_B = joint.bearing_radius
+    R_S = R_B - joint.clearance
+    kw = dict(model=joint.model, clearance=joint.clearance, bearing_radius=R_B,
+              length=joint.length)
+    if joint.model in ("dry", "transition"):
+        c = joint.contact
+        kw.update(stiffness=contact_stiffness(R_B, R_S, c.youngs_modulus_bearing, c.poisson_bearing,
+                                              c.youngs_modulus_journal, c.poisson_journal,
+                                              c.stiffness == "conformal"),
+                  exponent=c.exponent, restitution=c.restitution,
+                  impact_speed_floor=c.impact_speed_floor)
+        if joint.friction is not None:
+            kw.update(friction_coefficient=joint.friction.coefficient, v0=joint.friction.v0,
+                      v1=joint.friction.v1)
+    if joint.model in ("lubricated", "transition"):
+        lub = joint.lubricant
+        kw.update(viscosity=lub.viscosity, lam=lub.lam, eps0=lub.eps0)
+    if joint.model == "transition":
+        kw.update(e1=joint.transition.e1, eps_max=joint.transition.eps_max)
+    return pack_params(**kw)
+
+
+def _system(scene: Scene, index, clearance_as: str) -> System:
+    """Build one System; ``clearance_as`` in {"force", "offset", "ideal"}."""
+    from ..forces.params import MODEL_LUBRICATED, N_PARAMS, P_MODEL
+
+    nb = len(index)
+    mass = np.empty(3 * nb)
+    for name, k in index.items():
+        b = scene.bodies[name]
+        mass[3 * k:3 * k + 3] = (b.mass, b.mass, b.inertia)
+
+    rev_i, rev_j, rev_si, rev_sj, rev_off, rev_offdot = [], [], [], [], [], []
+    tr_i, tr_si, tr_p0, tr_n, tr_angle = [], [], [], [], []
+    fa_i, fa_angle = [], []
+    cl_b, cl_j, cl_sb, cl_sj, cl_p, cl_hist = [], [], [], [], [], []
+    n_contact = 0
+    for joint in scene.joints.values():
+        if joint.type == "revolute":
+            if joint.is_clearance and clearance_as == "force":
+                b, sb = _point(scene, joint.points[0], index)
+                j, sj = _point(scene, joint.points[1], index)
+                p = clearance_parameters(joint)
+                cl_b.append(b); cl_sb.append(sb); cl_j.append(j); cl_sj.append(sj)
+                cl_p.append(p)
+                if int(p[P_MODEL]) == MODEL_LUBRICATED:
+                    cl_hist.append(-1)
+                else:
+                    cl_hist.append(n_contact)
+                    n_contact += 1
+                continue
+            # Revolute equation written journal-side minus bearing-side, so that a clearance
+            # joint assembled at eccentricity e0 reads r_S - r_B - e0 = 0.
+            i, si = _point(scene, joint.points[1], index)
+            j, sj = _point(scene, joint.points[0], index)
+            if i < 0:  # keep the moving body first
+                i, si, j, sj = j, sj, i, si
+                sign = -1.0
+            else:
+                sign = 1.0
+            off = np.zeros(2)
+            offdot = np.zeros(2)
+            if joint.is_clearance and clearance_as == "offset":
+                off = sign * np.asarray(joint.initial_eccentricity, dtype=float)
+                offdot = sign * np.asarray(joint.initial_eccentricity_rate, dtype=float)
+            rev_i.append(i); rev_j.append(j); rev_si.append(si); rev_sj.append(sj)
+            rev_off.append(off); rev_offdot.append(offdot)
+        elif joint.type == "translational":
+            i, si = _point(scene, joint.points[0], index)
+            _, p0 = _point(scene, joint.points[1], index)
+            u = np.asarray(joint.direction, dtype=float)
+            u = u / math.hypot(*u)
+            tr_i.append(i); tr_si.append(si); tr_p0.append(p0)
+            tr_n.append(np.array([-u[1], u[0]])); tr_angle.append(joint.angle)
+        elif joint.type == "fixed-angle":
+            i, _ = _point(scene, joint.points[0], index)
+            fa_i.append(i); fa_angle.append(joint.angle)
+        else:  # pragma: no cover - the loader rejects other types
+            raise SceneError(f"joints.{joint.name}.type: unknown joint type {joint.type!r}")
+
+    dr_i = [index[d.body] for d in scene.drivers.values()]
+    dr_law = [_LAW_CODES[d.law] for d in scene.drivers.values()]
+    dr_par = [_driver_row(d) for d in scene.drivers.values()]
+
+    def ints(x):
+        return np.asarray(x, dtype=np.int64).reshape(-1)
+
+    def vecs(x, width=2):
+        return np.asarray(x, dtype=float).reshape(-1, width)
+
+    return System(
+        mass=mass, gravity=np.asarray(scene.gravity, dtype=float),
+        rev_i=ints(rev_i), rev_j=ints(rev_j), rev_si=vecs(rev_si), rev_sj=vecs(rev_sj),
+        rev_off=vecs(rev_off), rev_offdot=vecs(rev_offdot),
+        tr_i=ints(tr_i), tr_si=vecs(tr_si), tr_p0=vecs(tr_p0), tr_n=vecs(tr_n),
+        tr_angle=np.asarray(tr_angle, dtype=float).reshape(-1),
+        fa_i=ints(fa_i), fa_angle=np.asarray(fa_angle, dtype=float).reshape(-1),
+        dr_i=ints(dr_i), dr_law=ints(dr_law), dr_par=vecs(dr_par, N_DRIVER_PARAMS),
+        cl_b=ints(cl_b), cl_j=ints(cl_j), cl_sb=vecs(cl_sb), cl_sj=vecs(cl_sj),
+        cl_p=vecs(cl_p, N_PARAMS), cl_hist=ints(cl_hist),
+        baumgarte=np.array([scene.solver.baumgarte_alpha, scene.solver.baumgarte_beta]),
+    )
+
+
+def compile_scene(scene: Scene) -> CompiledScene:
+    """Resolve names to indices and build the dynamic, assembly and ideal systems."""
+    names = tuple(scene.bodies)
+    index = {name: k for k, name in enumerate(names)}
+    q_guess = np.empty(3 * len(names))
+    for name, k in index.items():
+        b = scene.bodies[name]
+        q_guess[3 * k:3 * k + 3] = (b.position[0], b.position[1], b.angle)
+
+    out_body, out_s, out_axis = [], [], []
+    for out in scene.outputs.values():
+        i, s = _point(scene, out.point, index)
+        if i < 0:
+            raise SceneError(f"outputs.{out.name}.point: {out.point} is a ground point; an "
+                             "output must be on a moving body", path=f"outputs.{out.name}.point")
+        a = np.asarray(out.axis, dtype=float)
+        out_body.append(i); out_s.append(s); out_axis.append(a / math.hypot(*a))
+
+    driver_names = tuple(scene.drivers)
+    cycle = -1
+    period = None
+    if scene.analysis.cycle_driver is not None:
+        cycle = driver_names.index(scene.analysis.cycle_driver)
+        period = 2.0 * math.pi / abs(scene.drivers[scene.analysis.cycle_driver].speed)
+
+    clearance = scene.clearance_joints
+    return CompiledScene(
+        dynamic=_system(scene, index, "force"),
+        assembly=_system(scene, index, "offset"),
+        ideal=_system(scene, index, "ideal"),
+        body_names=names, body_index=index, q_guess=q_guess,
+        clearance_names=tuple(j.name for j in clearance),
+        contact_names=tuple(j.name for j in clearance if j.model != "lubricated"),
+        driver_names=driver_names, output_names=tuple(scene.outputs),
+        out_body=np.asarray(out_body, dtype=np.int64).reshape(-1),
+        out_s=np.asarray(out_s, dtype=float).reshape(-1, 2),
+        out_axis=np.asarray(out_axis, dtype=float).reshape(-1, 2),
+        cycle_driver=cycle, period=period,
+    )

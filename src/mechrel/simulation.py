@@ -1,0 +1,335 @@
+"""Run a scene: ``simulate(scene) -> SimulationResult``.
+
+What runs depends only on what the scene declares:
+
+* no clearance joints and fully driven → kinematic analysis only (no dynamics);
+* clearance joints → forward dynamics of the mechanism with the clearance joints as force
+  elements, plus the ideal counterpart (the same scene with those joints ideal) by kinematic
+  analysis when it is fully driven (by forward dynamics otherwise), and the errors;
+* undriven (free) mechanisms → forward dynamics.
+"""
+
+from __future__ import annotations
+
+import math
+import platform
+import time
+from dataclasses import dataclass, field
+from typing import Mapping
+
+import numpy as np
+
+from .errors import SimulationError
+from .integrate import INTEGRATORS, IntegrationResult, get_integrator
+from .mechanics import problem
+from .mechanics.kinematics import assemble, kinematic_analysis
+from .mechanics.system import CompiledScene, compile_scene
+from .scene.model import QUANTITIES, Scene
+
+# Default integrator per scene type, chosen from measurements (docs/performance.md).
+DEFAULT_SOLVERS: dict[str, tuple[str, dict]] = {
+    "ideal": ("dopri5", {"rtol": 1e-9, "atol": 1e-12}),
+    "dry": ("dopri5", {"rtol": 1e-7, "atol": 1e-10}),
+    "transition": ("dopri5", {"rtol": 1e-7, "atol": 1e-10}),
+    "lubricated": ("lsoda", {"rtol": 1e-7, "atol": 1e-10}),
+}
+
+
+def scene_kind(scene: Scene) -> str:
+    """``ideal``, ``dry``, ``transition`` or ``lubricated``: the most demanding effect declared.
+
+    A lubricated joint makes the problem stiff; a dry or transition joint makes it
+    non-smooth; the stiff default wins when both are present."""
+    models = {j.model for j in scene.clearance_joints}
+    for kind in ("lubricated", "transition", "dry"):
+        if kind in models:
+            return kind
+    return "ideal"
+
+
+def make_integrator(scene: Scene, integrator: str | None = None, **settings):
+    """The integrator a scene asks for (``solver.integrator``; ``"auto"`` → per scene type)."""
+    s = scene.solver
+    name = integrator or s.integrator
+    chosen: dict = {}
+    if name == "auto":
+        name, chosen = DEFAULT_SOLVERS[scene_kind(scene)]
+        chosen = dict(chosen)
+        if name not in INTEGRATORS:  # compiled stiff method not available: SciPy's
+            name = "lsoda"
+    for key in ("step", "rtol", "atol"):
+        value = getattr(s, key)
+        if value is not None:
+            chosen[key] = value
+    chosen.update({k: v for k, v in settings.items() if v is not None})
+    if name == "rk4" and chosen.get("step") is None:
+        raise SimulationError("solver.step: the fixed-step integrator 'rk4' needs a step (s)")
+    if INTEGRATORS.get(name) is not None and not INTEGRATORS[name].adaptive:
+        chosen.pop("rtol", None)
+        chosen.pop("atol", None)
+    return get_integrator(name, max_steps=s.max_steps, onset_tolerance=s.onset_tolerance,
+                          **chosen)
+
+
+def output_times(scene: Scene, compiled: CompiledScene | None = None) -> np.ndarray:
+    """Output instants (s) from the scene's analysis settings."""
+    compiled = compiled or compile_scene(scene)
+    a = scene.analysis
+    duration = a.duration if a.duration is not None else a.cycles * compiled.period
+    if a.sample_step is not None:
+        step = a.sample_step
+    else:
+        speed = abs(scene.drivers[a.cycle_driver].speed)
+        step = a.sample_step_angle / speed
+    n = int(math.floor(duration / step * (1 + 1e-12))) + 1
+    return np.arange(n) * step
+
+
+def _crank_angle(scene: Scene, compiled: CompiledScene, times: np.ndarray):
+    if compiled.cycle_driver < 0:
+        return None
+    sys = compiled.ideal
+    k = compiled.cycle_driver
+    law, par = sys.dr_law[k], sys.dr_par[k]
+    th0 = problem.driver_law(law, par, 0.0)[0]
+    sign = math.copysign(1.0, scene.drivers[compiled.driver_names[k]].speed)
+    return np.array([(problem.driver_law(law, par, t)[0] - th0) * sign for t in times]) * (
+        180.0 / math.pi)
+
+
+def _point_outputs(compiled: CompiledScene, Q, V, A):
+    """Displacement, velocity, acceleration of every output point along its axis."""
+    out = {}
+    for k, name in enumerate(compiled.output_names):
+        b = compiled.out_body[k]
+        sx, sy = compiled.out_s[k]
+        ux, uy = compiled.out_axis[k]
+        th = Q[:, 3 * b + 2]
+        w = V[:, 3 * b + 2]
+        al = A[:, 3 * b + 2]
+        c, s = np.cos(th), np.sin(th)
+        ax, ay = c * sx - s * sy, s * sx + c * sy  # A s
+        px, py = Q[:, 3 * b] + ax, Q[:, 3 * b + 1] + ay
+        vx, vy = V[:, 3 * b] - ay * w, V[:, 3 * b + 1] + ax * w
+        accx = A[:, 3 * b] - ay * al - ax * w * w
+        accy = A[:, 3 * b + 1] + ax * al - ay * w * w
+        out[name] = {"displacement": px * ux + py * uy, "velocity": vx * ux + vy * uy,
+                     "acceleration": accx * ux + accy * uy}
+    return out
+
+
+@dataclass(frozen=True)
+class SimulationResult:
+    """The outcome of :func:`simulate`.
+
+    Attributes
+    ----------
+    scene : Scene
+    time : ndarray
+        Output instants (s).
+    crank_angle : ndarray or None
+        Rotation of the cycle driver since t = 0 (degrees), when the analysis has one.
+    outputs : dict
+        ``outputs[name][quantity]`` (m, m/s, m/s²) of the simulated mechanism.
+    ideal : dict or None
+        The same for the ideal counterpart (scenes with clearance joints).
+    q, v, a : ndarray, shape (n_times, n)
+        Coordinates (m, rad) and their first and second derivatives.
+    orbits : dict
+        Per clearance joint: eccentricity components ``ex``, ``ey`` (m) and ratio ``eps``.
+    energy : dict
+        ``kinetic``, ``potential``, ``elastic``, ``input_work``, ``clearance_work`` (J) and
+        ``balance`` = ΔT + ΔV − W_in − W_cl (J), which integration and Baumgarte errors alone
+        make non-zero.
+    method : str
+        ``"kinematics"`` or ``"dynamics"``.
+    stats : dict
+        Solver statistics (:class:`~mechrel.integrate.SolverStats` as a dict) or those of the
+        kinematic analysis; always includes ``max_position_violation`` and ``wall_time``.
+    provenance : dict
+    """
+
+    scene: Scene
+    time: np.ndarray
+    crank_angle: np.ndarray | None
+    outputs: Mapping[str, Mapping[str, np.ndarray]]
+    ideal: Mapping[str, Mapping[str, np.ndarray]] | None
+    q: np.ndarray
+    v: np.ndarray
+    a: np.ndarray
+    method: str
+    stats: Mapping
+    provenance: Mapping
+    orbits: Mapping[str, Mapping[str, np.ndarray]] = field(default_factory=dict)
+    energy: Mapping[str, np.ndarray] = field(default_factory=dict)
+
+    def error(self, output: str, quantity: str) -> np.ndarray:
+        """Simulated minus ideal ``quantity`` of ``output``."""
+        if self.ideal is None:
+            raise SimulationError("this scene has no clearance joints: there is no response "
+                                  "error (the mechanism is its own ideal counterpart)")
+        return self.outputs[output][quantity] - self.ideal[output][quantity]
+
+    def to_frame(self):
+        """A :class:`pandas.DataFrame` with columns ``time``, ``crank_angle`` (when defined),
+        ``<output>.<quantity>`` and, for scenes with clearance joints,
+        ``<output>.<quantity>.ideal`` and ``<output>.<quantity>.error``."""
+        import pandas as pd
+
+        cols: dict[str, np.ndarray] = {"time": self.time}
+        if self.crank_angle is not None:
+            cols["crank_angle"] = self.crank_angle
+        for name, quantities in self.outputs.items():
+            for qty in QUANTITIES:
+                cols[f"{name}.{qty}"] = quantities[qty]
+                if self.ideal is not None:
+                    cols[f"{name}.{qty}.ideal"] = self.ideal[name][qty]
+                    cols[f"{name}.{qty}.error"] = quantities[qty] - self.ideal[name][qty]
+        frame = pd.DataFrame(cols)
+        frame.attrs["provenance"] = dict(self.provenance)
+        return frame
+
+    def orbits_frame(self):
+        """Journal orbits: ``time``, ``<joint>.ex``, ``<joint>.ey`` (m), ``<joint>.eps``."""
+        import pandas as pd
+
+        cols = {"time": self.time}
+        for joint, d in self.orbits.items():
+            for key, values in d.items():
+                cols[f"{joint}.{key}"] = values
+        return pd.DataFrame(cols)
+
+
+def _orbits(compiled: CompiledScene, Y):
+    from .forces.params import P_C
+
+    sys = compiled.dynamic
+    n = sys.mass.shape[0]
+    out = {}
+    for k, name in enumerate(compiled.clearance_names):
+        ex = np.empty(Y.shape[0])
+        ey = np.empty(Y.shape[0])
+        for r in range(Y.shape[0]):
+            q, v = Y[r, :n], Y[r, n:2 * n]
+            bx, by, _, _ = problem.point_state(q, v, sys.cl_b[k], *sys.cl_sb[k])
+            jx, jy, _, _ = problem.point_state(q, v, sys.cl_j[k], *sys.cl_sj[k])
+            ex[r], ey[r] = jx - bx, jy - by
+        out[name] = {"ex": ex, "ey": ey, "eps": np.hypot(ex, ey) / sys.cl_p[k, P_C]}
+    return out
+
+
+def _energy(sys, res: IntegrationResult):
+    n = sys.mass.shape[0]
+    Y = res.y
+    T = np.empty(Y.shape[0])
+    V = np.empty(Y.shape[0])
+    for r in range(Y.shape[0]):
+        T[r], V[r] = problem.mechanical_energy(Y[r], sys)
+    E = np.empty(Y.shape[0])
+    no_hist = np.zeros(sys.n_contacts)  # the stored elastic energy does not depend on history
+    for r in range(Y.shape[0]):
+        E[r] = problem.elastic_energy(res.t[r], Y[r], no_hist, sys)
+    win, wcl = Y[:, 2 * n], Y[:, 2 * n + 1]
+    return {"kinetic": T, "potential": V, "elastic": E, "input_work": win,
+            "clearance_work": wcl, "dissipated": -wcl - (E - E[0]),
+            "balance": (T - T[0]) + (V - V[0]) - win - wcl}
+
+
+def _provenance(scene: Scene, wall: float) -> dict:
+    from . import __version__
+    from .scene import scene_hash
+
+    import numba
+    import scipy
+
+    return {"scene": scene.name, "scene_hash": scene_hash(scene), "mechrel": __version__,
+            "numpy": np.__version__, "scipy": scipy.__version__, "numba": numba.__version__,
+            "python": platform.python_version(), "wall_time": wall}
+
+
+def simulate(scene: Scene, *, method: str = "auto", integrator: str | None = None,
+             progress: bool = False, **solver_settings) -> SimulationResult:
+    """Simulate a scene over its analysis span.
+
+    Parameters
+    ----------
+    scene : Scene
+        From :func:`mechrel.scene.load_scene`.
+    method : {"auto", "kinematics", "dynamics"}
+        ``auto`` uses kinematic analysis for a fully driven scene without clearance joints and
+        forward dynamics otherwise; ``dynamics`` forces forward dynamics (e.g. to check an
+        integrator against the kinematic analysis).
+    integrator : str, optional
+        Overrides ``scene.solver.integrator``.
+    progress : bool
+        Show a progress bar over the output instants.
+    **solver_settings
+        ``step``, ``rtol``, ``atol`` overrides.
+
+    Returns
+    -------
+    SimulationResult
+    """
+    start = time.perf_counter()
+    compiled = compile_scene(scene)
+    times = output_times(scene, compiled)
+    n = compiled.q_guess.size
+    has_clearance = bool(compiled.clearance_names)
+    driven = compiled.ideal.n_constraints == n
+    tol = scene.solver.assembly_tolerance
+    if method not in ("auto", "kinematics", "dynamics"):
+        raise SimulationError(f"method: {method!r} is not one of 'auto', 'kinematics', "
+                              "'dynamics'")
+    if method == "kinematics" and (has_clearance or not driven):
+        raise SimulationError("method='kinematics' needs a fully driven scene without "
+                              "clearance joints")
+    q0, _ = assemble(compiled.ideal, compiled.q_guess, 0.0, tol=tol)
+
+    ideal = None
+    if driven and (has_clearance or method in ("auto", "kinematics")):
+        Qi, Vi, Ai, viol_i = kinematic_analysis(compiled.ideal, q0, times, tol=tol)
+        ideal = _point_outputs(compiled, Qi, Vi, Ai)
+
+    if not has_clearance and driven and method != "dynamics":
+        wall = time.perf_counter() - start
+        stats = {"integrator": "kinematic-analysis", "n_steps": times.size,
+                 "max_position_violation": float(viol_i), "wall_time": wall, "status": "ok"}
+        return SimulationResult(scene=scene, time=times,
+                                crank_angle=_crank_angle(scene, compiled, times),
+                                outputs=ideal, ideal=None, q=Qi, v=Vi, a=Ai,
+                                method="kinematics", stats=stats,
+                                provenance=_provenance(scene, wall))
+
+    sys = compiled.dynamic
+    qa, va = assemble(compiled.assembly, q0, 0.0, tol=tol)
+    y0 = np.concatenate([qa, va, np.zeros(problem.N_WORK)])
+    hist0 = np.zeros(sys.n_contacts)
+    solver = make_integrator(scene, integrator, **solver_settings)
+    bar = None
+    if progress:
+        from tqdm.auto import tqdm
+        bar = tqdm(total=times.size, desc=f"simulate {scene.name}", unit="sample", leave=False)
+    try:
+        res = solver.integrate(sys, y0, hist0, times, progress=bar)
+    finally:
+        if bar is not None:
+            bar.close()
+    Y, YD = res.y, res.ydot
+    Q, V, A = Y[:, :n], Y[:, n:2 * n], YD[:, n:2 * n]
+    outputs = _point_outputs(compiled, Q, V, A)
+    if has_clearance and ideal is None:  # undriven mechanism: ideal counterpart by dynamics
+        qi, vi = assemble(compiled.ideal, q0, 0.0, tol=tol)
+        resi = solver.integrate(compiled.ideal, np.concatenate([qi, vi, np.zeros(2)]),
+                                np.zeros(0), times)
+        ideal = _point_outputs(compiled, resi.y[:, :n], resi.y[:, n:2 * n],
+                               resi.ydot[:, n:2 * n])
+    energy = _energy(sys, res)
+    wall = time.perf_counter() - start
+    stats = res.stats.as_dict()
+    stats["total_wall_time"] = wall
+    return SimulationResult(scene=scene, time=times,
+                            crank_angle=_crank_angle(scene, compiled, times),
+                            outputs=outputs, ideal=ideal if has_clearance else None,
+                            q=Q, v=V, a=A, method="dynamics", stats=stats,
+                            provenance=_provenance(scene, wall),
+                            orbits=_orbits(compiled, Y), energy=energy)
