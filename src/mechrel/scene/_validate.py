@@ -1,0 +1,728 @@
+"""Validation: a raw scene mapping (parsed TOML, after ``extends`` and overrides) → a frozen
+:class:`~mechrel.scene.model.Scene`, and the inverse (a scene's canonical raw mapping).
+
+Every problem raises one :class:`~mechrel.errors.SceneError` whose message reads
+``SOURCE: PATH = VALUE: PROBLEM; allowed: WHAT`` (``SOURCE`` is the file or ``<mapping>``).
+"""
+
+from __future__ import annotations
+
+import difflib
+import math
+from dataclasses import fields
+from types import MappingProxyType
+from typing import Any, Iterable, Mapping, NoReturn, Sequence
+
+from ..errors import SceneError
+from ._schema import (
+    ANALYSIS_KEYS, BODY_KEYS, DRIVER_KEYS, DRIVER_KEYS_BY_LAW, JOINT_KEYS, JOINT_KEYS_BY_TYPE,
+    JOINT_TYPES, NAME_RE, NAME_RULE, OUTPUT_KEYS, SOLVER_KEYS, TOP_KEYS,
+)
+from .model import (
+    CLEARANCE_MODELS, DRIVER_LAWS, GROUND, INTEGRATOR_NAMES, Analysis, Body, Contact, Driver,
+    Friction, Joint, Lubricant, Output, PointRef, Scene, Solver, Transition,
+)
+
+_MISSING = object()
+COINCIDENT_TOL = 1e-9  # m: two joint points closer than this on one body form a zero-length link
+
+
+# ----------------------------------------------------------------------------- formatting
+
+def fmt_value(v: Any, limit: int = 80) -> str:
+    """A value as it would be written in TOML, shortened to ``limit`` characters."""
+    s = _fmt(v)
+    return s if len(s) <= limit else s[: limit - 3] + "..."
+
+
+def _fmt(v: Any) -> str:
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    if isinstance(v, str):
+        return '"' + v.replace("\\", "\\\\").replace('"', '\\"') + '"'
+    if isinstance(v, float):
+        if math.isnan(v):
+            return "nan"
+        if math.isinf(v):
+            return "inf" if v > 0 else "-inf"
+        return repr(v)
+    if isinstance(v, int):
+        return repr(v)
+    if isinstance(v, Mapping):
+        return "{" + ", ".join(f"{k} = {_fmt(x)}" for k, x in v.items()) + "}"
+    if isinstance(v, (list, tuple)):
+        return "[" + ", ".join(_fmt(x) for x in v) + "]"
+    return repr(v)
+
+
+def _typename(v: Any) -> str:
+    if isinstance(v, bool):
+        return "a boolean"
+    if isinstance(v, (int, float)):
+        return "a number"
+    if isinstance(v, str):
+        return "a string"
+    if isinstance(v, Mapping):
+        return "a table"
+    if isinstance(v, (list, tuple)):
+        return "an array"
+    return f"a {type(v).__name__}"
+
+
+def _bound(x: float) -> str:
+    return f"{x:g}"
+
+
+def describe_number(gt=None, ge=None, lt=None, le=None, unit: str | None = None,
+                    integer: bool = False) -> str:
+    kind = "an integer" if integer else "a finite number"
+    lo = (gt, "(") if gt is not None else (ge, "[") if ge is not None else None
+    hi = (lt, ")") if lt is not None else (le, "]") if le is not None else None
+    if lo and hi:
+        rng = f" in {lo[1]}{_bound(lo[0])}, {_bound(hi[0])}{hi[1]}"
+    elif lo:
+        rng = f" {'>' if gt is not None else '>='} {_bound(lo[0])}"
+    elif hi:
+        rng = f" {'<' if lt is not None else '<='} {_bound(hi[0])}"
+    else:
+        rng = ""
+    return kind + rng + (f" ({unit})" if unit else "")
+
+
+def suggest(word: str, choices: Iterable[str]) -> str:
+    close = difflib.get_close_matches(str(word), list(choices), n=1, cutoff=0.6)
+    return f" (did you mean '{close[0]}'?)" if close else ""
+
+
+def _one_of(choices: Sequence[str]) -> str:
+    return "one of " + ", ".join(str(c) for c in choices) if choices else "none defined"
+
+
+def join(prefix: str, key: str) -> str:
+    return f"{prefix}.{key}" if prefix else str(key)
+
+
+# ----------------------------------------------------------------------------- checker
+
+class Checker:
+    """Type and range checks that raise a :class:`SceneError` naming source, path and value."""
+
+    def __init__(self, source: str | None, overridden: Sequence[tuple[str, str]] = ()):
+        self.source = source
+        self.overridden = tuple(overridden)  # (dotted path, override text)
+
+    # -- failure
+    def fail(self, path: str, value: Any, problem: str, allowed: str | None = None) -> NoReturn:
+        if value is _MISSING:
+            msg = f"{path}: {problem}"
+        else:
+            msg = f"{path} = {fmt_value(value)}: {problem}"
+        if allowed:
+            msg += f"; allowed: {allowed}"
+        direct = [t for o, t in self.overridden
+                  if path == o or path.startswith((o + ".", o + "[")) or o.startswith(path + ".")]
+        parent = path.rsplit(".", 1)[0]
+        near = [t for o, t in self.overridden if o.rsplit(".", 1)[0] == parent]
+        if direct:
+            msg += f" (value set by override '{direct[-1]}')"
+        elif near:
+            msg += f" (after override '{near[-1]}')"
+        raise SceneError(msg, source=self.source, path=path or None)
+
+    # -- structure
+    def table(self, path: str, v: Any, allowed: str = "a table") -> Mapping:
+        if not isinstance(v, Mapping):
+            self.fail(path, v, f"expected a table, got {_typename(v)}", allowed)
+        for k in v:
+            if not isinstance(k, str):
+                self.fail(join(path, str(k)), v[k], f"key {k!r} is not a string", "string keys")
+        return v
+
+    def keys(self, path: str, d: Mapping, allowed: Sequence[str], required: Sequence[str] = (),
+             what: str | None = None, hints: Mapping[str, str] | None = None) -> None:
+        for k, v in d.items():
+            if k not in allowed:
+                where = f" for {what}" if what else ""
+                hint = (hints or {}).get(k, "")
+                self.fail(join(path, k), v, f"unknown field '{k}'{where}{suggest(k, allowed)}{hint}",
+                          "fields " + ", ".join(allowed))
+        for k in required:
+            if k not in d:
+                where = f" of {what}" if what else ""
+                self.fail(join(path, k), _MISSING, f"missing required field{where}",
+                          self.required_hint(k))
+
+    required_hints: dict[str, str] = {}
+
+    def required_hint(self, key: str) -> str | None:
+        return self.required_hints.get(key)
+
+    def name(self, path: str, name: str, what: str) -> str:
+        if not isinstance(name, str) or not NAME_RE.match(name):
+            self.fail(path, name, f"invalid {what} name", NAME_RULE)
+        return name
+
+    # -- leaves
+    def number(self, path: str, v: Any, *, gt=None, ge=None, lt=None, le=None,
+               unit: str | None = None) -> float:
+        allowed = describe_number(gt, ge, lt, le, unit)
+        if v is _MISSING:
+            self.fail(path, v, "missing required field", allowed)
+        if isinstance(v, bool):
+            self.fail(path, v, "expected a number, got a boolean", allowed)
+        if not isinstance(v, (int, float)):
+            self.fail(path, v, f"expected a number, got {_typename(v)}", allowed)
+        try:
+            x = float(v)
+        except OverflowError:
+            x = math.inf
+        if not math.isfinite(x):
+            self.fail(path, v, "not a finite number", allowed)
+        if gt is not None and not x > gt:
+            self.fail(path, v, f"must be > {_bound(gt)}", allowed)
+        if ge is not None and not x >= ge:
+            self.fail(path, v, f"must be >= {_bound(ge)}", allowed)
+        if lt is not None and not x < lt:
+            self.fail(path, v, f"must be < {_bound(lt)}", allowed)
+        if le is not None and not x <= le:
+            self.fail(path, v, f"must be <= {_bound(le)}", allowed)
+        return x
+
+    def integer(self, path: str, v: Any, *, gt=None, ge=None) -> int:
+        allowed = describe_number(gt, ge, integer=True)
+        if isinstance(v, bool) or not isinstance(v, int):
+            got = "a boolean" if isinstance(v, bool) else _typename(v)
+            self.fail(path, v, f"expected an integer, got {got}", allowed)
+        if gt is not None and not v > gt:
+            self.fail(path, v, f"must be > {gt}", allowed)
+        if ge is not None and not v >= ge:
+            self.fail(path, v, f"must be >= {ge}", allowed)
+        return int(v)
+
+    def string(self, path: str, v: Any, allowed: str = "a string") -> str:
+        if v is _MISSING:
+            self.fail(path, v, "missing required field", allowed)
+        if not isinstance(v, str):
+            self.fail(path, v, f"expected a string, got {_typename(v)}", allowed)
+        return v
+
+    def choice(self, path: str, v: Any, choices: Sequence[str]) -> str:
+        allowed = _one_of(choices)
+        s = self.string(path, v, allowed)
+        if s not in choices:
+            self.fail(path, v, f"unknown value{suggest(s, choices)}", allowed)
+        return s
+
+    def vec2(self, path: str, v: Any, *, unit: str | None = None, nonzero: bool = False) -> tuple[float, float]:
+        allowed = "a pair [x, y] of finite numbers" + (f" ({unit})" if unit else "")
+        if nonzero:
+            allowed += ", not both zero"
+        if v is _MISSING:
+            self.fail(path, v, "missing required field", allowed)
+        if isinstance(v, (str, bytes)) or not isinstance(v, (list, tuple)):
+            self.fail(path, v, f"expected an array of 2 numbers, got {_typename(v)}", allowed)
+        if len(v) != 2:
+            self.fail(path, v, f"expected 2 components, got {len(v)}", allowed)
+        out = []
+        for i, x in enumerate(v):
+            if isinstance(x, bool) or not isinstance(x, (int, float)):
+                self.fail(path, v, f"component {i} is {_typename(x)}, not a number", allowed)
+            try:
+                fx = float(x)
+            except OverflowError:
+                fx = math.inf
+            if not math.isfinite(fx):
+                self.fail(path, v, f"component {i} is not a finite number", allowed)
+            out.append(fx)
+        if nonzero and math.hypot(*out) == 0.0:
+            self.fail(path, v, "zero-length vector", allowed)
+        return (out[0], out[1])
+
+
+# ----------------------------------------------------------------------------- builder
+
+_REQUIRED_HINTS = {
+    "name": "a string naming the scene",
+    "bodies": "a [bodies.NAME] table per moving body",
+    "analysis": "an [analysis] table (duration or cycles, sample_step or sample_step_angle)",
+    "mass": describe_number(gt=0, unit="kg"),
+    "inertia": describe_number(gt=0, unit="kg m^2"),
+    "position": "a pair [x, y] of finite numbers (m)",
+    "type": _one_of(JOINT_TYPES),
+    "connects": "an array of point references 'body.point'",
+    "direction": "a pair [x, y] of finite numbers, not both zero",
+    "angle": describe_number(unit="rad"),
+    "body": "the name of a moving body",
+    "law": _one_of(DRIVER_LAWS),
+    "angle0": describe_number(unit="rad"),
+    "speed": describe_number(unit="rad/s"),
+    "acceleration": describe_number(unit="rad/s^2"),
+    "amplitude": describe_number(unit="rad"),
+    "frequency": describe_number(ge=0, unit="rad/s"),
+    "ramp_time": describe_number(gt=0, unit="s"),
+    "point": "a point reference 'body.point' on a moving body",
+    "axis": "a pair [x, y] of finite numbers, not both zero",
+}
+
+
+class _Builder(Checker):
+    required_hints = _REQUIRED_HINTS
+
+    def build(self, raw: Any) -> Scene:
+        top = self.table("", raw)
+        self.keys("", top, TOP_KEYS, required=("name", "bodies", "analysis"), what="a scene",
+                  hints={"extends": " ('extends' must be resolved by load_scene)"})
+        name = self.string("name", top["name"], "a non-empty string")
+        if not name.strip():
+            self.fail("name", name, "empty scene name", "a non-empty string")
+        description = self.string("description", top.get("description", ""))
+        gravity = self.vec2("gravity", top.get("gravity", (0.0, -9.81)), unit="m/s^2")
+        ground = self._ground(top.get("ground", {}))
+        bodies = self._bodies(top["bodies"])
+        joints = self._joints(top.get("joints", {}), bodies, ground)
+        self._zero_length_links(bodies, joints)
+        drivers = self._drivers(top.get("drivers", {}), bodies)
+        outputs = self._outputs(top.get("outputs", {}), bodies, ground)
+        analysis = self._analysis(top["analysis"], drivers)
+        solver = self._solver(top.get("solver", {}))
+        return Scene(
+            name=name, description=description, bodies=MappingProxyType(bodies),
+            ground=MappingProxyType(ground), joints=MappingProxyType(joints),
+            drivers=MappingProxyType(drivers), outputs=MappingProxyType(outputs),
+            analysis=analysis, solver=solver, gravity=gravity,
+        )
+
+    # -- ground and bodies
+    def _points(self, path: str, v: Any, what: str) -> dict[str, tuple[float, float]]:
+        pts = self.table(path, v, "a table of named points NAME = [x, y] (m)")
+        out = {}
+        for pn, pv in pts.items():
+            self.name(join(path, pn), pn, what)
+            out[pn] = self.vec2(join(path, pn), pv, unit="m")
+        return out
+
+    def _ground(self, v: Any) -> dict:
+        g = self.table("ground", v, "a [ground.points] table")
+        self.keys("ground", g, ("points",), what="the ground")
+        return self._points("ground.points", g.get("points", {}), "ground point")
+
+    def _bodies(self, v: Any) -> dict[str, Body]:
+        bt = self.table("bodies", v, "a [bodies.NAME] table per moving body")
+        if not bt:
+            self.fail("bodies", v, "no bodies defined", "at least one [bodies.NAME] table")
+        out = {}
+        for name, b in bt.items():
+            p = join("bodies", name)
+            self.name(p, name, "body")
+            if name == GROUND:
+                self.fail(p, b, f"the body name '{GROUND}' is reserved for the frame "
+                                "(its points go in [ground.points])",
+                          "any other " + NAME_RULE)
+            self.table(p, b)
+            self.keys(p, b, BODY_KEYS, required=("mass", "inertia", "position"), what="a body")
+            out[name] = Body(
+                name=name,
+                mass=self.number(p + ".mass", b["mass"], gt=0, unit="kg"),
+                inertia=self.number(p + ".inertia", b["inertia"], gt=0, unit="kg m^2"),
+                position=self.vec2(p + ".position", b["position"], unit="m"),
+                angle=self.number(p + ".angle", b.get("angle", 0.0), unit="rad"),
+                points=MappingProxyType(self._points(p + ".points", b.get("points", {}), "point")),
+            )
+        return out
+
+    def _ref(self, path: str, v: Any, bodies: Mapping[str, Body], ground: Mapping,
+             *, ground_ok: bool = True, body_ok: bool = True) -> PointRef:
+        form = "a point reference 'body.point', e.g. 'crank.A' or 'ground.O'"
+        s = self.string(path, v, form)
+        parts = s.split(".")
+        if len(parts) != 2 or not all(parts):
+            self.fail(path, v, "not a point reference", form)
+        body, point = parts
+        if body == GROUND:
+            if not ground_ok:
+                self.fail(path, v, "a ground point is not allowed here",
+                          "a point on a moving body: " + _one_of(list(bodies)))
+            known = list(ground)
+        elif body in bodies:
+            if not body_ok:
+                self.fail(path, v, "must be a ground point",
+                          _one_of([f"{GROUND}.{q}" for q in ground]))
+            known = list(bodies[body].points)
+        else:
+            allowed = ([GROUND] if ground_ok else []) + list(bodies)
+            self.fail(path, v, f"unknown body '{body}'{suggest(body, allowed)}",
+                      "a point on " + _one_of(allowed))
+        if point not in known:
+            self.fail(path, v, f"unknown point '{point}' on {body}{suggest(point, known)}",
+                      _one_of([f"{body}.{q}" for q in known]))
+        return PointRef(body, point)
+
+    def _refs(self, path: str, v: Any, n: int, what: str) -> Sequence:
+        allowed = f"an array of {n} point reference{'s' if n > 1 else ''} 'body.point'"
+        if v is _MISSING:
+            self.fail(path, v, "missing required field", allowed)
+        if isinstance(v, str) or not isinstance(v, (list, tuple)):
+            self.fail(path, v, f"expected an array, got {_typename(v)}", allowed)
+        if len(v) != n:
+            self.fail(path, v, f"{what} connects {n} point{'s' if n > 1 else ''}, got {len(v)}",
+                      allowed)
+        return v
+
+    # -- joints
+    def _joints(self, v: Any, bodies: Mapping[str, Body], ground: Mapping) -> dict[str, Joint]:
+        jt = self.table("joints", v, "a [joints.NAME] table per joint")
+        out = {}
+        for name, j in jt.items():
+            p = join("joints", name)
+            self.name(p, name, "joint")
+            self.table(p, j)
+            if "type" not in j:
+                self.fail(p + ".type", _MISSING, "missing required field", _one_of(JOINT_TYPES))
+            jtype = self.choice(p + ".type", j["type"], JOINT_TYPES)
+            what = f"a {jtype} joint"
+            required = ("type", "connects") + (("direction", "angle") if jtype == "translational"
+                                               else ("angle",) if jtype == "fixed-angle" else ())
+            hints = {k: f" ('{k}' belongs to "
+                        f"{' or '.join(t for t, ks in JOINT_KEYS_BY_TYPE.items() if k in ks)} joints)"
+                     for k in JOINT_KEYS if k not in JOINT_KEYS_BY_TYPE[jtype]}
+            self.keys(p, j, JOINT_KEYS_BY_TYPE[jtype], required=required, what=what, hints=hints)
+            if jtype == "revolute":
+                out[name] = self._revolute(p, name, j, bodies, ground)
+            elif jtype == "translational":
+                c = self._refs(p + ".connects", j["connects"], 2, "a translational joint")
+                a = self._ref(p + ".connects[0]", c[0], bodies, ground, ground_ok=False)
+                b = self._ref(p + ".connects[1]", c[1], bodies, ground, body_ok=False)
+                d = self.vec2(p + ".direction", j["direction"], nonzero=True)
+                norm = math.hypot(*d)
+                out[name] = Joint(name=name, type="translational", points=(a, b),
+                                  direction=(d[0] / norm, d[1] / norm),
+                                  angle=self.number(p + ".angle", j["angle"], unit="rad"))
+            else:
+                c = self._refs(p + ".connects", j["connects"], 1, "a fixed-angle joint")
+                a = self._ref(p + ".connects[0]", c[0], bodies, ground, ground_ok=False)
+                out[name] = Joint(name=name, type="fixed-angle", points=(a,),
+                                  angle=self.number(p + ".angle", j["angle"], unit="rad"))
+        return out
+
+    def _revolute(self, p: str, name: str, j: Mapping, bodies, ground) -> Joint:
+        c = self._refs(p + ".connects", j["connects"], 2, "a revolute joint")
+        a = self._ref(p + ".connects[0]", c[0], bodies, ground)
+        b = self._ref(p + ".connects[1]", c[1], bodies, ground)
+        if a.body == b.body:
+            what = "the ground to itself" if a.body == GROUND else f"body '{a.body}' to itself"
+            self.fail(p + ".connects", c, f"the joint connects {what}",
+                      "two points on different bodies (or a body and the ground)")
+        model = self.choice(p + ".model", j.get("model", "ideal"), CLEARANCE_MODELS)
+        ideal = model == "ideal"
+        kind = f"a '{model}' clearance joint"
+        if not ideal:
+            for k, unit in (("clearance", "m, > 0"), ("bearing_radius", "m, > clearance"),
+                            ("length", "m, > 0")):
+                if k not in j:
+                    self.fail(p + "." + k, _MISSING, f"missing required field of {kind}",
+                              f"a finite number ({unit})")
+        clearance = self.number(p + ".clearance", j.get("clearance", 0.0), ge=0, unit="m")
+        if not ideal and clearance <= 0:
+            self.fail(p + ".clearance", j["clearance"], f"{kind} needs a clearance > 0",
+                      describe_number(gt=0, unit="m"))
+        bearing_radius = length = None
+        if "bearing_radius" in j:
+            bearing_radius = self.number(p + ".bearing_radius", j["bearing_radius"], gt=0, unit="m")
+            if clearance >= bearing_radius:
+                self.fail(p + ".clearance", j.get("clearance", 0.0),
+                          f"the radial clearance must be smaller than bearing_radius = "
+                          f"{fmt_value(bearing_radius)} (the journal radius is bearing_radius - "
+                          f"clearance)", "0 < clearance < bearing_radius (m)")
+        if "length" in j:
+            length = self.number(p + ".length", j["length"], gt=0, unit="m")
+        ecc = self.vec2(p + ".initial_eccentricity", j.get("initial_eccentricity", (0.0, 0.0)),
+                        unit="m")
+        if (not ideal or ecc != (0.0, 0.0)) and not math.hypot(*ecc) < clearance:
+            self.fail(p + ".initial_eccentricity", j["initial_eccentricity"],
+                      f"|e| = {math.hypot(*ecc):g} m is not inside the clearance circle "
+                      f"(clearance = {clearance:g} m)", "|initial_eccentricity| < clearance")
+        ecc_rate = self.vec2(p + ".initial_eccentricity_rate",
+                             j.get("initial_eccentricity_rate", (0.0, 0.0)), unit="m/s")
+        contact = friction = lubricant = transition = None
+        if "contact" in j or model in ("dry", "transition"):
+            contact = self._contact(p + ".contact", j.get("contact", {}))
+        if "friction" in j:
+            friction = self._friction(p + ".friction", j["friction"])
+        if "lubricant" in j or model in ("lubricated", "transition"):
+            lubricant = self._lubricant(p + ".lubricant", j.get("lubricant", {}))
+        if "transition" in j or model == "transition":
+            transition = self._transition(p + ".transition", j.get("transition", {}))
+        return Joint(name=name, type="revolute", points=(a, b), model=model, clearance=clearance,
+                     bearing_radius=bearing_radius, length=length, contact=contact,
+                     friction=friction, lubricant=lubricant, transition=transition,
+                     initial_eccentricity=ecc, initial_eccentricity_rate=ecc_rate)
+
+    def _sub(self, path: str, v: Any, cls, specs: Mapping[str, dict]) -> dict:
+        t = self.table(path, v)
+        keys = tuple(f.name for f in fields(cls))
+        self.keys(path, t, keys, what=f"[{path.rsplit('.', 1)[-1]}]")
+        out = {}
+        for f in fields(cls):
+            spec = specs[f.name]
+            val = t.get(f.name, f.default)
+            if "choices" in spec:
+                out[f.name] = self.choice(join(path, f.name), val, spec["choices"])
+            else:
+                out[f.name] = self.number(join(path, f.name), val, **spec)
+        return out
+
+    def _contact(self, path: str, v: Any) -> Contact:
+        pa = dict(gt=0, unit="Pa")
+        nu = dict(gt=-1, lt=0.5)
+        return Contact(**self._sub(path, v, Contact, {
+            "youngs_modulus_bearing": pa, "youngs_modulus_journal": pa,
+            "poisson_bearing": nu, "poisson_journal": nu,
+            "restitution": dict(gt=0, le=1), "exponent": dict(gt=0),
+            "stiffness": dict(choices=("conformal", "paper")),
+            "impact_speed_floor": dict(gt=0, unit="m/s"),
+        }))
+
+    def _friction(self, path: str, v: Any) -> Friction:
+        d = self._sub(path, v, Friction, {
+            "coefficient": dict(ge=0), "v0": dict(ge=0, unit="m/s"), "v1": dict(gt=0, unit="m/s"),
+        })
+        if not d["v1"] > d["v0"]:
+            self.fail(path + ".v1", d["v1"], f"must be greater than v0 = {fmt_value(d['v0'])}",
+                      "v1 > v0 >= 0 (m/s)")
+        return Friction(**d)
+
+    def _lubricant(self, path: str, v: Any) -> Lubricant:
+        return Lubricant(**self._sub(path, v, Lubricant, {
+            "viscosity": dict(ge=0, unit="Pa s"), "lam": dict(ge=0), "eps0": dict(gt=0, lt=1),
+        }))
+
+    def _transition(self, path: str, v: Any) -> Transition:
+        return Transition(**self._sub(path, v, Transition, {
+            "e1": dict(gt=0, unit="m"), "eps_max": dict(gt=0, lt=1),
+        }))
+
+    def _zero_length_links(self, bodies: Mapping[str, Body], joints: Mapping[str, Joint]) -> None:
+        used: dict[str, dict[str, str]] = {}
+        for j in joints.values():
+            if j.type != "revolute":
+                continue
+            for r in j.points:
+                if r.body != GROUND:
+                    used.setdefault(r.body, {}).setdefault(r.point, j.name)
+        for body, pts in used.items():
+            names = list(pts)
+            coords = bodies[body].points
+            for i, p1 in enumerate(names):
+                for p2 in names[i + 1:]:
+                    if math.dist(coords[p1], coords[p2]) < COINCIDENT_TOL:
+                        self.fail(f"bodies.{body}.points.{p2}", coords[p2],
+                                  f"coincides with point '{p1}' while both carry revolute joints "
+                                  f"(joints.{pts[p1]}, joints.{pts[p2]}): a zero-length link",
+                                  f"distinct positions (at least {COINCIDENT_TOL:g} m apart), or "
+                                  "one shared point for both joints")
+
+    # -- drivers, outputs
+    def _drivers(self, v: Any, bodies: Mapping[str, Body]) -> dict[str, Driver]:
+        dt = self.table("drivers", v, "a [drivers.NAME] table per driven body")
+        out: dict[str, Driver] = {}
+        driven: dict[str, str] = {}
+        for name, d in dt.items():
+            p = join("drivers", name)
+            self.name(p, name, "driver")
+            self.table(p, d)
+            if "law" not in d:
+                self.fail(p + ".law", _MISSING, "missing required field", _one_of(DRIVER_LAWS))
+            law = self.choice(p + ".law", d["law"], DRIVER_LAWS)
+            required = {"constant-speed": ("speed",), "constant-acceleration": ("acceleration",),
+                        "harmonic": ("amplitude", "frequency"),
+                        "smooth-start": ("speed", "ramp_time")}[law]
+            hints = {k: f" (not used by law '{law}')" for k in DRIVER_KEYS}
+            self.keys(p, d, DRIVER_KEYS_BY_LAW[law], required=("body", "law", "angle0") + required,
+                      what=f"a '{law}' driver", hints=hints)
+            body = self.string(p + ".body", d["body"], "the name of a moving body")
+            if body not in bodies:
+                self.fail(p + ".body", body, f"unknown body '{body}'{suggest(body, bodies)}",
+                          _one_of(list(bodies)))
+            if body in driven:
+                self.fail(p + ".body", body,
+                          f"body '{body}' is already driven by drivers.{driven[body]}",
+                          "at most one driver per body")
+            driven[body] = name
+            kw = dict(angle0=self.number(p + ".angle0", d["angle0"], unit="rad"))
+            units = {"speed": ("rad/s", None), "acceleration": ("rad/s^2", None),
+                     "amplitude": ("rad", None), "frequency": ("rad/s", 0), "phase": ("rad", None),
+                     "ramp_time": ("s", None)}
+            for k in DRIVER_KEYS_BY_LAW[law][3:]:
+                if k in d:
+                    unit, ge = units[k]
+                    if k == "ramp_time":
+                        kw[k] = self.number(f"{p}.{k}", d[k], gt=0, unit=unit)
+                    else:
+                        kw[k] = self.number(f"{p}.{k}", d[k], ge=ge, unit=unit)
+            out[name] = Driver(name=name, body=body, law=law, **kw)
+        return out
+
+    def _outputs(self, v: Any, bodies, ground) -> dict[str, Output]:
+        ot = self.table("outputs", v, "an [outputs.NAME] table per output")
+        out = {}
+        for name, o in ot.items():
+            p = join("outputs", name)
+            self.name(p, name, "output")
+            self.table(p, o)
+            self.keys(p, o, OUTPUT_KEYS, required=OUTPUT_KEYS, what="an output")
+            ref = self._ref(p + ".point", o["point"], bodies, ground, ground_ok=False)
+            ax = self.vec2(p + ".axis", o["axis"], nonzero=True)
+            n = math.hypot(*ax)
+            out[name] = Output(name=name, point=ref, axis=(ax[0] / n, ax[1] / n))
+        return out
+
+    # -- analysis, solver
+    def _analysis(self, v: Any, drivers: Mapping[str, Driver]) -> Analysis:
+        a = self.table("analysis", v)
+        self.keys("analysis", a, ANALYSIS_KEYS, what="[analysis]")
+        if "duration" in a and "cycles" in a:
+            self.fail("analysis", {"duration": a["duration"], "cycles": a["cycles"]},
+                      "both duration and cycles are given",
+                      "exactly one of analysis.duration (s) or analysis.cycles")
+        if "duration" not in a and "cycles" not in a:
+            self.fail("analysis.duration", _MISSING, "neither duration nor cycles is given",
+                      "exactly one of analysis.duration (s, > 0) or analysis.cycles (> 0, with "
+                      "analysis.cycle_driver)")
+        if "sample_step" in a and "sample_step_angle" in a:
+            self.fail("analysis", {"sample_step": a["sample_step"],
+                                   "sample_step_angle": a["sample_step_angle"]},
+                      "both sample_step and sample_step_angle are given",
+                      "exactly one of analysis.sample_step (s) or analysis.sample_step_angle (rad)")
+        if "sample_step" not in a and "sample_step_angle" not in a:
+            self.fail("analysis.sample_step", _MISSING,
+                      "neither sample_step nor sample_step_angle is given",
+                      "exactly one of analysis.sample_step (s, > 0) or analysis.sample_step_angle "
+                      "(rad, > 0, with analysis.cycle_driver)")
+        duration = cycles = sample_step = sample_step_angle = None
+        if "duration" in a:
+            duration = self.number("analysis.duration", a["duration"], gt=0, unit="s")
+        else:
+            cycles = self.number("analysis.cycles", a["cycles"], gt=0, unit="periods of the cycle driver")
+        if "sample_step" in a:
+            sample_step = self.number("analysis.sample_step", a["sample_step"], gt=0, unit="s")
+        else:
+            sample_step_angle = self.number("analysis.sample_step_angle", a["sample_step_angle"],
+                                            gt=0, unit="rad")
+        speed = None
+        cycle_driver = None
+        constant = [n for n, d in drivers.items() if d.law == "constant-speed" and d.speed != 0]
+        if "cycle_driver" in a:
+            cycle_driver = self.string("analysis.cycle_driver", a["cycle_driver"],
+                                       "a constant-speed driver with speed != 0: " + _one_of(constant))
+            if cycle_driver not in drivers:
+                self.fail("analysis.cycle_driver", cycle_driver,
+                          f"unknown driver '{cycle_driver}'{suggest(cycle_driver, drivers)}",
+                          "a constant-speed driver with speed != 0: " + _one_of(constant))
+            d = drivers[cycle_driver]
+            if d.law != "constant-speed":
+                self.fail("analysis.cycle_driver", cycle_driver,
+                          f"driver '{cycle_driver}' has law '{d.law}', so it has no period",
+                          "a constant-speed driver with speed != 0: " + _one_of(constant))
+            if d.speed == 0:
+                self.fail("analysis.cycle_driver", cycle_driver,
+                          f"driver '{cycle_driver}' has speed 0, so it has no period",
+                          "a constant-speed driver with speed != 0: " + _one_of(constant))
+            speed = abs(d.speed)
+        elif cycles is not None or sample_step_angle is not None:
+            why = "analysis.cycles" if cycles is not None else "analysis.sample_step_angle"
+            self.fail("analysis.cycle_driver", _MISSING, f"missing required field (needed by {why})",
+                      "a constant-speed driver with speed != 0: " + _one_of(constant))
+        span = duration if duration is not None else cycles * 2 * math.pi / speed
+        if sample_step is not None and sample_step > span:
+            self.fail("analysis.sample_step", a["sample_step"],
+                      f"larger than the analysis span of {span:g} s",
+                      f"0 < sample_step <= {span:g} s")
+        if sample_step_angle is not None and sample_step_angle / speed > span:
+            self.fail("analysis.sample_step_angle", a["sample_step_angle"],
+                      f"larger than the analysis span of {span * speed:g} rad of "
+                      f"'{cycle_driver}' rotation",
+                      f"0 < sample_step_angle <= {span * speed:g} rad")
+        return Analysis(duration=duration, cycles=cycles, cycle_driver=cycle_driver,
+                        sample_step=sample_step, sample_step_angle=sample_step_angle)
+
+    def _solver(self, v: Any) -> Solver:
+        s = self.table("solver", v)
+        self.keys("solver", s, SOLVER_KEYS, what="[solver]")
+        kw: dict[str, Any] = {}
+        if "integrator" in s:
+            kw["integrator"] = self.choice("solver.integrator", s["integrator"], INTEGRATOR_NAMES)
+        for k, unit in (("step", "s"), ("rtol", None), ("atol", None)):
+            if k in s:
+                kw[k] = self.number("solver." + k, s[k], gt=0, unit=unit)
+        if "max_steps" in s:
+            kw["max_steps"] = self.integer("solver.max_steps", s["max_steps"], gt=0)
+        for k in ("baumgarte_alpha", "baumgarte_beta"):
+            if k in s:
+                kw[k] = self.number("solver." + k, s[k], ge=0, unit="1/s")
+        for k, unit in (("assembly_tolerance", "m, rad"), ("onset_tolerance", "m")):
+            if k in s:
+                kw[k] = self.number("solver." + k, s[k], gt=0, unit=unit)
+        return Solver(**kw)
+
+
+def build_scene(raw: Any, source: str | None,
+                overridden: Sequence[tuple[str, str]] = ()) -> Scene:
+    """Validate ``raw`` and build the scene (``raw``/``source`` not yet attached)."""
+    return _Builder(source, overridden).build(raw)
+
+
+# ----------------------------------------------------------------------------- canonical raw
+
+def _pair(v) -> list[float]:
+    return [float(v[0]), float(v[1])]
+
+
+def _dc(obj) -> dict:
+    return {f.name: getattr(obj, f.name) for f in fields(obj)}
+
+
+def scene_to_raw(scene: Scene) -> dict:
+    """The canonical raw mapping of a scene: every field explicit (defaults filled in, floats,
+    normalised directions), ``None`` fields omitted. Loading it gives back an equal scene."""
+    joints = {}
+    for n, j in scene.joints.items():
+        d: dict[str, Any] = {"type": j.type, "connects": [str(r) for r in j.points]}
+        if j.type == "revolute":
+            d["model"] = j.model
+            d["clearance"] = float(j.clearance)
+            if j.bearing_radius is not None:
+                d["bearing_radius"] = float(j.bearing_radius)
+            if j.length is not None:
+                d["length"] = float(j.length)
+            d["initial_eccentricity"] = _pair(j.initial_eccentricity)
+            d["initial_eccentricity_rate"] = _pair(j.initial_eccentricity_rate)
+            for k in ("contact", "friction", "lubricant", "transition"):
+                sub = getattr(j, k)
+                if sub is not None:
+                    d[k] = _dc(sub)
+        else:
+            if j.direction is not None:
+                d["direction"] = _pair(j.direction)
+            d["angle"] = float(j.angle)
+        joints[n] = d
+    drivers = {}
+    for n, dr in scene.drivers.items():
+        d = {"body": dr.body, "law": dr.law, "angle0": float(dr.angle0)}
+        for k in DRIVER_KEYS_BY_LAW[dr.law][3:]:
+            d[k] = float(getattr(dr, k))
+        drivers[n] = d
+    return {
+        "name": scene.name,
+        "description": scene.description,
+        "gravity": _pair(scene.gravity),
+        "ground": {"points": {k: _pair(v) for k, v in scene.ground.items()}},
+        "bodies": {n: {"mass": b.mass, "inertia": b.inertia, "position": _pair(b.position),
+                       "angle": b.angle, "points": {k: _pair(v) for k, v in b.points.items()}}
+                   for n, b in scene.bodies.items()},
+        "joints": joints,
+        "drivers": drivers,
+        "outputs": {n: {"point": str(o.point), "axis": _pair(o.axis)}
+                    for n, o in scene.outputs.items()},
+        "analysis": {k: v for k, v in _dc(scene.analysis).items() if v is not None},
+        "solver": {k: v for k, v in _dc(scene.solver).items() if v is not None},
+    }

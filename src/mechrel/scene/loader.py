@@ -1,0 +1,359 @@
+"""Loading scenes: sources (embedded name, TOML file, mapping), ``extends``, dotted overrides,
+canonical raw mapping and scene hash."""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import json
+import os
+import re
+import tomllib
+from importlib import resources
+from pathlib import Path
+from types import MappingProxyType
+from typing import Any, Iterable, Mapping, Sequence, Union
+
+from ..errors import SceneError
+from ._schema import EXCLUSIVE, SCHEMA, Named
+from ._validate import build_scene, fmt_value, scene_to_raw, suggest
+from .model import Scene
+
+SceneSource = Union[str, os.PathLike, Mapping, Scene]
+Overrides = Union[Mapping[str, Any], Sequence[str], Sequence[tuple[str, Any]]]
+
+_MAPPING_LABEL = "<mapping>"
+
+
+# ----------------------------------------------------------------------------- freezing
+
+def freeze(v: Any) -> Any:
+    """Read-only deep copy: tables → ``MappingProxyType``, arrays → tuples."""
+    if isinstance(v, Mapping):
+        return MappingProxyType({k: freeze(x) for k, x in v.items()})
+    if isinstance(v, (list, tuple)):
+        return tuple(freeze(x) for x in v)
+    return v
+
+
+def thaw(v: Any) -> Any:
+    """Mutable deep copy of a (possibly frozen) raw mapping: tables → dict, arrays → list."""
+    if isinstance(v, Mapping):
+        return {k: thaw(x) for k, x in v.items()}
+    if isinstance(v, (list, tuple)):
+        return [thaw(x) for x in v]
+    return v
+
+
+# ----------------------------------------------------------------------------- embedded scenes
+
+def _data_dir():
+    return resources.files("mechrel.scene").joinpath("data")
+
+
+def embedded_names() -> tuple[str, ...]:
+    """Names of the scenes shipped in ``mechrel/scene/data``."""
+    return tuple(sorted(p.name[:-5] for p in _data_dir().iterdir() if p.name.endswith(".toml")))
+
+
+def list_scenes() -> dict[str, str]:
+    """``{name: description}`` of every embedded scene (each one is loaded and validated)."""
+    return {name: load_scene(name).description for name in embedded_names()}
+
+
+# ----------------------------------------------------------------------------- reading
+
+class _Doc:
+    """One parsed TOML document with where it came from."""
+
+    def __init__(self, raw: dict, label: str, base_dir: Path | None, key: str):
+        self.raw, self.label, self.base_dir, self.key = raw, label, base_dir, key
+
+
+def _parse_toml(text: str, label: str) -> dict:
+    try:
+        return tomllib.loads(text)
+    except tomllib.TOMLDecodeError as e:
+        raise SceneError(f"TOML syntax error: {e}; allowed: valid TOML (https://toml.io)",
+                         source=label) from None
+
+
+def _read_embedded(name: str) -> _Doc:
+    entry = _data_dir().joinpath(name + ".toml")
+    label = f"embedded:{name}"
+    base = Path(str(_data_dir()))
+    return _Doc(_parse_toml(entry.read_text(encoding="utf-8"), label), label,
+                base if base.is_dir() else None, label)
+
+
+def _read_file(path: Path, *, hint: str = "") -> _Doc:
+    label = str(path)
+    if not path.is_file():
+        names = embedded_names()
+        raise SceneError(f"no such scene file '{path}'{hint}; allowed: an existing TOML file or "
+                         f"an embedded scene name: {', '.join(names)}", source=None, path=None)
+    try:
+        text = path.read_bytes().decode("utf-8")
+    except UnicodeDecodeError as e:
+        raise SceneError(f"the file is not UTF-8 text ({e.reason} at byte {e.start}); allowed: "
+                         "a UTF-8 TOML file", source=label) from None
+    except OSError as e:
+        raise SceneError(f"cannot read the file: {e.strerror}; allowed: a readable TOML file",
+                         source=label) from None
+    return _Doc(_parse_toml(text, label), label, path.resolve().parent, str(path.resolve()))
+
+
+def _read_source(source: Any) -> tuple[_Doc, str | None]:
+    """The document for ``source`` and the value for :attr:`Scene.source`."""
+    if isinstance(source, Mapping):
+        return _Doc(thaw(source), _MAPPING_LABEL, Path.cwd(), _MAPPING_LABEL), None
+    if isinstance(source, str):
+        if source in embedded_names():
+            doc = _read_embedded(source)
+            return doc, doc.label
+        if not (source.endswith(".toml") or "/" in source or os.sep in source
+                or Path(source).is_file()):
+            names = embedded_names()
+            raise SceneError(
+                f"unknown scene '{source}'{suggest(source, names)}: not an embedded scene and not "
+                f"a file; allowed: an embedded scene name ({', '.join(names)}) or a path to a "
+                f"TOML file")
+        doc = _read_file(Path(source))
+        return doc, str(source)
+    if isinstance(source, os.PathLike):
+        doc = _read_file(Path(source))
+        return doc, str(Path(source))
+    raise SceneError(f"scene source {fmt_value(source)} is of type {type(source).__name__}; "
+                     "allowed: an embedded scene name, a path (str or Path) or a mapping")
+
+
+# ----------------------------------------------------------------------------- extends
+
+def deep_merge(base: Mapping, over: Mapping, path: str = "") -> dict:
+    """``over`` on top of ``base``: tables merge recursively, any other value replaces. In a
+    table listed in ``EXCLUSIVE`` (``analysis``), setting one key of a mutually exclusive pair
+    drops the other inherited key (so a variant may switch ``cycles`` to ``duration``)."""
+    out = thaw(base)
+    for a, b in EXCLUSIVE.get(path, ()):
+        if a in over and b not in over:
+            out.pop(b, None)
+        elif b in over and a not in over:
+            out.pop(a, None)
+    for k, v in over.items():
+        sub = f"{path}.{k}" if path else k
+        if isinstance(v, Mapping) and isinstance(out.get(k), Mapping):
+            out[k] = deep_merge(out[k], v, sub)
+        else:
+            out[k] = thaw(v)
+    return out
+
+
+def _looks_like_path(s: str) -> bool:
+    return s.endswith(".toml") or "/" in s or os.sep in s
+
+
+def _resolve_extends(doc: _Doc, chain: tuple[str, ...] = ()) -> dict:
+    raw = doc.raw
+    if not isinstance(raw, Mapping) or "extends" not in raw:
+        return raw
+    raw = dict(raw)
+    ext = raw.pop("extends")
+    names = embedded_names()
+    allowed = (f"an embedded scene name ({', '.join(names)}) or a path to a TOML file "
+               "(relative to the extending file)")
+    if not isinstance(ext, str) or not ext:
+        raise SceneError(f"extends = {fmt_value(ext)}: expected a non-empty string; allowed: "
+                         f"{allowed}", source=doc.label, path="extends")
+    if _looks_like_path(ext):
+        p = Path(ext)
+        if not p.is_absolute():
+            p = (doc.base_dir or Path.cwd()) / p
+        if not p.is_file():
+            raise SceneError(f"extends = {fmt_value(ext)}: no such file '{p}'; allowed: {allowed}",
+                             source=doc.label, path="extends")
+        key = str(p.resolve())
+        reader = lambda: _read_file(p)  # noqa: E731
+    else:
+        if ext not in names:
+            raise SceneError(f"extends = {fmt_value(ext)}: unknown embedded scene"
+                             f"{suggest(ext, names)}; allowed: {allowed}",
+                             source=doc.label, path="extends")
+        key = f"embedded:{ext}"
+        reader = lambda: _read_embedded(ext)  # noqa: E731
+    if key in chain or key == doc.key:
+        cycle = " -> ".join((*chain, doc.key, key))
+        raise SceneError(f"extends = {fmt_value(ext)}: circular extends ({cycle}); allowed: a "
+                         "chain of bases that ends", source=doc.label, path="extends")
+    base = _resolve_extends(reader(), (*chain, doc.key))
+    if not isinstance(base, Mapping):
+        return raw
+    return deep_merge(base, raw)
+
+
+# ----------------------------------------------------------------------------- overrides
+
+_NUMBER_RE = re.compile(r"[+-]?(\d+\.?\d*|\.\d+)([eE][+-]?\d+)?\Z")
+
+
+def parse_value(text: str) -> Any:
+    """An override VALUE: a TOML literal (``0.3e-3``, ``"dry"``, ``[1.0, 2.0]``, ``true``,
+    ``{viscosity = 0.2}``); a plain number TOML rejects (``.5``, ``5.``); otherwise the text
+    itself as a string (so ``dry`` means ``"dry"``)."""
+    s = text.strip()
+    try:
+        doc = tomllib.loads(f"__value__ = {s}")
+        if set(doc) == {"__value__"}:
+            return doc["__value__"]
+    except tomllib.TOMLDecodeError:
+        pass
+    if _NUMBER_RE.match(s):
+        return float(s)
+    return s
+
+
+def parse_override(text: str) -> tuple[str, Any]:
+    """``"PATH=VALUE"`` → ``(PATH, value)`` (see :func:`parse_value`)."""
+    if not isinstance(text, str) or "=" not in text:
+        raise SceneError(f"override {fmt_value(text)}: expected PATH=VALUE; allowed: e.g. "
+                         "joints.C1.clearance=0.3e-3 or joints.C1.model=dry")
+    path, _, value = text.partition("=")
+    return path.strip(), parse_value(value)
+
+
+def _normalise_overrides(overrides: Any) -> list[tuple[str, Any, str]]:
+    """(path, value, text for messages) triples."""
+    if overrides is None:
+        return []
+    if isinstance(overrides, Mapping):
+        return [(str(k), v, f"{k}={fmt_value(v)}") for k, v in overrides.items()]
+    if isinstance(overrides, str):
+        overrides = [overrides]
+    out = []
+    try:
+        items = list(overrides)
+    except TypeError:
+        raise SceneError(f"overrides {fmt_value(overrides)}: not a mapping or a sequence; allowed: "
+                         "a mapping {path: value} or a sequence of 'PATH=VALUE' strings") from None
+    for item in items:
+        if isinstance(item, str):
+            p, v = parse_override(item)
+            out.append((p, v, item.strip()))
+        elif isinstance(item, (tuple, list)) and len(item) == 2 and isinstance(item[0], str):
+            out.append((item[0], item[1], f"{item[0]}={fmt_value(item[1])}"))
+        else:
+            raise SceneError(f"override {fmt_value(item)}: not a 'PATH=VALUE' string; allowed: "
+                             "e.g. joints.C1.clearance=0.3e-3")
+    return out
+
+
+def apply_override(raw: dict, path: str, value: Any, *, text: str | None = None,
+                   source: str | None = None) -> None:
+    """Set the dotted ``path`` of ``raw`` (in place) to ``value``, checking the path against the
+    scene layout: every step must be a known field or an existing named entry, and only the
+    last step may be a non-table field. Missing fixed sub-tables (``[solver]``,
+    ``[joints.X.lubricant]``, ...) are created."""
+    text = text or f"{path}={fmt_value(value)}"
+
+    def fail(problem: str, allowed: str) -> None:
+        raise SceneError(f"override '{text}': {problem}; allowed: {allowed}", source=source,
+                         path=path)
+
+    parts = path.split(".")
+    if not path or any(not p for p in parts):
+        fail(f"malformed path '{path}'", "a dotted path of field names, e.g. joints.C1.clearance")
+    node: Any = SCHEMA
+    cur: dict = raw
+    for i, seg in enumerate(parts):
+        here = ".".join(parts[: i + 1])
+        last = i == len(parts) - 1
+        if isinstance(node, Named):
+            child = node.child
+            if seg not in cur:
+                known = list(cur)
+                if not last or child is not None and not isinstance(value, Mapping):
+                    fail(f"unknown {node.what} '{seg}' at '{here}'{suggest(seg, known)}",
+                         f"one of {', '.join(known)}" if known else f"no {node.what} is defined")
+        else:
+            if seg not in node:
+                keys = list(node)
+                fail(f"unknown field '{seg}' at '{here}'{suggest(seg, keys)}",
+                     "fields " + ", ".join(keys))
+            child = node[seg]
+        if last:
+            cur[seg] = thaw(value)
+            table_path = ".".join(parts[:-1])
+            for a, b in EXCLUSIVE.get(table_path, ()):
+                if seg == a:
+                    cur.pop(b, None)
+                elif seg == b:
+                    cur.pop(a, None)
+            return
+        if child is None:
+            fail(f"'{here}' is a value, not a table, so '{path}' cannot be set",
+                 f"'{here}' itself, e.g. {here}=...")
+        if seg not in cur:
+            cur[seg] = {}
+        elif not isinstance(cur[seg], Mapping):
+            fail(f"'{here}' = {fmt_value(cur[seg])} is not a table", f"'{here}' itself")
+        elif not isinstance(cur[seg], dict):
+            cur[seg] = thaw(cur[seg])
+        cur = cur[seg]
+        node = child
+
+
+# ----------------------------------------------------------------------------- public API
+
+def _finish(raw: Any, label: str, scene_source: str | None,
+            overridden: Sequence[tuple[str, str]]) -> Scene:
+    scene = build_scene(raw, label, overridden)
+    return dataclasses.replace(scene, source=scene_source, raw=freeze(scene_to_raw(scene)))
+
+
+def load_scene(source: SceneSource, *, overrides: Overrides = ()) -> Scene:
+    """Load and validate a scene.
+
+    ``source``: an embedded scene name (``"nine-bar"``, see :func:`list_scenes`), a path to a
+    TOML file (``str`` or ``Path``), an already-parsed mapping, or a :class:`Scene` (then this is
+    :func:`with_overrides`). A top-level ``extends = NAME_OR_PATH`` deep-merges the file over
+    its base. ``overrides``: ``{"joints.C1.clearance": 0.3e-3}`` or ``["joints.C1.clearance=0.3e-3",
+    "joints.C1.model=dry"]``; applied in order to the raw mapping before validation.
+
+    Raises :class:`~mechrel.errors.SceneError` (one, naming source, field path, value and what is
+    allowed) for any problem.
+    """
+    if isinstance(source, Scene):
+        return with_overrides(source, overrides)
+    doc, scene_source = _read_source(source)
+    raw = _resolve_extends(doc)
+    ovs = _normalise_overrides(overrides)
+    if ovs:
+        if not isinstance(raw, Mapping):
+            build_scene(raw, doc.label)  # raises: not a table
+        raw = thaw(raw)
+        for path, value, text in ovs:
+            apply_override(raw, path, value, text=text, source=doc.label)
+    return _finish(raw, doc.label, scene_source, [(p, t) for p, _, t in ovs])
+
+
+def with_overrides(scene: Scene, overrides: Overrides) -> Scene:
+    """A new scene: ``scene``'s raw mapping with ``overrides`` applied, validated again."""
+    raw = thaw(scene.raw) if scene.raw else scene_to_raw(scene)
+    ovs = _normalise_overrides(overrides)
+    label = scene.source or _MAPPING_LABEL
+    for path, value, text in ovs:
+        apply_override(raw, path, value, text=text, source=label)
+    return _finish(raw, label, scene.source, [(p, t) for p, _, t in ovs])
+
+
+def canonical_json(scene: Scene) -> str:
+    """Canonical JSON of the scene's raw mapping (sorted keys, no spaces, exact floats)."""
+    raw = thaw(scene.raw) if scene.raw else scene_to_raw(scene)
+    return json.dumps(raw, sort_keys=True, separators=(",", ":"), ensure_ascii=False,
+                      allow_nan=False)
+
+
+def scene_hash(scene: Scene) -> str:
+    """SHA-256 (hex) of :func:`canonical_json`: equal for scenes with the same content whatever
+    the file layout, formatting, defaults written out or not; different when any value differs.
+    The source path is not part of it."""
+    return hashlib.sha256(canonical_json(scene).encode("utf-8")).hexdigest()
