@@ -283,11 +283,13 @@ def simulate(scene: Scene, *, method: str = "auto", integrator: str | None = Non
     if method == "kinematics" and (has_clearance or not driven):
         raise SimulationError("method='kinematics' needs a fully driven scene without "
                               "clearance joints")
-    q0, _ = assemble(compiled.ideal, compiled.q_guess, 0.0, tol=tol)
+    q0, _ = assemble(compiled.ideal, compiled.q_guess, 0.0, tol=tol,
+                     labels=compiled.labels["ideal"])
 
     ideal = None
     if driven and (has_clearance or method in ("auto", "kinematics")):
-        Qi, Vi, Ai, viol_i = kinematic_analysis(compiled.ideal, q0, times, tol=tol)
+        Qi, Vi, Ai, viol_i = kinematic_analysis(compiled.ideal, q0, times, tol=tol,
+                                                labels=compiled.labels["ideal"])
         ideal = _point_outputs(compiled, Qi, Vi, Ai)
 
     if not has_clearance and driven and method != "dynamics":
@@ -301,7 +303,8 @@ def simulate(scene: Scene, *, method: str = "auto", integrator: str | None = Non
                                 provenance=_provenance(scene, wall))
 
     sys = compiled.dynamic
-    qa, va = assemble(compiled.assembly, q0, 0.0, tol=tol)
+    qa, va = assemble(compiled.assembly, q0, 0.0, tol=tol,
+                      labels=compiled.labels["assembly"])
     y0 = np.concatenate([qa, va, np.zeros(problem.N_WORK)])
     hist0 = np.zeros(sys.n_contacts)
     solver = make_integrator(scene, integrator, **solver_settings)

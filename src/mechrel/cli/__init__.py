@@ -1,1 +1,3 @@
-"""mechrel.cli"""
+from .main import main
+
+__all__ = ["main"]

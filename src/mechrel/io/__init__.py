@@ -1,1 +1,5 @@
-"""mechrel.io"""
+"""Tables, figures and provenance files."""
+
+from .tables import write_json, write_table
+
+__all__ = ["write_table", "write_json"]

@@ -122,7 +122,7 @@ def _kinematics(q0, times, sys, tol, max_iter):
     return Q, V, A, viol, nt
 
 
-def kinematic_analysis(system, q_guess, times, *, tol=1e-12, max_iter=50):
+def kinematic_analysis(system, q_guess, times, *, tol=1e-12, max_iter=50, labels=None):
     """Positions, velocities and accelerations of a fully driven mechanism at ``times``.
 
     Returns
@@ -151,6 +151,9 @@ def kinematic_analysis(system, q_guess, times, *, tol=1e-12, max_iter=50):
         raise AssemblyError("kinematic analysis hit a singular constraint Jacobian (a toggle "
                             "or dead-centre position of the mechanism)") from exc
     if done < times.shape[0]:
+        # re-run the failing instant in Python for a message naming the violated constraints
+        last = Q[done - 1] if done > 0 else np.asarray(q_guess, dtype=float)
+        assemble(system, last, float(times[done]), tol=tol, max_iter=max_iter, labels=labels)
         raise AssemblyError(f"kinematic analysis: Newton–Raphson failed at t = "
                             f"{times[done]:g} s (the assembly branch ends there)")
     return Q, V, A, viol

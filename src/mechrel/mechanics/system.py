@@ -101,6 +101,7 @@ class CompiledScene(NamedTuple):
     dynamic: System
     assembly: System
     ideal: System
+    labels: dict  # {"dynamic" | "assembly" | "ideal": one label per constraint row}
     body_names: tuple[str, ...]
     body_index: dict
     q_guess: np.ndarray
@@ -166,8 +167,9 @@ def clearance_parameters(joint: Joint) -> np.ndarray:
     return pack_params(**kw)
 
 
-def _system(scene: Scene, index, clearance_as: str) -> System:
-    """Build one System; ``clearance_as`` in {"force", "offset", "ideal"}."""
+def _system(scene: Scene, index, clearance_as: str) -> tuple[System, tuple[str, ...]]:
+    """Build one System and a label per constraint row; ``clearance_as`` in
+    {"force", "offset", "ideal"}."""
     from ..forces.params import MODEL_LUBRICATED, N_PARAMS, P_MODEL
 
     nb = len(index)
@@ -179,6 +181,7 @@ def _system(scene: Scene, index, clearance_as: str) -> System:
     rev_i, rev_j, rev_si, rev_sj, rev_off, rev_offdot = [], [], [], [], [], []
     tr_i, tr_si, tr_p0, tr_n, tr_angle = [], [], [], [], []
     fa_i, fa_angle = [], []
+    rev_labels, tr_labels, fa_labels = [], [], []
     cl_b, cl_j, cl_sb, cl_sj, cl_p, cl_hist = [], [], [], [], [], []
     n_contact = 0
     for joint in scene.joints.values():
@@ -211,6 +214,7 @@ def _system(scene: Scene, index, clearance_as: str) -> System:
                 offdot = sign * np.asarray(joint.initial_eccentricity_rate, dtype=float)
             rev_i.append(i); rev_j.append(j); rev_si.append(si); rev_sj.append(sj)
             rev_off.append(off); rev_offdot.append(offdot)
+            rev_labels += [f"joints.{joint.name} (x)", f"joints.{joint.name} (y)"]
         elif joint.type == "translational":
             i, si = _point(scene, joint.points[0], index)
             _, p0 = _point(scene, joint.points[1], index)
@@ -218,9 +222,11 @@ def _system(scene: Scene, index, clearance_as: str) -> System:
             u = u / math.hypot(*u)
             tr_i.append(i); tr_si.append(si); tr_p0.append(p0)
             tr_n.append(np.array([-u[1], u[0]])); tr_angle.append(joint.angle)
+            tr_labels += [f"joints.{joint.name} (on line)", f"joints.{joint.name} (angle)"]
         elif joint.type == "fixed-angle":
             i, _ = _point(scene, joint.points[0], index)
             fa_i.append(i); fa_angle.append(joint.angle)
+            fa_labels.append(f"joints.{joint.name} (angle)")
         else:  # pragma: no cover - the loader rejects other types
             raise SceneError(f"joints.{joint.name}.type: unknown joint type {joint.type!r}")
 
@@ -234,6 +240,8 @@ def _system(scene: Scene, index, clearance_as: str) -> System:
     def vecs(x, width=2):
         return np.asarray(x, dtype=float).reshape(-1, width)
 
+    labels = tuple(rev_labels + tr_labels + fa_labels
+                   + [f"drivers.{name}" for name in scene.drivers])
     return System(
         mass=mass, gravity=np.asarray(scene.gravity, dtype=float),
         rev_i=ints(rev_i), rev_j=ints(rev_j), rev_si=vecs(rev_si), rev_sj=vecs(rev_sj),
@@ -245,7 +253,7 @@ def _system(scene: Scene, index, clearance_as: str) -> System:
         cl_b=ints(cl_b), cl_j=ints(cl_j), cl_sb=vecs(cl_sb), cl_sj=vecs(cl_sj),
         cl_p=vecs(cl_p, N_PARAMS), cl_hist=ints(cl_hist),
         baumgarte=np.array([scene.solver.baumgarte_alpha, scene.solver.baumgarte_beta]),
-    )
+    ), labels
 
 
 def compile_scene(scene: Scene) -> CompiledScene:
@@ -274,10 +282,11 @@ def compile_scene(scene: Scene) -> CompiledScene:
         period = 2.0 * math.pi / abs(scene.drivers[scene.analysis.cycle_driver].speed)
 
     clearance = scene.clearance_joints
+    systems = {kind: _system(scene, index, how) for kind, how in
+               (("dynamic", "force"), ("assembly", "offset"), ("ideal", "ideal"))}
     return CompiledScene(
-        dynamic=_system(scene, index, "force"),
-        assembly=_system(scene, index, "offset"),
-        ideal=_system(scene, index, "ideal"),
+        dynamic=systems["dynamic"][0], assembly=systems["assembly"][0],
+        ideal=systems["ideal"][0], labels={k: v[1] for k, v in systems.items()},
         body_names=names, body_index=index, q_guess=q_guess,
         clearance_names=tuple(j.name for j in clearance),
         contact_names=tuple(j.name for j in clearance if j.model != "lubricated"),

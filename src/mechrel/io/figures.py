@@ -1,0 +1,77 @@
+"""Figures of simulation results."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+UNITS = {"displacement": ("mm", 1e3), "velocity": ("m/s", 1.0), "acceleration": ("m/s²", 1.0)}
+
+
+def _axis(result):
+    if result.crank_angle is not None:
+        return result.crank_angle, "crank angle (deg)"
+    return result.time, "time (s)"
+
+
+def plot_simulation(result, path=None, *, output: str | None = None):
+    """Displacement, velocity and acceleration of one output over the analysis span; for a
+    scene with clearance joints, the ideal curves and the errors, and the journal orbits
+    inside their clearance circles. Returns the matplotlib Figure (saved when ``path``)."""
+    import matplotlib
+
+    matplotlib.use("Agg", force=False)
+    import matplotlib.pyplot as plt
+
+    output = output or next(iter(result.outputs))
+    x, xlabel = _axis(result)
+    has_err = result.ideal is not None
+    n_orbit = len(result.orbits)
+    ncols = 2 if has_err else 1
+    fig = plt.figure(figsize=(6.5 * ncols + (4 if n_orbit else 0), 8), constrained_layout=True)
+    gs = fig.add_gridspec(3, ncols + (1 if n_orbit else 0))
+    for row, qty in enumerate(("displacement", "velocity", "acceleration")):
+        unit, scale = UNITS[qty]
+        ax = fig.add_subplot(gs[row, 0])
+        ax.plot(x, result.outputs[output][qty] * scale, lw=1.2, label="with clearance" if has_err
+                else output)
+        if has_err:
+            ax.plot(x, result.ideal[output][qty] * scale, lw=1.0, ls="--", color="k",
+                    label="ideal")
+        ax.set_ylabel(f"{qty} ({unit})")
+        ax.grid(alpha=0.3)
+        if row == 0:
+            ax.set_title(f"{result.scene.name}: {output}")
+            ax.legend(loc="best", fontsize=8)
+        if row == 2:
+            ax.set_xlabel(xlabel)
+        if has_err:
+            ax = fig.add_subplot(gs[row, 1])
+            ax.plot(x, result.error(output, qty) * scale, lw=1.0, color="C3")
+            ax.axhline(0.0, color="k", lw=0.5)
+            ax.set_ylabel(f"{qty} error ({unit})")
+            ax.grid(alpha=0.3)
+            if row == 0:
+                ax.set_title("error = with clearance − ideal")
+            if row == 2:
+                ax.set_xlabel(xlabel)
+    if n_orbit:
+        sub = gs[:, ncols].subgridspec(n_orbit, 1)
+        for k, (name, orb) in enumerate(result.orbits.items()):
+            ax = fig.add_subplot(sub[k])
+            c = np.hypot(orb["ex"], orb["ey"]) / np.maximum(orb["eps"], 1e-300)
+            cl = float(np.nanmedian(c[orb["eps"] > 0])) if np.any(orb["eps"] > 0) else 1.0
+            phi = np.linspace(0, 2 * np.pi, 200)
+            ax.plot(cl * 1e3 * np.cos(phi), cl * 1e3 * np.sin(phi), color="k", lw=0.8)
+            ax.plot(orb["ex"] * 1e3, orb["ey"] * 1e3, lw=0.8, color="C2")
+            ax.set_aspect("equal")
+            ax.set_title(f"journal orbit {name} (max ε = {np.max(orb['eps']):.3f})", fontsize=9)
+            ax.set_xlabel("e_x (mm)")
+            ax.set_ylabel("e_y (mm)")
+    if path is not None:
+        path = Path(path)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        fig.savefig(path, dpi=130)
+        plt.close(fig)
+    return fig

@@ -1,0 +1,183 @@
+"""The mechanism as a black-box model for the estimators: parameters → error curves.
+
+:class:`MechanismModel` implements the :class:`mechrel.uq.model.Model` protocol. Its inputs
+are dotted scene paths (``joints.C1.clearance``, ``joints.C1.lubricant.viscosity``,
+``drivers.crank1.speed``, ``bodies.rod3.points.P``… any numeric scene value); its outputs are
+the signed errors (with clearance − ideal) of one output point's displacement (m), velocity
+(m/s) and acceleration (m/s²) at the analysis crank angles (every 18° by default, as in the
+paper's §5), labelled by a ``(quantity, crank_angle)`` MultiIndex.
+
+It is deterministic (no randomness: the simulation is deterministic and its settings are part
+of :meth:`cache_key`) and picklable (it carries the scene's raw mapping, not the compiled
+objects; each worker process rebuilds the scene once and numba loads the compiled kernels from
+its on-disk cache once per process).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import math
+from typing import Sequence
+
+import numpy as np
+import pandas as pd
+
+from ..errors import MechrelError, StudyError
+from ..scene.model import QUANTITIES
+from .model import ModelFailure
+
+
+class MechanismModel:
+    """Errors of a scene's output at fixed crank angles as a function of scene parameters.
+
+    Parameters
+    ----------
+    scene : str, path, mapping or Scene
+        Anything :func:`mechrel.scene.load_scene` accepts; must have clearance joints and a
+        cycle driver (the crank angle is the cycle driver's rotation).
+    inputs : sequence of str
+        Dotted scene paths of the uncertain parameters, in the order of ``x``.
+    output : str, optional
+        Output name (default: the scene's first output).
+    quantities : sequence of str
+        Subset of ``("displacement", "velocity", "acceleration")``.
+    angle_step : float
+        Crank-angle step of the analysis points (degrees); the scene is sampled at this step.
+    cycles : float, optional
+        Overrides the scene's number of cycles; the last cycle is analysed (default: the
+        scene's own; with more than one, the last whole cycle is used to skip transients).
+    overrides : mapping, optional
+        Fixed scene overrides applied before the inputs (e.g. the solver).
+    """
+
+    def __init__(self, scene, inputs: Sequence[str], *, output: str | None = None,
+                 quantities: Sequence[str] = QUANTITIES, angle_step: float = 18.0,
+                 cycles: float | None = None, overrides=None):
+        from ..scene import load_scene
+        from ..scene.loader import thaw
+
+        base = load_scene(scene, overrides=overrides or {})
+        if isinstance(inputs, str):
+            raise StudyError(f"inputs: expected a sequence of dotted scene paths, got the "
+                             f"string {inputs!r}")
+        self.input_names = tuple(inputs)
+        if not self.input_names or len(set(self.input_names)) != len(self.input_names):
+            raise StudyError(f"inputs: must be non-empty and unique, got {self.input_names!r}")
+        if not base.clearance_joints:
+            raise StudyError(f"scene {base.name!r}: has no clearance joints, so its response "
+                             "error is zero; declare a joint with model = 'dry', 'lubricated' "
+                             "or 'transition'")
+        if base.analysis.cycle_driver is None:
+            raise StudyError(f"scene {base.name!r}: analysis.cycle_driver is needed to define "
+                             "the crank angles of the analysis")
+        bad = [q for q in quantities if q not in QUANTITIES]
+        if bad or not quantities:
+            raise StudyError(f"quantities: {list(quantities)!r} must be a non-empty subset of "
+                             f"{list(QUANTITIES)}")
+        if not (angle_step > 0 and 360.0 / angle_step == round(360.0 / angle_step)):
+            raise StudyError(f"angle_step: {angle_step!r} must be > 0 and divide 360 degrees")
+        self.output = output or next(iter(base.outputs))
+        if self.output not in base.outputs:
+            raise StudyError(f"output: {self.output!r} is not an output of scene "
+                             f"{base.name!r}; allowed: {', '.join(base.outputs)}")
+        self.quantities = tuple(quantities)
+        self.angle_step = float(angle_step)
+        if base.analysis.cycles is None:
+            raise StudyError(f"scene {base.name!r}: the analysis must be given in cycles "
+                             "(analysis.cycles), not as a duration")
+        self.cycles = float(cycles if cycles is not None else base.analysis.cycles)
+        raw = thaw(base.raw)
+        analysis = raw.setdefault("analysis", {})
+        analysis.pop("sample_step", None)
+        analysis["sample_step_angle"] = math.radians(self.angle_step)
+        analysis["cycles"] = self.cycles
+        base = load_scene(raw)
+        # Every input path must exist and be numeric: try it at its current value.
+        nominal = []
+        for path in self.input_names:
+            value = _lookup(base.raw, path)
+            if isinstance(value, bool) or not isinstance(value, (int, float)):
+                raise StudyError(f"inputs: scene path {path!r} holds {value!r}; an uncertain "
+                                 "input must be a number")
+            nominal.append(float(value))
+        self.nominal = np.asarray(nominal)
+        self._raw = thaw(base.raw)
+        self._scene = base
+        angles = np.arange(0.0, 360.0 + 0.5 * self.angle_step, self.angle_step)
+        self.crank_angles = angles
+        self.output_index = pd.MultiIndex.from_product([self.quantities, angles],
+                                                       names=["quantity", "crank_angle"])
+
+    # pickling: ship the raw mapping, rebuild the scene in the worker
+    def __getstate__(self):
+        state = dict(self.__dict__)
+        state["_scene"] = None
+        return state
+
+    def __setstate__(self, state):
+        self.__dict__.update(state)
+
+    @property
+    def scene(self):
+        if self._scene is None:
+            from ..scene import load_scene
+            self._scene = load_scene(self._raw)
+        return self._scene
+
+    def cache_key(self) -> str:
+        from .. import __version__
+        from ..scene import scene_hash
+
+        payload = json.dumps({"kind": "MechanismModel", "scene": scene_hash(self.scene),
+                              "inputs": list(self.input_names), "output": self.output,
+                              "quantities": list(self.quantities),
+                              "angle_step": self.angle_step, "cycles": self.cycles,
+                              "mechrel": __version__}, sort_keys=True)
+        return hashlib.sha256(payload.encode()).hexdigest()
+
+    def simulate(self, x):
+        """The full :class:`~mechrel.simulation.SimulationResult` at input vector ``x``."""
+        from ..scene import with_overrides
+        from ..simulation import simulate
+
+        x = np.asarray(x, dtype=float).reshape(-1)
+        if x.size != len(self.input_names):
+            raise StudyError(f"x: expected {len(self.input_names)} values "
+                             f"({', '.join(self.input_names)}), got {x.size}")
+        scene = with_overrides(self.scene, dict(zip(self.input_names, map(float, x))))
+        return simulate(scene)
+
+    def evaluate(self, x) -> np.ndarray:
+        """Errors at the analysis crank angles of the last cycle, quantity-major (m, m/s, m/s²).
+
+        Raises :class:`~mechrel.uq.ModelFailure` with the reason when the scene is invalid at
+        ``x`` (e.g. a clearance ≤ 0), cannot assemble, or the integrator fails."""
+        try:
+            res = self.simulate(x)
+        except StudyError:
+            raise
+        except MechrelError as exc:
+            raise ModelFailure(f"{type(exc).__name__}: {exc}") from None
+        n_per_cycle = self.crank_angles.size - 1
+        last = res.time.size - 1
+        rows = np.arange(last - n_per_cycle, last + 1)
+        out = np.concatenate([res.error(self.output, q)[rows] for q in self.quantities])
+        if not np.all(np.isfinite(out)):
+            raise ModelFailure("non-finite response error")
+        return out
+
+    def __repr__(self) -> str:
+        return (f"MechanismModel({self.scene.name!r}, inputs={list(self.input_names)}, "
+                f"output={self.output!r}, angle_step={self.angle_step:g})")
+
+
+def _lookup(raw, path: str):
+    node = raw
+    for part in path.split("."):
+        if not hasattr(node, "get") or part not in node:
+            raise StudyError(f"inputs: {path!r} is not a value of the scene (no {part!r} "
+                             "there); inputs are dotted scene paths like "
+                             "'joints.C1.clearance'")
+        node = node[part]
+    return node
