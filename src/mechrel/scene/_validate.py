@@ -99,7 +99,11 @@ def _one_of(choices: Sequence[str]) -> str:
 
 
 def join(prefix: str, key: str) -> str:
-    return f"{prefix}.{key}" if prefix else str(key)
+    """``prefix.key``; a key that is not a bare TOML key is quoted as TOML does."""
+    key = str(key)
+    if not key or not all(c.isalnum() or c in "_-" for c in key) or not key.isascii():
+        key = '"' + key.replace("\\", "\\\\").replace('"', '\\"') + '"'
+    return f"{prefix}.{key}" if prefix else key
 
 
 # ----------------------------------------------------------------------------- checker
@@ -317,7 +321,7 @@ class _Builder(Checker):
             if name == GROUND:
                 self.fail(p, b, f"the body name '{GROUND}' is reserved for the frame "
                                 "(its points go in [ground.points])",
-                          "any other " + NAME_RULE)
+                          "any other identifier (letters, digits and underscores, no dots)")
             self.table(p, b)
             self.keys(p, b, BODY_KEYS, required=("mass", "inertia", "position"), what="a body")
             out[name] = Body(
