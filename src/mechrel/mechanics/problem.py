@@ -28,6 +28,7 @@ import numpy as np
 from numba import njit
 
 from ..forces.joint import clearance_force
+from ..forces.params import P_C
 from .system import (D_ACCEL, D_AMPLITUDE, D_ANGLE0, D_FREQUENCY, D_PHASE, D_RAMP, D_SPEED,
                      LAW_CONSTANT_ACCELERATION, LAW_CONSTANT_SPEED, LAW_HARMONIC)
 
@@ -288,7 +289,7 @@ def gaps(t, y, sys):
         ex = jx - bx
         ey = jy - by
         e = math.hypot(ex, ey)
-        g[h] = e - sys.cl_p[k, 1]
+        g[h] = e - sys.cl_p[k, P_C]
         # δ̇ = n·ė; at e = 0 the direction is undefined and the joint is far from contact.
         gd[h] = ((jvx - bvx) * ex + (jvy - bvy) * ey) / e if e > 0.0 else 0.0
     return g, gd

@@ -17,7 +17,7 @@ from typing import NamedTuple
 import numpy as np
 
 from ..errors import SceneError
-from ..scene.model import GROUND, Joint, Scene
+from ..scene.model import GROUND, Contact, Joint, Scene
 
 # Driver laws, in the order of the ``dr_law`` codes.
 LAW_CONSTANT_SPEED = 0
@@ -149,16 +149,16 @@ def clearance_parameters(joint: Joint) -> np.ndarray:
     R_S = R_B - joint.clearance
     kw = dict(model=joint.model, clearance=joint.clearance, bearing_radius=R_B,
               length=joint.length)
-    if joint.model in ("dry", "transition"):
-        c = joint.contact
-        kw.update(stiffness=contact_stiffness(R_B, R_S, c.youngs_modulus_bearing, c.poisson_bearing,
-                                              c.youngs_modulus_journal, c.poisson_journal,
-                                              c.stiffness == "conformal"),
-                  exponent=c.exponent, restitution=c.restitution,
-                  impact_speed_floor=c.impact_speed_floor)
-        if joint.friction is not None:
-            kw.update(friction_coefficient=joint.friction.coefficient, v0=joint.friction.v0,
-                      v1=joint.friction.v1)
+    # The contact parameters are packed for every model (a lubricated joint never reads them).
+    c = joint.contact or Contact()
+    kw.update(stiffness=contact_stiffness(R_B, R_S, c.youngs_modulus_bearing, c.poisson_bearing,
+                                          c.youngs_modulus_journal, c.poisson_journal,
+                                          c.stiffness == "conformal"),
+              exponent=c.exponent, restitution=c.restitution,
+              impact_speed_floor=c.impact_speed_floor)
+    if joint.model in ("dry", "transition") and joint.friction is not None:
+        kw.update(friction_coefficient=joint.friction.coefficient, v0=joint.friction.v0,
+                  v1=joint.friction.v1)
     if joint.model in ("lubricated", "transition"):
         lub = joint.lubricant
         kw.update(viscosity=lub.viscosity, lam=lub.lam, eps0=lub.eps0)
