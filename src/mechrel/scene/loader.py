@@ -74,7 +74,11 @@ def _parse_toml(text: str, label: str) -> dict:
     try:
         return tomllib.loads(text)
     except tomllib.TOMLDecodeError as e:
-        raise SceneError(f"TOML syntax error: {e}; allowed: valid TOML (https://toml.io)",
+        where = str(e)
+        if "line" not in where:  # "(at end of document)": say which line that is
+            lines = text.splitlines() or [""]
+            where += f" (line {len(lines)}, column {len(lines[-1]) + 1})"
+        raise SceneError(f"TOML syntax error: {where}; allowed: valid TOML (https://toml.io)",
                          source=label) from None
 
 
