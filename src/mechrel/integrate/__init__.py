@@ -2,10 +2,11 @@
 :mod:`mechrel.integrate.base`)."""
 
 from .base import DOPRI5, RK4, IntegrationResult, Integrator, SolverStats
+from .radau import Radau
 from .scipy_ivp import ScipyBDF, ScipyLSODA, ScipyRadau
 
 INTEGRATORS: dict[str, type[Integrator]] = {
-    cls.name: cls for cls in (RK4, DOPRI5, ScipyRadau, ScipyBDF, ScipyLSODA)
+    cls.name: cls for cls in (RK4, DOPRI5, Radau, ScipyRadau, ScipyBDF, ScipyLSODA)
 }
 
 
@@ -21,4 +22,4 @@ def get_integrator(name: str, **settings) -> Integrator:
 
 
 __all__ = ["INTEGRATORS", "Integrator", "IntegrationResult", "SolverStats", "RK4", "DOPRI5",
-           "ScipyRadau", "ScipyBDF", "ScipyLSODA", "get_integrator"]
+           "Radau", "ScipyRadau", "ScipyBDF", "ScipyLSODA", "get_integrator"]
