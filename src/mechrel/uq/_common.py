@@ -1,0 +1,121 @@
+"""Shared helpers: provenance records, argument checks, model/inputs/evaluations plumbing."""
+
+from __future__ import annotations
+
+import datetime as _dt
+import platform
+from importlib.metadata import PackageNotFoundError, version
+from typing import Any
+
+import numpy as np
+
+from mechrel.errors import StudyError
+
+from .executor import Evaluations, evaluate
+from .inputs import UncertainInputs
+from .model import check_model
+
+_PACKAGES = ("mechrel", "numpy", "scipy", "pandas", "chaospy", "numpoly", "SALib", "joblib")
+
+
+def package_versions() -> dict[str, str]:
+    out = {"python": platform.python_version()}
+    for p in _PACKAGES:
+        try:
+            out[p] = version(p)
+        except PackageNotFoundError:  # pragma: no cover
+            out[p] = "not installed"
+    return out
+
+
+def make_provenance(
+    *,
+    method: str,
+    seed: Any,
+    evaluations: list[Evaluations],
+    settings: dict,
+    wall_time: float,
+    inputs: UncertainInputs | None = None,
+) -> dict:
+    """The provenance dict every estimator result carries."""
+    evs = [e for e in evaluations if e is not None]
+    keys = sorted({e.cache_key for e in evs if e.cache_key is not None})
+    return {
+        "method": method,
+        "seed": seed,
+        "n_model_evaluations": int(sum(e.n for e in evs)),
+        "n_model_calls": int(sum(e.n_model_calls for e in evs)),
+        "n_cached": int(sum(e.n_cached for e in evs)),
+        "n_failed": int(sum(e.n_failed for e in evs)),
+        "wall_time": float(wall_time),
+        "model_cache_key": keys[0] if len(keys) == 1 else (keys or None),
+        "inputs": None if inputs is None else inputs.describe(),
+        "settings": dict(settings),
+        "executor": evs[0].settings if evs else None,
+        "versions": package_versions(),
+        "created": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
+    }
+
+
+def check_choice(name: str, value: Any, allowed: tuple) -> Any:
+    if value not in allowed:
+        raise StudyError(f"{name}: got {value!r}; allowed: {list(allowed)}")
+    return value
+
+
+def check_fraction(name: str, value: Any, *, lo: float = 0.0, hi: float = 1.0, open_lo=False, open_hi=False) -> float:
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        raise StudyError(f"{name}: must be a number, got {value!r}") from None
+    ok = (v > lo if open_lo else v >= lo) and (v < hi if open_hi else v <= hi)
+    if not ok or not np.isfinite(v):
+        lb = "(" if open_lo else "["
+        rb = ")" if open_hi else "]"
+        raise StudyError(f"{name}: got {value!r}; allowed: a number in {lb}{lo}, {hi}{rb}")
+    return v
+
+
+def check_inputs(inputs: Any, input_names: tuple[str, ...] | None) -> UncertainInputs:
+    if not isinstance(inputs, UncertainInputs):
+        raise StudyError(
+            f"inputs: expected an UncertainInputs (UncertainInputs.from_specs(...)), got {type(inputs).__name__}"
+        )
+    if input_names is not None:
+        return inputs.reordered(input_names)
+    return inputs
+
+
+def exclusive_source(model: Any, evaluations: Any, *, what: str) -> None:
+    if (model is None) == (evaluations is None):
+        raise StudyError(
+            f"{what}: pass exactly one of model= (evaluated here) or evaluations= (precomputed), "
+            f"got {'both' if model is not None else 'neither'}"
+        )
+    if model is not None:
+        check_model(model)
+    if evaluations is not None and not isinstance(evaluations, Evaluations):
+        raise StudyError(
+            f"{what}: evaluations= must be an Evaluations (from mechrel.uq.evaluate or "
+            f"Evaluations.from_arrays), got {type(evaluations).__name__}"
+        )
+
+
+def run(model: Any, X: np.ndarray, executor: dict) -> Evaluations:
+    return evaluate(model, X, **executor)
+
+
+def executor_kwargs(n_jobs, backend, cache, progress, chunk_size) -> dict:
+    return {"n_jobs": n_jobs, "backend": backend, "cache": cache, "progress": progress, "chunk_size": chunk_size}
+
+
+def failure_message(ev: Evaluations, *, limit: int = 5) -> str:
+    counts = ev.failure_counts()
+    top = "; ".join(f"{c}× {r}" for r, c in list(counts.items())[:limit])
+    return f"{ev.n_failed} of {ev.n} samples failed ({top})"
+
+
+def readonly(a: Any) -> np.ndarray:
+    a = np.array(a, copy=True)
+    a.setflags(write=False)
+    return a

@@ -1,0 +1,439 @@
+"""The one place where estimators evaluate a model: :func:`evaluate`.
+
+Guarantees
+----------
+* **Same numbers for any ``n_jobs``, backend and chunking.** The model is deterministic and all
+  random draws (designs, allowable draws, bootstrap) happen in the parent process before or after
+  dispatch; workers only evaluate rows of a fixed design matrix, and results are written back by
+  row index. No per-task randomness exists, so no per-task seeds are needed. (Should a future
+  model need randomness per task, derive it with ``numpy.random.SeedSequence(seed).spawn`` over
+  the fixed chunking that ``chunk_size`` defines — it never depends on ``n_jobs``.)
+* **Failures never kill the run and are never dropped.** ``ModelFailure`` and the other
+  per-sample :class:`mechrel.errors.MechrelError` subclasses (``SimulationError``,
+  ``AssemblyError``, ``SceneError``) raised by ``model.evaluate`` — and non-finite outputs — mark
+  that row ``"failed"`` with its reason; its ``Y`` row is NaN. ``StudyError`` (a wrong set-up,
+  e.g. a wrong output length) and any other exception (a bug) stop the run.
+* **Resume.** With ``cache=``, finished chunks are written to the cache as they arrive; a rerun
+  evaluates only rows missing from the cache (``n_model_calls`` counts the calls actually made).
+* **Worker reuse.** loky keeps its worker processes alive between calls (reusable executor), so
+  per-process start-up costs (numba loading its on-disk cache) are paid once per worker, not per
+  chunk or per estimator.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections import Counter
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from mechrel.errors import MechrelError, StudyError
+
+from .cache import EvaluationCache, as_cache
+from .model import as_output_index, check_model
+
+__all__ = ["Evaluations", "evaluate", "BACKENDS", "combined_cache_key"]
+
+BACKENDS = ("loky", "dask", "sequential")
+STATUS_OK = "ok"
+STATUS_FAILED = "failed"
+
+
+def _readonly(a: np.ndarray) -> np.ndarray:
+    a = np.array(a, copy=True)
+    a.setflags(write=False)
+    return a
+
+
+@dataclass(frozen=True, eq=False)
+class Evaluations:
+    """Model evaluations at a design ``X`` (frozen).
+
+    Attributes
+    ----------
+    X : (n, d) inputs. Y : (n, n_out) outputs, NaN rows for failed samples.
+    status : (n,) array of ``"ok"`` / ``"failed"``. reasons : per row, None when ok.
+    n_model_calls : calls actually made in this run (cache hits excluded). n_cached : cache hits.
+    wall_time : seconds spent in :func:`evaluate`.
+    """
+
+    X: np.ndarray
+    Y: np.ndarray
+    status: np.ndarray
+    reasons: tuple
+    input_names: tuple[str, ...]
+    output_index: pd.Index
+    cache_key: str | None = None
+    n_model_calls: int = 0
+    n_cached: int = 0
+    wall_time: float = 0.0
+    settings: dict = field(default_factory=dict)
+
+    def __post_init__(self):
+        X = np.asarray(self.X, dtype=float)
+        Y = np.asarray(self.Y, dtype=float)
+        if X.ndim != 2 or Y.ndim != 2 or X.shape[0] != Y.shape[0]:
+            raise StudyError(f"evaluations: X (n, d) and Y (n, n_out) must have the same n, got {X.shape}, {Y.shape}")
+        names = tuple(self.input_names)
+        if len(names) != X.shape[1]:
+            raise StudyError(f"evaluations: {len(names)} input names for X with {X.shape[1]} columns")
+        idx = as_output_index(self.output_index, what="evaluations.output_index")
+        if len(idx) != Y.shape[1]:
+            raise StudyError(f"evaluations: output_index has {len(idx)} labels for Y with {Y.shape[1]} columns")
+        status = np.asarray(self.status).astype("<U6")
+        if status.shape != (X.shape[0],) or not np.all(np.isin(status, (STATUS_OK, STATUS_FAILED))):
+            raise StudyError("evaluations.status: one of 'ok'/'failed' per row required")
+        reasons = tuple(self.reasons)
+        if len(reasons) != X.shape[0]:
+            raise StudyError("evaluations.reasons: one entry per row required")
+        ok = status == STATUS_OK
+        if not np.all(np.isfinite(Y[ok])):
+            raise StudyError(
+                "evaluations: rows marked 'ok' contain non-finite outputs; mark them 'failed' with a reason"
+            )
+        Y = np.where(ok[:, None], Y, np.nan)
+        object.__setattr__(self, "X", _readonly(X))
+        object.__setattr__(self, "Y", _readonly(Y))
+        object.__setattr__(self, "status", _readonly(status))
+        object.__setattr__(self, "reasons", tuple(None if o else (r if r is not None else "unknown") for o, r in zip(ok, reasons)))
+        object.__setattr__(self, "input_names", names)
+        object.__setattr__(self, "output_index", idx)
+        object.__setattr__(self, "settings", dict(self.settings))
+
+    # ------------------------------------------------------------------ constructors
+    @classmethod
+    def from_arrays(
+        cls,
+        X: Any,
+        Y: Any,
+        *,
+        input_names: Any = None,
+        output_index: Any = None,
+        status: Any = None,
+        reasons: Any = None,
+        cache_key: str | None = None,
+    ) -> "Evaluations":
+        """Wrap precomputed arrays. Rows of Y with non-finite values are marked failed
+        (reason ``"non-finite output"``) unless ``status`` is given."""
+        X = np.atleast_2d(np.asarray(X, dtype=float))
+        Y = np.asarray(Y, dtype=float)
+        if Y.ndim == 1:
+            Y = Y[:, None]
+        if input_names is None:
+            input_names = tuple(f"x{j}" for j in range(X.shape[1]))
+        if output_index is None:
+            output_index = pd.RangeIndex(Y.shape[1], name="output")
+        if status is None:
+            finite = np.all(np.isfinite(Y), axis=1)
+            status = np.where(finite, STATUS_OK, STATUS_FAILED)
+            if reasons is None:
+                reasons = [None if f else "non-finite output" for f in finite]
+        if reasons is None:
+            reasons = [None if s == STATUS_OK else "unknown" for s in status]
+        return cls(X, Y, status, tuple(reasons), tuple(input_names), output_index, cache_key=cache_key)
+
+    # ------------------------------------------------------------------ views
+    @property
+    def n(self) -> int:
+        return self.X.shape[0]
+
+    @property
+    def ok(self) -> np.ndarray:
+        return self.status == STATUS_OK
+
+    @property
+    def n_ok(self) -> int:
+        return int(self.ok.sum())
+
+    @property
+    def n_failed(self) -> int:
+        return self.n - self.n_ok
+
+    def failure_counts(self) -> dict[str, int]:
+        """{reason: count} of the failed rows, most frequent first."""
+        return dict(Counter(r for r in self.reasons if r is not None).most_common())
+
+    def failures(self) -> pd.DataFrame:
+        """The failed rows: inputs and reason."""
+        bad = ~self.ok
+        df = pd.DataFrame(self.X[bad], columns=list(self.input_names), index=np.flatnonzero(bad))
+        df.index.name = "sample"
+        df["reason"] = [r for r in self.reasons if r is not None]
+        return df
+
+    def to_frame(self) -> pd.DataFrame:
+        """One row per sample: input columns, ``status``, ``reason`` and the outputs."""
+        cols_in = pd.MultiIndex.from_tuples([("input", n) for n in self.input_names])
+        df_in = pd.DataFrame(self.X, columns=cols_in)
+        out_labels = [("output", str(lbl)) for lbl in self.output_index.tolist()]
+        df_out = pd.DataFrame(self.Y, columns=pd.MultiIndex.from_tuples(out_labels))
+        df_st = pd.DataFrame({("status", ""): self.status, ("reason", ""): list(self.reasons)})
+        df = pd.concat([df_in, df_st, df_out], axis=1)
+        df.index.name = "sample"
+        return df
+
+    def subset(self, rows: Any) -> "Evaluations":
+        """Rows selected by a boolean mask or integer positions."""
+        rows = np.asarray(rows)
+        if rows.dtype == bool:
+            rows = np.flatnonzero(rows)
+        return Evaluations(
+            self.X[rows], self.Y[rows], self.status[rows], tuple(self.reasons[i] for i in rows),
+            self.input_names, self.output_index, self.cache_key, self.n_model_calls, self.n_cached,
+            self.wall_time, self.settings,
+        )
+
+    def select_outputs(self, outputs: Any) -> "Evaluations":
+        """Keep some outputs: labels of ``output_index``, a boolean mask, or integer positions."""
+        pos = resolve_outputs(self.output_index, outputs)
+        return Evaluations(
+            self.X, self.Y[:, pos], self.status, self.reasons, self.input_names,
+            self.output_index[pos], self.cache_key, self.n_model_calls, self.n_cached,
+            self.wall_time, self.settings,
+        )
+
+    def reduce(self, reducer: Callable) -> "Evaluations":
+        """Apply ``reducer(Y, output_index) -> (Z (n, k), new_index)`` to the outputs
+        (e.g. :func:`mechrel.uq.peak_abs`). Failed rows stay failed."""
+        Z, idx = reducer(np.array(self.Y), self.output_index)
+        Z = np.asarray(Z, dtype=float)
+        if Z.ndim == 1:
+            Z = Z[:, None]
+        if Z.shape[0] != self.n:
+            raise StudyError(f"reducer: must return one row per sample ({self.n}), got {Z.shape[0]}")
+        ok = self.ok & np.all(np.isfinite(Z), axis=1)
+        reasons = tuple(
+            r if not o0 else (None if o1 else "non-finite reduced output")
+            for r, o0, o1 in zip(self.reasons, self.ok, ok)
+        )
+        status = np.where(ok, STATUS_OK, STATUS_FAILED)
+        return Evaluations(
+            self.X, Z, status, reasons, self.input_names, idx, self.cache_key, self.n_model_calls,
+            self.n_cached, self.wall_time, {**self.settings, "reducer": getattr(reducer, "__name__", repr(reducer))},
+        )
+
+
+def resolve_outputs(index: pd.Index, outputs: Any) -> np.ndarray:
+    """Positions of ``outputs`` (labels, boolean mask or integer positions) in ``index``."""
+    if outputs is None:
+        return np.arange(len(index))
+    arr = np.asarray(outputs, dtype=object)
+    if arr.dtype == object and len(arr) and all(isinstance(v, (bool, np.bool_)) for v in arr.ravel()):
+        mask = np.asarray(outputs, dtype=bool)
+        if mask.shape != (len(index),):
+            raise StudyError(f"outputs: boolean mask must have {len(index)} entries, got {mask.shape}")
+        return np.flatnonzero(mask)
+    if (not isinstance(index, pd.MultiIndex) and index.dtype.kind in "iu"
+            and all(isinstance(v, (int, np.integer)) for v in outputs)):
+        pos = index.get_indexer(list(outputs))
+    elif all(isinstance(v, (int, np.integer)) and not isinstance(v, bool) for v in outputs):
+        pos = np.asarray(list(outputs), dtype=int)
+        if np.any((pos < 0) | (pos >= len(index))):
+            raise StudyError(f"outputs: positions must be in [0, {len(index)}), got {list(outputs)}")
+        return pos
+    else:
+        pos = index.get_indexer(list(outputs))
+    if np.any(pos < 0):
+        bad = [o for o, p in zip(outputs, pos) if p < 0][:3]
+        raise StudyError(f"outputs: labels {bad} are not in the model's output_index (e.g. {index[:3].tolist()})")
+    return pos
+
+
+def combined_cache_key(model: Any, input_names: tuple[str, ...], n_out: int) -> str:
+    """``model.cache_key()`` bound to the input order and output count."""
+    import hashlib
+
+    key = str(model.cache_key())
+    return hashlib.sha256(f"{key}|{'|'.join(input_names)}|{n_out}".encode()).hexdigest()
+
+
+def _evaluate_chunk(model: Any, X: np.ndarray, n_out: int, chunk_id: int):
+    """Worker: evaluate rows of X; per-sample failures are recorded, not raised."""
+    Y = np.full((X.shape[0], n_out), np.nan)
+    ok = np.zeros(X.shape[0], dtype=bool)
+    reasons: list[str | None] = [None] * X.shape[0]
+    for i in range(X.shape[0]):
+        try:
+            y = model.evaluate(np.array(X[i]))
+        except StudyError:
+            raise
+        except MechrelError as e:  # ModelFailure, SimulationError, AssemblyError, SceneError
+            reasons[i] = getattr(e, "reason", None) or f"{type(e).__name__}: {e}"
+            continue
+        y = np.asarray(y, dtype=float).reshape(-1)
+        if y.shape[0] != n_out:
+            raise StudyError(
+                f"model.evaluate returned {y.shape[0]} outputs, model.output_index has {n_out}"
+            )
+        bad = ~np.isfinite(y)
+        if bad.any():
+            reasons[i] = f"non-finite output ({int(bad.sum())} of {n_out} entries)"
+            continue
+        Y[i] = y
+        ok[i] = True
+    return chunk_id, Y, ok, reasons, X.shape[0]
+
+
+def default_chunk_size(n: int) -> int:
+    """About 64 chunks, 1..1000 samples each; depends only on the number of samples."""
+    return int(min(1000, max(1, math.ceil(n / 64))))
+
+
+def _check_backend(backend: str, n_jobs: Any) -> int:
+    if backend not in BACKENDS:
+        raise StudyError(f"backend: got {backend!r}; allowed: {list(BACKENDS)}")
+    if isinstance(n_jobs, bool) or not isinstance(n_jobs, (int, np.integer)) or n_jobs == 0 or n_jobs < -1:
+        raise StudyError(f"n_jobs: got {n_jobs!r}; allowed: a positive integer or -1 (all cores/workers)")
+    if backend == "dask":
+        try:
+            from distributed import get_client
+        except ImportError:
+            raise StudyError(
+                "backend='dask': dask.distributed is not installed (pip install 'mechrel[dask]')"
+            ) from None
+        try:
+            get_client()
+        except ValueError:
+            raise StudyError(
+                "backend='dask': no Dask client is active; create one first, e.g. "
+                "`from dask.distributed import Client, LocalCluster; client = Client(LocalCluster())` "
+                "or `Client('tcp://scheduler:8786')`"
+            ) from None
+    return int(n_jobs)
+
+
+def evaluate(
+    model: Any,
+    X: Any,
+    *,
+    n_jobs: int = 1,
+    backend: str = "loky",
+    cache: Any = None,
+    progress: bool = True,
+    chunk_size: int | None = None,
+    retry_failed: bool = False,
+    callback: Callable[[int, int], None] | None = None,
+) -> Evaluations:
+    """Evaluate ``model`` at every row of ``X`` (n, d).
+
+    Parameters
+    ----------
+    n_jobs
+        Parallel workers (-1: all cores / all Dask workers). ``n_jobs=1`` runs in-process.
+    backend
+        ``"loky"`` (joblib's process pool, default), ``"dask"`` (joblib's Dask backend; needs an
+        active ``dask.distributed.Client``) or ``"sequential"`` (in-process loop).
+    cache
+        ``None``, a directory or an :class:`EvaluationCache`: cached rows are not re-evaluated and
+        each finished chunk is stored immediately (resume after an interruption).
+    progress
+        Show a tqdm progress bar over samples.
+    chunk_size
+        Samples per task (default: about 64 chunks; never depends on ``n_jobs``).
+    retry_failed
+        Re-evaluate rows whose cached result is a failure.
+    callback
+        ``callback(n_done, n_todo)`` after each stored chunk; raising from it aborts the run
+        (the chunks stored so far stay cached).
+
+    Returns
+    -------
+    Evaluations
+    """
+    t0 = time.perf_counter()
+    input_names, output_index = check_model(model)
+    n_out = len(output_index)
+    try:
+        X = np.array(X, dtype=float)
+    except (TypeError, ValueError):
+        raise StudyError("X: must be a numeric (n, d) array") from None
+    if X.ndim == 1 and X.shape[0] == len(input_names):
+        X = X[None, :]
+    if X.ndim != 2 or X.shape[1] != len(input_names):
+        raise StudyError(f"X: expected shape (n, {len(input_names)}) for inputs {list(input_names)}, got {X.shape}")
+    if not np.all(np.isfinite(X)):
+        raise StudyError("X: all inputs must be finite")
+    n_jobs = _check_backend(backend, n_jobs)
+    if chunk_size is not None and (isinstance(chunk_size, bool) or not isinstance(chunk_size, (int, np.integer)) or chunk_size < 1):
+        raise StudyError(f"chunk_size: must be a positive integer or None, got {chunk_size!r}")
+    cache = as_cache(cache)
+    key = combined_cache_key(model, input_names, n_out)
+
+    n = X.shape[0]
+    Y = np.full((n, n_out), np.nan)
+    ok = np.zeros(n, dtype=bool)
+    reasons: list[str | None] = [None] * n
+    done = np.zeros(n, dtype=bool)
+    if cache is not None and n:
+        found, Yc, okc, rc = cache.lookup(key, X, n_out)
+        use = found & (okc | (not retry_failed))
+        Y[use] = Yc[use]
+        ok[use] = okc[use]
+        for i in np.flatnonzero(use):
+            reasons[i] = rc[i]
+        done = use
+    n_cached = int(done.sum())
+    todo = np.flatnonzero(~done)
+    cs = int(chunk_size) if chunk_size is not None else default_chunk_size(len(todo))
+    chunks = [todo[s : s + cs] for s in range(0, len(todo), cs)]
+
+    from tqdm.auto import tqdm
+
+    bar = tqdm(total=len(todo), disable=not progress, desc="model evaluations", unit="sample",
+               postfix={"cached": n_cached} if n_cached else None)
+    n_calls = 0
+    n_done = 0
+
+    def _collect(result) -> None:
+        nonlocal n_calls, n_done
+        cid, Yk, okk, rk, ncalls = result
+        rows = chunks[cid]
+        Y[rows] = Yk
+        ok[rows] = okk
+        for i, r in zip(rows, rk):
+            reasons[i] = r
+        n_calls += ncalls
+        n_done += len(rows)
+        if cache is not None:
+            cache.store(key, X[rows], Yk, okk, rk)
+        bar.update(len(rows))
+        if not okk.all():
+            bar.set_postfix(failed=sum(r is not None for r in reasons), refresh=False)
+        if callback is not None:
+            callback(n_done, len(todo))
+
+    try:
+        if chunks:
+            if backend == "sequential" or n_jobs == 1:
+                for cid, rows in enumerate(chunks):
+                    _collect(_evaluate_chunk(model, X[rows], n_out, cid))
+            else:
+                import joblib
+
+                tasks = (joblib.delayed(_evaluate_chunk)(model, X[rows], n_out, cid) for cid, rows in enumerate(chunks))
+                if backend == "dask":
+                    with joblib.parallel_config(backend="dask"):
+                        gen = joblib.Parallel(n_jobs=n_jobs, return_as="generator_unordered")(tasks)
+                        for res in gen:
+                            _collect(res)
+                else:
+                    gen = joblib.Parallel(n_jobs=n_jobs, backend="loky", return_as="generator_unordered")(tasks)
+                    for res in gen:
+                        _collect(res)
+    finally:
+        bar.close()
+
+    status = np.where(ok, STATUS_OK, STATUS_FAILED)
+    return Evaluations(
+        X, Y, status, tuple(reasons), input_names, output_index,
+        cache_key=str(model.cache_key()), n_model_calls=n_calls, n_cached=n_cached,
+        wall_time=time.perf_counter() - t0,
+        settings={"n_jobs": n_jobs, "backend": backend if n_jobs != 1 else "sequential",
+                  "chunk_size": cs, "cache": None if cache is None else str(cache.directory),
+                  "retry_failed": bool(retry_failed)},
+    )

@@ -1,0 +1,581 @@
+"""Uncertain inputs: marginal specs, optional correlation (Nataf / Gaussian copula), sampling.
+
+Plain specs in, a chaospy joint out (``UncertainInputs.joint``), plus seeded sampling that does
+not touch numpy's global state: every draw comes from a ``numpy.random.Generator`` built from
+the ``seed`` argument, mapped through inverse CDFs.
+
+Marginals
+---------
+``normal(mean, std)``
+    X ~ N(mean, std²).
+``truncnormal(mean, std, lower, upper)``
+    The *parent* normal N(mean, std²) truncated to [lower, upper] (chaospy's and scipy's
+    convention). The moments of the truncated variable differ from (mean, std);
+    ``UncertainInputs.mean``/``.std`` report the true moments.
+``uniform(lower, upper)``
+    X ~ U(lower, upper).
+``lognormal(mean, std)``
+    Given by the mean m and standard deviation s *of X itself* (what a drawing tolerance gives),
+    converted to the parameters of ln X ~ N(μ_ln, σ_ln²) by
+    σ_ln² = ln(1 + (s/m)²),  μ_ln = ln m − σ_ln²/2, so that E[X] = m and Std[X] = s exactly.
+
+Correlation
+-----------
+``correlation`` is the Pearson correlation matrix of the *physical* inputs X (what one measures).
+Dependence is modelled by a Gaussian copula (the Nataf transformation): X_j = F_j⁻¹(Φ(Z_j)),
+Z ~ N(0, R_z). For two normal marginals R_z = R_x; otherwise each R_z entry is solved from the
+Nataf integral equation ρ_x = E[g_i(Z_i) g_j(Z_j)] (g = standardised F⁻¹∘Φ) by 2-D Gauss–Hermite
+quadrature and root finding. ``UncertainInputs.gaussian_correlation`` exposes R_z and
+``.joint`` is ``chaospy.Nataf(J(marginals), R_z)``.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Any, Union
+
+import numpy as np
+import pandas as pd
+from scipy import optimize, special, stats
+from scipy.stats import qmc
+
+from mechrel.errors import StudyError
+
+__all__ = [
+    "Normal",
+    "TruncNormal",
+    "Uniform",
+    "LogNormal",
+    "Marginal",
+    "UncertainInputs",
+    "SAMPLING_RULES",
+    "as_seed_sequence",
+    "as_generator",
+]
+
+SAMPLING_RULES = ("random", "latin_hypercube", "sobol")
+_U_EPS = 2.0**-53  # keep unit-cube points strictly inside (0, 1) so inverse CDFs stay finite
+
+
+def _finite(name: str, field_: str, value: Any, *, positive: bool = False) -> float:
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        raise StudyError(f"inputs.{name}.{field_}: must be a number, got {value!r}") from None
+    if not math.isfinite(v):
+        raise StudyError(f"inputs.{name}.{field_}: must be finite, got {value!r}")
+    if positive and not v > 0:
+        raise StudyError(f"inputs.{name}.{field_}: must be > 0, got {value!r}")
+    return v
+
+
+@dataclass(frozen=True)
+class Normal:
+    """X ~ N(mean, std²)."""
+
+    mean: float
+    std: float
+    kind = "normal"
+
+    def validated(self, name: str) -> "Normal":
+        return Normal(_finite(name, "mean", self.mean), _finite(name, "std", self.std, positive=True))
+
+    def scipy(self):
+        return stats.norm(self.mean, self.std)
+
+    def chaospy(self):
+        import chaospy
+
+        return chaospy.Normal(self.mean, self.std)
+
+    def from_z(self, z: np.ndarray) -> np.ndarray:
+        return self.mean + self.std * z
+
+
+@dataclass(frozen=True)
+class TruncNormal:
+    """Parent N(mean, std²) truncated to [lower, upper] (infinite bounds allowed on one side)."""
+
+    mean: float
+    std: float
+    lower: float
+    upper: float
+    kind = "truncnormal"
+
+    def validated(self, name: str) -> "TruncNormal":
+        mean = _finite(name, "mean", self.mean)
+        std = _finite(name, "std", self.std, positive=True)
+        try:
+            lo, hi = float(self.lower), float(self.upper)
+        except (TypeError, ValueError):
+            raise StudyError(
+                f"inputs.{name}.lower/upper: must be numbers, got {self.lower!r}, {self.upper!r}"
+            ) from None
+        if math.isnan(lo) or math.isnan(hi) or not lo < hi:
+            raise StudyError(f"inputs.{name}.lower/upper: need lower < upper, got lower={lo!r}, upper={hi!r}")
+        if not (math.isfinite(lo) or math.isfinite(hi)):
+            raise StudyError(
+                f"inputs.{name}.lower/upper: at least one bound must be finite (use 'normal' otherwise)"
+            )
+        mass = stats.norm.cdf((hi - mean) / std) - stats.norm.cdf((lo - mean) / std)
+        if not mass > 1e-10:
+            raise StudyError(
+                f"inputs.{name}: [lower, upper] = [{lo}, {hi}] holds probability {mass:.3g} of the "
+                f"parent N({mean}, {std}²); allowed: an interval with non-negligible mass (> 1e-10)"
+            )
+        return TruncNormal(mean, std, lo, hi)
+
+    def scipy(self):
+        a = (self.lower - self.mean) / self.std
+        b = (self.upper - self.mean) / self.std
+        return stats.truncnorm(a, b, loc=self.mean, scale=self.std)
+
+    def chaospy(self):
+        import chaospy
+
+        return chaospy.TruncNormal(lower=self.lower, upper=self.upper, mu=self.mean, sigma=self.std)
+
+    def from_z(self, z: np.ndarray) -> np.ndarray:
+        return self.scipy().ppf(np.clip(special.ndtr(z), _U_EPS, 1 - _U_EPS))
+
+
+@dataclass(frozen=True)
+class Uniform:
+    """X ~ U(lower, upper)."""
+
+    lower: float
+    upper: float
+    kind = "uniform"
+
+    def validated(self, name: str) -> "Uniform":
+        lo = _finite(name, "lower", self.lower)
+        hi = _finite(name, "upper", self.upper)
+        if not lo < hi:
+            raise StudyError(f"inputs.{name}.lower/upper: need lower < upper, got lower={lo!r}, upper={hi!r}")
+        return Uniform(lo, hi)
+
+    def scipy(self):
+        return stats.uniform(self.lower, self.upper - self.lower)
+
+    def chaospy(self):
+        import chaospy
+
+        return chaospy.Uniform(self.lower, self.upper)
+
+    def from_z(self, z: np.ndarray) -> np.ndarray:
+        return self.lower + (self.upper - self.lower) * special.ndtr(z)
+
+
+@dataclass(frozen=True)
+class LogNormal:
+    """X lognormal with E[X] = mean and Std[X] = std (of X itself, not of ln X)."""
+
+    mean: float
+    std: float
+    kind = "lognormal"
+
+    def validated(self, name: str) -> "LogNormal":
+        return LogNormal(
+            _finite(name, "mean", self.mean, positive=True), _finite(name, "std", self.std, positive=True)
+        )
+
+    @property
+    def log_params(self) -> tuple[float, float]:
+        """(μ_ln, σ_ln) of ln X: σ_ln² = ln(1 + (s/m)²), μ_ln = ln m − σ_ln²/2."""
+        s2 = math.log1p((self.std / self.mean) ** 2)
+        return math.log(self.mean) - 0.5 * s2, math.sqrt(s2)
+
+    def scipy(self):
+        mu, s = self.log_params
+        return stats.lognorm(s, scale=math.exp(mu))
+
+    def chaospy(self):
+        import chaospy
+
+        mu, s = self.log_params
+        return chaospy.LogNormal(mu=mu, sigma=s)
+
+    def from_z(self, z: np.ndarray) -> np.ndarray:
+        mu, s = self.log_params
+        return np.exp(mu + s * z)
+
+
+Marginal = Union[Normal, TruncNormal, Uniform, LogNormal]
+_KINDS: dict[str, tuple[type, tuple[str, ...]]] = {
+    "normal": (Normal, ("mean", "std")),
+    "truncnormal": (TruncNormal, ("mean", "std", "lower", "upper")),
+    "uniform": (Uniform, ("lower", "upper")),
+    "lognormal": (LogNormal, ("mean", "std")),
+}
+
+
+def _parse_marginal(name: str, spec: Any) -> Marginal:
+    if isinstance(spec, (Normal, TruncNormal, Uniform, LogNormal)):
+        return spec.validated(name)
+    if not isinstance(spec, Mapping):
+        raise StudyError(
+            f"inputs.{name}: expected a mapping like {{'distribution': 'normal', 'mean': ..., 'std': ...}} "
+            f"or a Normal/TruncNormal/Uniform/LogNormal, got {type(spec).__name__}"
+        )
+    spec = dict(spec)
+    kind = spec.pop("distribution", spec.pop("dist", None))
+    if kind is None:
+        raise StudyError(f"inputs.{name}.distribution: missing; allowed: {sorted(_KINDS)}")
+    kind_key = str(kind).lower().replace("_", "").replace("-", "")
+    if kind_key not in _KINDS:
+        raise StudyError(f"inputs.{name}.distribution: got {kind!r}; allowed: {sorted(_KINDS)}")
+    cls, fields = _KINDS[kind_key]
+    missing = [f for f in fields if f not in spec]
+    extra = sorted(set(spec) - set(fields))
+    if missing or extra:
+        raise StudyError(
+            f"inputs.{name}: distribution {kind_key!r} takes fields {list(fields)}; "
+            f"missing {missing}, unknown {extra}"
+        )
+    return cls(**{f: spec[f] for f in fields}).validated(name)
+
+
+def as_seed_sequence(seed: Any) -> np.random.SeedSequence:
+    """int / SeedSequence / None → SeedSequence (None draws fresh OS entropy, recorded in
+    ``.entropy`` so that the run can be repeated)."""
+    if isinstance(seed, np.random.SeedSequence):
+        return seed
+    if seed is None:
+        return np.random.SeedSequence()
+    if isinstance(seed, (int, np.integer)) and not isinstance(seed, bool) and seed >= 0:
+        return np.random.SeedSequence(int(seed))
+    raise StudyError(
+        f"seed: expected a non-negative int, a numpy SeedSequence or None, got {seed!r}"
+    )
+
+
+def as_generator(seed: Any) -> np.random.Generator:
+    """Generator / int / SeedSequence / None → numpy Generator (never the global state)."""
+    if isinstance(seed, np.random.Generator):
+        return seed
+    return np.random.default_rng(as_seed_sequence(seed))
+
+
+def seed_record(seed: Any) -> Any:
+    """What provenance records for ``seed``: the entropy of a SeedSequence, the int, or a note."""
+    if isinstance(seed, np.random.SeedSequence):
+        return {"entropy": int(seed.entropy) if isinstance(seed.entropy, int) else seed.entropy,
+                "spawn_key": list(seed.spawn_key)}
+    if isinstance(seed, np.random.Generator):
+        return "numpy Generator supplied by caller (state not recorded)"
+    return seed
+
+
+def _gh_nodes(n: int = 48) -> tuple[np.ndarray, np.ndarray]:
+    z, w = np.polynomial.hermite_e.hermegauss(n)
+    return z, w / math.sqrt(2 * math.pi)
+
+
+@dataclass(frozen=True, eq=False)
+class UncertainInputs:
+    """Named uncertain inputs (frozen): marginals and an optional Pearson correlation matrix.
+
+    Build with :meth:`from_specs`. ``names`` follow the model's ``input_names``.
+    """
+
+    names: tuple[str, ...]
+    marginals: tuple[Marginal, ...]
+    correlation: np.ndarray | None = None
+    gaussian_correlation: np.ndarray | None = field(default=None, init=False, repr=False)
+    _chol: np.ndarray | None = field(default=None, init=False, repr=False)
+
+    # ----------------------------------------------------------------- construction
+    def __post_init__(self):
+        names = tuple(str(n) for n in self.names)
+        if len(names) == 0:
+            raise StudyError("inputs: at least one uncertain input is required, got none")
+        if len(set(names)) != len(names):
+            raise StudyError(f"inputs: names must be unique, got {list(names)}")
+        if len(self.marginals) != len(names):
+            raise StudyError(
+                f"inputs: {len(names)} names but {len(self.marginals)} marginals"
+            )
+        margs = tuple(_parse_marginal(n, m) for n, m in zip(names, self.marginals))
+        object.__setattr__(self, "names", names)
+        object.__setattr__(self, "marginals", margs)
+        corr = self.correlation
+        if corr is not None:
+            corr = self._validate_correlation(corr)
+            if np.allclose(corr, np.eye(len(names)), rtol=0, atol=0):
+                corr = None
+        if corr is None:
+            object.__setattr__(self, "correlation", None)
+            return
+        corr.setflags(write=False)
+        object.__setattr__(self, "correlation", corr)
+        rz = self._nataf_matrix(corr)
+        try:
+            chol = np.linalg.cholesky(rz)
+        except np.linalg.LinAlgError:
+            raise StudyError(
+                "inputs.correlation: the Gaussian-copula (Nataf) matrix implied by this Pearson "
+                "correlation is not positive definite; allowed: a correlation the marginals can "
+                f"jointly attain. Implied matrix:\n{np.array2string(rz, precision=4)}"
+            ) from None
+        rz.setflags(write=False)
+        chol.setflags(write=False)
+        object.__setattr__(self, "gaussian_correlation", rz)
+        object.__setattr__(self, "_chol", chol)
+
+    @classmethod
+    def from_specs(
+        cls,
+        specs: Mapping[str, Any],
+        correlation: Any = None,
+    ) -> "UncertainInputs":
+        """Build from ``{name: spec}``.
+
+        ``spec`` is a marginal object (``Normal(mean, std)``, ``TruncNormal(mean, std, lower,
+        upper)``, ``Uniform(lower, upper)``, ``LogNormal(mean, std)``) or a mapping such as
+        ``{"distribution": "normal", "mean": 1.0, "std": 0.1}``.
+
+        ``correlation`` (Pearson, of the physical inputs): ``None`` (independent), a d×d matrix
+        in the order of ``specs``, or a mapping ``{(name_a, name_b): rho}`` (unlisted pairs 0).
+        """
+        if not isinstance(specs, Mapping) or len(specs) == 0:
+            raise StudyError(
+                f"inputs: expected a non-empty mapping {{name: spec}}, got {type(specs).__name__}"
+                + (" (empty)" if isinstance(specs, Mapping) else "")
+            )
+        names = tuple(str(k) for k in specs)
+        margs = tuple(specs.values())
+        if isinstance(correlation, Mapping):
+            idx = {n: i for i, n in enumerate(names)}
+            mat = np.eye(len(names))
+            for pair, rho in correlation.items():
+                if not (isinstance(pair, tuple) and len(pair) == 2):
+                    raise StudyError(
+                        f"inputs.correlation: keys must be (name_a, name_b) pairs, got {pair!r}"
+                    )
+                a, b = pair
+                for n in (a, b):
+                    if n not in idx:
+                        raise StudyError(
+                            f"inputs.correlation: unknown input {n!r}; allowed: {list(names)}"
+                        )
+                if a == b:
+                    raise StudyError(f"inputs.correlation[{pair!r}]: a pair needs two different inputs")
+                mat[idx[a], idx[b]] = mat[idx[b], idx[a]] = rho
+            correlation = mat
+        return cls(names, margs, correlation)
+
+    def _validate_correlation(self, corr: Any) -> np.ndarray:
+        d = len(self.names)
+        try:
+            c = np.array(corr, dtype=float)
+        except (TypeError, ValueError):
+            raise StudyError(f"inputs.correlation: must be a {d}x{d} numeric matrix, got {corr!r}") from None
+        if c.shape != (d, d):
+            raise StudyError(f"inputs.correlation: must be {d}x{d} (one row per input), got shape {c.shape}")
+        if not np.all(np.isfinite(c)):
+            raise StudyError("inputs.correlation: entries must be finite")
+        if not np.allclose(c, c.T, rtol=0, atol=1e-12):
+            raise StudyError("inputs.correlation: must be symmetric")
+        if not np.allclose(np.diag(c), 1.0, rtol=0, atol=1e-12):
+            raise StudyError(f"inputs.correlation: diagonal must be 1, got {np.diag(c).tolist()}")
+        off = c[~np.eye(d, dtype=bool)]
+        if off.size and np.max(np.abs(off)) >= 1:
+            i, j = np.argwhere((np.abs(c) >= 1) & ~np.eye(d, dtype=bool))[0]
+            raise StudyError(
+                f"inputs.correlation[{self.names[i]!r}, {self.names[j]!r}]: got {c[i, j]!r}; "
+                "allowed: -1 < rho < 1"
+            )
+        if np.linalg.eigvalsh(c).min() <= 0:
+            raise StudyError(
+                f"inputs.correlation: must be positive definite, smallest eigenvalue "
+                f"{np.linalg.eigvalsh(c).min():.3g}"
+            )
+        np.fill_diagonal(c, 1.0)
+        return c
+
+    # ----------------------------------------------------------------- Nataf
+    def _std_transform(self, j: int, z: np.ndarray) -> np.ndarray:
+        m = self.marginals[j]
+        d = m.scipy()
+        return (m.from_z(z) - d.mean()) / d.std()
+
+    def _pearson_from_gaussian(self, i: int, j: int, r: float, z: np.ndarray, w: np.ndarray) -> float:
+        za = z[:, None]
+        zb = r * za + math.sqrt(max(0.0, 1.0 - r * r)) * z[None, :]
+        gi = self._std_transform(i, za)
+        gj = self._std_transform(j, zb)
+        ww = w[:, None] * w[None, :]
+        mi, mj = np.sum(ww * gi), np.sum(ww * gj)
+        cov = np.sum(ww * (gi - mi) * (gj - mj))
+        vi = np.sum(w * (self._std_transform(i, z) - mi) ** 2)
+        vj = np.sum(w * (self._std_transform(j, z) - mj) ** 2)
+        return float(cov / math.sqrt(vi * vj))
+
+    def _nataf_matrix(self, corr: np.ndarray) -> np.ndarray:
+        d = len(self.names)
+        rz = np.eye(d)
+        z, w = _gh_nodes()
+        for i in range(d):
+            for j in range(i + 1, d):
+                rho = corr[i, j]
+                if rho == 0.0:
+                    continue
+                if self.marginals[i].kind == "normal" and self.marginals[j].kind == "normal":
+                    rz[i, j] = rz[j, i] = rho
+                    continue
+                f = lambda r: self._pearson_from_gaussian(i, j, r, z, w) - rho  # noqa: E731
+                lo, hi = -0.999999, 0.999999
+                flo, fhi = f(lo), f(hi)
+                if flo > 0 or fhi < 0:
+                    raise StudyError(
+                        f"inputs.correlation[{self.names[i]!r}, {self.names[j]!r}]: got {rho}; "
+                        f"these marginals ({self.marginals[i].kind}, {self.marginals[j].kind}) can only "
+                        f"reach Pearson correlations in [{flo + rho:.4f}, {fhi + rho:.4f}]"
+                    )
+                rz[i, j] = rz[j, i] = optimize.brentq(f, lo, hi, xtol=1e-12)
+        return rz
+
+    # ----------------------------------------------------------------- properties
+    @property
+    def d(self) -> int:
+        return len(self.names)
+
+    @property
+    def independent(self) -> bool:
+        return self.correlation is None
+
+    @property
+    def mean(self) -> np.ndarray:
+        """True means of the inputs (for truncnormal: of the truncated variable)."""
+        return np.array([m.scipy().mean() for m in self.marginals])
+
+    @property
+    def std(self) -> np.ndarray:
+        """True standard deviations of the inputs."""
+        return np.array([m.scipy().std() for m in self.marginals])
+
+    @property
+    def pearson_correlation(self) -> np.ndarray:
+        return np.eye(self.d) if self.correlation is None else np.array(self.correlation)
+
+    @property
+    def covariance(self) -> np.ndarray:
+        s = self.std
+        return self.pearson_correlation * np.outer(s, s)
+
+    @property
+    def joint(self):
+        """chaospy joint distribution: ``J(marginals)``, or ``Nataf(J(marginals), R_z)``."""
+        import chaospy
+
+        j = chaospy.J(*[m.chaospy() for m in self.marginals])
+        if self.gaussian_correlation is None:
+            return j
+        return chaospy.Nataf(j, self.gaussian_correlation)
+
+    def to_frame(self) -> pd.DataFrame:
+        rows = []
+        for n, m in zip(self.names, self.marginals):
+            d = m.scipy()
+            rows.append({"name": n, "distribution": m.kind, "parameters": repr(m),
+                         "mean": d.mean(), "std": d.std()})
+        return pd.DataFrame(rows).set_index("name")
+
+    def describe(self) -> dict:
+        """JSON-friendly description (for provenance)."""
+        return {
+            "names": list(self.names),
+            "marginals": [repr(m) for m in self.marginals],
+            "correlation": None if self.correlation is None else self.correlation.tolist(),
+        }
+
+    def reordered(self, names: Sequence[str]) -> "UncertainInputs":
+        """The same inputs in the order ``names`` (must be the same set)."""
+        names = tuple(names)
+        if names == self.names:
+            return self
+        if set(names) != set(self.names) or len(names) != len(self.names):
+            missing = sorted(set(names) - set(self.names))
+            extra = sorted(set(self.names) - set(names))
+            raise StudyError(
+                f"inputs: names must match the model's input_names; missing {missing}, "
+                f"not inputs of the model {extra}"
+            )
+        perm = [self.names.index(n) for n in names]
+        corr = None if self.correlation is None else self.correlation[np.ix_(perm, perm)]
+        return UncertainInputs(names, tuple(self.marginals[p] for p in perm), corr)
+
+    # ----------------------------------------------------------------- transforms
+    def from_unit(self, u: np.ndarray) -> np.ndarray:
+        """Map points of the unit hypercube (independent uniforms, shape (n, d)) to inputs."""
+        u = np.clip(np.asarray(u, dtype=float), _U_EPS, 1.0 - _U_EPS)
+        if u.ndim != 2 or u.shape[1] != self.d:
+            raise StudyError(f"from_unit: expected shape (n, {self.d}), got {u.shape}")
+        if self._chol is None:
+            out = np.empty_like(u)
+            for j, m in enumerate(self.marginals):
+                out[:, j] = m.scipy().ppf(u[:, j])
+            return out
+        return self.from_standard_normal(special.ndtri(u))
+
+    def from_standard_normal(self, z: np.ndarray) -> np.ndarray:
+        """Map iid N(0,1) germ points (n, d) to inputs (through R_z's Cholesky factor)."""
+        z = np.asarray(z, dtype=float)
+        if z.ndim != 2 or z.shape[1] != self.d:
+            raise StudyError(f"from_standard_normal: expected shape (n, {self.d}), got {z.shape}")
+        if self._chol is not None:
+            z = z @ self._chol.T
+        out = np.empty_like(z)
+        for j, m in enumerate(self.marginals):
+            out[:, j] = m.from_z(z[:, j])
+        return out
+
+    def to_standard_normal(self, x: np.ndarray) -> np.ndarray:
+        """Inverse of :meth:`from_standard_normal`."""
+        x = np.asarray(x, dtype=float)
+        if x.ndim != 2 or x.shape[1] != self.d:
+            raise StudyError(f"to_standard_normal: expected shape (n, {self.d}), got {x.shape}")
+        z = np.empty_like(x)
+        for j, m in enumerate(self.marginals):
+            if m.kind == "normal":
+                z[:, j] = (x[:, j] - m.mean) / m.std
+            elif m.kind == "lognormal":
+                mu, s = m.log_params
+                z[:, j] = (np.log(x[:, j]) - mu) / s
+            else:
+                z[:, j] = special.ndtri(np.clip(m.scipy().cdf(x[:, j]), _U_EPS, 1 - _U_EPS))
+        if self._chol is not None:
+            z = np.linalg.solve(self._chol, z.T).T
+        return z
+
+    # ----------------------------------------------------------------- sampling
+    def unit_sample(self, n: int, rule: str = "random", seed: Any = None) -> np.ndarray:
+        """(n, d) points in the unit hypercube by ``rule`` (see :meth:`sample`)."""
+        n = _check_n(n)
+        if rule not in SAMPLING_RULES:
+            raise StudyError(f"rule: got {rule!r}; allowed: {list(SAMPLING_RULES)}")
+        rng = as_generator(seed)
+        if rule == "random":
+            return rng.random((n, self.d))
+        if rule == "latin_hypercube":
+            return qmc.LatinHypercube(self.d, rng=rng).random(n)
+        return qmc.Sobol(self.d, scramble=True, rng=rng).random(n)
+
+    def sample(self, n: int, rule: str = "random", seed: Any = None) -> np.ndarray:
+        """Draw ``n`` input vectors, shape (n, d).
+
+        ``rule``: ``"random"`` (iid), ``"latin_hypercube"`` (scipy.stats.qmc.LatinHypercube) or
+        ``"sobol"`` (scrambled scipy.stats.qmc.Sobol; use a power of 2 for ``n``).
+        ``seed``: int, ``numpy.random.SeedSequence``, ``numpy.random.Generator`` or None.
+        Unit-cube points are mapped through the marginal inverse CDFs (and the Nataf transform
+        when correlated). Same seed and rule → the same bytes.
+        """
+        return self.from_unit(self.unit_sample(n, rule, seed))
+
+
+def _check_n(n: Any, what: str = "n", minimum: int = 1) -> int:
+    if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < minimum:
+        raise StudyError(f"{what}: must be an integer >= {minimum}, got {n!r}")
+    return int(n)

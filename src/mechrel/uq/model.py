@@ -1,0 +1,196 @@
+"""The model protocol: the only thing the estimators know about a mechanism.
+
+A *model* maps one input vector ``x`` (the uncertain inputs, in the order of
+``input_names``) to one output vector (the signed output errors, labelled by
+``output_index``). It must be
+
+* **deterministic**: the same ``x`` gives the same bytes out (the cache, the resume and the
+  "identical for any ``n_jobs`` and backend" guarantee rely on it);
+* **picklable**: it is shipped to joblib/Dask workers (loky and Dask use cloudpickle, so a
+  closure works there; the plain ``pickle`` used elsewhere needs module-level functions);
+* **honest about failure**: a sample that cannot be evaluated (assembly fails, the integrator
+  gives up, ...) raises :class:`ModelFailure` (or any other
+  :class:`mechrel.errors.MechrelError`) with a reason. The executor records the reason and
+  carries on. Any other exception is treated as a bug and stops the run (finished chunks stay
+  in the cache).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+from collections.abc import Callable, Sequence
+from typing import Any, Protocol, runtime_checkable
+
+import numpy as np
+import pandas as pd
+
+from mechrel.errors import MechrelError, StudyError
+
+__all__ = ["Model", "ModelFailure", "FunctionModel", "check_model", "as_output_index"]
+
+
+class ModelFailure(MechrelError, RuntimeError):
+    """A model could not be evaluated at one input sample.
+
+    Raise it from ``Model.evaluate`` with a short, *stable* reason (the executor counts failures
+    by their reason string, so put the sample-specific numbers at the end or leave them out).
+    """
+
+    def __init__(self, reason: str):
+        self.reason = str(reason)
+        super().__init__(self.reason)
+
+    def __reduce__(self):  # picklable across process boundaries with its reason
+        return (type(self), (self.reason,))
+
+
+@runtime_checkable
+class Model(Protocol):
+    """What every estimator evaluates.
+
+    Attributes
+    ----------
+    input_names
+        One name per entry of ``x``. For the mechanism model these are dotted scene paths
+        (e.g. ``"joints.C1.clearance"``); they must match the names of the
+        :class:`~mechrel.uq.inputs.UncertainInputs` used with the model.
+    output_index
+        A :class:`pandas.Index` labelling the outputs, usually a ``MultiIndex`` with levels
+        ``quantity`` (``displacement``, ``velocity``, ``acceleration``) and ``crank_angle``
+        (degrees). Reliability estimators look up default allowables by the ``quantity`` level.
+    """
+
+    input_names: tuple[str, ...]
+    output_index: pd.Index
+
+    def evaluate(self, x: np.ndarray) -> np.ndarray:
+        """Outputs (``n_out``,) at one input vector ``x`` (``d``,); raises ``ModelFailure``."""
+        ...
+
+    def cache_key(self) -> str:
+        """Stable hash of everything that determines the outputs except ``x``."""
+        ...
+
+
+def as_output_index(index: Any, *, what: str = "output_index") -> pd.Index:
+    """Coerce ``index`` (Index, MultiIndex, sequence of labels or of tuples) to a pandas Index."""
+    if isinstance(index, pd.Index):
+        out = index
+    else:
+        try:
+            seq = list(index)
+        except TypeError:
+            raise StudyError(
+                f"{what}: expected a pandas Index/MultiIndex or a sequence of labels, "
+                f"got {type(index).__name__}"
+            ) from None
+        if seq and all(isinstance(s, tuple) for s in seq):
+            out = pd.MultiIndex.from_tuples(seq)
+        else:
+            out = pd.Index(seq)
+    if len(out) == 0:
+        raise StudyError(f"{what}: must label at least one output, got an empty index")
+    if not out.is_unique:
+        dup = out[out.duplicated()].tolist()[:3]
+        raise StudyError(f"{what}: labels must be unique, duplicated: {dup}")
+    return out
+
+
+def check_model(model: Any) -> tuple[tuple[str, ...], pd.Index]:
+    """Check that ``model`` implements the protocol; return (input_names, output_index)."""
+    missing = [a for a in ("input_names", "output_index", "evaluate", "cache_key") if not hasattr(model, a)]
+    if missing:
+        raise StudyError(
+            f"model: {type(model).__name__} does not implement the mechrel.uq.Model protocol, "
+            f"missing {missing} (need input_names, output_index, evaluate(x), cache_key())"
+        )
+    names = tuple(str(n) for n in model.input_names)
+    if len(names) == 0 or len(set(names)) != len(names):
+        raise StudyError(f"model.input_names: must be non-empty and unique, got {names!r}")
+    return names, as_output_index(model.output_index, what="model.output_index")
+
+
+def _index_fingerprint(index: pd.Index) -> list:
+    return [list(map(repr, index.names)), [repr(v) for v in index.tolist()]]
+
+
+class FunctionModel:
+    """A :class:`Model` wrapping a plain function ``func(x) -> array (n_out,)``.
+
+    Parameters
+    ----------
+    func
+        Called with one float64 vector ``x`` of length ``len(input_names)``. It may raise
+        :class:`ModelFailure`. A module-level function (or a ``functools.partial`` of one) keeps
+        the model picklable by the standard library; loky and Dask also accept closures.
+    input_names
+        Names of the entries of ``x``.
+    output_index
+        Labels of the outputs (any pandas Index or a sequence of labels/tuples).
+    key
+        A version tag you change whenever ``func`` changes meaning: the cache cannot see inside
+        ``func``. The cache key hashes ``key``, the function's qualified name, the input names
+        and the output labels.
+    """
+
+    def __init__(
+        self,
+        func: Callable[[np.ndarray], Any],
+        input_names: Sequence[str],
+        output_index: Any,
+        key: str = "",
+    ):
+        if not callable(func):
+            raise StudyError(f"FunctionModel.func: must be callable, got {type(func).__name__}")
+        if isinstance(input_names, str):
+            raise StudyError(
+                f"FunctionModel.input_names: expected a sequence of names, got the string {input_names!r}"
+            )
+        self.func = func
+        self.input_names = tuple(str(n) for n in input_names)
+        if len(self.input_names) == 0 or len(set(self.input_names)) != len(self.input_names):
+            raise StudyError(
+                f"FunctionModel.input_names: must be non-empty and unique, got {self.input_names!r}"
+            )
+        self.output_index = as_output_index(output_index, what="FunctionModel.output_index")
+        self.key = str(key)
+
+    def __repr__(self) -> str:
+        return (
+            f"FunctionModel({_func_name(self.func)}, inputs={list(self.input_names)}, "
+            f"n_out={len(self.output_index)}, key={self.key!r})"
+        )
+
+    def evaluate(self, x: np.ndarray) -> np.ndarray:
+        y = np.asarray(self.func(np.asarray(x, dtype=float)), dtype=float).reshape(-1)
+        if y.shape[0] != len(self.output_index):
+            raise StudyError(
+                f"FunctionModel {_func_name(self.func)}: returned {y.shape[0]} outputs, "
+                f"output_index has {len(self.output_index)}"
+            )
+        return y
+
+    def cache_key(self) -> str:
+        payload = json.dumps(
+            {
+                "kind": "FunctionModel",
+                "func": _func_name(self.func),
+                "key": self.key,
+                "inputs": list(self.input_names),
+                "outputs": _index_fingerprint(self.output_index),
+            },
+            sort_keys=True,
+        )
+        return hashlib.sha256(payload.encode()).hexdigest()
+
+
+def _func_name(func: Any) -> str:
+    base = getattr(func, "func", None)  # functools.partial
+    if base is not None and callable(base):
+        args = getattr(func, "args", ())
+        kw = getattr(func, "keywords", {})
+        return f"partial({_func_name(base)}, args={args!r}, kw={sorted(kw.items())!r})"
+    mod = getattr(func, "__module__", "?")
+    qn = getattr(func, "__qualname__", type(func).__qualname__)
+    return f"{mod}.{qn}"

@@ -1,0 +1,275 @@
+"""Monte Carlo reliability: point-in-time per output, whole-cycle, moments, with intervals.
+
+Events (per sample, error i, allowable I)
+-----------------------------------------
+``form="two-sided"``  |i| ≤ I  (the tolerance is on the magnitude of the error);
+``form="one-sided"``  i ≤ I    (the paper's P(I − i > 0) on the signed error).
+
+The allowable I
+---------------
+``allowable_mode="sampled"`` (default): I ~ N(μ_I, σ_I²) is drawn once per sample *and per
+quantity* and shared by every crank angle of that quantity: the allowable is a property of the
+specification a mechanism is checked against, not of the crank angle. Point-in-time estimates
+then estimate exactly the probability FOSM's interference formula computes (same event, no
+normality assumption on i), and the binomial intervals are exact for random sampling.
+``allowable_mode="fixed"``: I = μ_I (σ_I ignored), the classical fixed tolerance.
+An ``Allowable(mean, 0)`` makes the two identical.
+
+Whole-cycle reliability
+-----------------------
+P(the event holds at every output of a quantity, jointly, in the same sample), per quantity and
+for all outputs together ("all"). It is ≤ the smallest point-in-time reliability of the group by
+construction (an intersection of events), the quantity that matters for "stays within accuracy
+over the cycle".
+
+Intervals
+---------
+Reliabilities: Wilson score (default) or Clopper–Pearson binomial intervals. For
+``rule="latin_hypercube"``/``"sobol"`` samples are negatively correlated / low-discrepancy and the
+estimator's variance is smaller than binomial: the intervals are conservative (too wide).
+Mean: ± z·s/√n. Standard deviation: asymptotic distribution-free interval for s² from the fourth
+central moment, se(s²) = sqrt((m₄ − s⁴(n − 3)/(n − 1))/n), mapped to s.
+
+Failed samples
+--------------
+``failures="exclude"`` (default): estimates are over the successful samples (i.e. conditional
+on the model being evaluable), the failures are counted and listed by reason in the result.
+``failures="as_violation"``: a failed sample counts as out of tolerance at every output
+(conservative for reliability; moments still use the successful samples). Either way the run
+refuses (``StudyError``) if more than ``max_failure_fraction`` of the samples failed.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import pandas as pd
+from scipy import stats
+
+from mechrel.errors import StudyError
+
+from ._common import (
+    check_choice,
+    check_fraction,
+    check_inputs,
+    exclusive_source,
+    executor_kwargs,
+    failure_message,
+    make_provenance,
+    run,
+)
+from .executor import Evaluations
+from .inputs import SAMPLING_RULES, _check_n, as_seed_sequence, seed_record
+from .model import check_model
+from .reliability import binomial_interval, check_form, resolve_allowables
+
+__all__ = ["monte_carlo", "MonteCarloResult", "reliability_from_samples", "ALLOWABLE_MODES", "FAILURE_MODES"]
+
+ALLOWABLE_MODES = ("sampled", "fixed")
+FAILURE_MODES = ("exclude", "as_violation")
+
+
+def _draw_allowables(n: int, mu_I: np.ndarray, sd_I: np.ndarray, groups: np.ndarray, mode: str,
+                     seed: np.random.SeedSequence) -> np.ndarray:
+    """(n, n_out) allowable values: one N(0,1) draw per sample and group, scaled per output."""
+    if mode == "fixed":
+        return np.broadcast_to(mu_I, (n, mu_I.shape[0]))
+    uniq = list(dict.fromkeys(groups.tolist()))
+    xi = np.random.default_rng(seed).standard_normal((n, len(uniq)))
+    col = np.array([uniq.index(g) for g in groups])
+    return mu_I[None, :] + sd_I[None, :] * xi[:, col]
+
+
+def reliability_from_samples(
+    ev: Evaluations,
+    *,
+    allowable: Any,
+    form: str,
+    allowable_mode: str,
+    seed: np.random.SeedSequence,
+    confidence_level: float,
+    ci_method: str,
+    failures: str,
+) -> tuple[pd.DataFrame, pd.DataFrame]:
+    """Point-in-time and whole-cycle reliability from evaluations (see module docstring)."""
+    mu_I, sd_I, groups = resolve_allowables(ev.output_index, allowable)
+    I = _draw_allowables(ev.n, mu_I, sd_I, groups, allowable_mode, seed)
+    Y = ev.Y
+    ok = ev.ok
+    with np.errstate(invalid="ignore"):
+        inside = (np.abs(Y) <= I) if form == "two-sided" else (Y <= I)
+    if failures == "exclude":
+        rows = ok
+        inside = inside[rows]
+    else:
+        rows = np.ones(ev.n, dtype=bool)
+        inside = inside & ok[:, None]
+    n_eff = int(rows.sum())
+    k = inside.sum(axis=0)
+    lo, hi = binomial_interval(k, n_eff, confidence_level=confidence_level, method=ci_method)
+    point = pd.DataFrame(
+        {"mu_I": mu_I, "sigma_I": sd_I, "n": n_eff, "n_inside": k,
+         "reliability": k / n_eff if n_eff else np.nan, "reliability_lo": lo, "reliability_hi": hi},
+        index=ev.output_index,
+    )
+    wc_rows = []
+    labels = list(dict.fromkeys(groups.tolist()))
+    if len(labels) > 1 or labels != ["all"]:
+        for g in labels:
+            cols = groups == g
+            kk = int(np.all(inside[:, cols], axis=1).sum())
+            wc_rows.append((g, int(cols.sum()), kk))
+    wc_rows.append(("all", len(groups), int(np.all(inside, axis=1).sum())))
+    kw = np.array([r[2] for r in wc_rows])
+    wlo, whi = binomial_interval(kw, n_eff, confidence_level=confidence_level, method=ci_method)
+    whole = pd.DataFrame(
+        {"n_outputs": [r[1] for r in wc_rows], "n": n_eff, "n_inside": kw,
+         "reliability": kw / n_eff if n_eff else np.nan, "reliability_lo": wlo, "reliability_hi": whi},
+        index=pd.Index([r[0] for r in wc_rows], name="group"),
+    )
+    return point, whole
+
+
+def sample_moments(Y: np.ndarray, *, confidence_level: float) -> pd.DataFrame:
+    """mean, std, skewness, excess kurtosis per column, with intervals for mean and std."""
+    n = Y.shape[0]
+    z = stats.norm.ppf(0.5 + confidence_level / 2)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        mean = Y.mean(axis=0)
+        c = Y - mean
+        s2 = (c**2).sum(axis=0) / (n - 1) if n > 1 else np.full(Y.shape[1], np.nan)
+        s = np.sqrt(s2)
+        m4 = (c**4).mean(axis=0)
+        se_mean = s / np.sqrt(n)
+        var_s2 = (m4 - s2**2 * (n - 3) / (n - 1)) / n
+        se_s2 = np.sqrt(np.maximum(var_s2, 0.0))
+        skew = stats.skew(Y, axis=0, bias=False) if n > 2 else np.full(Y.shape[1], np.nan)
+        kurt = stats.kurtosis(Y, axis=0, fisher=True, bias=False) if n > 3 else np.full(Y.shape[1], np.nan)
+    return pd.DataFrame(
+        {"mean": mean, "mean_lo": mean - z * se_mean, "mean_hi": mean + z * se_mean,
+         "std": s, "std_lo": np.sqrt(np.maximum(s2 - z * se_s2, 0.0)), "std_hi": np.sqrt(s2 + z * se_s2),
+         "skewness": skew, "excess_kurtosis": kurt},
+    )
+
+
+@dataclass(frozen=True, eq=False)
+class MonteCarloResult:
+    """Monte Carlo reliability and moments (frozen).
+
+    ``table`` (per output): moments with intervals, ``mu_I``, ``sigma_I``, ``n``,
+    ``n_inside``, ``reliability`` with ``reliability_lo``/``_hi``. ``whole_cycle`` (per quantity
+    and ``"all"``): the joint event over the cycle. ``failure_counts``: {reason: count}.
+    """
+
+    table: pd.DataFrame
+    whole_cycle: pd.DataFrame
+    form: str
+    allowable: Any
+    allowable_mode: str
+    rule: str
+    confidence_level: float
+    ci_method: str
+    failures: str
+    n_failed: int
+    failure_counts: dict
+    evaluations: Evaluations
+    seed: Any
+    provenance: dict = field(repr=False)
+
+    def to_frame(self) -> pd.DataFrame:
+        return self.table.copy()
+
+    @property
+    def reliability(self) -> pd.Series:
+        return self.table["reliability"]
+
+
+def _check_common(form, allowable_mode, confidence_level, ci_method, failures, max_failure_fraction):
+    check_form(form)
+    check_choice("allowable_mode", allowable_mode, ALLOWABLE_MODES)
+    check_fraction("confidence_level", confidence_level, open_lo=True, open_hi=True)
+    check_choice("ci_method", ci_method, ("wilson", "clopper-pearson"))
+    check_choice("failures", failures, FAILURE_MODES)
+    check_fraction("max_failure_fraction", max_failure_fraction)
+
+
+def monte_carlo(
+    *,
+    model: Any = None,
+    inputs: Any = None,
+    n: int | None = None,
+    rule: str = "random",
+    seed: Any = None,
+    evaluations: Evaluations | None = None,
+    allowable: Any = None,
+    form: str = "two-sided",
+    allowable_mode: str = "sampled",
+    confidence_level: float = 0.95,
+    ci_method: str = "wilson",
+    failures: str = "exclude",
+    max_failure_fraction: float = 0.1,
+    n_jobs: int = 1,
+    backend: str = "loky",
+    cache: Any = None,
+    progress: bool = False,
+    chunk_size: int | None = None,
+) -> MonteCarloResult:
+    """Monte Carlo reliability of every output and of the whole cycle.
+
+    Either ``model=`` + ``inputs=`` + ``n=`` (samples drawn by ``rule`` from ``seed``'s first
+    child stream) or precomputed ``evaluations=`` (e.g. of ``inputs.sample(...)``; ``inputs`` is
+    then optional). Allowable draws use ``seed``'s second child stream, so the same seed gives
+    the same numbers for any ``n_jobs``/backend. ``seed=None`` draws fresh entropy and records
+    it in ``provenance["seed"]``.
+    """
+    t0 = time.perf_counter()
+    exclusive_source(model, evaluations, what="monte_carlo")
+    _check_common(form, allowable_mode, confidence_level, ci_method, failures, max_failure_fraction)
+    ss = as_seed_sequence(seed)
+    ss_x, ss_I = ss.spawn(2)
+    if model is not None:
+        check_choice("rule", rule, SAMPLING_RULES)
+        if inputs is None:
+            raise StudyError("monte_carlo: inputs= is required with model=")
+        inputs = check_inputs(inputs, check_model(model)[0])
+        n = _check_n(n)
+        X = inputs.sample(n, rule, ss_x)
+        ev = run(model, X, executor_kwargs(n_jobs, backend, cache, progress, chunk_size))
+    else:
+        ev = evaluations
+        rule = "user-supplied"
+        if inputs is not None:
+            inputs = check_inputs(inputs, ev.input_names)
+    if ev.n == 0:
+        raise StudyError("monte_carlo: no samples")
+    if ev.n_failed > max_failure_fraction * ev.n:
+        raise StudyError(
+            f"monte_carlo: {failure_message(ev)}, more than max_failure_fraction="
+            f"{max_failure_fraction}; inspect evaluations.failures(), fix the model or raise the threshold"
+        )
+    if ev.n_ok < 2:
+        raise StudyError(f"monte_carlo: need at least 2 successful samples, got {ev.n_ok}")
+    point, whole = reliability_from_samples(
+        ev, allowable=allowable, form=form, allowable_mode=allowable_mode, seed=ss_I,
+        confidence_level=confidence_level, ci_method=ci_method, failures=failures,
+    )
+    mom = sample_moments(ev.Y[ev.ok], confidence_level=confidence_level)
+    mom.index = ev.output_index
+    table = pd.concat([mom, point], axis=1)
+    prov = make_provenance(
+        method="monte_carlo", seed=seed_record(ss), evaluations=[ev], inputs=inputs,
+        wall_time=time.perf_counter() - t0,
+        settings={"n": ev.n, "rule": rule, "form": form, "allowable_mode": allowable_mode,
+                  "allowable": repr(allowable) if allowable is not None else "paper defaults",
+                  "confidence_level": confidence_level, "ci_method": ci_method,
+                  "failures": failures, "max_failure_fraction": max_failure_fraction,
+                  "ci_note": ("binomial intervals are conservative for latin_hypercube/sobol designs"
+                              if rule in ("latin_hypercube", "sobol") else "binomial intervals")},
+    )
+    return MonteCarloResult(
+        table, whole, form, allowable, allowable_mode, rule, confidence_level, ci_method, failures,
+        ev.n_failed, ev.failure_counts(), ev, ss, prov,
+    )
