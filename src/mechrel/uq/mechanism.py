@@ -36,8 +36,11 @@ class MechanismModel:
     scene : str, path, mapping or Scene
         Anything :func:`mechrel.scene.load_scene` accepts; must have clearance joints and a
         cycle driver (the crank angle is the cycle driver's rotation).
-    inputs : sequence of str
-        Dotted scene paths of the uncertain parameters, in the order of ``x``.
+    inputs : sequence of str, or mapping of name to paths
+        The uncertain parameters, in the order of ``x``: dotted scene paths, or a mapping
+        ``{name: [path, ...]}`` when one parameter sets several scene values (the same oil's
+        viscosity in two joints). A path prefixed with ``-`` receives the negated value (two
+        cranks turning in opposite senses at one uncertain speed).
     output : str, optional
         Output name (default: the scene's first output).
     quantities : sequence of str
@@ -61,7 +64,12 @@ class MechanismModel:
         if isinstance(inputs, str):
             raise StudyError(f"inputs: expected a sequence of dotted scene paths, got the "
                              f"string {inputs!r}")
-        self.input_names = tuple(inputs)
+        if hasattr(inputs, "items"):
+            targets = {str(k): ([v] if isinstance(v, str) else list(v)) for k, v in inputs.items()}
+        else:
+            targets = {str(k): [str(k)] for k in inputs}
+        self.input_names = tuple(targets)
+        self.targets = targets
         if not self.input_names or len(set(self.input_names)) != len(self.input_names):
             raise StudyError(f"inputs: must be non-empty and unique, got {self.input_names!r}")
         if not base.clearance_joints:
@@ -95,12 +103,17 @@ class MechanismModel:
         base = load_scene(raw)
         # Every input path must exist and be numeric: try it at its current value.
         nominal = []
-        for path in self.input_names:
-            value = _lookup(base.raw, path)
-            if isinstance(value, bool) or not isinstance(value, (int, float)):
-                raise StudyError(f"inputs: scene path {path!r} holds {value!r}; an uncertain "
-                                 "input must be a number")
-            nominal.append(float(value))
+        for name, paths in targets.items():
+            if not paths:
+                raise StudyError(f"inputs.{name}: names no scene path")
+            for path in paths:
+                value = _lookup(base.raw, path.lstrip("-"))
+                if isinstance(value, bool) or not isinstance(value, (int, float)):
+                    raise StudyError(f"inputs: scene path {path!r} holds {value!r}; an "
+                                     "uncertain input must be a number")
+            first = paths[0]
+            sign = -1.0 if first.startswith("-") else 1.0
+            nominal.append(sign * float(_lookup(base.raw, first.lstrip("-"))))
         self.nominal = np.asarray(nominal)
         self._raw = thaw(base.raw)
         self._scene = base
@@ -130,7 +143,7 @@ class MechanismModel:
         from ..scene import scene_hash
 
         payload = json.dumps({"kind": "MechanismModel", "scene": scene_hash(self.scene),
-                              "inputs": list(self.input_names), "output": self.output,
+                              "inputs": self.targets, "output": self.output,
                               "quantities": list(self.quantities),
                               "angle_step": self.angle_step, "cycles": self.cycles,
                               "mechrel": __version__}, sort_keys=True)
@@ -145,7 +158,14 @@ class MechanismModel:
         if x.size != len(self.input_names):
             raise StudyError(f"x: expected {len(self.input_names)} values "
                              f"({', '.join(self.input_names)}), got {x.size}")
-        scene = with_overrides(self.scene, dict(zip(self.input_names, map(float, x))))
+        values = {}
+        for (name, paths), value in zip(self.targets.items(), map(float, x)):
+            for path in paths:
+                if path.startswith("-"):
+                    values[path[1:]] = -value
+                else:
+                    values[path] = value
+        scene = with_overrides(self.scene, values)
         return simulate(scene)
 
     def evaluate(self, x) -> np.ndarray:

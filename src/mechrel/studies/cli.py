@@ -1,0 +1,40 @@
+"""``mechrel reliability`` and ``mechrel sensitivity``."""
+
+from __future__ import annotations
+
+
+def _study_args(p):
+    p.add_argument("study", nargs="?", default="nine-bar-lubricated", metavar="STUDY",
+                   help="embedded study name or path to a study .toml "
+                        "(default: nine-bar-lubricated)")
+    p.add_argument("--n", type=int, help="number of samples (default: the study's)")
+    p.add_argument("--jobs", type=int, default=2, help="parallel workers (default 2)")
+    p.add_argument("--seed", type=int, help="random seed (default: the study's)")
+    p.add_argument("--out", default="results", metavar="DIR",
+                   help="output folder (default: results/)")
+    p.add_argument("--no-progress", action="store_true", help="no progress bar")
+
+
+def _cmd_reliability(args) -> int:
+    from .runner import run_reliability
+    from .study import load_study
+
+    study = load_study(args.study)
+    methods = None if args.method is None else (args.method,)
+    lines, _ = run_reliability(study, methods=methods, n=args.n, n_jobs=args.jobs,
+                               seed=args.seed, out=args.out, progress=not args.no_progress)
+    print("\n".join(lines))
+    return 0
+
+
+def register_commands(sub) -> None:
+    p = sub.add_parser(
+        "reliability", help="accuracy reliability of a study (FOSM, Monte Carlo, PCE)",
+        description="Reliability of the output errors staying within their allowables, per "
+                    "crank angle and over the whole cycle, by FOSM (the paper's method), Monte "
+                    "Carlo and polynomial chaos. Finished model evaluations are cached in "
+                    "OUT/evaluations.sqlite, so an interrupted run resumes where it stopped.")
+    _study_args(p)
+    p.add_argument("--method", choices=("fosm", "mc", "pce", "all"),
+                   help="estimator (default: the study's reliability.methods)")
+    p.set_defaults(func=_cmd_reliability)

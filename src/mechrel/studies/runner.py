@@ -1,0 +1,126 @@
+"""Runners behind ``mechrel reliability`` and ``mechrel sensitivity``: evaluate a study with
+the estimators of :mod:`mechrel.uq`, write tables and figures, return a printable summary."""
+
+from __future__ import annotations
+
+import time
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from ..io import write_json, write_table
+
+UNITS = {"displacement": "m", "velocity": "m/s", "acceleration": "m/s²"}
+
+
+def _plot_reliability(fosm_t, mc_t, quantities, title, path):
+    import matplotlib
+    matplotlib.use("Agg", force=False)
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(len(quantities), 1, figsize=(8, 2.6 * len(quantities) + 0.6),
+                             sharex=True, constrained_layout=True)
+    axes = np.atleast_1d(axes)
+    for ax, q in zip(axes, quantities):
+        if fosm_t is not None:
+            f = fosm_t.xs(q, level="quantity")
+            ax.plot(f.index, f["reliability"], "o-", ms=4, label="FOSM")
+        if mc_t is not None:
+            m = mc_t.xs(q, level="quantity")
+            ax.fill_between(m.index, m["reliability_lo"], m["reliability_hi"], alpha=0.25,
+                            color="C1", label="MC 95 % interval")
+            ax.plot(m.index, m["reliability"], "s--", ms=3, color="C1", label="Monte Carlo")
+        ax.set_ylabel(f"R ({q})")
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=8, loc="lower left")
+    axes[-1].set_xlabel("crank angle (deg)")
+    axes[-1].set_xticks(np.arange(0, 361, 36))
+    axes[0].set_title(title)
+    fig.savefig(path, dpi=130)
+    plt.close(fig)
+
+
+def run_reliability(study, *, methods=None, n=None, n_jobs=1, seed=None, out=None,
+                    progress=True, cache=True, backend="loky"):
+    """Run the study's reliability methods; write ``reliability.csv``, ``whole_cycle.csv``,
+    ``reliability.png`` and ``summary.json`` to ``out``. Returns (summary lines, results)."""
+    from ..uq.fosm import fosm
+    from ..uq.montecarlo import monte_carlo
+
+    start = time.perf_counter()
+    cfg = dict(study.reliability)
+    methods = tuple(methods or cfg.get("methods", ("fosm", "mc")))
+    if "all" in methods:
+        methods = ("fosm", "mc", "pce")
+    n = int(n or cfg.get("n", 256))
+    seed = seed if seed is not None else cfg.get("seed")
+    form = cfg.get("form", "two-sided")
+    rule = cfg.get("rule", "sobol")
+    model = study.model()
+    inputs = study.uncertain_inputs()
+    allow = study.allowables()
+    out = Path(out) if out else None
+    cache_path = (out / "evaluations.sqlite") if (out and cache) else None
+    if out:
+        out.mkdir(parents=True, exist_ok=True)
+    common = dict(n_jobs=n_jobs, backend=backend, cache=cache_path, progress=progress)
+    results, lines, frames = {}, [], []
+    lines.append(f"study {study.name}: scene {model.scene.name}, inputs "
+                 f"{', '.join(inputs.names)}; form {form}")
+    if "fosm" in methods:
+        r = fosm(model=model, inputs=inputs, allowable=allow, form=form, **common)
+        results["fosm"] = r
+        frames.append(r.to_frame().add_prefix("fosm."))
+    if "mc" in methods:
+        r = monte_carlo(model=model, inputs=inputs, n=n, rule=rule, seed=seed,
+                        allowable=allow, form=form, **common)
+        results["mc"] = r
+        frames.append(r.to_frame().add_prefix("mc."))
+    if "pce" in methods:
+        from ..uq import pce as _pce
+        r = _pce.polynomial_chaos(model=model, inputs=inputs, order=cfg.get("pce_order", 2),
+                                  seed=seed, allowable=allow, form=form, **common)
+        results["pce"] = r
+        frames.append(r.to_frame().add_prefix("pce."))
+    table = pd.concat(frames, axis=1) if frames else pd.DataFrame()
+    for q in study.quantities:
+        parts = [f"  {q:13s}"]
+        if "fosm" in results:
+            t = results["fosm"].table.xs(q, level="quantity")
+            k = t["reliability"].idxmin()
+            parts.append(f"FOSM min R {t['reliability'].min():.4f} at {k:g}° "
+                         f"(β = {t['beta'].loc[k]:.3f})")
+        if "mc" in results:
+            t = results["mc"].table.xs(q, level="quantity")
+            k = t["reliability"].idxmin()
+            parts.append(f"MC min R {t['reliability'].min():.4f} "
+                         f"[{t['reliability_lo'].loc[k]:.4f}, {t['reliability_hi'].loc[k]:.4f}]"
+                         f" at {k:g}°")
+        lines.append("; ".join(parts))
+    if "mc" in results:
+        mc = results["mc"]
+        wc = mc.whole_cycle
+        for key, row in wc.iterrows():
+            lines.append(f"  whole-cycle reliability ({key}): {row['reliability']:.4f} "
+                         f"[{row['reliability_lo']:.4f}, {row['reliability_hi']:.4f}]")
+        lines.append(f"  Monte Carlo: {mc.evaluations.X.shape[0]} samples ({rule}), "
+                     f"{mc.n_failed} failed" + (f": {mc.failure_counts}" if mc.n_failed else ""))
+    wall = time.perf_counter() - start
+    n_calls = sum(int(getattr(r.evaluations, "n_model_calls", 0)) for r in results.values())
+    lines.append(f"  {n_calls} model evaluations in {wall:.1f} s (n_jobs = {n_jobs})")
+    if out:
+        write_table(table.reset_index(), out / "reliability.csv")
+        if "mc" in results:
+            write_table(results["mc"].whole_cycle.reset_index(), out / "whole_cycle.csv")
+        _plot_reliability(results["fosm"].table if "fosm" in results else None,
+                          results["mc"].table if "mc" in results else None,
+                          study.quantities, f"{study.name}: reliability per crank angle "
+                          f"({form})", out / "reliability.png")
+        write_json({"study": study.name, "source": study.source, "methods": list(methods),
+                    "n": n, "seed": seed, "form": form, "wall_time": wall,
+                    "provenance": {k: dict(v.provenance) for k, v in results.items()},
+                    "summary": lines}, out / "summary.json")
+        lines.append(f"  wrote {out}/reliability.csv, whole_cycle.csv, reliability.png, "
+                     "summary.json")
+    return lines, results
