@@ -27,6 +27,17 @@ def _cmd_reliability(args) -> int:
     return 0
 
 
+def _cmd_sensitivity(args) -> int:
+    from .runner import run_sensitivity
+    from .study import load_study
+
+    study = load_study(args.study)
+    lines, _ = run_sensitivity(study, n=args.n, n_jobs=args.jobs, seed=args.seed, out=args.out,
+                               progress=not args.no_progress)
+    print("\n".join(lines))
+    return 0
+
+
 def register_commands(sub) -> None:
     p = sub.add_parser(
         "reliability", help="accuracy reliability of a study (FOSM, Monte Carlo, PCE)",
@@ -38,3 +49,11 @@ def register_commands(sub) -> None:
     p.add_argument("--method", choices=("fosm", "mc", "pce", "all"),
                    help="estimator (default: the study's reliability.methods)")
     p.set_defaults(func=_cmd_reliability)
+
+    p = sub.add_parser(
+        "sensitivity", help="Sobol sensitivity indices of a study's error measures",
+        description="First- and total-order Sobol indices (SALib, Saltelli design with N base "
+                    "samples: N (d + 2) model runs) of the peak |error| over the cycle of each "
+                    "quantity with respect to the study's uncertain inputs.")
+    _study_args(p)
+    p.set_defaults(func=_cmd_sensitivity)
