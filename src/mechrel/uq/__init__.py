@@ -1,1 +1,48 @@
-"""mechrel.uq"""
+"""mechrel.uq — uncertainty quantification of output errors.
+
+Problem (:class:`UncertainInputs`, a :class:`Model`) → sample/design (``*_design`` functions,
+:meth:`UncertainInputs.sample`) → evaluate (:func:`evaluate`: joblib/Dask, cache, failures) →
+analyse (:func:`fosm`, :func:`monte_carlo`, :func:`polynomial_chaos`, :func:`sobol_indices`,
+:func:`normality_check`). Every estimator takes keyword arguments only, accepts either
+``model=`` (it evaluates its own design through :func:`evaluate`) or precomputed
+``evaluations=``, and returns a frozen result with ``.to_frame()`` and ``.provenance``.
+See ``docs/uq.md``.
+"""
+
+from .analytic import ishigami, ishigami_indices, ishigami_inputs, ishigami_model, linear_model
+from .cache import EvaluationCache
+from .executor import BACKENDS, Evaluations, evaluate
+from .fosm import FOSMResult, fd_steps, fosm, fosm_design
+from .inputs import SAMPLING_RULES, LogNormal, Normal, TruncNormal, UncertainInputs, Uniform, child_seed
+from .model import FunctionModel, Model, ModelFailure
+from .montecarlo import MonteCarloResult, monte_carlo, monte_carlo_design
+from .normality import NormalityResult, normality_check
+from .pce import PCEResult, multi_indices, pce_design, polynomial_chaos
+from .reliability import (
+    DEFAULT_ALLOWABLES,
+    FORMS,
+    Allowable,
+    binomial_interval,
+    bivariate_normal_cdf,
+    reliability_one_sided,
+    reliability_two_sided,
+)
+from .sobol import SobolResult, peak_abs, sobol_design, sobol_indices
+
+__all__ = [
+    # problem
+    "Model", "ModelFailure", "FunctionModel",
+    "UncertainInputs", "Normal", "TruncNormal", "Uniform", "LogNormal", "SAMPLING_RULES", "child_seed",
+    "Allowable", "DEFAULT_ALLOWABLES", "FORMS",
+    # evaluation
+    "evaluate", "Evaluations", "EvaluationCache", "BACKENDS",
+    # designs
+    "fosm_design", "fd_steps", "monte_carlo_design", "pce_design", "multi_indices", "sobol_design",
+    # estimators and results
+    "fosm", "FOSMResult", "monte_carlo", "MonteCarloResult", "polynomial_chaos", "PCEResult",
+    "sobol_indices", "SobolResult", "peak_abs", "normality_check", "NormalityResult",
+    # formulas
+    "reliability_one_sided", "reliability_two_sided", "bivariate_normal_cdf", "binomial_interval",
+    # analytic models
+    "linear_model", "ishigami", "ishigami_model", "ishigami_inputs", "ishigami_indices",
+]

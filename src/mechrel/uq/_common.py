@@ -119,3 +119,18 @@ def readonly(a: Any) -> np.ndarray:
     a = np.array(a, copy=True)
     a.setflags(write=False)
     return a
+
+
+def resolve_outputs_safe(index, output: Any) -> int:
+    """Position of one output given by label (tuple for a MultiIndex) or integer position."""
+    try:
+        if output in index:
+            loc = index.get_loc(output)
+            if isinstance(loc, (int, np.integer)):
+                return int(loc)
+    except (TypeError, KeyError):
+        pass
+    if isinstance(output, (int, np.integer)) and not isinstance(output, bool) and 0 <= output < len(index):
+        return int(output)
+    raise StudyError(f"output: {output!r} is neither a label of the output index (e.g. {index[:2].tolist()}) "
+                     f"nor a position in [0, {len(index)})")

@@ -53,6 +53,7 @@ __all__ = [
     "SAMPLING_RULES",
     "as_seed_sequence",
     "as_generator",
+    "child_seed",
 ]
 
 SAMPLING_RULES = ("random", "latin_hypercube", "sobol")
@@ -249,6 +250,13 @@ def as_seed_sequence(seed: Any) -> np.random.SeedSequence:
     raise StudyError(
         f"seed: expected a non-negative int, a numpy SeedSequence or None, got {seed!r}"
     )
+
+
+def child_seed(ss: np.random.SeedSequence, k: int) -> np.random.SeedSequence:
+    """The k-th child of ``ss`` without mutating it (``ss.spawn`` is stateful: calling it twice
+    gives different children, which would make results depend on call order)."""
+    return np.random.SeedSequence(ss.entropy, spawn_key=tuple(ss.spawn_key) + (int(k),),
+                                  pool_size=ss.pool_size)
 
 
 def as_generator(seed: Any) -> np.random.Generator:

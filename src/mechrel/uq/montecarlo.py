@@ -62,11 +62,11 @@ from ._common import (
     run,
 )
 from .executor import Evaluations
-from .inputs import SAMPLING_RULES, _check_n, as_seed_sequence, seed_record
+from .inputs import SAMPLING_RULES, _check_n, as_seed_sequence, child_seed, seed_record
 from .model import check_model
 from .reliability import binomial_interval, check_form, resolve_allowables
 
-__all__ = ["monte_carlo", "MonteCarloResult", "reliability_from_samples", "ALLOWABLE_MODES", "FAILURE_MODES"]
+__all__ = ["monte_carlo", "monte_carlo_design", "MonteCarloResult", "reliability_from_samples", "ALLOWABLE_MODES", "FAILURE_MODES"]
 
 ALLOWABLE_MODES = ("sampled", "fixed")
 FAILURE_MODES = ("exclude", "as_violation")
@@ -229,7 +229,7 @@ def monte_carlo(
     exclusive_source(model, evaluations, what="monte_carlo")
     _check_common(form, allowable_mode, confidence_level, ci_method, failures, max_failure_fraction)
     ss = as_seed_sequence(seed)
-    ss_x, ss_I = ss.spawn(2)
+    ss_x, ss_I = child_seed(ss, 0), child_seed(ss, 1)
     if model is not None:
         check_choice("rule", rule, SAMPLING_RULES)
         if inputs is None:
@@ -273,3 +273,12 @@ def monte_carlo(
         table, whole, form, allowable, allowable_mode, rule, confidence_level, ci_method, failures,
         ev.n_failed, ev.failure_counts(), ev, ss, prov,
     )
+
+
+def monte_carlo_design(inputs: Any, *, n: int, rule: str = "random", seed: Any = None) -> np.ndarray:
+    """The input sample ``monte_carlo(model=..., inputs=inputs, n=n, rule=rule, seed=seed)``
+    evaluates (the first child stream of ``seed``), for evaluating elsewhere and passing back
+    with ``evaluations=`` and the same ``seed``."""
+    check_choice("rule", rule, SAMPLING_RULES)
+    inputs = check_inputs(inputs, None)
+    return inputs.sample(_check_n(n), rule, child_seed(as_seed_sequence(seed), 0))

@@ -1,0 +1,378 @@
+"""Polynomial chaos expansions (chaospy distributions and quadrature, own linear algebra).
+
+Basis
+-----
+Orthonormal polynomials of the *germ*: the input marginals themselves when the inputs are
+independent (Hermite for normal, Legendre for uniform, ...; recurrence coefficients from
+``chaospy.stieltjes``), or iid standard normals z with x = T(z) (the Nataf map of
+:class:`~mechrel.uq.inputs.UncertainInputs`) when they are correlated. Multivariate terms are
+products Ψ_α(ξ) = Π_j p_{α_j}(ξ_j) over the multi-indices with hyperbolic norm
+(Σ α_j^q)^(1/q) ≤ order (q = 1: total degree). Evaluation uses the three-term recurrence directly
+(chaospy's symbolic ``numpoly`` evaluation is orders of magnitude slower for 10⁵ points).
+
+Coefficients
+------------
+``method="regression"``: least squares on ``ceil(oversampling · P)`` samples (P basis terms)
+drawn by ``rule`` (rounded up to a power of 2 for ``rule="sobol"``); error estimate: leave-one-out in closed form through the hat matrix,
+e_LOO = mean_i[((y_i − ŷ_i)/(1 − h_ii))²] / Var(y) (relative; ``loo_error``). Failed samples are
+dropped (counted; refuses above ``max_failure_fraction`` or when fewer than P + 1 remain).
+``method="quadrature"``: spectral projection c_α = Σ_q w_q Ψ_α(ξ_q) y_q on
+``chaospy.generate_quadrature(order, germ, rule=quadrature_rule, sparse=sparse)`` (Gaussian:
+order + 1 points per dimension, exact for the products Ψ_α·f of degree ≤ 2·order + 1). A failed
+node invalidates the rule: ``StudyError``. Error estimate: relative mean-square error on
+``n_validation`` extra random samples (``validation_error``).
+
+Post-processing (directly from the coefficients; chaospy's ``Sens_*`` are not used)
+----------------------------------------------------------------------------------
+mean = c_0, Var = Σ_{α≠0} c_α², first-order S_j = Σ_{α: only α_j > 0} c_α² / Var, total-order
+S_Tj = Σ_{α: α_j > 0} c_α² / Var. Sobol' indices are only reported for independent inputs (for a
+correlated germ they would be indices of the decorrelated z, not of x).
+Surrogate reliability: :meth:`PCEResult.reliability` samples the surrogate (cheap) and runs the
+Monte Carlo estimator on it; its intervals cover the sampling error only, not the surrogate's
+own error (check ``loo_error``/``validation_error``).
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+import time
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from mechrel.errors import StudyError
+
+from ._common import (
+    check_choice,
+    check_fraction,
+    check_inputs,
+    exclusive_source,
+    executor_kwargs,
+    failure_message,
+    make_provenance,
+    readonly,
+    run,
+)
+from .executor import STATUS_OK, Evaluations
+from .inputs import SAMPLING_RULES, UncertainInputs, _check_n, as_seed_sequence, child_seed, seed_record
+from .model import check_model
+
+__all__ = ["polynomial_chaos", "pce_design", "PCEResult", "multi_indices"]
+
+METHODS = ("regression", "quadrature")
+
+
+def multi_indices(d: int, order: int, q_norm: float = 1.0) -> np.ndarray:
+    """Multi-indices α ∈ ℕ^d with (Σ α_j^q)^(1/q) ≤ order, graded by total degree (α = 0 first)."""
+    out = []
+    for total in range(order + 1):
+        for combo in itertools.combinations_with_replacement(range(d), total):
+            a = np.zeros(d, dtype=int)
+            for j in combo:
+                a[j] += 1
+            out.append(a)
+    A = np.array(out, dtype=int).reshape(-1, d)
+    # combinations_with_replacement enumerates each multiset once; order within a degree is
+    # lexicographic in the variables, which is all we need.
+    if q_norm < 1.0:
+        with np.errstate(divide="ignore"):
+            qn = np.sum(A.astype(float) ** q_norm, axis=1) ** (1.0 / q_norm)
+        A = A[qn <= order + 1e-9]
+    return A
+
+
+def _recurrences(inputs: UncertainInputs, germ: str, order: int) -> list[tuple[np.ndarray, np.ndarray]]:
+    """Per germ dimension: (A_k, B_k), k = 0..order, of the monic three-term recurrence."""
+    import chaospy
+
+    out = []
+    for m in inputs.marginals:
+        if germ == "standard_normal":
+            A = np.zeros(order + 1)
+            B = np.arange(order + 1, dtype=float)
+            B[0] = 1.0
+        else:
+            coef, _, _ = chaospy.stieltjes(order, m.chaospy())
+            A = np.asarray(coef[0]).reshape(-1)[: order + 1].astype(float)
+            B = np.asarray(coef[1]).reshape(-1)[: order + 1].astype(float)
+        out.append((A, B))
+    return out
+
+
+def _univariate(xi: np.ndarray, A: np.ndarray, B: np.ndarray, order: int) -> np.ndarray:
+    """Orthonormal p_0..p_order at xi: p_{k+1} = ((x − A_k) p_k − √B_k p_{k−1}) / √B_{k+1}."""
+    P = np.empty((order + 1, xi.shape[0]))
+    P[0] = 1.0
+    if order >= 1:
+        P[1] = (xi - A[0]) / math.sqrt(B[1])
+    for k in range(1, order):
+        P[k + 1] = ((xi - A[k]) * P[k] - math.sqrt(B[k]) * P[k - 1]) / math.sqrt(B[k + 1])
+    return P
+
+
+def _basis(xi: np.ndarray, alphas: np.ndarray, rec, order: int) -> np.ndarray:
+    """(n, P) basis matrix Ψ_α(ξ)."""
+    n, d = xi.shape
+    uni = [_univariate(xi[:, j], *rec[j], order) for j in range(d)]
+    Psi = np.ones((n, alphas.shape[0]))
+    for j in range(d):
+        Psi *= uni[j][alphas[:, j]].T
+    return Psi
+
+
+def _germ(inputs: UncertainInputs) -> str:
+    return "inputs" if inputs.independent else "standard_normal"
+
+
+def _to_germ(inputs: UncertainInputs, X: np.ndarray) -> np.ndarray:
+    return X if inputs.independent else inputs.to_standard_normal(X)
+
+
+def _germ_joint(inputs: UncertainInputs):
+    import chaospy
+
+    if inputs.independent:
+        return inputs.joint
+    return chaospy.J(*[chaospy.Normal(0, 1) for _ in range(inputs.d)])
+
+
+def pce_design(
+    inputs: UncertainInputs,
+    *,
+    order: int,
+    method: str = "regression",
+    oversampling: float = 2.0,
+    rule: str = "sobol",
+    quadrature_rule: str = "gaussian",
+    sparse: bool = False,
+    q_norm: float = 1.0,
+    seed: Any = None,
+) -> tuple[np.ndarray, np.ndarray | None]:
+    """(X, weights): the training design of :func:`polynomial_chaos` (weights None for regression)."""
+    inputs = check_inputs(inputs, None)
+    order = _check_n(order, "order", 0)
+    check_choice("method", method, METHODS)
+    if method == "regression":
+        check_choice("rule", rule, SAMPLING_RULES)
+        P = multi_indices(inputs.d, order, q_norm).shape[0]
+        try:
+            ov = float(oversampling)
+        except (TypeError, ValueError):
+            ov = float("nan")
+        if not (np.isfinite(ov) and ov >= 1):
+            raise StudyError(f"oversampling: samples per basis term must be >= 1 (2-3 recommended), got {oversampling!r}")
+        n = int(math.ceil(ov * P))
+        if rule == "sobol":
+            n = 1 << (n - 1).bit_length()  # balanced Sobol' sets need a power of 2
+        return inputs.sample(n, rule, child_seed(as_seed_sequence(seed), 0)), None
+    import chaospy
+
+    nodes, weights = chaospy.generate_quadrature(order, _germ_joint(inputs), rule=quadrature_rule, sparse=sparse)
+    Z = np.asarray(nodes, dtype=float).T
+    X = Z if inputs.independent else inputs.from_standard_normal(Z)
+    return X, np.asarray(weights, dtype=float)
+
+
+@dataclass(frozen=True, eq=False)
+class PCEResult:
+    """A fitted polynomial chaos expansion (frozen). ``coefficients`` is (P, n_out)."""
+
+    coefficients: np.ndarray
+    multi_indices: np.ndarray
+    order: int
+    method: str
+    germ: str
+    inputs: UncertainInputs
+    output_index: pd.Index
+    mean: pd.Series
+    std: pd.Series
+    sobol_first: pd.DataFrame | None
+    sobol_total: pd.DataFrame | None
+    loo_error: pd.Series | None
+    validation_error: pd.Series | None
+    evaluations: Evaluations
+    provenance: dict = field(repr=False)
+    _recurrence: tuple = field(repr=False, default=())
+
+    def to_frame(self) -> pd.DataFrame:
+        """Per output: mean, std, loo_error, validation_error, S1_<input>, ST_<input>."""
+        df = pd.DataFrame({"mean": self.mean, "std": self.std})
+        df["loo_error"] = self.loo_error if self.loo_error is not None else np.nan
+        df["validation_error"] = self.validation_error if self.validation_error is not None else np.nan
+        if self.sobol_first is not None:
+            for c in self.sobol_first.columns:
+                df[f"S1_{c}"] = self.sobol_first[c]
+            for c in self.sobol_total.columns:
+                df[f"ST_{c}"] = self.sobol_total[c]
+        return df
+
+    def predict(self, X: Any, *, block: int = 20000) -> np.ndarray:
+        """Surrogate outputs (n, n_out) at inputs X (n, d)."""
+        X = np.atleast_2d(np.asarray(X, dtype=float))
+        if X.shape[1] != self.inputs.d:
+            raise StudyError(f"predict: X must have {self.inputs.d} columns {list(self.inputs.names)}, got {X.shape}")
+        Z = _to_germ(self.inputs, X)
+        out = np.empty((X.shape[0], self.coefficients.shape[1]))
+        for s in range(0, X.shape[0], block):
+            Psi = _basis(Z[s : s + block], self.multi_indices, self._recurrence, self.order)
+            out[s : s + block] = Psi @ self.coefficients
+        return out
+
+    def surrogate_evaluations(self, *, n: int, rule: str = "random", seed: Any = None) -> Evaluations:
+        """Evaluations of the surrogate at ``n`` samples of the inputs."""
+        X = self.inputs.sample(_check_n(n), rule, child_seed(as_seed_sequence(seed), 0))
+        Y = self.predict(X)
+        ok = np.all(np.isfinite(Y), axis=1)
+        return Evaluations(X, Y, np.where(ok, STATUS_OK, "failed"), tuple(None if o else "non-finite surrogate" for o in ok),
+                           self.inputs.names, self.output_index, cache_key=self.evaluations.cache_key,
+                           settings={"surrogate": f"PCE order {self.order} ({self.method})"})
+
+    def reliability(self, *, n: int = 100_000, rule: str = "random", seed: Any = None, **monte_carlo_kwargs):
+        """Monte Carlo on the surrogate (``n`` cheap samples); returns a MonteCarloResult whose
+        intervals cover the sampling error only, not the surrogate error. Keyword arguments are
+        those of :func:`mechrel.uq.monte_carlo` (allowable, form, allowable_mode, ...)."""
+        from .montecarlo import monte_carlo
+
+        ss = as_seed_sequence(seed)
+        ev = self.surrogate_evaluations(n=n, rule=rule, seed=ss)
+        res = monte_carlo(evaluations=ev, seed=ss, **monte_carlo_kwargs)
+        res.provenance["surrogate"] = {"method": "pce", "order": self.order, "pce_method": self.method,
+                                       "pce_provenance": self.provenance, "rule": rule}
+        return res
+
+
+def polynomial_chaos(
+    *,
+    model: Any = None,
+    inputs: UncertainInputs,
+    order: int,
+    method: str = "regression",
+    oversampling: float = 2.0,
+    rule: str = "sobol",
+    quadrature_rule: str = "gaussian",
+    sparse: bool = False,
+    q_norm: float = 1.0,
+    n_validation: int | None = None,
+    seed: Any = None,
+    evaluations: Evaluations | None = None,
+    validation: Evaluations | None = None,
+    max_failure_fraction: float = 0.1,
+    n_jobs: int = 1,
+    backend: str = "loky",
+    cache: Any = None,
+    progress: bool = False,
+    chunk_size: int | None = None,
+) -> PCEResult:
+    """Fit a PCE of total ``order`` (see the module docstring for the methods and the errors).
+
+    ``model=`` evaluates :func:`pce_design` (and ``n_validation`` random validation samples;
+    default 0 for regression — LOO is free — and 32 for quadrature). ``evaluations=`` fits
+    precomputed training evaluations (any design for regression; the exact
+    :func:`pce_design` nodes for quadrature), optionally with ``validation=`` evaluations.
+    """
+    t0 = time.perf_counter()
+    exclusive_source(model, evaluations, what="polynomial_chaos")
+    check_choice("method", method, METHODS)
+    check_fraction("max_failure_fraction", max_failure_fraction)
+    if isinstance(order, bool) or not isinstance(order, (int, np.integer)) or order < 0:
+        raise StudyError(f"order: must be an integer >= 0, got {order!r}")
+    order = int(order)
+    q_norm = check_fraction("q_norm", q_norm, open_lo=True)
+    names = check_model(model)[0] if model is not None else evaluations.input_names
+    inputs = check_inputs(inputs, names)
+    ss = as_seed_sequence(seed)
+    if n_validation is None:
+        n_validation = 0 if method == "regression" else 32
+    if isinstance(n_validation, bool) or not isinstance(n_validation, (int, np.integer)) or n_validation < 0:
+        raise StudyError(f"n_validation: must be an integer >= 0, got {n_validation!r}")
+    germ = _germ(inputs)
+    alphas = multi_indices(inputs.d, order, q_norm) if method == "regression" else multi_indices(inputs.d, order, 1.0)
+    P = alphas.shape[0]
+    X_design, weights = pce_design(inputs, order=order, method=method, oversampling=oversampling, rule=rule,
+                                   quadrature_rule=quadrature_rule, sparse=sparse, q_norm=q_norm, seed=ss)
+    exe = executor_kwargs(n_jobs, backend, cache, progress, chunk_size)
+    if model is not None:
+        ev = run(model, X_design, exe)
+    else:
+        ev = evaluations
+        if method == "quadrature" and (ev.X.shape != X_design.shape or not np.allclose(ev.X, X_design, rtol=1e-12, atol=0)):
+            raise StudyError("polynomial_chaos: quadrature needs evaluations at exactly pce_design(...) nodes")
+    rec = _recurrences(inputs, germ, order)
+    Z = _to_germ(inputs, ev.X)
+    loo = None
+    if method == "regression":
+        if ev.n_failed > max_failure_fraction * ev.n:
+            raise StudyError(f"polynomial_chaos: {failure_message(ev)}, more than max_failure_fraction={max_failure_fraction}")
+        ok = ev.ok
+        if ok.sum() < P + 1:
+            raise StudyError(
+                f"polynomial_chaos: {int(ok.sum())} successful samples for {P} basis terms; need more than {P} "
+                "(raise oversampling, lower order or q_norm)"
+            )
+        Psi = _basis(Z[ok], alphas, rec, order)
+        Yk = ev.Y[ok]
+        Q, R = np.linalg.qr(Psi)
+        rdiag = np.abs(np.diag(R))
+        if rdiag.min() <= 1e-10 * rdiag.max():
+            raise StudyError(
+                f"polynomial_chaos: the regression matrix is rank deficient (condition ~{rdiag.max() / max(rdiag.min(), 1e-300):.2g}); "
+                "use more or better spread samples (rule='sobol') or a lower order"
+            )
+        coef = np.linalg.solve(R, Q.T @ Yk)
+        h = np.sum(Q**2, axis=1)
+        resid = Yk - Psi @ coef
+        with np.errstate(divide="ignore", invalid="ignore"):
+            loo_res = resid / (1.0 - h)[:, None]
+            var_y = Yk.var(axis=0, ddof=1)
+            loo_vals = np.mean(loo_res**2, axis=0) / var_y
+        loo_vals = np.where(h.max() >= 1 - 1e-12, np.inf, loo_vals)
+        loo = pd.Series(loo_vals, index=ev.output_index, name="loo_error")
+    else:
+        if ev.n_failed:
+            raise StudyError(
+                f"polynomial_chaos: quadrature needs every node; {failure_message(ev)}. "
+                "Use method='regression' (which drops failed samples) or narrow the inputs."
+            )
+        Psi = _basis(Z, alphas, rec, order)
+        coef = (Psi * weights[:, None]).T @ ev.Y
+    val = None
+    val_ev = validation
+    if model is not None and n_validation > 0:
+        Xv = inputs.sample(int(n_validation), "random", child_seed(ss, 1))
+        val_ev = run(model, Xv, exe)
+    if val_ev is not None:
+        okv = val_ev.ok
+        if okv.sum() >= 2:
+            Zv = _to_germ(inputs, val_ev.X[okv])
+            pred = _basis(Zv, alphas, rec, order) @ coef
+            with np.errstate(divide="ignore", invalid="ignore"):
+                val = pd.Series(np.mean((val_ev.Y[okv] - pred) ** 2, axis=0) / val_ev.Y[okv].var(axis=0, ddof=1),
+                                index=ev.output_index, name="validation_error")
+    c2 = coef**2
+    var = c2[1:].sum(axis=0)
+    mean = pd.Series(coef[0], index=ev.output_index, name="mean")
+    std = pd.Series(np.sqrt(var), index=ev.output_index, name="std")
+    s1 = st = None
+    if inputs.independent:
+        active = alphas > 0
+        only = active & (active.sum(axis=1, keepdims=True) == 1)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            S1 = (only.T.astype(float) @ c2) / var  # (d, n_out)
+            ST = (active.T.astype(float) @ c2) / var
+        cols = pd.Index(list(inputs.names), name="input")
+        s1 = pd.DataFrame(S1.T, index=ev.output_index, columns=cols)
+        st = pd.DataFrame(ST.T, index=ev.output_index, columns=cols)
+    prov = make_provenance(
+        method="polynomial_chaos", seed=seed_record(ss), evaluations=[ev, val_ev] if val_ev is not None else [ev],
+        inputs=inputs, wall_time=time.perf_counter() - t0,
+        settings={"order": order, "method": method, "n_terms": P, "n_train": ev.n, "oversampling": oversampling,
+                  "rule": rule if method == "regression" else None,
+                  "quadrature_rule": quadrature_rule if method == "quadrature" else None,
+                  "sparse": sparse, "q_norm": q_norm, "germ": germ, "n_validation": 0 if val_ev is None else val_ev.n,
+                  "failed_samples_dropped": ev.n_failed if method == "regression" else 0},
+    )
+    return PCEResult(readonly(coef), readonly(alphas), order, method, germ, inputs, ev.output_index, mean, std,
+                     s1, st, loo, val, ev, prov, tuple(rec))

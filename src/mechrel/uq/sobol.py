@@ -1,0 +1,229 @@
+"""Variance-based (Sobol') sensitivity indices with SALib (Saltelli sampling + Sobol' analysis).
+
+Design: ``SALib.sample.sobol.sample`` on the unit hypercube (scrambled Sobol' sequence, seeded),
+mapped column-wise through the marginal inverse CDFs, so any marginal of
+:class:`~mechrel.uq.inputs.UncertainInputs` works. The inputs must be independent: Sobol'
+indices of correlated inputs are not the classical decomposition (``StudyError`` otherwise).
+Rows come in blocks, one per base sample: ``A, AB_1 … AB_d, [BA_1 … BA_d,] B`` (``d + 2`` rows,
+``2d + 2`` with second order); ``N`` blocks in total.
+
+Analysis: ``SALib.analyze.sobol.analyze`` per output (first order: Saltelli 2010; total:
+Jansen), with bootstrap confidence intervals (``num_resamples``, ``confidence_level``; the
+``*_conf`` columns are half-widths). SALib's bootstrap is seeded from ``seed``.
+
+Failed samples
+--------------
+A Saltelli block is only usable whole (every estimator combines A, B and AB_j of the same base
+sample). A block containing a failed row (model failure, or a non-finite reduced output) is
+dropped entirely; the number of dropped blocks and the failure reasons are reported in the
+result. If more than ``max_failure_fraction`` of the blocks would be dropped the analysis
+refuses (``StudyError``): dropping blocks conditions the design on "the model works", which
+biases the indices when failures depend on the inputs — only acceptable when rare.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from mechrel.errors import StudyError
+
+from ._common import (
+    check_fraction,
+    check_inputs,
+    exclusive_source,
+    executor_kwargs,
+    failure_message,
+    make_provenance,
+    run,
+)
+from .executor import Evaluations
+from .inputs import UncertainInputs, _check_n, as_seed_sequence, child_seed, seed_record
+from .model import check_model
+
+__all__ = ["sobol_design", "sobol_indices", "SobolResult", "peak_abs"]
+
+
+def peak_abs(Y: np.ndarray, index: pd.Index, level: str = "quantity"):
+    """Reducer: peak |error| over the cycle, one scalar per ``quantity`` (or over all outputs
+    when the index has no such level). Use with ``sobol_indices(reducer=peak_abs)`` or
+    ``Evaluations.reduce(peak_abs)``."""
+    if isinstance(index, pd.MultiIndex) and level in index.names:
+        labels = index.get_level_values(level)
+        uniq = list(dict.fromkeys(labels))
+        Z = np.column_stack([np.max(np.abs(Y[:, np.asarray(labels == u)]), axis=1) for u in uniq])
+        return Z, pd.Index([f"peak_abs_{u}" for u in uniq], name="output")
+    return np.max(np.abs(Y), axis=1)[:, None], pd.Index(["peak_abs"], name="output")
+
+
+def _problem(d: int, names) -> dict:
+    return {"num_vars": d, "names": list(names), "bounds": [[0.0, 1.0]] * d}
+
+
+def _block_size(d: int, calc_second_order: bool) -> int:
+    return 2 * d + 2 if calc_second_order else d + 2
+
+
+def sobol_design(inputs: UncertainInputs, *, n: int, calc_second_order: bool = False, seed: Any = None) -> np.ndarray:
+    """Saltelli design ((d + 2)·n rows, or (2d + 2)·n with second order) for ``inputs``.
+
+    ``n`` is SALib's N (base samples; a power of 2 keeps the Sobol' sequence balanced).
+    """
+    from SALib.sample import sobol as sobol_sample
+
+    inputs = check_inputs(inputs, None)
+    if not inputs.independent:
+        raise StudyError(
+            "sobol_indices: the inputs are correlated; classical Sobol' indices need independent "
+            "inputs (remove the correlation, or study the correlated group as one factor)"
+        )
+    n = _check_n(n, "n", 2)
+    ss = as_seed_sequence(seed)
+    U = sobol_sample.sample(_problem(inputs.d, inputs.names), n, calc_second_order=calc_second_order,
+                            scramble=True, seed=np.random.default_rng(child_seed(ss, 0)))
+    return inputs.from_unit(U)
+
+
+@dataclass(frozen=True, eq=False)
+class SobolResult:
+    """Sobol' indices (frozen). DataFrames are outputs × inputs; ``*_conf`` are CI half-widths."""
+
+    first: pd.DataFrame
+    first_conf: pd.DataFrame
+    total: pd.DataFrame
+    total_conf: pd.DataFrame
+    second: dict | None
+    n_base: int
+    n_blocks_used: int
+    n_blocks_dropped: int
+    failure_counts: dict
+    evaluations: Evaluations
+    provenance: dict = field(repr=False)
+
+    def to_frame(self) -> pd.DataFrame:
+        """Long table indexed by (output…, input) with S1, S1_conf, ST, ST_conf."""
+        parts = {}
+        for col, df in (("S1", self.first), ("S1_conf", self.first_conf), ("ST", self.total), ("ST_conf", self.total_conf)):
+            parts[col] = df.stack()
+        out = pd.DataFrame(parts)
+        names = list(self.first.index.names) + ["input"]
+        out.index = out.index.set_names(names)
+        return out
+
+
+def _check_saltelli(X: np.ndarray, d: int, step: int) -> None:
+    if X.shape[0] % step:
+        raise StudyError(
+            f"sobol_indices: evaluations have {X.shape[0]} rows, not a multiple of the Saltelli block "
+            f"size {step}; evaluate sobol_design(...) with the same calc_second_order"
+        )
+    blocks = X.reshape(-1, step, d)
+    A, B = blocks[:, 0, :], blocks[:, -1, :]
+    for j in range(d):
+        ab = blocks[:, 1 + j, :]
+        expect = A.copy()
+        expect[:, j] = B[:, j]
+        if not np.array_equal(ab, expect):
+            raise StudyError(
+                "sobol_indices: evaluations.X is not a Saltelli design in SALib's block order "
+                "(A, AB_1..AB_d, [BA_1..BA_d], B); evaluate sobol_design(...) unchanged"
+            )
+
+
+def sobol_indices(
+    *,
+    model: Any = None,
+    inputs: UncertainInputs,
+    n: int = 2**13,
+    evaluations: Evaluations | None = None,
+    outputs: Any = None,
+    reducer: Callable | None = None,
+    calc_second_order: bool = False,
+    num_resamples: int = 100,
+    confidence_level: float = 0.95,
+    seed: Any = None,
+    max_failure_fraction: float = 0.05,
+    n_jobs: int = 1,
+    backend: str = "loky",
+    cache: Any = None,
+    progress: bool = False,
+    chunk_size: int | None = None,
+) -> SobolResult:
+    """First- and total-order Sobol' indices per output (SALib), with bootstrap intervals.
+
+    ``model=`` evaluates ``sobol_design(inputs, n=n, calc_second_order=..., seed=seed)``;
+    ``evaluations=`` analyses a precomputed one (checked to be a Saltelli design).
+    ``outputs`` selects outputs (labels, mask or positions) and/or ``reducer`` maps the outputs
+    to scalar measures first (e.g. :func:`peak_abs`, the peak |error| per quantity).
+    """
+    from SALib.analyze import sobol as sobol_analyze
+
+    t0 = time.perf_counter()
+    exclusive_source(model, evaluations, what="sobol_indices")
+    names = check_model(model)[0] if model is not None else evaluations.input_names
+    inputs = check_inputs(inputs, names)
+    check_fraction("confidence_level", confidence_level, open_lo=True, open_hi=True)
+    check_fraction("max_failure_fraction", max_failure_fraction)
+    num_resamples = _check_n(num_resamples, "num_resamples", 2)
+    ss = as_seed_sequence(seed)
+    d = inputs.d
+    step = _block_size(d, calc_second_order)
+    if model is not None:
+        X = sobol_design(inputs, n=n, calc_second_order=calc_second_order, seed=ss)
+        ev = run(model, X, executor_kwargs(n_jobs, backend, cache, progress, chunk_size))
+    else:
+        if not inputs.independent:
+            raise StudyError("sobol_indices: the inputs are correlated; classical Sobol' indices need independent inputs")
+        ev = evaluations
+        _check_saltelli(ev.X, d, step)
+    raw = ev
+    if outputs is not None:
+        ev = ev.select_outputs(outputs)
+    if reducer is not None:
+        ev = ev.reduce(reducer)
+    n_blocks = ev.n // step
+    block_ok = ev.ok.reshape(n_blocks, step).all(axis=1)
+    n_drop = int((~block_ok).sum())
+    if n_drop > max_failure_fraction * n_blocks:
+        raise StudyError(
+            f"sobol_indices: {n_drop} of {n_blocks} Saltelli blocks contain a failed sample "
+            f"({failure_message(ev)}), more than max_failure_fraction={max_failure_fraction}; "
+            "dropping them would bias the indices. Fix the failing region or narrow the inputs."
+        )
+    keep_rows = np.repeat(block_ok, step)
+    Y = ev.Y[keep_rows]
+    n_used = int(block_ok.sum())
+    problem = _problem(d, inputs.names)
+    analyze_seed = int(child_seed(ss, 1).generate_state(1)[0]) + 1  # SALib ignores seed 0
+    res = {k: np.full((Y.shape[1], d), np.nan) for k in ("S1", "S1_conf", "ST", "ST_conf")}
+    second = {"S2": [], "S2_conf": []} if calc_second_order else None
+    for k in range(Y.shape[1]):
+        y = Y[:, k]
+        if np.ptp(y) == 0:
+            continue  # constant output: indices undefined (NaN)
+        r = sobol_analyze.analyze(problem, y, calc_second_order=calc_second_order, num_resamples=num_resamples,
+                                  conf_level=confidence_level, print_to_console=False, seed=analyze_seed)
+        for key in res:
+            res[key][k] = r[key]
+        if second is not None:
+            second["S2"].append(pd.DataFrame(r["S2"], index=list(inputs.names), columns=list(inputs.names)))
+            second["S2_conf"].append(pd.DataFrame(r["S2_conf"], index=list(inputs.names), columns=list(inputs.names)))
+    frames = {key: pd.DataFrame(v, index=ev.output_index, columns=pd.Index(list(inputs.names), name="input"))
+              for key, v in res.items()}
+    prov = make_provenance(
+        method="sobol_indices", seed=seed_record(ss), evaluations=[raw], inputs=inputs,
+        wall_time=time.perf_counter() - t0,
+        settings={"n_base": ev.n // step, "calc_second_order": calc_second_order, "num_resamples": num_resamples,
+                  "confidence_level": confidence_level, "estimators": "SALib: first order Saltelli 2010, total Jansen",
+                  "outputs": None if outputs is None else repr(outputs),
+                  "reducer": None if reducer is None else getattr(reducer, "__name__", repr(reducer)),
+                  "failure_strategy": "drop whole Saltelli blocks with a failed sample",
+                  "n_blocks_dropped": n_drop, "max_failure_fraction": max_failure_fraction},
+    )
+    return SobolResult(frames["S1"], frames["S1_conf"], frames["ST"], frames["ST_conf"], second,
+                       n_blocks, n_used, n_drop, ev.failure_counts(), raw, prov)
