@@ -191,7 +191,10 @@ class Integrator:
 
 
 class RK4(Integrator):
-    """Classical fourth-order Runge–Kutta at a fixed step (the paper's method)."""
+    """Classical fourth-order Runge–Kutta at a fixed step (the paper's method).
+
+    Steps never cross an output instant: a step longer than the output spacing is shortened
+    to land on it, and a step is cut to locate a contact onset."""
 
     name = "rk4"
     adaptive = False

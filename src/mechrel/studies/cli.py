@@ -38,6 +38,17 @@ def _cmd_sensitivity(args) -> int:
     return 0
 
 
+def _cmd_accuracy(args) -> int:
+    from ..scene import load_scene
+    from .accuracy import run_accuracy
+
+    scene = load_scene(args.scene, overrides=args.overrides)
+    lines, _ = run_accuracy(scene, target=args.target, quick=args.quick, out=args.out,
+                            progress=not args.no_progress)
+    print("\n".join(lines))
+    return 0
+
+
 def register_commands(sub) -> None:
     p = sub.add_parser(
         "reliability", help="accuracy reliability of a study (FOSM, Monte Carlo, PCE)",
@@ -57,3 +68,20 @@ def register_commands(sub) -> None:
                     "quantity with respect to the study's uncertain inputs.")
     _study_args(p)
     p.set_defaults(func=_cmd_sensitivity)
+
+    p = sub.add_parser(
+        "accuracy", help="error against wall time of integrator settings on a scene",
+        description="Runs the scene with RK4 step sizes, adaptive and stiff tolerances, "
+                    "measures each against a tight-tolerance reference (pointwise errors, or "
+                    "statistics of the error curves for chaotic dry-contact scenes), prints a "
+                    "table, saves a plot and recommends the fastest setting that meets the "
+                    "target.")
+    p.add_argument("scene", metavar="SCENE", help="embedded scene name or .toml path")
+    p.add_argument("--set", dest="overrides", action="append", default=[],
+                   metavar="PATH=VALUE", help="override a scene value (repeatable)")
+    p.add_argument("--target", type=float, default=0.01,
+                   help="relative error to meet (default 0.01)")
+    p.add_argument("--quick", action="store_true", help="fewer settings")
+    p.add_argument("--out", default="results/accuracy", metavar="DIR")
+    p.add_argument("--no-progress", action="store_true")
+    p.set_defaults(func=_cmd_accuracy)
