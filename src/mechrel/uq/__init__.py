@@ -9,25 +9,54 @@ analyse (:func:`fosm`, :func:`monte_carlo`, :func:`polynomial_chaos`, :func:`sob
 See ``docs/uq.md``.
 """
 
-from .analytic import ishigami, ishigami_indices, ishigami_inputs, ishigami_model, linear_model
-from .cache import EvaluationCache
-from .executor import BACKENDS, Evaluations, evaluate
-from .fosm import FOSMResult, fd_steps, fosm, fosm_design
-from .inputs import SAMPLING_RULES, LogNormal, Normal, TruncNormal, UncertainInputs, Uniform, child_seed
-from .model import FunctionModel, Model, ModelFailure
-from .montecarlo import MonteCarloResult, monte_carlo, monte_carlo_design
-from .normality import NormalityResult, normality_check
-from .pce import PCEResult, multi_indices, pce_design, polynomial_chaos
-from .reliability import (
-    DEFAULT_ALLOWABLES,
-    FORMS,
-    Allowable,
-    binomial_interval,
-    bivariate_normal_cdf,
-    reliability_one_sided,
-    reliability_two_sided,
-)
-from .sobol import SobolResult, peak_abs, sobol_design, sobol_indices
+import importlib
+from typing import TYPE_CHECKING
+
+# Public name -> submodule. Imports are lazy (PEP 562) so that a worker process unpickling a
+# model (which imports ``mechrel.uq.model``) does not pay for scipy.stats, chaospy and SALib.
+_EXPORTS = {
+    "analytic": ["ishigami", "ishigami_indices", "ishigami_inputs", "ishigami_model", "linear_model"],
+    "cache": ["EvaluationCache"],
+    "executor": ["BACKENDS", "Evaluations", "evaluate"],
+    "first_order": ["FOSMResult", "fd_steps", "fosm", "fosm_design"],
+    "inputs": ["SAMPLING_RULES", "LogNormal", "Normal", "TruncNormal", "UncertainInputs", "Uniform", "child_seed"],
+    "model": ["FunctionModel", "Model", "ModelFailure"],
+    "montecarlo": ["MonteCarloResult", "monte_carlo", "monte_carlo_design"],
+    "normality": ["NormalityResult", "normality_check"],
+    "pce": ["PCEResult", "multi_indices", "pce_design", "polynomial_chaos"],
+    "reliability": ["DEFAULT_ALLOWABLES", "FORMS", "Allowable", "binomial_interval", "bivariate_normal_cdf",
+                    "reliability_one_sided", "reliability_two_sided"],
+    "sobol": ["SobolResult", "peak_abs", "sobol_design", "sobol_indices"],
+}
+_WHERE = {name: mod for mod, names in _EXPORTS.items() for name in names}
+
+
+def __getattr__(name: str):
+    mod = _WHERE.get(name)
+    if mod is None:
+        raise AttributeError(f"module 'mechrel.uq' has no attribute {name!r}")
+    value = getattr(importlib.import_module(f".{mod}", __name__), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__():
+    return sorted(set(globals()) | set(_WHERE))
+
+
+if TYPE_CHECKING:  # pragma: no cover
+    from .analytic import ishigami, ishigami_indices, ishigami_inputs, ishigami_model, linear_model
+    from .cache import EvaluationCache
+    from .executor import BACKENDS, Evaluations, evaluate
+    from .first_order import FOSMResult, fd_steps, fosm, fosm_design
+    from .inputs import SAMPLING_RULES, LogNormal, Normal, TruncNormal, UncertainInputs, Uniform, child_seed
+    from .model import FunctionModel, Model, ModelFailure
+    from .montecarlo import MonteCarloResult, monte_carlo, monte_carlo_design
+    from .normality import NormalityResult, normality_check
+    from .pce import PCEResult, multi_indices, pce_design, polynomial_chaos
+    from .reliability import (DEFAULT_ALLOWABLES, FORMS, Allowable, binomial_interval, bivariate_normal_cdf,
+                              reliability_one_sided, reliability_two_sided)
+    from .sobol import SobolResult, peak_abs, sobol_design, sobol_indices
 
 __all__ = [
     # problem

@@ -392,7 +392,7 @@ class UncertainInputs:
         if off.size and np.max(np.abs(off)) >= 1:
             i, j = np.argwhere((np.abs(c) >= 1) & ~np.eye(d, dtype=bool))[0]
             raise StudyError(
-                f"inputs.correlation[{self.names[i]!r}, {self.names[j]!r}]: got {c[i, j]!r}; "
+                f"inputs.correlation[{self.names[i]!r}, {self.names[j]!r}]: got {float(c[i, j])!r}; "
                 "allowed: -1 < rho < 1"
             )
         if np.linalg.eigvalsh(c).min() <= 0:

@@ -34,7 +34,7 @@ from scipy import stats
 from mechrel.errors import StudyError
 
 from ._common import check_fraction, make_provenance, resolve_outputs_safe
-from .fosm import FOSMResult
+from .first_order import FOSMResult
 from .montecarlo import MonteCarloResult, reliability_from_samples
 from .reliability import reliability_one_sided, reliability_two_sided
 

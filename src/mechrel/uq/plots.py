@@ -60,7 +60,7 @@ def plot_reliability(result: Any, *, what: str = "reliability", axes: Any = None
     for a FOSM or Monte Carlo result (MC: with its confidence band; its β is Φ⁻¹(R))."""
     from scipy import special
 
-    from .fosm import FOSMResult
+    from .first_order import FOSMResult
     from .montecarlo import MonteCarloResult
 
     if what not in ("reliability", "beta"):
