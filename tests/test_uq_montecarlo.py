@@ -1,0 +1,193 @@
+"""Monte Carlo reliability: agreement with closed forms inside its intervals, whole-cycle
+property, failures, intervals."""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+from scipy import special
+
+from mechrel.errors import StudyError
+from mechrel.uq import (
+    Allowable,
+    Evaluations,
+    FunctionModel,
+    ModelFailure,
+    Normal,
+    UncertainInputs,
+    binomial_interval,
+    evaluate,
+    linear_model,
+    monte_carlo,
+    monte_carlo_design,
+    reliability_one_sided,
+    reliability_two_sided,
+)
+
+# z = 4: a correct estimator falls outside its interval with probability 6e-5 per quantity, so
+# the test is not flaky, yet the intervals (half-width ≈ 4·sqrt(R(1−R)/n)) stay narrow enough
+# to reject the wrong form or the wrong allowable model (checked below).
+Z4 = 1 - 2 * special.ndtr(-4.0)
+
+INPUTS = UncertainInputs.from_specs({"x0": Normal(0.0, 1.0), "x1": Normal(1.0, 0.5)}, correlation={("x0", "x1"): 0.4})
+A0 = np.array([0.1, -0.5])
+B = np.array([[0.5, 0.0], [0.2, 0.3]])
+ALLOW = Allowable(1.0, 0.3)
+
+
+def _exact():
+    cov = INPUTS.covariance
+    mu = A0 + B @ INPUTS.mean
+    sd = np.sqrt(np.diag(B @ cov @ B.T))
+    return mu, sd
+
+
+def _model():
+    return linear_model(A0, B, INPUTS.names)
+
+
+@pytest.mark.parametrize("rule", ["random", "latin_hypercube", "sobol"])
+def test_linear_normal_model_within_intervals(rule):
+    """A linear model of normal inputs has a normal error, so the interference formulas are
+    exact: MC must contain them in its z = 4 intervals; mean and std too."""
+    n = 4096
+    mu, sd = _exact()
+    r1 = reliability_one_sided(mu, sd, ALLOW.mean, ALLOW.std)[1]
+    r2 = reliability_two_sided(mu, sd, ALLOW.mean, ALLOW.std)[2]
+    for form, exact, other in (("two-sided", r2, r1), ("one-sided", r1, r2)):
+        res = monte_carlo(model=_model(), inputs=INPUTS, n=n, rule=rule, seed=2024, allowable=ALLOW,
+                          form=form, confidence_level=Z4)
+        t = res.table
+        assert np.all((t["reliability_lo"] <= exact) & (exact <= t["reliability_hi"])), (t, exact)
+        assert np.all((t["mean_lo"] <= mu) & (mu <= t["mean_hi"]))
+        assert np.all((t["std_lo"] <= sd) & (sd <= t["std_hi"]))
+        # discrimination: output 0 has μ_i ≈ 0, so the two forms differ by P(i < −I) ≈ 0.03,
+        # more than the interval half-width (≈ 0.015): a wrong form would fail this test
+        assert not (t["reliability_lo"].iloc[0] <= other[0] <= t["reliability_hi"].iloc[0])
+        assert res.provenance["settings"]["rule"] == rule
+
+
+def test_fixed_allowable_mode_is_an_allowable_with_zero_std():
+    n = 2000
+    a = monte_carlo(model=_model(), inputs=INPUTS, n=n, seed=5, allowable=ALLOW, allowable_mode="fixed")
+    b = monte_carlo(model=_model(), inputs=INPUTS, n=n, seed=5, allowable=Allowable(1.0, 0.0))
+    pd.testing.assert_frame_equal(a.table.drop(columns="sigma_I"), b.table.drop(columns="sigma_I"))
+    mu, sd = _exact()
+    exact = reliability_two_sided(mu, sd, 1.0, 0.0)[2]
+    t = monte_carlo(model=_model(), inputs=INPUTS, n=n, seed=5, allowable=ALLOW, allowable_mode="fixed",
+                    confidence_level=Z4).table
+    assert np.all((t["reliability_lo"] <= exact) & (exact <= t["reliability_hi"]))
+
+
+def test_precomputed_evaluations_reproduce_the_model_run():
+    X = monte_carlo_design(INPUTS, n=500, rule="latin_hypercube", seed=9)
+    ev = evaluate(_model(), X, progress=False)
+    a = monte_carlo(model=_model(), inputs=INPUTS, n=500, rule="latin_hypercube", seed=9, allowable=ALLOW)
+    b = monte_carlo(evaluations=ev, seed=9, allowable=ALLOW)
+    pd.testing.assert_frame_equal(a.table, b.table)
+    pd.testing.assert_frame_equal(a.whole_cycle, b.whole_cycle)
+
+
+@st.composite
+def _data(draw):
+    n = draw(st.integers(2, 40))
+    n_ang = draw(st.integers(1, 4))
+    quantities = draw(st.lists(st.sampled_from(["displacement", "velocity", "acceleration"]), min_size=1,
+                               max_size=3, unique=True))
+    idx = pd.MultiIndex.from_product([quantities, np.arange(n_ang) * 90.0], names=["quantity", "crank_angle"])
+    Y = draw(st.lists(st.lists(st.floats(-3, 3, allow_nan=False), min_size=len(idx), max_size=len(idx)),
+                      min_size=n, max_size=n))
+    allow = {q: Allowable(draw(st.floats(0.05, 3.0)), draw(st.sampled_from([0.0, 0.1, 1.0]))) for q in quantities}
+    form = draw(st.sampled_from(["one-sided", "two-sided"]))
+    mode = draw(st.sampled_from(["sampled", "fixed"]))
+    seed = draw(st.integers(0, 2**32 - 1))
+    return np.array(Y), idx, allow, form, mode, seed
+
+
+@settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(_data())
+def test_whole_cycle_never_exceeds_the_smallest_point_reliability(data):
+    Y, idx, allow, form, mode, seed = data
+    ev = Evaluations.from_arrays(np.zeros((Y.shape[0], 1)), Y, output_index=idx)
+    res = monte_carlo(evaluations=ev, allowable=allow, form=form, allowable_mode=mode, seed=seed)
+    point = res.table["reliability"]
+    wc = res.whole_cycle["reliability"]
+    for q in idx.get_level_values("quantity").unique():
+        assert wc[q] <= point.loc[q].min() + 1e-15
+        assert wc["all"] <= wc[q] + 1e-15
+    assert wc["all"] <= point.min() + 1e-15
+    # two-sided is the stricter event, sample by sample (same allowable draws)
+    if form == "one-sided":
+        two = monte_carlo(evaluations=ev, allowable=allow, form="two-sided", allowable_mode=mode, seed=seed)
+        assert np.all(two.table["reliability"] <= point + 1e-15)
+
+
+def _fails_in_a_region(x):
+    if x[0] > 1.5:
+        raise ModelFailure("assembly failed: links cannot close")
+    if x[0] < -2.0:
+        raise ModelFailure("integrator step size underflow")
+    return np.array([0.2 * x[0] + 0.1 * x[1]])
+
+
+def test_failing_region_is_counted_with_reasons_and_the_run_finishes():
+    inputs = UncertainInputs.from_specs({"x0": Normal(0.0, 1.0), "x1": Normal(0.0, 1.0)})
+    m = FunctionModel(_fails_in_a_region, inputs.names, ["y"])
+    res = monte_carlo(model=m, inputs=inputs, n=2000, seed=1, allowable=Allowable(0.3, 0.0))
+    ev = res.evaluations
+    n_lock = int(np.sum(ev.X[:, 0] > 1.5))
+    n_under = int(np.sum(ev.X[:, 0] < -2.0))
+    assert n_lock > 0 and n_under > 0
+    assert res.n_failed == n_lock + n_under == ev.n_failed
+    assert res.failure_counts == {"assembly failed: links cannot close": n_lock,
+                                  "integrator step size underflow": n_under}
+    assert np.all(np.isnan(ev.Y[~ev.ok])) and np.all(np.isfinite(ev.Y[ev.ok]))
+    assert res.table["n"].iloc[0] == 2000 - res.n_failed  # excluded, not silently counted
+    assert list(ev.failures()["reason"].unique()) != []
+    # conservative alternative: failures count as violations
+    cons = monte_carlo(model=m, inputs=inputs, n=2000, seed=1, allowable=Allowable(0.3, 0.0), failures="as_violation")
+    assert cons.table["n"].iloc[0] == 2000
+    assert cons.table["reliability"].iloc[0] < res.table["reliability"].iloc[0]
+    # refuse above the threshold, with the reasons in the message
+    with pytest.raises(StudyError, match=r"monte_carlo: \d+ of 2000 samples failed \(\d+× assembly failed"):
+        monte_carlo(model=m, inputs=inputs, n=2000, seed=1, allowable=Allowable(0.3, 0.0), max_failure_fraction=0.01)
+
+
+def test_binomial_intervals():
+    # Clopper–Pearson with k = 0: upper = 1 − (α/2)^(1/n) exactly
+    lo, hi = binomial_interval(0, 10, method="clopper-pearson")
+    assert lo == 0 and hi == pytest.approx(1 - 0.025 ** (1 / 10), rel=1e-12)
+    # Wilson: closed form for k = n: lower = n/(n + z²)
+    z = 1.959963984540054
+    lo, hi = binomial_interval(50, 50)
+    assert hi == 1 and lo == pytest.approx(50 / (50 + z * z), rel=1e-12)
+    with pytest.raises(StudyError, match=r"ci_method: got 'agresti'"):
+        binomial_interval(1, 10, method="agresti")
+
+
+def test_argument_validation_messages():
+    m = _model()
+    with pytest.raises(StudyError, match=r"allowable_mode: got 'random'; allowed: \['sampled', 'fixed'\]"):
+        monte_carlo(model=m, inputs=INPUTS, n=10, allowable=ALLOW, allowable_mode="random")
+    with pytest.raises(StudyError, match=r"rule: got 'lhs'; allowed: \['random', 'latin_hypercube', 'sobol'\]"):
+        monte_carlo(model=m, inputs=INPUTS, n=10, rule="lhs", allowable=ALLOW)
+    with pytest.raises(StudyError, match=r"confidence_level: got 1\.5; allowed: a number in \(0\.0, 1\.0\)"):
+        monte_carlo(model=m, inputs=INPUTS, n=10, allowable=ALLOW, confidence_level=1.5)
+    with pytest.raises(StudyError, match=r"n: must be an integer >= 1, got None"):
+        monte_carlo(model=m, inputs=INPUTS, allowable=ALLOW)
+    with pytest.raises(StudyError, match=r"failures: got 'ignore'; allowed: \['exclude', 'as_violation'\]"):
+        monte_carlo(model=m, inputs=INPUTS, n=10, allowable=ALLOW, failures="ignore")
+    bad = UncertainInputs.from_specs({"x0": Normal(0, 1), "zz": Normal(0, 1)})
+    with pytest.raises(StudyError, match=r"inputs: names must match the model's input_names; missing \['x1'\]"):
+        monte_carlo(model=m, inputs=bad, n=10, allowable=ALLOW)
+
+
+def test_seed_none_is_recorded_and_replayable():
+    a = monte_carlo(model=_model(), inputs=INPUTS, n=300, allowable=ALLOW)
+    entropy = a.provenance["seed"]["entropy"]
+    b = monte_carlo(model=_model(), inputs=INPUTS, n=300, allowable=ALLOW, seed=entropy)
+    pd.testing.assert_frame_equal(a.table, b.table)
+    assert set(a.provenance) >= {"seed", "n_model_evaluations", "wall_time", "versions", "model_cache_key", "settings"}
