@@ -45,8 +45,7 @@ def run_reliability(study, *, methods=None, n=None, n_jobs=1, seed=None, out=Non
                     progress=True, cache=True, backend="loky"):
     """Run the study's reliability methods; write ``reliability.csv``, ``whole_cycle.csv``,
     ``reliability.png`` and ``summary.json`` to ``out``. Returns (summary lines, results)."""
-    from ..uq.fosm import fosm
-    from ..uq.montecarlo import monte_carlo
+    from ..uq import fosm, monte_carlo
 
     start = time.perf_counter()
     cfg = dict(study.reliability)
@@ -78,12 +77,32 @@ def run_reliability(study, *, methods=None, n=None, n_jobs=1, seed=None, out=Non
         results["mc"] = r
         frames.append(r.to_frame().add_prefix("mc."))
     if "pce" in methods:
-        from ..uq import pce as _pce
-        r = _pce.polynomial_chaos(model=model, inputs=inputs, order=cfg.get("pce_order", 2),
-                                  seed=seed, allowable=allow, form=form, **common)
+        from ..uq import polynomial_chaos
+        r = polynomial_chaos(model=model, inputs=inputs, order=int(cfg.get("pce_order", 2)),
+                             seed=seed, **common)
         results["pce"] = r
         frames.append(r.to_frame().add_prefix("pce."))
+        surrogate = r.reliability(n=100_000, rule="sobol", seed=seed, allowable=allow,
+                                  form=form)
+        results["pce_reliability"] = surrogate
+        frames.append(surrogate.to_frame()[["reliability", "reliability_lo", "reliability_hi"]]
+                      .add_prefix("pce_surrogate."))
+    if "fosm" in results and "mc" in results:
+        from ..uq import normality_check
+        results["normality"] = normality_check(fosm=results["fosm"], monte_carlo=results["mc"])
+        frames.append(results["normality"].to_frame().add_prefix("normality."))
     table = pd.concat(frames, axis=1) if frames else pd.DataFrame()
+    if "pce" in results:
+        loo = results["pce"].loo_error
+        if loo is not None:
+            lines.append(f"  PCE order {results['pce'].order}: max leave-one-out error "
+                         f"{float(loo.max()):.3g} (relative)")
+    if "normality" in results:
+        nt = results["normality"].to_frame()
+        flag = [c for c in nt.columns if "flag" in c]
+        if flag:
+            lines.append(f"  normality check: FOSM's normal assumption flagged at "
+                         f"{int(nt[flag[0]].sum())} of {len(nt)} (quantity, angle) points")
     for q in study.quantities:
         parts = [f"  {q:13s}"]
         if "fosm" in results:
@@ -107,7 +126,8 @@ def run_reliability(study, *, methods=None, n=None, n_jobs=1, seed=None, out=Non
         lines.append(f"  Monte Carlo: {mc.evaluations.X.shape[0]} samples ({rule}), "
                      f"{mc.n_failed} failed" + (f": {mc.failure_counts}" if mc.n_failed else ""))
     wall = time.perf_counter() - start
-    n_calls = sum(int(getattr(r.evaluations, "n_model_calls", 0)) for r in results.values())
+    n_calls = sum(int(getattr(getattr(r, "evaluations", None), "n_model_calls", 0))
+                  for k, r in results.items() if k in ("fosm", "mc", "pce"))
     lines.append(f"  {n_calls} model evaluations in {wall:.1f} s (n_jobs = {n_jobs})")
     if out:
         write_table(table.reset_index(), out / "reliability.csv")
@@ -156,7 +176,7 @@ def run_sensitivity(study, *, n=None, n_jobs=1, seed=None, out=None, progress=Tr
                     cache=True, backend="loky"):
     """Sobol indices (SALib) of the peak |error| over the cycle per quantity with respect to
     the study's inputs; writes ``sensitivity.csv`` (ranked) and ``sensitivity.png``."""
-    from ..uq.sobol import peak_abs, sobol_indices
+    from ..uq import peak_abs, sobol_indices
 
     start = time.perf_counter()
     cfg = dict(study.sensitivity)

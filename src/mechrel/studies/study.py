@@ -54,14 +54,14 @@ class Study:
 
     def uncertain_inputs(self):
         """The :class:`~mechrel.uq.inputs.UncertainInputs` of this study."""
-        from ..uq.inputs import UncertainInputs
+        from ..uq import UncertainInputs
         corr = self.correlation
         if isinstance(corr, Mapping):
             corr = {tuple(k.split(",")): v for k, v in corr.items()}
         return UncertainInputs.from_specs(dict(self.inputs), correlation=corr)
 
     def allowables(self):
-        from ..uq.reliability import Allowable
+        from ..uq import Allowable
         return {q: Allowable(*self.allowable[q]) for q in self.quantities}
 
 
