@@ -15,28 +15,52 @@ UNITS = {"displacement": "m", "velocity": "m/s", "acceleration": "m/s²"}
 
 
 def _plot_reliability(fosm_t, mc_t, quantities, title, path):
+    """Per quantity: the reliability index (left, as the paper's figures) and the probability
+    of exceeding the allowable, 1 − R, on a log scale (right), where differences between
+    methods near R = 1 are visible. Monte Carlo shows its confidence interval; a point with no
+    observed failure shows only its upper bound (▼)."""
     import matplotlib
     matplotlib.use("Agg", force=False)
     import matplotlib.pyplot as plt
+    from scipy.stats import norm
 
-    fig, axes = plt.subplots(len(quantities), 1, figsize=(8, 2.6 * len(quantities) + 0.6),
-                             sharex=True, constrained_layout=True)
-    axes = np.atleast_1d(axes)
-    for ax, q in zip(axes, quantities):
+    fig, axes = plt.subplots(len(quantities), 2, figsize=(11, 2.7 * len(quantities) + 0.6),
+                             sharex=True, constrained_layout=True, squeeze=False)
+    floor = 1e-7
+    for row, q in zip(axes, quantities):
+        ax_b, ax_p = row
         if fosm_t is not None:
             f = fosm_t.xs(q, level="quantity")
-            ax.plot(f.index, f["reliability"], "o-", ms=4, label="FOSM")
+            ax_b.plot(f.index, f["beta_generalized"], "o-", ms=4, label="FOSM")
+            ax_p.semilogy(f.index, np.maximum(1 - f["reliability"], floor), "o-", ms=4,
+                          label="FOSM")
         if mc_t is not None:
             m = mc_t.xs(q, level="quantity")
-            ax.fill_between(m.index, m["reliability_lo"], m["reliability_hi"], alpha=0.25,
-                            color="C1", label="MC 95 % interval")
-            ax.plot(m.index, m["reliability"], "s--", ms=3, color="C1", label="Monte Carlo")
-        ax.set_ylabel(f"R ({q})")
-        ax.grid(alpha=0.3)
-        ax.legend(fontsize=8, loc="lower left")
-    axes[-1].set_xlabel("crank angle (deg)")
-    axes[-1].set_xticks(np.arange(0, 361, 36))
-    axes[0].set_title(title)
+            pf = 1 - m["reliability"]
+            hi, lo = 1 - m["reliability_lo"], 1 - m["reliability_hi"]
+            ax_p.fill_between(m.index, np.maximum(lo, floor), np.maximum(hi, floor),
+                              color="C1", alpha=0.25, label="MC 95 % interval")
+            seen = pf > 0
+            ax_p.semilogy(m.index[seen], pf[seen], "s--", ms=3, color="C1", label="Monte Carlo")
+            ax_p.plot(m.index[~seen], hi[~seen], "v", ms=5, color="C1",
+                      label="MC upper bound (no failure seen)" if (~seen).any() else None)
+            beta_mc = norm.ppf(np.clip(m["reliability"], 0, 1 - floor))
+            ax_b.plot(m.index[seen], beta_mc[seen], "s--", ms=3, color="C1",
+                      label="Monte Carlo")
+            ax_b.fill_between(m.index, norm.ppf(np.clip(m["reliability_lo"], floor, 1 - floor)),
+                              norm.ppf(np.clip(m["reliability_hi"], floor, 1 - floor)),
+                              color="C1", alpha=0.2)
+        ax_b.set_ylabel(f"β ({q})")
+        ax_p.set_ylabel(f"1 − R ({q})")
+        for ax in row:
+            ax.grid(alpha=0.3, which="both")
+        ax_p.legend(fontsize=7, loc="best")
+    for ax in axes[-1]:
+        ax.set_xlabel("crank angle (deg)")
+        ax.set_xticks(np.arange(0, 361, 36))
+    axes[0][0].set_title("reliability index Φ⁻¹(R)")
+    axes[0][1].set_title("probability of exceeding the allowable")
+    fig.suptitle(title)
     fig.savefig(path, dpi=130)
     plt.close(fig)
 
