@@ -123,6 +123,38 @@ def _basis(xi: np.ndarray, alphas: np.ndarray, rec, order: int) -> np.ndarray:
     return Psi
 
 
+def _least_squares(Psi: np.ndarray, Y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Coefficients and leverages h_ii of the least-squares fit Ψc ≈ Y.
+
+    Normal equations via Cholesky (G = ΨᵀΨ = LLᵀ, W = L⁻¹Ψᵀ, c = L⁻ᵀWY, h = column norms² of
+    W): for an orthonormal basis on a well-spread design cond(Ψ) is O(1–100), so squaring it
+    costs nothing in accuracy, and it is several times faster than Householder QR with
+    multithreaded BLAS on a busy machine. Falls back to QR when G is ill-conditioned
+    (cond(G) > 1e10), and refuses a rank-deficient design.
+    """
+    from scipy import linalg
+
+    G = Psi.T @ Psi
+    try:
+        L = np.linalg.cholesky(G)
+        dl = np.abs(np.diag(L))
+        good = (dl.min() / dl.max()) ** 2 > 1e-10
+    except np.linalg.LinAlgError:
+        good = False
+    if good:
+        W = linalg.solve_triangular(L, Psi.T, lower=True, check_finite=False)
+        coef = linalg.solve_triangular(L.T, W @ Y, lower=False, check_finite=False)
+        return coef, np.sum(W**2, axis=0)
+    Q, R = np.linalg.qr(Psi)
+    rdiag = np.abs(np.diag(R))
+    if rdiag.min() <= 1e-10 * rdiag.max():
+        raise StudyError(
+            f"polynomial_chaos: the regression matrix is rank deficient (condition ~{rdiag.max() / max(rdiag.min(), 1e-300):.2g}); "
+            "use more or better spread samples (rule='sobol') or a lower order"
+        )
+    return np.linalg.solve(R, Q.T @ Y), np.sum(Q**2, axis=1)
+
+
 def _germ(inputs: UncertainInputs) -> str:
     return "inputs" if inputs.independent else "standard_normal"
 
@@ -314,15 +346,7 @@ def polynomial_chaos(
             )
         Psi = _basis(Z[ok], alphas, rec, order)
         Yk = ev.Y[ok]
-        Q, R = np.linalg.qr(Psi)
-        rdiag = np.abs(np.diag(R))
-        if rdiag.min() <= 1e-10 * rdiag.max():
-            raise StudyError(
-                f"polynomial_chaos: the regression matrix is rank deficient (condition ~{rdiag.max() / max(rdiag.min(), 1e-300):.2g}); "
-                "use more or better spread samples (rule='sobol') or a lower order"
-            )
-        coef = np.linalg.solve(R, Q.T @ Yk)
-        h = np.sum(Q**2, axis=1)
+        coef, h = _least_squares(Psi, Yk)
         resid = Yk - Psi @ coef
         with np.errstate(divide="ignore", invalid="ignore"):
             loo_res = resid / (1.0 - h)[:, None]

@@ -77,7 +77,9 @@ def plot_reliability(result: Any, *, what: str = "reliability", axes: Any = None
             y = t["reliability"].to_numpy()[pos]
         else:
             y = t["beta_generalized"].to_numpy()[pos] if not is_mc else special.ndtri(t["reliability"].to_numpy()[pos])
-        label = ("Monte Carlo" if is_mc else f"FOSM") + f" ({result.form})"
+        label = ("Monte Carlo" if is_mc else "FOSM") + f" ({result.form})"
+        if what == "beta" and (is_mc or result.form == "two-sided"):
+            label += ", Φ⁻¹(R)"
         ax.plot(x, y, "o-" if is_mc else "s-", ms=4, label=label)
         if is_mc:
             lo, hi = t["reliability_lo"].to_numpy()[pos], t["reliability_hi"].to_numpy()[pos]
@@ -140,11 +142,20 @@ def plot_qq(normality: Any, output: Any, *, ax: Any = None):
         unit = f" ({UNITS[output[0]]})"
     ax.set_xlabel(f"FOSM normal quantile{unit}")
     ax.set_ylabel(f"Monte Carlo error quantile{unit}")
-    ax.set_title(f"{output}: KS p={row['ks_pvalue']:.2g}, AD p={row['ad_pvalue']:.2g}", fontsize=9)
+    ax.set_title(f"{_label(normality.table.index, output)}: KS p={row['ks_pvalue']:.2g}, "
+                 f"AD p={row['ad_pvalue']:.2g}", fontsize=9)
     ax.grid(alpha=0.3)
     ax.legend(fontsize=8)
     fig.tight_layout()
     return fig
+
+
+def _label(index: pd.Index, output: Any) -> str:
+    lbl = index[_pos(index, output)]
+    if isinstance(lbl, tuple) and isinstance(index, pd.MultiIndex) and "crank_angle" in index.names:
+        parts = [f"{v:g}°" if n == "crank_angle" else str(v) for n, v in zip(index.names, lbl)]
+        return " at ".join(parts)
+    return str(lbl)
 
 
 def _pos(index: pd.Index, output: Any) -> int:
@@ -186,7 +197,7 @@ def plot_sobol(result: Any, output: Any = None, *, ax: Any = None):
     ax.set_xticks(x, names, rotation=30 if max(len(n) for n in names) > 8 else 0, ha="right" if max(len(n) for n in names) > 8 else "center")
     ax.set_ylabel("Sobol' index (share of variance)")
     ax.set_ylim(min(0.0, float(np.nanmin(s1.iloc[k]) - 0.05)), 1.05)
-    ax.set_title(f"{label} — {src}", fontsize=9)
+    ax.set_title(f"{_label(s1.index, k)} — {src}", fontsize=9)
     ax.grid(axis="y", alpha=0.3)
     ax.legend(fontsize=8)
     fig.tight_layout()

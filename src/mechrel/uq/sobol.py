@@ -139,7 +139,7 @@ def sobol_indices(
     *,
     model: Any = None,
     inputs: UncertainInputs,
-    n: int = 2**13,
+    n: int | None = None,
     evaluations: Evaluations | None = None,
     outputs: Any = None,
     reducer: Callable | None = None,
@@ -156,8 +156,9 @@ def sobol_indices(
 ) -> SobolResult:
     """First- and total-order Sobol' indices per output (SALib), with bootstrap intervals.
 
-    ``model=`` evaluates ``sobol_design(inputs, n=n, calc_second_order=..., seed=seed)``;
-    ``evaluations=`` analyses a precomputed one (checked to be a Saltelli design).
+    ``model=`` evaluates ``sobol_design(inputs, n=n, calc_second_order=..., seed=seed)``
+    (``n`` base samples, default 2¹³); ``evaluations=`` analyses a precomputed one (checked to
+    be a Saltelli design; ``n``, if given, must match it).
     ``outputs`` selects outputs (labels, mask or positions) and/or ``reducer`` maps the outputs
     to scalar measures first (e.g. :func:`peak_abs`, the peak |error| per quantity).
     """
@@ -174,13 +175,18 @@ def sobol_indices(
     d = inputs.d
     step = _block_size(d, calc_second_order)
     if model is not None:
-        X = sobol_design(inputs, n=n, calc_second_order=calc_second_order, seed=ss)
+        X = sobol_design(inputs, n=2**13 if n is None else n, calc_second_order=calc_second_order, seed=ss)
         ev = run(model, X, executor_kwargs(n_jobs, backend, cache, progress, chunk_size))
     else:
         if not inputs.independent:
             raise StudyError("sobol_indices: the inputs are correlated; classical Sobol' indices need independent inputs")
         ev = evaluations
         _check_saltelli(ev.X, d, step)
+        if n is not None and ev.n != n * step:
+            raise StudyError(
+                f"sobol_indices: n={n} base samples need {n * step} rows, evaluations have {ev.n} "
+                f"({ev.n // step} blocks); pass n=None or the n used for sobol_design"
+            )
     raw = ev
     if outputs is not None:
         ev = ev.select_outputs(outputs)
