@@ -1,0 +1,221 @@
+"""Integrators against the kinematic analysis, conservation, convergence orders and each other.
+
+The closed-form slider-crank kinematics (x(θ) and its time derivatives) is tested in
+tests/test_kinematics.py; here the kinematic analysis is the reference for forward dynamics.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from mechrel.errors import SimulationError
+from mechrel.integrate import INTEGRATORS, Radau
+from mechrel.integrate.radau import lu_factor, lu_solve
+from mechrel.scene import load_scene, with_overrides
+from mechrel.simulation import simulate
+
+
+@pytest.fixture(scope="module")
+def slider_crank():
+    scene = load_scene("slider-crank")
+    return scene, simulate(scene)
+
+
+@pytest.fixture(scope="module")
+def pendulum():
+    return load_scene("double-pendulum")
+
+
+def _tip(res, quantity="displacement"):
+    return np.stack([res.outputs["tip_x"][quantity], res.outputs["tip_y"][quantity]])
+
+
+def _slope(x, y):
+    return float(np.polyfit(np.log(x), np.log(y), 1)[0])
+
+
+# Settings per integrator for the driven slider-crank (5000 rpm, one cycle, outputs every 1°,
+# i.e. every 3.3e-5 s). Measured errors (position / acceleration / |Φ|) in parentheses; the
+# thresholds 1e-6 / 1e-4 / 1e-8 leave a margin of at least 100 on each.
+#  rk4 at the output interval (2e-9 / 8e-10 / 2e-10): the step that samples the cycle;
+#  dopri5 1e-10, 1e-12 (5e-11 / 6e-11 / 6e-13);
+#  radau 1e-9, 1e-12 (6e-9 / 4e-9 / 2e-12), RADAU5's tolerance convention (global error ~ rtol);
+#  scipy-radau, bdf, lsoda 1e-9, 1e-12 (≤ 5e-9 / 4e-9 / 3e-10): one decade looser than the
+#  compiled methods because every step of these crosses from Python into compiled code.
+DYNAMICS_SETTINGS = {
+    "rk4": {},  # step: the scene's output interval, set in the test
+    "dopri5": {"rtol": 1e-10, "atol": 1e-12},
+    "radau": {"rtol": 1e-9, "atol": 1e-12},
+    "scipy-radau": {"rtol": 1e-9, "atol": 1e-12},
+    "bdf": {"rtol": 1e-9, "atol": 1e-12},
+    "lsoda": {"rtol": 1e-9, "atol": 1e-12},
+}
+
+
+def test_every_registered_integrator_is_covered():
+    assert set(DYNAMICS_SETTINGS) == set(INTEGRATORS)
+
+
+@pytest.mark.parametrize("integrator", sorted(DYNAMICS_SETTINGS))
+def test_slider_crank_dynamics_equals_kinematics(slider_crank, integrator):
+    scene, kin = slider_crank
+    settings = dict(DYNAMICS_SETTINGS[integrator])
+    if integrator == "rk4":
+        settings["step"] = scene.analysis_sample_step
+    res = simulate(scene, method="dynamics", integrator=integrator, **settings)
+    assert res.method == "dynamics" and res.stats["status"] == "ok"
+    assert res.stats["integrator"] == integrator
+    x, xk = res.outputs["slider"]["displacement"], kin.outputs["slider"]["displacement"]
+    a, ak = res.outputs["slider"]["acceleration"], kin.outputs["slider"]["acceleration"]
+    # the slider never reaches x = 0 (x ≥ l − r = 0.07 m): pointwise relative error
+    assert np.max(np.abs(x - xk) / np.abs(xk)) <= 1e-6
+    # the acceleration crosses zero: relative to its amplitude over the cycle
+    assert np.max(np.abs(a - ak)) / np.max(np.abs(ak)) <= 1e-4
+    assert res.stats["max_position_violation"] <= 1e-8
+
+
+# ---------------------------------------------------------------------------- double pendulum
+@pytest.fixture(scope="module")
+def pendulum_reference(pendulum):
+    # DOPRI5 at rtol 1e-13: it agrees with rtol 1e-12 to 2e-12 m on the tip over 2 s, and
+    # conserves T + V to 1.4e-12 J (of 9.8 J kinetic energy): far below every error compared.
+    return simulate(pendulum, integrator="dopri5", rtol=1e-13, atol=1e-15)
+
+
+@pytest.mark.parametrize("integrator,settings", [
+    ("dopri5", {}),  # its defaults (1e-8, 1e-10): measured 1.8e-8
+    ("radau", {"rtol": 1e-8, "atol": 1e-11}),  # measured 7e-8 (defaults 1e-6: 2e-6)
+])
+def test_double_pendulum_conserves_energy(pendulum, integrator, settings):
+    res = simulate(pendulum, integrator=integrator, **settings)
+    E = res.energy["kinetic"] + res.energy["potential"]
+    # Released from rest with the bars at the height of the pivot, T + V = 0 exactly: the
+    # drift is measured relative to the energy exchanged, max T (≈ 9.8 J) over the 2 s.
+    assert res.time[-1] == pytest.approx(2.0)
+    assert np.max(np.abs(E - E[0])) / np.max(res.energy["kinetic"]) <= 1e-6
+
+
+def test_rk4_is_fourth_order(pendulum):
+    scene = with_overrides(pendulum, {"analysis.sample_step": 4e-3})
+    ref = simulate(scene, integrator="dopri5", rtol=1e-13, atol=1e-15)
+    steps = [4e-3, 2e-3, 1e-3, 5e-4]  # all divide the output interval: uniform steps
+    errs = [np.max(np.abs(_tip(simulate(scene, integrator="rk4", step=h)) - _tip(ref)))
+            for h in steps]
+    # measured errors 2.1e-6 … 5.7e-10 m (≥ 400 times the reference's), slope 3.94
+    assert abs(_slope(steps, errs) - 4.0) <= 0.3
+
+
+def test_dopri5_error_decreases_with_tolerance(pendulum, pendulum_reference):
+    tols = [1e-5, 1e-7, 1e-9]
+    errs = [np.max(np.abs(_tip(simulate(pendulum, integrator="dopri5", rtol=tol,
+                                        atol=tol * 1e-2)) - _tip(pendulum_reference)))
+            for tol in tols]
+    # measured 5.8e-5, 4.0e-7, 3.1e-9 m: about proportional to the tolerance
+    assert errs[0] > errs[1] > errs[2]
+    assert errs[0] / errs[2] >= 1e3
+    assert errs[2] <= 1e-7
+
+
+def test_radau_fixed_step_is_fifth_order(pendulum):
+    """Radau IIA's classical order 2s − 1 = 5, with constant steps on the smooth, non-stiff
+    pendulum."""
+    scene = with_overrides(pendulum, {"analysis.sample_step": 0.04, "analysis.duration": 1.0})
+    ref = simulate(scene, integrator="dopri5", rtol=1e-13, atol=1e-15)
+    steps = [0.04, 0.02, 0.01, 0.005]
+    errs = [np.max(np.abs(_tip(simulate(scene, integrator="radau", step=h, fixed_step=True,
+                                        rtol=1e-12, atol=1e-14)) - _tip(ref)))
+            for h in steps]
+    # measured 7.5e-5 … 1.9e-9 m, slope 5.09 (local slopes 5.3, 5.0, 5.0)
+    assert abs(_slope(steps, errs) - 5.0) <= 0.3
+
+
+def test_radau_stiff_setting_converges_at_stage_order(pendulum):
+    """The stiff setting: Baumgarte α = 1e4 /s makes the constraint-normal motion a fast mode
+    (eigenvalue ≈ −2α) while the motion on the constraint manifold, the solution, is the same.
+    With constant steps h α = 40 … 10 (far outside any explicit method's stability region),
+    Radau IIA keeps the positions at the round-off level and the fast variables, the
+    velocities, converge at the stage order s = 3: the order reduction of Radau IIA on
+    singularly perturbed problems, error O(h^(2s−1)) + O(ε h^s) with ε = 1/(2α)
+    (Hairer & Wanner II, §VI.3)."""
+    base = with_overrides(pendulum, {"analysis.sample_step": 8e-3, "analysis.duration": 0.2})
+    ref = simulate(base, integrator="dopri5", rtol=1e-13, atol=1e-15)
+    stiff = with_overrides(base, {"solver.baumgarte_alpha": 1e4})
+    steps = [4e-3, 2e-3, 1e-3]
+    pos, vel = [], []
+    for h in steps:
+        res = simulate(stiff, integrator="radau", step=h, fixed_step=True, rtol=1e-12,
+                       atol=1e-14)
+        pos.append(np.max(np.abs(_tip(res) - _tip(ref))))
+        vel.append(np.max(np.abs(_tip(res, "velocity") - _tip(ref, "velocity"))))
+    # measured: positions 1.5e-12 … 1e-14 m, velocities 8.9e-10 … 1.0e-11 m/s (slope 3.2)
+    assert max(pos) <= 1e-10
+    assert abs(_slope(steps, vel) - 3.0) <= 0.5
+    # and the adaptive method takes far fewer steps than an explicit one on this problem
+    r_radau = simulate(stiff, integrator="radau", rtol=1e-8, atol=1e-11)
+    r_dopri = simulate(stiff, integrator="dopri5", rtol=1e-8, atol=1e-11)
+    assert np.max(np.abs(_tip(r_radau) - _tip(ref))) <= 1e-7
+    assert r_radau.stats["n_steps"] * 10 <= r_dopri.stats["n_steps"]
+
+
+def test_radau_agrees_with_scipy_radau(pendulum, pendulum_reference):
+    # Same method, different conventions: RADAU5 integrates at 0.1 rtol^(2/3) (global error
+    # ≈ rtol; measured 1.6e-8 m at rtol 1e-8), SciPy at rtol itself (4e-10 m). Both are within
+    # their tolerance of the reference, so they agree within the sum of their tolerances.
+    tol = 1e-8
+    ours = simulate(pendulum, integrator="radau", rtol=tol, atol=tol * 1e-2)
+    theirs = simulate(pendulum, integrator="scipy-radau", rtol=tol, atol=tol * 1e-2)
+    ref = _tip(pendulum_reference)
+    scale = np.max(np.abs(ref))  # 1 m: the tip's reach
+    assert np.max(np.abs(_tip(ours) - ref)) <= 10 * tol * scale
+    assert np.max(np.abs(_tip(theirs) - ref)) <= 10 * tol * scale
+    assert np.max(np.abs(_tip(ours) - _tip(theirs))) <= 2 * 10 * tol * scale
+    assert ours.stats["n_jacobians"] >= 1 and ours.stats["n_lu"] >= ours.stats["n_jacobians"]
+
+
+# ---------------------------------------------------------------------------- radau internals
+@pytest.mark.parametrize("dtype", [np.float64, np.complex128])
+def test_lu_with_partial_pivoting(dtype):
+    rng = np.random.default_rng(1)
+    A = rng.standard_normal((9, 9)).astype(dtype)
+    if dtype == np.complex128:
+        A += 1j * rng.standard_normal((9, 9))
+    A[0, 0] = 0.0  # needs pivoting
+    b = rng.standard_normal(9).astype(dtype)
+    LU, piv = A.copy(), np.zeros(9, dtype=np.int64)
+    assert lu_factor(LU, piv)
+    x = b.copy()
+    lu_solve(LU, piv, x)
+    np.testing.assert_allclose(x, np.linalg.solve(A, b), rtol=1e-12, atol=1e-12)
+    S = np.ones((3, 3), dtype=dtype)  # singular: reported, not divided by zero
+    assert not lu_factor(S, np.zeros(3, dtype=np.int64))
+
+
+def test_radau_settings_and_errors():
+    assert Radau.stiff and Radau.name == "radau" and INTEGRATORS["radau"] is Radau
+    assert Radau().settings == {"rtol": 1e-6, "atol": 1e-9}
+    with pytest.raises(SimulationError, match="step"):
+        Radau(fixed_step=True)
+
+
+def test_radau_newton_failure_is_a_status_not_garbage(pendulum):
+    # One fixed step of 0.5 s through the pendulum's fall with a stiff Baumgarte term: the
+    # simplified Newton iteration cannot converge and fixed-step mode may not shrink the step.
+    scene = with_overrides(pendulum, {"analysis.sample_step": 0.5, "analysis.duration": 0.5,
+                                      "solver.baumgarte_alpha": 1e4,
+                                      "solver.baumgarte_beta": 1e4})
+    with pytest.raises(SimulationError, match="Newton"):
+        simulate(scene, integrator="radau", step=0.5, fixed_step=True)
+
+
+def test_radau_locates_contact_onsets():
+    # Dry slider-crank (0.5 mm clearance, 5000 rpm), a quarter cycle: impacts are located
+    # (onset rejections), and the slider follows DOPRI5's trajectory to within a fraction of
+    # the clearance (pointwise agreement is not expected: dry contact is chaotic).
+    scene = with_overrides(load_scene("slider-crank-dry"), {"analysis.cycles": 0.25})
+    r = simulate(scene, integrator="radau", rtol=1e-7, atol=1e-10)
+    d = simulate(scene, integrator="dopri5", rtol=1e-8, atol=1e-11)
+    assert r.stats["status"] == "ok"
+    assert r.stats["n_impacts"] >= 1 and r.stats["n_onset_rejections"] >= 1
+    pr = np.max(np.abs(r.outputs["slider"]["displacement"] - d.outputs["slider"]["displacement"]))
+    assert pr <= 1e-4  # within the 0.5 mm clearance
