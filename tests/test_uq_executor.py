@@ -10,6 +10,7 @@ import sqlite3
 import subprocess
 import sys
 import textwrap
+import threading
 import time
 from pathlib import Path
 
@@ -74,6 +75,24 @@ def test_backend_argument_errors():
         evaluate(model, np.zeros((4, 2)), n_jobs=0)
     with pytest.raises(StudyError, match=r"X: expected shape \(n, 2\) for inputs \['x0', 'x1'\], got \(4, 3\)"):
         evaluate(model, np.zeros((4, 3)))
+
+    class Unpicklable:
+        input_names = ("x0", "x1")
+        output_index = pd.Index(["y"])
+
+        def __init__(self):
+            self.lock = threading.Lock()
+
+        def evaluate(self, x):
+            return np.array([x[0]])
+
+        def cache_key(self):
+            return "unpicklable"
+
+    with pytest.raises(StudyError, match=r"model: Unpicklable cannot be pickled for parallel workers \(TypeError"):
+        evaluate(Unpicklable(), np.zeros((4, 2)), n_jobs=2, progress=False)
+    # ...but it is a valid Model and runs in-process
+    assert evaluate(Unpicklable(), np.ones((4, 2)), progress=False).n_ok == 4
 
 
 # ---------------------------------------------------------------- failures

@@ -40,8 +40,8 @@ def _closed_form(inputs):
     return mu, sd
 
 
-@pytest.mark.parametrize("method", ["regression", "quadrature"])
-def test_order_one_is_exact_for_a_linear_model(method):
+@pytest.mark.parametrize("method, sparse", [("regression", False), ("quadrature", False), ("quadrature", True)])
+def test_order_one_is_exact_for_a_linear_model(method, sparse):
     """y = a + Bx is in the span of the order-1 basis: the fit is exact up to rounding.
 
     Orthonormal degree-1 polynomials are (x − mean)/std for normal and uniform marginals, so the
@@ -49,7 +49,7 @@ def test_order_one_is_exact_for_a_linear_model(method):
     points / 2-point Gauss rules have condition numbers O(1)).
     """
     model = linear_model(A0, B, IND.names)
-    res = polynomial_chaos(model=model, inputs=IND, order=1, method=method, seed=0, n_validation=0)
+    res = polynomial_chaos(model=model, inputs=IND, order=1, method=method, sparse=sparse, seed=0, n_validation=0)
     mu, sd = _closed_form(IND)
     alphas = res.multi_indices
     coef = res.coefficients

@@ -279,6 +279,19 @@ def _evaluate_chunk(model: Any, X: np.ndarray, n_out: int, chunk_id: int):
     return chunk_id, Y, ok, reasons, X.shape[0]
 
 
+def _check_picklable(model: Any) -> None:
+    """Fail early, with a clear message, if the model cannot be shipped to workers."""
+    import cloudpickle  # joblib/loky and dask both depend on it
+
+    try:
+        cloudpickle.dumps(model)
+    except Exception as e:  # noqa: BLE001 - any pickling error means the same thing here
+        raise StudyError(
+            f"model: {type(model).__name__} cannot be pickled for parallel workers ({type(e).__name__}: {e}); "
+            "keep open files, locks and clients out of the model, or use n_jobs=1"
+        ) from None
+
+
 def default_chunk_size(n: int) -> int:
     """About 64 chunks, 1..1000 samples each; depends only on the number of samples."""
     return int(min(1000, max(1, math.ceil(n / 64))))
@@ -363,6 +376,8 @@ def evaluate(
         raise StudyError(f"chunk_size: must be a positive integer or None, got {chunk_size!r}")
     cache = as_cache(cache)
     key = combined_cache_key(model, input_names, n_out)
+    if n_jobs != 1 and backend != "sequential":
+        _check_picklable(model)
 
     n = X.shape[0]
     Y = np.full((n, n_out), np.nan)

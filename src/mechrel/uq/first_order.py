@@ -149,7 +149,7 @@ def fosm(
     n_jobs: int = 1,
     backend: str = "loky",
     cache: Any = None,
-    progress: bool = False,
+    progress: bool = True,
     chunk_size: int | None = None,
 ) -> FOSMResult:
     """FOSM reliability (paper eqs. 25–28) with first-order propagation of ``inputs``.

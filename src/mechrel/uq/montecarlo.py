@@ -214,7 +214,7 @@ def monte_carlo(
     n_jobs: int = 1,
     backend: str = "loky",
     cache: Any = None,
-    progress: bool = False,
+    progress: bool = True,
     chunk_size: int | None = None,
 ) -> MonteCarloResult:
     """Monte Carlo reliability of every output and of the whole cycle.

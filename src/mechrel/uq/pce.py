@@ -295,7 +295,7 @@ def polynomial_chaos(
     n_jobs: int = 1,
     backend: str = "loky",
     cache: Any = None,
-    progress: bool = False,
+    progress: bool = True,
     chunk_size: int | None = None,
 ) -> PCEResult:
     """Fit a PCE of total ``order`` (see the module docstring for the methods and the errors).

@@ -151,7 +151,7 @@ def sobol_indices(
     n_jobs: int = 1,
     backend: str = "loky",
     cache: Any = None,
-    progress: bool = False,
+    progress: bool = True,
     chunk_size: int | None = None,
 ) -> SobolResult:
     """First- and total-order Sobol' indices per output (SALib), with bootstrap intervals.
