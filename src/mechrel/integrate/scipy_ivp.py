@@ -41,7 +41,10 @@ class ScipyIVP(Integrator):
         first_step = carry
         while t < tend:
             def fun(tt, yy, _h=hist):
-                return rhs(tt, yy, _h, system)
+                # SciPy's finite-difference Jacobians (BDF, Radau) pass columns of a matrix,
+                # i.e. non-contiguous views: copying keeps rhs on its one compiled (C-layout)
+                # signature instead of compiling (~25 s) and running an 'A'-layout variant.
+                return rhs(tt, np.ascontiguousarray(yy), _h, system)
 
             evs = []
             for c in range(hist.size):
