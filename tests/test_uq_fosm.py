@@ -79,6 +79,12 @@ def test_fd_step_choices():
         fd_steps(inputs, -1)
     with pytest.raises(StudyError, match=r"step: got 'big'; allowed: 'auto'"):
         fd_steps(inputs, "big")
+    # a simulated model declares its output noise (integrator rtol); the automatic step uses it
+    model, _, _, _ = _linear()
+    model.output_noise = 1e-8
+    res = fosm(model=model, inputs=inputs, allowable=Allowable(1.0, 0.2))
+    np.testing.assert_allclose(res.steps, 1e-8 ** (1 / 3) * np.maximum(np.abs(MU), SD))
+    assert res.provenance["settings"]["noise"] == 1e-8
 
 
 def _quadratic(x):

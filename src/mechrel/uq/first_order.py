@@ -145,7 +145,7 @@ def fosm(
     allowable: Any = None,
     form: str = "two-sided",
     step: Any = "auto",
-    noise: float = EPS,
+    noise: float | None = None,
     n_jobs: int = 1,
     backend: str = "loky",
     cache: Any = None,
@@ -159,10 +159,14 @@ def fosm(
     R = Φ(β) = P(I − i > 0) on the signed error; ``form="two-sided"`` (default) is
     P(|i| < I), see :mod:`mechrel.uq.reliability`. Both are always in the table.
     ``allowable``: None (paper defaults per ``quantity``), an ``Allowable`` or {quantity: Allowable}.
+    ``noise`` (for ``step="auto"``): the relative noise of the model outputs; None takes the
+    model's optional ``output_noise`` attribute (e.g. the integrator's rtol), else machine epsilon.
     A failed stencil point makes the gradient undefined: ``StudyError`` naming the points.
     """
     t0 = time.perf_counter()
     exclusive_source(model, evaluations, what="fosm")
+    if noise is None:
+        noise = float(getattr(model, "output_noise", EPS)) if model is not None else EPS
     check_form(form)
     names = check_model(model)[0] if model is not None else evaluations.input_names
     inputs = check_inputs(inputs, names)

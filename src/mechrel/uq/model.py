@@ -63,6 +63,8 @@ class Model(Protocol):
 
     input_names: tuple[str, ...]
     output_index: pd.Index
+    # Optional (not part of the runtime check): ``output_noise: float``, the relative noise of the
+    # outputs (e.g. the integrator's rtol); FOSM's automatic finite-difference step uses it.
 
     def evaluate(self, x: np.ndarray) -> np.ndarray:
         """Outputs (``n_out``,) at one input vector ``x`` (``d``,); raises ``ModelFailure``."""

@@ -21,6 +21,7 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass
+from types import MappingProxyType
 from typing import Any
 
 import numpy as np
@@ -66,11 +67,11 @@ class Allowable:
 
 #: The paper's allowable errors (§5): displacement 0.012 ± 0.004 m, velocity 0.3 ± 0.1 m/s,
 #: acceleration 18 ± 6 m/s² (mean ± standard deviation), keyed by the ``quantity`` level.
-DEFAULT_ALLOWABLES: Mapping[str, Allowable] = {
+DEFAULT_ALLOWABLES: Mapping[str, Allowable] = MappingProxyType({
     "displacement": Allowable(0.012, 0.004),
     "velocity": Allowable(0.3, 0.1),
     "acceleration": Allowable(18.0, 6.0),
-}
+})
 
 
 def output_groups(index: pd.Index) -> np.ndarray:

@@ -208,10 +208,12 @@ def sobol_indices(
     analyze_seed = int(child_seed(ss, 1).generate_state(1)[0]) + 1  # SALib ignores seed 0
     res = {k: np.full((Y.shape[1], d), np.nan) for k in ("S1", "S1_conf", "ST", "ST_conf")}
     second = {"S2": [], "S2_conf": []} if calc_second_order else None
+    constant = []
     for k in range(Y.shape[1]):
         y = Y[:, k]
         if np.ptp(y) == 0:
-            continue  # constant output: indices undefined (NaN)
+            constant.append(str(ev.output_index[k]))
+            continue  # constant output: zero variance, indices undefined (NaN, listed in provenance)
         r = sobol_analyze.analyze(problem, y, calc_second_order=calc_second_order, num_resamples=num_resamples,
                                   conf_level=confidence_level, print_to_console=False, seed=analyze_seed)
         for key in res:
@@ -229,7 +231,8 @@ def sobol_indices(
                   "outputs": None if outputs is None else repr(outputs),
                   "reducer": None if reducer is None else getattr(reducer, "__name__", repr(reducer)),
                   "failure_strategy": "drop whole Saltelli blocks with a failed sample",
-                  "n_blocks_dropped": n_drop, "max_failure_fraction": max_failure_fraction},
+                  "n_blocks_dropped": n_drop, "max_failure_fraction": max_failure_fraction,
+                  "constant_outputs": constant},
     )
     return SobolResult(frames["S1"], frames["S1_conf"], frames["ST"], frames["ST_conf"], second,
                        n_blocks, n_used, n_drop, ev.failure_counts(), raw, prov)
