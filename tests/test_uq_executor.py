@@ -229,6 +229,32 @@ def test_failures_are_cached_and_can_be_retried(tmp_path):
     assert evaluate(model, X, cache=c, progress=False).n_model_calls == n_bad
 
 
+def test_cache_path_may_name_the_database_file(tmp_path):
+    model = linear_model([0.0], [[1.0, 0.0]], INPUTS.names, key="file")
+    X = INPUTS.sample(10, seed=1)
+    evaluate(model, X, cache=tmp_path / "run" / "evaluations.sqlite", progress=False)
+    assert (tmp_path / "run" / "evaluations.sqlite").is_file()
+    assert evaluate(model, X, cache=tmp_path / "run", progress=False).n_cached == 10  # same file
+
+
+def test_provenance_is_json_serialisable():
+    import json
+
+    from mechrel.uq import fosm, ishigami_inputs, ishigami_model, polynomial_chaos, sobol_indices
+
+    model = linear_model([0.1], [[0.5, 0.2]], INPUTS.names)
+    allow = Allowable(1.0, 0.3)
+    results = [
+        fosm(model=model, inputs=INPUTS, allowable=allow, progress=False),
+        monte_carlo(model=model, inputs=INPUTS, n=64, allowable=allow, progress=False),
+        polynomial_chaos(model=model, inputs=INPUTS, order=1, progress=False),
+        sobol_indices(model=ishigami_model(), inputs=ishigami_inputs(), n=16, progress=False),
+    ]
+    for r in results:
+        text = json.dumps(r.provenance)
+        assert "versions" in text and "model_cache_key" in text
+
+
 def test_cache_key_separates_models(tmp_path):
     X = INPUTS.sample(10, seed=1)
     a = linear_model([0.0], [[1.0, 0.0]], INPUTS.names, key="v1")

@@ -57,28 +57,33 @@ def _x_hash(b: bytes) -> str:
 
 
 class EvaluationCache:
-    """A directory holding ``evaluations.sqlite``.
+    """A directory holding ``evaluations.sqlite`` — or, when the path ends in ``.sqlite``,
+    ``.sqlite3`` or ``.db`` and is not an existing directory, that database file itself.
 
     Use it through ``evaluate(..., cache=EvaluationCache(path))`` or ``cache=path``.
     """
 
     FILENAME = "evaluations.sqlite"
+    SUFFIXES = (".sqlite", ".sqlite3", ".db")
 
     def __init__(self, directory: str | os.PathLike):
-        self.directory = Path(directory)
+        given = Path(directory)
+        if given.suffix in self.SUFFIXES and not given.is_dir():
+            self.directory, self.path = given.parent, given
+        else:
+            self.directory, self.path = given, given / self.FILENAME
         try:
             self.directory.mkdir(parents=True, exist_ok=True)
         except OSError as e:
             raise StudyError(f"cache: cannot create directory {str(self.directory)!r}: {e}") from None
-        self.path = self.directory / self.FILENAME
         with self._connect() as con:
             con.executescript(_SCHEMA)
 
     def __repr__(self) -> str:
-        return f"EvaluationCache({str(self.directory)!r})"
+        return f"EvaluationCache({str(self.path)!r})"
 
     def __reduce__(self):
-        return (type(self), (str(self.directory),))
+        return (type(self), (str(self.path if self.path.name != self.FILENAME else self.directory),))
 
     @contextlib.contextmanager
     def _connect(self):

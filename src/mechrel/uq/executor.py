@@ -449,6 +449,6 @@ def evaluate(
         cache_key=str(model.cache_key()), n_model_calls=n_calls, n_cached=n_cached,
         wall_time=time.perf_counter() - t0,
         settings={"n_jobs": n_jobs, "backend": backend if n_jobs != 1 else "sequential",
-                  "chunk_size": cs, "cache": None if cache is None else str(cache.directory),
+                  "chunk_size": cs, "cache": None if cache is None else str(cache.path),
                   "retry_failed": bool(retry_failed)},
     )
