@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import math
 import time
+import warnings
 from collections import Counter
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -292,6 +293,20 @@ def _check_picklable(model: Any) -> None:
         ) from None
 
 
+def _consume(gen, collect) -> None:
+    """Feed finished chunks to ``collect``; on an abort, cancel the rest quietly (joblib warns
+    that finished-but-unread tasks are discarded: they are not cached, and are simply
+    re-evaluated on resume)."""
+    try:
+        for res in gen:
+            collect(res)
+    except BaseException:
+        with warnings.catch_warnings():
+            warnings.filterwarnings("ignore", message=r".*tasks have been successfully executed\s+but not used")
+            gen.close()
+        raise
+
+
 def default_chunk_size(n: int) -> int:
     """About 64 chunks, 1..1000 samples each; depends only on the number of samples."""
     return int(min(1000, max(1, math.ceil(n / 64))))
@@ -434,12 +449,10 @@ def evaluate(
                 if backend == "dask":
                     with joblib.parallel_config(backend="dask"):
                         gen = joblib.Parallel(n_jobs=n_jobs, return_as="generator_unordered")(tasks)
-                        for res in gen:
-                            _collect(res)
+                        _consume(gen, _collect)
                 else:
                     gen = joblib.Parallel(n_jobs=n_jobs, backend="loky", return_as="generator_unordered")(tasks)
-                    for res in gen:
-                        _collect(res)
+                    _consume(gen, _collect)
     finally:
         bar.close()
 
