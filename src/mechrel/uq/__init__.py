@@ -21,6 +21,7 @@ _EXPORTS = {
     "first_order": ["FOSMResult", "fd_steps", "fosm", "fosm_design"],
     "inputs": ["SAMPLING_RULES", "LogNormal", "Normal", "TruncNormal", "UncertainInputs", "Uniform", "child_seed"],
     "model": ["FunctionModel", "Model", "ModelFailure"],
+    "mechanism": ["MechanismModel"],
     "montecarlo": ["MonteCarloResult", "monte_carlo", "monte_carlo_design"],
     "normality": ["NormalityResult", "normality_check"],
     "pce": ["PCEResult", "multi_indices", "pce_design", "polynomial_chaos"],
@@ -50,6 +51,7 @@ if TYPE_CHECKING:  # pragma: no cover
     from .executor import BACKENDS, Evaluations, evaluate
     from .first_order import FOSMResult, fd_steps, fosm, fosm_design
     from .inputs import SAMPLING_RULES, LogNormal, Normal, TruncNormal, UncertainInputs, Uniform, child_seed
+    from .mechanism import MechanismModel
     from .model import FunctionModel, Model, ModelFailure
     from .montecarlo import MonteCarloResult, monte_carlo, monte_carlo_design
     from .normality import NormalityResult, normality_check
@@ -60,7 +62,7 @@ if TYPE_CHECKING:  # pragma: no cover
 
 __all__ = [
     # problem
-    "Model", "ModelFailure", "FunctionModel",
+    "Model", "ModelFailure", "FunctionModel", "MechanismModel",
     "UncertainInputs", "Normal", "TruncNormal", "Uniform", "LogNormal", "SAMPLING_RULES", "child_seed",
     "Allowable", "DEFAULT_ALLOWABLES", "FORMS",
     # evaluation

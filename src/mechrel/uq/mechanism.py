@@ -138,6 +138,15 @@ class MechanismModel:
             self._scene = load_scene(self._raw)
         return self._scene
 
+    @property
+    def output_noise(self) -> float:
+        """Relative noise of the outputs from the integrator's tolerance (used by FOSM's
+        automatic finite-difference step): the solver's rtol, or 1e-6 for a fixed-step
+        method, whose error is not controlled."""
+        from ..simulation import make_integrator
+        integ = make_integrator(self.scene)
+        return float(integ.rtol) if integ.adaptive and integ.rtol else 1e-6
+
     def cache_key(self) -> str:
         from .. import __version__
         from ..scene import scene_hash
