@@ -34,7 +34,9 @@ e = r_S − r_B (journal centre − bearing centre), r = |e|, n = e/r, t = n rot
   the sign-corrected eqs. 13–14 for ε̇ < 0, with k of eq. 15 never divided by ε̇ (equations.md):
   κ = ε̇ k = sign(ε̇) sqrt((1 − ε²)(w²/4 + ε̇²/ε²)), 1.5/(k + 1.5) = 1.5 ε̇/(κ + 1.5 ε̇);
   the small-eccentricity factor (min(ε, ε0)/ε0)^λ (the continuous form of eqs. 16–17 that
-  mechrel documents); ε clamped at ε_max (w and ε̇ are not clamped); F = F_r n + F_t t (eq. 18);
+  mechrel documents); ε clamped at ε_max in the transition model and only at the numerical
+  guard 1 − 1e-9 in the lubricated model, whose film divergence at ε → 1 is the barrier that
+  keeps the journal inside (w and ε̇ are not clamped); F = F_r n + F_t t (eq. 18);
   no film moment. At r = 0 the force is 0 (its limit for λ > 0).
 * Transition (eq. 19): s = clip(δ/e1, 0, 1), F = s F_dry + (1 − s) F_lub (moments s M).
 
@@ -95,7 +97,7 @@ def contact_stiffness(R_B, R_S, E_B, nu_B, E_S, nu_S, conformal=True):
 def film(eps, eps_dot, w, mu, R_S, L, c, lam, eps0):
     """Pinkus–Sternlicht long-bearing forces (F_r, F_t) on the journal, eqs. 11–17 corrected."""
     C = 6.0 * mu * R_S**3 * L / c**2
-    one = 1.0 - eps * eps
+    one = (1.0 - eps) * (1.0 + eps)  # 1 − ε², without cancellation near ε = 1
     sgn = 1.0 if eps_dot >= 0.0 else -1.0
     kappa = sgn * math.sqrt(one * (w * w / 4.0 + (eps_dot / eps) ** 2))  # ε̇ k
     den = kappa + 1.5 * eps_dot  # ε̇ (k + 1.5)
@@ -325,7 +327,7 @@ class Baseline:
             MS += s_dry * p["journal_radius"] * FT
             MB -= s_dry * p["bearing_radius"] * FT
         if jt.model != "dry" and s_dry < 1.0:
-            eps = min(r / c, p["eps_max"])
+            eps = min(r / c, p["eps_max"] if jt.model == "transition" else 1.0 - 1e-9)
             w = wS + wB - 2.0 * vt / r
             Fr, Ft = film(eps, dd / c, w, p["viscosity"], p["journal_radius"], p["length"], c,
                           p["lam"], p["eps0"])
