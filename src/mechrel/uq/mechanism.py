@@ -18,6 +18,7 @@ from __future__ import annotations
 import hashlib
 import json
 import math
+import re
 from typing import Sequence
 
 import numpy as np
@@ -95,6 +96,11 @@ class MechanismModel:
             raise StudyError(f"scene {base.name!r}: the analysis must be given in cycles "
                              "(analysis.cycles), not as a duration")
         self.cycles = float(cycles if cycles is not None else base.analysis.cycles)
+        if not (self.cycles >= 1 and self.cycles.is_integer()):
+            # the analysed window is the last whole cycle, labelled 0..360 from its start: a
+            # fractional or sub-cycle duration would shift or wrap it silently
+            raise StudyError(f"cycles: {self.cycles!r} must be a whole number of cycles >= 1 "
+                             "(the last whole cycle is analysed)")
         raw = thaw(base.raw)
         analysis = raw.setdefault("analysis", {})
         analysis.pop("sample_step", None)
@@ -187,7 +193,7 @@ class MechanismModel:
         except StudyError:
             raise
         except MechrelError as exc:
-            raise ModelFailure(f"{type(exc).__name__}: {exc}") from None
+            raise ModelFailure(_stable_reason(exc)) from None
         n_per_cycle = self.crank_angles.size - 1
         last = res.time.size - 1
         rows = np.arange(last - n_per_cycle, last + 1)
@@ -199,6 +205,15 @@ class MechanismModel:
     def __repr__(self) -> str:
         return (f"MechanismModel({self.scene.name!r}, inputs={list(self.input_names)}, "
                 f"output={self.output!r}, angle_step={self.angle_step:g})")
+
+
+_NUMBER = re.compile(r"(?<![\w.])[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?")
+
+
+def _stable_reason(exc: Exception) -> str:
+    """The failure reason without the sample's numbers (replaced by ``#``): the executor counts
+    failures by their reason string, and the values are in the failed rows' inputs anyway."""
+    return f"{type(exc).__name__}: " + _NUMBER.sub("#", str(exc))
 
 
 def _lookup(raw, path: str):
