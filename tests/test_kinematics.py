@@ -102,3 +102,4 @@ def test_unassemblable_geometry_names_the_violated_constraints():
     with pytest.raises(AssemblyError, match=r"cannot be assembled.*joints\.") as err:
         simulate(scene)
     assert "|Φ| =" in str(err.value)
+

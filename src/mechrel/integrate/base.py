@@ -184,8 +184,11 @@ class Integrator:
         if status != ev.STATUS_OK or not np.all(np.isfinite(Y)):
             raise SimulationError(
                 f"integrator {self.name!r} stopped at t = {t:.6g} s: {ev.STATUS_TEXT[status]} "
-                f"after {result_stats.n_steps} steps ({self.settings}); try a smaller step or "
-                "tolerance, or a stiff integrator (solver.integrator = 'radau')")
+                f"after {result_stats.n_steps} steps ({self.settings}); "
+                + ("a lubricated joint whose film cannot carry the load drives ε → 1: use "
+                   "model = 'transition' (adds metal contact) or check the load and viscosity"
+                   if self.stiff else "try a smaller step or tolerance, or a stiff integrator "
+                   "(solver.integrator = 'radau')"))
         return IntegrationResult(t=t_out, y=Y, ydot=np.concatenate(YDs), hist=hist,
                                  stats=result_stats)
 

@@ -12,6 +12,8 @@ from dataclasses import dataclass, field
 from types import MappingProxyType
 from typing import Literal, Mapping
 
+from ..forces.params import DEFAULTS as _FORCE_DEFAULTS
+
 Vec2 = tuple[float, float]
 
 GROUND = "ground"
@@ -57,9 +59,9 @@ class Contact:
     poisson_bearing: float = 0.3
     poisson_journal: float = 0.3
     restitution: float = 0.9
-    exponent: float = 1.5
+    exponent: float = _FORCE_DEFAULTS["exponent"]
     stiffness: Literal["conformal", "paper"] = "conformal"
-    impact_speed_floor: float = 1e-4
+    impact_speed_floor: float = _FORCE_DEFAULTS["impact_speed_floor"]  # docs/forces.md
 
 
 @dataclass(frozen=True)
@@ -67,8 +69,8 @@ class Friction:
     """Modified Coulomb friction with the dynamic correction c_d (v0 < v1, m/s)."""
 
     coefficient: float = 0.05
-    v0: float = 1e-4
-    v1: float = 1e-2
+    v0: float = _FORCE_DEFAULTS["v0"]
+    v1: float = _FORCE_DEFAULTS["v1"]
 
 
 @dataclass(frozen=True)
@@ -76,16 +78,16 @@ class Lubricant:
     """Pinkus–Sternlicht long bearing film. ``viscosity`` in Pa s (100 cP = 0.1 Pa s)."""
 
     viscosity: float = 0.1
-    lam: float = 1.0
-    eps0: float = 0.1
+    lam: float = _FORCE_DEFAULTS["lam"]
+    eps0: float = _FORCE_DEFAULTS["eps0"]
 
 
 @dataclass(frozen=True)
 class Transition:
     """Dry/lubricated blend over c <= |e| <= c + e1 (m); film evaluated at eps <= eps_max."""
 
-    e1: float = 1e-5
-    eps_max: float = 0.99
+    e1: float = _FORCE_DEFAULTS["e1"]
+    eps_max: float = _FORCE_DEFAULTS["eps_max"]
 
 
 @dataclass(frozen=True)
