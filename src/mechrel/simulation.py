@@ -31,7 +31,10 @@ DEFAULT_SOLVERS: dict[str, tuple[str, dict]] = {
     "ideal": ("dopri5", {"rtol": 1e-9, "atol": 1e-12}),
     "dry": ("dopri5", {"rtol": 1e-7, "atol": 1e-10}),
     "transition": ("dopri5", {"rtol": 1e-7, "atol": 1e-10}),
-    "lubricated": ("lsoda", {"rtol": 1e-7, "atol": 1e-10}),
+    # compiled Radau IIA: 2.5x faster than LSODA at the same tolerances on the lubricated
+    # nine-bar (12.4k vs 17.6k rhs evaluations per cycle, no Python per step), peak slider
+    # acceleration within 3e-6 of a tight reference (docs/performance.md)
+    "lubricated": ("radau", {"rtol": 1e-7, "atol": 1e-10}),
 }
 
 
@@ -326,6 +329,7 @@ def simulate(scene: Scene, *, method: str = "auto", integrator: str | None = Non
                                 np.zeros(0), times)
         ideal = _point_outputs(compiled, resi.y[:, :n], resi.y[:, n:2 * n],
                                resi.ydot[:, n:2 * n])
+    orbits = _orbits(compiled, Y)
     energy = _energy(sys, res)
     wall = time.perf_counter() - start
     stats = res.stats.as_dict()
@@ -335,4 +339,4 @@ def simulate(scene: Scene, *, method: str = "auto", integrator: str | None = Non
                             outputs=outputs, ideal=ideal if has_clearance else None,
                             q=Q, v=V, a=A, method="dynamics", stats=stats,
                             provenance=_provenance(scene, wall),
-                            orbits=_orbits(compiled, Y), energy=energy)
+                            orbits=orbits, energy=energy)

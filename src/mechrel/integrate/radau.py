@@ -14,6 +14,10 @@ Algorithm (HW II, §IV.8 and the Fortran code ``radau5.f``; constants as there)
   works on ``W = (T⁻¹ ⊗ I) Z``, where ``T⁻¹ A⁻¹ T = diag(γ, [[α, −β], [β, α]])``, so each
   iteration solves ``(γ/h · I − J) ΔW₁ = r₁`` (real) and
   ``((α + iβ)/h · I − J)(ΔW₂ + iΔW₃) = r₂ + i r₃`` (complex), with ``J = ∂f/∂y`` kept fixed.
+  Both are condensed to the coordinates (as RADAU5 does for second-order systems): ``J`` is
+  ``[[0, I, 0], [A_q, A_v, 0], [P_q, P_v, 0]]`` for ``y = [q, q̇, W]``, so only the n × n
+  matrices ``g² I − g A_v − A_q`` are factorised, not the (2n + 2)-square ones: 8× fewer
+  operations on the nine-bar (n = 24), where the full LU pair took half the run time.
 * Newton stops when ``η ‖ΔW‖ ≤ κ``, ``η = θ/(1 − θ)`` from the observed contraction ``θ``,
   ``κ = max(10 u/rtol', min(0.03, rtol'^½))``; at most 7 iterations. When the predicted
   error after 7 iterations stays above ``κ`` the step is shrunk at once; divergence
@@ -252,16 +256,49 @@ def clearance_columns(sys):
 
 @njit(cache=True)
 def _build_matrices(J, h, E1, E2):
-    ny = J.shape[0]
-    fac1 = U1 / h
-    alphn = ALPH / h
-    betan = BETA / h
-    for i in range(ny):
-        for j in range(ny):
-            E1[i, j] = -J[i, j]
-            E2[i, j] = -J[i, j] + 0.0j
-        E1[i, i] += fac1
-        E2[i, i] += complex(alphn, betan)
+    """The condensed iteration matrices ``g² I − g A_v − A_q`` (n × n) for ``g = γ/h``
+    (real, ``E1``) and ``g = (α + iβ)/h`` (complex, ``E2``); see :func:`_solve_condensed`."""
+    n = E1.shape[0]
+    g1 = U1 / h
+    g2 = complex(ALPH / h, BETA / h)
+    for i in range(n):
+        for j in range(n):
+            aq = J[n + i, j]
+            av = J[n + i, n + j]
+            E1[i, j] = -g1 * av - aq
+            E2[i, j] = -g2 * av - aq
+        E1[i, i] += g1 * g1
+        E2[i, i] += g2 * g2
+
+
+@njit(cache=True)
+def _solve_condensed(E, piv, J, g, b, work):
+    """Solve ``(g I − J) x = b`` in place in ``b`` (length 2n + m) from the LU of the condensed
+    matrix ``E = g² I − g A_v − A_q``.
+
+    ``J`` has the structure of the dynamics, ``[[0, I, 0], [A_q, A_v, 0], [P_q, P_v, 0]]``
+    (coordinates, velocities, m work integrals), so eliminating the velocity block leaves one
+    n × n system: ``E x_q = b_v + g b_q − A_v b_q``, then ``x_v = g x_q − b_q`` and
+    ``x_W = (b_W + P_q x_q + P_v x_v) / g`` (RADAU5's treatment of second-order systems,
+    HW II §IV.8). ``work`` is a length-n array of ``b``'s type."""
+    n = E.shape[0]
+    ny = b.shape[0]
+    for i in range(n):
+        s = b[n + i] + g * b[i]
+        for j in range(n):
+            s -= J[n + i, n + j] * b[j]
+        work[i] = s
+    lu_solve(E, piv, work)
+    for i in range(n):
+        xq = work[i]
+        xv = g * xq - b[i]
+        b[i] = xq
+        b[n + i] = xv
+    for i in range(2 * n, ny):
+        s = b[i]
+        for j in range(2 * n):
+            s += J[i, j] * b[j]
+        b[i] = s / g
 
 
 @njit(cache=True)
@@ -321,10 +358,13 @@ def radau5_kernel(sys, t0, y0, hist, t_out, h0, rtol_user, atol_user, max_steps,
     h_fixed = h
 
     J = np.zeros((ny, ny))
-    E1 = np.zeros((ny, ny))
-    E2 = np.zeros((ny, ny), dtype=np.complex128)
-    piv1 = np.zeros(ny, dtype=np.int64)
-    piv2 = np.zeros(ny, dtype=np.int64)
+    nq = sys.mass.shape[0]
+    E1 = np.zeros((nq, nq))
+    E2 = np.zeros((nq, nq), dtype=np.complex128)
+    piv1 = np.zeros(nq, dtype=np.int64)
+    piv2 = np.zeros(nq, dtype=np.int64)
+    work1 = np.zeros(nq)
+    work2 = np.zeros(nq, dtype=np.complex128)
     z1 = np.zeros(ny)
     z2 = np.zeros(ny)
     z3 = np.zeros(ny)
@@ -462,8 +502,8 @@ def radau5_kernel(sys, t0, y0, hist, t_out, h0, rtol_user, atol_user, max_steps,
                 re = TI21 * fa[i] + TI22 * fb[i] + TI23 * fc[i] - alphn * w2[i] + betan * w3[i]
                 im = TI31 * fa[i] + TI32 * fb[i] + TI33 * fc[i] - alphn * w3[i] - betan * w2[i]
                 rc[i] = complex(re, im)
-            lu_solve(E1, piv1, r1)
-            lu_solve(E2, piv2, rc)
+            _solve_condensed(E1, piv1, J, fac1, r1, work1)
+            _solve_condensed(E2, piv2, J, complex(alphn, betan), rc, work2)
             newt += 1
             s = 0.0
             for i in range(ny):
@@ -528,7 +568,7 @@ def radau5_kernel(sys, t0, y0, hist, t_out, h0, rtol_user, atol_user, max_steps,
             for i in range(ny):
                 fe[i] = hee1 * z1[i] + hee2 * z2[i] + hee3 * z3[i]
                 ev[i] = fe[i] + f0[i]
-            lu_solve(E1, piv1, ev)
+            _solve_condensed(E1, piv1, J, fac1, ev, work1)
             err = max(_rms(ev, scal), 1e-10)
             if err >= 1.0 and (first or reject):
                 for i in range(ny):
@@ -537,7 +577,7 @@ def radau5_kernel(sys, t0, y0, hist, t_out, h0, rtol_user, atol_user, max_steps,
                 stats[S_RHS] += 1
                 for i in range(ny):
                     ev[i] = f1[i] + fe[i]
-                lu_solve(E1, piv1, ev)
+                _solve_condensed(E1, piv1, J, fac1, ev, work1)
                 err = max(_rms(ev, scal), 1e-10)
             if not math.isfinite(err):
                 err = 1e10
