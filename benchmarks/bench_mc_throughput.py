@@ -1,0 +1,217 @@
+"""Target 4: Monte Carlo throughput of the default study (nine-bar-lubricated) with 1 and 2
+workers, and the extrapolated wall time of 10⁴ samples.
+
+What is measured
+----------------
+* ``model = load_study("nine-bar-lubricated").model()`` (two cycles per sample, the second
+  analysed), ``X = study.uncertain_inputs().sample(n, "sobol", seed)``, evaluated with
+  :func:`mechrel.uq.executor.evaluate` (``n_jobs=1``: in-process; ``n_jobs=2``: loky workers);
+* 1 worker: warm process (numba's cache already loaded by one untimed evaluation);
+* 2 workers, "cold": the first ``evaluate`` call of the process, which starts the loky workers
+  (spawn, imports, numba cache load in each) — includes start-up;
+* 2 workers, "warm": a second call with fresh samples (loky reuses its workers) — excludes it;
+* per-worker start-up: a fresh Python process timed through ``import mechrel``, the first model
+  evaluation and a second one (first − second = numba cache load + first-call costs);
+* CPU accounting (psutil): CPU seconds used by this process and its workers during each run,
+  over wall × workers, and the machine's load; a utilisation well below 1 means the workers
+  waited for a core (other jobs on the machine), not that the code does not scale;
+* extrapolation: T(10⁴) = start-up + 10⁴ / (warm 2-worker throughput), with the default chunking
+  of 10⁴ samples (``default_chunk_size``: 157 samples per chunk, 64 chunks) adding at most
+  about half a chunk of tail imbalance, also reported.
+
+``--solver`` selects the integrator settings of the study's scene (the study's own default, or
+the fastest setting of bench_lubricated_ninebar.py that meets the 1 % criterion).
+
+Run::
+
+    python benchmarks/bench_mc_throughput.py --n 32 --json /tmp/bench_mc.json
+"""
+
+from __future__ import annotations
+
+import os
+
+for _v in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "NUMBA_NUM_THREADS"):
+    os.environ.setdefault(_v, "1")
+
+import argparse  # noqa: E402
+import dataclasses  # noqa: E402
+import datetime  # noqa: E402
+import json  # noqa: E402
+import math  # noqa: E402
+import platform  # noqa: E402
+import subprocess  # noqa: E402
+import sys  # noqa: E402
+import time  # noqa: E402
+from pathlib import Path  # noqa: E402
+
+import numpy as np  # noqa: E402
+import psutil  # noqa: E402
+
+from mechrel.studies.study import load_study  # noqa: E402
+from mechrel.uq.executor import default_chunk_size, evaluate  # noqa: E402
+
+STUDY = "nine-bar-lubricated"
+
+PROBE = r"""
+import json, time, os, sys
+t0 = time.perf_counter()
+from mechrel.studies.study import load_study
+import dataclasses
+t1 = time.perf_counter()
+s = load_study(%(study)r)
+s = dataclasses.replace(s, scene_overrides={**s.scene_overrides, **json.loads(%(over)r)})
+m = s.model()
+X = s.uncertain_inputs().sample(4, "sobol", 1)
+t2 = time.perf_counter(); m.evaluate(X[0]); t3 = time.perf_counter()
+m.evaluate(X[1]); t4 = time.perf_counter()
+m.evaluate(X[2]); t5 = time.perf_counter()
+print(json.dumps({"import": t1 - t0, "first_eval": t3 - t2, "second_eval": t4 - t3,
+                  "third_eval": t5 - t4}))
+"""
+
+
+def study_model(solver_over: dict):
+    s = load_study(STUDY)
+    s = dataclasses.replace(s, scene_overrides={**s.scene_overrides, **solver_over})
+    return s, s.model()
+
+
+def cpu_seconds(proc: psutil.Process) -> float:
+    """CPU seconds (user + system) of a process and all its live descendants."""
+    total = 0.0
+    for p in [proc] + proc.children(recursive=True):
+        try:
+            t = p.cpu_times()
+            total += t.user + t.system
+        except psutil.Error:
+            pass
+    return total
+
+
+def timed_evaluate(model, X, n_jobs):
+    me = psutil.Process()
+    psutil.cpu_percent(None)  # reset the machine-wide counter
+    c0 = cpu_seconds(me)
+    la0 = os.getloadavg()
+    t0 = time.perf_counter()
+    ev = evaluate(model, X, n_jobs=n_jobs, progress=False)
+    wall = time.perf_counter() - t0
+    c1 = cpu_seconds(me)
+    machine = psutil.cpu_percent(None)
+    if ev.n_failed:
+        print(f"warning: {ev.n_failed} failed samples: {ev.failure_counts()}", flush=True)
+    return {"n": X.shape[0], "n_jobs": n_jobs, "wall": wall, "throughput": X.shape[0] / wall,
+            "cpu_seconds": c1 - c0, "utilisation": (c1 - c0) / (wall * n_jobs),
+            "machine_cpu_percent": machine, "load_before": la0, "load_after": os.getloadavg(),
+            "failed": ev.n_failed, "chunk_size": ev.settings.get("chunk_size")}
+
+
+def probe_startup(solver_over):
+    code = PROBE % {"study": STUDY, "over": json.dumps(solver_over)}
+    t0 = time.perf_counter()
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         check=True, env=os.environ.copy())
+    total = time.perf_counter() - t0
+    d = json.loads(out.stdout.strip().splitlines()[-1])
+    d["process_total"] = total
+    d["startup"] = d["import"] + d["first_eval"] - min(d["second_eval"], d["third_eval"])
+    return d
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--n", type=int, default=32, help="samples per timed run")
+    ap.add_argument("--seed", type=int, default=20221014)
+    ap.add_argument("--solver", default="study", choices=["study", "fast"],
+                    help="'study': the study's own solver settings; 'fast': radau rtol 3e-5, "
+                         "atol 3e-8 (the fastest setting meeting the 1 % criterion of "
+                         "bench_lubricated_ninebar.py)")
+    ap.add_argument("--json", default=None)
+    args = ap.parse_args(argv)
+    solver_over = {} if args.solver == "study" else {"solver.integrator": "radau",
+                                                     "solver.rtol": 3e-5, "solver.atol": 3e-8}
+    s, model = study_model(solver_over)
+    inputs = s.uncertain_inputs()
+    # disjoint Sobol sets for the three timed runs (no evaluation cache is used anyway)
+    Xall = inputs.sample(4 * args.n, "sobol", args.seed)
+    X1, X2c, X2w = Xall[:args.n], Xall[args.n:2 * args.n], Xall[2 * args.n:3 * args.n]
+
+    print("per-process start-up (fresh interpreter, warm numba disk cache):", flush=True)
+    probes = [probe_startup(solver_over) for _ in range(2)]
+    for p in probes:
+        print("  " + json.dumps({k: round(v, 3) for k, v in p.items()}), flush=True)
+
+    t0 = time.perf_counter()
+    model.evaluate(Xall[-1])  # warm this process (numba cache load)
+    print(f"warm-up evaluation in this process: {time.perf_counter() - t0:.2f} s", flush=True)
+
+    runs = {}
+    runs["1 worker"] = timed_evaluate(model, X1, 1)
+    print("1 worker:", json.dumps(runs["1 worker"], default=float), flush=True)
+    runs["2 workers, cold"] = timed_evaluate(model, X2c, 2)
+    print("2 workers cold:", json.dumps(runs["2 workers, cold"], default=float), flush=True)
+    runs["2 workers, warm"] = timed_evaluate(model, X2w, 2)
+    print("2 workers warm:", json.dumps(runs["2 workers, warm"], default=float), flush=True)
+    runs["1 worker (again)"] = timed_evaluate(model, X1, 1)
+    print("1 worker again:", json.dumps(runs["1 worker (again)"], default=float), flush=True)
+
+    thr1 = max(runs["1 worker"]["throughput"], runs["1 worker (again)"]["throughput"])
+    thr2w = runs["2 workers, warm"]["throughput"]
+    thr2c = runs["2 workers, cold"]["throughput"]
+    startup = statistics_median([p["startup"] for p in probes])
+    per_sample_1 = 1.0 / thr1
+    n_big = 10_000
+    cs = default_chunk_size(n_big)
+    tail = 0.5 * cs * per_sample_1  # expected imbalance at the end: about half a chunk
+    est = {"chunk_size_1e4": cs, "startup_per_worker": startup,
+           "T_1e4_2workers_s": startup + n_big / thr2w,
+           "T_1e4_2workers_with_tail_s": startup + n_big / thr2w + tail,
+           "T_1e4_1worker_s": n_big / thr1,
+           "T_1e4_2workers_if_ideal_s": startup + n_big * per_sample_1 / 2}
+    summary = {"ratio_warm": thr2w / thr1, "ratio_cold": thr2c / thr1,
+               "ratio_warm_cpu_normalised": (thr2w / runs["2 workers, warm"]["utilisation"])
+               / (thr1 / max(runs["1 worker"]["utilisation"], 1e-9)),
+               "per_sample_s_1worker": per_sample_1, **est}
+    print("\n| run | samples | wall (s) | samples/s | CPU utilisation of the workers | "
+          "machine CPU % | load average (1 min) before → after |")
+    print("|---|---|---|---|---|---|---|")
+    for k, r in runs.items():
+        print(f"| {k} | {r['n']} | {r['wall']:.1f} | {r['throughput']:.3f} | "
+              f"{r['utilisation']:.2f} | {r['machine_cpu_percent']:.0f} | "
+              f"{r['load_before'][0]:.1f} → {r['load_after'][0]:.1f} |")
+    print(f"\n2 workers / 1 worker: warm {summary['ratio_warm']:.2f}×, cold (incl. start-up) "
+          f"{summary['ratio_cold']:.2f}×, CPU-normalised {summary['ratio_warm_cpu_normalised']:.2f}×")
+    print(f"per-worker start-up (import + numba cache load + first call): {startup:.2f} s")
+    print(f"10^4 samples: 2 workers {est['T_1e4_2workers_s'] / 60:.1f} min "
+          f"(+ tail {tail / 60:.1f} min with chunks of {cs}); 1 worker "
+          f"{est['T_1e4_1worker_s'] / 60:.1f} min; 2 ideal workers "
+          f"{est['T_1e4_2workers_if_ideal_s'] / 60:.1f} min")
+    meta = {"date": datetime.datetime.now().isoformat(timespec="seconds"),
+            "machine": f"{platform.node()} {platform.machine()}, {os.cpu_count()} cores",
+            "python": platform.python_version(), "solver": args.solver,
+            "solver_overrides": solver_over, "study": STUDY, "git": git_state()}
+    print(f"{meta['date']}; {meta['machine']}; {meta['git']}")
+    if args.json:
+        Path(args.json).write_text(json.dumps({"meta": meta, "probes": probes, "runs": runs,
+                                               "summary": summary}, indent=1, default=float))
+
+
+def statistics_median(v):
+    v = sorted(v)
+    k = len(v)
+    return 0.5 * (v[(k - 1) // 2] + v[k // 2])
+
+
+def git_state():
+    here = Path(__file__).resolve().parent
+    try:
+        out = subprocess.run(["git", "describe", "--always", "--dirty"], cwd=here,
+                             capture_output=True, text=True, check=True).stdout.strip()
+    except (OSError, subprocess.CalledProcessError):
+        out = "unknown"
+    return out
+
+
+if __name__ == "__main__":
+    main()
