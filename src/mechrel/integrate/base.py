@@ -89,6 +89,11 @@ class IntegrationResult:
     stats: SolverStats
 
 
+def _has_lubricated(system) -> bool:
+    from ..forces.params import MODEL_LUBRICATED, P_MODEL
+    return bool(np.any(system.cl_p[:, P_MODEL] == MODEL_LUBRICATED))
+
+
 def _merge(total: np.ndarray, part: np.ndarray) -> None:
     for k in (ev.S_STEPS, ev.S_RHS, ev.S_REJECTED, ev.S_ONSET_REJECTED, ev.S_IMPACTS, ev.S_JAC,
               ev.S_LU):
@@ -154,7 +159,8 @@ class Integrator:
         t = float(t_out[0] if t0 is None else t0)
         y = np.ascontiguousarray(y0, dtype=float).copy()
         hist = np.ascontiguousarray(hist0, dtype=float).copy()
-        n_chunks = 1 if progress is None else min(50, t_out.size)
+        # Each chunk restarts the step-size (and Radau's Jacobian) history: few chunks.
+        n_chunks = 1 if progress is None else min(10, t_out.size)
         bounds = np.linspace(0, t_out.size, n_chunks + 1).astype(int)
         Ys, YDs = [], []
         total = np.zeros(ev.N_STATS)
@@ -185,10 +191,10 @@ class Integrator:
             raise SimulationError(
                 f"integrator {self.name!r} stopped at t = {t:.6g} s: {ev.STATUS_TEXT[status]} "
                 f"after {result_stats.n_steps} steps ({self.settings}); "
-                + ("a lubricated joint whose film cannot carry the load drives ε → 1: use "
+                + ("if a lubricated joint's film cannot carry the load it drives ε → 1: use "
                    "model = 'transition' (adds metal contact) or check the load and viscosity"
-                   if self.stiff else "try a smaller step or tolerance, or a stiff integrator "
-                   "(solver.integrator = 'radau')"))
+                   if _has_lubricated(system) else "try a smaller step or tolerance, or a "
+                   "stiff integrator (solver.integrator = 'radau')"))
         return IntegrationResult(t=t_out, y=Y, ydot=np.concatenate(YDs), hist=hist,
                                  stats=result_stats)
 

@@ -226,6 +226,42 @@ def applied_forces(t, q, v, hist, sys, Q):
 
 
 @njit(cache=True)
+def spd_solve(S, b):
+    """Solve S x = b for a small symmetric positive definite S by Cholesky (S = L Lᵀ), in
+    place on a copy. For the m ≤ ~30 Schur complements here, plain loops beat a LAPACK call,
+    whose fixed overhead dominated the right-hand side (measured: docs/performance.md).
+    A non-positive pivot (dependent constraints) raises, like ``np.linalg.solve``'s
+    LinAlgError for a singular matrix."""
+    m = b.shape[0]
+    L = S.copy()
+    for j in range(m):
+        d = L[j, j]
+        for k in range(j):
+            d -= L[j, k] * L[j, k]
+        if not d > 0.0:
+            raise np.linalg.LinAlgError("constraint Jacobian is rank deficient")
+        d = math.sqrt(d)
+        L[j, j] = d
+        for i in range(j + 1, m):
+            s = L[i, j]
+            for k in range(j):
+                s -= L[i, k] * L[j, k]
+            L[i, j] = s / d
+    x = b.copy()
+    for i in range(m):  # forward: L z = b
+        s = x[i]
+        for k in range(i):
+            s -= L[i, k] * x[k]
+        x[i] = s / L[i, i]
+    for i in range(m - 1, -1, -1):  # backward: Lᵀ x = z
+        s = x[i]
+        for k in range(i + 1, m):
+            s -= L[k, i] * x[k]
+        x[i] = s / L[i, i]
+    return x
+
+
+@njit(cache=True)
 def accelerations(t, y, hist, sys):
     """q̈ (n), Lagrange multipliers λ (m), driver power (W), clearance power (W)."""
     n = sys.mass.shape[0]
@@ -243,10 +279,29 @@ def accelerations(t, y, hist, sys):
         lam = np.zeros(0)
         a = Q * minv
     else:
-        JM = J * minv  # J M⁻¹ (column scaling)
-        S = JM @ J.T
-        lam = np.linalg.solve(S, JM @ Q - c)
-        a = minv * (Q - J.T @ lam)
+        # S = Φ_q M⁻¹ Φ_qᵀ and Φ_q M⁻¹ Q by loops that skip the zeros of Φ_q (each row has at
+        # most six non-zeros): cheaper than dense BLAS calls at these sizes.
+        n = Q.shape[0]
+        S = np.zeros((m, m))
+        rhs_l = -c
+        for i in range(m):
+            for k in range(n):
+                jik = J[i, k]
+                if jik != 0.0:
+                    w = jik * minv[k]
+                    rhs_l[i] += w * Q[k]
+                    for j in range(i + 1):
+                        S[i, j] += w * J[j, k]
+        for i in range(m):
+            for j in range(i):
+                S[j, i] = S[i, j]
+        lam = spd_solve(S, rhs_l)
+        a = Q.copy()
+        for i in range(m):
+            li = lam[i]
+            for k in range(n):
+                a[k] -= J[i, k] * li
+        a *= minv
     # Input power of the drivers: their generalized force is −Φ_q,dᵀ λ_d.
     pin = 0.0
     r = m - sys.dr_i.shape[0]
