@@ -12,7 +12,7 @@ apply to every run (:func:`check_run`):
   rtol = 1e-7, ≤ 4e-7 m for the implicit methods near ε = 1), below the bound;
 * energy balance |ΔT + ΔV − W_in − W_cl| ≤ 1e-4 · scale over the run, scale = max(T, |W_in|,
   dissipated energy) (J). All runs use rtol = 1e-7 (the scene defaults; the one Radau run
-  passes it explicitly). The balance combines integrated states whose error is controlled
+  passes it explicitly) except the friction run, which checks monotone dissipation at 1e-9. The balance combines integrated states whose error is controlled
   per step at rtol; their global error is 10–1000 × rtol over the short spans here, so 1e-4
   (1000 × rtol) is the bound the tolerance justifies. Measured: 1e-8 (DOPRI5) to 2e-6
   (LSODA, Radau near ε = 1).
@@ -344,8 +344,13 @@ def test_friction_with_slip_reversing_in_contact():
     # not rotate and the rod's angular velocity reverses twice per revolution, so the slip
     # v_T = v·t + ω_S R_S − ω_B R_B of the contact points changes sign during contact. The
     # friction law must stay finite through v_T = 0 (dead band of c_d) and only dissipate.
+    # rtol = 1e-9: the monotonicity of the dissipated energy is checked below to 1e-6 of the
+    # total. At the default 1e-7, separations (where the contact power has a kink) leave
+    # quadrature errors in W_cl of up to 1.4e-5 J (4e-6 of the total), measured to vanish with
+    # the tolerance: 5e-7 J at 1e-8, none at 1e-9 and 1e-10.
     res = run("slider-crank-dry", {"joints.C.friction.coefficient": 0.1, "analysis.cycles": 1,
-                                   "analysis.sample_step_angle": math.radians(0.25)})
+                                   "analysis.sample_step_angle": math.radians(0.25)},
+              rtol=1e-9, atol=1e-12)
     check_run(res)
     e, ed, wB, wS, p = joint_states(res, "C")
     r = np.linalg.norm(e, axis=1)
