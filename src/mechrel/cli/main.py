@@ -35,10 +35,10 @@ def _cmd_scenes(args) -> int:
         scene = load_scene(args.name)
         print(f"{scene.name}: {scene.description}")
         print(f"  bodies:  {', '.join(scene.bodies)}")
-        print(f"  joints:  " + ", ".join(
+        print("  joints:  " + ", ".join(
             f"{j.name} ({j.type}{', ' + j.model + ' clearance' if j.is_clearance else ''})"
             for j in scene.joints.values()))
-        print(f"  drivers: " + (", ".join(
+        print("  drivers: " + (", ".join(
             f"{d.name} ({d.law}, {d.speed:g} rad/s)" for d in scene.drivers.values()) or "none"))
         print(f"  outputs: {', '.join(scene.outputs)}")
         return 0
@@ -88,7 +88,7 @@ def _cmd_simulate(args) -> int:
     if args.out:
         out = Path(args.out)
         write_table(result.to_frame(), out)
-        fig = plot_simulation(result, out.with_suffix(".png"))
+        plot_simulation(result, out.with_suffix(".png"))
         meta = {"provenance": dict(result.provenance), "stats": dict(result.stats),
                 "overrides": list(args.overrides)}
         write_json(meta, out.with_suffix(".json"))

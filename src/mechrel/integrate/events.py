@@ -15,7 +15,9 @@ import numpy as np
 from numba import njit
 
 from ..forces.params import P_FLOOR
-from ..mechanics.problem import gaps
+import math
+
+from ..mechanics.problem import constraint_violation, gaps, rhs
 
 # Layout of the float64 statistics vector every kernel returns.
 S_STEPS, S_RHS, S_REJECTED, S_ONSET_REJECTED, S_IMPACTS, S_JAC, S_LU, S_VIOL_POS, S_VIOL_VEL, \
@@ -73,3 +75,46 @@ def update_history(t, y, hist, floors, sys, stats):
             hist[k] = 0.0
             changed = True
     return changed
+
+
+@njit(cache=True)
+def record_violation(t, y, sys, stats):
+    """Track the largest position and velocity constraint violation in ``stats``."""
+    p, v = constraint_violation(t, y, sys)
+    if p > stats[S_VIOL_POS]:
+        stats[S_VIOL_POS] = p
+    if v > stats[S_VIOL_VEL]:
+        stats[S_VIOL_VEL] = v
+
+
+@njit(cache=True)
+def all_finite(y):
+    for k in range(y.shape[0]):
+        if not math.isfinite(y[k]):
+            return False
+    return True
+
+
+@njit(cache=True)
+def start(sys, t0, y0, hist, t_out):
+    """What every kernel does first: allocate the outputs (NaN until written), the statistics
+    and the contact floors; evaluate f(t0, y0); record the output instants at t0 and the
+    initial constraint violation. Returns (Y, YD, stats, floors, y, f, k, tend) with ``k`` the
+    next output index."""
+    nout = t_out.shape[0]
+    ny = y0.shape[0]
+    Y = np.full((nout, ny), np.nan)
+    YD = np.full((nout, ny), np.nan)
+    stats = np.zeros(N_STATS)
+    floors = contact_floors(sys)
+    y = y0.copy()
+    f = rhs(t0, y, hist, sys)
+    stats[S_RHS] += 1
+    k = 0
+    while k < nout and t_out[k] <= t0:
+        Y[k] = y
+        YD[k] = f
+        k += 1
+    record_violation(t0, y, sys, stats)
+    tend = t_out[nout - 1] if nout > 0 else t0
+    return Y, YD, stats, floors, y, f, k, tend

@@ -16,31 +16,12 @@ from __future__ import annotations
 
 import math
 
-import numpy as np
 from numba import njit
 
-from ..mechanics.problem import constraint_violation, rhs
-from .events import (N_STATS, S_H, S_ONSET_REJECTED, S_REJECTED, S_RHS, S_STATUS, S_STEPS,
-                     S_VIOL_POS, S_VIOL_VEL, STATUS_MAX_STEPS, STATUS_NONFINITE,
-                     STATUS_STEP_UNDERFLOW, contact_floors, onset_fraction, update_history)
-from ..mechanics.problem import gaps
-
-
-@njit(cache=True)
-def _record_violation(t, y, sys, stats):
-    p, v = constraint_violation(t, y, sys)
-    if p > stats[S_VIOL_POS]:
-        stats[S_VIOL_POS] = p
-    if v > stats[S_VIOL_VEL]:
-        stats[S_VIOL_VEL] = v
-
-
-@njit(cache=True)
-def _all_finite(y):
-    for k in range(y.shape[0]):
-        if not math.isfinite(y[k]):
-            return False
-    return True
+from ..mechanics.problem import gaps, rhs
+from .events import (S_H, S_ONSET_REJECTED, S_REJECTED, S_RHS, S_STATUS, S_STEPS,
+                     STATUS_MAX_STEPS, STATUS_NONFINITE, STATUS_STEP_UNDERFLOW, all_finite,
+                     onset_fraction, record_violation, start, update_history)
 
 
 @njit(cache=True)
@@ -57,20 +38,8 @@ def rk4_kernel(sys, t0, y0, hist, t_out, h, max_steps, onset_tol):
     """Classical RK4 with step ``h`` (s); steps are shortened to land on every output instant
     and to locate contact onsets. Returns (Y, YD, hist, stats, t, y)."""
     nout = t_out.shape[0]
-    ny = y0.shape[0]
-    Y = np.full((nout, ny), np.nan)
-    YD = np.full((nout, ny), np.nan)
-    stats = np.zeros(N_STATS)
-    floors = contact_floors(sys)
+    Y, YD, stats, floors, y, _, k, _ = start(sys, t0, y0, hist, t_out)
     t = t0
-    y = y0.copy()
-    k = 0
-    while k < nout and t_out[k] <= t:
-        Y[k] = y
-        YD[k] = rhs(t, y, hist, sys)
-        stats[S_RHS] += 1
-        k += 1
-    _record_violation(t, y, sys, stats)
     while k < nout:
         if stats[S_STEPS] >= max_steps:
             stats[S_STATUS] = STATUS_MAX_STEPS
@@ -89,7 +58,7 @@ def rk4_kernel(sys, t0, y0, hist, t_out, h, max_steps, onset_tol):
                 stats[S_ONSET_REJECTED] += 1
                 g1, _ = gaps(t + hk, ynew, sys)
                 theta = onset_fraction(g0, g1, hist, onset_tol)
-        if not _all_finite(ynew):
+        if not all_finite(ynew):
             stats[S_STATUS] = STATUS_NONFINITE
             break
         # land exactly on the output instant (hk was computed as its difference)
@@ -97,7 +66,7 @@ def rk4_kernel(sys, t0, y0, hist, t_out, h, max_steps, onset_tol):
         y = ynew
         stats[S_STEPS] += 1
         update_history(t, y, hist, floors, sys, stats)
-        _record_violation(t, y, sys, stats)
+        record_violation(t, y, sys, stats)
         while k < nout and t_out[k] <= t:
             Y[k] = y
             YD[k] = rhs(t, y, hist, sys)
@@ -154,21 +123,8 @@ def dopri5_kernel(sys, t0, y0, hist, t_out, h0, rtol, atol, max_steps, onset_tol
     Returns (Y, YD, hist, stats, t, y); ``stats[S_H]`` is the step to continue with."""
     nout = t_out.shape[0]
     ny = y0.shape[0]
-    Y = np.full((nout, ny), np.nan)
-    YD = np.full((nout, ny), np.nan)
-    stats = np.zeros(N_STATS)
-    floors = contact_floors(sys)
+    Y, YD, stats, floors, y, f, k, tend = start(sys, t0, y0, hist, t_out)
     t = t0
-    y = y0.copy()
-    f = rhs(t, y, hist, sys)
-    stats[S_RHS] += 1
-    k = 0
-    while k < nout and t_out[k] <= t:
-        Y[k] = y
-        YD[k] = f
-        k += 1
-    _record_violation(t, y, sys, stats)
-    tend = t_out[nout - 1] if nout > 0 else t
     h = h0
     if h <= 0.0:  # Hairer's starting-step heuristic (HNW I, §II.4)
         d0 = 0.0
@@ -226,13 +182,13 @@ def dopri5_kernel(sys, t0, y0, hist, t_out, h0, rtol, atol, max_steps, onset_tol
             k += 1
         y = ynew
         f = fnew
-        if not _all_finite(y):
+        if not all_finite(y):
             stats[S_STATUS] = STATUS_NONFINITE
             break
         if update_history(t, y, hist, floors, sys, stats):
             f = rhs(t, y, hist, sys)  # the right-hand side changed with the history
             stats[S_RHS] += 1
-        _record_violation(t, y, sys, stats)
+        record_violation(t, y, sys, stats)
         # PI step-size control (HNW I, eq. II.4.13 with beta = 0.04)
         fac = 0.9 * en ** -0.17 * errold ** 0.04 if en > 0.0 else 10.0
         fac = min(max(fac, 0.2), 1.0 if rejected_last else 10.0)

@@ -97,11 +97,11 @@ import numpy as np
 from numba import njit
 
 from ..mechanics.problem import gaps, rhs
-from .events import (N_STATS, S_H, S_JAC, S_LU, S_ONSET_REJECTED, S_REJECTED, S_RHS, S_STATUS,
+from .events import (S_H, S_JAC, S_LU, S_ONSET_REJECTED, S_REJECTED, S_RHS, S_STATUS,
                      S_STEPS, STATUS_MAX_STEPS, STATUS_NEWTON, STATUS_NONFINITE,
-                     STATUS_STEP_UNDERFLOW, contact_floors, onset_fraction, update_history)
+                     STATUS_STEP_UNDERFLOW, all_finite, onset_fraction, record_violation, start,
+                     update_history)
 from .base import Integrator
-from .explicit import _all_finite, _record_violation
 
 # ---------------------------------------------------------------------------- constants
 UROUND = 2.220446049250313e-16
@@ -323,10 +323,6 @@ def radau5_kernel(sys, t0, y0, hist, t_out, h0, rtol_user, atol_user, max_steps,
     """
     nout = t_out.shape[0]
     ny = y0.shape[0]
-    Y = np.full((nout, ny), np.nan)
-    YD = np.full((nout, ny), np.nan)
-    stats = np.zeros(N_STATS)
-    floors = contact_floors(sys)
     # RADAU5's tolerance transformation (module docstring)
     rtol = 0.1 * rtol_user ** (2.0 / 3.0)
     atol = rtol * (atol_user / rtol_user)
@@ -334,17 +330,8 @@ def radau5_kernel(sys, t0, y0, hist, t_out, h0, rtol_user, atol_user, max_steps,
     jac_floor = atol / rtol
     nit = NIT_FIXED if fixed else NIT
 
+    Y, YD, stats, floors, y, f0, k, tend = start(sys, t0, y0, hist, t_out)
     t = t0
-    y = y0.copy()
-    f0 = rhs(t, y, hist, sys)
-    stats[S_RHS] += 1
-    k = 0
-    while k < nout and t_out[k] <= t:
-        Y[k] = y
-        YD[k] = f0
-        k += 1
-    _record_violation(t, y, sys, stats)
-    tend = t_out[nout - 1] if nout > 0 else t
     scal = np.empty(ny)
     for i in range(ny):
         scal[i] = atol + rtol * abs(y[i])
@@ -611,7 +598,6 @@ def radau5_kernel(sys, t0, y0, hist, t_out, h0, rtol_user, atol_user, max_steps,
                 hnew = h / quot
             hacc = h
             erracc = max(1e-2, err)
-            told = t
             hold = h
             t = tph
             for i in range(ny):
@@ -636,11 +622,11 @@ def radau5_kernel(sys, t0, y0, hist, t_out, h0, rtol_user, atol_user, max_steps,
                 YD[k] = rhs(t_out[k], Y[k], hist, sys)
                 stats[S_RHS] += 1
                 k += 1
-            if not _all_finite(y):
+            if not all_finite(y):
                 stats[S_STATUS] = STATUS_NONFINITE
                 break
             changed = update_history(t, y, hist, floors, sys, stats)
-            _record_violation(t, y, sys, stats)
+            record_violation(t, y, sys, stats)
             f0 = rhs(t, y, hist, sys)
             stats[S_RHS] += 1
             for i in range(ny):

@@ -102,7 +102,6 @@ def constraints(q, t, sys):
     for k in range(sys.rev_i.shape[0]):
         i = sys.rev_i[k]
         j = sys.rev_j[k]
-        xi, yi, bxi, byi = 0.0, 0.0, 0.0, 0.0
         th = q[3 * i + 2]
         axi, ayi, bxi, byi = _rot(th, sys.rev_si[k, 0], sys.rev_si[k, 1])
         phi[r] = q[3 * i] + axi - sys.rev_off[k, 0]
