@@ -30,9 +30,10 @@ paper's time axis over one cycle.
 Outputs are sampled every ``--sample-deg`` degrees of crank rotation (default 0.05°, i.e.
 0.09 ms at 3π): the dry joint's acceleration spikes last a fraction of a millisecond, and
 their sampled peak is a property of the sampling (nine-bar, dry, 3π, second revolution:
-[−26, 106] m/s² sampled every 1°, [−639, 234] every 0.05°, [−683, 235] every 0.01°; the
+[−142, 131] m/s² sampled every 1°, [−581, 250] every 0.05°, [−702, 265] every 0.01°; the
 trajectory itself is the same, the dense output only samples it). Lubricated ranges are
-converged to 0.1 % at 0.25°.
+converged to 0.1 % at 0.25°. Dry values are also chaotic: round-off-level changes of the code
+move them by ~10 % (docs/validation.md).
 
 Integrators: the scene type's default (``mechrel.simulation.DEFAULT_SOLVERS``: DOPRI5 for dry,
 the compiled Radau for lubricated, rtol = 1e-7); wall time and solver statistics are recorded

@@ -121,8 +121,9 @@ def test_lubricated_journals_stay_inside_their_bearings(fast):
 @pytest.mark.slow
 @pytest.mark.parametrize("w", ["", "-5pi"])
 def test_full_lubricated_below_dry(full, w):
-    # measured (second revolution): 3.6 vs 311 m/s² at 3π, 30 vs 160 m/s² at 5π; the dry
-    # peak is one impact's and varies from cycle to cycle (1370 m/s² in the first at 5π)
+    # the dry peak is one impact's, depends on the output sampling (1° here) and varies from
+    # revolution to revolution and with round-off (chaotic impacts): measured 3.6 vs 100-300
+    # m/s² at 3π and 30 vs 160-570 m/s² at 5π over code versions
     assert full(f"lub{w}", "acceleration") < 0.5 * full(f"dry{w}", "acceleration")
     assert full(f"lub{w}", "velocity") < full(f"dry{w}", "velocity")
 
