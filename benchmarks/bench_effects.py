@@ -18,12 +18,12 @@ For each scene, one revolution of crank 1 (2/3 s at 3π rad/s), output every deg
   ``of which forces``: ``applied_forces`` alone (gravity and the clearance-joint force laws)
   at the same states, the part of the rhs that depends on the declared effects (the rest is
   the constraint solve).
-  Both are the minimum over the rounds (one chunk of ``--rhs-time / --repeats`` seconds per
-  round; the median is printed too).
+  All three are the minimum over ``--rhs-rounds`` interleaved chunks of
+  ``--rhs-time / --rhs-rounds`` seconds (the median is printed too).
 
-Each round times every case once (simulate, a compiled chunk, a Python chunk), so that a load
-change on a shared machine hits all cases alike; minima over the rounds estimate the intrinsic
-cost.
+Each round times every case once (first the simulate rounds, then the rhs rounds), so that a
+load change on a shared machine hits all cases alike; minima over the rounds estimate the
+intrinsic cost.
 
 The ideal nine-bar's rhs is its constraint solve alone (16 × 16 Schur complement, no clearance
 joints); the increments of the other rows are the force laws.
@@ -115,10 +115,13 @@ class Case:
             self.chunk = chunk
 
     def round(self):
-        """One timed simulate, one compiled chunk and one Python chunk of rhs calls."""
+        """One timed simulate."""
         t0 = time.perf_counter()
         simulate(self.scene, **self.kwargs)
         self.walls.append(time.perf_counter() - t0)
+
+    def rhs_round(self):
+        """One compiled chunk, one chunk of applied_forces and one Python chunk of rhs calls."""
         if self.system is None:
             return
         t0 = time.perf_counter()
@@ -146,13 +149,16 @@ class Case:
                 min(self.compiled), min(self.forces), min(self.python))
 
 
-def bench(repeats, rhs_seconds):
+def bench(repeats, rhs_seconds, rhs_rounds):
     """Rounds interleave the cases, so that the load of a shared machine hits all alike."""
-    cases = [Case(*c, chunk=rhs_seconds / repeats) for c in CASES]
+    cases = [Case(*c, chunk=rhs_seconds / rhs_rounds) for c in CASES]
     for r in range(repeats):
         for case in cases:
             case.round()
-        print(f"round {r + 1}/{repeats}", flush=True)
+        print(f"simulate round {r + 1}/{repeats}", flush=True)
+    for r in range(rhs_rounds):
+        for case in cases:
+            case.rhs_round()
     for case in cases:
         if case.system is not None:
             print(f"  {case.label}: µs/rhs compiled min {min(case.compiled):.3g} median "
@@ -178,7 +184,10 @@ def main(argv=None):
     ap.add_argument("--repeats", type=int, default=5)
     ap.add_argument("--rhs-time", type=float, default=2.0,
                     help="seconds spent timing rhs per scene and per calling mode (split over "
-                         "the rounds)")
+                         "the rhs rounds)")
+    ap.add_argument("--rhs-rounds", type=int, default=60,
+                    help="interleaved rounds of rhs timing; short chunks make it likely that "
+                         "some run unloaded on a shared machine, and the minimum is reported")
     ap.add_argument("--out", default=None, help="write the markdown table here too")
     args = ap.parse_args(argv)
 
@@ -189,8 +198,9 @@ def main(argv=None):
             f"(NUMBA_NUM_THREADS={os.environ['NUMBA_NUM_THREADS']}); Python "
             f"{platform.python_version()}, NumPy {np.__version__}, SciPy {scipy.__version__}, "
             f"Numba {numba.__version__}; wall time: median and minimum of {args.repeats} "
-            "interleaved warm runs; rhs cost: minimum over the rounds.")
-    rows = bench(args.repeats, args.rhs_time)
+            f"interleaved warm runs; rhs cost: minimum over {args.rhs_rounds} interleaved "
+            "chunks.")
+    rows = bench(args.repeats, args.rhs_time, args.rhs_rounds)
     text = head + "\n\n" + table(rows) + "\n"
     print()
     print(text)
