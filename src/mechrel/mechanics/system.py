@@ -2,9 +2,10 @@
 compiled kernels read.
 
 One compiled kernel serves every scene because the scene enters only as data. The arrays are
-grouped per element type (revolute, translational, fixed angle, driver, clearance joint), and
-clearance joints are grouped by force model, so a loop over an empty group costs nothing: a
-scene without lubricated joints never enters film code (see docs/mechanics.md).
+grouped per element type (revolute, translational, fixed angle, driver, clearance joint), so a
+loop over an empty group costs nothing; each clearance joint's force law branches once on its
+model code, so a dry joint never enters film code and a lubricated one never enters contact
+code (see docs/mechanics.md).
 
 Coordinates: ``q = (x_1, y_1, θ_1, …, x_nb, y_nb, θ_nb)``, body frames at the centre of mass.
 """
