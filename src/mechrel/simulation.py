@@ -96,11 +96,10 @@ def _crank_angle(scene: Scene, compiled: CompiledScene, times: np.ndarray):
         return None
     sys = compiled.ideal
     k = compiled.cycle_driver
-    law, par = sys.dr_law[k], sys.dr_par[k]
-    th0 = problem.driver_law(law, par, 0.0)[0]
+    theta = problem.driver_angles(sys.dr_law[k], sys.dr_par[k], times)
+    th0 = problem.driver_law(sys.dr_law[k], sys.dr_par[k], 0.0)[0]
     sign = math.copysign(1.0, scene.drivers[compiled.driver_names[k]].speed)
-    return np.array([(problem.driver_law(law, par, t)[0] - th0) * sign for t in times]) * (
-        180.0 / math.pi)
+    return (theta - th0) * sign * (180.0 / math.pi)
 
 
 def _point_outputs(compiled: CompiledScene, Q, V, A):
@@ -206,39 +205,22 @@ class SimulationResult:
         return pd.DataFrame(cols)
 
 
-def _orbits(compiled: CompiledScene, Y):
+def _orbits_and_energy(compiled: CompiledScene, res: IntegrationResult):
+    """Journal orbits and the energy bookkeeping at the output instants (one compiled call)."""
     from .forces.params import P_C
 
     sys = compiled.dynamic
     n = sys.mass.shape[0]
-    out = {}
-    for k, name in enumerate(compiled.clearance_names):
-        ex = np.empty(Y.shape[0])
-        ey = np.empty(Y.shape[0])
-        for r in range(Y.shape[0]):
-            q, v = Y[r, :n], Y[r, n:2 * n]
-            bx, by, _, _ = problem.point_state(q, v, sys.cl_b[k], *sys.cl_sb[k])
-            jx, jy, _, _ = problem.point_state(q, v, sys.cl_j[k], *sys.cl_sj[k])
-            ex[r], ey[r] = jx - bx, jy - by
-        out[name] = {"ex": ex, "ey": ey, "eps": np.hypot(ex, ey) / sys.cl_p[k, P_C]}
-    return out
-
-
-def _energy(sys, res: IntegrationResult):
-    n = sys.mass.shape[0]
-    Y = res.y
-    T = np.empty(Y.shape[0])
-    V = np.empty(Y.shape[0])
-    for r in range(Y.shape[0]):
-        T[r], V[r] = problem.mechanical_energy(Y[r], sys)
-    E = np.empty(Y.shape[0])
-    no_hist = np.zeros(sys.n_contacts)  # the stored elastic energy does not depend on history
-    for r in range(Y.shape[0]):
-        E[r] = problem.elastic_energy(res.t[r], Y[r], no_hist, sys)
+    Y = np.ascontiguousarray(res.y)
+    EX, EY, T, V, E = problem.post_process(np.ascontiguousarray(res.t), Y, sys)
+    orbits = {name: {"ex": EX[:, k], "ey": EY[:, k],
+                     "eps": np.hypot(EX[:, k], EY[:, k]) / sys.cl_p[k, P_C]}
+              for k, name in enumerate(compiled.clearance_names)}
     win, wcl = Y[:, 2 * n], Y[:, 2 * n + 1]
-    return {"kinetic": T, "potential": V, "elastic": E, "input_work": win,
-            "clearance_work": wcl, "dissipated": -wcl - (E - E[0]),
-            "balance": (T - T[0]) + (V - V[0]) - win - wcl}
+    energy = {"kinetic": T, "potential": V, "elastic": E, "input_work": win,
+              "clearance_work": wcl, "dissipated": -wcl - (E - E[0]),
+              "balance": (T - T[0]) + (V - V[0]) - win - wcl}
+    return orbits, energy
 
 
 def _provenance(scene: Scene, wall: float) -> dict:
@@ -332,8 +314,7 @@ def simulate(scene: Scene, *, method: str = "auto", integrator: str | None = Non
                                 np.zeros(0), times)
         ideal = _point_outputs(compiled, resi.y[:, :n], resi.y[:, n:2 * n],
                                resi.ydot[:, n:2 * n])
-    orbits = _orbits(compiled, Y)
-    energy = _energy(sys, res)
+    orbits, energy = _orbits_and_energy(compiled, res)
     wall = time.perf_counter() - start
     stats = res.stats.as_dict()
     stats["total_wall_time"] = wall

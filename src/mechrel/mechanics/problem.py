@@ -379,3 +379,47 @@ def elastic_energy(t, y, hist, sys):
     Q = np.zeros(n)
     _, eel = applied_forces(t, y[:n], y[n:2 * n], hist, sys, Q)
     return eel
+
+
+@njit(cache=True)
+def post_process(times, Y, sys):
+    """Per output instant, in one compiled call: the eccentricity (e_x, e_y) (m) of every
+    clearance joint, kinetic and gravitational energy and the elastic contact energy (J).
+
+    Returns (EX, EY, T, V, E) with EX, EY of shape (N, n_clearance)."""
+    N = Y.shape[0]
+    n = sys.mass.shape[0]
+    nc = sys.cl_b.shape[0]
+    EX = np.empty((N, nc))
+    EY = np.empty((N, nc))
+    T = np.empty(N)
+    V = np.empty(N)
+    E = np.empty(N)
+    nh = 0
+    for k in range(nc):
+        if sys.cl_hist[k] >= 0:
+            nh += 1
+    no_hist = np.zeros(nh)  # the stored elastic energy does not depend on history
+    Q = np.zeros(n)
+    for r in range(N):
+        y = Y[r]
+        q = y[:n]
+        v = y[n:2 * n]
+        for k in range(nc):
+            bx, by, _, _ = point_state(q, v, sys.cl_b[k], sys.cl_sb[k, 0], sys.cl_sb[k, 1])
+            jx, jy, _, _ = point_state(q, v, sys.cl_j[k], sys.cl_sj[k, 0], sys.cl_sj[k, 1])
+            EX[r, k] = jx - bx
+            EY[r, k] = jy - by
+        T[r], V[r] = mechanical_energy(y, sys)
+        Q[:] = 0.0
+        _, E[r] = applied_forces(times[r], q, v, no_hist, sys, Q)
+    return EX, EY, T, V, E
+
+
+@njit(cache=True)
+def driver_angles(law, par, times):
+    """Angle (rad) of one driver at each instant."""
+    out = np.empty(times.shape[0])
+    for r in range(times.shape[0]):
+        out[r] = driver_law(law, par, times[r])[0]
+    return out
