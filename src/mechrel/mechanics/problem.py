@@ -272,7 +272,14 @@ def accelerations(t, y, hist, sys):
     m = phi.shape[0]
     alpha = sys.baumgarte[0]
     beta = sys.baumgarte[1]
-    c = gamma(q, v, t, sys) - 2.0 * alpha * (J @ v + phit) - beta * beta * phi
+    # c = γ − 2α Φ̇ − β² Φ with Φ̇ = Φ_q q̇ + Φ_t (loops: a BLAS call costs more than the work)
+    c = gamma(q, v, t, sys)
+    n = Q.shape[0]
+    for i in range(m):
+        phidot = phit[i]
+        for k in range(n):
+            phidot += J[i, k] * v[k]
+        c[i] -= 2.0 * alpha * phidot + beta * beta * phi[i]
     minv = 1.0 / sys.mass
     if m == 0:
         lam = np.zeros(0)
@@ -280,7 +287,6 @@ def accelerations(t, y, hist, sys):
     else:
         # S = Φ_q M⁻¹ Φ_qᵀ and Φ_q M⁻¹ Q by loops that skip the zeros of Φ_q (each row has at
         # most six non-zeros): cheaper than dense BLAS calls at these sizes.
-        n = Q.shape[0]
         S = np.zeros((m, m))
         rhs_l = -c
         for i in range(m):
@@ -356,7 +362,13 @@ def constraint_violation(t, y, sys):
     phi, phit, J = constraints(y[:n], t, sys)
     if phi.shape[0] == 0:
         return 0.0, 0.0
-    return np.max(np.abs(phi)), np.max(np.abs(J @ y[n:2 * n] + phit))
+    vmax = 0.0
+    for i in range(phi.shape[0]):
+        r = phit[i]
+        for k in range(n):
+            r += J[i, k] * y[n + k]
+        vmax = max(vmax, abs(r))
+    return np.max(np.abs(phi)), vmax
 
 
 @njit(cache=True)
