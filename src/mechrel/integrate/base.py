@@ -167,7 +167,16 @@ class Integrator:
         carry = None
         start = time.perf_counter()
         for a, b in zip(bounds[:-1], bounds[1:]):
-            Y, YD, hist, stats, t, y, carry = self._advance(system, t, y, hist, t_out[a:b], carry)
+            try:
+                Y, YD, hist, stats, t, y, carry = self._advance(system, t, y, hist, t_out[a:b],
+                                                                carry)
+            except np.linalg.LinAlgError as exc:
+                # the compiled Cholesky of the Schur complement raises this when the state has
+                # diverged (e.g. RK4 with too large a step through dry impacts): a failed run,
+                # not a bug, so that `mechrel accuracy` and the UQ executor record it
+                raise SimulationError(
+                    f"{self.name} diverged between t = {t:.6g} s and {t_out[b - 1]:.6g} s "
+                    f"({exc}); use a smaller step or tighter tolerances") from None
             _merge(total, stats)
             Ys.append(Y)
             YDs.append(YD)
