@@ -4,7 +4,7 @@ For every scene this calls :func:`mechrel.studies.accuracy.accuracy_report` (the
 ``mechrel accuracy SCENE``) with a bounded candidate list (each scene a few minutes on one
 core), writes the figure to ``docs/figures/performance/accuracy_<scene>.png``, the table to
 ``<out>/accuracy_<scene>.csv`` and a Markdown summary (tables, recommendation, the default of
-``mechrel.simulation.DEFAULT_SOLVERS`` and its measured error) to ``<out>/accuracy_scenes.md``.
+``mechrel.simulation.DEFAULT_SOLVERS`` and its measured error) to ``<out>/accuracy_<scene>.md`` (``--replot`` redraws the figures from the saved tables).
 
 Error measures and reference: see ``mechrel.studies.accuracy`` (pointwise max error / range
 for ideal and lubricated scenes, relative change of the error curves' statistics for dry
@@ -48,8 +48,10 @@ def candidates(scene, kind):
         return (tol("radau", [1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8]) + tol("lsoda", [1e-5, 1e-7])
                 + tol("dopri5", [1e-6]))
     if kind == "dry":
-        return (tol("dopri5", [1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 1e-9]) + rk4([4e3, 16e3, 64e3])
-                + tol("radau", [1e-5, 1e-7]))
+        # dopri5 at 1e-10 and 1e-12 straddle the 1e-11 reference: how far two equally
+        # converged runs of a chaotic scene are apart (the "chaos floor" of the measure)
+        return (tol("dopri5", [1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10, 1e-12])
+                + rk4([4e3, 16e3, 64e3]) + tol("radau", [1e-5, 1e-7]))
     # ideal: forward dynamics of the ideal mechanism
     return (tol("dopri5", [1e-4, 1e-6, 1e-8, 1e-9, 1e-10]) + rk4([250, 1e3, 4e3])
             + tol("radau", [1e-6, 1e-8]))
@@ -58,6 +60,51 @@ def candidates(scene, kind):
 def default_label(kind):
     name, s = DEFAULT_SOLVERS[kind]
     return name, ", ".join(f"{k}={v:.3g}" for k, v in s.items())
+
+
+def figure(rep, kind, path):
+    """The report's own plot, plus the default setting, a labelled time axis and, for dry
+    scenes, the chaos floor (the measure of dopri5 1e-10 / 1e-12 against the 1e-11 reference)."""
+    import matplotlib.pyplot as plt
+    from matplotlib.ticker import LogFormatterSciNotation
+
+    fig = rep.plot()
+    ax = fig.axes[0]
+    dname, dlabel = default_label(kind)
+    t = rep.table[rep.table["failed"] == ""]
+    d = t[(t["integrator"] == dname) & (t["setting"] == dlabel)]
+    if len(d):
+        ax.plot(d["wall_time"].iloc[:1], d["measure"].iloc[:1], "o", ms=15, mfc="none",
+                mec="red", mew=2, label=f"default ({dname})")
+    if kind == "dry":
+        fl = t[(t["integrator"] == "dopri5") & t["setting"].str.contains("rtol=1e-1[02]")]
+        if len(fl):
+            ax.axhspan(fl["measure"].min(), fl["measure"].max(), color="grey", alpha=0.2,
+                       label="chaos floor: dopri5 1e-10, 1e-12 vs 1e-11 ref.")
+    ax.xaxis.set_minor_formatter(LogFormatterSciNotation(labelOnlyBase=False,
+                                                         minor_thresholds=(2, 0.5)))
+    ax.tick_params(axis="x", which="minor", labelsize=7)
+    ax.set_title(f"{rep.scene} ({kind}): error against wall time per run\n"
+                 f"(min of {2} warm runs, shared 2-core machine: times ±2×)", fontsize=10)
+    ax.legend(fontsize=8, loc="best")
+    fig.savefig(path, dpi=130)
+    plt.close(fig)
+
+
+def replot(out, figdir):
+    """Redraw the figures from the saved tables (no simulation)."""
+    from mechrel.studies.accuracy import AccuracyReport
+    summary = json.loads((out / "accuracy_scenes.json").read_text())
+    for name, info in summary.items():
+        import pandas as pd
+        table = pd.read_csv(out / f"accuracy_{name}.csv", keep_default_na=False,
+                            na_values=[""])
+        table["failed"] = table["failed"].fillna("").astype(str)
+        kind = info["kind"]
+        rep = AccuracyReport(scene=name, kind=kind, measure=info.get("measure", "error"),
+                             target=0.01, reference={}, table=table,
+                             recommended=info["recommended"])
+        figure(rep, kind, figdir / f"accuracy_{name}.png")
 
 
 def markdown(rep, kind, elapsed):
@@ -100,11 +147,17 @@ def main(argv=None):
     ap.add_argument("--target", type=float, default=0.01)
     ap.add_argument("--out", default="results/accuracy_scenes")
     ap.add_argument("--figdir", default=str(FIGDIR))
+    ap.add_argument("--replot", action="store_true", help="redraw the figures from --out")
     a = ap.parse_args(argv)
     out, figdir = Path(a.out), Path(a.figdir)
+    if a.replot:
+        return replot(out, figdir)
     out.mkdir(parents=True, exist_ok=True)
     figdir.mkdir(parents=True, exist_ok=True)
     md, summary = [], {}
+    if (out / "accuracy_scenes.json").exists():  # keep the scenes not rerun
+        summary = json.loads((out / "accuracy_scenes.json").read_text())
+        summary = {k: v for k, v in summary.items() if k not in a.scenes}
     for name in a.scenes:
         scene = load_scene(name)
         kind = scene_kind(scene)
@@ -115,17 +168,18 @@ def main(argv=None):
         # also time the default itself so it appears in the table even if not a candidate
         cands = candidates(scene, kind)
         dn, ds = DEFAULT_SOLVERS[kind]
-        if (dn, ds) not in cands:
+        dl = default_label(kind)
+        if not any((n, ", ".join(f"{k}={v:.3g}" for k, v in c.items())) == dl for n, c in cands):
             cands.append((dn, dict(ds)))
         rep = accuracy_report(scene, candidates=cands, target=a.target, repeats=a.repeats)
         elapsed = time.perf_counter() - t0
         rep.table.to_csv(out / f"accuracy_{name}.csv", index=False)
-        rep.plot(figdir / f"accuracy_{name}.png")
+        figure(rep, kind, figdir / f"accuracy_{name}.png")
         md.append(markdown(rep, kind, elapsed))
-        summary[name] = {"kind": kind, "recommended": rep.recommended,
+        summary[name] = {"kind": kind, "recommended": rep.recommended, "measure": rep.measure,
                          "default": [dn, ds], "elapsed": elapsed}
         print(md[-1], flush=True)
-        (out / "accuracy_scenes.md").write_text("\n".join(md))
+        (out / f"accuracy_{name}.md").write_text(md[-1])
         (out / "accuracy_scenes.json").write_text(json.dumps(summary, indent=1, default=str))
 
 
