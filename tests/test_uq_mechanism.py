@@ -20,7 +20,6 @@ from mechrel.uq import (
     Normal,
     TruncNormal,
     UncertainInputs,
-    evaluate,
     fosm,
     monte_carlo,
     monte_carlo_design,
