@@ -155,13 +155,15 @@ class MechanismModel:
 
     def cache_key(self) -> str:
         from .. import __version__
+        from .._kernel_cache import simulator_digest
         from ..scene import scene_hash
 
         payload = json.dumps({"kind": "MechanismModel", "scene": scene_hash(self.scene),
                               "inputs": self.targets, "output": self.output,
                               "quantities": list(self.quantities),
                               "angle_step": self.angle_step, "cycles": self.cycles,
-                              "mechrel": __version__}, sort_keys=True)
+                              "mechrel": __version__, "code": simulator_digest()},
+                             sort_keys=True)
         return hashlib.sha256(payload.encode()).hexdigest()
 
     def simulate(self, x):
