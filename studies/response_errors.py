@@ -73,7 +73,8 @@ QTY = ("displacement", "velocity", "acceleration")
 UNIT = {"displacement": "m", "velocity": "m/s", "acceleration": "m/s²"}
 # display units for figures and the markdown table
 SHOW = {"displacement": ("mm", 1e3), "velocity": ("m/s", 1.0), "acceleration": ("m/s²", 1.0)}
-PAPER_TEXT = Path("/work/shared/reference/chen-wang-gao-2022.txt")
+# shared/ stands beside the checkout
+PAPER_TEXT = Path(__file__).resolve().parents[2] / "shared" / "reference" / "chen-wang-gao-2022.txt"
 
 
 def _speed(w):

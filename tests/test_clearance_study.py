@@ -12,7 +12,8 @@ import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
 STUDY = ROOT / "studies" / "response_errors.py"
-PAPER = Path("/work/shared/reference/chen-wang-gao-2022.txt")
+# shared/ stands beside the checkout (here and in CI)
+PAPER = ROOT.parent / "shared" / "reference" / "chen-wang-gao-2022.txt"
 
 
 def _module():
