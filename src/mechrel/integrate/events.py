@@ -65,6 +65,12 @@ def update_history(t, y, hist, floors, sys, stats):
     if hist.shape[0] == 0:
         return False
     g, gd = gaps(t, y, sys)
+    return update_history_from(g, gd, hist, floors, stats)
+
+
+@njit(cache=True)
+def update_history_from(g, gd, hist, floors, stats):
+    """:func:`update_history` with the gaps and gap rates at the step's end already known."""
     changed = False
     for k in range(g.shape[0]):
         if hist[k] == 0.0 and g[k] > 0.0:

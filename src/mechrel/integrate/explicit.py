@@ -16,21 +16,34 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
 from numba import njit
 
 from ..mechanics.problem import gaps, rhs
 from .events import (S_H, S_ONSET_REJECTED, S_REJECTED, S_RHS, S_STATUS, S_STEPS,
                      STATUS_MAX_STEPS, STATUS_NONFINITE, STATUS_STEP_UNDERFLOW, all_finite,
-                     onset_fraction, record_violation, start, update_history)
+                     onset_fraction, record_violation, start, update_history,
+                     update_history_from)
 
 
 @njit(cache=True)
-def _rk4_step(t, y, h, hist, sys):
+def _rk4_step(t, y, h, hist, sys, tmp, out):
+    """One classical RK4 step into ``out``; stage states are built in ``tmp`` by loops (array
+    expressions would allocate a temporary per operation, a measurable share of a step)."""
+    n = y.shape[0]
     k1 = rhs(t, y, hist, sys)
-    k2 = rhs(t + 0.5 * h, y + 0.5 * h * k1, hist, sys)
-    k3 = rhs(t + 0.5 * h, y + 0.5 * h * k2, hist, sys)
-    k4 = rhs(t + h, y + h * k3, hist, sys)
-    return y + (h / 6.0) * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
+    for i in range(n):
+        tmp[i] = y[i] + 0.5 * h * k1[i]
+    k2 = rhs(t + 0.5 * h, tmp, hist, sys)
+    for i in range(n):
+        tmp[i] = y[i] + 0.5 * h * k2[i]
+    k3 = rhs(t + 0.5 * h, tmp, hist, sys)
+    for i in range(n):
+        tmp[i] = y[i] + h * k3[i]
+    k4 = rhs(t + h, tmp, hist, sys)
+    h6 = h / 6.0
+    for i in range(n):
+        out[i] = y[i] + h6 * (k1[i] + 2.0 * (k2[i] + k3[i]) + k4[i])
 
 
 @njit(cache=True)
@@ -40,32 +53,38 @@ def rk4_kernel(sys, t0, y0, hist, t_out, h, max_steps, onset_tol):
     nout = t_out.shape[0]
     Y, YD, stats, floors, y, _, k, _ = start(sys, t0, y0, hist, t_out)
     t = t0
+    tmp = np.empty_like(y)
+    ynew = np.empty_like(y)
+    contacts = hist.shape[0] > 0
+    if contacts:
+        g0, _ = gaps(t, y, sys)
     while k < nout:
         if stats[S_STEPS] >= max_steps:
             stats[S_STATUS] = STATUS_MAX_STEPS
             break
         hk = min(h, t_out[k] - t)
-        ynew = _rk4_step(t, y, hk, hist, sys)
+        _rk4_step(t, y, hk, hist, sys, tmp, ynew)
         stats[S_RHS] += 4
-        if hist.shape[0] > 0:
-            g0, _ = gaps(t, y, sys)
-            g1, _ = gaps(t + hk, ynew, sys)
+        if contacts:
+            g1, gd1 = gaps(t + hk, ynew, sys)
             theta = onset_fraction(g0, g1, hist, onset_tol)
             while theta < 1.0 and hk * theta > 1e-15 * max(1.0, abs(t)):
                 hk *= theta
-                ynew = _rk4_step(t, y, hk, hist, sys)
+                _rk4_step(t, y, hk, hist, sys, tmp, ynew)
                 stats[S_RHS] += 4
                 stats[S_ONSET_REJECTED] += 1
-                g1, _ = gaps(t + hk, ynew, sys)
+                g1, gd1 = gaps(t + hk, ynew, sys)
                 theta = onset_fraction(g0, g1, hist, onset_tol)
         if not all_finite(ynew):
             stats[S_STATUS] = STATUS_NONFINITE
             break
         # land exactly on the output instant (hk was computed as its difference)
         t = t_out[k] if hk == t_out[k] - t else t + hk
-        y = ynew
+        y, ynew = ynew, y
         stats[S_STEPS] += 1
-        update_history(t, y, hist, floors, sys, stats)
+        if contacts:
+            update_history_from(g1, gd1, hist, floors, stats)
+            g0 = g1
         record_violation(t, y, sys, stats)
         while k < nout and t_out[k] <= t:
             Y[k] = y
