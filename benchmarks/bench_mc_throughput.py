@@ -142,7 +142,7 @@ def main(argv=None):
     ap.add_argument("--seed", type=int, default=20221014)
     ap.add_argument("--solver", default="study", choices=["study", "fast"],
                     help="'study': the study's own solver settings; 'fast': radau rtol 3e-5, "
-                         "atol 3e-8 (the fastest setting meeting the 1 % criterion of "
+                         "atol 3e-8 (the fastest setting meeting the 1 %% criterion of "
                          "bench_lubricated_ninebar.py)")
     ap.add_argument("--json", default=None)
     args = ap.parse_args(argv)
