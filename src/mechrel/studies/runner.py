@@ -119,8 +119,9 @@ def run_reliability(study, *, methods=None, n=None, n_jobs=1, seed=None, out=Non
     if "pce" in results:
         loo = results["pce"].loo_error
         if loo is not None:
-            lines.append(f"  PCE order {results['pce'].order}: max leave-one-out error "
-                         f"{float(loo.max()):.3g} (relative)")
+            lines.append(f"  PCE order {results['pce'].order} ({results['pce'].evaluations.X.shape[0]} "
+                         f"training runs): leave-one-out error median {float(loo.median()):.3g}, "
+                         f"max {float(loo.max()):.3g} (relative to each output's variance)")
     if "normality" in results:
         nt = results["normality"].to_frame()
         flag = [c for c in nt.columns if "flag" in c]
@@ -134,6 +135,10 @@ def run_reliability(study, *, methods=None, n=None, n_jobs=1, seed=None, out=Non
             k = t["reliability"].idxmin()
             parts.append(f"FOSM min R {t['reliability'].min():.4f} at {k:g}° "
                          f"(β = {t['beta'].loc[k]:.3f})")
+        if "pce_reliability" in results:
+            t = results["pce_reliability"].table.xs(q, level="quantity")
+            parts.append(f"PCE min R {t['reliability'].min():.4f} at "
+                         f"{t['reliability'].idxmin():g}°")
         if "mc" in results:
             t = results["mc"].table.xs(q, level="quantity")
             k = t["reliability"].idxmin()
