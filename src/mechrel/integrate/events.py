@@ -124,3 +124,16 @@ def start(sys, t0, y0, hist, t_out):
     record_violation(t0, y, sys, stats)
     tend = t_out[nout - 1] if nout > 0 else t0
     return Y, YD, stats, floors, y, f, k, tend
+
+
+@njit(cache=True)
+def out_of_budget(stats, h, t, max_steps):
+    """True (with the status set) when an adaptive kernel must stop: ``max_steps`` attempted
+    steps, or a step below 1e-14 of the time scale (underflow)."""
+    if stats[S_STEPS] + stats[S_REJECTED] >= max_steps:
+        stats[S_STATUS] = STATUS_MAX_STEPS
+        return True
+    if h < 1e-14 * max(1.0, abs(t)):
+        stats[S_STATUS] = STATUS_STEP_UNDERFLOW
+        return True
+    return False

@@ -21,8 +21,8 @@ from numba import njit
 
 from ..mechanics.problem import gaps, rhs
 from .events import (S_H, S_ONSET_REJECTED, S_REJECTED, S_RHS, S_STATUS, S_STEPS,
-                     STATUS_MAX_STEPS, STATUS_NONFINITE, STATUS_STEP_UNDERFLOW, all_finite,
-                     onset_fraction, record_violation, start, update_history,
+                     STATUS_MAX_STEPS, STATUS_NONFINITE, all_finite,
+                     onset_fraction, out_of_budget, record_violation, start, update_history,
                      update_history_from)
 
 
@@ -159,11 +159,7 @@ def dopri5_kernel(sys, t0, y0, hist, t_out, h0, rtol, atol, max_steps, onset_tol
     errold = 1e-4
     rejected_last = False
     while k < nout:
-        if stats[S_STEPS] + stats[S_REJECTED] >= max_steps:
-            stats[S_STATUS] = STATUS_MAX_STEPS
-            break
-        if h < 1e-14 * max(1.0, abs(t)):
-            stats[S_STATUS] = STATUS_STEP_UNDERFLOW
+        if out_of_budget(stats, h, t, max_steps):
             break
         h = min(h, tend - t)
         ynew, fnew, err, dense = _dopri_stages(t, y, h, f, hist, sys)

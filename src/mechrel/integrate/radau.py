@@ -98,8 +98,8 @@ from numba import njit
 
 from ..mechanics.problem import gaps, rhs
 from .events import (S_H, S_JAC, S_LU, S_ONSET_REJECTED, S_REJECTED, S_RHS, S_STATUS,
-                     S_STEPS, STATUS_MAX_STEPS, STATUS_NEWTON, STATUS_NONFINITE,
-                     STATUS_STEP_UNDERFLOW, all_finite, onset_fraction, record_violation, start,
+                     S_STEPS, STATUS_NEWTON, STATUS_NONFINITE,
+                     all_finite, onset_fraction, out_of_budget, record_violation, start,
                      update_history)
 from .base import Integrator
 
@@ -404,11 +404,7 @@ def radau5_kernel(sys, t0, y0, hist, t_out, h0, rtol_user, atol_user, max_steps,
             caljac = True
             need_jac = False
             need_lu = True
-        if stats[S_STEPS] + stats[S_REJECTED] >= max_steps:
-            stats[S_STATUS] = STATUS_MAX_STEPS
-            break
-        if h < 1e-14 * max(1.0, abs(t)):
-            stats[S_STATUS] = STATUS_STEP_UNDERFLOW
+        if out_of_budget(stats, h, t, max_steps):
             break
         if need_lu:
             _build_matrices(J, h, E1, E2)
