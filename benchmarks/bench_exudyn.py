@@ -71,6 +71,8 @@ from mechrel.simulation import simulate  # noqa: E402
 SCENE = "slider-crank-dry"
 
 
+from _common import git_state  # noqa: E402  (benchmarks/ is sys.path[0])
+
 def scene_data():
     sc = load_scene(SCENE)
     cs = compile_scene(sc)
@@ -283,16 +285,6 @@ def physics(h, revolutions, spectral_radius):
         if pre.any() else None,
         "slider_x_max_diff_whole_run_m": float(np.max(np.abs(x_m - x_e_on_m))),
     }
-
-
-def git_state():
-    import subprocess
-    try:
-        return subprocess.run(["git", "describe", "--always", "--dirty"],
-                              cwd=Path(__file__).resolve().parent, capture_output=True,
-                              text=True, check=True).stdout.strip()
-    except (OSError, subprocess.CalledProcessError):
-        return "unknown"
 
 
 def main(argv=None):

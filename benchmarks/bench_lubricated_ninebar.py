@@ -65,6 +65,8 @@ REF_RTOL, REF_ATOL = 1e-10, 1e-13
 ATOL_RATIO = 1e-3
 
 
+from _common import git_state  # noqa: E402  (benchmarks/ is sys.path[0])
+
 def peak(e):
     """Peak |error| excluding θ = 0 (fixed by the initial state)."""
     return float(np.max(np.abs(e[1:])))
@@ -139,16 +141,6 @@ def fmt_row(r):
     return (f"| {r['code']} | {r['integrator']} | {r['rtol']:.0e} | {r['wall']:.3f} | "
             f"{r['integration']:.3f} | {r['steps']} | {r['rhs']} | {100 * r['peak_rel_dev']:.3f} | "
             f"{100 * r['curve_rel_dev']:.3f} |")
-
-
-def git_state():
-    import subprocess
-    try:
-        return subprocess.run(["git", "describe", "--always", "--dirty"],
-                              cwd=Path(__file__).resolve().parent, capture_output=True,
-                              text=True, check=True).stdout.strip()
-    except (OSError, subprocess.CalledProcessError):
-        return "unknown"
 
 
 def main(argv=None):

@@ -44,14 +44,12 @@ import argparse  # noqa: E402
 import dataclasses  # noqa: E402
 import datetime  # noqa: E402
 import json  # noqa: E402
-import math  # noqa: E402
 import platform  # noqa: E402
 import subprocess  # noqa: E402
 import sys  # noqa: E402
 import time  # noqa: E402
 from pathlib import Path  # noqa: E402
 
-import numpy as np  # noqa: E402
 import psutil  # noqa: E402
 
 from mechrel.studies.study import load_study  # noqa: E402
@@ -76,6 +74,8 @@ print(json.dumps({"import": t1 - t0, "first_eval": t3 - t2, "second_eval": t4 - 
                   "third_eval": t5 - t4}))
 """
 
+
+from _common import git_state  # noqa: E402  (benchmarks/ is sys.path[0])
 
 def study_model(solver_over: dict):
     s = load_study(STUDY)
@@ -229,16 +229,6 @@ def statistics_median(v):
     v = sorted(v)
     k = len(v)
     return 0.5 * (v[(k - 1) // 2] + v[k // 2])
-
-
-def git_state():
-    here = Path(__file__).resolve().parent
-    try:
-        out = subprocess.run(["git", "describe", "--always", "--dirty"], cwd=here,
-                             capture_output=True, text=True, check=True).stdout.strip()
-    except (OSError, subprocess.CalledProcessError):
-        out = "unknown"
-    return out
 
 
 if __name__ == "__main__":
