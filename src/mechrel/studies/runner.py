@@ -106,7 +106,7 @@ def run_reliability(study, *, methods=None, n=None, n_jobs=1, seed=None, out=Non
                              seed=seed, **common)
         results["pce"] = r
         frames.append(r.to_frame().add_prefix("pce."))
-        surrogate = r.reliability(n=100_000, rule="sobol", seed=seed, allowable=allow,
+        surrogate = r.reliability(n=2**17, rule="sobol", seed=seed, allowable=allow,
                                   form=form)
         results["pce_reliability"] = surrogate
         frames.append(surrogate.to_frame()[["reliability", "reliability_lo", "reliability_hi"]]
