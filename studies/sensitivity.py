@@ -109,25 +109,15 @@ class ToleranceModel(MechanismModel):
         extra = json.dumps(self.elements, sort_keys=True)
         return hashlib.sha256((super().cache_key() + "|elements|" + extra).encode()).hexdigest()
 
-    def simulate(self, x):
-        from mechrel.scene import with_overrides
-        from mechrel.simulation import simulate
-
+    def scene_values(self, x):
+        values = super().scene_values(x)  # checks the length, sets the scalar inputs
         x = np.asarray(x, dtype=float).reshape(-1)
-        if x.size != len(self.input_names):
-            raise StudyError(f"x: expected {len(self.input_names)} values "
-                             f"({', '.join(self.input_names)}), got {x.size}")
-        values = {}
-        k = len(self.targets)
-        for (name, paths), value in zip(self.targets.items(), map(float, x[:k])):
-            for path in paths:
-                values[path[1:] if path.startswith("-") else path] = -value if path.startswith("-") else value
-        for (name, targets), value in zip(self.elements.items(), map(float, x[k:])):
+        for (name, targets), value in zip(self.elements.items(), map(float, x[len(self.targets):])):
             for path, comp, scale in targets:
                 vec = list(values.get(path, _lookup(self._raw, path)))
                 vec[comp] = scale * value
                 values[path] = vec
-        return simulate(with_overrides(self.scene, values))
+        return values
 
 
 def build(cycles: float = 2.0):

@@ -166,11 +166,9 @@ class MechanismModel:
                              sort_keys=True)
         return hashlib.sha256(payload.encode()).hexdigest()
 
-    def simulate(self, x):
-        """The full :class:`~mechrel.simulation.SimulationResult` at input vector ``x``."""
-        from ..scene import with_overrides
-        from ..simulation import simulate
-
+    def scene_values(self, x) -> dict:
+        """The scene overrides ``{path: value}`` that input vector ``x`` stands for (a ``-``
+        path receives the negated value). Subclasses with other kinds of inputs extend this."""
         x = np.asarray(x, dtype=float).reshape(-1)
         if x.size != len(self.input_names):
             raise StudyError(f"x: expected {len(self.input_names)} values "
@@ -182,7 +180,14 @@ class MechanismModel:
                     values[path[1:]] = -value
                 else:
                     values[path] = value
-        scene = with_overrides(self.scene, values)
+        return values
+
+    def simulate(self, x):
+        """The full :class:`~mechrel.simulation.SimulationResult` at input vector ``x``."""
+        from ..scene import with_overrides
+        from ..simulation import simulate
+
+        scene = with_overrides(self.scene, self.scene_values(x))
         return simulate(scene)
 
     def evaluate(self, x) -> np.ndarray:
