@@ -22,7 +22,7 @@ from numba import njit
 from ..mechanics.problem import gaps, rhs
 from .events import (S_H, S_ONSET_REJECTED, S_REJECTED, S_RHS, S_STATUS, S_STEPS,
                      STATUS_MAX_STEPS, STATUS_NONFINITE, all_finite,
-                     onset_fraction, out_of_budget, record_violation, start, update_history,
+                     onset_fraction, out_of_budget, record_violation, start,
                      update_history_from)
 
 
@@ -158,6 +158,9 @@ def dopri5_kernel(sys, t0, y0, hist, t_out, h0, rtol, atol, max_steps, onset_tol
         h = min(h, max(tend - t, 1e-12))
     errold = 1e-4
     rejected_last = False
+    contacts = hist.shape[0] > 0
+    if contacts:
+        g0, _ = gaps(t, y, sys)  # kept from step to step: the end of one is the next's start
     while k < nout:
         if out_of_budget(stats, h, t, max_steps):
             break
@@ -172,9 +175,8 @@ def dopri5_kernel(sys, t0, y0, hist, t_out, h0, rtol, atol, max_steps, onset_tol
             h *= max(0.2, 0.9 * en ** -0.2)
             rejected_last = True
             continue
-        if hist.shape[0] > 0:
-            g0, _ = gaps(t, y, sys)
-            g1, _ = gaps(t + h, ynew, sys)
+        if contacts:
+            g1, gd1 = gaps(t + h, ynew, sys)
             theta = onset_fraction(g0, g1, hist, onset_tol)
             if theta < 1.0:
                 stats[S_ONSET_REJECTED] += 1
@@ -200,9 +202,11 @@ def dopri5_kernel(sys, t0, y0, hist, t_out, h0, rtol, atol, max_steps, onset_tol
         if not all_finite(y):
             stats[S_STATUS] = STATUS_NONFINITE
             break
-        if update_history(t, y, hist, floors, sys, stats):
-            f = rhs(t, y, hist, sys)  # the right-hand side changed with the history
-            stats[S_RHS] += 1
+        if contacts:
+            g0 = g1
+            if update_history_from(g1, gd1, hist, floors, stats):
+                f = rhs(t, y, hist, sys)  # the right-hand side changed with the history
+                stats[S_RHS] += 1
         record_violation(t, y, sys, stats)
         # PI step-size control (HNW I, eq. II.4.13 with beta = 0.04)
         fac = 0.9 * en ** -0.17 * errold ** 0.04 if en > 0.0 else 10.0
