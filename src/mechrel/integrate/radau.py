@@ -72,7 +72,7 @@ History and contact onsets
 As in :mod:`mechrel.integrate.explicit`: a step that passed the error test but ends in a new
 contact deeper than ``onset_tol`` is retried with the step that the secant of the gap puts
 at ``onset_tol / 2`` inside (:func:`~mechrel.integrate.events.onset_fraction`); only then is
-the step accepted and :func:`~mechrel.integrate.events.update_history` called. When the
+the step accepted and :func:`~mechrel.integrate.events.update_history_from` called. When the
 history changes, ``f(y)`` and the Jacobian (which depend on it) are recomputed.
 
 Statistics: ``n_rhs`` includes the Jacobian columns; ``n_jacobians`` counts full and partial
@@ -100,7 +100,7 @@ from ..mechanics.problem import gaps, rhs
 from .events import (S_H, S_JAC, S_LU, S_ONSET_REJECTED, S_REJECTED, S_RHS, S_STATUS,
                      S_STEPS, STATUS_NEWTON, STATUS_NONFINITE,
                      all_finite, onset_fraction, out_of_budget, record_violation, start,
-                     update_history)
+                     update_history_from)
 from .base import Integrator
 
 # ---------------------------------------------------------------------------- constants
@@ -391,6 +391,9 @@ def radau5_kernel(sys, t0, y0, hist, t_out, h0, rtol_user, atol_user, max_steps,
     betan = BETA / h
     hnew = h
 
+    contacts = hist.shape[0] > 0
+    if contacts:
+        g0, _ = gaps(t, y, sys)  # kept from step to step: the end of one is the next's start
     while k < nout:
         if need_jac:
             if partial and n_partial < MAX_PARTIAL:
@@ -572,11 +575,10 @@ def radau5_kernel(sys, t0, y0, hist, t_out, h0, rtol_user, atol_user, max_steps,
 
         if err < 1.0:
             # contact onset inside the step: shorten it to locate the onset
-            if hist.shape[0] > 0:
+            if contacts:
                 for i in range(ny):
                     ystage[i] = y[i] + z3[i]
-                g0, _ = gaps(t, y, sys)
-                g1, _ = gaps(tph, ystage, sys)
+                g1, gd1 = gaps(tph, ystage, sys)
                 th_on = onset_fraction(g0, g1, hist, onset_tol)
                 if th_on < 1.0:
                     stats[S_ONSET_REJECTED] += 1
@@ -621,7 +623,10 @@ def radau5_kernel(sys, t0, y0, hist, t_out, h0, rtol_user, atol_user, max_steps,
             if not all_finite(y):
                 stats[S_STATUS] = STATUS_NONFINITE
                 break
-            changed = update_history(t, y, hist, floors, sys, stats)
+            changed = False
+            if contacts:
+                g0 = g1
+                changed = update_history_from(g1, gd1, hist, floors, stats)
             record_violation(t, y, sys, stats)
             f0 = rhs(t, y, hist, sys)
             stats[S_RHS] += 1
