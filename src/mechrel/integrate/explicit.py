@@ -19,7 +19,7 @@ import math
 import numpy as np
 from numba import njit
 
-from ..mechanics.problem import gaps, rhs
+from ..mechanics.problem import gaps_into, rhs_into
 from .events import (S_H, S_ONSET_REJECTED, S_REJECTED, S_RHS, S_STATUS, S_STEPS,
                      STATUS_MAX_STEPS, STATUS_NONFINITE, all_finite,
                      onset_fraction, out_of_budget, record_violation, start,
@@ -27,20 +27,27 @@ from .events import (S_H, S_ONSET_REJECTED, S_REJECTED, S_RHS, S_STATUS, S_STEPS
 
 
 @njit(cache=True)
-def _rk4_step(t, y, h, hist, sys, tmp, out):
-    """One classical RK4 step into ``out``; stage states are built in ``tmp`` by loops (array
-    expressions would allocate a temporary per operation, a measurable share of a step)."""
+def _rk4_step(t, y, h, hist, sys, ws, K, tmp, out, stats):
+    """One classical RK4 step into ``out``; the stage derivatives go to the rows of ``K``
+    (4 × ny) and the stage states are built in ``tmp`` by loops, so a step allocates nothing.
+    The first stage is evaluated at the step's start state, whose constraint violation is
+    recorded then."""
     n = y.shape[0]
-    k1 = rhs(t, y, hist, sys)
+    k1 = K[0]
+    k2 = K[1]
+    k3 = K[2]
+    k4 = K[3]
+    rhs_into(t, y, hist, sys, ws, k1)
+    record_violation(ws, stats)
     for i in range(n):
         tmp[i] = y[i] + 0.5 * h * k1[i]
-    k2 = rhs(t + 0.5 * h, tmp, hist, sys)
+    rhs_into(t + 0.5 * h, tmp, hist, sys, ws, k2)
     for i in range(n):
         tmp[i] = y[i] + 0.5 * h * k2[i]
-    k3 = rhs(t + 0.5 * h, tmp, hist, sys)
+    rhs_into(t + 0.5 * h, tmp, hist, sys, ws, k3)
     for i in range(n):
         tmp[i] = y[i] + h * k3[i]
-    k4 = rhs(t + h, tmp, hist, sys)
+    rhs_into(t + h, tmp, hist, sys, ws, k4)
     h6 = h / 6.0
     for i in range(n):
         out[i] = y[i] + h6 * (k1[i] + 2.0 * (k2[i] + k3[i]) + k4[i])
@@ -49,31 +56,40 @@ def _rk4_step(t, y, h, hist, sys, tmp, out):
 @njit(cache=True)
 def rk4_kernel(sys, t0, y0, hist, t_out, h, max_steps, onset_tol):
     """Classical RK4 with step ``h`` (s); steps are shortened to land on every output instant
-    and to locate contact onsets. Returns (Y, YD, hist, stats, t, y)."""
+    and to locate contact onsets. Returns (Y, YD, hist, stats, t, y).
+
+    Every accepted state's constraint violation is recorded: as the first stage of the next
+    step, or at the output instant the last step lands on."""
     nout = t_out.shape[0]
-    Y, YD, stats, floors, y, _, k, _ = start(sys, t0, y0, hist, t_out)
+    Y, YD, stats, floors, y, _, k, _, ws = start(sys, t0, y0, hist, t_out)
     t = t0
-    tmp = np.empty_like(y)
-    ynew = np.empty_like(y)
-    contacts = hist.shape[0] > 0
+    ny = y.shape[0]
+    K = np.empty((4, ny))
+    tmp = np.empty(ny)
+    ynew = np.empty(ny)
+    nh = hist.shape[0]
+    contacts = nh > 0
+    g0 = np.empty(nh)
+    g1 = np.empty(nh)
+    gd1 = np.empty(nh)
     if contacts:
-        g0, _ = gaps(t, y, sys)
+        gaps_into(t, y, sys, g0, gd1)
     while k < nout:
         if stats[S_STEPS] >= max_steps:
             stats[S_STATUS] = STATUS_MAX_STEPS
             break
         hk = min(h, t_out[k] - t)
-        _rk4_step(t, y, hk, hist, sys, tmp, ynew)
+        _rk4_step(t, y, hk, hist, sys, ws, K, tmp, ynew, stats)
         stats[S_RHS] += 4
         if contacts:
-            g1, gd1 = gaps(t + hk, ynew, sys)
+            gaps_into(t + hk, ynew, sys, g1, gd1)
             theta = onset_fraction(g0, g1, hist, onset_tol)
             while theta < 1.0 and hk * theta > 1e-15 * max(1.0, abs(t)):
                 hk *= theta
-                _rk4_step(t, y, hk, hist, sys, tmp, ynew)
+                _rk4_step(t, y, hk, hist, sys, ws, K, tmp, ynew, stats)
                 stats[S_RHS] += 4
                 stats[S_ONSET_REJECTED] += 1
-                g1, gd1 = gaps(t + hk, ynew, sys)
+                gaps_into(t + hk, ynew, sys, g1, gd1)
                 theta = onset_fraction(g0, g1, hist, onset_tol)
         if not all_finite(ynew):
             stats[S_STATUS] = STATUS_NONFINITE
@@ -84,11 +100,11 @@ def rk4_kernel(sys, t0, y0, hist, t_out, h, max_steps, onset_tol):
         stats[S_STEPS] += 1
         if contacts:
             update_history_from(g1, gd1, hist, floors, stats)
-            g0 = g1
-        record_violation(t, y, sys, stats)
+            g0, g1 = g1, g0
         while k < nout and t_out[k] <= t:
             Y[k] = y
-            YD[k] = rhs(t, y, hist, sys)
+            rhs_into(t, y, hist, sys, ws, YD[k])
+            record_violation(ws, stats)
             stats[S_RHS] += 1
             k += 1
     stats[S_H] = h
@@ -114,17 +130,44 @@ D1, D3, D4, D5, D6, D7 = (-12715105075.0 / 11282082432.0, 87487479700.0 / 327004
 
 
 @njit(cache=True)
-def _dopri_stages(t, y, h, k1, hist, sys):
-    k2 = rhs(t + C2 * h, y + h * A21 * k1, hist, sys)
-    k3 = rhs(t + C3 * h, y + h * (A31 * k1 + A32 * k2), hist, sys)
-    k4 = rhs(t + C4 * h, y + h * (A41 * k1 + A42 * k2 + A43 * k3), hist, sys)
-    k5 = rhs(t + C5 * h, y + h * (A51 * k1 + A52 * k2 + A53 * k3 + A54 * k4), hist, sys)
-    k6 = rhs(t + h, y + h * (A61 * k1 + A62 * k2 + A63 * k3 + A64 * k4 + A65 * k5), hist, sys)
-    ynew = y + h * (A71 * k1 + A73 * k3 + A74 * k4 + A75 * k5 + A76 * k6)
-    k7 = rhs(t + h, ynew, hist, sys)
-    err = h * (E1 * k1 + E3 * k3 + E4 * k4 + E5 * k5 + E6 * k6 + E7 * k7)
-    dense = h * (D1 * k1 + D3 * k3 + D4 * k4 + D5 * k5 + D6 * k6 + D7 * k7)
-    return ynew, k7, err, dense
+def _dopri_stages(t, y, h, hist, sys, ws, K, ytmp, ynew, err, dense):
+    """One Dormand–Prince step from ``(t, y)`` with ``K[0] = f(t, y)`` (FSAL): stages into the
+    rows of ``K`` (7 × ny), the 5th-order solution into ``ynew``, the error estimate into
+    ``err`` and the dense-output coefficient into ``dense``; ``K[6] = f(t + h, ynew)``, so
+    ``ws`` holds the constraint terms of ``ynew`` on return. Loops, no temporaries."""
+    ny = y.shape[0]
+    k1 = K[0]
+    k2 = K[1]
+    k3 = K[2]
+    k4 = K[3]
+    k5 = K[4]
+    k6 = K[5]
+    k7 = K[6]
+    for i in range(ny):
+        ytmp[i] = y[i] + h * A21 * k1[i]
+    rhs_into(t + C2 * h, ytmp, hist, sys, ws, k2)
+    for i in range(ny):
+        ytmp[i] = y[i] + h * (A31 * k1[i] + A32 * k2[i])
+    rhs_into(t + C3 * h, ytmp, hist, sys, ws, k3)
+    for i in range(ny):
+        ytmp[i] = y[i] + h * (A41 * k1[i] + A42 * k2[i] + A43 * k3[i])
+    rhs_into(t + C4 * h, ytmp, hist, sys, ws, k4)
+    for i in range(ny):
+        ytmp[i] = y[i] + h * (A51 * k1[i] + A52 * k2[i] + A53 * k3[i] + A54 * k4[i])
+    rhs_into(t + C5 * h, ytmp, hist, sys, ws, k5)
+    for i in range(ny):
+        ytmp[i] = y[i] + h * (A61 * k1[i] + A62 * k2[i] + A63 * k3[i] + A64 * k4[i]
+                              + A65 * k5[i])
+    rhs_into(t + h, ytmp, hist, sys, ws, k6)
+    for i in range(ny):
+        ynew[i] = y[i] + h * (A71 * k1[i] + A73 * k3[i] + A74 * k4[i] + A75 * k5[i]
+                              + A76 * k6[i])
+    rhs_into(t + h, ynew, hist, sys, ws, k7)
+    for i in range(ny):
+        err[i] = h * (E1 * k1[i] + E3 * k3[i] + E4 * k4[i] + E5 * k5[i] + E6 * k6[i]
+                      + E7 * k7[i])
+        dense[i] = h * (D1 * k1[i] + D3 * k3[i] + D4 * k4[i] + D5 * k5[i] + D6 * k6[i]
+                        + D7 * k7[i])
 
 
 @njit(cache=True)
@@ -142,7 +185,13 @@ def dopri5_kernel(sys, t0, y0, hist, t_out, h0, rtol, atol, max_steps, onset_tol
     Returns (Y, YD, hist, stats, t, y); ``stats[S_H]`` is the step to continue with."""
     nout = t_out.shape[0]
     ny = y0.shape[0]
-    Y, YD, stats, floors, y, f, k, tend = start(sys, t0, y0, hist, t_out)
+    Y, YD, stats, floors, y, f, k, tend, ws = start(sys, t0, y0, hist, t_out)
+    K = np.empty((7, ny))
+    K[0] = f
+    ytmp = np.empty(ny)
+    ynew = np.empty(ny)
+    err = np.empty(ny)
+    dense = np.empty(ny)
     t = t0
     h = h0
     if h <= 0.0:  # Hairer's starting-step heuristic (HNW I, §II.4)
@@ -158,14 +207,18 @@ def dopri5_kernel(sys, t0, y0, hist, t_out, h0, rtol, atol, max_steps, onset_tol
         h = min(h, max(tend - t, 1e-12))
     errold = 1e-4
     rejected_last = False
-    contacts = hist.shape[0] > 0
+    nh = hist.shape[0]
+    contacts = nh > 0
+    g0 = np.empty(nh)
+    g1 = np.empty(nh)
+    gd1 = np.empty(nh)
     if contacts:
-        g0, _ = gaps(t, y, sys)  # kept from step to step: the end of one is the next's start
+        gaps_into(t, y, sys, g0, gd1)  # kept from step to step: the end of one is the next's start
     while k < nout:
         if out_of_budget(stats, h, t, max_steps):
             break
         h = min(h, tend - t)
-        ynew, fnew, err, dense = _dopri_stages(t, y, h, f, hist, sys)
+        _dopri_stages(t, y, h, hist, sys, ws, K, ytmp, ynew, err, dense)
         stats[S_RHS] += 6
         en = _error_norm(err, y, ynew, rtol, atol)
         if not math.isfinite(en):
@@ -176,13 +229,14 @@ def dopri5_kernel(sys, t0, y0, hist, t_out, h0, rtol, atol, max_steps, onset_tol
             rejected_last = True
             continue
         if contacts:
-            g1, gd1 = gaps(t + h, ynew, sys)
+            gaps_into(t + h, ynew, sys, g1, gd1)
             theta = onset_fraction(g0, g1, hist, onset_tol)
             if theta < 1.0:
                 stats[S_ONSET_REJECTED] += 1
                 h *= theta
                 continue
-        # accepted
+        # accepted: ws holds the terms of ynew (K[6] was its last evaluation)
+        record_violation(ws, stats)
         told = t
         t = t + h
         stats[S_STEPS] += 1
@@ -190,24 +244,25 @@ def dopri5_kernel(sys, t0, y0, hist, t_out, h0, rtol, atol, max_steps, onset_tol
         while k < nout and t_out[k] <= t:
             th = (t_out[k] - told) / h
             th1 = 1.0 - th
-            r2 = ynew - y
-            r3 = h * f - r2
-            r4 = r2 - h * fnew - r3
-            Y[k] = y + th * (r2 + th1 * (r3 + th * (r4 + th1 * dense)))
-            YD[k] = rhs(t_out[k], Y[k], hist, sys)
+            for i in range(ny):
+                r2 = ynew[i] - y[i]
+                r3 = h * K[0, i] - r2
+                r4 = r2 - h * K[6, i] - r3
+                Y[k, i] = y[i] + th * (r2 + th1 * (r3 + th * (r4 + th1 * dense[i])))
+            rhs_into(t_out[k], Y[k], hist, sys, ws, YD[k])
             stats[S_RHS] += 1
             k += 1
-        y = ynew
-        f = fnew
+        y, ynew = ynew, y
+        for i in range(ny):
+            K[0, i] = K[6, i]
         if not all_finite(y):
             stats[S_STATUS] = STATUS_NONFINITE
             break
         if contacts:
-            g0 = g1
-            if update_history_from(g1, gd1, hist, floors, stats):
-                f = rhs(t, y, hist, sys)  # the right-hand side changed with the history
+            g0, g1 = g1, g0
+            if update_history_from(g0, gd1, hist, floors, stats):
+                rhs_into(t, y, hist, sys, ws, K[0])  # the right-hand side changed with the history
                 stats[S_RHS] += 1
-        record_violation(t, y, sys, stats)
         # PI step-size control (HNW I, eq. II.4.13 with beta = 0.04)
         fac = 0.9 * en ** -0.17 * errold ** 0.04 if en > 0.0 else 10.0
         fac = min(max(fac, 0.2), 1.0 if rejected_last else 10.0)

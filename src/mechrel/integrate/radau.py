@@ -96,7 +96,7 @@ import math
 import numpy as np
 from numba import njit
 
-from ..mechanics.problem import gaps, rhs
+from ..mechanics.problem import gaps_into, rhs_into
 from .events import (S_H, S_JAC, S_LU, S_ONSET_REJECTED, S_REJECTED, S_RHS, S_STATUS,
                      S_STEPS, STATUS_NEWTON, STATUS_NONFINITE,
                      all_finite, onset_fraction, out_of_budget, record_violation, start,
@@ -204,12 +204,12 @@ def lu_solve(LU, piv, b):
 
 # ---------------------------------------------------------------------------- Jacobian
 @njit(cache=True)
-def fd_jacobian(t, y, f0, hist, sys, J, floor, cols):
+def fd_jacobian(t, y, f0, hist, sys, ws, J, floor, cols, yp, fp):
     """``J = ∂rhs/∂y`` at ``(t, y)`` (``f0 = rhs(t, y)``) by forward differences with
     ``δ_j = √u max(|y_j|, floor)``; exact rows for ``dq/dt = q̇``, zero columns for the work
     integrals. Only the columns ``j`` with ``cols[j]`` True are (re)computed; the others keep
-    their values (all True for a full Jacobian). Returns the number of right-hand-side
-    evaluations."""
+    their values (all True for a full Jacobian). ``yp`` and ``fp`` are work arrays of y's
+    length. Returns the number of right-hand-side evaluations."""
     n = sys.mass.shape[0]
     ny = y.shape[0]
     for i in range(n):
@@ -219,7 +219,8 @@ def fd_jacobian(t, y, f0, hist, sys, J, floor, cols):
     for i in range(n, ny):
         for j in range(2 * n, ny):
             J[i, j] = 0.0
-    yp = y.copy()
+    for j in range(ny):
+        yp[j] = y[j]
     count = 0
     for j in range(2 * n):
         if not cols[j]:
@@ -228,7 +229,7 @@ def fd_jacobian(t, y, f0, hist, sys, J, floor, cols):
         yj = y[j]
         yp[j] = yj + SQRT_UROUND * max(abs(yj), floor)
         d = yp[j] - yj  # the increment actually represented
-        fp = rhs(t, yp, hist, sys)
+        rhs_into(t, yp, hist, sys, ws, fp)
         for i in range(n, ny):
             J[i, j] = (fp[i] - f0[i]) / d
         yp[j] = yj
@@ -330,7 +331,7 @@ def radau5_kernel(sys, t0, y0, hist, t_out, h0, rtol_user, atol_user, max_steps,
     jac_floor = atol / rtol
     nit = NIT_FIXED if fixed else NIT
 
-    Y, YD, stats, floors, y, f0, k, tend = start(sys, t0, y0, hist, t_out)
+    Y, YD, stats, floors, y, f0, k, tend, ws = start(sys, t0, y0, hist, t_out)
     t = t0
     scal = np.empty(ny)
     for i in range(ny):
@@ -366,6 +367,10 @@ def radau5_kernel(sys, t0, y0, hist, t_out, h0, rtol_user, atol_user, max_steps,
     fe = np.zeros(ny)
     ev = np.zeros(ny)
     ystage = np.zeros(ny)
+    fa = np.zeros(ny)
+    fb = np.zeros(ny)
+    fc = np.zeros(ny)
+    yp = np.zeros(ny)
 
     all_cols = np.ones(ny, dtype=np.bool_)
     cl_cols, n_cl_cols = clearance_columns(sys)
@@ -391,16 +396,22 @@ def radau5_kernel(sys, t0, y0, hist, t_out, h0, rtol_user, atol_user, max_steps,
     betan = BETA / h
     hnew = h
 
-    contacts = hist.shape[0] > 0
+    nh = hist.shape[0]
+    contacts = nh > 0
+    g0 = np.empty(nh)
+    g1 = np.empty(nh)
+    gd1 = np.empty(nh)
     if contacts:
-        g0, _ = gaps(t, y, sys)  # kept from step to step: the end of one is the next's start
+        gaps_into(t, y, sys, g0, gd1)  # kept from step to step: the end of one is the next's start
     while k < nout:
         if need_jac:
             if partial and n_partial < MAX_PARTIAL:
-                stats[S_RHS] += fd_jacobian(t, y, f0, hist, sys, J, jac_floor, cl_cols)
+                stats[S_RHS] += fd_jacobian(t, y, f0, hist, sys, ws, J, jac_floor, cl_cols, yp,
+                                            fa)
                 n_partial += 1
             else:
-                stats[S_RHS] += fd_jacobian(t, y, f0, hist, sys, J, jac_floor, all_cols)
+                stats[S_RHS] += fd_jacobian(t, y, f0, hist, sys, ws, J, jac_floor, all_cols, yp,
+                                            fa)
                 n_partial = 0
             partial = False
             stats[S_JAC] += 1
@@ -475,13 +486,13 @@ def radau5_kernel(sys, t0, y0, hist, t_out, h0, rtol_user, atol_user, max_steps,
                 break
             for i in range(ny):
                 ystage[i] = y[i] + z1[i]
-            fa = rhs(t + C1 * h, ystage, hist, sys)
+            rhs_into(t + C1 * h, ystage, hist, sys, ws, fa)
             for i in range(ny):
                 ystage[i] = y[i] + z2[i]
-            fb = rhs(t + C2 * h, ystage, hist, sys)
+            rhs_into(t + C2 * h, ystage, hist, sys, ws, fb)
             for i in range(ny):
                 ystage[i] = y[i] + z3[i]
-            fc = rhs(tph, ystage, hist, sys)
+            rhs_into(tph, ystage, hist, sys, ws, fc)
             stats[S_RHS] += 3
             for i in range(ny):
                 r1[i] = TI11 * fa[i] + TI12 * fb[i] + TI13 * fc[i] - fac1 * w1[i]
@@ -559,10 +570,10 @@ def radau5_kernel(sys, t0, y0, hist, t_out, h0, rtol_user, atol_user, max_steps,
             if err >= 1.0 and (first or reject):
                 for i in range(ny):
                     ystage[i] = y[i] + ev[i]
-                f1 = rhs(t, ystage, hist, sys)
+                rhs_into(t, ystage, hist, sys, ws, fa)
                 stats[S_RHS] += 1
                 for i in range(ny):
-                    ev[i] = f1[i] + fe[i]
+                    ev[i] = fa[i] + fe[i]
                 _solve_condensed(E1, piv1, J, fac1, ev, work1)
                 err = max(_rms(ev, scal), 1e-10)
             if not math.isfinite(err):
@@ -578,7 +589,7 @@ def radau5_kernel(sys, t0, y0, hist, t_out, h0, rtol_user, atol_user, max_steps,
             if contacts:
                 for i in range(ny):
                     ystage[i] = y[i] + z3[i]
-                g1, gd1 = gaps(tph, ystage, sys)
+                gaps_into(tph, ystage, sys, g1, gd1)
                 th_on = onset_fraction(g0, g1, hist, onset_tol)
                 if th_on < 1.0:
                     stats[S_ONSET_REJECTED] += 1
@@ -617,7 +628,7 @@ def radau5_kernel(sys, t0, y0, hist, t_out, h0, rtol_user, atol_user, max_steps,
                     for i in range(ny):
                         Y[k, i] = y[i] + s * (cont1[i] + (s - C2M1)
                                               * (cont2[i] + (s - C1M1) * cont3[i]))
-                YD[k] = rhs(t_out[k], Y[k], hist, sys)
+                rhs_into(t_out[k], Y[k], hist, sys, ws, YD[k])
                 stats[S_RHS] += 1
                 k += 1
             if not all_finite(y):
@@ -625,10 +636,10 @@ def radau5_kernel(sys, t0, y0, hist, t_out, h0, rtol_user, atol_user, max_steps,
                 break
             changed = False
             if contacts:
-                g0 = g1
-                changed = update_history_from(g1, gd1, hist, floors, stats)
-            record_violation(t, y, sys, stats)
-            f0 = rhs(t, y, hist, sys)
+                g0, g1 = g1, g0
+                changed = update_history_from(g0, gd1, hist, floors, stats)
+            rhs_into(t, y, hist, sys, ws, f0)
+            record_violation(ws, stats)
             stats[S_RHS] += 1
             for i in range(ny):
                 scal[i] = atol + rtol * abs(y[i])

@@ -23,6 +23,7 @@ drivers (input work, J) and of the clearance-joint forces (J), for energy balanc
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numpy as np
 from numba import njit
@@ -224,122 +225,307 @@ def applied_forces(t, q, v, hist, sys, Q):
     return power, elastic
 
 
+class Workspace(NamedTuple):
+    """Preallocated arrays of one right-hand-side evaluation (:func:`make_workspace`), so that
+    an evaluation allocates nothing: on the slider-crank a dozen small temporaries per call
+    were a third of its cost. After :func:`rhs_into` the constraint terms of the evaluated
+    state are left in ``phi`` and ``phidot`` (read by the kernels' violation records) and the
+    multipliers in ``lam``. One workspace per kernel call; not shared between threads."""
+
+    cs: np.ndarray  # (nb,) cos θ of each body
+    sn: np.ndarray  # (nb,) sin θ
+    minv: np.ndarray  # (n,) diagonal of M⁻¹ (1/kg, 1/(kg m²))
+    Q: np.ndarray  # (n,) applied generalized forces (N, N m)
+    acc: np.ndarray  # (n,) q̈
+    phi: np.ndarray  # (m,) Φ (m, rad)
+    phidot: np.ndarray  # (m,) Φ̇ = Φ_q q̇ + Φ_t (m/s, rad/s)
+    c: np.ndarray  # (m,) γ − 2α Φ̇ − β² Φ (m/s², rad/s²)
+    coef: np.ndarray  # (m, 6) Φ_q row r: (∂/∂x, ∂/∂y, ∂/∂θ) of body row_body[r, 0], then of [r, 1]
+    L: np.ndarray  # (m, m) Cholesky factor of S in the permuted order (structural entries only)
+    x: np.ndarray  # (m,) right-hand side / solution of S λ = …, permuted
+    lam: np.ndarray  # (m,) Lagrange multipliers λ in row order
+
+
 @njit(cache=True)
-def spd_solve(S, b):
-    """Solve S x = b for a small symmetric positive definite S by Cholesky (S = L Lᵀ), in
-    place on a copy. For the m ≤ ~30 Schur complements here, plain loops beat a LAPACK call,
-    whose fixed overhead dominated the right-hand side (measured: docs/performance.md).
-    A non-positive pivot (dependent constraints) raises, like ``np.linalg.solve``'s
-    LinAlgError for a singular matrix."""
-    m = b.shape[0]
-    L = S.copy()
-    for j in range(m):
-        d = L[j, j]
-        for k in range(j):
-            d -= L[j, k] * L[j, k]
-        if not d > 0.0:
-            raise np.linalg.LinAlgError("constraint Jacobian is rank deficient")
-        d = math.sqrt(d)
-        L[j, j] = d
-        for i in range(j + 1, m):
-            s = L[i, j]
-            for k in range(j):
-                s -= L[i, k] * L[j, k]
-            L[i, j] = s / d
-    x = b.copy()
-    for i in range(m):  # forward: L z = b
+def make_workspace(sys):
+    """A :class:`Workspace` for ``sys``."""
+    n = sys.mass.shape[0]
+    m = n_constraints(sys)
+    return Workspace(np.empty(n // 3), np.empty(n // 3), 1.0 / sys.mass, np.empty(n),
+                     np.empty(n), np.empty(m), np.empty(m), np.empty(m), np.zeros((m, 6)),
+                     np.zeros((m, m)), np.empty(m), np.empty(m))
+
+
+@njit(cache=True)
+def constraint_terms(t, q, v, sys, ws):
+    """Φ, Φ̇ = Φ_q q̇ + Φ_t, the sparse rows of Φ_q and γ of the state, into ``ws``.
+
+    One sine and cosine per body. Row r of Φ_q acts on at most two bodies
+    (``sys.row_body[r]``) with the coefficients ``ws.coef[r]``. With ``A s`` the body-fixed
+    vector s in global axes, ``B s = ∂(A s)/∂θ = (−(A s)_y, (A s)_x)``, and
+    ``γ = −(Φ_q q̇)_q q̇ − 2 Φ_qt q̇ − Φ_tt`` (Nikravesh 1988, §6.2): for a revolute joint
+    ``(A_i s_i) ω_i² − (A_j s_j) ω_j²``, for a point on a line ``n·(A_i s_i) ω_i²``, for a driver
+    its angular acceleration, zero for fixed angles. The Baumgarte combination
+    ``c = γ − 2α Φ̇ − β² Φ`` is formed here too."""
+    nb = sys.mass.shape[0] // 3
+    cs = ws.cs
+    sn = ws.sn
+    for b in range(nb):
+        th = q[3 * b + 2]
+        cs[b] = math.cos(th)
+        sn[b] = math.sin(th)
+    phi = ws.phi
+    pd = ws.phidot
+    g = ws.c
+    co = ws.coef
+    r = 0
+    for k in range(sys.rev_i.shape[0]):
+        i = sys.rev_i[k]
+        j = sys.rev_j[k]
+        sx = sys.rev_si[k, 0]
+        sy = sys.rev_si[k, 1]
+        axi = cs[i] * sx - sn[i] * sy
+        ayi = sn[i] * sx + cs[i] * sy
+        wi = v[3 * i + 2]
+        phi[r] = q[3 * i] + axi - sys.rev_off[k, 0]
+        phi[r + 1] = q[3 * i + 1] + ayi - sys.rev_off[k, 1]
+        pd[r] = v[3 * i] - ayi * wi - sys.rev_offdot[k, 0]
+        pd[r + 1] = v[3 * i + 1] + axi * wi - sys.rev_offdot[k, 1]
+        g[r] = axi * wi * wi
+        g[r + 1] = ayi * wi * wi
+        co[r, 0] = 1.0
+        co[r, 1] = 0.0
+        co[r, 2] = -ayi
+        co[r + 1, 0] = 0.0
+        co[r + 1, 1] = 1.0
+        co[r + 1, 2] = axi
+        if j < 0:
+            phi[r] -= sys.rev_sj[k, 0]
+            phi[r + 1] -= sys.rev_sj[k, 1]
+        else:
+            sx = sys.rev_sj[k, 0]
+            sy = sys.rev_sj[k, 1]
+            axj = cs[j] * sx - sn[j] * sy
+            ayj = sn[j] * sx + cs[j] * sy
+            wj = v[3 * j + 2]
+            phi[r] -= q[3 * j] + axj
+            phi[r + 1] -= q[3 * j + 1] + ayj
+            pd[r] -= v[3 * j] - ayj * wj
+            pd[r + 1] -= v[3 * j + 1] + axj * wj
+            g[r] -= axj * wj * wj
+            g[r + 1] -= ayj * wj * wj
+            co[r, 3] = -1.0
+            co[r, 4] = 0.0
+            co[r, 5] = ayj
+            co[r + 1, 3] = 0.0
+            co[r + 1, 4] = -1.0
+            co[r + 1, 5] = -axj
+        r += 2
+    for k in range(sys.tr_i.shape[0]):
+        i = sys.tr_i[k]
+        nx = sys.tr_n[k, 0]
+        ny = sys.tr_n[k, 1]
+        sx = sys.tr_si[k, 0]
+        sy = sys.tr_si[k, 1]
+        ax = cs[i] * sx - sn[i] * sy
+        ay = sn[i] * sx + cs[i] * sy
+        wi = v[3 * i + 2]
+        cth = ny * ax - nx * ay  # n·(B s)
+        phi[r] = nx * (q[3 * i] + ax - sys.tr_p0[k, 0]) + ny * (q[3 * i + 1] + ay - sys.tr_p0[k, 1])
+        pd[r] = nx * v[3 * i] + ny * v[3 * i + 1] + cth * wi
+        g[r] = (nx * ax + ny * ay) * wi * wi
+        co[r, 0] = nx
+        co[r, 1] = ny
+        co[r, 2] = cth
+        phi[r + 1] = q[3 * i + 2] - sys.tr_angle[k]
+        pd[r + 1] = wi
+        g[r + 1] = 0.0
+        co[r + 1, 0] = 0.0
+        co[r + 1, 1] = 0.0
+        co[r + 1, 2] = 1.0
+        r += 2
+    for k in range(sys.fa_i.shape[0]):
+        i = sys.fa_i[k]
+        phi[r] = q[3 * i + 2] - sys.fa_angle[k]
+        pd[r] = v[3 * i + 2]
+        g[r] = 0.0
+        co[r, 0] = 0.0
+        co[r, 1] = 0.0
+        co[r, 2] = 1.0
+        r += 1
+    for k in range(sys.dr_i.shape[0]):
+        i = sys.dr_i[k]
+        th, w, acc = driver_law(sys.dr_law[k], sys.dr_par[k], t)
+        phi[r] = q[3 * i + 2] - th
+        pd[r] = v[3 * i + 2] - w
+        g[r] = acc
+        co[r, 0] = 0.0
+        co[r, 1] = 0.0
+        co[r, 2] = 1.0
+        r += 1
+    alpha2 = 2.0 * sys.baumgarte[0]
+    beta2 = sys.baumgarte[1] * sys.baumgarte[1]
+    for r in range(phi.shape[0]):
+        g[r] -= alpha2 * pd[r] + beta2 * phi[r]
+
+
+@njit(cache=True)
+def _solve_multipliers(sys, ws):
+    """λ from ``S λ = Φ_q M⁻¹ Q − c`` with ``S = Φ_q M⁻¹ Φ_qᵀ``, by a Cholesky factorisation
+    ``S = L Lᵀ`` that visits only the structural entries of :func:`schur_structure`
+    (:mod:`mechrel.mechanics.system`). A non-positive pivot (dependent constraints) raises
+    ``np.linalg.LinAlgError``, like ``np.linalg.solve`` for a singular matrix."""
+    m = ws.phi.shape[0]
+    co = ws.coef
+    rb = sys.row_body
+    perm = sys.ch_perm
+    minv = ws.minv
+    Q = ws.Q
+    L = ws.L
+    x = ws.x
+    ent = sys.ch_ent
+    for e in range(ent.shape[0]):
+        L[ent[e, 0], ent[e, 1]] = 0.0
+    for e in range(sys.sc_pos.shape[0]):
+        p = sys.sc_pos[e, 0]
+        q = sys.sc_pos[e, 1]
+        a = 3 * sys.sc_slot[e, 0]
+        b = 3 * sys.sc_slot[e, 1]
+        r = perm[p]
+        body = rb[r, sys.sc_slot[e, 0]]
+        s = perm[q]
+        L[p, q] += ((co[r, a] * co[s, b] + co[r, a + 1] * co[s, b + 1]) * minv[3 * body]
+                    + co[r, a + 2] * co[s, b + 2] * minv[3 * body + 2])
+    for p in range(m):
+        r = perm[p]
+        acc = -ws.c[r]
+        for a in range(2):
+            body = rb[r, a]
+            if body >= 0:
+                o = 3 * a
+                acc += (co[r, o] * Q[3 * body] * minv[3 * body]
+                        + co[r, o + 1] * Q[3 * body + 1] * minv[3 * body + 1]
+                        + co[r, o + 2] * Q[3 * body + 2] * minv[3 * body + 2])
+        x[p] = acc
+    ptr = sys.ch_ptr
+    ks = sys.ch_k
+    for e in range(ent.shape[0]):
+        i = ent[e, 0]
+        j = ent[e, 1]
+        s = L[i, j]
+        for u in range(ptr[e], ptr[e + 1]):
+            k = ks[u]
+            s -= L[i, k] * L[j, k]
+        if i == j:
+            if not s > 0.0:
+                raise np.linalg.LinAlgError("constraint Jacobian is rank deficient")
+            L[i, i] = math.sqrt(s)
+        else:
+            L[i, j] = s / L[j, j]
+    rp = sys.ch_row_ptr
+    ri = sys.ch_row_idx
+    for i in range(m):  # forward: L z = x
         s = x[i]
-        for k in range(i):
-            s -= L[i, k] * x[k]
+        for u in range(rp[i], rp[i + 1]):
+            s -= L[i, ri[u]] * x[ri[u]]
         x[i] = s / L[i, i]
-    for i in range(m - 1, -1, -1):  # backward: Lᵀ x = z
-        s = x[i]
-        for k in range(i + 1, m):
-            s -= L[k, i] * x[k]
-        x[i] = s / L[i, i]
-    return x
+    for i in range(m - 1, -1, -1):  # backward: Lᵀ λ = z, scattering each solved λ_i
+        xi = x[i] / L[i, i]
+        x[i] = xi
+        for u in range(rp[i], rp[i + 1]):
+            x[ri[u]] -= L[i, ri[u]] * xi
+    for p in range(m):
+        ws.lam[perm[p]] = x[p]
+
+
+@njit(cache=True)
+def accelerations_into(t, y, hist, sys, ws):
+    """q̈ into ``ws.acc`` and λ into ``ws.lam``; returns (driver power, clearance power) (W).
+
+    Solves the corrected eq. 24 through the Schur complement (module docstring):
+    ``S λ = Φ_q M⁻¹ Q − c``, ``q̈ = M⁻¹ (Q − Φ_qᵀ λ)``, with Φ_q's sparse rows
+    (:func:`constraint_terms`). The drivers' generalized force is ``−Φ_q,dᵀ λ_d``, so their
+    power is ``−Σ λ_d θ̇_d``."""
+    n = sys.mass.shape[0]
+    q = y[:n]
+    v = y[n:2 * n]
+    Q = ws.Q
+    for k in range(n):
+        Q[k] = 0.0
+    pcl, _ = applied_forces(t, q, v, hist, sys, Q)
+    constraint_terms(t, q, v, sys, ws)
+    m = ws.phi.shape[0]
+    a = ws.acc
+    for k in range(n):
+        a[k] = Q[k]
+    if m > 0:
+        _solve_multipliers(sys, ws)
+        co = ws.coef
+        rb = sys.row_body
+        for r in range(m):
+            lr = ws.lam[r]
+            for s in range(2):
+                body = rb[r, s]
+                if body >= 0:
+                    a[3 * body] -= co[r, 3 * s] * lr
+                    a[3 * body + 1] -= co[r, 3 * s + 1] * lr
+                    a[3 * body + 2] -= co[r, 3 * s + 2] * lr
+    for k in range(n):
+        a[k] *= ws.minv[k]
+    pin = 0.0
+    r = m - sys.dr_i.shape[0]
+    for k in range(sys.dr_i.shape[0]):
+        pin -= ws.lam[r + k] * v[3 * sys.dr_i[k] + 2]
+    return pin, pcl
+
+
+@njit(cache=True)
+def rhs_into(t, y, hist, sys, ws, out):
+    """dy/dt for ``y = [q, q̇, W_in, W_cl]`` into ``out``, allocation-free (the kernels' form)."""
+    n = sys.mass.shape[0]
+    pin, pcl = accelerations_into(t, y, hist, sys, ws)
+    for k in range(n):
+        out[k] = y[n + k]
+        out[n + k] = ws.acc[k]
+    out[2 * n] = pin
+    out[2 * n + 1] = pcl
 
 
 @njit(cache=True)
 def accelerations(t, y, hist, sys):
-    """q̈ (n), Lagrange multipliers λ (m), driver power (W), clearance power (W)."""
-    n = sys.mass.shape[0]
-    q = y[:n]
-    v = y[n:2 * n]
-    Q = np.zeros(n)
-    pcl, _ = applied_forces(t, q, v, hist, sys, Q)
-    phi, phit, J = constraints(q, t, sys)
-    m = phi.shape[0]
-    alpha = sys.baumgarte[0]
-    beta = sys.baumgarte[1]
-    # c = γ − 2α Φ̇ − β² Φ with Φ̇ = Φ_q q̇ + Φ_t (loops: a BLAS call costs more than the work)
-    c = gamma(q, v, t, sys)
-    n = Q.shape[0]
-    for i in range(m):
-        phidot = phit[i]
-        for k in range(n):
-            phidot += J[i, k] * v[k]
-        c[i] -= 2.0 * alpha * phidot + beta * beta * phi[i]
-    minv = 1.0 / sys.mass
-    if m == 0:
-        lam = np.zeros(0)
-        a = Q * minv
-    else:
-        # S = Φ_q M⁻¹ Φ_qᵀ and Φ_q M⁻¹ Q by loops that skip the zeros of Φ_q (each row has at
-        # most six non-zeros): cheaper than dense BLAS calls at these sizes.
-        S = np.zeros((m, m))
-        rhs_l = -c
-        for i in range(m):
-            for k in range(n):
-                jik = J[i, k]
-                if jik != 0.0:
-                    w = jik * minv[k]
-                    rhs_l[i] += w * Q[k]
-                    for j in range(i + 1):
-                        S[i, j] += w * J[j, k]
-        for i in range(m):
-            for j in range(i):
-                S[j, i] = S[i, j]
-        lam = spd_solve(S, rhs_l)
-        a = Q.copy()
-        for i in range(m):
-            li = lam[i]
-            for k in range(n):
-                a[k] -= J[i, k] * li
-        a *= minv
-    # Input power of the drivers: their generalized force is −Φ_q,dᵀ λ_d.
-    pin = 0.0
-    r = m - sys.dr_i.shape[0]
-    for k in range(sys.dr_i.shape[0]):
-        pin -= lam[r + k] * v[3 * sys.dr_i[k] + 2]
-    return a, lam, pin, pcl
+    """q̈ (n), Lagrange multipliers λ (m), driver power (W), clearance power (W): a
+    convenience form of :func:`accelerations_into` that returns fresh arrays."""
+    ws = make_workspace(sys)
+    pin, pcl = accelerations_into(t, y, hist, sys, ws)
+    return ws.acc.copy(), ws.lam.copy(), pin, pcl
 
 
 @njit(cache=True)
 def rhs(t, y, hist, sys):
-    """dy/dt for y = [q, q̇, W_in, W_cl]."""
-    n = sys.mass.shape[0]
-    a, _, pin, pcl = accelerations(t, y, hist, sys)
+    """dy/dt for y = [q, q̇, W_in, W_cl] as a fresh array (for Python callers such as SciPy's
+    integrators; the compiled kernels use :func:`rhs_into` with one workspace)."""
     out = np.empty_like(y)
-    out[:n] = y[n:2 * n]
-    out[n:2 * n] = a
-    out[2 * n] = pin
-    out[2 * n + 1] = pcl
+    rhs_into(t, y, hist, sys, make_workspace(sys), out)
     return out
 
 
 @njit(cache=True)
-def gaps(t, y, sys):
-    """Penetration δ = |e| − c (m) and its rate (m/s) of every contact-capable joint."""
-    n = sys.mass.shape[0]
-    q = y[:n]
-    v = y[n:2 * n]
+def n_contacts(sys):
+    """Number of contact-capable clearance joints (the length of ``hist``)."""
     nh = 0
     for k in range(sys.cl_hist.shape[0]):
         if sys.cl_hist[k] >= 0:
             nh += 1
-    g = np.empty(nh)
-    gd = np.empty(nh)
+    return nh
+
+
+@njit(cache=True)
+def gaps_into(t, y, sys, g, gd):
+    """Penetration δ = |e| − c (m) and its rate δ̇ (m/s) of every contact-capable joint, into
+    ``g`` and ``gd`` (indexed like ``hist``)."""
+    n = sys.mass.shape[0]
+    q = y[:n]
+    v = y[n:2 * n]
     for k in range(sys.cl_b.shape[0]):
         h = sys.cl_hist[k]
         if h < 0:
@@ -352,23 +538,37 @@ def gaps(t, y, sys):
         g[h] = e - sys.cl_p[k, P_C]
         # δ̇ = n·ė; at e = 0 the direction is undefined and the joint is far from contact.
         gd[h] = ((jvx - bvx) * ex + (jvy - bvy) * ey) / e if e > 0.0 else 0.0
+
+
+@njit(cache=True)
+def gaps(t, y, sys):
+    """:func:`gaps_into` returning fresh arrays ``(δ, δ̇)``."""
+    nh = n_contacts(sys)
+    g = np.empty(nh)
+    gd = np.empty(nh)
+    gaps_into(t, y, sys, g, gd)
     return g, gd
 
 
 @njit(cache=True)
+def violation_from(ws):
+    """max |Φ| (m or rad) and max |Φ_q q̇ + Φ_t| (m/s or rad/s) of the state whose
+    constraint terms are in ``ws`` (after :func:`constraint_terms` or :func:`rhs_into`)."""
+    p = 0.0
+    v = 0.0
+    for r in range(ws.phi.shape[0]):
+        p = max(p, abs(ws.phi[r]))
+        v = max(v, abs(ws.phidot[r]))
+    return p, v
+
+
+@njit(cache=True)
 def constraint_violation(t, y, sys):
-    """max |Φ| (m or rad) and max |Φ_q q̇ + Φ_t| (m/s or rad/s)."""
+    """max |Φ| (m or rad) and max |Φ_q q̇ + Φ_t| (m/s or rad/s) of the state ``y``."""
     n = sys.mass.shape[0]
-    phi, phit, J = constraints(y[:n], t, sys)
-    if phi.shape[0] == 0:
-        return 0.0, 0.0
-    vmax = 0.0
-    for i in range(phi.shape[0]):
-        r = phit[i]
-        for k in range(n):
-            r += J[i, k] * y[n + k]
-        vmax = max(vmax, abs(r))
-    return np.max(np.abs(phi)), vmax
+    ws = make_workspace(sys)
+    constraint_terms(t, y[:n], y[n:2 * n], sys, ws)
+    return violation_from(ws)
 
 
 @njit(cache=True)
