@@ -36,8 +36,10 @@ freedom (the member statistics are taken as roughly normal), a setting
   nine noise-dominated differences usually exceeds one t;
 * is **unresolved** otherwise: the ensemble is too small to tell. When no setting meets the
   target and some are unresolved, no recommendation can be made at this ``R``; the floor falls
-  as 1/√R, so the report states the smallest ``R`` at which the most precise of them could
-  be resolved (:attr:`AccuracyReport.ensemble_needed`, ≈ R (t · floor / target)²).
+  as 1/√R, so the report states the ``R`` at which a setting with the unresolved settings'
+  median floor and no error would meet the target (:attr:`AccuracyReport.ensemble_needed`,
+  ≈ R (t · floor / target)²; the median, because the smallest of several floors estimated
+  from R members each is biased low).
 
 Pointwise settings meet the target when the measure is below it and exceed it otherwise.
 The recommendation is the fastest setting that meets the target (default 1 %).
@@ -338,7 +340,8 @@ class AccuracyReport:
     ``floor`` (the report's) is the standard error of the difference between two independent
     R-member ensembles of the reference, relative: what the measure resolves for an accurate
     setting whose trajectories have separated from the reference's. ``ensemble_needed`` is
-    set when no setting met the target and some were unresolved; ``conclusion`` says in words
+    set when no setting met the target and some were unresolved (the R at which their median
+    floor would resolve it); ``conclusion`` says in words
     what can be recommended.
     """
 
@@ -580,13 +583,13 @@ def accuracy_report(scene, *, candidates=None, reference=None, target: float = 0
                       + (f", {confidence:.0%} upper bound {r['bound']:.2g}" if R > 1 else "")
                       + f" <= {target:g}; {r['wall_time']:.3g} s per run)")
     elif len(unresolved):
-        best_floor = float(unresolved["floor"].min())
-        needed = ensemble_needed(best_floor, target, R, confidence)
+        typical = float(unresolved["floor"].median())
+        needed = ensemble_needed(typical, target, R, confidence)
         conclusion = (f"no recommendation can be made at R = {R}: the target {target:g} is "
                       f"below the resolvable floor — {len(unresolved)} setting(s) may meet it "
-                      f"but their errors cannot be told from zero (smallest floor "
-                      f"{best_floor:.2g}, t·floor {tq * best_floor:.2g}). The floor falls as "
-                      f"1/sqrt(R): R >= {_count(needed)} members would be needed "
+                      f"but their errors cannot be told from zero (median floor "
+                      f"{typical:.2g}, t·floor {tq * typical:.2g}). The floor falls as "
+                      f"1/sqrt(R): R ≈ {_count(needed)} members would be needed "
                       f"({_count(needed / R)} × the run time), or accept a larger target")
     else:
         conclusion = (f"no setting met the target {target:g}"
