@@ -184,30 +184,49 @@ def gamma(q, v, t, sys):
     return g
 
 
-@njit(cache=True)
-def applied_forces(t, q, v, hist, sys, Q):
+@njit(cache=True, inline='always')
+def _point_state_trig(q, v, i, sx, sy, cs, sn):
+    """:func:`point_state` with the body's cos θ, sin θ given."""
+    if i < 0:
+        return sx, sy, 0.0, 0.0
+    ax = cs[i] * sx - sn[i] * sy
+    ay = sn[i] * sx + cs[i] * sy
+    w = v[3 * i + 2]
+    return q[3 * i] + ax, q[3 * i + 1] + ay, v[3 * i] - ay * w, v[3 * i + 1] + ax * w
+
+
+@njit(cache=True, inline='always')
+def applied_forces_trig(t, q, v, hist, sys, Q, cs, sn):
     """Add gravity and clearance-joint forces to Q (N, N m); return (clearance power W,
-    elastic contact energy J)."""
+    elastic contact energy J). ``cs``, ``sn``: cos θ and sin θ of every body."""
     nb = q.shape[0] // 3
+    cl_b = sys.cl_b
+    cl_hist = sys.cl_hist
+    cl_j = sys.cl_j
+    cl_p = sys.cl_p
+    cl_sb = sys.cl_sb
+    cl_sj = sys.cl_sj
+    gravity = sys.gravity
+    mass = sys.mass
     for b in range(nb):
-        Q[3 * b] += sys.mass[3 * b] * sys.gravity[0]
-        Q[3 * b + 1] += sys.mass[3 * b] * sys.gravity[1]
+        Q[3 * b] += mass[3 * b] * gravity[0]
+        Q[3 * b + 1] += mass[3 * b] * gravity[1]
     power = 0.0
     elastic = 0.0
-    for k in range(sys.cl_b.shape[0]):
-        b = sys.cl_b[k]
-        j = sys.cl_j[k]
-        bx, by, bvx, bvy = point_state(q, v, b, sys.cl_sb[k, 0], sys.cl_sb[k, 1])
-        jx, jy, jvx, jvy = point_state(q, v, j, sys.cl_sj[k, 0], sys.cl_sj[k, 1])
+    for k in range(cl_b.shape[0]):
+        b = cl_b[k]
+        j = cl_j[k]
+        bx, by, bvx, bvy = _point_state_trig(q, v, b, cl_sb[k, 0], cl_sb[k, 1], cs, sn)
+        jx, jy, jvx, jvy = _point_state_trig(q, v, j, cl_sj[k, 0], cl_sj[k, 1], cs, sn)
         wb = v[3 * b + 2] if b >= 0 else 0.0
         wj = v[3 * j + 2] if j >= 0 else 0.0
-        h = sys.cl_hist[k]
+        h = cl_hist[k]
         impact = hist[h] if h >= 0 else 0.0
         ex = jx - bx
         ey = jy - by
         evx = jvx - bvx
         evy = jvy - bvy
-        fx, fy, ms, mb, eel = clearance_force(ex, ey, evx, evy, wb, wj, impact, sys.cl_p[k])
+        fx, fy, ms, mb, eel = clearance_force(ex, ey, evx, evy, wb, wj, impact, cl_p[k])
         power += fx * evx + fy * evy + ms * wj + mb * wb
         elastic += eel
         if j >= 0:
@@ -225,6 +244,25 @@ def applied_forces(t, q, v, hist, sys, Q):
     return power, elastic
 
 
+@njit(cache=True, inline='always')
+def body_trig(q, cs, sn):
+    """cos θ and sin θ of every body into ``cs``, ``sn``."""
+    for b in range(cs.shape[0]):
+        th = q[3 * b + 2]
+        cs[b] = math.cos(th)
+        sn[b] = math.sin(th)
+
+
+@njit(cache=True)
+def applied_forces(t, q, v, hist, sys, Q):
+    """:func:`applied_forces_trig` for callers outside the right-hand side."""
+    nb = q.shape[0] // 3
+    cs = np.empty(nb)
+    sn = np.empty(nb)
+    body_trig(q, cs, sn)
+    return applied_forces_trig(t, q, v, hist, sys, Q, cs, sn)
+
+
 class Workspace(NamedTuple):
     """Preallocated arrays of one right-hand-side evaluation (:func:`make_workspace`), so that
     an evaluation allocates nothing: on the slider-crank a dozen small temporaries per call
@@ -240,8 +278,10 @@ class Workspace(NamedTuple):
     phi: np.ndarray  # (m,) Φ (m, rad)
     phidot: np.ndarray  # (m,) Φ̇ = Φ_q q̇ + Φ_t (m/s, rad/s)
     c: np.ndarray  # (m,) γ − 2α Φ̇ − β² Φ (m/s², rad/s²)
-    coef: np.ndarray  # (m, 6) Φ_q row r: (∂/∂x, ∂/∂y, ∂/∂θ) of body row_body[r, 0], then of [r, 1]
-    L: np.ndarray  # (m, m) Cholesky factor of S in the permuted order (structural entries only)
+    coef: np.ndarray  # (6 m,) Φ_q row r at 6r: (∂/∂x, ∂/∂y, ∂/∂θ) of body row_body[r, 0],
+    #                   then of row_body[r, 1]
+    L: np.ndarray  # (m², ) Cholesky factor of S, row-major, permuted (structural entries only)
+    dinv: np.ndarray  # (m,) 1 / L[j, j]
     x: np.ndarray  # (m,) right-hand side / solution of S λ = …, permuted
     lam: np.ndarray  # (m,) Lagrange multipliers λ in row order
 
@@ -252,59 +292,74 @@ def make_workspace(sys):
     n = sys.mass.shape[0]
     m = n_constraints(sys)
     return Workspace(np.empty(n // 3), np.empty(n // 3), 1.0 / sys.mass, np.empty(n),
-                     np.empty(n), np.empty(m), np.empty(m), np.empty(m), np.zeros((m, 6)),
-                     np.zeros((m, m)), np.empty(m), np.empty(m))
+                     np.empty(n), np.empty(m), np.empty(m), np.empty(m), np.zeros(6 * m),
+                     np.zeros(m * m), np.empty(m), np.empty(m), np.empty(m))
 
 
-@njit(cache=True)
+@njit(cache=True, inline='always')
 def constraint_terms(t, q, v, sys, ws):
     """Φ, Φ̇ = Φ_q q̇ + Φ_t, the sparse rows of Φ_q and γ of the state, into ``ws``.
 
     One sine and cosine per body. Row r of Φ_q acts on at most two bodies
-    (``sys.row_body[r]``) with the coefficients ``ws.coef[r]``. With ``A s`` the body-fixed
+    (``sys.row_body[r]``) with the coefficients ``ws.coef[6 r:6 r + 6]``. With ``A s`` the body-fixed
     vector s in global axes, ``B s = ∂(A s)/∂θ = (−(A s)_y, (A s)_x)``, and
     ``γ = −(Φ_q q̇)_q q̇ − 2 Φ_qt q̇ − Φ_tt`` (Nikravesh 1988, §6.2): for a revolute joint
     ``(A_i s_i) ω_i² − (A_j s_j) ω_j²``, for a point on a line ``n·(A_i s_i) ω_i²``, for a driver
     its angular acceleration, zero for fixed angles. The Baumgarte combination
     ``c = γ − 2α Φ̇ − β² Φ`` is formed here too."""
-    nb = sys.mass.shape[0] // 3
+    # Arrays are taken out of the tuples once: each attribute access inside a loop would
+    # cost a reference-count increment and decrement.
+    baumgarte = sys.baumgarte
+    dr_i = sys.dr_i
+    dr_law = sys.dr_law
+    dr_par = sys.dr_par
+    fa_angle = sys.fa_angle
+    fa_i = sys.fa_i
+    rev_i = sys.rev_i
+    rev_j = sys.rev_j
+    rev_off = sys.rev_off
+    rev_offdot = sys.rev_offdot
+    rev_si = sys.rev_si
+    rev_sj = sys.rev_sj
+    tr_angle = sys.tr_angle
+    tr_i = sys.tr_i
+    tr_n = sys.tr_n
+    tr_p0 = sys.tr_p0
+    tr_si = sys.tr_si
     cs = ws.cs
     sn = ws.sn
-    for b in range(nb):
-        th = q[3 * b + 2]
-        cs[b] = math.cos(th)
-        sn[b] = math.sin(th)
+    body_trig(q, cs, sn)
     phi = ws.phi
     pd = ws.phidot
     g = ws.c
     co = ws.coef
     r = 0
-    for k in range(sys.rev_i.shape[0]):
-        i = sys.rev_i[k]
-        j = sys.rev_j[k]
-        sx = sys.rev_si[k, 0]
-        sy = sys.rev_si[k, 1]
+    for k in range(rev_i.shape[0]):
+        i = rev_i[k]
+        j = rev_j[k]
+        sx = rev_si[k, 0]
+        sy = rev_si[k, 1]
         axi = cs[i] * sx - sn[i] * sy
         ayi = sn[i] * sx + cs[i] * sy
         wi = v[3 * i + 2]
-        phi[r] = q[3 * i] + axi - sys.rev_off[k, 0]
-        phi[r + 1] = q[3 * i + 1] + ayi - sys.rev_off[k, 1]
-        pd[r] = v[3 * i] - ayi * wi - sys.rev_offdot[k, 0]
-        pd[r + 1] = v[3 * i + 1] + axi * wi - sys.rev_offdot[k, 1]
+        phi[r] = q[3 * i] + axi - rev_off[k, 0]
+        phi[r + 1] = q[3 * i + 1] + ayi - rev_off[k, 1]
+        pd[r] = v[3 * i] - ayi * wi - rev_offdot[k, 0]
+        pd[r + 1] = v[3 * i + 1] + axi * wi - rev_offdot[k, 1]
         g[r] = axi * wi * wi
         g[r + 1] = ayi * wi * wi
-        co[r, 0] = 1.0
-        co[r, 1] = 0.0
-        co[r, 2] = -ayi
-        co[r + 1, 0] = 0.0
-        co[r + 1, 1] = 1.0
-        co[r + 1, 2] = axi
+        co[6 * r] = 1.0
+        co[6 * r + 1] = 0.0
+        co[6 * r + 2] = -ayi
+        co[6 * r + 6] = 0.0
+        co[6 * r + 7] = 1.0
+        co[6 * r + 8] = axi
         if j < 0:
-            phi[r] -= sys.rev_sj[k, 0]
-            phi[r + 1] -= sys.rev_sj[k, 1]
+            phi[r] -= rev_sj[k, 0]
+            phi[r + 1] -= rev_sj[k, 1]
         else:
-            sx = sys.rev_sj[k, 0]
-            sy = sys.rev_sj[k, 1]
+            sx = rev_sj[k, 0]
+            sy = rev_sj[k, 1]
             axj = cs[j] * sx - sn[j] * sy
             ayj = sn[j] * sx + cs[j] * sy
             wj = v[3 * j + 2]
@@ -314,67 +369,70 @@ def constraint_terms(t, q, v, sys, ws):
             pd[r + 1] -= v[3 * j + 1] + axj * wj
             g[r] -= axj * wj * wj
             g[r + 1] -= ayj * wj * wj
-            co[r, 3] = -1.0
-            co[r, 4] = 0.0
-            co[r, 5] = ayj
-            co[r + 1, 3] = 0.0
-            co[r + 1, 4] = -1.0
-            co[r + 1, 5] = -axj
+            co[6 * r + 3] = -1.0
+            co[6 * r + 4] = 0.0
+            co[6 * r + 5] = ayj
+            co[6 * r + 9] = 0.0
+            co[6 * r + 10] = -1.0
+            co[6 * r + 11] = -axj
         r += 2
-    for k in range(sys.tr_i.shape[0]):
-        i = sys.tr_i[k]
-        nx = sys.tr_n[k, 0]
-        ny = sys.tr_n[k, 1]
-        sx = sys.tr_si[k, 0]
-        sy = sys.tr_si[k, 1]
+    for k in range(tr_i.shape[0]):
+        i = tr_i[k]
+        nx = tr_n[k, 0]
+        ny = tr_n[k, 1]
+        sx = tr_si[k, 0]
+        sy = tr_si[k, 1]
         ax = cs[i] * sx - sn[i] * sy
         ay = sn[i] * sx + cs[i] * sy
         wi = v[3 * i + 2]
         cth = ny * ax - nx * ay  # n·(B s)
-        phi[r] = nx * (q[3 * i] + ax - sys.tr_p0[k, 0]) + ny * (q[3 * i + 1] + ay - sys.tr_p0[k, 1])
+        phi[r] = nx * (q[3 * i] + ax - tr_p0[k, 0]) + ny * (q[3 * i + 1] + ay - tr_p0[k, 1])
         pd[r] = nx * v[3 * i] + ny * v[3 * i + 1] + cth * wi
         g[r] = (nx * ax + ny * ay) * wi * wi
-        co[r, 0] = nx
-        co[r, 1] = ny
-        co[r, 2] = cth
-        phi[r + 1] = q[3 * i + 2] - sys.tr_angle[k]
+        co[6 * r] = nx
+        co[6 * r + 1] = ny
+        co[6 * r + 2] = cth
+        phi[r + 1] = q[3 * i + 2] - tr_angle[k]
         pd[r + 1] = wi
         g[r + 1] = 0.0
-        co[r + 1, 0] = 0.0
-        co[r + 1, 1] = 0.0
-        co[r + 1, 2] = 1.0
+        co[6 * r + 6] = 0.0
+        co[6 * r + 7] = 0.0
+        co[6 * r + 8] = 1.0
         r += 2
-    for k in range(sys.fa_i.shape[0]):
-        i = sys.fa_i[k]
-        phi[r] = q[3 * i + 2] - sys.fa_angle[k]
+    for k in range(fa_i.shape[0]):
+        i = fa_i[k]
+        phi[r] = q[3 * i + 2] - fa_angle[k]
         pd[r] = v[3 * i + 2]
         g[r] = 0.0
-        co[r, 0] = 0.0
-        co[r, 1] = 0.0
-        co[r, 2] = 1.0
+        co[6 * r] = 0.0
+        co[6 * r + 1] = 0.0
+        co[6 * r + 2] = 1.0
         r += 1
-    for k in range(sys.dr_i.shape[0]):
-        i = sys.dr_i[k]
-        th, w, acc = driver_law(sys.dr_law[k], sys.dr_par[k], t)
+    for k in range(dr_i.shape[0]):
+        i = dr_i[k]
+        th, w, acc = driver_law(dr_law[k], dr_par[k], t)
         phi[r] = q[3 * i + 2] - th
         pd[r] = v[3 * i + 2] - w
         g[r] = acc
-        co[r, 0] = 0.0
-        co[r, 1] = 0.0
-        co[r, 2] = 1.0
+        co[6 * r] = 0.0
+        co[6 * r + 1] = 0.0
+        co[6 * r + 2] = 1.0
         r += 1
-    alpha2 = 2.0 * sys.baumgarte[0]
-    beta2 = sys.baumgarte[1] * sys.baumgarte[1]
+    alpha2 = 2.0 * baumgarte[0]
+    beta2 = baumgarte[1] * baumgarte[1]
     for r in range(phi.shape[0]):
         g[r] -= alpha2 * pd[r] + beta2 * phi[r]
 
 
-@njit(cache=True)
+@njit(cache=True, inline='always')
 def _solve_multipliers(sys, ws):
     """λ from ``S λ = Φ_q M⁻¹ Q − c`` with ``S = Φ_q M⁻¹ Φ_qᵀ``, by a Cholesky factorisation
-    ``S = L Lᵀ`` that visits only the structural entries of :func:`schur_structure`
-    (:mod:`mechrel.mechanics.system`). A non-positive pivot (dependent constraints) raises
-    ``np.linalg.LinAlgError``, like ``np.linalg.solve`` for a singular matrix."""
+    ``S = L Lᵀ`` that visits only the structural entries of
+    :func:`~mechrel.mechanics.system.schur_structure`, through precomputed flat indices. The
+    work is a chain of dependent scalar operations, so its cost is latency: divisions are
+    replaced by products with the reciprocal pivots. A non-positive pivot (dependent
+    constraints) raises ``np.linalg.LinAlgError``, like ``np.linalg.solve`` for a singular
+    matrix."""
     m = ws.phi.shape[0]
     co = ws.coef
     rb = sys.row_body
@@ -383,62 +441,65 @@ def _solve_multipliers(sys, ws):
     Q = ws.Q
     L = ws.L
     x = ws.x
+    dinv = ws.dinv
+    c = ws.c
+    lam = ws.lam
     ent = sys.ch_ent
     for e in range(ent.shape[0]):
-        L[ent[e, 0], ent[e, 1]] = 0.0
-    for e in range(sys.sc_pos.shape[0]):
-        p = sys.sc_pos[e, 0]
-        q = sys.sc_pos[e, 1]
-        a = 3 * sys.sc_slot[e, 0]
-        b = 3 * sys.sc_slot[e, 1]
-        r = perm[p]
-        body = rb[r, sys.sc_slot[e, 0]]
-        s = perm[q]
-        L[p, q] += ((co[r, a] * co[s, b] + co[r, a + 1] * co[s, b + 1]) * minv[3 * body]
-                    + co[r, a + 2] * co[s, b + 2] * minv[3 * body + 2])
+        L[ent[e, 0]] = 0.0
+    sc = sys.sc_idx
+    for e in range(sc.shape[0]):
+        a = sc[e, 1]
+        b = sc[e, 2]
+        body = sc[e, 3]
+        L[sc[e, 0]] += ((co[a] * co[b] + co[a + 1] * co[b + 1]) * minv[body]
+                        + co[a + 2] * co[b + 2] * minv[body + 2])
     for p in range(m):
         r = perm[p]
-        acc = -ws.c[r]
-        for a in range(2):
-            body = rb[r, a]
+        acc = -c[r]
+        for s in range(2):
+            body = rb[r, s]
             if body >= 0:
-                o = 3 * a
-                acc += (co[r, o] * Q[3 * body] * minv[3 * body]
-                        + co[r, o + 1] * Q[3 * body + 1] * minv[3 * body + 1]
-                        + co[r, o + 2] * Q[3 * body + 2] * minv[3 * body + 2])
+                o = 6 * r + 3 * s
+                b3 = 3 * body
+                acc += (co[o] * Q[b3] * minv[b3] + co[o + 1] * Q[b3 + 1] * minv[b3 + 1]
+                        + co[o + 2] * Q[b3 + 2] * minv[b3 + 2])
         x[p] = acc
     ptr = sys.ch_ptr
-    ks = sys.ch_k
+    kk = sys.ch_kk
     for e in range(ent.shape[0]):
-        i = ent[e, 0]
+        ij = ent[e, 0]
         j = ent[e, 1]
-        s = L[i, j]
+        s = L[ij]
         for u in range(ptr[e], ptr[e + 1]):
-            k = ks[u]
-            s -= L[i, k] * L[j, k]
-        if i == j:
+            s -= L[kk[u, 0]] * L[kk[u, 1]]
+        if ij == j * (m + 1):  # diagonal
             if not s > 0.0:
                 raise np.linalg.LinAlgError("constraint Jacobian is rank deficient")
-            L[i, i] = math.sqrt(s)
+            d = math.sqrt(s)
+            L[ij] = d
+            dinv[j] = 1.0 / d
         else:
-            L[i, j] = s / L[j, j]
+            L[ij] = s * dinv[j]
     rp = sys.ch_row_ptr
     ri = sys.ch_row_idx
     for i in range(m):  # forward: L z = x
         s = x[i]
         for u in range(rp[i], rp[i + 1]):
-            s -= L[i, ri[u]] * x[ri[u]]
-        x[i] = s / L[i, i]
+            k = ri[u]
+            s -= L[i * m + k] * x[k]
+        x[i] = s * dinv[i]
     for i in range(m - 1, -1, -1):  # backward: Lᵀ λ = z, scattering each solved λ_i
-        xi = x[i] / L[i, i]
+        xi = x[i] * dinv[i]
         x[i] = xi
         for u in range(rp[i], rp[i + 1]):
-            x[ri[u]] -= L[i, ri[u]] * xi
+            k = ri[u]
+            x[k] -= L[i * m + k] * xi
     for p in range(m):
-        ws.lam[perm[p]] = x[p]
+        lam[perm[p]] = x[p]
 
 
-@njit(cache=True)
+@njit(cache=True, inline='always')
 def accelerations_into(t, y, hist, sys, ws):
     """q̈ into ``ws.acc`` and λ into ``ws.lam``; returns (driver power, clearance power) (W).
 
@@ -452,10 +513,13 @@ def accelerations_into(t, y, hist, sys, ws):
     Q = ws.Q
     for k in range(n):
         Q[k] = 0.0
-    pcl, _ = applied_forces(t, q, v, hist, sys, Q)
     constraint_terms(t, q, v, sys, ws)
+    pcl, _ = applied_forces_trig(t, q, v, hist, sys, Q, ws.cs, ws.sn)
     m = ws.phi.shape[0]
     a = ws.acc
+    lam = ws.lam
+    minv = ws.minv
+    dr_i = sys.dr_i
     for k in range(n):
         a[k] = Q[k]
     if m > 0:
@@ -463,19 +527,20 @@ def accelerations_into(t, y, hist, sys, ws):
         co = ws.coef
         rb = sys.row_body
         for r in range(m):
-            lr = ws.lam[r]
+            lr = lam[r]
             for s in range(2):
                 body = rb[r, s]
                 if body >= 0:
-                    a[3 * body] -= co[r, 3 * s] * lr
-                    a[3 * body + 1] -= co[r, 3 * s + 1] * lr
-                    a[3 * body + 2] -= co[r, 3 * s + 2] * lr
+                    o = 6 * r + 3 * s
+                    a[3 * body] -= co[o] * lr
+                    a[3 * body + 1] -= co[o + 1] * lr
+                    a[3 * body + 2] -= co[o + 2] * lr
     for k in range(n):
-        a[k] *= ws.minv[k]
+        a[k] *= minv[k]
     pin = 0.0
-    r = m - sys.dr_i.shape[0]
-    for k in range(sys.dr_i.shape[0]):
-        pin -= ws.lam[r + k] * v[3 * sys.dr_i[k] + 2]
+    r = m - dr_i.shape[0]
+    for k in range(dr_i.shape[0]):
+        pin -= lam[r + k] * v[3 * dr_i[k] + 2]
     return pin, pcl
 
 
@@ -484,9 +549,10 @@ def rhs_into(t, y, hist, sys, ws, out):
     """dy/dt for ``y = [q, q̇, W_in, W_cl]`` into ``out``, allocation-free (the kernels' form)."""
     n = sys.mass.shape[0]
     pin, pcl = accelerations_into(t, y, hist, sys, ws)
+    acc = ws.acc
     for k in range(n):
         out[k] = y[n + k]
-        out[n + k] = ws.acc[k]
+        out[n + k] = acc[k]
     out[2 * n] = pin
     out[2 * n + 1] = pcl
 
@@ -526,16 +592,22 @@ def gaps_into(t, y, sys, g, gd):
     n = sys.mass.shape[0]
     q = y[:n]
     v = y[n:2 * n]
-    for k in range(sys.cl_b.shape[0]):
-        h = sys.cl_hist[k]
+    cl_b = sys.cl_b
+    cl_hist = sys.cl_hist
+    cl_j = sys.cl_j
+    cl_p = sys.cl_p
+    cl_sb = sys.cl_sb
+    cl_sj = sys.cl_sj
+    for k in range(cl_b.shape[0]):
+        h = cl_hist[k]
         if h < 0:
             continue
-        bx, by, bvx, bvy = point_state(q, v, sys.cl_b[k], sys.cl_sb[k, 0], sys.cl_sb[k, 1])
-        jx, jy, jvx, jvy = point_state(q, v, sys.cl_j[k], sys.cl_sj[k, 0], sys.cl_sj[k, 1])
+        bx, by, bvx, bvy = point_state(q, v, cl_b[k], cl_sb[k, 0], cl_sb[k, 1])
+        jx, jy, jvx, jvy = point_state(q, v, cl_j[k], cl_sj[k, 0], cl_sj[k, 1])
         ex = jx - bx
         ey = jy - by
         e = math.hypot(ex, ey)
-        g[h] = e - sys.cl_p[k, P_C]
+        g[h] = e - cl_p[k, P_C]
         # δ̇ = n·ė; at e = 0 the direction is undefined and the joint is far from contact.
         gd[h] = ((jvx - bvx) * ex + (jvy - bvy) * ey) / e if e > 0.0 else 0.0
 
@@ -554,11 +626,13 @@ def gaps(t, y, sys):
 def violation_from(ws):
     """max |Φ| (m or rad) and max |Φ_q q̇ + Φ_t| (m/s or rad/s) of the state whose
     constraint terms are in ``ws`` (after :func:`constraint_terms` or :func:`rhs_into`)."""
+    phi = ws.phi
+    phidot = ws.phidot
     p = 0.0
     v = 0.0
-    for r in range(ws.phi.shape[0]):
-        p = max(p, abs(ws.phi[r]))
-        v = max(v, abs(ws.phidot[r]))
+    for r in range(phi.shape[0]):
+        p = max(p, abs(phi[r]))
+        v = max(v, abs(phidot[r]))
     return p, v
 
 

@@ -80,11 +80,12 @@ class System(NamedTuple):
     # by the topology (see :func:`schur_structure`).
     row_body: np.ndarray  # (m, 2) the (at most two) bodies a constraint row acts on, −1: none
     ch_perm: np.ndarray  # (m,) constraint row at each position of the permuted S
-    sc_pos: np.ndarray  # (ns, 2) positions (p, q), p ≥ q, of S's structural contributions
-    sc_slot: np.ndarray  # (ns, 2) slot (0/1) of the shared body in rows ch_perm[p], ch_perm[q]
-    ch_ent: np.ndarray  # (ne, 2) structural entries (i, j), i ≥ j, of L in computation order
-    ch_ptr: np.ndarray  # (ne + 1,) entry e sums L[i, k] L[j, k] over k in ch_k[ch_ptr[e]:…]
-    ch_k: np.ndarray
+    sc_idx: np.ndarray  # (ns, 4) contributions to S: flat L index, flat coef indices of the
+    #                     two rows' blocks for the shared body, 3 × that body
+    ch_ent: np.ndarray  # (ne, 2) structural entries of L in computation order: flat index,
+    #                     column j (the entry is diagonal when flat index == j (m + 1))
+    ch_ptr: np.ndarray  # (ne + 1,) entry e subtracts L[a] L[b] for (a, b) in ch_kk[ch_ptr[e]:…]
+    ch_kk: np.ndarray  # (nk, 2) flat indices
     ch_row_ptr: np.ndarray  # (m + 1,) row pattern of L below the diagonal: columns
     ch_row_idx: np.ndarray  # ch_row_idx[ch_row_ptr[i]:ch_row_ptr[i + 1]] (ascending)
 
@@ -281,7 +282,7 @@ def schur_structure(row_body: np.ndarray) -> dict:
     ``S[r, s]`` is structurally non-zero only when constraint rows r and s act on a common body
     (``M`` is diagonal), so S is sparse: on the nine-bar 110 of 400 entries. The rows are
     ordered by greedy minimum degree (fewest fill-ins first; Tinney & Walker 1967, the classic
-    heuristic, exact for these small graphs' purposes) and the fill of the Cholesky factor
+    heuristic) and the fill of the Cholesky factor
     ``L`` is computed once here, so that the compiled solve visits only structural entries:
     on the lubricated nine-bar 136 multiply-adds instead of m³/6 = 1333 for a dense
     factorisation (docs/performance.md).
@@ -316,18 +317,16 @@ def schur_structure(row_body: np.ndarray) -> dict:
         alive.remove(r)
         perm.append(r)
     perm = np.asarray(perm, dtype=np.int64)
-    pos = np.empty(m, dtype=np.int64)
-    pos[perm] = np.arange(m)
-    # contributions to S at permuted positions (p ≥ q): one per shared body
-    sc_pos, sc_slot = [], []
+    # contributions to S at permuted positions (p ≥ q), one per shared body, as flat indices
+    # into the row-major L (m × m) and coefficient (m × 6) arrays of the workspace
+    sc = []
     for p in range(m):
         for q in range(p + 1):
             r, s = perm[p], perm[q]
             for a in range(2):
                 for b in range(2):
                     if row_body[r, a] >= 0 and row_body[r, a] == row_body[s, b]:
-                        sc_pos.append((p, q))
-                        sc_slot.append((a, b))
+                        sc.append((p * m + q, 6 * r + 3 * a, 6 * s + 3 * b, 3 * row_body[r, a]))
     # symbolic Cholesky: pattern of L (lower, with fill) in the permuted order
     pat = share[np.ix_(perm, perm)].copy()
     for j in range(m):
@@ -336,20 +335,19 @@ def schur_structure(row_body: np.ndarray) -> dict:
             for b in below:
                 pat[a, b] = True
     rows = [[k for k in range(i) if pat[i, k]] for i in range(m)]
-    ent, ptr, ks = [], [0], []
+    ent, ptr, kk = [], [0], []
     for j in range(m):
         for i in [j] + [i for i in range(j + 1, m) if pat[i, j]]:
-            ent.append((i, j))
-            ks += [k for k in rows[j] if pat[i, k]] if i != j else rows[j]
-            ptr.append(len(ks))
+            ent.append((i * m + j, j))
+            kk += [(i * m + k, j * m + k) for k in rows[j] if pat[i, k]]
+            ptr.append(len(kk))
     row_ptr = np.cumsum([0] + [len(r) for r in rows]).astype(np.int64)
     return dict(
         ch_perm=perm,
-        sc_pos=np.asarray(sc_pos, dtype=np.int64).reshape(-1, 2),
-        sc_slot=np.asarray(sc_slot, dtype=np.int64).reshape(-1, 2),
+        sc_idx=np.asarray(sc, dtype=np.int64).reshape(-1, 4),
         ch_ent=np.asarray(ent, dtype=np.int64).reshape(-1, 2),
         ch_ptr=np.asarray(ptr, dtype=np.int64),
-        ch_k=np.asarray(ks, dtype=np.int64),
+        ch_kk=np.asarray(kk, dtype=np.int64).reshape(-1, 2),
         ch_row_ptr=row_ptr,
         ch_row_idx=np.asarray([k for r in rows for k in r], dtype=np.int64),
     )
