@@ -330,11 +330,19 @@ def test_transition_with_vanishing_viscosity_behaves_like_dry():
     assert pen_tr == pytest.approx(pen_dry, rel=1e-3)
     assert tr.energy["dissipated"][-1] == pytest.approx(dry.energy["dissipated"][-1], rel=1e-2)
     assert diff < 0.05
-    # and it converges to the dry joint as μ → 0 and the band narrows (e1 = 10 nm):
-    # measured 1.9 % at 1e-6 Pa s, 0.05 % at 1e-9 Pa s
+    # and it converges to the dry joint as μ → 0 and the band narrows (e1 = 10 nm), down to
+    # the chaos floor: the dry run against itself with rtol changed by 1e-9 … 1e-2 (relative)
+    # differs by 0.06–0.21 % (measured), because dry impacts amplify rounding-level changes.
+    # Measured: 1.9 % at 1e-6 Pa s (9× the floor), 0.16–0.21 % at 1e-9 … 1e-12 Pa s (at the
+    # floor). A fixed threshold below the floor would test the rounding, not the model.
+    floor = max(np.max(np.abs(run("slider-crank-dry", span, rtol=1e-7 * f)
+                              .error("slider", "displacement") - d_dry)) / np.max(np.abs(d_dry))
+                for f in (1 + 1e-9, 1 - 1e-9, 1.01))
     _, diff6 = transition(1e-6, **{"joints.C.transition.e1": 1e-8})
     _, diff9 = transition(1e-9, **{"joints.C.transition.e1": 1e-8})
-    assert diff9 < 2e-3 and diff9 < diff6 / 10
+    assert 0 < floor < 5e-3
+    assert diff6 > 4 * floor  # a 1e-6 Pa s film is resolved above the floor ...
+    assert diff9 < 2 * floor  # ... a 1e-9 Pa s one is not: it is dry within the chaos
 
 
 # ------------------------------------------------------- friction, slip reversing repeatedly ---
