@@ -380,10 +380,19 @@ class AccuracyReport:
                 ax.vlines(grp["wall_time"], grp["measure"], grp["bound"], color=f"C{k}",
                           lw=1, alpha=0.6)
                 ax.plot(grp["wall_time"], grp["bound"], "_", color=f"C{k}", ms=8)
+                # the verdict at a glance: hollow = unresolved, cross = shown to exceed
+                if "verdict" in grp:
+                    u = grp[grp["verdict"] == "unresolved"]
+                    ax.plot(u["wall_time"], u["measure"], "o", color=f"C{k}", mfc="white")
+                    x = grp[grp["verdict"] == "exceeds"]
+                    ax.plot(x["wall_time"], x["measure"], "x", color="k", ms=7, mew=1.5)
             for _, r in grp.iterrows():
                 ax.annotate(r["setting"], (r["wall_time"], r["measure"]), fontsize=6,
                             xytext=(3, 3), textcoords="offset points")
         ax.axhline(self.target, color="k", ls=":", lw=1, label=f"target {self.target:g}")
+        if has_bound:
+            ax.plot([], [], "o", color="grey", mfc="white", label="unresolved")
+            ax.plot([], [], "x", color="k", mew=1.5, label="exceeds the target")
         if self.recommended:
             ax.plot([self.recommended["wall_time"]], [self.recommended["measure"]], "*",
                     ms=16, color="gold", mec="k", label="recommended")
