@@ -96,15 +96,17 @@ def figure(rep, kind, path, repeats=2):
     plt.close(fig)
 
 
-def replot(out, figdir):
-    """Redraw the figures from the saved tables (no simulation)."""
+def replot(out, figdir, scenes=SCENES):
+    """Redraw the figures of ``scenes`` from the saved tables (no simulation)."""
     from mechrel.studies.accuracy import AccuracyReport
     summary = json.loads((out / "accuracy_scenes.json").read_text())
     for name, info in summary.items():
+        if name not in scenes:
+            continue
         import pandas as pd
         table = pd.read_csv(out / f"accuracy_{name}.csv", keep_default_na=False,
                             na_values=[""])
-        table["failed"] = table["failed"].fillna("").astype(str)
+        table["failed"] = ["" if pd.isna(v) else str(v) for v in table["failed"]]
         kind = info["kind"]
         rep = AccuracyReport(scene=name, kind=kind, measure=info.get("measure", "error"),
                              target=info.get("target", 0.01), reference={}, table=table,
@@ -173,7 +175,7 @@ def main(argv=None):
     a = ap.parse_args(argv)
     out, figdir = Path(a.out), Path(a.figdir)
     if a.replot:
-        return replot(out, figdir)
+        return replot(out, figdir, a.scenes)
     out.mkdir(parents=True, exist_ok=True)
     figdir.mkdir(parents=True, exist_ok=True)
     md, summary = [], {}
