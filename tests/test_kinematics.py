@@ -103,3 +103,151 @@ def test_unassemblable_geometry_names_the_violated_constraints():
         simulate(scene)
     assert "|Φ| =" in str(err.value)
 
+
+
+# ------------------------------------------------------------- compiled sparse LU kinematics
+
+def _numpy_kinematics(system, q0, times, tol):
+    """The kinematic analysis written plainly with NumPy: the same Taylor predictor and Newton
+    iteration as the compiled kernel, every linear system by np.linalg.solve (LAPACK) on the
+    dense Φ_q from constraints()."""
+    from mechrel.mechanics.problem import constraints, gamma
+
+    n = q0.size
+    Q, V, A = (np.empty((times.size, n)) for _ in range(3))
+    q, v, a = q0.copy(), np.zeros(n), np.zeros(n)
+    conds = []
+    tprev = times[0]
+    for k, t in enumerate(times):
+        dt = t - tprev
+        q = q + v * dt + 0.5 * a * dt * dt
+        for _ in range(50):
+            phi, phit, J = constraints(q, t, system)
+            if np.max(np.abs(phi)) <= tol:
+                break
+            q = q - np.linalg.solve(J, phi)
+        else:
+            raise AssertionError(f"reference Newton did not converge at t = {t}")
+        v = np.linalg.solve(J, -phit)
+        a = np.linalg.solve(J, gamma(q, v, t, system))
+        Q[k], V[k], A[k] = q, v, a
+        conds.append(np.linalg.cond(J))
+        tprev = t
+    return Q, V, A, max(conds)
+
+
+@pytest.mark.parametrize("name", ["nine-bar", "slider-crank"])
+def test_compiled_kinematic_analysis_matches_numpy_reference(name):
+    from mechrel.mechanics.kinematics import kinematic_analysis
+    from mechrel.simulation import output_times
+
+    scene = load_scene(name)
+    compiled = compile_scene(scene)
+    times = output_times(scene, compiled)  # one cycle at 1°
+    tol = scene.solver.assembly_tolerance
+    q0, _ = assemble(compiled.ideal, compiled.q_guess, 0.0, tol=tol)
+    Q, V, A, viol = kinematic_analysis(compiled.ideal, q0, times, tol=tol)
+    Qr, Vr, Ar, cond = _numpy_kinematics(compiled.ideal, q0, times, tol)
+    # Both solve the same systems by LU with partial pivoting, in a different order of
+    # operations: a backward-stable solve has a normwise relative error of order
+    # cond(Φ_q) × machine epsilon, here <= 65 × 2.2e-16 ≈ 1.5e-14 (checked below), so 1e-12
+    # leaves a margin of ~70. The positions come out of the same Newton iterates, so they
+    # differ by as little. Normwise (per instant, relative to the largest component) because
+    # that is what the bound is about: single components pass through zero.
+    eps = np.finfo(float).eps
+    assert cond * eps < 1e-13
+    for got, ref in ((Q, Qr), (V, Vr), (A, Ar)):
+        err = np.max(np.abs(got - ref), axis=1) / np.max(np.abs(ref), axis=1)
+        assert np.max(err) <= 1e-12, np.max(err)
+    assert viol <= tol
+
+
+def test_redundant_driver_makes_the_jacobian_singular():
+    # The crank's driver moved to the slider: the slider's angle is held twice (translational
+    # joint and driver, two identical Jacobian rows) and the crank is free, so Φ_q is square
+    # but exactly singular. The compiled LU must report it like np.linalg.solve does, and
+    # kinematic_analysis must turn that into an AssemblyError.
+    from mechrel.mechanics.kinematics import kinematic_analysis
+    from mechrel.simulation import output_times
+
+    base = load_scene("slider-crank")
+    compiled_base = compile_scene(base)
+    q0, _ = assemble(compiled_base.ideal, compiled_base.q_guess, 0.0)
+    times = output_times(base, compiled_base)
+    scene = load_scene("slider-crank", overrides={"drivers.crank.body": "slider"})
+    compiled = compile_scene(scene)
+    assert compiled.ideal.n_constraints == q0.size
+    with pytest.raises(AssemblyError, match="singular constraint Jacobian") as err:
+        kinematic_analysis(compiled.ideal, q0, times)
+    assert isinstance(err.value.__cause__, np.linalg.LinAlgError)
+    with pytest.raises(AssemblyError, match="singular"):
+        simulate(scene)
+
+
+def _sparse_matrix(rng, n, per_row):
+    A = np.zeros((n, n))
+    for i in range(n):
+        cols = rng.choice(n, size=per_row, replace=False)
+        A[i, cols] = rng.uniform(-2.0, 2.0, per_row)
+    A[np.arange(n), rng.permutation(n)] += 1.0  # a transversal: structurally non-singular
+    return A
+
+
+def test_sparse_lu_refactorisation_against_numpy():
+    from mechrel.mechanics.kinematics import (_lu_factor, _lu_refactor, _lu_solve,
+                                              _lu_workspace)
+
+    rng = np.random.default_rng(7)
+    n = 14
+    A = _sparse_matrix(rng, n, 3)
+    f = _lu_workspace(n)
+    assert not _lu_refactor(A.copy(), f)  # no plan yet
+    _lu_factor(A.copy(), f)
+    b = rng.standard_normal(n)
+    x = b.copy()
+    _lu_solve(f, x)
+    ref = np.linalg.solve(A, b)
+    # normwise relative error of a backward-stable solve: O(cond(A) × eps)
+    tol = 100 * np.linalg.cond(A) * np.finfo(float).eps
+    assert np.max(np.abs(x - ref)) <= tol * np.max(np.abs(ref))
+
+    # the same pattern with slightly different values: the plan is replayed
+    B = A * (1.0 + 1e-6 * rng.standard_normal((n, n)))
+    assert _lu_refactor(B.copy(), f)
+    x = b.copy()
+    _lu_solve(f, x)
+    ref = np.linalg.solve(B, b)
+    assert np.max(np.abs(x - ref)) <= tol * np.max(np.abs(ref))
+
+    # values that change the pivot order: the replay refuses, a new plan is made
+    C = A.copy()
+    k = int(np.argmax(np.abs(A[:, 0])))
+    others = np.flatnonzero(A[:, 0])
+    others = others[others != k]
+    assert others.size  # column 0 has another entry that can become the pivot
+    C[others[0], 0] = 10.0 * np.max(np.abs(A[:, 0]))
+    assert not _lu_refactor(C.copy(), f)
+    _lu_factor(C.copy(), f)
+    x = b.copy()
+    _lu_solve(f, x)
+    ref = np.linalg.solve(C, b)
+    tol = 100 * np.linalg.cond(C) * np.finfo(float).eps
+    assert np.max(np.abs(x - ref)) <= tol * np.max(np.abs(ref))
+
+    # a non-zero outside the planned pattern: the replay refuses
+    D = C.copy()
+    i, j = np.argwhere(D == 0.0)[0]
+    D[i, j] = 0.5
+    assert not _lu_refactor(D.copy(), f)
+
+    # an exactly singular matrix (a zero column: a zero pivot whatever the rounding) raises
+    # LinAlgError like np.linalg.solve, from both the planning and the replaying factorisation
+    S = A.copy()
+    S[:, 3] = 0.0
+    with pytest.raises(np.linalg.LinAlgError):
+        np.linalg.solve(S, b)
+    with pytest.raises(np.linalg.LinAlgError):
+        _lu_factor(S.copy(), _lu_workspace(n))
+    _lu_factor(A.copy(), f)
+    with pytest.raises(np.linalg.LinAlgError):
+        _lu_refactor(S.copy(), f)

@@ -6,9 +6,17 @@ freedom: the correction moves the guess as little as possible). Velocities solve
 ``Φ_q q̇ = −Φ_t`` in the same minimum-norm sense. For a fully driven mechanism (as many
 independent constraints as coordinates) the kinematic analysis needs no dynamics at all:
 ``q`` by Newton at each instant, ``q̇ = −Φ_q⁻¹ Φ_t``, ``q̈ = Φ_q⁻¹ γ``.
+
+There Φ_q is square, so the kinematic analysis factors it by its own sparse LU with partial
+pivoting (:class:`LUFactors`; a LAPACK call from numba costs several µs of fixed overhead at
+n ≈ 24, more than this whole factorisation of a Jacobian with at most six non-zeros per row)
+once per Newton iteration, and reuses the factors at the converged ``q`` for the velocity and
+the acceleration.
 """
 
 from __future__ import annotations
+
+from typing import NamedTuple
 
 import numpy as np
 from numba import njit
@@ -92,13 +100,239 @@ def assemble(system, q_guess, t=0.0, *, tol=1e-12, max_iter=50, labels=None):
     return q, v
 
 
+_NOT_SIGN = np.int64(0x7FFFFFFFFFFFFFFF)  # all bits of a double but the sign: ±0.0 test as zero
+
+
+class LUFactors(NamedTuple):
+    """Sparse LU factors ``P A = L U`` of an n × n matrix and the plan that produced them.
+
+    A constraint Jacobian has at most six non-zeros per row and little fill-in (nine-bar:
+    70 of 576 entries, 89 in L and U together), so the factors are kept as lists of their
+    entries and a solve costs about as many multiply-adds as the factors have entries instead
+    of n². Consecutive Jacobians of a kinematic analysis share their pattern and almost always
+    their pivot order (nine-bar, one cycle at 1°: 7 plans for 721 factorisations):
+    :func:`_lu_factor` records both (the plan: pivots, index arrays, the pattern ``off``) and
+    :func:`_lu_refactor` then repeats only the arithmetic.
+
+    "Position" is a row's place after the interchanges so far (LAPACK's convention, used
+    while planning); "row" is its index in the matrix as given: the factors and the plan
+    address rows, so that neither the replay nor the solve moves any.
+    """
+
+    lp: np.ndarray  # (n + 1,) int: step k subtracts lv[lp[k]:lp[k + 1]] × its pivot row …
+    lr: np.ndarray  # (n²,) int: … from the rows lr[…]
+    lv: np.ndarray  # (n²,)
+    up: np.ndarray  # (n + 1,) int: U's row k right of the diagonal: uv[up[k]:up[k + 1]] …
+    ui: np.ndarray  # (n²,) int: … in the columns ui[…]
+    uv: np.ndarray  # (n²,)
+    ur: np.ndarray  # (n,) int: the row that becomes U's row k (the pivot row of step k)
+    ud: np.ndarray  # (n,) 1 / diagonal of U (the pivots' reciprocals)
+    pp: np.ndarray  # (n + 1,) int: the rows pr[pp[k]:pp[k + 1]] can hold column k's pivot
+    pr: np.ndarray  # (n²,) int: (in ascending position, for the first-on-ties rule)
+    pat: np.ndarray  # (n, n) uint8: work array: structure of the partly eliminated matrix
+    perm: np.ndarray  # (n,) int: work array: row at each position
+    wk: np.ndarray  # (n,) int: work array
+    y: np.ndarray  # (n,) work array of the solve
+    off: np.ndarray  # (n²,) int64: 0 where the planned matrix has an entry, 2⁶³ − 1 elsewhere
+    valid: np.ndarray  # (1,) uint8: 1 once a plan is recorded
+
+
+@njit(cache=True)
+def _lu_workspace(n):
+    """Storage for the :class:`LUFactors` of an n × n matrix (no plan yet)."""
+    nn = n * n
+    return LUFactors(
+        np.zeros(n + 1, np.int64), np.zeros(nn, np.int64), np.zeros(nn),  # lp, lr, lv
+        np.zeros(n + 1, np.int64), np.zeros(nn, np.int64), np.zeros(nn),  # up, ui, uv
+        np.zeros(n, np.int64), np.zeros(n),  # ur, ud
+        np.zeros(n + 1, np.int64), np.zeros(nn, np.int64),  # pp, pr
+        np.zeros((n, n), np.uint8), np.zeros(n, np.int64), np.zeros(n, np.int64),  # pat, perm, wk
+        np.zeros(n), np.zeros(nn, np.int64), np.zeros(1, np.uint8))  # y, off, valid
+
+
+@njit(cache=True)
+def _lu_factor(A, f):
+    """LU factorisation with partial pivoting of the square ``A`` into ``f``, recording the
+    plan for :func:`_lu_refactor` (``A`` is overwritten).
+
+    Gaussian elimination with the pivot rule of LAPACK's ``dgetrf`` (the largest |entry| of
+    the column, the first one on ties), so the solutions agree with ``np.linalg.solve`` to
+    round-off. Only structural non-zeros are visited: the non-zeros of ``A`` and their fill-in
+    (tracked in ``f.pat`` rather than read from the values, so that the plan stays valid for
+    any matrix with the same pattern, also one whose eliminations do not cancel by chance).
+    Skipping an entry that is zero only skips subtracting ``0 × u``: it changes no result.
+
+    Raises
+    ------
+    np.linalg.LinAlgError
+        On an exactly zero pivot column (or one of NaNs), as ``np.linalg.solve`` does for a
+        singular matrix.
+    """
+    n = A.shape[0]
+    lp, lr, lv, up, ui, uv, ur, ud, pp, pr, pat, perm, wk, y, off, valid = f
+    valid[0] = 0
+    for i in range(n):
+        perm[i] = i
+        for j in range(n):
+            nz = A[i, j] != 0.0
+            pat[i, j] = nz
+            off[i * n + j] = 0 if nz else _NOT_SIGN
+    nl = 0
+    nu = 0
+    for k in range(n):
+        p = k
+        amax = 0.0
+        nw = 0  # wk[:nw]: the positions >= k with an entry in column k, ascending
+        for i in range(k, n):
+            if pat[i, k]:
+                wk[nw] = i
+                pr[pp[k] + nw] = perm[i]
+                nw += 1
+                a = abs(A[i, k])
+                if a > amax:
+                    amax = a
+                    p = i
+        pp[k + 1] = pp[k] + nw
+        if amax == 0.0:
+            raise np.linalg.LinAlgError("Matrix is singular to machine precision.")
+        if p != k:  # columns < k of these positions are no longer read: swap the rest only
+            for j in range(k, n):
+                tmp = A[k, j]
+                A[k, j] = A[p, j]
+                A[p, j] = tmp
+                b = pat[k, j]
+                pat[k, j] = pat[p, j]
+                pat[p, j] = b
+            r = perm[k]
+            perm[k] = perm[p]
+            perm[p] = r
+        ur[k] = perm[k]
+        rd = 1.0 / A[k, k]  # multipliers times the reciprocal pivot, as LAPACK's dgetrf2
+        ud[k] = rd
+        for j in range(k + 1, n):  # U's row k is final: later steps only change positions > k
+            if pat[k, j]:
+                ui[nu] = j
+                uv[nu] = A[k, j]
+                nu += 1
+        up[k + 1] = nu
+        for r in range(nw):
+            i = wk[r]
+            if i == p:  # the pivot, now at position k
+                continue
+            if i == k:  # the interchange moved it to position p
+                i = p
+            el = A[i, k] * rd
+            lr[nl] = perm[i]
+            lv[nl] = el
+            nl += 1
+            for c in range(up[k], nu):
+                j = ui[c]
+                A[i, j] -= el * uv[c]
+                pat[i, j] = 1
+        lp[k + 1] = nl
+    valid[0] = 1
+
+
+@njit(cache=True, inline='always')
+def _lu_refactor(A, f):
+    """Factor ``A`` with the plan recorded by :func:`_lu_factor` (``A`` is overwritten).
+
+    Returns False, leaving the factors unusable, when ``A`` has a non-zero outside the
+    planned pattern or partial pivoting would choose another pivot than the plan; otherwise
+    the factors are exactly those :func:`_lu_factor` would compute (same pivots, same
+    operations in the same order) at a fraction of the cost: no search for the non-zeros and
+    no row interchanges (the plan addresses the rows where they are).
+    """
+    n = A.shape[0]
+    lp, lr, lv, up, ui, uv, ur, ud, pp, pr, pat, perm, wk, y, off, valid = f
+    if not valid[0]:
+        return False
+    # Any non-zero (or NaN) where the plan has no entry? On the bits of the doubles, so that
+    # the test is an integer OR over all n² entries, which the compiler vectorises: a float
+    # test per entry would cost as much as the rest of the refactorisation.
+    bits = np.ascontiguousarray(A).reshape(n * n).view(np.int64)
+    outside = 0
+    for i in range(n * n):
+        outside |= bits[i] & off[i]
+    if outside != 0:
+        return False
+    for k in range(n):
+        # the pivot search among the rows that can hold an entry in column k (the others
+        # are exact zeros): the plan holds only if this picks the planned row
+        prow = -1
+        amax = 0.0
+        for r in range(pp[k], pp[k + 1]):
+            i = pr[r]
+            a = abs(A[i, k])
+            if a > amax:
+                amax = a
+                prow = i
+        if amax == 0.0:
+            raise np.linalg.LinAlgError("Matrix is singular to machine precision.")
+        if prow != ur[k]:
+            return False
+        rd = 1.0 / A[prow, k]
+        ud[k] = rd
+        u0 = up[k]
+        u1 = up[k + 1]
+        for c in range(u0, u1):
+            uv[c] = A[prow, ui[c]]
+        for r in range(lp[k], lp[k + 1]):
+            i = lr[r]
+            el = A[i, k] * rd
+            lv[r] = el
+            for c in range(u0, u1):
+                A[i, ui[c]] -= el * uv[c]
+    return True
+
+
+@njit(cache=True, inline='always')
+def _lu_solve(f, b):
+    """Solve ``A x = b`` in place in ``b`` from the factors of :func:`_lu_factor` or
+    :func:`_lu_refactor`."""
+    n = b.shape[0]
+    lp, lr, lv, up, ui, uv, ur, ud, y = f.lp, f.lr, f.lv, f.up, f.ui, f.uv, f.ur, f.ud, f.y
+    for i in range(n):
+        y[i] = b[i]
+    for k in range(n):  # the elimination steps, applied to b in the order they were made
+        yk = y[ur[k]]
+        for c in range(lp[k], lp[k + 1]):
+            y[lr[c]] -= lv[c] * yk
+    for k in range(n - 1, -1, -1):  # U x = y; times the reciprocal: a division's latency
+        s = y[ur[k]]                # would dominate this chain of dependent steps
+        for c in range(up[k], up[k + 1]):
+            s -= uv[c] * b[ui[c]]
+        b[k] = s * ud[k]
+
+
+@njit(cache=True, inline='always')
+def _max_abs(x):
+    """max |x_i| (0 for an empty x); NaN if any entry is NaN, so that a NaN never passes a
+    tolerance test (as with ``np.max(np.abs(x))``)."""
+    r = 0.0
+    for i in range(x.shape[0]):
+        a = abs(x[i])
+        if a > r or a != a:
+            r = a
+            if a != a:
+                return a
+    return r
+
+
 @njit(cache=True)
 def _kinematics(q0, times, sys, tol, max_iter):
+    """Kinematic analysis of a fully driven mechanism (m == n) at ``times``.
+
+    Returns ``Q, V, A, max_violation, done``; ``done < len(times)`` when Newton did not
+    converge within ``max_iter`` iterations at ``times[done]`` (``Q`` etc. then hold the
+    instants before it). A singular Φ_q raises ``np.linalg.LinAlgError``.
+    """
     nt = times.shape[0]
     n = q0.shape[0]
     Q = np.empty((nt, n))
     V = np.empty((nt, n))
     A = np.empty((nt, n))
+    lu = _lu_workspace(n)
     viol = 0.0
     q = q0.copy()
     v = np.zeros(n)
@@ -107,17 +341,39 @@ def _kinematics(q0, times, sys, tol, max_iter):
     for k in range(nt):
         t = times[k]
         dt = t - tprev
-        guess = q + v * dt + 0.5 * a * dt * dt
-        q, phi, it, ok = _newton(guess, t, sys, tol, max_iter)
-        if not ok:
-            return Q[:k], V[:k], A[:k], viol, k
-        _, phit, J = constraints(q, t, sys)
-        v = np.linalg.solve(J, -phit)
-        a = np.linalg.solve(J, gamma(q, v, t, sys))
-        Q[k] = q
-        V[k] = v
-        A[k] = a
-        viol = max(viol, np.max(np.abs(phi)))
+        # Taylor predictor from the previous instant (|Φ| ~ 1e-8 on the nine-bar at 1°
+        # steps): one Newton iteration then converges
+        for i in range(n):
+            q[i] = q[i] + v[i] * dt + 0.5 * a[i] * dt * dt
+        it = 0
+        while True:
+            phi, phit, J = constraints(q, t, sys)
+            res = _max_abs(phi)
+            if not res <= tol and it >= max_iter:
+                return Q[:k], V[:k], A[:k], viol, k
+            # J is a fresh array from constraints(): factor it in place, by the previous
+            # factorisation's plan when it still applies. The factors at the converged q are
+            # the ones the velocity and acceleration solves need.
+            if not _lu_refactor(J, lu):
+                if lu.valid[0]:  # the replay stopped part-way through J: evaluate it again
+                    _, _, J = constraints(q, t, sys)
+                _lu_factor(J, lu)
+            if res <= tol:
+                break
+            _lu_solve(lu, phi)  # Newton step Φ_q Δq = Φ (square: the minimum-norm one)
+            for i in range(n):
+                q[i] -= phi[i]
+            it += 1
+        for i in range(n):
+            v[i] = -phit[i]
+        _lu_solve(lu, v)  # Φ_q q̇ = −Φ_t
+        a = gamma(q, v, t, sys)
+        _lu_solve(lu, a)  # Φ_q q̈ = γ
+        for i in range(n):
+            Q[k, i] = q[i]
+            V[k, i] = v[i]
+            A[k, i] = a[i]
+        viol = max(viol, res)
         tprev = t
     return Q, V, A, viol, nt
 
