@@ -481,6 +481,16 @@ def _solve_multipliers(sys, ws):
             dinv[j] = 1.0 / d
         else:
             L[ij] = s * dinv[j]
+    _cholesky_solve(sys, L, dinv, x)
+    for p in range(m):
+        lam[perm[p]] = x[p]
+
+
+@njit(cache=True, inline='always')
+def _cholesky_solve(sys, L, dinv, x):
+    """Solve ``L Lᵀ u = x`` in place (permuted order) with the factor of
+    :func:`_solve_multipliers`."""
+    m = x.shape[0]
     rp = sys.ch_row_ptr
     ri = sys.ch_row_idx
     for i in range(m):  # forward: L z = x
@@ -489,14 +499,12 @@ def _solve_multipliers(sys, ws):
             k = ri[u]
             s -= L[i * m + k] * x[k]
         x[i] = s * dinv[i]
-    for i in range(m - 1, -1, -1):  # backward: Lᵀ λ = z, scattering each solved λ_i
+    for i in range(m - 1, -1, -1):  # backward: Lᵀ u = z, scattering each solved u_i
         xi = x[i] * dinv[i]
         x[i] = xi
         for u in range(rp[i], rp[i + 1]):
             k = ri[u]
             x[k] -= L[i * m + k] * xi
-    for p in range(m):
-        lam[perm[p]] = x[p]
 
 
 @njit(cache=True, inline='always')
@@ -573,6 +581,285 @@ def rhs(t, y, hist, sys):
     out = np.empty_like(y)
     rhs_into(t, y, hist, sys, make_workspace(sys), out)
     return out
+
+
+@njit(cache=True)
+def _project(sys, ws, g, extra, pg, z):
+    """``pg = M⁻¹ (g − Φ_qᵀ z)`` with ``z = S⁻¹ (Φ_q M⁻¹ g + extra)`` (row order), using
+    the factor of S left in ``ws`` by the last :func:`rhs_into`. With ``extra = 0`` this is
+    the response of the constrained accelerations (∂q̈/∂Q g) and multipliers (∂λ/∂Q g) to a
+    generalized force ``g``; ``extra`` carries a change of the constraint rows
+    (:func:`clearance_jacobian`)."""
+    n = g.shape[0]
+    m = z.shape[0]
+    co = ws.coef
+    rb = sys.row_body
+    perm = sys.ch_perm
+    minv = ws.minv
+    x = ws.x
+    for p in range(m):
+        r = perm[p]
+        acc = extra[r]
+        for s in range(2):
+            body = rb[r, s]
+            if body >= 0:
+                o = 6 * r + 3 * s
+                b3 = 3 * body
+                acc += (co[o] * g[b3] * minv[b3] + co[o + 1] * g[b3 + 1] * minv[b3 + 1]
+                        + co[o + 2] * g[b3 + 2] * minv[b3 + 2])
+        x[p] = acc
+    _cholesky_solve(sys, ws.L, ws.dinv, x)
+    for p in range(m):
+        z[perm[p]] = x[p]
+    for k in range(n):
+        pg[k] = g[k]
+    for r in range(m):
+        zr = z[r]
+        for s in range(2):
+            body = rb[r, s]
+            if body >= 0:
+                o = 6 * r + 3 * s
+                pg[3 * body] -= co[o] * zr
+                pg[3 * body + 1] -= co[o + 1] * zr
+                pg[3 * body + 2] -= co[o + 2] * zr
+    for k in range(n):
+        pg[k] *= minv[k]
+
+
+@njit(cache=True)
+def clearance_jacobian(t, y, hist, sys, ws, f, JS):
+    """The clearance forces' part of ``∂f/∂y`` (the stiff part of the Jacobian) into ``JS``.
+
+    For joint k with bearing body b and journal body j, the force law
+    (:func:`~mechrel.forces.joint.clearance_force`) maps the relative state
+    ``s = (e_x, e_y, ė_x, ė_y, ω_B, ω_S)`` to ``F = (F_x, F_y, M_S, M_B)``, which enters the
+    generalized forces through the lever arms ``r_j = A_j s_j``, ``r_b = A_b s_b``:
+    ``Q = G F`` with ``G``'s columns ``(+1, 0, −r_jy)`` on j and ``(−1, 0, +r_by)`` on b for
+    ``F_x``, ``(0, +1, r_jx)`` / ``(0, −1, −r_bx)`` for ``F_y``, and the unit moments of M_S on j
+    and M_B on b. Then
+
+        ∂q̈/∂y = P (G ∂F/∂s ∂s/∂y + ∂G/∂y F),   P = ∂q̈/∂Q = M⁻¹ − M⁻¹ Φ_qᵀ S⁻¹ Φ_q M⁻¹,
+
+    with ``∂s/∂y`` the (analytic) kinematics of the two points, ``∂F/∂s`` by forward
+    differences of the force law alone (6 evaluations per joint, far cheaper than a
+    right-hand side) and ``∂G/∂θ F`` the turning of the lever arms (``−r_j·F`` on θ_j,
+    ``+r_b·F`` on θ_b); P is applied to G's 4 columns per joint with the Cholesky factor of
+    S at ``y``. The work rows get ``∂W_in/∂y = −Σ_d θ̇_d ∂λ_d/∂y`` and
+    ``∂W_cl/∂y = ∂(F·ė + M_S ω_S + M_B ω_B)/∂y``.
+
+    What is left out — the derivatives of Φ_q, γ, the Baumgarte terms and gravity, and
+    P's own dependence on q — is smooth and slowly varying; the integrator takes it from its
+    last full finite-difference Jacobian (``mechrel.integrate.radau``). Rows ``n … ny − 1``,
+    columns ``0 … 2n − 1`` of ``JS`` are written (the clearance bodies' columns, zero
+    elsewhere). ``f`` receives ``f(t, y)``.
+    """
+    n = sys.mass.shape[0]
+    ny = y.shape[0]
+    m = ws.phi.shape[0]
+    rhs_into(t, y, hist, sys, ws, f)  # leaves S's factor at y, and cos/sin, in ws
+    for i in range(n, ny):
+        for c in range(2 * n):
+            JS[i, c] = 0.0
+    q = y[:n]
+    v = y[n:2 * n]
+    cs = ws.cs
+    sn = ws.sn
+    cl_b = sys.cl_b
+    cl_j = sys.cl_j
+    cl_sb = sys.cl_sb
+    cl_sj = sys.cl_sj
+    cl_p = sys.cl_p
+    cl_hist = sys.cl_hist
+    dr_i = sys.dr_i
+    nd = dr_i.shape[0]
+    g = np.zeros(n)
+    pg = np.empty((4, n))
+    z = np.empty(m)
+    zero_m = np.zeros(m)
+    pin_row = np.empty(4)
+    dF = np.empty((4, 6))
+    s0 = np.empty(6)
+    F0 = np.empty(4)
+    ds = np.zeros((6, 12))  # ∂s/∂(local columns): x, y, θ, v_x, v_y, ω of j, then of b
+    cols = np.empty(12, dtype=np.int64)
+    for k in range(cl_b.shape[0]):
+        b = cl_b[k]
+        j = cl_j[k]
+        p = cl_p[k]
+        bx, by, bvx, bvy = _point_state_trig(q, v, b, cl_sb[k, 0], cl_sb[k, 1], cs, sn)
+        jx, jy, jvx, jvy = _point_state_trig(q, v, j, cl_sj[k, 0], cl_sj[k, 1], cs, sn)
+        wb = v[3 * b + 2] if b >= 0 else 0.0
+        wj = v[3 * j + 2] if j >= 0 else 0.0
+        rjx = jx - q[3 * j] if j >= 0 else 0.0
+        rjy = jy - q[3 * j + 1] if j >= 0 else 0.0
+        rbx = bx - q[3 * b] if b >= 0 else 0.0
+        rby = by - q[3 * b + 1] if b >= 0 else 0.0
+        h = cl_hist[k]
+        impact = hist[h] if h >= 0 else 0.0
+        s0[0] = jx - bx
+        s0[1] = jy - by
+        s0[2] = jvx - bvx
+        s0[3] = jvy - bvy
+        s0[4] = wb
+        s0[5] = wj
+        F0[0], F0[1], F0[2], F0[3], _ = clearance_force(s0[0], s0[1], s0[2], s0[3], s0[4],
+                                                        s0[5], impact, p)
+        # ∂F/∂s by forward differences, δ = √u max(|s_i|, scale): scale c for the
+        # eccentricity, c per second for its rate, 1 rad/s for the angular velocities
+        c = p[P_C]
+        for i in range(6):
+            scale = c if i < 4 else 1.0
+            si = s0[i]
+            sp = si + 1.4901161193847656e-08 * max(abs(si), scale)
+            d = sp - si
+            s0[i] = sp
+            f0_, f1_, f2_, f3_, _ = clearance_force(s0[0], s0[1], s0[2], s0[3], s0[4], s0[5],
+                                                    impact, p)
+            s0[i] = si
+            dF[0, i] = (f0_ - F0[0]) / d
+            dF[1, i] = (f1_ - F0[1]) / d
+            dF[2, i] = (f2_ - F0[2]) / d
+            dF[3, i] = (f3_ - F0[3]) / d
+        # ∂s/∂y on the 12 local columns (module docstring of mechrel.forces.joint: e = r_S − r_B)
+        for a in range(6):
+            for u in range(12):
+                ds[a, u] = 0.0
+        for side in range(2):
+            body = j if side == 0 else b
+            sg = 1.0 if side == 0 else -1.0
+            rx = rjx if side == 0 else rbx
+            ry = rjy if side == 0 else rby
+            w = wj if side == 0 else wb
+            o = 6 * side
+            for c6 in range(3):
+                cols[o + c6] = 3 * body + c6 if body >= 0 else -1
+                cols[o + 3 + c6] = n + 3 * body + c6 if body >= 0 else -1
+            ds[0, o + 0] = sg  # e_x / x
+            ds[0, o + 2] = -sg * ry  # e_x / θ
+            ds[1, o + 1] = sg
+            ds[1, o + 2] = sg * rx
+            ds[2, o + 2] = -sg * rx * w  # ė_x = … − r_y ω
+            ds[2, o + 3] = sg
+            ds[2, o + 5] = -sg * ry
+            ds[3, o + 2] = -sg * ry * w  # ė_y = … + r_x ω
+            ds[3, o + 4] = sg
+            ds[3, o + 5] = sg * rx
+            ds[5 if side == 0 else 4, o + 5] = 1.0  # ω_S, ω_B
+        # P G: the response to each force component
+        for comp in range(4):
+            for i in range(n):
+                g[i] = 0.0
+            if j >= 0:
+                if comp == 0:
+                    g[3 * j] = 1.0
+                    g[3 * j + 2] = -rjy
+                elif comp == 1:
+                    g[3 * j + 1] = 1.0
+                    g[3 * j + 2] = rjx
+                elif comp == 2:
+                    g[3 * j + 2] = 1.0
+            if b >= 0:
+                if comp == 0:
+                    g[3 * b] = -1.0
+                    g[3 * b + 2] = rby
+                elif comp == 1:
+                    g[3 * b + 1] = -1.0
+                    g[3 * b + 2] = -rbx
+                elif comp == 3:
+                    g[3 * b + 2] = 1.0
+            _project(sys, ws, g, zero_m, pg[comp], z)
+            acc = 0.0
+            for d_ in range(nd):
+                acc -= v[3 * dr_i[d_] + 2] * z[m - nd + d_]
+            pin_row[comp] = acc
+        svel = (s0[2], s0[3], s0[5], s0[4])  # velocities paired with F_x, F_y, M_S, M_B
+        for u in range(12):
+            col = cols[u]
+            if col < 0:
+                continue
+            # H[:, u] = ∂F/∂s ∂s/∂y_u, plus the lever-arm turning on the θ columns
+            h0 = 0.0
+            h1 = 0.0
+            h2 = 0.0
+            h3 = 0.0
+            for a in range(6):
+                dsa = ds[a, u]
+                if dsa != 0.0:
+                    h0 += dF[0, a] * dsa
+                    h1 += dF[1, a] * dsa
+                    h2 += dF[2, a] * dsa
+                    h3 += dF[3, a] * dsa
+            # ∂W_cl/∂y_u: F·∂(ė, ω_S, ω_B)/∂y_u + (ė, ω_S, ω_B)·∂F/∂y_u
+            JS[2 * n + 1, col] += (svel[0] * h0 + svel[1] * h1 + svel[2] * h2 + svel[3] * h3
+                                   + F0[0] * ds[2, u] + F0[1] * ds[3, u] + F0[2] * ds[5, u]
+                                   + F0[3] * ds[4, u])
+            if u == 2:  # θ_j: the moment arm of (F_x, F_y) on j turns
+                h2 += -(rjx * F0[0] + rjy * F0[1])
+            elif u == 8:  # θ_b
+                h3 += rbx * F0[0] + rby * F0[1]
+            for i in range(n):
+                JS[n + i, col] += pg[0, i] * h0 + pg[1, i] * h1 + pg[2, i] * h2 + pg[3, i] * h3
+            JS[2 * n, col] += pin_row[0] * h0 + pin_row[1] * h1 + pin_row[2] * h2 \
+                + pin_row[3] * h3
+    # The multipliers carry the clearance forces into the constraints, so the constraint
+    # geometry's share of ∂q̈/∂θ, ∝ λ and q̈, changes as fast as the forces: with Q and c held,
+    # δθ_b changes only the θ-coefficients of Φ_q (d(A s)/dθ = B s, d(B s)/dθ = −A s), and
+    # M δq̈ + δΦ_qᵀ λ + Φ_qᵀ δλ = 0, Φ_q δq̈ + δΦ_q q̈ = 0 give
+    # δq̈ = M⁻¹ (w − Φ_qᵀ δλ), S δλ = Φ_q M⁻¹ w + δΦ_q q̈, with w = −δΦ_qᵀ λ.
+    lam = ws.lam
+    acc_ = ws.acc
+    extra = np.empty(m)
+    dco = np.empty(m)
+    nb = n // 3
+    rev_i = sys.rev_i
+    rev_j = sys.rev_j
+    tr_i = sys.tr_i
+    tr_n = sys.tr_n
+    tr_si = sys.tr_si
+    co = ws.coef
+    for bb in range(nb):
+        # dco[r] = ∂(Φ_q[r, 3 bb + 2])/∂θ_bb (the θ-coefficient of row r for body bb)
+        for r in range(m):
+            dco[r] = 0.0
+        r = 0
+        for k in range(rev_i.shape[0]):
+            if rev_i[k] == bb:  # co[2] = −a_y, co[8] = a_x
+                dco[r] += -co[6 * r + 8]
+                dco[r + 1] += co[6 * r + 2]
+            if rev_j[k] == bb:  # co[5] = a_y, co[11] = −a_x
+                dco[r] += -co[6 * r + 11]
+                dco[r + 1] += co[6 * r + 5]
+            r += 2
+        for k in range(tr_i.shape[0]):
+            if tr_i[k] == bb:  # co[2] = n·(B s): its derivative is −n·(A s)
+                sx = tr_si[k, 0]
+                sy = tr_si[k, 1]
+                ax = ws.cs[bb] * sx - ws.sn[bb] * sy
+                ay = ws.sn[bb] * sx + ws.cs[bb] * sy
+                dco[r] += -(tr_n[k, 0] * ax + tr_n[k, 1] * ay)
+            r += 2
+        wsum = 0.0
+        any_row = False
+        for r in range(m):
+            if dco[r] != 0.0:
+                any_row = True
+                wsum -= dco[r] * lam[r]
+                extra[r] = dco[r] * acc_[3 * bb + 2]
+            else:
+                extra[r] = 0.0
+        if not any_row:
+            continue
+        for i in range(n):
+            g[i] = 0.0
+        g[3 * bb + 2] = wsum
+        _project(sys, ws, g, extra, pg[0], z)
+        col = 3 * bb + 2
+        for i in range(n):
+            JS[n + i, col] += pg[0, i]
+        acc = 0.0
+        for d_ in range(nd):
+            acc -= v[3 * dr_i[d_] + 2] * z[m - nd + d_]
+        JS[2 * n, col] += acc
 
 
 @njit(cache=True)

@@ -276,6 +276,20 @@ def _system(scene: Scene, index, clearance_as: str) -> tuple[System, tuple[str, 
     ), labels
 
 
+def without_clearance_forces(system: System) -> System:
+    """The same mechanism with every clearance-joint force switched off (film viscosity and
+    contact stiffness zero: both force laws are proportional to them), for the smooth part of
+    the stiff integrator's Jacobian (:mod:`mechrel.integrate.radau`)."""
+    from ..forces.params import P_K, P_MU
+
+    if system.cl_p.shape[0] == 0:
+        return system
+    p = system.cl_p.copy()
+    p[:, P_MU] = 0.0
+    p[:, P_K] = 0.0
+    return system._replace(cl_p=p)
+
+
 def schur_structure(row_body: np.ndarray) -> dict:
     """Symbolic factorisation of the Schur complement ``S = Φ_q M⁻¹ Φ_qᵀ``.
 
