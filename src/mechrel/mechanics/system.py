@@ -12,6 +12,7 @@ Coordinates: ``q = (x_1, y_1, θ_1, …, x_nb, y_nb, θ_nb)``, body frames at th
 
 from __future__ import annotations
 
+import functools
 import math
 from typing import NamedTuple
 
@@ -311,52 +312,52 @@ def schur_structure(row_body: np.ndarray) -> dict:
     dict
         The ``ch_*`` and ``sc_*`` fields of :class:`System`.
     """
-    m = row_body.shape[0]
-    share = np.zeros((m, m), dtype=bool)
-    for r in range(m):
-        for s in range(m):
-            share[r, s] = any(b >= 0 and b in row_body[s] for b in row_body[r])
+    return dict(_schur_structure(row_body.shape[0], row_body.tobytes()))
+
+
+@functools.lru_cache(maxsize=64)
+def _schur_structure(m: int, key: bytes) -> tuple:
+    """:func:`schur_structure` by topology (cached: every sample of a study, and the dynamic,
+    assembly and ideal systems of a scene without clearance joints, share it)."""
+    rb = np.frombuffer(key, dtype=np.int64).reshape(m, 2)
+    same = (rb[:, None, :, None] == rb[None, :, None, :]) & (rb[:, None, :, None] >= 0)
+    share = same.any(axis=(2, 3))
     # greedy minimum degree on the graph of S, with fill-in edges added as nodes are eliminated
     adj = share.copy()
     np.fill_diagonal(adj, False)
-    alive = list(range(m))
+    alive = np.ones(m, dtype=bool)
     perm = []
-    while alive:
-        r = min(alive, key=lambda x: (int(adj[x, alive].sum()), x))
-        nb = [x for x in alive if adj[r, x]]
-        for a in nb:
-            for b in nb:
-                if a != b:
-                    adj[a, b] = True
-        alive.remove(r)
+    for _ in range(m):
+        deg = np.where(alive, (adj & alive).sum(axis=1), m + 1)
+        r = int(np.argmin(deg))  # the first of the smallest degrees
+        nb = np.nonzero(adj[r] & alive)[0]
+        adj[np.ix_(nb, nb)] = True
+        adj[nb, nb] = False
+        alive[r] = False
         perm.append(r)
     perm = np.asarray(perm, dtype=np.int64)
     # contributions to S at permuted positions (p ≥ q), one per shared body, as flat indices
     # into the row-major L (m × m) and coefficient (m × 6) arrays of the workspace
-    sc = []
-    for p in range(m):
-        for q in range(p + 1):
-            r, s = perm[p], perm[q]
-            for a in range(2):
-                for b in range(2):
-                    if row_body[r, a] >= 0 and row_body[r, a] == row_body[s, b]:
-                        sc.append((p * m + q, 6 * r + 3 * a, 6 * s + 3 * b, 3 * row_body[r, a]))
+    sp = same[np.ix_(perm, perm)]
+    p_, q_, a_, b_ = np.nonzero(sp & (np.arange(m)[:, None] >= np.arange(m)[None, :])[:, :, None, None])
+    sc = np.stack([p_ * m + q_, 6 * perm[p_] + 3 * a_, 6 * perm[q_] + 3 * b_,
+                   3 * rb[perm[p_], a_]], axis=1)
     # symbolic Cholesky: pattern of L (lower, with fill) in the permuted order
     pat = share[np.ix_(perm, perm)].copy()
     for j in range(m):
-        below = [i for i in range(j + 1, m) if pat[i, j]]
-        for a in below:
-            for b in below:
-                pat[a, b] = True
-    rows = [[k for k in range(i) if pat[i, k]] for i in range(m)]
+        below = j + 1 + np.nonzero(pat[j + 1:, j])[0]
+        pat[np.ix_(below, below)] = True
+    pat = np.tril(pat, -1)
+    rows = [np.nonzero(pat[i])[0].tolist() for i in range(m)]
+    cols = [np.nonzero(pat[:, j])[0].tolist() for j in range(m)]
     ent, ptr, kk = [], [0], []
     for j in range(m):
-        for i in [j] + [i for i in range(j + 1, m) if pat[i, j]]:
+        for i in [j] + cols[j]:
             ent.append((i * m + j, j))
-            kk += [(i * m + k, j * m + k) for k in rows[j] if pat[i, k]]
+            kk += [(i * m + k, j * m + k) for k in rows[j] if i == j or pat[i, k]]
             ptr.append(len(kk))
     row_ptr = np.cumsum([0] + [len(r) for r in rows]).astype(np.int64)
-    return dict(
+    out = dict(
         ch_perm=perm,
         sc_idx=np.asarray(sc, dtype=np.int64).reshape(-1, 4),
         ch_ent=np.asarray(ent, dtype=np.int64).reshape(-1, 2),
@@ -365,6 +366,9 @@ def schur_structure(row_body: np.ndarray) -> dict:
         ch_row_ptr=row_ptr,
         ch_row_idx=np.asarray([k for r in rows for k in r], dtype=np.int64),
     )
+    for v in out.values():
+        v.flags.writeable = False  # shared between systems by the cache
+    return tuple(out.items())
 
 
 def compile_scene(scene: Scene) -> CompiledScene:
