@@ -58,18 +58,23 @@ contraction, which triggers a recomputation. Measured on the lubricated nine-bar
 trajectory (ε up to 0.98): column-wise relative error ≤ 3e-3 against central differences.
 
 Partial updates: the stiff, fast-changing entries of ``J`` are the derivatives of the
-clearance-joint forces. :func:`mechrel.mechanics.problem.clearance_jacobian` computes that
-part, ``J_cl``, semi-analytically (the force laws differenced alone, the kinematics and the
-constrained response exact) for the cost of about one right-hand side. A full
-finite-difference Jacobian ``J_fd`` is split into ``J_cl`` and the smooth rest
-``J_fd − J_cl`` (constraint geometry, gravity: it changes on the time scale of the motion);
-the update after an accepted step (θ > THET) is the kept rest plus a fresh ``J_cl``. A full
-Jacobian is computed at the start, after a history change, after a Newton failure or
-error-test rejection with a stale Jacobian (the Newton contraction monitor catches a stale
-rest), and at least every ``MAX_PARTIAL`` updates. On the lubricated nine-bar this takes 31 %
-fewer right-hand-side evaluations per cycle than differencing the clearance bodies' columns
-(the previous partial update: 24 evaluations instead of one) at the same steps and
-rejections (docs/performance.md).
+clearance-joint forces and what they drive through the constraints (the multipliers λ and
+the accelerations carry the forces). :func:`mechrel.mechanics.problem.clearance_jacobian`
+computes that *fast part* semi-analytically — the force laws differenced alone (cheap), the
+joint kinematics and the constrained response exact, with the Schur factor of the
+right-hand side — for the cost of about one right-hand side. The *smooth rest* (constraint
+geometry, gravity, Baumgarte terms) is the finite-difference Jacobian of the same mechanism
+with the clearance forces switched off
+(:func:`mechrel.mechanics.system.without_clearance_forces`; the force laws are proportional
+to the viscosity and the contact stiffness) minus its own fast part. A full Jacobian is
+rest + fast part at the same point: no finite difference ever crosses a stiff film, whose
+thickness c (1 − ε) can be as small as the increment (at ε = 1 − 4e-6 the differenced
+Jacobian was useless and the run drifted off the constraints by 3e-5 m). After an accepted
+step with θ > THET only the fast part is refreshed; a full Jacobian is computed at the
+start, after a history change, after a Newton failure or error-test rejection with a stale
+Jacobian, and at least every ``MAX_PARTIAL`` updates. On the lubricated nine-bar this needs
+6.5k right-hand sides per cycle where differencing the clearance bodies' columns needed
+12.4k (docs/performance.md).
 
 History and contact onsets
 --------------------------
@@ -136,18 +141,21 @@ TI31, TI32, TI33 = -0.50287263494578687595, 2.5719269498556054292, -0.5960392048
 
 NIT = 7  # maximum Newton iterations per step
 # Keep the Jacobian while the Newton contraction θ stays below THET. RADAU5's default is 0.001
-# for cheap Jacobians and its documentation recommends 0.1 when they are costly: here one
-# Jacobian costs 2n right-hand sides, as much as 2n/3 ≈ 16 Newton iterations on the nine-bar.
-# Measured on the lubricated nine-bar (docs/performance.md): 0.001 → 263 Jacobians and 16.8k
-# right-hand sides per cycle, 0.1 → 203 and 14.2k, 0.3 → 170 and 13.1k (more rejected steps).
-THET = 0.1
+# for cheap Jacobians and its documentation recommends 0.1 when they are costly. Here the
+# update after an accepted step is the fast (clearance) part only, which costs about one
+# right-hand side (module docstring), so refreshing it often pays: measured on the lubricated
+# nine-bar at rtol 1e-7 (right-hand sides per cycle, with MAX_PARTIAL = 30): THET = 0.3 →
+# 14.2k, 0.1 → 8.3k, 0.03 → 6.5k, 0.01 → 6.0k; at rtol 1e-3: 29.5k, 14.3k, 5.2k, 7.9k
+# (docs/performance.md). 0.03 is the best over the tolerances measured.
+THET = 0.03
 SAFE = 0.9
 FACL = 5.0  # h_new ≥ h / FACL
 FACR = 0.125  # h_new ≤ h / FACR
 QUOT1 = 1.0  # keep the step (and the LU) while 1 ≤ h_new / h ≤ 1.2
 QUOT2 = 1.2
 NIT_FIXED = 30  # fixed-step mode: no step to shrink, so iterate longer
-MAX_PARTIAL = 10  # partial Jacobian updates between two full ones (module docstring)
+MAX_PARTIAL = 30  # partial (fast-part) updates between two full Jacobians; 10 → 30 saved
+# 7 % of the evaluations, 100 nothing more (lubricated nine-bar)
 MAX_NEWTON_FAILURES = 10  # consecutive Newton failures (each halves h) before giving up
 MAX_SINGULAR = 5
 
