@@ -19,7 +19,7 @@ import math
 import numpy as np
 from numba import njit
 
-from ..mechanics.problem import gaps_into, rhs_into
+from ..mechanics.problem import gaps_into, rhs_inline, rhs_into
 from .events import (S_H, S_ONSET_REJECTED, S_REJECTED, S_RHS, S_STATUS, S_STEPS,
                      STATUS_MAX_STEPS, STATUS_NONFINITE, all_finite,
                      onset_fraction, out_of_budget, record_violation, start,
@@ -30,27 +30,28 @@ from .events import (S_H, S_ONSET_REJECTED, S_REJECTED, S_RHS, S_STATUS, S_STEPS
 def _rk4_step(t, y, h, hist, sys, ws, K, tmp, out, stats):
     """One classical RK4 step into ``out``; the stage derivatives go to the rows of ``K``
     (4 × ny) and the stage states are built in ``tmp`` by loops, so a step allocates nothing.
-    The first stage is evaluated at the step's start state, whose constraint violation is
-    recorded then."""
+    The four stages share one (inlined) right-hand-side call site. The first stage is
+    evaluated at the step's start state, whose constraint violation is recorded then."""
     n = y.shape[0]
-    k1 = K[0]
-    k2 = K[1]
-    k3 = K[2]
-    k4 = K[3]
-    rhs_into(t, y, hist, sys, ws, k1)
-    record_violation(ws, stats)
-    for i in range(n):
-        tmp[i] = y[i] + 0.5 * h * k1[i]
-    rhs_into(t + 0.5 * h, tmp, hist, sys, ws, k2)
-    for i in range(n):
-        tmp[i] = y[i] + 0.5 * h * k2[i]
-    rhs_into(t + 0.5 * h, tmp, hist, sys, ws, k3)
-    for i in range(n):
-        tmp[i] = y[i] + h * k3[i]
-    rhs_into(t + h, tmp, hist, sys, ws, k4)
+    for stage in range(4):
+        if stage == 0:
+            ts = t
+            for i in range(n):
+                tmp[i] = y[i]
+        elif stage == 3:
+            ts = t + h
+            for i in range(n):
+                tmp[i] = y[i] + h * K[2, i]
+        else:
+            ts = t + 0.5 * h
+            for i in range(n):
+                tmp[i] = y[i] + 0.5 * h * K[stage - 1, i]
+        rhs_inline(ts, tmp, hist, sys, ws, K[stage])
+        if stage == 0:
+            record_violation(ws, stats)
     h6 = h / 6.0
     for i in range(n):
-        out[i] = y[i] + h6 * (k1[i] + 2.0 * (k2[i] + k3[i]) + k4[i])
+        out[i] = y[i] + h6 * (K[0, i] + 2.0 * (K[1, i] + K[2, i]) + K[3, i])
 
 
 @njit(cache=True)
@@ -129,45 +130,42 @@ D1, D3, D4, D5, D6, D7 = (-12715105075.0 / 11282082432.0, 87487479700.0 / 327004
                           -1453857185.0 / 822651844.0, 69997945.0 / 29380423.0)
 
 
+# The tableau as arrays for the stage loop (rows: stages 2…7; the 7th is the solution, FSAL).
+_C = np.array([0.0, C2, C3, C4, C5, 1.0, 1.0])
+_A = np.array([
+    [0.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+    [A21, 0.0, 0.0, 0.0, 0.0, 0.0],
+    [A31, A32, 0.0, 0.0, 0.0, 0.0],
+    [A41, A42, A43, 0.0, 0.0, 0.0],
+    [A51, A52, A53, A54, 0.0, 0.0],
+    [A61, A62, A63, A64, A65, 0.0],
+    [A71, 0.0, A73, A74, A75, A76],
+])
+
+
 @njit(cache=True)
 def _dopri_stages(t, y, h, hist, sys, ws, K, ytmp, ynew, err, dense):
     """One Dormand–Prince step from ``(t, y)`` with ``K[0] = f(t, y)`` (FSAL): stages into the
     rows of ``K`` (7 × ny), the 5th-order solution into ``ynew``, the error estimate into
     ``err`` and the dense-output coefficient into ``dense``; ``K[6] = f(t + h, ynew)``, so
-    ``ws`` holds the constraint terms of ``ynew`` on return. Loops, no temporaries."""
+    ``ws`` holds the constraint terms of ``ynew`` on return. Loops, no temporaries; the six
+    evaluations share one (inlined) right-hand-side call site."""
     ny = y.shape[0]
-    k1 = K[0]
-    k2 = K[1]
-    k3 = K[2]
-    k4 = K[3]
-    k5 = K[4]
-    k6 = K[5]
-    k7 = K[6]
+    for s in range(1, 7):
+        for i in range(ny):
+            acc = 0.0
+            for j in range(s):
+                acc += _A[s, j] * K[j, i]
+            ytmp[i] = y[i] + h * acc
+        if s == 6:
+            for i in range(ny):
+                ynew[i] = ytmp[i]
+        rhs_inline(t + _C[s] * h, ytmp, hist, sys, ws, K[s])
     for i in range(ny):
-        ytmp[i] = y[i] + h * A21 * k1[i]
-    rhs_into(t + C2 * h, ytmp, hist, sys, ws, k2)
-    for i in range(ny):
-        ytmp[i] = y[i] + h * (A31 * k1[i] + A32 * k2[i])
-    rhs_into(t + C3 * h, ytmp, hist, sys, ws, k3)
-    for i in range(ny):
-        ytmp[i] = y[i] + h * (A41 * k1[i] + A42 * k2[i] + A43 * k3[i])
-    rhs_into(t + C4 * h, ytmp, hist, sys, ws, k4)
-    for i in range(ny):
-        ytmp[i] = y[i] + h * (A51 * k1[i] + A52 * k2[i] + A53 * k3[i] + A54 * k4[i])
-    rhs_into(t + C5 * h, ytmp, hist, sys, ws, k5)
-    for i in range(ny):
-        ytmp[i] = y[i] + h * (A61 * k1[i] + A62 * k2[i] + A63 * k3[i] + A64 * k4[i]
-                              + A65 * k5[i])
-    rhs_into(t + h, ytmp, hist, sys, ws, k6)
-    for i in range(ny):
-        ynew[i] = y[i] + h * (A71 * k1[i] + A73 * k3[i] + A74 * k4[i] + A75 * k5[i]
-                              + A76 * k6[i])
-    rhs_into(t + h, ynew, hist, sys, ws, k7)
-    for i in range(ny):
-        err[i] = h * (E1 * k1[i] + E3 * k3[i] + E4 * k4[i] + E5 * k5[i] + E6 * k6[i]
-                      + E7 * k7[i])
-        dense[i] = h * (D1 * k1[i] + D3 * k3[i] + D4 * k4[i] + D5 * k5[i] + D6 * k6[i]
-                        + D7 * k7[i])
+        err[i] = h * (E1 * K[0, i] + E3 * K[2, i] + E4 * K[3, i] + E5 * K[4, i] + E6 * K[5, i]
+                      + E7 * K[6, i])
+        dense[i] = h * (D1 * K[0, i] + D3 * K[2, i] + D4 * K[3, i] + D5 * K[4, i]
+                        + D6 * K[5, i] + D7 * K[6, i])
 
 
 @njit(cache=True)

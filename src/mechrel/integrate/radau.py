@@ -105,7 +105,7 @@ import math
 import numpy as np
 from numba import njit
 
-from ..mechanics.problem import clearance_jacobian, gaps_into, rhs_into
+from ..mechanics.problem import clearance_jacobian, gaps_into, rhs_inline, rhs_into
 from ..mechanics.system import without_clearance_forces
 from .events import (S_H, S_JAC, S_LU, S_ONSET_REJECTED, S_REJECTED, S_RHS, S_STATUS,
                      S_STEPS, STATUS_NEWTON, STATUS_NONFINITE,
@@ -239,7 +239,7 @@ def fd_jacobian(t, y, f0, hist, sys, ws, J, floor, yp, fp):
         yj = y[j]
         yp[j] = yj + SQRT_UROUND * max(abs(yj), floor)
         d = yp[j] - yj  # the increment actually represented
-        rhs_into(t, yp, hist, sys, ws, fp)
+        rhs_inline(t, yp, hist, sys, ws, fp)
         for i in range(n, ny):
             J[i, j] = (fp[i] - f0[i]) / d
         yp[j] = yj
@@ -358,9 +358,10 @@ def radau5_kernel(sys, sys_smooth, t0, y0, hist, t_out, h0, rtol_user, atol_user
     fe = np.zeros(ny)
     ev = np.zeros(ny)
     ystage = np.zeros(ny)
-    fa = np.zeros(ny)
-    fb = np.zeros(ny)
-    fc = np.zeros(ny)
+    F3 = np.zeros((3, ny))  # f at the three stages
+    fa = F3[0]
+    fb = F3[1]
+    fc = F3[2]
     yp = np.zeros(ny)
 
     use_partial = sys.cl_b.shape[0] > 0  # clearance joints: hybrid partial updates
@@ -494,15 +495,12 @@ def radau5_kernel(sys, sys_smooth, t0, y0, hist, t_out, h0, rtol_user, atol_user
             if newt >= nit:
                 failed = True
                 break
-            for i in range(ny):
-                ystage[i] = y[i] + z1[i]
-            rhs_into(t + C1 * h, ystage, hist, sys, ws, fa)
-            for i in range(ny):
-                ystage[i] = y[i] + z2[i]
-            rhs_into(t + C2 * h, ystage, hist, sys, ws, fb)
-            for i in range(ny):
-                ystage[i] = y[i] + z3[i]
-            rhs_into(tph, ystage, hist, sys, ws, fc)
+            for st in range(3):  # one (inlined) call site for the three stages
+                z = z1 if st == 0 else (z2 if st == 1 else z3)
+                ts = t + C1 * h if st == 0 else (t + C2 * h if st == 1 else tph)
+                for i in range(ny):
+                    ystage[i] = y[i] + z[i]
+                rhs_inline(ts, ystage, hist, sys, ws, F3[st])
             stats[S_RHS] += 3
             for i in range(ny):
                 r1[i] = TI11 * fa[i] + TI12 * fb[i] + TI13 * fc[i] - fac1 * w1[i]

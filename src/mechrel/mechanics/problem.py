@@ -555,6 +555,15 @@ def accelerations_into(t, y, hist, sys, ws):
 @njit(cache=True)
 def rhs_into(t, y, hist, sys, ws, out):
     """dy/dt for ``y = [q, q̇, W_in, W_cl]`` into ``out``, allocation-free (the kernels' form)."""
+    rhs_inline(t, y, hist, sys, ws, out)
+
+
+@njit(cache=True, inline='always')
+def rhs_inline(t, y, hist, sys, ws, out):
+    """:func:`rhs_into`'s body, inlined where a kernel calls it once per stage in a tight loop
+    (RK4): a call passes the System and Workspace tuples as some 400 scalar arguments, 5–8 %
+    of an evaluation of the slider-crank. Use it at one call site per kernel only (each site
+    compiles the whole right-hand side again)."""
     n = sys.mass.shape[0]
     pin, pcl = accelerations_into(t, y, hist, sys, ws)
     acc = ws.acc
