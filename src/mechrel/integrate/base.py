@@ -8,7 +8,8 @@ A subclass of :class:`Integrator`
   (bool), ``adaptive`` (bool) and ``defaults`` (a dict of the settings it uses: some of
   ``step``, ``rtol``, ``atol``);
 * implements ``_advance(system, t0, y0, hist, t_out, carry) -> (Y, YD, hist, stats, t, y, carry)``
-  which integrates ``mechrel.mechanics.problem.rhs`` from ``(t0, y0)`` over the increasing
+  which integrates the right-hand side of :mod:`mechrel.mechanics.problem` (compiled kernels:
+  ``rhs_into`` with one ``make_workspace``) from ``(t0, y0)`` over the increasing
   output instants ``t_out`` (all ≥ t0), returning the state ``Y`` and its derivative ``YD`` at
   each instant, the history state after the last instant, the statistics vector of
   :mod:`mechrel.integrate.events`, the final time and state, and ``carry`` (what the method

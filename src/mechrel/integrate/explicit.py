@@ -19,7 +19,7 @@ import math
 import numpy as np
 from numba import njit
 
-from ..mechanics.problem import gaps_into, rhs_inline, rhs_into
+from ..mechanics.problem import rhs_inline, rhs_into
 from .events import (S_H, S_ONSET_REJECTED, S_REJECTED, S_RHS, S_STATUS, S_STEPS,
                      STATUS_MAX_STEPS, STATUS_NONFINITE, all_finite,
                      onset_fraction, out_of_budget, record_violation, start,
@@ -27,17 +27,19 @@ from .events import (S_H, S_ONSET_REJECTED, S_REJECTED, S_RHS, S_STATUS, S_STEPS
 
 
 @njit(cache=True)
-def _rk4_step(t, y, h, hist, sys, ws, K, tmp, out, stats):
-    """One classical RK4 step into ``out``; the stage derivatives go to the rows of ``K``
-    (4 × ny) and the stage states are built in ``tmp`` by loops, so a step allocates nothing.
-    The four stages share one (inlined) right-hand-side call site. The first stage is
-    evaluated at the step's start state, whose constraint violation is recorded then."""
+def _rk4_step(t, y, h, hist, sys, ws, K, tmp, out):
+    """One classical RK4 step from ``(t, y)`` with ``K[0] = f(t, y)`` into ``out``, and
+    ``K[4] = f(t + h, out)``, the next step's first stage (so ``ws`` holds the constraint
+    terms and contact gaps of ``out`` on return). Stage states are built in ``tmp`` by loops;
+    the four evaluations share one (inlined) right-hand-side call site. Allocates nothing."""
     n = y.shape[0]
-    for stage in range(4):
-        if stage == 0:
-            ts = t
+    for stage in range(1, 5):
+        if stage == 4:
+            ts = t + h
+            h6 = h / 6.0
             for i in range(n):
-                tmp[i] = y[i]
+                tmp[i] = y[i] + h6 * (K[0, i] + 2.0 * (K[1, i] + K[2, i]) + K[3, i])
+                out[i] = tmp[i]
         elif stage == 3:
             ts = t + h
             for i in range(n):
@@ -47,11 +49,6 @@ def _rk4_step(t, y, h, hist, sys, ws, K, tmp, out, stats):
             for i in range(n):
                 tmp[i] = y[i] + 0.5 * h * K[stage - 1, i]
         rhs_inline(ts, tmp, hist, sys, ws, K[stage])
-        if stage == 0:
-            record_violation(ws, stats)
-    h6 = h / 6.0
-    for i in range(n):
-        out[i] = y[i] + h6 * (K[0, i] + 2.0 * (K[1, i] + K[2, i]) + K[3, i])
 
 
 @njit(cache=True)
@@ -59,13 +56,17 @@ def rk4_kernel(sys, t0, y0, hist, t_out, h, max_steps, onset_tol):
     """Classical RK4 with step ``h`` (s); steps are shortened to land on every output instant
     and to locate contact onsets. Returns (Y, YD, hist, stats, t, y).
 
-    Every accepted state's constraint violation is recorded: as the first stage of the next
-    step, or at the output instant the last step lands on."""
+    Each step ends with the right-hand side at its end state, which is the next step's first
+    stage, the derivative stored at an output instant, and the source of the contact gaps
+    (onset check) and of the constraint violation recorded for every accepted state: four
+    evaluations per step and nothing else, except a re-evaluation when the history changes."""
     nout = t_out.shape[0]
-    Y, YD, stats, floors, y, _, k, _, ws = start(sys, t0, y0, hist, t_out)
+    Y, YD, stats, floors, y, f, k, _, ws = start(sys, t0, y0, hist, t_out)
     t = t0
     ny = y.shape[0]
-    K = np.empty((4, ny))
+    K = np.empty((5, ny))
+    for i in range(ny):
+        K[0, i] = f[i]
     tmp = np.empty(ny)
     ynew = np.empty(ny)
     nh = hist.shape[0]
@@ -73,25 +74,26 @@ def rk4_kernel(sys, t0, y0, hist, t_out, h, max_steps, onset_tol):
     g0 = np.empty(nh)
     g1 = np.empty(nh)
     gd1 = np.empty(nh)
-    if contacts:
-        gaps_into(t, y, sys, g0, gd1)
+    for i in range(nh):
+        g0[i] = ws.gap[i]  # start() evaluated f(t0, y0)
     while k < nout:
         if stats[S_STEPS] >= max_steps:
             stats[S_STATUS] = STATUS_MAX_STEPS
             break
         hk = min(h, t_out[k] - t)
-        _rk4_step(t, y, hk, hist, sys, ws, K, tmp, ynew, stats)
+        _rk4_step(t, y, hk, hist, sys, ws, K, tmp, ynew)
         stats[S_RHS] += 4
         if contacts:
-            gaps_into(t + hk, ynew, sys, g1, gd1)
-            theta = onset_fraction(g0, g1, hist, onset_tol)
+            theta = onset_fraction(g0, ws.gap, hist, onset_tol)
             while theta < 1.0 and hk * theta > 1e-15 * max(1.0, abs(t)):
                 hk *= theta
-                _rk4_step(t, y, hk, hist, sys, ws, K, tmp, ynew, stats)
+                _rk4_step(t, y, hk, hist, sys, ws, K, tmp, ynew)
                 stats[S_RHS] += 4
                 stats[S_ONSET_REJECTED] += 1
-                gaps_into(t + hk, ynew, sys, g1, gd1)
-                theta = onset_fraction(g0, g1, hist, onset_tol)
+                theta = onset_fraction(g0, ws.gap, hist, onset_tol)
+            for i in range(nh):
+                g1[i] = ws.gap[i]
+                gd1[i] = ws.gaprate[i]
         if not all_finite(ynew):
             stats[S_STATUS] = STATUS_NONFINITE
             break
@@ -99,14 +101,17 @@ def rk4_kernel(sys, t0, y0, hist, t_out, h, max_steps, onset_tol):
         t = t_out[k] if hk == t_out[k] - t else t + hk
         y, ynew = ynew, y
         stats[S_STEPS] += 1
+        record_violation(ws, stats)  # ws holds the terms of the new state (K[4])
+        for i in range(ny):
+            K[0, i] = K[4, i]
         if contacts:
-            update_history_from(g1, gd1, hist, floors, stats)
             g0, g1 = g1, g0
+            if update_history_from(g0, gd1, hist, floors, stats):
+                rhs_into(t, y, hist, sys, ws, K[0])  # the right-hand side changed with hist
+                stats[S_RHS] += 1
         while k < nout and t_out[k] <= t:
             Y[k] = y
-            rhs_into(t, y, hist, sys, ws, YD[k])
-            record_violation(ws, stats)
-            stats[S_RHS] += 1
+            YD[k] = K[0]
             k += 1
     stats[S_H] = h
     return Y, YD, hist, stats, t, y
@@ -210,8 +215,8 @@ def dopri5_kernel(sys, t0, y0, hist, t_out, h0, rtol, atol, max_steps, onset_tol
     g0 = np.empty(nh)
     g1 = np.empty(nh)
     gd1 = np.empty(nh)
-    if contacts:
-        gaps_into(t, y, sys, g0, gd1)  # kept from step to step: the end of one is the next's start
+    for i in range(nh):  # from start()'s f(t0, y0); then the end of one step is the next's start
+        g0[i] = ws.gap[i]
     while k < nout:
         if out_of_budget(stats, h, t, max_steps):
             break
@@ -227,7 +232,9 @@ def dopri5_kernel(sys, t0, y0, hist, t_out, h0, rtol, atol, max_steps, onset_tol
             rejected_last = True
             continue
         if contacts:
-            gaps_into(t + h, ynew, sys, g1, gd1)
+            for i in range(nh):  # K[6] = f(t + h, ynew) left the gaps of ynew in ws
+                g1[i] = ws.gap[i]
+                gd1[i] = ws.gaprate[i]
             theta = onset_fraction(g0, g1, hist, onset_tol)
             if theta < 1.0:
                 stats[S_ONSET_REJECTED] += 1

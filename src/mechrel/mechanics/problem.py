@@ -196,9 +196,12 @@ def _point_state_trig(q, v, i, sx, sy, cs, sn):
 
 
 @njit(cache=True, inline='always')
-def applied_forces_trig(t, q, v, hist, sys, Q, cs, sn):
+def applied_forces_trig(t, q, v, hist, sys, Q, cs, sn, gap, gaprate):
     """Add gravity and clearance-joint forces to Q (N, N m); return (clearance power W,
-    elastic contact energy J). ``cs``, ``sn``: cos θ and sin θ of every body."""
+    elastic contact energy J). ``cs``, ``sn``: cos θ and sin θ of every body. The penetration
+    δ = |e| − c (m) and its rate (m/s) of the contact-capable joints go to ``gap`` and
+    ``gaprate`` (as :func:`gaps_into` computes them), so that a kernel that evaluates the
+    right-hand side at a step's end has the gaps for its onset check."""
     nb = q.shape[0] // 3
     cl_b = sys.cl_b
     cl_hist = sys.cl_hist
@@ -226,6 +229,10 @@ def applied_forces_trig(t, q, v, hist, sys, Q, cs, sn):
         ey = jy - by
         evx = jvx - bvx
         evy = jvy - bvy
+        if h >= 0:
+            e = math.hypot(ex, ey)
+            gap[h] = e - cl_p[k, P_C]
+            gaprate[h] = (evx * ex + evy * ey) / e if e > 0.0 else 0.0
         fx, fy, ms, mb, eel = clearance_force(ex, ey, evx, evy, wb, wj, impact, cl_p[k])
         power += fx * evx + fy * evy + ms * wj + mb * wb
         elastic += eel
@@ -260,7 +267,8 @@ def applied_forces(t, q, v, hist, sys, Q):
     cs = np.empty(nb)
     sn = np.empty(nb)
     body_trig(q, cs, sn)
-    return applied_forces_trig(t, q, v, hist, sys, Q, cs, sn)
+    nh = n_contacts(sys)
+    return applied_forces_trig(t, q, v, hist, sys, Q, cs, sn, np.empty(nh), np.empty(nh))
 
 
 class Workspace(NamedTuple):
@@ -284,6 +292,8 @@ class Workspace(NamedTuple):
     dinv: np.ndarray  # (m,) 1 / L[j, j]
     x: np.ndarray  # (m,) right-hand side / solution of S λ = …, permuted
     lam: np.ndarray  # (m,) Lagrange multipliers λ in row order
+    gap: np.ndarray  # (nh,) penetration δ (m) of each contact-capable joint, as ``gaps``
+    gaprate: np.ndarray  # (nh,) its rate δ̇ (m/s)
 
 
 @njit(cache=True)
@@ -293,7 +303,8 @@ def make_workspace(sys):
     m = n_constraints(sys)
     return Workspace(np.empty(n // 3), np.empty(n // 3), 1.0 / sys.mass, np.empty(n),
                      np.empty(n), np.empty(m), np.empty(m), np.empty(m), np.zeros(6 * m),
-                     np.zeros(m * m), np.empty(m), np.empty(m), np.empty(m))
+                     np.zeros(m * m), np.empty(m), np.empty(m), np.empty(m),
+                     np.empty(n_contacts(sys)), np.empty(n_contacts(sys)))
 
 
 @njit(cache=True, inline='always')
@@ -522,7 +533,7 @@ def accelerations_into(t, y, hist, sys, ws):
     for k in range(n):
         Q[k] = 0.0
     constraint_terms(t, q, v, sys, ws)
-    pcl, _ = applied_forces_trig(t, q, v, hist, sys, Q, ws.cs, ws.sn)
+    pcl, _ = applied_forces_trig(t, q, v, hist, sys, Q, ws.cs, ws.sn, ws.gap, ws.gaprate)
     m = ws.phi.shape[0]
     a = ws.acc
     lam = ws.lam
