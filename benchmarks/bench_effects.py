@@ -10,12 +10,14 @@ For each scene, one revolution of crank 1 (2/3 s at 3π rad/s), output every deg
   threads limited to 1;
 * ``steps``, ``rhs``: accepted steps and right-hand-side evaluations of the integrator the
   scene type uses by default (``mechrel.simulation.DEFAULT_SOLVERS``);
-* ``µs/rhs``: cost of one evaluation of ``mechrel.mechanics.problem.rhs`` timed directly,
-  inside a compiled loop (what the compiled kernels pay; no Python dispatch), averaged over
+* ``µs/rhs``: cost of one evaluation of ``mechrel.mechanics.problem.rhs_into`` with one
+  workspace, timed directly inside a compiled loop (what the compiled kernels pay; no Python
+  dispatch, no allocation), averaged over
   the states of the simulated cycle (so dry scenes mix contact and free-flight states in the
   proportion they occur). ``µs/call (Py)`` is the same called from Python, what SciPy's
   LSODA/Radau/BDF wrappers pay per evaluation (dispatch and unboxing of the System tuple);
-  ``of which forces``: ``applied_forces`` alone (gravity and the clearance-joint force laws)
+  ``of which forces``: ``applied_forces_trig`` alone with the bodies' sin/cos (gravity and the
+  clearance-joint force laws)
   at the same states, the part of the rhs that depends on the declared effects (the rest is
   the constraint solve).
   All three are the minimum over ``--rhs-rounds`` interleaved chunks of
@@ -45,7 +47,8 @@ import numpy as np  # noqa: E402
 from numba import njit  # noqa: E402
 
 from mechrel.mechanics import problem  # noqa: E402
-from mechrel.mechanics.problem import applied_forces, rhs  # noqa: E402
+from mechrel.mechanics.problem import (applied_forces_trig, body_trig, make_workspace,  # noqa: E402
+                                       rhs, rhs_into)
 from mechrel.mechanics.system import compile_scene  # noqa: E402
 from mechrel.scene import load_scene  # noqa: E402
 from mechrel.simulation import simulate  # noqa: E402
@@ -64,11 +67,15 @@ CASES = [  # (label, scene, overrides, simulate kwargs)
 
 @njit(cache=True)
 def _rhs_loop(T, Y, hist, sys, reps):
-    """Evaluate rhs at every state ``reps`` times; returns a checksum (keeps the calls)."""
+    """Evaluate ``rhs_into`` (the kernels' form: one workspace, no allocation) at every state
+    ``reps`` times; returns a checksum (keeps the calls)."""
     s = 0.0
+    ws = make_workspace(sys)
+    out = np.empty(Y.shape[1])
     for _ in range(reps):
         for k in range(Y.shape[0]):
-            s += rhs(T[k], Y[k], hist, sys)[0]
+            rhs_into(T[k], Y[k], hist, sys, ws, out)
+            s += out[0]
     return s
 
 
@@ -78,10 +85,13 @@ def _forces_loop(T, Y, hist, sys, reps):
     n = sys.mass.shape[0]
     s = 0.0
     Q = np.zeros(n)
+    ws = make_workspace(sys)
     for _ in range(reps):
         for k in range(Y.shape[0]):
             Q[:] = 0.0
-            p, _ = applied_forces(T[k], Y[k, :n], Y[k, n:2 * n], hist, sys, Q)
+            body_trig(Y[k, :n], ws.cs, ws.sn)  # shared with the constraint terms in the rhs
+            p, _ = applied_forces_trig(T[k], Y[k, :n], Y[k, n:2 * n], hist, sys, Q, ws.cs,
+                                       ws.sn, ws.gap, ws.gaprate)
             s += p + Q[0]
     return s
 

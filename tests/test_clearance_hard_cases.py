@@ -91,7 +91,7 @@ def test_lubricated_eccentricity_approaches_one_but_stays_below():
     # scene's): the film must carry ~10 kN with h_min = c(1 − ε) of a few nm. The film force
     # diverges as ε → 1 (squeeze ∝ ε̇/(1 − ε²)^1.5), so ε approaches 1 without reaching it.
     # SciPy's LSODA needs 1.9 M right-hand sides (70 s) for this; the compiled Radau needs
-    # 23 k: a case that needs the compiled stiff method (given explicitly here).
+    # 12 k: a case that needs the compiled stiff method (given explicitly here).
     res = run("slider-crank-lubricated",
               {"bodies.slider.mass": 0.5, "joints.C.lubricant.viscosity": 1e-3,
                "analysis.cycles": 0.5}, integrator="radau", rtol=1e-7, atol=1e-10)
