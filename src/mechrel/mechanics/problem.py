@@ -966,15 +966,6 @@ def mechanical_energy(y, sys):
 
 
 @njit(cache=True)
-def elastic_energy(t, y, hist, sys):
-    """Elastic energy stored in the contact springs (J)."""
-    n = sys.mass.shape[0]
-    Q = np.zeros(n)
-    _, eel = applied_forces(t, y[:n], y[n:2 * n], hist, sys, Q)
-    return eel
-
-
-@njit(cache=True)
 def post_process(times, Y, sys):
     """Per output instant, in one compiled call: the eccentricity (e_x, e_y) (m) of every
     clearance joint, kinetic and gravitational energy and the elastic contact energy (J).
