@@ -604,51 +604,83 @@ def rhs(t, y, hist, sys):
 
 
 @njit(cache=True)
-def _project(sys, ws, g, extra, pg, z):
-    """``pg = M⁻¹ (g − Φ_qᵀ z)`` with ``z = S⁻¹ (Φ_q M⁻¹ g + extra)`` (row order), using
-    the factor of S left in ``ws`` by the last :func:`rhs_into`. With ``extra = 0`` this is
-    the response of the constrained accelerations (∂q̈/∂Q g) and multipliers (∂λ/∂Q g) to a
-    generalized force ``g``; ``extra`` carries a change of the constraint rows
-    (:func:`clearance_jacobian`)."""
-    n = g.shape[0]
-    m = z.shape[0]
+def _project_batch(sys, ws, G, E, X, PG, Z):
+    """For each row c of ``G`` (K × n generalized forces) and ``E`` (K × m constraint-row
+    changes): ``Z[c] = S⁻¹ (Φ_q M⁻¹ G[c] + E[c])`` (row order) and
+    ``PG[c] = M⁻¹ (G[c] − Φ_qᵀ Z[c])``, with the factor of S left in ``ws`` by the last
+    :func:`rhs_into`. With ``E = 0`` these are the responses of the multipliers (∂λ/∂Q) and of
+    the constrained accelerations (∂q̈/∂Q) to the forces. All K right-hand sides go through the
+    triangular solves together (``X``: m × K scratch, permuted order): independent columns
+    overlap in the processor where one solve is a chain of dependent operations."""
+    K = G.shape[0]
+    n = G.shape[1]
+    m = Z.shape[1]
     co = ws.coef
     rb = sys.row_body
     perm = sys.ch_perm
     minv = ws.minv
-    x = ws.x
+    L = ws.L
+    dinv = ws.dinv
     for p in range(m):
         r = perm[p]
-        acc = extra[r]
+        for c in range(K):
+            X[p, c] = E[c, r]
         for s in range(2):
             body = rb[r, s]
             if body >= 0:
                 o = 6 * r + 3 * s
                 b3 = 3 * body
-                acc += (co[o] * g[b3] * minv[b3] + co[o + 1] * g[b3 + 1] * minv[b3 + 1]
-                        + co[o + 2] * g[b3 + 2] * minv[b3 + 2])
-        x[p] = acc
-    _cholesky_solve(sys, ws.L, ws.dinv, x)
+                w0 = co[o] * minv[b3]
+                w1 = co[o + 1] * minv[b3 + 1]
+                w2 = co[o + 2] * minv[b3 + 2]
+                for c in range(K):
+                    X[p, c] += w0 * G[c, b3] + w1 * G[c, b3 + 1] + w2 * G[c, b3 + 2]
+    rp = sys.ch_row_ptr
+    ri = sys.ch_row_idx
+    for i in range(m):  # forward: L U = X
+        for u in range(rp[i], rp[i + 1]):
+            k = ri[u]
+            lik = L[i * m + k]
+            for c in range(K):
+                X[i, c] -= lik * X[k, c]
+        d = dinv[i]
+        for c in range(K):
+            X[i, c] *= d
+    for i in range(m - 1, -1, -1):  # backward: Lᵀ Z = U
+        d = dinv[i]
+        for c in range(K):
+            X[i, c] *= d
+        for u in range(rp[i], rp[i + 1]):
+            k = ri[u]
+            lik = L[i * m + k]
+            for c in range(K):
+                X[k, c] -= lik * X[i, c]
     for p in range(m):
-        z[perm[p]] = x[p]
-    for k in range(n):
-        pg[k] = g[k]
+        r = perm[p]
+        for c in range(K):
+            Z[c, r] = X[p, c]
+    for c in range(K):
+        for k in range(n):
+            PG[c, k] = G[c, k]
     for r in range(m):
-        zr = z[r]
         for s in range(2):
             body = rb[r, s]
             if body >= 0:
                 o = 6 * r + 3 * s
-                pg[3 * body] -= co[o] * zr
-                pg[3 * body + 1] -= co[o + 1] * zr
-                pg[3 * body + 2] -= co[o + 2] * zr
-    for k in range(n):
-        pg[k] *= minv[k]
+                b3 = 3 * body
+                for c in range(K):
+                    zr = Z[c, r]
+                    PG[c, b3] -= co[o] * zr
+                    PG[c, b3 + 1] -= co[o + 1] * zr
+                    PG[c, b3 + 2] -= co[o + 2] * zr
+    for c in range(K):
+        for k in range(n):
+            PG[c, k] *= minv[k]
 
 
 @njit(cache=True)
 def clearance_jacobian(t, y, hist, sys, ws, f, JS):
-    """The clearance forces' part of ``∂f/∂y`` (the stiff part of the Jacobian) into ``JS``.
+    """The fast part of ``∂f/∂y``, the one the clearance forces drive, into ``JS``.
 
     For joint k with bearing body b and journal body j, the force law
     (:func:`~mechrel.forces.joint.clearance_force`) maps the relative state
@@ -658,24 +690,31 @@ def clearance_jacobian(t, y, hist, sys, ws, f, JS):
     ``F_x``, ``(0, +1, r_jx)`` / ``(0, −1, −r_bx)`` for ``F_y``, and the unit moments of M_S on j
     and M_B on b. Then
 
-        ∂q̈/∂y = P (G ∂F/∂s ∂s/∂y + ∂G/∂y F),   P = ∂q̈/∂Q = M⁻¹ − M⁻¹ Φ_qᵀ S⁻¹ Φ_q M⁻¹,
+        ∂q̈/∂y ⊃ P (G ∂F/∂s ∂s/∂y + ∂G/∂y F),   P = ∂q̈/∂Q = M⁻¹ − M⁻¹ Φ_qᵀ S⁻¹ Φ_q M⁻¹,
 
     with ``∂s/∂y`` the (analytic) kinematics of the two points, ``∂F/∂s`` by forward
     differences of the force law alone (6 evaluations per joint, far cheaper than a
     right-hand side) and ``∂G/∂θ F`` the turning of the lever arms (``−r_j·F`` on θ_j,
-    ``+r_b·F`` on θ_b); P is applied to G's 4 columns per joint with the Cholesky factor of
-    S at ``y``. The work rows get ``∂W_in/∂y = −Σ_d θ̇_d ∂λ_d/∂y`` and
-    ``∂W_cl/∂y = ∂(F·ė + M_S ω_S + M_B ω_B)/∂y``.
+    ``+r_b·F`` on θ_b). The multipliers and accelerations carry the forces into the
+    constraints, so the constraint geometry's share of ∂q̈/∂θ changes as fast as the forces:
+    with Q and c held, δθ_b changes only the θ-coefficients of Φ_q (``d(A s)/dθ = B s``,
+    ``d(B s)/dθ = −A s``), and ``M δq̈ + δΦ_qᵀ λ + Φ_qᵀ δλ = 0``, ``Φ_q δq̈ + δΦ_q q̈ = 0``
+    give ``δq̈ = M⁻¹ (w − Φ_qᵀ δλ)``, ``S δλ = Φ_q M⁻¹ w + δΦ_q q̈`` with ``w = −δΦ_qᵀ λ``.
+    All these responses (4 per joint, 1 per body) are solved together with the Cholesky
+    factor of S at ``y`` (:func:`_project_batch`). The work rows get
+    ``∂W_in/∂y = −Σ_d θ̇_d ∂λ_d/∂y`` and ``∂W_cl/∂y = ∂(F·ė + M_S ω_S + M_B ω_B)/∂y``.
 
-    What is left out — the derivatives of Φ_q, γ, the Baumgarte terms and gravity, and
-    P's own dependence on q — is smooth and slowly varying; the integrator takes it from its
-    last full finite-difference Jacobian (``mechrel.integrate.radau``). Rows ``n … ny − 1``,
-    columns ``0 … 2n − 1`` of ``JS`` are written (the clearance bodies' columns, zero
-    elsewhere). ``f`` receives ``f(t, y)``.
+    Everything proportional to the clearance forces is included, so at a fixed state the
+    result is linear in them (tested: ``tests/test_jacobian.py``). What is left out — the
+    derivatives of γ, the Baumgarte terms and gravity, and the constraint geometry's share of
+    the force-free multipliers — is smooth; the integrator takes it from finite differences
+    of the mechanism without clearance forces (``mechrel.integrate.radau``). Rows
+    ``n … ny − 1``, columns ``0 … 2n − 1`` of ``JS`` are written. ``f`` receives ``f(t, y)``.
     """
     n = sys.mass.shape[0]
     ny = y.shape[0]
     m = ws.phi.shape[0]
+    nb = n // 3
     rhs_into(t, y, hist, sys, ws, f)  # leaves S's factor at y, and cos/sin, in ws
     for i in range(n, ny):
         for c in range(2 * n):
@@ -684,6 +723,9 @@ def clearance_jacobian(t, y, hist, sys, ws, f, JS):
     v = y[n:2 * n]
     cs = ws.cs
     sn = ws.sn
+    co = ws.coef
+    lam = ws.lam
+    acc_ = ws.acc
     cl_b = sys.cl_b
     cl_j = sys.cl_j
     cl_sb = sys.cl_sb
@@ -692,38 +734,45 @@ def clearance_jacobian(t, y, hist, sys, ws, f, JS):
     cl_hist = sys.cl_hist
     dr_i = sys.dr_i
     nd = dr_i.shape[0]
-    g = np.zeros(n)
-    pg = np.empty((4, n))
-    z = np.empty(m)
-    zero_m = np.zeros(m)
-    pin_row = np.empty(4)
-    dF = np.empty((4, 6))
+    ncl = cl_b.shape[0]
+    K = 4 * ncl + nb
+    G = np.zeros((K, n))
+    E = np.zeros((K, m))
+    X = np.empty((m, K))
+    PG = np.empty((K, n))
+    Z = np.empty((K, m))
+    dF = np.empty((ncl, 4, 6))
+    F0 = np.empty((ncl, 4))
+    S0 = np.empty((ncl, 6))
+    lever = np.empty((ncl, 4))  # r_jx, r_jy, r_bx, r_by
     s0 = np.empty(6)
-    F0 = np.empty(4)
-    ds = np.zeros((6, 12))  # ∂s/∂(local columns): x, y, θ, v_x, v_y, ω of j, then of b
-    cols = np.empty(12, dtype=np.int64)
-    for k in range(cl_b.shape[0]):
+    # --- per joint: state, force, ∂F/∂s, and G's four columns
+    for k in range(ncl):
         b = cl_b[k]
         j = cl_j[k]
         p = cl_p[k]
         bx, by, bvx, bvy = _point_state_trig(q, v, b, cl_sb[k, 0], cl_sb[k, 1], cs, sn)
         jx, jy, jvx, jvy = _point_state_trig(q, v, j, cl_sj[k, 0], cl_sj[k, 1], cs, sn)
-        wb = v[3 * b + 2] if b >= 0 else 0.0
-        wj = v[3 * j + 2] if j >= 0 else 0.0
         rjx = jx - q[3 * j] if j >= 0 else 0.0
         rjy = jy - q[3 * j + 1] if j >= 0 else 0.0
         rbx = bx - q[3 * b] if b >= 0 else 0.0
         rby = by - q[3 * b + 1] if b >= 0 else 0.0
+        lever[k, 0] = rjx
+        lever[k, 1] = rjy
+        lever[k, 2] = rbx
+        lever[k, 3] = rby
         h = cl_hist[k]
         impact = hist[h] if h >= 0 else 0.0
         s0[0] = jx - bx
         s0[1] = jy - by
         s0[2] = jvx - bvx
         s0[3] = jvy - bvy
-        s0[4] = wb
-        s0[5] = wj
-        F0[0], F0[1], F0[2], F0[3], _ = clearance_force(s0[0], s0[1], s0[2], s0[3], s0[4],
-                                                        s0[5], impact, p)
+        s0[4] = v[3 * b + 2] if b >= 0 else 0.0
+        s0[5] = v[3 * j + 2] if j >= 0 else 0.0
+        for i in range(6):
+            S0[k, i] = s0[i]
+        F0[k, 0], F0[k, 1], F0[k, 2], F0[k, 3], _ = clearance_force(
+            s0[0], s0[1], s0[2], s0[3], s0[4], s0[5], impact, p)
         # ∂F/∂s by forward differences, δ = √u max(|s_i|, scale): scale c for the
         # eccentricity, c per second for its rate, 1 rad/s for the angular velocities
         c = p[P_C]
@@ -736,11 +785,82 @@ def clearance_jacobian(t, y, hist, sys, ws, f, JS):
             f0_, f1_, f2_, f3_, _ = clearance_force(s0[0], s0[1], s0[2], s0[3], s0[4], s0[5],
                                                     impact, p)
             s0[i] = si
-            dF[0, i] = (f0_ - F0[0]) / d
-            dF[1, i] = (f1_ - F0[1]) / d
-            dF[2, i] = (f2_ - F0[2]) / d
-            dF[3, i] = (f3_ - F0[3]) / d
-        # ∂s/∂y on the 12 local columns (module docstring of mechrel.forces.joint: e = r_S − r_B)
+            dF[k, 0, i] = (f0_ - F0[k, 0]) / d
+            dF[k, 1, i] = (f1_ - F0[k, 1]) / d
+            dF[k, 2, i] = (f2_ - F0[k, 2]) / d
+            dF[k, 3, i] = (f3_ - F0[k, 3]) / d
+        row = 4 * k
+        if j >= 0:
+            G[row, 3 * j] = 1.0
+            G[row, 3 * j + 2] = -rjy
+            G[row + 1, 3 * j + 1] = 1.0
+            G[row + 1, 3 * j + 2] = rjx
+            G[row + 2, 3 * j + 2] = 1.0
+        if b >= 0:
+            G[row, 3 * b] = -1.0
+            G[row, 3 * b + 2] = rby
+            G[row + 1, 3 * b + 1] = -1.0
+            G[row + 1, 3 * b + 2] = -rbx
+            G[row + 3, 3 * b + 2] = 1.0
+    # --- per body: the constraint geometry's share, w = −δΦ_qᵀ λ on θ_b, E = δΦ_q q̈
+    rev_i = sys.rev_i
+    rev_j = sys.rev_j
+    tr_i = sys.tr_i
+    tr_n = sys.tr_n
+    tr_si = sys.tr_si
+    r = 0
+    for k in range(rev_i.shape[0]):  # co[2] = −a_y, co[8] = a_x; co[5] = a_y, co[11] = −a_x
+        bi = rev_i[k]
+        E[4 * ncl + bi, r] += -co[6 * r + 8]
+        E[4 * ncl + bi, r + 1] += co[6 * r + 2]
+        bj = rev_j[k]
+        if bj >= 0:
+            E[4 * ncl + bj, r] += -co[6 * r + 11]
+            E[4 * ncl + bj, r + 1] += co[6 * r + 5]
+        r += 2
+    for k in range(tr_i.shape[0]):  # co[2] = n·(B s): its derivative is −n·(A s)
+        bi = tr_i[k]
+        ax = cs[bi] * tr_si[k, 0] - sn[bi] * tr_si[k, 1]
+        ay = sn[bi] * tr_si[k, 0] + cs[bi] * tr_si[k, 1]
+        E[4 * ncl + bi, r] += -(tr_n[k, 0] * ax + tr_n[k, 1] * ay)
+        r += 2
+    for bb in range(nb):
+        row = 4 * ncl + bb  # E[row] holds ∂(θ-coefficients)/∂θ_bb for now
+        wsum = 0.0
+        for r in range(m):
+            dco = E[row, r]
+            wsum -= dco * lam[r]
+            E[row, r] = dco * acc_[3 * bb + 2]
+        G[row, 3 * bb + 2] = wsum
+    _project_batch(sys, ws, G, E, X, PG, Z)
+    # --- assemble
+    for bb in range(nb):
+        row = 4 * ncl + bb
+        col = 3 * bb + 2
+        for i in range(n):
+            JS[n + i, col] += PG[row, i]
+        a_ = 0.0
+        for d_ in range(nd):
+            a_ -= v[3 * dr_i[d_] + 2] * Z[row, m - nd + d_]
+        JS[2 * n, col] += a_
+    pin_row = np.empty(4)
+    ds = np.zeros((6, 12))  # ∂s/∂(local columns): x, y, θ, v_x, v_y, ω of j, then of b
+    cols = np.empty(12, dtype=np.int64)
+    for k in range(ncl):
+        b = cl_b[k]
+        j = cl_j[k]
+        rjx = lever[k, 0]
+        rjy = lever[k, 1]
+        rbx = lever[k, 2]
+        rby = lever[k, 3]
+        wb = S0[k, 4]
+        wj = S0[k, 5]
+        for comp in range(4):
+            a_ = 0.0
+            for d_ in range(nd):
+                a_ -= v[3 * dr_i[d_] + 2] * Z[4 * k + comp, m - nd + d_]
+            pin_row[comp] = a_
+        # ∂s/∂y on the 12 local columns (e = r_S − r_B, module docstring of forces.joint)
         for a in range(6):
             for u in range(12):
                 ds[a, u] = 0.0
@@ -765,34 +885,10 @@ def clearance_jacobian(t, y, hist, sys, ws, f, JS):
             ds[3, o + 4] = sg
             ds[3, o + 5] = sg * rx
             ds[5 if side == 0 else 4, o + 5] = 1.0  # ω_S, ω_B
-        # P G: the response to each force component
-        for comp in range(4):
-            for i in range(n):
-                g[i] = 0.0
-            if j >= 0:
-                if comp == 0:
-                    g[3 * j] = 1.0
-                    g[3 * j + 2] = -rjy
-                elif comp == 1:
-                    g[3 * j + 1] = 1.0
-                    g[3 * j + 2] = rjx
-                elif comp == 2:
-                    g[3 * j + 2] = 1.0
-            if b >= 0:
-                if comp == 0:
-                    g[3 * b] = -1.0
-                    g[3 * b + 2] = rby
-                elif comp == 1:
-                    g[3 * b + 1] = -1.0
-                    g[3 * b + 2] = -rbx
-                elif comp == 3:
-                    g[3 * b + 2] = 1.0
-            _project(sys, ws, g, zero_m, pg[comp], z)
-            acc = 0.0
-            for d_ in range(nd):
-                acc -= v[3 * dr_i[d_] + 2] * z[m - nd + d_]
-            pin_row[comp] = acc
-        svel = (s0[2], s0[3], s0[5], s0[4])  # velocities paired with F_x, F_y, M_S, M_B
+        sv0 = S0[k, 2]  # velocities paired with F_x, F_y, M_S, M_B
+        sv1 = S0[k, 3]
+        sv2 = wj
+        sv3 = wb
         for u in range(12):
             col = cols[u]
             if col < 0:
@@ -805,81 +901,24 @@ def clearance_jacobian(t, y, hist, sys, ws, f, JS):
             for a in range(6):
                 dsa = ds[a, u]
                 if dsa != 0.0:
-                    h0 += dF[0, a] * dsa
-                    h1 += dF[1, a] * dsa
-                    h2 += dF[2, a] * dsa
-                    h3 += dF[3, a] * dsa
+                    h0 += dF[k, 0, a] * dsa
+                    h1 += dF[k, 1, a] * dsa
+                    h2 += dF[k, 2, a] * dsa
+                    h3 += dF[k, 3, a] * dsa
             # ∂W_cl/∂y_u: F·∂(ė, ω_S, ω_B)/∂y_u + (ė, ω_S, ω_B)·∂F/∂y_u
-            JS[2 * n + 1, col] += (svel[0] * h0 + svel[1] * h1 + svel[2] * h2 + svel[3] * h3
-                                   + F0[0] * ds[2, u] + F0[1] * ds[3, u] + F0[2] * ds[5, u]
-                                   + F0[3] * ds[4, u])
+            JS[2 * n + 1, col] += (sv0 * h0 + sv1 * h1 + sv2 * h2 + sv3 * h3
+                                   + F0[k, 0] * ds[2, u] + F0[k, 1] * ds[3, u]
+                                   + F0[k, 2] * ds[5, u] + F0[k, 3] * ds[4, u])
             if u == 2:  # θ_j: the moment arm of (F_x, F_y) on j turns
-                h2 += -(rjx * F0[0] + rjy * F0[1])
+                h2 += -(rjx * F0[k, 0] + rjy * F0[k, 1])
             elif u == 8:  # θ_b
-                h3 += rbx * F0[0] + rby * F0[1]
+                h3 += rbx * F0[k, 0] + rby * F0[k, 1]
+            r0 = 4 * k
             for i in range(n):
-                JS[n + i, col] += pg[0, i] * h0 + pg[1, i] * h1 + pg[2, i] * h2 + pg[3, i] * h3
+                JS[n + i, col] += (PG[r0, i] * h0 + PG[r0 + 1, i] * h1 + PG[r0 + 2, i] * h2
+                                   + PG[r0 + 3, i] * h3)
             JS[2 * n, col] += pin_row[0] * h0 + pin_row[1] * h1 + pin_row[2] * h2 \
                 + pin_row[3] * h3
-    # The multipliers carry the clearance forces into the constraints, so the constraint
-    # geometry's share of ∂q̈/∂θ, ∝ λ and q̈, changes as fast as the forces: with Q and c held,
-    # δθ_b changes only the θ-coefficients of Φ_q (d(A s)/dθ = B s, d(B s)/dθ = −A s), and
-    # M δq̈ + δΦ_qᵀ λ + Φ_qᵀ δλ = 0, Φ_q δq̈ + δΦ_q q̈ = 0 give
-    # δq̈ = M⁻¹ (w − Φ_qᵀ δλ), S δλ = Φ_q M⁻¹ w + δΦ_q q̈, with w = −δΦ_qᵀ λ.
-    lam = ws.lam
-    acc_ = ws.acc
-    extra = np.empty(m)
-    dco = np.empty(m)
-    nb = n // 3
-    rev_i = sys.rev_i
-    rev_j = sys.rev_j
-    tr_i = sys.tr_i
-    tr_n = sys.tr_n
-    tr_si = sys.tr_si
-    co = ws.coef
-    for bb in range(nb):
-        # dco[r] = ∂(Φ_q[r, 3 bb + 2])/∂θ_bb (the θ-coefficient of row r for body bb)
-        for r in range(m):
-            dco[r] = 0.0
-        r = 0
-        for k in range(rev_i.shape[0]):
-            if rev_i[k] == bb:  # co[2] = −a_y, co[8] = a_x
-                dco[r] += -co[6 * r + 8]
-                dco[r + 1] += co[6 * r + 2]
-            if rev_j[k] == bb:  # co[5] = a_y, co[11] = −a_x
-                dco[r] += -co[6 * r + 11]
-                dco[r + 1] += co[6 * r + 5]
-            r += 2
-        for k in range(tr_i.shape[0]):
-            if tr_i[k] == bb:  # co[2] = n·(B s): its derivative is −n·(A s)
-                sx = tr_si[k, 0]
-                sy = tr_si[k, 1]
-                ax = ws.cs[bb] * sx - ws.sn[bb] * sy
-                ay = ws.sn[bb] * sx + ws.cs[bb] * sy
-                dco[r] += -(tr_n[k, 0] * ax + tr_n[k, 1] * ay)
-            r += 2
-        wsum = 0.0
-        any_row = False
-        for r in range(m):
-            if dco[r] != 0.0:
-                any_row = True
-                wsum -= dco[r] * lam[r]
-                extra[r] = dco[r] * acc_[3 * bb + 2]
-            else:
-                extra[r] = 0.0
-        if not any_row:
-            continue
-        for i in range(n):
-            g[i] = 0.0
-        g[3 * bb + 2] = wsum
-        _project(sys, ws, g, extra, pg[0], z)
-        col = 3 * bb + 2
-        for i in range(n):
-            JS[n + i, col] += pg[0, i]
-        acc = 0.0
-        for d_ in range(nd):
-            acc -= v[3 * dr_i[d_] + 2] * z[m - nd + d_]
-        JS[2 * n, col] += acc
 
 
 @njit(cache=True)
