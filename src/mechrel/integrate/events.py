@@ -17,7 +17,7 @@ import numpy as np
 from numba import njit
 
 from ..forces.params import P_FLOOR
-from ..mechanics.problem import gaps, make_workspace, rhs_into, violation_from
+from ..mechanics.problem import gaps, make_workspace, n_contacts, rhs_into, violation_from
 
 # Layout of the float64 statistics vector every kernel returns.
 S_STEPS, S_RHS, S_REJECTED, S_ONSET_REJECTED, S_IMPACTS, S_JAC, S_LU, S_VIOL_POS, S_VIOL_VEL, \
@@ -31,11 +31,7 @@ STATUS_TEXT = ("ok", "maximum number of steps reached", "step size underflow",
 @njit(cache=True)
 def contact_floors(sys):
     """Impact-speed floor (m/s) of each contact joint, in ``hist`` order."""
-    n = 0
-    for k in range(sys.cl_hist.shape[0]):
-        if sys.cl_hist[k] >= 0:
-            n += 1
-    out = np.zeros(n)
+    out = np.zeros(n_contacts(sys))
     for k in range(sys.cl_hist.shape[0]):
         h = sys.cl_hist[k]
         if h >= 0:

@@ -196,6 +196,35 @@ def _point_state_trig(q, v, i, sx, sy, cs, sn):
 
 
 @njit(cache=True, inline='always')
+def joint_state(q, v, b, j, sbx, sby, sjx, sjy, cs, sn):
+    """Relative state of a clearance joint between the bearing point ``(sbx, sby)`` on body b
+    and the journal point ``(sjx, sjy)`` on body j (−1: ground, the point then global):
+    eccentricity e = r_S − r_B (m) and its rate (m/s), the angular velocities ω_B, ω_S
+    (rad/s), and the lever arms r_j = A_j s_j, r_b = A_b s_b (m) from the bodies' centres
+    (zero for the ground). ``cs``, ``sn``: cos θ and sin θ of every body. One place for what
+    the force assembly, the gaps, the fast Jacobian and the post-processing need; it takes
+    plain values, not the System tuple, because it runs in the right-hand side's joint loop
+    (a tuple attribute there costs a reference-count pair per joint)."""
+    bx, by, bvx, bvy = _point_state_trig(q, v, b, sbx, sby, cs, sn)
+    jx, jy, jvx, jvy = _point_state_trig(q, v, j, sjx, sjy, cs, sn)
+    wb = v[3 * b + 2] if b >= 0 else 0.0
+    wj = v[3 * j + 2] if j >= 0 else 0.0
+    rjx = jx - q[3 * j] if j >= 0 else 0.0
+    rjy = jy - q[3 * j + 1] if j >= 0 else 0.0
+    rbx = bx - q[3 * b] if b >= 0 else 0.0
+    rby = by - q[3 * b + 1] if b >= 0 else 0.0
+    return jx - bx, jy - by, jvx - bvx, jvy - bvy, wb, wj, rjx, rjy, rbx, rby
+
+
+@njit(cache=True, inline='always')
+def gap_of(ex, ey, evx, evy, c):
+    """Penetration δ = |e| − c (m) and its rate δ̇ = n·ė (m/s); at e = 0 the direction is
+    undefined and the joint is far from contact, so δ̇ = 0 there."""
+    e = math.hypot(ex, ey)
+    return e - c, ((evx * ex + evy * ey) / e if e > 0.0 else 0.0)
+
+
+@njit(cache=True, inline='always')
 def applied_forces_trig(t, q, v, hist, sys, Q, cs, sn, gap, gaprate):
     """Add gravity and clearance-joint forces to Q (N, N m); return (clearance power W,
     elastic contact energy J). ``cs``, ``sn``: cos θ and sin θ of every body. The penetration
@@ -219,35 +248,23 @@ def applied_forces_trig(t, q, v, hist, sys, Q, cs, sn, gap, gaprate):
     for k in range(cl_b.shape[0]):
         b = cl_b[k]
         j = cl_j[k]
-        bx, by, bvx, bvy = _point_state_trig(q, v, b, cl_sb[k, 0], cl_sb[k, 1], cs, sn)
-        jx, jy, jvx, jvy = _point_state_trig(q, v, j, cl_sj[k, 0], cl_sj[k, 1], cs, sn)
-        wb = v[3 * b + 2] if b >= 0 else 0.0
-        wj = v[3 * j + 2] if j >= 0 else 0.0
+        ex, ey, evx, evy, wb, wj, rjx, rjy, rbx, rby = joint_state(
+            q, v, b, j, cl_sb[k, 0], cl_sb[k, 1], cl_sj[k, 0], cl_sj[k, 1], cs, sn)
         h = cl_hist[k]
         impact = hist[h] if h >= 0 else 0.0
-        ex = jx - bx
-        ey = jy - by
-        evx = jvx - bvx
-        evy = jvy - bvy
         if h >= 0:
-            e = math.hypot(ex, ey)
-            gap[h] = e - cl_p[k, P_C]
-            gaprate[h] = (evx * ex + evy * ey) / e if e > 0.0 else 0.0
+            gap[h], gaprate[h] = gap_of(ex, ey, evx, evy, cl_p[k, P_C])
         fx, fy, ms, mb, eel = clearance_force(ex, ey, evx, evy, wb, wj, impact, cl_p[k])
         power += fx * evx + fy * evy + ms * wj + mb * wb
         elastic += eel
         if j >= 0:
-            rx = jx - q[3 * j]
-            ry = jy - q[3 * j + 1]
             Q[3 * j] += fx
             Q[3 * j + 1] += fy
-            Q[3 * j + 2] += rx * fy - ry * fx + ms
+            Q[3 * j + 2] += rjx * fy - rjy * fx + ms
         if b >= 0:
-            rx = bx - q[3 * b]
-            ry = by - q[3 * b + 1]
             Q[3 * b] -= fx
             Q[3 * b + 1] -= fy
-            Q[3 * b + 2] += -(rx * fy - ry * fx) + mb
+            Q[3 * b + 2] += -(rbx * fy - rby * fx) + mb
     return power, elastic
 
 
@@ -751,24 +768,15 @@ def clearance_jacobian(t, y, hist, sys, ws, f, JS):
         b = cl_b[k]
         j = cl_j[k]
         p = cl_p[k]
-        bx, by, bvx, bvy = _point_state_trig(q, v, b, cl_sb[k, 0], cl_sb[k, 1], cs, sn)
-        jx, jy, jvx, jvy = _point_state_trig(q, v, j, cl_sj[k, 0], cl_sj[k, 1], cs, sn)
-        rjx = jx - q[3 * j] if j >= 0 else 0.0
-        rjy = jy - q[3 * j + 1] if j >= 0 else 0.0
-        rbx = bx - q[3 * b] if b >= 0 else 0.0
-        rby = by - q[3 * b + 1] if b >= 0 else 0.0
+        (s0[0], s0[1], s0[2], s0[3], s0[4], s0[5],
+         rjx, rjy, rbx, rby) = joint_state(q, v, b, j, cl_sb[k, 0], cl_sb[k, 1], cl_sj[k, 0],
+                                           cl_sj[k, 1], cs, sn)
         lever[k, 0] = rjx
         lever[k, 1] = rjy
         lever[k, 2] = rbx
         lever[k, 3] = rby
         h = cl_hist[k]
         impact = hist[h] if h >= 0 else 0.0
-        s0[0] = jx - bx
-        s0[1] = jy - by
-        s0[2] = jvx - bvx
-        s0[3] = jvy - bvy
-        s0[4] = v[3 * b + 2] if b >= 0 else 0.0
-        s0[5] = v[3 * j + 2] if j >= 0 else 0.0
         for i in range(6):
             S0[k, i] = s0[i]
         F0[k, 0], F0[k, 1], F0[k, 2], F0[k, 3], _ = clearance_force(
@@ -934,28 +942,27 @@ def n_contacts(sys):
 @njit(cache=True)
 def gaps_into(t, y, sys, g, gd):
     """Penetration δ = |e| − c (m) and its rate δ̇ (m/s) of every contact-capable joint, into
-    ``g`` and ``gd`` (indexed like ``hist``)."""
+    ``g`` and ``gd`` (indexed like ``hist``); the same values the right-hand side leaves in
+    ``Workspace.gap``/``gaprate``."""
     n = sys.mass.shape[0]
     q = y[:n]
     v = y[n:2 * n]
+    cs = np.empty(n // 3)
+    sn = np.empty(n // 3)
+    body_trig(q, cs, sn)
     cl_b = sys.cl_b
-    cl_hist = sys.cl_hist
     cl_j = sys.cl_j
-    cl_p = sys.cl_p
     cl_sb = sys.cl_sb
     cl_sj = sys.cl_sj
-    for k in range(cl_b.shape[0]):
+    cl_hist = sys.cl_hist
+    cl_p = sys.cl_p
+    for k in range(cl_hist.shape[0]):
         h = cl_hist[k]
-        if h < 0:
-            continue
-        bx, by, bvx, bvy = point_state(q, v, cl_b[k], cl_sb[k, 0], cl_sb[k, 1])
-        jx, jy, jvx, jvy = point_state(q, v, cl_j[k], cl_sj[k, 0], cl_sj[k, 1])
-        ex = jx - bx
-        ey = jy - by
-        e = math.hypot(ex, ey)
-        g[h] = e - cl_p[k, P_C]
-        # δ̇ = n·ė; at e = 0 the direction is undefined and the joint is far from contact.
-        gd[h] = ((jvx - bvx) * ex + (jvy - bvy) * ey) / e if e > 0.0 else 0.0
+        if h >= 0:
+            ex, ey, evx, evy, _, _, _, _, _, _ = joint_state(
+                q, v, cl_b[k], cl_j[k], cl_sb[k, 0], cl_sb[k, 1], cl_sj[k, 0], cl_sj[k, 1],
+                cs, sn)
+            g[h], gd[h] = gap_of(ex, ey, evx, evy, cl_p[k, P_C])
 
 
 @njit(cache=True)
@@ -1018,21 +1025,23 @@ def post_process(times, Y, sys):
     T = np.empty(N)
     V = np.empty(N)
     E = np.empty(N)
-    nh = 0
-    for k in range(nc):
-        if sys.cl_hist[k] >= 0:
-            nh += 1
-    no_hist = np.zeros(nh)  # the stored elastic energy does not depend on history
+    no_hist = np.zeros(n_contacts(sys))  # the stored elastic energy does not depend on history
+    cl_b = sys.cl_b
+    cl_j = sys.cl_j
+    cl_sb = sys.cl_sb
+    cl_sj = sys.cl_sj
     Q = np.zeros(n)
+    cs = np.empty(n // 3)
+    sn = np.empty(n // 3)
     for r in range(N):
         y = Y[r]
         q = y[:n]
         v = y[n:2 * n]
+        body_trig(q, cs, sn)
         for k in range(nc):
-            bx, by, _, _ = point_state(q, v, sys.cl_b[k], sys.cl_sb[k, 0], sys.cl_sb[k, 1])
-            jx, jy, _, _ = point_state(q, v, sys.cl_j[k], sys.cl_sj[k, 0], sys.cl_sj[k, 1])
-            EX[r, k] = jx - bx
-            EY[r, k] = jy - by
+            EX[r, k], EY[r, k], _, _, _, _, _, _, _, _ = joint_state(
+                q, v, cl_b[k], cl_j[k], cl_sb[k, 0], cl_sb[k, 1], cl_sj[k, 0], cl_sj[k, 1],
+                cs, sn)
         T[r], V[r] = mechanical_energy(y, sys)
         Q[:] = 0.0
         _, E[r] = applied_forces(times[r], q, v, no_hist, sys, Q)
