@@ -21,6 +21,7 @@ import math
 import numba
 
 from mechrel.errors import SceneError
+from mechrel.forces.params import _real  # the one finite-number check of parameters
 
 __all__ = ["contact_stiffness", "ln_normal_force", "contact_energy"]
 
@@ -60,15 +61,8 @@ def contact_stiffness(R_B, R_S, E_B, nu_B, E_S, nu_S, conformal=True):
     mechrel.errors.SceneError
         An argument is outside its range (the message names it).
     """
-    vals = {"R_B": R_B, "R_S": R_S, "E_B": E_B, "nu_B": nu_B, "E_S": E_S, "nu_S": nu_S}
-    for name, v in vals.items():
-        try:
-            x = float(v)
-        except (TypeError, ValueError):
-            raise SceneError(f"{name} = {v!r} is not a number", path=name) from None
-        if not math.isfinite(x):
-            raise SceneError(f"{name} = {v!r} is invalid: allowed a finite number", path=name)
-    R_B, R_S, E_B, nu_B, E_S, nu_S = (float(vals[k]) for k in vals)
+    R_B, R_S, E_B, nu_B, E_S, nu_S = (_real(name, v) for name, v in (
+        ("R_B", R_B), ("R_S", R_S), ("E_B", E_B), ("nu_B", nu_B), ("E_S", E_S), ("nu_S", nu_S)))
     if not R_S > 0.0:
         raise SceneError(f"R_S = {R_S!r} is invalid: allowed > 0 (m)", path="R_S")
     if not R_B > R_S:
