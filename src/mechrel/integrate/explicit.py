@@ -19,7 +19,7 @@ import math
 import numpy as np
 from numba import njit
 
-from ..mechanics.problem import rhs_inline, rhs_into
+from ..mechanics.problem import borrowed, rhs_inline, rhs_into
 from .events import (S_H, S_ONSET_REJECTED, S_REJECTED, S_RHS, S_STATUS, S_STEPS,
                      STATUS_MAX_STEPS, STATUS_NONFINITE, all_finite,
                      onset_fraction, out_of_budget, record_violation, start,
@@ -31,7 +31,10 @@ def _rk4_step(t, y, h, hist, sys, ws, K, tmp, out):
     """One classical RK4 step from ``(t, y)`` with ``K[0] = f(t, y)`` into ``out``, and
     ``K[4] = f(t + h, out)``, the next step's first stage (so ``ws`` holds the constraint
     terms and contact gaps of ``out`` on return). Stage states are built in ``tmp`` by loops;
-    the four evaluations share one (inlined) right-hand-side call site. Allocates nothing."""
+    the four evaluations share one (inlined) right-hand-side call site. Allocates nothing.
+    The arrays are used borrowed (:func:`~mechrel.mechanics.problem.borrowed`): the caller
+    owns them for the duration of the call."""
+    y, hist, sys, ws, K, tmp, out = borrowed((y, hist, sys, ws, K, tmp, out))
     n = y.shape[0]
     for stage in range(1, 5):
         if stage == 4:
