@@ -158,6 +158,8 @@ def _dopri_stages(t, y, h, hist, sys, ws, K, ytmp, ynew, err, dense):
     ``err`` and the dense-output coefficient into ``dense``; ``K[6] = f(t + h, ynew)``, so
     ``ws`` holds the constraint terms of ``ynew`` on return. Loops, no temporaries; the six
     evaluations share one (inlined) right-hand-side call site."""
+    y, hist, sys, ws, K, ytmp, ynew, err, dense = borrowed((y, hist, sys, ws, K, ytmp, ynew, err,
+                                                             dense))
     ny = y.shape[0]
     for s in range(1, 7):
         for i in range(ny):

@@ -106,7 +106,7 @@ import math
 import numpy as np
 from numba import njit
 
-from ..mechanics.problem import clearance_jacobian, gaps_into, rhs_inline, rhs_into
+from ..mechanics.problem import borrowed, clearance_jacobian, gaps_into, rhs_inline, rhs_into
 from ..mechanics.system import without_clearance_forces
 from .events import (S_H, S_JAC, S_LU, S_ONSET_REJECTED, S_REJECTED, S_RHS, S_STATUS,
                      S_STEPS, STATUS_NEWTON, STATUS_NONFINITE,
@@ -167,6 +167,7 @@ def lu_factor(A, piv):
     """In-place LU factorisation with partial pivoting, ``P A = L U`` (unit lower ``L`` below
     the diagonal, ``U`` on and above it; row interchanges in ``piv`` as in LAPACK's getrf).
     Works for real and complex matrices. Returns False if a pivot column is exactly zero."""
+    A, piv = borrowed((A, piv))
     n = A.shape[0]
     for k in range(n):
         p = k
@@ -197,6 +198,7 @@ def lu_factor(A, piv):
 @njit(cache=True)
 def lu_solve(LU, piv, b):
     """Solve ``A x = b`` in place from :func:`lu_factor`'s output."""
+    LU, piv, b = borrowed((LU, piv, b))
     n = LU.shape[0]
     for k in range(n):
         p = piv[k]
@@ -223,6 +225,7 @@ def fd_jacobian(t, y, f0, hist, sys, ws, J, floor, yp, fp):
     ``δ_j = √u max(|y_j|, floor)``; exact rows for ``dq/dt = q̇``, zero columns for the work
     integrals. ``yp`` and ``fp`` are work arrays of y's length. Returns the number of
     right-hand-side evaluations (2n)."""
+    y, f0, hist, sys, ws, J, yp, fp = borrowed((y, f0, hist, sys, ws, J, yp, fp))
     n = sys.mass.shape[0]
     ny = y.shape[0]
     for i in range(n):
@@ -251,6 +254,7 @@ def fd_jacobian(t, y, f0, hist, sys, ws, J, floor, yp, fp):
 def _build_matrices(J, h, E1, E2):
     """The condensed iteration matrices ``g² I − g A_v − A_q`` (n × n) for ``g = γ/h``
     (real, ``E1``) and ``g = (α + iβ)/h`` (complex, ``E2``); see :func:`_solve_condensed`."""
+    J, E1, E2 = borrowed((J, E1, E2))
     n = E1.shape[0]
     g1 = U1 / h
     g2 = complex(ALPH / h, BETA / h)
@@ -274,6 +278,7 @@ def _solve_condensed(E, piv, J, g, b, work):
     n × n system: ``E x_q = b_v + g b_q − A_v b_q``, then ``x_v = g x_q − b_q`` and
     ``x_W = (b_W + P_q x_q + P_v x_v) / g`` (RADAU5's treatment of second-order systems,
     HW II §IV.8). ``work`` is a length-n array of ``b``'s type."""
+    E, piv, J, b, work = borrowed((E, piv, J, b, work))
     n = E.shape[0]
     ny = b.shape[0]
     for i in range(n):

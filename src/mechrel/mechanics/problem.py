@@ -673,6 +673,7 @@ def _project_batch(sys, ws, G, E, X, PG, Z):
     the constrained accelerations (∂q̈/∂Q) to the forces. All K right-hand sides go through the
     triangular solves together (``X``: m × K scratch, permuted order): independent columns
     overlap in the processor where one solve is a chain of dependent operations."""
+    sys, ws, G, E, X, PG, Z = borrowed((sys, ws, G, E, X, PG, Z))
     K = G.shape[0]
     n = G.shape[1]
     m = Z.shape[1]
@@ -772,6 +773,7 @@ def clearance_jacobian(t, y, hist, sys, ws, f, JS):
     of the mechanism without clearance forces (``mechrel.integrate.radau``). Rows
     ``n … ny − 1``, columns ``0 … 2n − 1`` of ``JS`` are written. ``f`` receives ``f(t, y)``.
     """
+    y, hist, sys, ws, f, JS = borrowed((y, hist, sys, ws, f, JS))
     n = sys.mass.shape[0]
     ny = y.shape[0]
     m = ws.phi.shape[0]
@@ -988,6 +990,7 @@ def gaps_into(t, y, sys, g, gd):
     """Penetration δ = |e| − c (m) and its rate δ̇ (m/s) of every contact-capable joint, into
     ``g`` and ``gd`` (indexed like ``hist``); the same values the right-hand side leaves in
     ``Workspace.gap``/``gaprate``."""
+    y, sys, g, gd = borrowed((y, sys, g, gd))
     n = sys.mass.shape[0]
     q = y[:n]
     v = y[n:2 * n]
@@ -1023,6 +1026,7 @@ def gaps(t, y, sys):
 def violation_from(ws):
     """max |Φ| (m or rad) and max |Φ_q q̇ + Φ_t| (m/s or rad/s) of the state whose
     constraint terms are in ``ws`` (after :func:`constraint_terms` or :func:`rhs_into`)."""
+    ws = borrowed(ws)
     phi = ws.phi
     phidot = ws.phidot
     p = 0.0
