@@ -19,7 +19,8 @@ import math
 import numpy as np
 from numba import njit
 
-from ..mechanics.problem import borrowed, rhs_inline, rhs_into
+from ..mechanics.borrow import borrowed
+from ..mechanics.problem import rhs_inline, rhs_into
 from .events import (S_H, S_ONSET_REJECTED, S_REJECTED, S_RHS, S_STATUS, S_STEPS,
                      STATUS_MAX_STEPS, STATUS_NONFINITE, all_finite,
                      onset_fraction, out_of_budget, record_violation, start,

@@ -106,7 +106,8 @@ import math
 import numpy as np
 from numba import njit
 
-from ..mechanics.problem import borrowed, clearance_jacobian, gaps_into, rhs_inline, rhs_into
+from ..mechanics.borrow import borrowed
+from ..mechanics.problem import clearance_jacobian, gaps_into, rhs_inline, rhs_into
 from ..mechanics.system import without_clearance_forces
 from .events import (S_H, S_JAC, S_LU, S_ONSET_REJECTED, S_REJECTED, S_RHS, S_STATUS,
                      S_STEPS, STATUS_NEWTON, STATUS_NONFINITE,

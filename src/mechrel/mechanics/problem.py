@@ -26,14 +26,11 @@ import math
 from typing import NamedTuple
 
 import numpy as np
-from numba import njit, types
-from numba.core import cgutils
-from numba.core.typing import signature
-from numba.extending import intrinsic
-from numba.np.arrayobj import make_array
+from numba import njit
 
 from ..forces.joint import clearance_force
 from ..forces.params import P_C
+from .borrow import borrowed
 from .system import (D_ACCEL, D_AMPLITUDE, D_ANGLE0, D_FREQUENCY, D_PHASE, D_RAMP, D_SPEED,
                      LAW_CONSTANT_ACCELERATION, LAW_CONSTANT_SPEED, LAW_HARMONIC)
 
@@ -290,44 +287,6 @@ def applied_forces(t, q, v, hist, sys, Q):
     body_trig(q, cs, sn)
     nh = n_contacts(sys)
     return applied_forces_trig(t, q, v, hist, sys, Q, cs, sn, np.empty(nh), np.empty(nh))
-
-
-def _borrow(context, builder, ty, val):
-    """``val`` of Numba type ``ty`` with the meminfo and parent of every array in it nulled."""
-    if isinstance(ty, types.Array):
-        arr = make_array(ty)(context, builder, value=val)
-        arr.meminfo = cgutils.get_null_value(arr.meminfo.type)
-        arr.parent = cgutils.get_null_value(arr.parent.type)
-        return arr._getvalue()
-    if isinstance(ty, types.BaseTuple):
-        for i, member in enumerate(ty.types):
-            val = builder.insert_value(val, _borrow(context, builder, member,
-                                                         builder.extract_value(val, i)), i)
-    return val
-
-
-@intrinsic
-def borrowed(typingctx, value):
-    """``value`` (an array, or a tuple of arrays, tuples and scalars) with every array's NRT
-    meminfo and parent pointers set to null: the same arrays, without reference counting.
-
-    Numba increments and decrements a reference count with an atomic instruction each time a
-    function binds an array (taken out of a tuple such as ``sys.rev_i``, sliced as ``K[s]``,
-    or passed on) and when the binding dies, and its reference-count pruning pass leaves most
-    of these pairs in place across the loops and calls of the right-hand side. On the
-    slider-crank they were about 30 % of an RK4 run's samples (``perf``). For a null meminfo
-    the increment and decrement are a null test.
-
-    Only for values that do not outlive ``value``'s owner: the caller's own reference (an
-    argument, or a variable still used afterwards) is what keeps the arrays alive. Never return
-    a borrowed array to Python or store it."""
-    if not isinstance(value, (types.Array, types.BaseTuple)):
-        return None
-
-    def codegen(context, builder, sig, args):
-        return _borrow(context, builder, sig.args[0], args[0])
-
-    return signature(value, value), codegen
 
 
 class Workspace(NamedTuple):

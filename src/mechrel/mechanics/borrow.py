@@ -1,0 +1,54 @@
+"""Arrays without reference counting inside the compiled kernels: :func:`borrowed`.
+
+Why. Numba counts references to every array through its NRT meminfo with atomic increments and
+decrements. A compiled function pays a pair each time it binds an array (taking it out of a
+tuple, as ``sys.rev_i``, slicing it, as ``K[s]``, or aliasing it) and when the binding dies, and
+Numba's reference-count pruning pass leaves most of these pairs in place across the loops,
+branches and calls of the right-hand side. On the dry slider-crank, ``perf`` attributed about
+30 % of an RK4 run's samples to ``NRT_incref``/``NRT_decref`` (docs/performance.md, "Reference
+counting"). For an array whose meminfo pointer is null, the same increment and decrement are a
+test for null and nothing else.
+
+The rule. A kernel function takes its arrays borrowed at entry,
+``sys, ws, K = borrowed((sys, ws, K))``: the caller's references (the arguments) keep the
+memory alive for the duration of the call, which is exactly how long the borrowed copies are
+used. A borrowed array must never outlive its owner: never return it, store it in a
+container that outlives the call, or box it to Python.
+"""
+
+from __future__ import annotations
+
+from numba import types
+from numba.core import cgutils
+from numba.core.typing import signature
+from numba.extending import intrinsic
+from numba.np.arrayobj import make_array
+
+
+def _borrow(context, builder, ty, val):
+    """``val`` of Numba type ``ty`` with the meminfo and parent of every array in it nulled."""
+    if isinstance(ty, types.Array):
+        arr = make_array(ty)(context, builder, value=val)
+        arr.meminfo = cgutils.get_null_value(arr.meminfo.type)
+        arr.parent = cgutils.get_null_value(arr.parent.type)
+        return arr._getvalue()
+    if isinstance(ty, types.BaseTuple):
+        for i, member in enumerate(ty.types):
+            val = builder.insert_value(val, _borrow(context, builder, member,
+                                                         builder.extract_value(val, i)), i)
+    return val
+
+
+@intrinsic
+def borrowed(typingctx, value):
+    """``value`` (an array, or a tuple, possibly named and nested, of arrays and scalars) with
+    every array's NRT meminfo and parent pointers set to null: the same memory, the same type,
+    no reference counting (module docstring). Only inside compiled code; only for as long as
+    the caller's own reference keeps ``value`` alive."""
+    if not isinstance(value, (types.Array, types.BaseTuple)):
+        return None
+
+    def codegen(context, builder, sig, args):
+        return _borrow(context, builder, sig.args[0], args[0])
+
+    return signature(value, value), codegen
