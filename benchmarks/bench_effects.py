@@ -47,6 +47,7 @@ import numpy as np  # noqa: E402
 from numba import njit  # noqa: E402
 
 from mechrel.mechanics import problem  # noqa: E402
+from mechrel.mechanics.borrow import borrowed  # noqa: E402
 from mechrel.mechanics.problem import (applied_forces_trig, body_trig, make_workspace,  # noqa: E402
                                        rhs, rhs_into)
 from mechrel.mechanics.system import compile_scene  # noqa: E402
@@ -65,7 +66,10 @@ CASES = [  # (label, scene, overrides, simulate kwargs)
 ]
 
 
-@njit(cache=True)
+# Not cached: numba's cache of a caller keeps its own copy of the callees' compiled code and is
+# not invalidated when they change (numba issue #6845; mechrel's kernel-cache guard covers only
+# the package's own kernels), so a cached loop would time an old right-hand side.
+@njit(cache=False)
 def _rhs_loop(T, Y, hist, sys, reps):
     """Evaluate ``rhs_into`` (the kernels' form: one workspace, no allocation) at every state
     ``reps`` times; returns a checksum (keeps the calls)."""
@@ -79,13 +83,15 @@ def _rhs_loop(T, Y, hist, sys, reps):
     return s
 
 
-@njit(cache=True)
+@njit(cache=False)
 def _forces_loop(T, Y, hist, sys, reps):
-    """Gravity + clearance forces (``applied_forces``) at every state ``reps`` times."""
+    """Gravity + clearance forces (``applied_forces``) at every state ``reps`` times, on the
+    borrowed System and Workspace as inside the right-hand side."""
     n = sys.mass.shape[0]
     s = 0.0
     Q = np.zeros(n)
-    ws = make_workspace(sys)
+    ws0 = make_workspace(sys)
+    sys, ws = borrowed((sys, ws0))
     for _ in range(reps):
         for k in range(Y.shape[0]):
             Q[:] = 0.0
@@ -93,6 +99,7 @@ def _forces_loop(T, Y, hist, sys, reps):
             p, _ = applied_forces_trig(T[k], Y[k, :n], Y[k, n:2 * n], hist, sys, Q, ws.cs,
                                        ws.sn, ws.gap, ws.gaprate)
             s += p + Q[0]
+    s += ws0.cs[0]  # ws0 owns the workspace until here
     return s
 
 
