@@ -69,7 +69,7 @@ def default_label(kind):
     return name, ", ".join(f"{k}={v:.3g}" for k, v in s.items())
 
 
-def figure(rep, kind, path, repeats=2):
+def figure(rep, kind, path, repeats=2, load=None):
     """The report's own plot (for dry scenes with each point's upper confidence bound and the
     floor of the reference against itself as a grey band), plus the default setting and a
     labelled time axis."""
@@ -89,8 +89,10 @@ def figure(rep, kind, path, repeats=2):
     ax.tick_params(axis="x", which="minor", labelsize=7)
     timing = (f"median of the R = {rep.ensemble} member runs" if rep.ensemble > 1
               else f"min of {repeats} warm runs")
+    where = (f"load average {load:.1f} at the start" if load is not None
+             else "machine load not recorded")
     ax.set_title(f"{rep.scene} ({kind}): error against wall time per run\n"
-                 f"({timing}, shared 2-core machine: times ±2×)", fontsize=10)
+                 f"({timing}, 2-core VM, {where})", fontsize=10)
     ax.legend(fontsize=8, loc="best")
     fig.savefig(path, dpi=130)
     plt.close(fig)
@@ -113,7 +115,8 @@ def replot(out, figdir, scenes=SCENES):
                              recommended=info["recommended"],
                              ensemble=info.get("ensemble", 1),
                              floor=info.get("floor", float("nan")))
-        figure(rep, kind, figdir / f"accuracy_{name}.png", info.get("repeats", 2))
+        figure(rep, kind, figdir / f"accuracy_{name}.png", info.get("repeats", 2),
+               info.get("load"))
 
 
 def markdown(rep, kind, elapsed):
@@ -188,6 +191,7 @@ def main(argv=None):
         if kind == "ideal":
             scene = load_scene(name, overrides={"solver.integrator": "dopri5"})
         simulate(scene, method="dynamics")  # warm the kernels (numba disk cache)
+        load = os.getloadavg()[0]
         t0 = time.perf_counter()
         # also time the default itself so it appears in the table even if not a candidate
         cands = candidates(scene, kind)
@@ -200,13 +204,13 @@ def main(argv=None):
                               ensemble=a.ensemble if chaotic else None, seed=a.seed)
         elapsed = time.perf_counter() - t0
         rep.table.to_csv(out / f"accuracy_{name}.csv", index=False)
-        figure(rep, kind, figdir / f"accuracy_{name}.png", a.repeats)
+        figure(rep, kind, figdir / f"accuracy_{name}.png", a.repeats, load)
         md.append(markdown(rep, kind, elapsed))
         summary[name] = {"kind": kind, "recommended": rep.recommended, "measure": rep.measure,
                          "default": [dn, ds], "elapsed": elapsed, "target": rep.target,
                          "repeats": a.repeats, "ensemble": rep.ensemble, "seed": rep.seed,
                          "floor": rep.floor, "ensemble_needed": rep.ensemble_needed,
-                         "conclusion": rep.conclusion, "git": git_state()}
+                         "conclusion": rep.conclusion, "load": load, "git": git_state()}
         print(md[-1], flush=True)
         (out / f"accuracy_{name}.md").write_text(md[-1])
         (out / "accuracy_scenes.json").write_text(json.dumps(summary, indent=1, default=str))
