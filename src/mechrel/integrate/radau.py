@@ -62,8 +62,8 @@ clearance-joint forces and what they drive through the constraints (the multipli
 the accelerations carry the forces). :func:`mechrel.mechanics.problem.clearance_jacobian`
 computes that *fast part* semi-analytically — the force laws differenced alone (cheap), the
 joint kinematics and the constrained response exact, with the Schur factor of the
-right-hand side — for the cost of about three right-hand sides (7 µs on the nine-bar, where
-differencing the clearance bodies' columns took 24 evaluations). The *smooth rest*
+right-hand side — for the cost of about four right-hand sides (6.9 µs against 1.5 µs on the
+nine-bar, where differencing the clearance bodies' columns took 24 evaluations). The *smooth rest*
 (constraint geometry, gravity, Baumgarte terms) is the finite-difference Jacobian of the same
 mechanism with the clearance forces switched off
 (:func:`mechrel.mechanics.system.without_clearance_forces`; the force laws are proportional
@@ -144,7 +144,7 @@ TI31, TI32, TI33 = -0.50287263494578687595, 2.5719269498556054292, -0.5960392048
 NIT = 7  # maximum Newton iterations per step
 # Keep the Jacobian while the Newton contraction θ stays below THET. RADAU5's default is 0.001
 # for cheap Jacobians and its documentation recommends 0.1 when they are costly. Here the
-# update after an accepted step is the fast (clearance) part only, which costs about three
+# update after an accepted step is the fast (clearance) part only, which costs about four
 # right-hand sides (module docstring), so refreshing it often pays: measured on the lubricated
 # nine-bar at rtol 1e-7 (right-hand sides per cycle, with MAX_PARTIAL = 30): THET = 0.3 →
 # 14.2k, 0.1 → 8.3k, 0.03 → 6.5k, 0.01 → 6.0k; at rtol 1e-3: 29.5k, 14.3k, 5.2k, 7.9k

@@ -205,7 +205,8 @@ def joint_state(q, v, b, j, sbx, sby, sjx, sjy, cs, sn):
     (zero for the ground). ``cs``, ``sn``: cos θ and sin θ of every body. One place for what
     the force assembly, the gaps, the fast Jacobian and the post-processing need; it takes
     plain values, not the System tuple, because it runs in the right-hand side's joint loop
-    (a tuple attribute there costs a reference-count pair per joint)."""
+    (a tuple attribute there costs a reference-count pair per joint, or its null test when
+    the tuple is borrowed)."""
     bx, by, bvx, bvy = _point_state_trig(q, v, b, sbx, sby, cs, sn)
     jx, jy, jvx, jvy = _point_state_trig(q, v, j, sjx, sjy, cs, sn)
     wb = v[3 * b + 2] if b >= 0 else 0.0
@@ -337,7 +338,8 @@ def constraint_terms(t, q, v, sys, ws):
     its angular acceleration, zero for fixed angles. The Baumgarte combination
     ``c = γ − 2α Φ̇ − β² Φ`` is formed here too."""
     # Arrays are taken out of the tuples once: each attribute access inside a loop would
-    # cost a reference-count increment and decrement.
+    # cost a reference-count increment and decrement (a null test and a call when the caller
+    # borrowed the tuples, mechanics/borrow.py).
     baumgarte = sys.baumgarte
     dr_i = sys.dr_i
     dr_law = sys.dr_law
