@@ -9,9 +9,10 @@ from __future__ import annotations
 
 import difflib
 import math
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import fields
 from types import MappingProxyType
-from typing import Any, Iterable, Mapping, NoReturn, Sequence
+from typing import Any, NoReturn
 
 from ..errors import SceneError
 from ._schema import (

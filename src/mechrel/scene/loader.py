@@ -9,10 +9,11 @@ import json
 import os
 import re
 import tomllib
+from collections.abc import Mapping, Sequence
 from importlib import resources
 from pathlib import Path
 from types import MappingProxyType
-from typing import Any, Iterable, Mapping, Sequence, Union
+from typing import Any, Union
 
 from ..errors import SceneError
 from ._schema import EXCLUSIVE, SCHEMA, Named

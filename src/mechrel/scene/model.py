@@ -8,9 +8,10 @@ field; constructing these dataclasses directly skips that validation, so prefer 
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from types import MappingProxyType
-from typing import Literal, Mapping
+from typing import Literal
 
 from ..forces.params import DEFAULTS as _FORCE_DEFAULTS
 
