@@ -21,8 +21,8 @@ from ..mechanics.problem import gaps, make_workspace, n_contacts, rhs_into, viol
 
 # Layout of the float64 statistics vector every kernel returns.
 S_STEPS, S_RHS, S_REJECTED, S_ONSET_REJECTED, S_IMPACTS, S_JAC, S_LU, S_VIOL_POS, S_VIOL_VEL, \
-    S_STATUS, S_H = range(11)
-N_STATS = 11
+    S_STATUS = range(10)
+N_STATS = 10
 STATUS_OK, STATUS_MAX_STEPS, STATUS_STEP_UNDERFLOW, STATUS_NONFINITE, STATUS_NEWTON = range(5)
 STATUS_TEXT = ("ok", "maximum number of steps reached", "step size underflow",
                "non-finite state", "Newton iteration failed to converge")

@@ -21,7 +21,7 @@ from numba import njit
 
 from ..mechanics.borrow import borrowed
 from ..mechanics.problem import rhs_inline, rhs_into
-from .events import (S_H, S_ONSET_REJECTED, S_REJECTED, S_RHS, S_STATUS, S_STEPS,
+from .events import (S_ONSET_REJECTED, S_REJECTED, S_RHS, S_STATUS, S_STEPS,
                      STATUS_MAX_STEPS, STATUS_NONFINITE, all_finite,
                      onset_fraction, out_of_budget, record_violation, start,
                      update_history_from)
@@ -55,10 +55,12 @@ def _rk4_step(t, y, h, hist, sys, ws, K, tmp, out):
         rhs_inline(ts, tmp, hist, sys, ws, K[stage])
 
 
-@njit(cache=True)
-def rk4_kernel(sys, t0, y0, hist, t_out, h, max_steps, onset_tol):
+@njit(cache=True, nogil=True)
+def rk4_kernel(sys, t0, y0, hist, t_out, h, max_steps, onset_tol, done):
     """Classical RK4 with step ``h`` (s); steps are shortened to land on every output instant
-    and to locate contact onsets. Returns (Y, YD, hist, stats, t, y).
+    and to locate contact onsets. Returns (Y, YD, hist, stats, t, y). ``done[0]`` is kept at
+    the number of output instants stored (a progress display reads it from another thread:
+    the kernel runs without the GIL).
 
     Each step ends with the right-hand side at its end state, which is the next step's first
     stage, the derivative stored at an output instant, and the source of the contact gaps
@@ -66,6 +68,7 @@ def rk4_kernel(sys, t0, y0, hist, t_out, h, max_steps, onset_tol):
     evaluations per step and nothing else, except a re-evaluation when the history changes."""
     nout = t_out.shape[0]
     Y, YD, stats, floors, y, f, k, _, ws = start(sys, t0, y0, hist, t_out)
+    done[0] = k
     t = t0
     ny = y.shape[0]
     K = np.empty((5, ny))
@@ -117,7 +120,7 @@ def rk4_kernel(sys, t0, y0, hist, t_out, h, max_steps, onset_tol):
             Y[k] = y
             YD[k] = K[0]
             k += 1
-    stats[S_H] = h
+        done[0] = k
     return Y, YD, hist, stats, t, y
 
 
@@ -188,13 +191,14 @@ def _error_norm(err, y, ynew, rtol, atol):
     return math.sqrt(s / y.shape[0])
 
 
-@njit(cache=True)
-def dopri5_kernel(sys, t0, y0, hist, t_out, h0, rtol, atol, max_steps, onset_tol):
+@njit(cache=True, nogil=True)
+def dopri5_kernel(sys, t0, y0, hist, t_out, h0, rtol, atol, max_steps, onset_tol, done):
     """Adaptive Dormand–Prince 5(4). ``h0`` ≤ 0 picks the initial step automatically.
-    Returns (Y, YD, hist, stats, t, y); ``stats[S_H]`` is the step to continue with."""
+    Returns (Y, YD, hist, stats, t, y); ``done[0]`` as in :func:`rk4_kernel`."""
     nout = t_out.shape[0]
     ny = y0.shape[0]
     Y, YD, stats, floors, y, f, k, tend, ws = start(sys, t0, y0, hist, t_out)
+    done[0] = k
     K = np.empty((7, ny))
     K[0] = f
     ytmp = np.empty(ny)
@@ -263,6 +267,7 @@ def dopri5_kernel(sys, t0, y0, hist, t_out, h0, rtol, atol, max_steps, onset_tol
             rhs_into(t_out[k], Y[k], hist, sys, ws, YD[k])
             stats[S_RHS] += 1
             k += 1
+        done[0] = k
         y, ynew = ynew, y
         for i in range(ny):
             K[0, i] = K[6, i]
@@ -280,5 +285,4 @@ def dopri5_kernel(sys, t0, y0, hist, t_out, h0, rtol, atol, max_steps, onset_tol
         errold = max(en, 1e-4)
         h *= fac
         rejected_last = False
-    stats[S_H] = h
     return Y, YD, hist, stats, t, y

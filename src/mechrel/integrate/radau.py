@@ -109,7 +109,7 @@ from numba import njit
 from ..mechanics.borrow import borrowed
 from ..mechanics.problem import clearance_jacobian, gaps_into, rhs_inline, rhs_into
 from ..mechanics.system import without_clearance_forces
-from .events import (S_H, S_JAC, S_LU, S_ONSET_REJECTED, S_REJECTED, S_RHS, S_STATUS,
+from .events import (S_JAC, S_LU, S_ONSET_REJECTED, S_REJECTED, S_RHS, S_STATUS,
                      S_STEPS, STATUS_NEWTON, STATUS_NONFINITE,
                      all_finite, onset_fraction, out_of_budget, record_violation, start,
                      update_history_from)
@@ -309,16 +309,18 @@ def _rms(a, scal):
 
 
 # ---------------------------------------------------------------------------- the kernel
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def radau5_kernel(sys, sys_smooth, t0, y0, hist, t_out, h0, rtol_user, atol_user, max_steps,
-                  onset_tol, fixed):
+                  onset_tol, fixed, done):
     """Radau IIA (order 5) from ``(t0, y0)`` over the increasing output instants ``t_out``.
 
     ``h0`` ≤ 0 picks the initial step automatically. With ``fixed`` True the step ``h0`` is
     kept constant (no error control; for convergence-order checks) except that the last step
     ends on ``t_out[-1]``; Newton may then take up to ``NIT_FIXED`` iterations with a fresh
     Jacobian at every step, and a failure stops with ``STATUS_NEWTON``.
-    Returns ``(Y, YD, hist, stats, t, y)``; ``stats[S_H]`` is the step to continue with.
+    Returns ``(Y, YD, hist, stats, t, y)``; ``done[0]`` is kept at the number of output
+    instants stored (a progress display reads it from another thread: the kernel runs without
+    the GIL).
     """
     nout = t_out.shape[0]
     ny = y0.shape[0]
@@ -330,6 +332,7 @@ def radau5_kernel(sys, sys_smooth, t0, y0, hist, t_out, h0, rtol_user, atol_user
     nit = NIT_FIXED if fixed else NIT
 
     Y, YD, stats, floors, y, f0, k, tend, ws = start(sys, t0, y0, hist, t_out)
+    done[0] = k
     t = t0
     scal = np.empty(ny)
     for i in range(ny):
@@ -646,6 +649,7 @@ def radau5_kernel(sys, sys_smooth, t0, y0, hist, t_out, h0, rtol_user, atol_user
                 rhs_into(t_out[k], Y[k], hist, sys, ws, YD[k])
                 stats[S_RHS] += 1
                 k += 1
+            done[0] = k
             if not all_finite(y):
                 stats[S_STATUS] = STATUS_NONFINITE
                 break
@@ -692,7 +696,6 @@ def radau5_kernel(sys, sys_smooth, t0, y0, hist, t_out, h0, rtol_user, atol_user
             need_lu = True
             if not caljac:
                 need_jac = True
-    stats[S_H] = h_fixed if fixed else hnew
     return Y, YD, hist, stats, t, y
 
 
@@ -734,10 +737,7 @@ class Radau(Integrator):
             out["fixed_step"] = True
         return out
 
-    def _advance(self, system, t0, y0, hist, t_out, carry):
-        h0 = carry if carry is not None else (self.step or 0.0)
-        Y, YD, hist, stats, t, y = radau5_kernel(system, without_clearance_forces(system), t0,
-                                                 y0, hist, t_out, h0, self.rtol, self.atol,
-                                                 self.max_steps, self.onset_tolerance,
-                                                 self.fixed_step)
-        return Y, YD, hist, stats, t, y, float(stats[S_H])
+    def _advance(self, system, t0, y0, hist, t_out, done):
+        return radau5_kernel(system, without_clearance_forces(system), t0, y0, hist, t_out,
+                             self.step or 0.0, self.rtol, self.atol, self.max_steps,
+                             self.onset_tolerance, self.fixed_step, done)

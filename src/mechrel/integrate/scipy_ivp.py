@@ -24,7 +24,7 @@ class ScipyIVP(Integrator):
     stiff = True
     defaults = {"rtol": 1e-6, "atol": 1e-9}
 
-    def _advance(self, system, t0, y0, hist, t_out, carry):
+    def _advance(self, system, t0, y0, hist, t_out, done):
         hist = hist.copy()
         floors = ev.contact_floors(system)
         stats = np.zeros(ev.N_STATS)
@@ -38,7 +38,7 @@ class ScipyIVP(Integrator):
             Y[k], YD[k] = y, rhs(t, y, hist, system)
             k += 1
         tend = float(t_out[-1])
-        first_step = carry
+        first_step = self.step
         while t < tend:
             def fun(tt, yy, _h=hist):
                 # SciPy's finite-difference Jacobians (BDF, Radau) pass columns of a matrix,
@@ -77,6 +77,7 @@ class ScipyIVP(Integrator):
                 Y[k] = sol.sol(t_out[k])
                 YD[k] = rhs(t_out[k], Y[k], hist, system)
                 k += 1
+            done[0] = k
             t, y = t_stop, sol.y[:, -1].copy()
             if not np.all(np.isfinite(y)):
                 stats[ev.S_STATUS] = ev.STATUS_NONFINITE
@@ -87,7 +88,7 @@ class ScipyIVP(Integrator):
                     g, _ = gaps(t, y, system)
                     hist[(hist != 0.0) & (g <= 0.0)] = 0.0
             first_step = None
-        return Y, YD, hist, stats, t, y, None
+        return Y, YD, hist, stats, t, y
 
 
 class ScipyRadau(ScipyIVP):
