@@ -6,6 +6,8 @@ tests/test_kinematics.py; here the kinematic analysis is the reference for forwa
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
 import pytest
 
@@ -281,3 +283,26 @@ def test_progress_bar_does_not_change_the_result(monkeypatch, name, overrides, s
         assert shown.stats[key] == plain.stats[key]
     bar, = _Bar.instances
     assert bar.n == bar.total == plain.time.size and bar.closed
+
+
+class _InterruptingBar(_Bar):
+    """A bar whose first update raises KeyboardInterrupt, as Ctrl-C would while the main thread
+    waits for the integration."""
+
+    def update(self, k):
+        raise KeyboardInterrupt
+
+
+def test_ctrl_c_stops_the_integration_where_it_is(monkeypatch):
+    # three cycles of the dry nine-bar take ≈ 0.5 s; the bar is polled every 0.1 s, so the
+    # interrupt arrives with some but not all output instants stored, and the kernel must stop
+    # at its next step instead of running to the end
+    import tqdm.auto
+    monkeypatch.setattr(tqdm.auto, "tqdm", _InterruptingBar)
+    scene = load_scene("nine-bar-dry", overrides={"analysis.cycles": 3})
+    with pytest.raises(KeyboardInterrupt) as info:
+        simulate(scene, progress=True)
+    note, = info.value.__notes__
+    done, total = map(int, re.search(r"after (\d+) of (\d+) output", note).groups())
+    assert note.startswith("dopri5: integration stopped")
+    assert 0 < done < total == 3 * 360 + 1

@@ -7,13 +7,15 @@ A subclass of :class:`Integrator`
 * sets the class attributes ``name`` (the scene's ``solver.integrator`` value), ``stiff``
   (bool), ``adaptive`` (bool) and ``defaults`` (a dict of the settings it uses: some of
   ``step``, ``rtol``, ``atol``);
-* implements ``_advance(system, t0, y0, hist, t_out, done) -> (Y, YD, hist, stats, t, y)``
+* implements ``_advance(system, t0, y0, hist, t_out, ctl) -> (Y, YD, hist, stats, t, y)``
   which integrates the right-hand side of :mod:`mechrel.mechanics.problem` (compiled kernels:
   ``rhs_into`` with one ``make_workspace``) from ``(t0, y0)`` over the increasing
   output instants ``t_out`` (all ≥ t0), returning the state ``Y`` and its derivative ``YD`` at
   each instant, the history state after the last instant, the statistics vector of
-  :mod:`mechrel.integrate.events` and the final time and state, and keeps ``done[0]`` (a
-  one-element int64 array) at the number of output instants stored so far;
+  :mod:`mechrel.integrate.events` and the final time and state; it keeps
+  ``ctl[events.CTL_DONE]`` (``ctl``: a two-element int64 array) at the number of output
+  instants stored so far and stops with ``STATUS_STOPPED`` soon after another thread sets
+  ``ctl[events.CTL_STOP]``;
 * locates contact onsets before capturing the impact speed (use
   :func:`~mechrel.integrate.events.onset_fraction` and
   :func:`~mechrel.integrate.events.update_history`), and never returns non-finite values
@@ -21,14 +23,17 @@ A subclass of :class:`Integrator`
 
 :meth:`Integrator.integrate` calls ``_advance`` once over the whole output grid and raises
 :class:`~mechrel.errors.SimulationError` for a failed status. With a progress bar it runs
-``_advance`` in a worker thread and advances the bar from ``done[0]`` every 0.1 s: the compiled
-kernels release the GIL, so the display costs the integration nothing and, unlike splitting the
-grid into chunks (each a restart of the step-size and Jacobian history), does not change the
-result: with and without a progress bar the numbers are bitwise the same.
+``_advance`` in a worker thread and advances the bar from ``ctl[CTL_DONE]`` every 0.1 s: the
+compiled kernels release the GIL, so the display costs the integration nothing and, unlike
+splitting the grid into chunks (each a restart of the step-size and Jacobian history), does not
+change the result: with and without a progress bar the numbers are bitwise the same. Ctrl-C
+while it waits sets ``ctl[CTL_STOP]``; the kernel stops at its next step and the
+``KeyboardInterrupt`` goes on, with a note of how far the integration got.
 """
 
 from __future__ import annotations
 
+import threading
 import time
 from dataclasses import dataclass
 from typing import ClassVar
@@ -139,32 +144,42 @@ class Integrator:
         keys = ("step",) if not self.adaptive else ("rtol", "atol")
         return {k: getattr(self, k) for k in keys}
 
-    def _advance(self, system, t0, y0, hist, t_out, done):  # pragma: no cover - abstract
+    def _advance(self, system, t0, y0, hist, t_out, ctl):  # pragma: no cover - abstract
         raise NotImplementedError
 
     def _run(self, system, t, y, hist, t_out, progress):
-        """``_advance`` over ``t_out``, with the progress bar fed from its ``done`` counter by
-        polling from this thread while the integration runs in another."""
-        done = np.zeros(1, dtype=np.int64)
+        """``_advance`` over ``t_out``; with a progress bar, in a worker thread while this one
+        feeds the bar from the control vector and passes Ctrl-C on as a stop request."""
+        ctl = np.zeros(2, dtype=np.int64)
         if progress is None:
-            return self._advance(system, t, y, hist, t_out, done)
-        from concurrent.futures import ThreadPoolExecutor, TimeoutError as FutureTimeout
+            return self._advance(system, t, y, hist, t_out, ctl)
+        box = {}
+
+        def work():
+            try:
+                box["out"] = self._advance(system, t, y, hist, t_out, ctl)
+            except BaseException as exc:  # handed to the caller's thread below
+                box["exc"] = exc
+
+        worker = threading.Thread(target=work, name="mechrel-integrate", daemon=True)
+        worker.start()
         shown = 0
-        with ThreadPoolExecutor(max_workers=1, thread_name_prefix="mechrel-integrate") as pool:
-            future = pool.submit(self._advance, system, t, y, hist, t_out, done)
-            while True:
-                try:
-                    out = future.result(timeout=0.1)
-                    break
-                except FutureTimeout:
-                    k = int(done[0])
-                    if k > shown:
-                        progress.update(k - shown)
-                        shown = k
-        k = int(done[0])
-        if k > shown:
-            progress.update(k - shown)
-        return out
+        try:
+            while worker.is_alive():
+                worker.join(0.1)
+                k = int(ctl[ev.CTL_DONE])
+                if k > shown:
+                    progress.update(k - shown)
+                    shown = k
+        except KeyboardInterrupt as exc:
+            ctl[ev.CTL_STOP] = 1  # the kernel stops at its next step
+            worker.join()
+            exc.add_note(f"{self.name}: integration stopped after {int(ctl[ev.CTL_DONE])} of "
+                         f"{t_out.size} output instants")
+            raise
+        if "exc" in box:
+            raise box["exc"]
+        return box["out"]
 
     def integrate(self, system, y0, hist0, t_out, *, t0=None, progress=None) -> IntegrationResult:
         """Integrate from ``(t0, y0)`` (default ``t0 = t_out[0]``) over ``t_out``.
@@ -220,10 +235,10 @@ class RK4(Integrator):
     adaptive = False
     defaults = {"step": None}
 
-    def _advance(self, system, t0, y0, hist, t_out, done):
+    def _advance(self, system, t0, y0, hist, t_out, ctl):
         from .explicit import rk4_kernel
         return rk4_kernel(system, t0, y0, hist, t_out, self.step, self.max_steps,
-                          self.onset_tolerance, done)
+                          self.onset_tolerance, ctl)
 
 
 class DOPRI5(Integrator):
@@ -232,7 +247,7 @@ class DOPRI5(Integrator):
     name = "dopri5"
     defaults = {"rtol": 1e-8, "atol": 1e-10}
 
-    def _advance(self, system, t0, y0, hist, t_out, done):
+    def _advance(self, system, t0, y0, hist, t_out, ctl):
         from .explicit import dopri5_kernel
         return dopri5_kernel(system, t0, y0, hist, t_out, self.step or 0.0, self.rtol,
-                             self.atol, self.max_steps, self.onset_tolerance, done)
+                             self.atol, self.max_steps, self.onset_tolerance, ctl)

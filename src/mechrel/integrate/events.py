@@ -23,9 +23,14 @@ from ..mechanics.problem import gaps, make_workspace, n_contacts, rhs_into, viol
 S_STEPS, S_RHS, S_REJECTED, S_ONSET_REJECTED, S_IMPACTS, S_JAC, S_LU, S_VIOL_POS, S_VIOL_VEL, \
     S_STATUS = range(10)
 N_STATS = 10
-STATUS_OK, STATUS_MAX_STEPS, STATUS_STEP_UNDERFLOW, STATUS_NONFINITE, STATUS_NEWTON = range(5)
+STATUS_OK, STATUS_MAX_STEPS, STATUS_STEP_UNDERFLOW, STATUS_NONFINITE, STATUS_NEWTON, \
+    STATUS_STOPPED = range(6)
 STATUS_TEXT = ("ok", "maximum number of steps reached", "step size underflow",
-               "non-finite state", "Newton iteration failed to converge")
+               "non-finite state", "Newton iteration failed to converge", "stopped on request")
+# The control vector every kernel takes (int64, length 2): CTL_DONE is written by the kernel,
+# the number of output instants stored so far; CTL_STOP by the caller, from another thread
+# (the kernels run without the GIL): non-zero asks the kernel to stop at its next step.
+CTL_DONE, CTL_STOP = range(2)
 
 
 @njit(cache=True)
@@ -127,9 +132,12 @@ def start(sys, t0, y0, hist, t_out):
 
 
 @njit(cache=True)
-def out_of_budget(stats, h, t, max_steps):
+def out_of_budget(stats, h, t, max_steps, ctl):
     """True (with the status set) when an adaptive kernel must stop: ``max_steps`` attempted
-    steps, or a step below 1e-14 of the time scale (underflow)."""
+    steps, a step below 1e-14 of the time scale (underflow), or a stop request in ``ctl``."""
+    if ctl[CTL_STOP] != 0:
+        stats[S_STATUS] = STATUS_STOPPED
+        return True
     if stats[S_STEPS] + stats[S_REJECTED] >= max_steps:
         stats[S_STATUS] = STATUS_MAX_STEPS
         return True

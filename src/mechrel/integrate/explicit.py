@@ -21,8 +21,8 @@ from numba import njit
 
 from ..mechanics.borrow import borrowed
 from ..mechanics.problem import rhs_inline, rhs_into
-from .events import (S_ONSET_REJECTED, S_REJECTED, S_RHS, S_STATUS, S_STEPS,
-                     STATUS_MAX_STEPS, STATUS_NONFINITE, all_finite,
+from .events import (CTL_DONE, CTL_STOP, S_ONSET_REJECTED, S_REJECTED, S_RHS, S_STATUS,
+                     S_STEPS, STATUS_MAX_STEPS, STATUS_NONFINITE, STATUS_STOPPED, all_finite,
                      onset_fraction, out_of_budget, record_violation, start,
                      update_history_from)
 
@@ -56,11 +56,11 @@ def _rk4_step(t, y, h, hist, sys, ws, K, tmp, out):
 
 
 @njit(cache=True, nogil=True)
-def rk4_kernel(sys, t0, y0, hist, t_out, h, max_steps, onset_tol, done):
+def rk4_kernel(sys, t0, y0, hist, t_out, h, max_steps, onset_tol, ctl):
     """Classical RK4 with step ``h`` (s); steps are shortened to land on every output instant
-    and to locate contact onsets. Returns (Y, YD, hist, stats, t, y). ``done[0]`` is kept at
-    the number of output instants stored (a progress display reads it from another thread:
-    the kernel runs without the GIL).
+    and to locate contact onsets. Returns (Y, YD, hist, stats, t, y). ``ctl``: the control
+    vector of :mod:`~mechrel.integrate.events` (outputs stored, for a progress display in
+    another thread; a stop request, checked once per step).
 
     Each step ends with the right-hand side at its end state, which is the next step's first
     stage, the derivative stored at an output instant, and the source of the contact gaps
@@ -68,7 +68,7 @@ def rk4_kernel(sys, t0, y0, hist, t_out, h, max_steps, onset_tol, done):
     evaluations per step and nothing else, except a re-evaluation when the history changes."""
     nout = t_out.shape[0]
     Y, YD, stats, floors, y, f, k, _, ws = start(sys, t0, y0, hist, t_out)
-    done[0] = k
+    ctl[CTL_DONE] = k
     t = t0
     ny = y.shape[0]
     K = np.empty((5, ny))
@@ -86,6 +86,9 @@ def rk4_kernel(sys, t0, y0, hist, t_out, h, max_steps, onset_tol, done):
     while k < nout:
         if stats[S_STEPS] >= max_steps:
             stats[S_STATUS] = STATUS_MAX_STEPS
+            break
+        if ctl[CTL_STOP] != 0:
+            stats[S_STATUS] = STATUS_STOPPED
             break
         hk = min(h, t_out[k] - t)
         _rk4_step(t, y, hk, hist, sys, ws, K, tmp, ynew)
@@ -120,7 +123,7 @@ def rk4_kernel(sys, t0, y0, hist, t_out, h, max_steps, onset_tol, done):
             Y[k] = y
             YD[k] = K[0]
             k += 1
-        done[0] = k
+        ctl[CTL_DONE] = k
     return Y, YD, hist, stats, t, y
 
 
@@ -192,13 +195,13 @@ def _error_norm(err, y, ynew, rtol, atol):
 
 
 @njit(cache=True, nogil=True)
-def dopri5_kernel(sys, t0, y0, hist, t_out, h0, rtol, atol, max_steps, onset_tol, done):
+def dopri5_kernel(sys, t0, y0, hist, t_out, h0, rtol, atol, max_steps, onset_tol, ctl):
     """Adaptive Dormand–Prince 5(4). ``h0`` ≤ 0 picks the initial step automatically.
-    Returns (Y, YD, hist, stats, t, y); ``done[0]`` as in :func:`rk4_kernel`."""
+    Returns (Y, YD, hist, stats, t, y); ``ctl`` as in :func:`rk4_kernel`."""
     nout = t_out.shape[0]
     ny = y0.shape[0]
     Y, YD, stats, floors, y, f, k, tend, ws = start(sys, t0, y0, hist, t_out)
-    done[0] = k
+    ctl[CTL_DONE] = k
     K = np.empty((7, ny))
     K[0] = f
     ytmp = np.empty(ny)
@@ -228,7 +231,7 @@ def dopri5_kernel(sys, t0, y0, hist, t_out, h0, rtol, atol, max_steps, onset_tol
     for i in range(nh):  # from start()'s f(t0, y0); then the end of one step is the next's start
         g0[i] = ws.gap[i]
     while k < nout:
-        if out_of_budget(stats, h, t, max_steps):
+        if out_of_budget(stats, h, t, max_steps, ctl):
             break
         h = min(h, tend - t)
         _dopri_stages(t, y, h, hist, sys, ws, K, ytmp, ynew, err, dense)
@@ -267,7 +270,7 @@ def dopri5_kernel(sys, t0, y0, hist, t_out, h0, rtol, atol, max_steps, onset_tol
             rhs_into(t_out[k], Y[k], hist, sys, ws, YD[k])
             stats[S_RHS] += 1
             k += 1
-        done[0] = k
+        ctl[CTL_DONE] = k
         y, ynew = ynew, y
         for i in range(ny):
             K[0, i] = K[6, i]

@@ -109,7 +109,7 @@ from numba import njit
 from ..mechanics.borrow import borrowed
 from ..mechanics.problem import clearance_jacobian, gaps_into, rhs_inline, rhs_into
 from ..mechanics.system import without_clearance_forces
-from .events import (S_JAC, S_LU, S_ONSET_REJECTED, S_REJECTED, S_RHS, S_STATUS,
+from .events import (CTL_DONE, S_JAC, S_LU, S_ONSET_REJECTED, S_REJECTED, S_RHS, S_STATUS,
                      S_STEPS, STATUS_NEWTON, STATUS_NONFINITE,
                      all_finite, onset_fraction, out_of_budget, record_violation, start,
                      update_history_from)
@@ -311,16 +311,15 @@ def _rms(a, scal):
 # ---------------------------------------------------------------------------- the kernel
 @njit(cache=True, nogil=True)
 def radau5_kernel(sys, sys_smooth, t0, y0, hist, t_out, h0, rtol_user, atol_user, max_steps,
-                  onset_tol, fixed, done):
+                  onset_tol, fixed, ctl):
     """Radau IIA (order 5) from ``(t0, y0)`` over the increasing output instants ``t_out``.
 
     ``h0`` ≤ 0 picks the initial step automatically. With ``fixed`` True the step ``h0`` is
     kept constant (no error control; for convergence-order checks) except that the last step
     ends on ``t_out[-1]``; Newton may then take up to ``NIT_FIXED`` iterations with a fresh
     Jacobian at every step, and a failure stops with ``STATUS_NEWTON``.
-    Returns ``(Y, YD, hist, stats, t, y)``; ``done[0]`` is kept at the number of output
-    instants stored (a progress display reads it from another thread: the kernel runs without
-    the GIL).
+    Returns ``(Y, YD, hist, stats, t, y)``; ``ctl`` as in
+    :func:`~mechrel.integrate.explicit.rk4_kernel`.
     """
     nout = t_out.shape[0]
     ny = y0.shape[0]
@@ -332,7 +331,7 @@ def radau5_kernel(sys, sys_smooth, t0, y0, hist, t_out, h0, rtol_user, atol_user
     nit = NIT_FIXED if fixed else NIT
 
     Y, YD, stats, floors, y, f0, k, tend, ws = start(sys, t0, y0, hist, t_out)
-    done[0] = k
+    ctl[CTL_DONE] = k
     t = t0
     scal = np.empty(ny)
     for i in range(ny):
@@ -439,7 +438,7 @@ def radau5_kernel(sys, sys_smooth, t0, y0, hist, t_out, h0, rtol_user, atol_user
             caljac = True
             need_jac = False
             need_lu = True
-        if out_of_budget(stats, h, t, max_steps):
+        if out_of_budget(stats, h, t, max_steps, ctl):
             break
         if need_lu:
             _build_matrices(J, h, E1, E2)
@@ -649,7 +648,7 @@ def radau5_kernel(sys, sys_smooth, t0, y0, hist, t_out, h0, rtol_user, atol_user
                 rhs_into(t_out[k], Y[k], hist, sys, ws, YD[k])
                 stats[S_RHS] += 1
                 k += 1
-            done[0] = k
+            ctl[CTL_DONE] = k
             if not all_finite(y):
                 stats[S_STATUS] = STATUS_NONFINITE
                 break
@@ -737,7 +736,7 @@ class Radau(Integrator):
             out["fixed_step"] = True
         return out
 
-    def _advance(self, system, t0, y0, hist, t_out, done):
+    def _advance(self, system, t0, y0, hist, t_out, ctl):
         return radau5_kernel(system, without_clearance_forces(system), t0, y0, hist, t_out,
                              self.step or 0.0, self.rtol, self.atol, self.max_steps,
-                             self.onset_tolerance, self.fixed_step, done)
+                             self.onset_tolerance, self.fixed_step, ctl)

@@ -24,7 +24,7 @@ class ScipyIVP(Integrator):
     stiff = True
     defaults = {"rtol": 1e-6, "atol": 1e-9}
 
-    def _advance(self, system, t0, y0, hist, t_out, done):
+    def _advance(self, system, t0, y0, hist, t_out, ctl):
         hist = hist.copy()
         floors = ev.contact_floors(system)
         stats = np.zeros(ev.N_STATS)
@@ -40,6 +40,10 @@ class ScipyIVP(Integrator):
         tend = float(t_out[-1])
         first_step = self.step
         while t < tend:
+            if ctl[ev.CTL_STOP]:  # checked between events (SciPy's loop is not ours)
+                stats[ev.S_STATUS] = ev.STATUS_STOPPED
+                break
+
             def fun(tt, yy, _h=hist):
                 # SciPy's finite-difference Jacobians (BDF, Radau) pass columns of a matrix,
                 # i.e. non-contiguous views: copying keeps rhs on its one compiled (C-layout)
@@ -77,7 +81,7 @@ class ScipyIVP(Integrator):
                 Y[k] = sol.sol(t_out[k])
                 YD[k] = rhs(t_out[k], Y[k], hist, system)
                 k += 1
-            done[0] = k
+            ctl[ev.CTL_DONE] = k
             t, y = t_stop, sol.y[:, -1].copy()
             if not np.all(np.isfinite(y)):
                 stats[ev.S_STATUS] = ev.STATUS_NONFINITE
