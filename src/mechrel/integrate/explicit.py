@@ -21,8 +21,8 @@ from numba import njit
 
 from ..mechanics.borrow import borrowed
 from ..mechanics.problem import rhs_inline, rhs_into
-from .events import (CTL_DONE, CTL_STOP, S_ONSET_REJECTED, S_REJECTED, S_RHS, S_STATUS,
-                     S_STEPS, STATUS_MAX_STEPS, STATUS_NONFINITE, STATUS_STOPPED, all_finite,
+from .events import (CTL_DONE, S_ONSET_REJECTED, S_REJECTED, S_RHS, S_STATUS, S_STEPS,
+                     STATUS_NONFINITE, all_finite,
                      onset_fraction, out_of_budget, record_violation, start,
                      update_history_from)
 
@@ -84,11 +84,7 @@ def rk4_kernel(sys, t0, y0, hist, t_out, h, max_steps, onset_tol, ctl):
     for i in range(nh):
         g0[i] = ws.gap[i]  # start() evaluated f(t0, y0)
     while k < nout:
-        if stats[S_STEPS] >= max_steps:
-            stats[S_STATUS] = STATUS_MAX_STEPS
-            break
-        if ctl[CTL_STOP] != 0:
-            stats[S_STATUS] = STATUS_STOPPED
+        if out_of_budget(stats, h, t, max_steps, ctl):
             break
         hk = min(h, t_out[k] - t)
         _rk4_step(t, y, hk, hist, sys, ws, K, tmp, ynew)

@@ -407,32 +407,27 @@ def radau5_kernel(sys, sys_smooth, t0, y0, hist, t_out, h0, rtol_user, atol_user
     while k < nout:
         if need_jac:
             if partial and n_partial < MAX_PARTIAL:
-                # J = (smooth part of the last full Jacobian) + (clearance part now)
-                clearance_jacobian(t, y, hist, sys, ws, fa, JS)
-                stats[S_RHS] += 1
-                for i in range(nq, ny):
-                    for c in range(2 * nq):
-                        J[i, c] = Jsm[i - nq, c] + JS[i, c]
-                n_partial += 1
+                n_partial += 1  # keep the smooth part Jsm of the last full Jacobian
             elif use_partial:
                 # the smooth rest by differences of the mechanism without clearance forces
                 # (minus its constraint-geometry share, which clearance_jacobian recomputes
-                # with the full multipliers), plus the fast part of the real system
+                # with the full multipliers)
                 clearance_jacobian(t, y, hist, sys_smooth, ws, fb, JS)
                 stats[S_RHS] += 1 + fd_jacobian(t, y, fb, hist, sys_smooth, ws, J, jac_floor,
                                                 yp, fa)
                 for i in range(nq, ny):
                     for c in range(2 * nq):
                         Jsm[i - nq, c] = J[i, c] - JS[i, c]
+                n_partial = 0
+            else:
+                stats[S_RHS] += fd_jacobian(t, y, f0, hist, sys, ws, J, jac_floor, yp, fa)
+                n_partial = 0
+            if use_partial:  # J = smooth part + the fast (clearance) part now
                 clearance_jacobian(t, y, hist, sys, ws, fa, JS)
                 stats[S_RHS] += 1
                 for i in range(nq, ny):
                     for c in range(2 * nq):
                         J[i, c] = Jsm[i - nq, c] + JS[i, c]
-                n_partial = 0
-            else:
-                stats[S_RHS] += fd_jacobian(t, y, f0, hist, sys, ws, J, jac_floor, yp, fa)
-                n_partial = 0
             partial = False
             stats[S_JAC] += 1
             caljac = True
