@@ -285,6 +285,27 @@ def test_progress_bar_does_not_change_the_result(monkeypatch, name, overrides, s
     assert bar.n == bar.total == plain.time.size and bar.closed
 
 
+def test_progress_bar_is_filled_when_the_run_ends_before_the_first_poll(monkeypatch):
+    """A run that ends before the waiting thread first looks (a short LSODA run in CI did) still
+    fills the bar: here the worker is joined inside ``start``, so it is never seen alive."""
+    import threading
+
+    import tqdm.auto
+    monkeypatch.setattr(tqdm.auto, "tqdm", _Bar)
+    start = threading.Thread.start
+
+    def start_and_finish(self):
+        start(self)
+        self.join()
+
+    monkeypatch.setattr(threading.Thread, "start", start_and_finish)
+    scene = load_scene("slider-crank-lubricated", overrides={"analysis.cycles": 0.1})
+    _Bar.instances.clear()
+    result = simulate(scene, progress=True)
+    bar, = _Bar.instances
+    assert bar.n == bar.total == result.time.size and bar.closed
+
+
 class _InterruptingBar(_Bar):
     """A bar whose first update raises KeyboardInterrupt, as Ctrl-C would while the main thread
     waits for the integration."""

@@ -165,8 +165,10 @@ class Integrator:
         worker.start()
         shown = 0
         try:
-            while worker.is_alive():
-                worker.join(0.1)
+            alive = True
+            while alive:  # the count is read once more after the worker has ended, so a run
+                worker.join(0.1)  # shorter than the first poll still fills the bar
+                alive = worker.is_alive()
                 k = int(ctl[ev.CTL_DONE])
                 if k > shown:
                     progress.update(k - shown)
