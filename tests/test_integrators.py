@@ -315,15 +315,16 @@ class _InterruptingBar(_Bar):
 
 
 def test_ctrl_c_stops_the_integration_where_it_is(monkeypatch):
-    # three cycles of the dry nine-bar take ≈ 0.5 s; the bar is polled every 0.1 s, so the
-    # interrupt arrives with some but not all output instants stored, and the kernel must stop
-    # at its next step instead of running to the end
+    # twenty cycles of the dry nine-bar take ≈ 3.4 s (0.17 s each); the bar is polled every
+    # 0.1 s, so the interrupt arrives with some but not all output instants stored, and the
+    # kernel must stop at its next step instead of running to the end (the test takes ≈ 0.1 s
+    # of integration, so the long run costs nothing and leaves a 30x margin on the timing)
     import tqdm.auto
     monkeypatch.setattr(tqdm.auto, "tqdm", _InterruptingBar)
-    scene = load_scene("nine-bar-dry", overrides={"analysis.cycles": 3})
+    scene = load_scene("nine-bar-dry", overrides={"analysis.cycles": 20})
     with pytest.raises(KeyboardInterrupt) as info:
         simulate(scene, progress=True)
     note, = info.value.__notes__
     done, total = map(int, re.search(r"after (\d+) of (\d+) output", note).groups())
     assert note.startswith("dopri5: integration stopped")
-    assert 0 < done < total == 3 * 360 + 1
+    assert 0 < done < total == 20 * 360 + 1
