@@ -8,6 +8,7 @@ import pytest
 
 from mechrel.cli.main import main
 from mechrel.errors import StudyError
+from mechrel.scene import load_scene, scene_hash
 from mechrel.studies.study import embedded_studies, load_study
 
 
@@ -72,10 +73,18 @@ def test_reliability_command_writes_tables_figure_and_provenance(tmp_path, capsy
     summary = json.loads((out / "summary.json").read_text())
     prov = summary["provenance"]["fosm"]
     assert prov["n_model_evaluations"] == 3 and "model_cache_key" in prov
+    # the scene it ran: its name, source and the hash of the scene with the study's overrides
+    scene = load_scene("nine-bar-lubricated",
+                       overrides={"solver.rtol": 1e-5, "solver.atol": 1e-8})
+    assert prov["model"]["scene_hash"] == scene_hash(scene)
+    assert prov["model"]["scene_source"] == "embedded:nine-bar-lubricated"
+    assert prov["model"]["solver"]["rtol"] == 1e-5
     # a second run resumes from the evaluation cache: no simulation at all
     main(["reliability", str(study_file), "--method", "fosm", "--jobs", "1",
           "--out", str(out), "--no-progress"])
     assert "0 model evaluations" in capsys.readouterr().out
+    again = json.loads((out / "summary.json").read_text())["provenance"]["fosm"]
+    assert again["model"] == prov["model"]  # from the cache, the same account of the model
 
 
 def test_bad_study_on_the_command_line_is_one_clear_error(tmp_path, capsys):

@@ -22,6 +22,7 @@ from mechrel.errors import SimulationError, StudyError
 from mechrel.uq import (
     Allowable,
     EvaluationCache,
+    Evaluations,
     FunctionModel,
     ModelFailure,
     Normal,
@@ -253,6 +254,12 @@ def test_provenance_is_json_serialisable():
     for r in results:
         text = json.dumps(r.provenance)
         assert "versions" in text and "model_cache_key" in text
+        assert r.provenance["model"]["kind"] == "FunctionModel"  # the model's own account
+    # precomputed evaluations know no model; the estimator says so instead of inventing one
+    done = results[0].evaluations
+    pre = fosm(evaluations=Evaluations.from_arrays(done.X, done.Y, input_names=INPUTS.names),
+               inputs=INPUTS, allowable=allow)
+    assert pre.provenance["model"] is None
 
 
 def test_cache_key_separates_models(tmp_path):

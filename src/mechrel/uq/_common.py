@@ -40,6 +40,10 @@ def make_provenance(
     """The provenance dict every estimator result carries."""
     evs = [e for e in evaluations if e is not None]
     keys = sorted({e.cache_key for e in evs if e.cache_key is not None})
+    models = []
+    for e in evs:  # the distinct model descriptions, in order
+        if e.model and e.model not in models:
+            models.append(e.model)
     return {
         "method": method,
         "seed": seed,
@@ -49,6 +53,7 @@ def make_provenance(
         "n_failed": int(sum(e.n_failed for e in evs)),
         "wall_time": float(wall_time),
         "model_cache_key": keys[0] if len(keys) == 1 else (keys or None),
+        "model": models[0] if len(models) == 1 else (models or None),
         "inputs": None if inputs is None else inputs.describe(),
         "settings": dict(settings),
         "executor": evs[0].settings if evs else None,

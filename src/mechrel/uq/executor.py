@@ -36,7 +36,7 @@ import pandas as pd
 from mechrel.errors import MechrelError, StudyError
 
 from .cache import EvaluationCache, as_cache
-from .model import as_output_index, check_model
+from .model import as_output_index, check_model, describe_model
 
 __all__ = ["Evaluations", "evaluate", "BACKENDS", "combined_cache_key"]
 
@@ -61,6 +61,8 @@ class Evaluations:
     status : (n,) array of ``"ok"`` / ``"failed"``. reasons : per row, None when ok.
     n_model_calls : calls actually made in this run (cache hits excluded). n_cached : cache hits.
     wall_time : seconds spent in :func:`evaluate`.
+    model : what the model is (:func:`mechrel.uq.model.describe_model`; for the mechanism model
+    the scene's name, hash and source); empty for precomputed evaluations.
     """
 
     X: np.ndarray
@@ -74,6 +76,7 @@ class Evaluations:
     n_cached: int = 0
     wall_time: float = 0.0
     settings: dict = field(default_factory=dict)
+    model: dict = field(default_factory=dict)
 
     def __post_init__(self):
         X = np.asarray(self.X, dtype=float)
@@ -105,6 +108,7 @@ class Evaluations:
         object.__setattr__(self, "input_names", names)
         object.__setattr__(self, "output_index", idx)
         object.__setattr__(self, "settings", dict(self.settings))
+        object.__setattr__(self, "model", dict(self.model))
 
     # ------------------------------------------------------------------ constructors
     @classmethod
@@ -186,7 +190,7 @@ class Evaluations:
         return Evaluations(
             self.X[rows], self.Y[rows], self.status[rows], tuple(self.reasons[i] for i in rows),
             self.input_names, self.output_index, self.cache_key, self.n_model_calls, self.n_cached,
-            self.wall_time, self.settings,
+            self.wall_time, self.settings, self.model,
         )
 
     def select_outputs(self, outputs: Any) -> "Evaluations":
@@ -195,7 +199,7 @@ class Evaluations:
         return Evaluations(
             self.X, self.Y[:, pos], self.status, self.reasons, self.input_names,
             self.output_index[pos], self.cache_key, self.n_model_calls, self.n_cached,
-            self.wall_time, self.settings,
+            self.wall_time, self.settings, self.model,
         )
 
     def reduce(self, reducer: Callable) -> "Evaluations":
@@ -216,6 +220,7 @@ class Evaluations:
         return Evaluations(
             self.X, Z, status, reasons, self.input_names, idx, self.cache_key, self.n_model_calls,
             self.n_cached, self.wall_time, {**self.settings, "reducer": getattr(reducer, "__name__", repr(reducer))},
+            self.model,
         )
 
 
@@ -464,4 +469,5 @@ def evaluate(
         settings={"n_jobs": n_jobs, "backend": backend if n_jobs != 1 else "sequential",
                   "chunk_size": cs, "cache": None if cache is None else str(cache.path),
                   "retry_failed": bool(retry_failed)},
+        model=describe_model(model),
     )

@@ -58,10 +58,14 @@ class MechanismModel:
     def __init__(self, scene, inputs: Sequence[str], *, output: str | None = None,
                  quantities: Sequence[str] = QUANTITIES, angle_step: float = 18.0,
                  cycles: float | None = None, overrides=None):
-        from ..scene import load_scene
+        from ..scene import load_scene, scene_hash
         from ..scene.loader import thaw
 
         base = load_scene(scene, overrides=overrides or {})
+        # provenance of the scene as given (the one rebuilt below has another analysis grid
+        # and no source): scene_hash(load_scene(scene, overrides=overrides)) reproduces it
+        self.scene_source = base.source
+        self.scene_hash = scene_hash(base)
         if isinstance(inputs, str):
             raise StudyError(f"inputs: expected a sequence of dotted scene paths, got the "
                              f"string {inputs!r}")
@@ -152,6 +156,14 @@ class MechanismModel:
         from ..simulation import make_integrator
         integ = make_integrator(self.scene)
         return float(integ.rtol) if integ.adaptive and integ.rtol else 1e-6
+
+    def describe(self) -> dict:
+        """The scene as given (name, :func:`~mechrel.scene.scene_hash` with ``overrides``
+        applied, source), its solver settings and the analysed outputs."""
+        return {"kind": "MechanismModel", "scene": self.scene.name, "scene_hash": self.scene_hash,
+                "scene_source": self.scene_source, "solver": dict(self._raw.get("solver", {})),
+                "output": self.output, "quantities": list(self.quantities),
+                "angle_step": self.angle_step, "cycles": self.cycles}
 
     def cache_key(self) -> str:
         from .. import __version__

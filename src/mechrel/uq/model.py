@@ -27,7 +27,7 @@ import pandas as pd
 
 from mechrel.errors import MechrelError, StudyError
 
-__all__ = ["Model", "ModelFailure", "FunctionModel", "check_model", "as_output_index"]
+__all__ = ["Model", "ModelFailure", "FunctionModel", "check_model", "describe_model", "as_output_index"]
 
 
 class ModelFailure(MechrelError, RuntimeError):
@@ -64,7 +64,9 @@ class Model(Protocol):
     input_names: tuple[str, ...]
     output_index: pd.Index
     # Optional (not part of the runtime check): ``output_noise: float``, the relative noise of the
-    # outputs (e.g. the integrator's rtol); FOSM's automatic finite-difference step uses it.
+    # outputs (e.g. the integrator's rtol); FOSM's automatic finite-difference step uses it; and
+    # ``describe() -> dict``, a JSON-friendly account of what the model is (for the mechanism
+    # model: the scene's name, hash and source), which every result's provenance records.
 
     def evaluate(self, x: np.ndarray) -> np.ndarray:
         """Outputs (``n_out``,) at one input vector ``x`` (``d``,); raises ``ModelFailure``."""
@@ -173,6 +175,9 @@ class FunctionModel:
             )
         return y
 
+    def describe(self) -> dict:
+        return {"kind": "FunctionModel", "func": _func_name(self.func), "key": self.key}
+
     def cache_key(self) -> str:
         payload = json.dumps(
             {
@@ -185,6 +190,15 @@ class FunctionModel:
             sort_keys=True,
         )
         return hashlib.sha256(payload.encode()).hexdigest()
+
+
+def describe_model(model: Any) -> dict:
+    """What provenance records of ``model``: its ``describe()`` if it has one (optional part of
+    the protocol), else its type's name."""
+    describe = getattr(model, "describe", None)
+    if callable(describe):
+        return dict(describe())
+    return {"kind": type(model).__qualname__}
 
 
 def _func_name(func: Any) -> str:
