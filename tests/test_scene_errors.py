@@ -103,10 +103,14 @@ max_steps = 1000000
 """
 
 
-def _edit(old: str, new: str):
+def _edit(*pairs: str):
+    """Replace each ``old`` by its ``new`` (pairs ``old, new, old, new, ...``), each occurring
+    exactly once."""
     def f(text: str) -> str:
-        assert text.count(old) == 1, f"test bug: {old!r} occurs {text.count(old)} times"
-        return text.replace(old, new)
+        for old, new in zip(pairs[::2], pairs[1::2]):
+            assert text.count(old) == 1, f"test bug: {old!r} occurs {text.count(old)} times"
+            text = text.replace(old, new)
+        return text
     return f
 
 
@@ -232,6 +236,13 @@ CASES = [
      ["joints.C.friction.v1", "1e-05", "greater than v0 = 0.0001", "v1 > v0 >= 0 (m/s)"]),
     ("viscosity-negative", _edit("viscosity = 0.4", "viscosity = -0.4"),
      ["joints.C.lubricant.viscosity", "-0.4", "must be >= 0", "a finite number >= 0 (Pa s)"]),
+    ("viscosity-zero-lubricated", _edit('model = "dry"', 'model = "lubricated"', "viscosity = 0.4", "viscosity = 0"),
+     ["joints.C.lubricant.viscosity", "= 0", "a 'lubricated' joint needs a film",
+      "> 0 (Pa s) for models 'lubricated' and 'transition'"]),
+    ("exponent-below-one", _edit("restitution = 0.9", "restitution = 0.9\nexponent = 0.5"),
+     ["joints.C.contact.exponent", "= 0.5", "must be >= 1", "a finite number in [1, 3]"]),
+    ("exponent-above-three", _edit("restitution = 0.9", "restitution = 0.9\nexponent = 3.5"),
+     ["joints.C.contact.exponent", "= 3.5", "must be <= 3", "a finite number in [1, 3]"]),
     ("eps0-one", _edit("eps0 = 0.1", "eps0 = 1.0"),
      ["joints.C.lubricant.eps0", "= 1.0", "must be < 1", "in (0, 1)"]),
     ("eps-max-one", _edit("eps_max = 0.99", "eps_max = 1"),

@@ -454,7 +454,7 @@ class _Builder(Checker):
         if "friction" in j:
             friction = self._friction(p + ".friction", j["friction"])
         if "lubricant" in j or model in ("lubricated", "transition"):
-            lubricant = self._lubricant(p + ".lubricant", j.get("lubricant", {}))
+            lubricant = self._lubricant(p + ".lubricant", j.get("lubricant", {}), model)
         if "transition" in j or model == "transition":
             transition = self._transition(p + ".transition", j.get("transition", {}))
         return Joint(name=name, type="revolute", points=(a, b), model=model, clearance=clearance,
@@ -482,7 +482,7 @@ class _Builder(Checker):
         return Contact(**self._sub(path, v, Contact, {
             "youngs_modulus_bearing": pa, "youngs_modulus_journal": pa,
             "poisson_bearing": nu, "poisson_journal": nu,
-            "restitution": dict(gt=0, le=1), "exponent": dict(gt=0),
+            "restitution": dict(gt=0, le=1), "exponent": dict(ge=1, le=3),
             "stiffness": dict(choices=("conformal", "paper")),
             "impact_speed_floor": dict(gt=0, unit="m/s"),
         }))
@@ -496,10 +496,15 @@ class _Builder(Checker):
                       "v1 > v0 >= 0 (m/s)")
         return Friction(**d)
 
-    def _lubricant(self, path: str, v: Any) -> Lubricant:
-        return Lubricant(**self._sub(path, v, Lubricant, {
+    def _lubricant(self, path: str, v: Any, model: str) -> Lubricant:
+        d = self._sub(path, v, Lubricant, {
             "viscosity": dict(ge=0, unit="Pa s"), "lam": dict(ge=0), "eps0": dict(gt=0, lt=1),
-        }))
+        })
+        if model in ("lubricated", "transition") and not d["viscosity"] > 0:
+            self.fail(path + ".viscosity", d["viscosity"],
+                      f"a '{model}' joint needs a film, and a film of zero viscosity carries no "
+                      "load", "> 0 (Pa s) for models 'lubricated' and 'transition'")
+        return Lubricant(**d)
 
     def _transition(self, path: str, v: Any) -> Transition:
         return Transition(**self._sub(path, v, Transition, {
