@@ -30,13 +30,13 @@ paper's time axis over one cycle.
 Outputs are sampled every ``--sample-deg`` degrees of crank rotation (default 0.05°, i.e.
 0.09 ms at 3π): the dry joint's acceleration spikes last a fraction of a millisecond, and
 their sampled peak is a property of the sampling (nine-bar, dry, 3π, second revolution:
-[−142, 131] m/s² sampled every 1°, [−581, 250] every 0.05°, [−702, 265] every 0.01°; the
+[−61, 74] m/s² sampled every 1°, [−719, 304] every 0.05°, [−744, 318] every 0.01°; the
 trajectory itself is the same, the dense output only samples it). Lubricated ranges are
 converged to 0.1 % at 0.25°. Dry values are also chaotic: round-off-level changes of the code
 move them by ~10 % (docs/validation.md).
 
 Integrators: the scene type's default (``mechrel.simulation.DEFAULT_SOLVERS``: DOPRI5 for dry,
-the compiled Radau for lubricated, rtol = 1e-7); wall time and solver statistics are recorded
+rtol = 1e-8, atol = 1e-11; the compiled Radau for lubricated, rtol = 1e-7, atol = 1e-10); wall time and solver statistics are recorded
 per case.
 
 Outputs (in ``--out``)
@@ -485,9 +485,10 @@ def main(argv=None):
     run_rows = [runs[k].stats for k in needed]
     write_csv(out / "errors.csv", rows)
     write_csv(out / "runs.csv", [{k: r.get(k) for k in _run_fields(run_rows)} for r in run_rows])
+    used = ", ".join(sorted({f"{r['integrator']} rtol = {r['rtol']:g}" for r in run_rows}))
     settings = (f"Settings: two revolutions of the driving crank, the second analysed; outputs "
                 f"every {sample:g}° of crank rotation; each scene type's default integrator "
-                f"(rtol = 1e-7). Command: `python studies/response_errors.py --out {out}"
+                f"({used}). Command: `python studies/response_errors.py --out {out}"
                 f"{' --quick' if args.quick else ''}"
                 f"{'' if args.sample_deg is None else f' --sample-deg {args.sample_deg:g}'}`.")
     (out / "summary.md").write_text(markdown(comparisons, rows, run_rows, figures, settings),
