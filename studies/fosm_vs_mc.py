@@ -48,6 +48,8 @@ import numpy as np
 import pandas as pd
 from scipy import optimize, stats
 
+from mechrel.studies.cli import positive_int, report_errors
+
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from reliability_paper import (  # noqa: E402
     CASES, QUANTITIES, RTOL, UNITS, _md, case_inputs, case_model, fosm_settings,
@@ -514,26 +516,43 @@ def write_report(out, all_res, args, wall):
     return summ
 
 
+def _cases(text: str) -> list[str]:
+    """argparse type of ``--cases``: comma-separated keys of ``CASES``."""
+    keys = [k.strip() for k in text.split(",")]
+    bad = [k for k in keys if k not in CASES]
+    if bad:
+        raise argparse.ArgumentTypeError(f"unknown case {', '.join(map(repr, bad))}; allowed: "
+                                         f"comma-separated cases from {', '.join(CASES)}")
+    return keys
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--out", default="results/fosm_vs_mc")
-    ap.add_argument("--n", type=int, default=None, help="Monte Carlo samples per case (default 512; --quick 64)")
+    ap.add_argument("--n", type=positive_int, default=None,
+                    help="Monte Carlo samples per case (default 512; --quick 64)")
     ap.add_argument("--rule", default="sobol", choices=("sobol", "random", "latin_hypercube"))
     ap.add_argument("--seed", type=int, default=SEED)
-    ap.add_argument("--cases", default="lub-3pi,dry-3pi",
+    ap.add_argument("--cases", type=_cases, default="lub-3pi,dry-3pi",
                     help=f"comma-separated cases of reliability_paper.py ({', '.join(CASES)})")
     ap.add_argument("--quick", action="store_true", help="64 samples per case")
     ap.add_argument("--jobs", type=int, default=2)
     ap.add_argument("--cycles", type=float, default=2.0)
     ap.add_argument("--no-progress", action="store_true")
     args = ap.parse_args(argv)
-    args.n = args.n or (64 if args.quick else 512)
+    if args.n is None:
+        args.n = 64 if args.quick else 512
+    return report_errors(run, args, ap.prog)
+
+
+def run(args) -> int:
+    """The study for parsed arguments: figures, tables, report.md and summary.json in OUT."""
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     t0 = time.perf_counter()
     all_res = []
-    for key in args.cases.split(","):
-        res = analyse_case(key.strip(), n=args.n, rule=args.rule, seed=args.seed, n_jobs=args.jobs,
+    for key in args.cases:
+        res = analyse_case(key, n=args.n, rule=args.rule, seed=args.seed, n_jobs=args.jobs,
                            cache=out / "evaluations.sqlite", progress=not args.no_progress,
                            cycles=args.cycles, dry_steps=(0.25, "auto"))
         all_res.append(res)

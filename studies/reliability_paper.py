@@ -44,6 +44,8 @@ import numpy as np
 import pandas as pd
 from scipy.stats import norm
 
+from mechrel.studies.cli import report_errors
+
 PI = math.pi
 QUANTITIES = ("displacement", "velocity", "acceleration")
 UNITS = {"displacement": "m", "velocity": "m/s", "acceleration": "m/s²"}
@@ -514,6 +516,11 @@ def main(argv=None) -> int:
     ap.add_argument("--no-cache", action="store_true", help="do not use OUT/evaluations.sqlite")
     ap.add_argument("--no-progress", action="store_true")
     args = ap.parse_args(argv)
+    return report_errors(run, args, ap.prog)
+
+
+def run(args) -> int:
+    """The study for parsed arguments: figures, tables, report.md and summary.json in OUT."""
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     keys = list(QUICK_CASES) if args.quick else list(CASES)

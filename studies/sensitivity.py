@@ -51,6 +51,7 @@ import numpy as np
 import pandas as pd
 
 from mechrel.errors import StudyError
+from mechrel.studies.cli import positive_int, report_errors
 from mechrel.uq.mechanism import MechanismModel, _lookup
 
 PI = math.pi
@@ -238,11 +239,9 @@ def _md(df):
 
 
 def main(argv=None) -> int:
-    from mechrel.uq import peak_abs, polynomial_chaos, sobol_indices
-
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--out", default="results/sensitivity")
-    ap.add_argument("--n", type=int, default=None,
+    ap.add_argument("--n", type=positive_int, default=None,
                     help="Saltelli base samples N (N·(d+2) = 8N runs; default 128, --quick 16)")
     ap.add_argument("--pce-order", type=int, default=2)
     ap.add_argument("--per-angle", action=argparse.BooleanOptionalAction, default=True,
@@ -253,7 +252,14 @@ def main(argv=None) -> int:
     ap.add_argument("--cycles", type=float, default=2.0)
     ap.add_argument("--no-progress", action="store_true")
     args = ap.parse_args(argv)
-    n = args.n or (16 if args.quick else 128)
+    return report_errors(run, args, ap.prog)
+
+
+def run(args) -> int:
+    """The study for parsed arguments: tables, figures, report.md and summary.json in OUT."""
+    from mechrel.uq import peak_abs, polynomial_chaos, sobol_indices
+
+    n = (16 if args.quick else 128) if args.n is None else args.n
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     cache = out / "evaluations.sqlite"

@@ -26,6 +26,7 @@ from mechrel.uq import (
     reliability_one_sided,
     reliability_two_sided,
 )
+from mechrel.uq._common import SampleFailuresError
 
 # z = 4: a correct estimator falls outside its interval with probability 6e-5 per quantity, so
 # the test is not flaky, yet the intervals (half-width ≈ 4·sqrt(R(1−R)/n)) stay narrow enough
@@ -151,9 +152,24 @@ def test_failing_region_is_counted_with_reasons_and_the_run_finishes():
     cons = monte_carlo(model=m, inputs=inputs, n=2000, seed=1, allowable=Allowable(0.3, 0.0), failures="as_violation")
     assert cons.table["n"].iloc[0] == 2000
     assert cons.table["reliability"].iloc[0] < res.table["reliability"].iloc[0]
-    # refuse above the threshold, with the reasons in the message
-    with pytest.raises(StudyError, match=r"monte_carlo: \d+ of 2000 samples failed \(\d+× assembly failed"):
+    # refuse above the threshold, with the reasons in the message and every sample in the error
+    with pytest.raises(SampleFailuresError, match=r"monte_carlo: \d+ of 2000 samples failed \(\d+× assembly failed") as info:
         monte_carlo(model=m, inputs=inputs, n=2000, seed=1, allowable=Allowable(0.3, 0.0), max_failure_fraction=0.01)
+    assert isinstance(info.value, StudyError)
+    assert np.array_equal(info.value.evaluations.X, ev.X)
+    assert info.value.evaluations.failure_counts() == res.failure_counts
+
+
+def _always_fails(x):
+    raise ModelFailure("joint jams")
+
+
+def test_too_few_successful_samples_is_a_refusal_that_keeps_the_samples():
+    m = FunctionModel(_always_fails, INPUTS.names, ["y"])
+    with pytest.raises(SampleFailuresError, match=r"monte_carlo: need at least 2 successful samples, got 0 "
+                                                  r"\(8 of 8 samples failed \(8× joint jams\)\)") as info:
+        monte_carlo(model=m, inputs=INPUTS, n=8, seed=1, allowable=ALLOW, max_failure_fraction=1.0)
+    assert info.value.evaluations.n_failed == 8
 
 
 def test_binomial_intervals():

@@ -27,6 +27,7 @@ from mechrel.uq import (
     polynomial_chaos,
     reliability_one_sided,
 )
+from mechrel.uq._common import SampleFailuresError
 from mechrel.uq.pce import _basis, _recurrences
 
 A0 = np.array([0.3, -1.0])
@@ -157,8 +158,15 @@ def test_failures_regression_drops_and_quadrature_refuses():
     assert res.evaluations.n_failed > 0
     assert res.provenance["settings"]["failed_samples_dropped"] == res.evaluations.n_failed
     assert res.mean.iloc[0] == pytest.approx(1.0, abs=1e-10)  # linear: exact from the rest
-    with pytest.raises(StudyError, match=r"quadrature needs every node; 3 of 9 samples failed \(3× contact solver failed\)"):
+    with pytest.raises(SampleFailuresError, match=r"quadrature needs every node; 3 of 9 samples failed \(3× contact solver failed\)") as info:
         polynomial_chaos(model=model, inputs=inputs, order=2, method="quadrature")
+    assert info.value.evaluations.n_failed == 3
+    # regression above the threshold: refused, every sample (and its reason) in the error
+    share = res.evaluations.n_failed / res.evaluations.n
+    with pytest.raises(SampleFailuresError, match=rf"polynomial_chaos: {res.evaluations.n_failed} of "
+                                                  rf"{res.evaluations.n} samples failed .*max_failure_fraction") as info:
+        polynomial_chaos(evaluations=res.evaluations, inputs=inputs, order=2, max_failure_fraction=share / 2)
+    assert info.value.evaluations is res.evaluations
 
 
 def test_argument_errors():

@@ -24,6 +24,7 @@ from mechrel.uq import (
     sobol_design,
     sobol_indices,
 )
+from mechrel.uq._common import SampleFailuresError
 
 
 def test_ishigami_first_and_total_order():
@@ -61,9 +62,25 @@ def test_failed_samples_drop_whole_blocks_and_are_reported():
     assert res.failure_counts == {"mechanism locks near the dead point": res.evaluations.n_failed}
     assert np.all(np.isfinite(res.first.to_numpy()))  # no NaN propagation
     # refuse when the dropped share exceeds the threshold; the message gives counts and reasons
-    with pytest.raises(StudyError, match=rf"{expect} of {n} Saltelli blocks contain a failed sample "
-                                         r"\(\d+ of \d+ samples failed \(\d+× mechanism locks"):
+    with pytest.raises(SampleFailuresError, match=rf"{expect} of {n} Saltelli blocks contain a failed sample "
+                                                  r"\(\d+ of \d+ samples failed \(\d+× mechanism locks") as info:
         sobol_indices(evaluations=res.evaluations, inputs=inputs, n=n, max_failure_fraction=0.01)
+    assert info.value.evaluations is res.evaluations  # the raw evaluations, every sample
+
+
+def _always_locks(x):
+    raise ModelFailure("mechanism locks near the dead point")
+
+
+def test_fewer_than_two_complete_blocks_is_a_refusal_even_at_threshold_one():
+    # every block dropped and the threshold allows it: this used to reach SALib with no rows
+    # (a ValueError from numpy)
+    inputs = ishigami_inputs()
+    model = FunctionModel(_always_locks, inputs.names, ["y"])
+    with pytest.raises(SampleFailuresError, match=r"sobol_indices: need at least 2 complete Saltelli blocks, got 0 "
+                                                  r"\(40 of 40 samples failed") as info:
+        sobol_indices(model=model, inputs=inputs, n=8, seed=1, max_failure_fraction=1.0, progress=False)
+    assert info.value.evaluations.n == 40
 
 
 def _grid(x):

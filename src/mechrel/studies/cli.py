@@ -2,14 +2,52 @@
 
 from __future__ import annotations
 
+import argparse
+import math
+import sys
 
-def _study_args(p):
+from ..errors import MechrelError
+
+
+def positive_int(text: str) -> int:
+    """argparse type: an integer >= 1."""
+    if not (text.isdigit() and int(text) >= 1):
+        raise argparse.ArgumentTypeError(f"{text!r}: not a positive integer; allowed: 1, 2, ...")
+    return int(text)
+
+
+def fraction(text: str) -> float:
+    """argparse type: a number in [0, 1]."""
+    try:
+        value = float(text)
+    except ValueError:
+        value = math.nan
+    if not 0 <= value <= 1:
+        raise argparse.ArgumentTypeError(f"{text!r}: not a number; allowed: a number in [0, 1]")
+    return value
+
+
+def report_errors(run, args, prog: str) -> int:
+    """``run(args)`` for a study script; a :class:`~mechrel.errors.MechrelError` (a wrong
+    argument or input) is one line ``PROG: error: ...`` on stderr and exit code 2."""
+    try:
+        return run(args)
+    except MechrelError as exc:
+        print(f"{prog}: error: {exc}", file=sys.stderr)
+        return 2
+
+
+def _study_args(p, section):
     p.add_argument("study", nargs="?", default="nine-bar-lubricated", metavar="STUDY",
                    help="embedded study name or path to a study .toml "
                         "(default: nine-bar-lubricated)")
-    p.add_argument("--n", type=int, help="number of samples (default: the study's)")
+    p.add_argument("--n", type=positive_int, help="number of samples (default: the study's)")
     p.add_argument("--jobs", type=int, default=2, help="parallel workers (default 2)")
     p.add_argument("--seed", type=int, help="random seed (default: the study's)")
+    p.add_argument("--max-failure-fraction", type=fraction, metavar="F",
+                   help="refuse to estimate when more than this fraction of the samples failed "
+                        f"(default: the study's {section}.max_failure_fraction); the failed "
+                        "samples are written to OUT either way")
     p.add_argument("--out", default="results", metavar="DIR",
                    help="output folder (default: results/)")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
@@ -22,7 +60,8 @@ def _cmd_reliability(args) -> int:
     study = load_study(args.study)
     methods = None if args.method is None else (args.method,)
     lines, _ = run_reliability(study, methods=methods, n=args.n, n_jobs=args.jobs,
-                               seed=args.seed, out=args.out, progress=not args.no_progress)
+                               seed=args.seed, out=args.out, progress=not args.no_progress,
+                               max_failure_fraction=args.max_failure_fraction)
     print("\n".join(lines))
     return 0
 
@@ -33,7 +72,8 @@ def _cmd_sensitivity(args) -> int:
 
     study = load_study(args.study)
     lines, _ = run_sensitivity(study, n=args.n, n_jobs=args.jobs, seed=args.seed, out=args.out,
-                               progress=not args.no_progress)
+                               progress=not args.no_progress,
+                               max_failure_fraction=args.max_failure_fraction)
     print("\n".join(lines))
     return 0
 
@@ -56,8 +96,9 @@ def register_commands(sub) -> None:
         description="Reliability of the output errors staying within their allowables, per "
                     "crank angle and over the whole cycle, by FOSM (the paper's method), Monte "
                     "Carlo and polynomial chaos. Finished model evaluations are cached in "
-                    "OUT/evaluations.sqlite, so an interrupted run resumes where it stopped.")
-    _study_args(p)
+                    "OUT/evaluations.sqlite, so an interrupted run resumes where it stopped. "
+                    "Failed samples are written to OUT/failures.csv.")
+    _study_args(p, "reliability")
     p.add_argument("--method", choices=("fosm", "mc", "pce", "all"),
                    help="estimator (default: the study's reliability.methods)")
     p.set_defaults(func=_cmd_reliability)
@@ -66,8 +107,9 @@ def register_commands(sub) -> None:
         "sensitivity", help="Sobol sensitivity indices of a study's error measures",
         description="First- and total-order Sobol indices (SALib, Saltelli design with N base "
                     "samples: N (d + 2) model runs) of the peak |error| over the cycle of each "
-                    "quantity with respect to the study's uncertain inputs.")
-    _study_args(p)
+                    "quantity with respect to the study's uncertain inputs. Failed samples are "
+                    "written to OUT/sensitivity_failures.csv.")
+    _study_args(p, "sensitivity")
     p.set_defaults(func=_cmd_sensitivity)
 
     p = sub.add_parser(

@@ -9,16 +9,88 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from ..errors import StudyError
 from ..io import write_json, write_table
+from ..uq._common import SampleFailuresError, check_choice, failure_message
+from .study import METHODS
 
 UNITS = {"displacement": "m", "velocity": "m/s", "acceleration": "m/s²"}
 
 
-def _plot_reliability(fosm_t, mc_t, quantities, title, path):
+def _output_folder(out):
+    """``out`` as a created folder (None: no output), checked before anything runs."""
+    if not out:
+        return None
+    out = Path(out)
+    if out.exists() and not out.is_dir():
+        raise StudyError(f"out = {str(out)!r}: an existing file, not a folder; allowed: a "
+                         "folder (created if missing)")
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise StudyError(f"out = {str(out)!r}: cannot create the folder ({exc.strerror}); "
+                         "allowed: a folder that can be created") from None
+    return out
+
+
+def _estimate(method, evaluations, estimator, **kwargs):
+    """``estimator(**kwargs)``; records the evaluations it analysed, or refused to analyse
+    (:class:`~mechrel.uq._common.SampleFailuresError`), as ``evaluations[method]``."""
+    try:
+        result = estimator(**kwargs)
+    except SampleFailuresError as exc:
+        evaluations[method] = exc.evaluations
+        raise
+    evaluations[method] = result.evaluations
+    return result
+
+
+def _failure_counts(evaluations) -> dict:
+    return {m: {"n_samples": ev.n, "n_failed": ev.n_failed, "reasons": ev.failure_counts()}
+            for m, ev in evaluations.items()}
+
+
+def _failure_lines(evaluations, path) -> list[str]:
+    """Per method with failed samples: the counts by reason (inputs and reasons in ``path``)."""
+    lines = [f"  failed samples ({m}, left out of its estimate): {failure_message(ev)}"
+             for m, ev in evaluations.items() if ev.n_failed]
+    if lines and path is not None:
+        lines.append(f"  inputs and reason of every failed sample: {path}")
+    return lines
+
+
+def _write_failures(evaluations, path) -> None:
+    """One row per failed sample: ``method``, ``sample`` (row of its design), the inputs and
+    the ``reason``. Written even when empty, so that no earlier run's file is left behind."""
+    frames = [ev.failures().reset_index() for ev in evaluations.values()]
+    table = pd.concat(frames, keys=list(evaluations), names=["method", None])
+    write_table(table.reset_index(level="method"), path)
+
+
+def _refusal(exc, evaluations, out, files, record, section):
+    """The error for an estimator's refusal (a :class:`SampleFailuresError`), after writing
+    ``files`` = (failures table, summary) to ``out``: the failed samples are never lost."""
+    method = next(reversed(evaluations))  # the refusing estimator recorded its evaluations last
+    msg = str(exc).rstrip(".")
+    if out:
+        _write_failures(evaluations, out / files[0])
+        write_json({**record, "refused": {"method": method, "error": str(exc)},
+                    "failures": _failure_counts(evaluations)}, out / files[1])
+        msg += (f". Wrote {out}/{files[0]} (inputs and reason of each failed sample) and "
+                f"{files[1]}")
+    return SampleFailuresError(
+        f"{msg}. To proceed, fix what makes the samples fail, or raise the threshold knowingly "
+        "(an estimate over the successful samples only is biased when failures depend on the "
+        f"inputs): --max-failure-fraction F, or max_failure_fraction under [{section}] in the "
+        "study file", exc.evaluations)
+
+
+def _plot_reliability(fosm_t, mc_t, pce_t, quantities, title, path):
     """Per quantity: the reliability index (left, as the paper's figures) and the probability
     of exceeding the allowable, 1 − R, on a log scale (right), where differences between
     methods near R = 1 are visible. Monte Carlo shows its confidence interval; a point with no
-    observed failure shows only its upper bound (▼)."""
+    observed failure shows only its upper bound (▼). ``pce_t``: Monte Carlo on the PCE
+    surrogate, drawn as a line (its interval covers only the sampling error)."""
     import matplotlib
     matplotlib.use("Agg", force=False)
     import matplotlib.pyplot as plt
@@ -34,6 +106,12 @@ def _plot_reliability(fosm_t, mc_t, quantities, title, path):
             ax_b.plot(f.index, f["beta_generalized"], "o-", ms=4, label="FOSM")
             ax_p.semilogy(f.index, np.maximum(1 - f["reliability"], floor), "o-", ms=4,
                           label="FOSM")
+        if pce_t is not None:
+            p = pce_t.xs(q, level="quantity")
+            pf = 1 - p["reliability"]
+            ax_b.plot(p.index, norm.ppf(np.clip(p["reliability"], 0, 1 - floor)), "-",
+                      color="C2", label="PCE surrogate")
+            ax_p.semilogy(p.index, np.maximum(pf, floor), "-", color="C2", label="PCE surrogate")
         if mc_t is not None:
             m = mc_t.xs(q, level="quantity")
             pf = 1 - m["reliability"]
@@ -66,60 +144,101 @@ def _plot_reliability(fosm_t, mc_t, quantities, title, path):
 
 
 def run_reliability(study, *, methods=None, n=None, n_jobs=1, seed=None, out=None,
-                    progress=True, cache=True, backend="loky"):
-    """Run the study's reliability methods; write ``reliability.csv``, ``whole_cycle.csv``,
-    ``reliability.png`` and ``summary.json`` to ``out``. Returns (summary lines, results)."""
-    from ..uq import fosm, monte_carlo
+                    progress=True, cache=True, backend="loky", max_failure_fraction=None):
+    """Run the study's reliability methods and write their results to ``out``.
+
+    Parameters
+    ----------
+    study : Study
+        From :func:`~mechrel.studies.study.load_study`.
+    methods : sequence of {"fosm", "mc", "pce", "all"}, optional
+        Default: the study's ``reliability.methods``.
+    n, seed, max_failure_fraction : optional
+        Monte Carlo samples, seed, and the largest fraction of failed samples Monte Carlo and
+        PCE accept; default: the study's.
+    n_jobs, backend, progress
+        Passed to :func:`mechrel.uq.evaluate`.
+    out : path, optional
+        Folder for ``reliability.csv``, ``whole_cycle.csv``, ``reliability.png``,
+        ``failures.csv`` (every failed sample: method, inputs, reason) and ``summary.json``.
+    cache : bool
+        Cache the model evaluations in ``out/evaluations.sqlite``.
+
+    Returns
+    -------
+    lines : list of str
+        The printable summary.
+    results : dict
+        The estimators' results by method.
+
+    Raises
+    ------
+    SampleFailuresError
+        An estimator refused because of failed samples; ``failures.csv`` and ``summary.json``
+        (with the counts and the reason) are written first.
+    """
+    from ..uq import fosm, monte_carlo, polynomial_chaos
 
     start = time.perf_counter()
-    cfg = dict(study.reliability)
-    methods = tuple(methods or cfg.get("methods", ("fosm", "mc")))
+    cfg = study.reliability
+    methods = tuple(methods or cfg["methods"])
+    for m in methods:
+        check_choice("methods", m, METHODS + ("all",))
     if "all" in methods:
-        methods = ("fosm", "mc", "pce")
-    n = int(n or cfg.get("n", 256))
-    seed = seed if seed is not None else cfg.get("seed")
-    form = cfg.get("form", "two-sided")
-    rule = cfg.get("rule", "sobol")
+        methods = METHODS
+    n = cfg["n"] if n is None else n
+    seed = cfg["seed"] if seed is None else seed
+    max_failure_fraction = (cfg["max_failure_fraction"] if max_failure_fraction is None
+                            else max_failure_fraction)
+    form, rule = cfg["form"], cfg["rule"]
+    out = _output_folder(out)
     model = study.model()
     inputs = study.uncertain_inputs()
     allow = study.allowables()
-    out = Path(out) if out else None
     cache_path = (out / "evaluations.sqlite") if (out and cache) else None
-    if out:
-        out.mkdir(parents=True, exist_ok=True)
     common = dict(n_jobs=n_jobs, backend=backend, cache=cache_path, progress=progress)
-    results, lines, frames = {}, [], []
-    lines.append(f"study {study.name}: scene {model.scene.name}, inputs "
-                 f"{', '.join(inputs.names)}; form {form}")
-    if "fosm" in methods:
-        r = fosm(model=model, inputs=inputs, allowable=allow, form=form, **common)
-        results["fosm"] = r
-        frames.append(r.to_frame().add_prefix("fosm."))
-    if "mc" in methods:
-        r = monte_carlo(model=model, inputs=inputs, n=n, rule=rule, seed=seed,
-                        allowable=allow, form=form, **common)
-        results["mc"] = r
-        frames.append(r.to_frame().add_prefix("mc."))
-    if "pce" in methods:
-        from ..uq import polynomial_chaos
-        r = polynomial_chaos(model=model, inputs=inputs, order=int(cfg.get("pce_order", 2)),
-                             seed=seed, **common)
-        results["pce"] = r
-        frames.append(r.to_frame().add_prefix("pce."))
-        surrogate = r.reliability(n=2**17, rule="sobol", seed=seed, allowable=allow,
-                                  form=form)
-        results["pce_reliability"] = surrogate
-        frames.append(surrogate.to_frame()[["reliability", "reliability_lo", "reliability_hi"]]
-                      .add_prefix("pce_surrogate."))
+    record = {"study": study.name, "source": study.source, "methods": list(methods), "n": n,
+              "seed": seed, "form": form, "max_failure_fraction": max_failure_fraction}
+    results, evaluations, frames = {}, {}, []
+    lines = [f"study {study.name}: scene {model.scene.name}, inputs {', '.join(inputs.names)}; "
+             f"form {form}"]
+    try:
+        if "fosm" in methods:
+            r = _estimate("fosm", evaluations, fosm, model=model, inputs=inputs,
+                          allowable=allow, form=form, **common)
+            results["fosm"] = r
+            frames.append(r.to_frame().add_prefix("fosm."))
+        if "mc" in methods:
+            r = _estimate("mc", evaluations, monte_carlo, model=model, inputs=inputs, n=n,
+                          rule=rule, seed=seed, allowable=allow, form=form,
+                          max_failure_fraction=max_failure_fraction, **common)
+            results["mc"] = r
+            frames.append(r.to_frame().add_prefix("mc."))
+        if "pce" in methods:
+            r = _estimate("pce", evaluations, polynomial_chaos, model=model, inputs=inputs,
+                          order=cfg["pce_order"], seed=seed,
+                          max_failure_fraction=max_failure_fraction, **common)
+            results["pce"] = r
+            frames.append(r.to_frame().add_prefix("pce."))
+            surrogate = _estimate("pce_surrogate", evaluations, r.reliability, n=2**17,
+                                  rule="sobol", seed=seed, allowable=allow, form=form)
+            results["pce_reliability"] = surrogate
+            frames.append(surrogate.to_frame()[["reliability", "reliability_lo",
+                                                "reliability_hi"]].add_prefix("pce_surrogate."))
+    except SampleFailuresError as exc:
+        record.update(wall_time=time.perf_counter() - start, summary=lines,
+                      provenance={k: dict(v.provenance) for k, v in results.items()})
+        raise _refusal(exc, evaluations, out, ("failures.csv", "summary.json"), record,
+                       "reliability") from None
     if "fosm" in results and "mc" in results:
         from ..uq import normality_check
         results["normality"] = normality_check(fosm=results["fosm"], monte_carlo=results["mc"])
         frames.append(results["normality"].to_frame().add_prefix("normality."))
-    table = pd.concat(frames, axis=1) if frames else pd.DataFrame()
+    table = pd.concat(frames, axis=1)
     if "pce" in results:
         loo = results["pce"].loo_error
         if loo is not None:
-            lines.append(f"  PCE order {results['pce'].order} ({results['pce'].evaluations.X.shape[0]} "
+            lines.append(f"  PCE order {results['pce'].order} ({results['pce'].evaluations.n} "
                          f"training runs): leave-one-out error median {float(loo.median()):.3g}, "
                          f"max {float(loo.max()):.3g} (relative to each output's variance)")
     if "normality" in results:
@@ -152,26 +271,27 @@ def run_reliability(study, *, methods=None, n=None, n_jobs=1, seed=None, out=Non
         for key, row in wc.iterrows():
             lines.append(f"  whole-cycle reliability ({key}): {row['reliability']:.4f} "
                          f"[{row['reliability_lo']:.4f}, {row['reliability_hi']:.4f}]")
-        lines.append(f"  Monte Carlo: {mc.evaluations.X.shape[0]} samples ({rule}), "
-                     f"{mc.n_failed} failed" + (f": {mc.failure_counts}" if mc.n_failed else ""))
+        lines.append(f"  Monte Carlo: {mc.evaluations.n} samples ({rule}), {mc.n_failed} failed")
+    lines += _failure_lines(evaluations, out / "failures.csv" if out else None)
     wall = time.perf_counter() - start
-    n_calls = sum(int(getattr(getattr(r, "evaluations", None), "n_model_calls", 0))
-                  for k, r in results.items() if k in ("fosm", "mc", "pce"))
+    n_calls = sum(ev.n_model_calls for ev in evaluations.values())
     lines.append(f"  {n_calls} model evaluations in {wall:.1f} s (n_jobs = {n_jobs})")
     if out:
+        written = ["reliability.csv", "reliability.png", "failures.csv", "summary.json"]
         write_table(table.reset_index(), out / "reliability.csv")
         if "mc" in results:
             write_table(results["mc"].whole_cycle.reset_index(), out / "whole_cycle.csv")
+            written.insert(1, "whole_cycle.csv")
         _plot_reliability(results["fosm"].table if "fosm" in results else None,
                           results["mc"].table if "mc" in results else None,
+                          results["pce_reliability"].table if "pce" in results else None,
                           study.quantities, f"{study.name}: reliability per crank angle "
                           f"({form})", out / "reliability.png")
-        write_json({"study": study.name, "source": study.source, "methods": list(methods),
-                    "n": n, "seed": seed, "form": form, "wall_time": wall,
+        _write_failures(evaluations, out / "failures.csv")
+        write_json({**record, "wall_time": wall, "failures": _failure_counts(evaluations),
                     "provenance": {k: dict(v.provenance) for k, v in results.items()},
                     "summary": lines}, out / "summary.json")
-        lines.append(f"  wrote {out}/reliability.csv, whole_cycle.csv, reliability.png, "
-                     "summary.json")
+        lines.append(f"  wrote {out}/{', '.join(written)}")
     return lines, results
 
 
@@ -202,39 +322,70 @@ def _plot_sobol(result, path, title):
 
 
 def run_sensitivity(study, *, n=None, n_jobs=1, seed=None, out=None, progress=True,
-                    cache=True, backend="loky"):
+                    cache=True, backend="loky", max_failure_fraction=None):
     """Sobol indices (SALib) of the peak |error| over the cycle per quantity with respect to
-    the study's inputs; writes ``sensitivity.csv`` (ranked) and ``sensitivity.png``."""
+    the study's inputs.
+
+    The parameters are those of :func:`run_reliability`, except that ``n`` counts Saltelli base
+    samples, ``max_failure_fraction`` is the largest fraction of Saltelli blocks with a failed
+    sample that may be dropped, the defaults are the study's ``[sensitivity]``, and ``out``
+    receives ``sensitivity.csv`` (ranked), ``sensitivity.png``, ``sensitivity_failures.csv``
+    and ``sensitivity.json``.
+
+    Returns
+    -------
+    lines : list of str
+        The printable summary.
+    result : SobolResult
+
+    Raises
+    ------
+    SampleFailuresError
+        Too many Saltelli blocks failed; ``sensitivity_failures.csv`` and
+        ``sensitivity.json`` (with the counts and the reason) are written first.
+    """
     from ..uq import peak_abs, sobol_indices
 
     start = time.perf_counter()
-    cfg = dict(study.sensitivity)
-    n = int(n or cfg.get("n", 256))
-    seed = seed if seed is not None else cfg.get("seed")
+    cfg = study.sensitivity
+    n = cfg["n"] if n is None else n
+    seed = cfg["seed"] if seed is None else seed
+    max_failure_fraction = (cfg["max_failure_fraction"] if max_failure_fraction is None
+                            else max_failure_fraction)
+    out = _output_folder(out)
     model = study.model()
     inputs = study.uncertain_inputs()
-    out = Path(out) if out else None
-    if out:
-        out.mkdir(parents=True, exist_ok=True)
-    res = sobol_indices(model=model, inputs=inputs, n=n, seed=seed, reducer=peak_abs,
+    record = {"study": study.name, "source": study.source, "n": n, "seed": seed,
+              "max_failure_fraction": max_failure_fraction}
+    evaluations = {}
+    try:
+        res = _estimate("sobol", evaluations, sobol_indices, model=model, inputs=inputs, n=n,
+                        seed=seed, reducer=peak_abs, max_failure_fraction=max_failure_fraction,
                         n_jobs=n_jobs, backend=backend, progress=progress,
                         cache=(out / "evaluations.sqlite") if (out and cache) else None)
+    except SampleFailuresError as exc:
+        record["wall_time"] = time.perf_counter() - start
+        raise _refusal(exc, evaluations, out, ("sensitivity_failures.csv", "sensitivity.json"),
+                       record, "sensitivity") from None
     table = res.to_frame().reset_index()
     table = table.sort_values([table.columns[0], "ST"], ascending=[True, False])
     lines = [f"study {study.name}: Sobol indices of the peak |error| over the cycle "
-             f"(N = {n}, {res.evaluations.X.shape[0]} model runs, "
+             f"(N = {n}, {res.evaluations.n} model runs, "
              f"{res.n_blocks_dropped} Saltelli blocks dropped for failures)"]
     for out_name, grp in table.groupby(table.columns[0], sort=False):
         ranked = ", ".join(f"{r[table.columns[1]]} ST={r['ST']:.3f}±{r['ST_conf']:.3f} "
                            f"S1={r['S1']:.3f}" for _, r in grp.iterrows())
         lines.append(f"  {out_name}: {ranked}")
+    lines += _failure_lines(evaluations, out / "sensitivity_failures.csv" if out else None)
     wall = time.perf_counter() - start
     lines.append(f"  wall time {wall:.1f} s (n_jobs = {n_jobs})")
     if out:
         write_table(table, out / "sensitivity.csv")
         _plot_sobol(res, out / "sensitivity.png", f"{study.name}: what drives the error")
-        write_json({"study": study.name, "n": n, "seed": seed, "wall_time": wall,
+        _write_failures(evaluations, out / "sensitivity_failures.csv")
+        write_json({**record, "wall_time": wall, "failures": _failure_counts(evaluations),
                     "provenance": dict(res.provenance), "summary": lines},
                    out / "sensitivity.json")
-        lines.append(f"  wrote {out}/sensitivity.csv, sensitivity.png, sensitivity.json")
+        lines.append(f"  wrote {out}/sensitivity.csv, sensitivity.png, "
+                     "sensitivity_failures.csv, sensitivity.json")
     return lines, res

@@ -2,39 +2,48 @@
 
 Format and examples: docs/studies.md. ``load_study(source)`` accepts an embedded study name,
 a path, or a mapping, and validates every field with one :class:`~mechrel.errors.StudyError`
-naming the file, the field, the value and what is allowed.
+whose message reads, as the scene files' do, ``SOURCE: FIELD = VALUE: PROBLEM; allowed: WHAT``.
 """
 
 from __future__ import annotations
 
-import difflib
+import copy
 import tomllib
 from dataclasses import dataclass, field
 from importlib import resources
 from pathlib import Path
 from typing import Any, Mapping
 
-from ..errors import StudyError
+from ..errors import SceneError, StudyError
+from ..scene._validate import Checker, join
 from ..scene.model import QUANTITIES
+from ..uq.inputs import SAMPLING_RULES
+from ..uq.reliability import DEFAULT_ALLOWABLES, FORMS
 
-_TOP = {"name", "description", "scene", "output", "angle_step", "cycles", "quantities",
-        "scene_overrides", "inputs", "correlation", "allowable", "reliability", "sensitivity"}
-_RELIABILITY = {"methods", "form", "n", "rule", "seed", "pce_order"}
-_SENSITIVITY = {"n", "seed"}
+_TOP = ("allowable", "angle_step", "correlation", "cycles", "description", "inputs", "name",
+        "output", "quantities", "reliability", "scene", "scene_overrides", "sensitivity")
+_RELIABILITY = ("form", "max_failure_fraction", "methods", "n", "pce_order", "rule", "seed")
+_SENSITIVITY = ("max_failure_fraction", "n", "seed")
 METHODS = ("fosm", "mc", "pce")
 
 
 @dataclass(frozen=True)
 class Study:
-    """A validated study. ``inputs`` maps an input name to its scene paths and distribution
-    spec (a mapping understood by :meth:`mechrel.uq.inputs.UncertainInputs.from_specs`)."""
+    """A validated study.
+
+    ``inputs`` maps an input name to its distribution spec (a mapping understood by
+    :meth:`mechrel.uq.inputs.UncertainInputs.from_specs`) and ``paths`` to the scene paths it
+    sets. ``reliability`` and ``sensitivity`` hold every setting of their section, defaults
+    filled in (``methods``, ``form``, ``n``, ``rule``, ``seed``, ``pce_order``,
+    ``max_failure_fraction``; ``n``, ``seed``, ``max_failure_fraction``).
+    """
 
     name: str
     description: str
     scene: str
     output: str | None
     angle_step: float
-    cycles: float | None
+    cycles: int | None
     quantities: tuple[str, ...]
     scene_overrides: Mapping[str, Any]
     inputs: Mapping[str, Mapping[str, Any]]
@@ -61,6 +70,7 @@ class Study:
         return UncertainInputs.from_specs(dict(self.inputs), correlation=corr)
 
     def allowables(self):
+        """``{quantity: Allowable}`` for the study's quantities."""
         from ..uq import Allowable
         return {q: Allowable(*self.allowable[q]) for q in self.quantities}
 
@@ -70,116 +80,205 @@ def embedded_studies() -> tuple[str, ...]:
     return tuple(sorted(p.name[:-5] for p in d.iterdir() if p.name.endswith(".toml")))
 
 
-def _fail(src, path, msg):
-    raise StudyError(f"{src}: {path}: {msg}")
+class _Checker(Checker):
+    """The scene files' checks and messages, raising :class:`StudyError`."""
+
+    required_hints = {"scene": "an embedded scene name or a path to a scene file",
+                      "inputs": "[inputs.NAME] tables (paths, distribution and its parameters)"}
+
+    def fail(self, path, value, problem, allowed=None):
+        try:
+            super().fail(path, value, problem, allowed)
+        except SceneError as exc:
+            raise StudyError(str(exc)) from None
+
+    def choices(self, path: str, v: Any, choices: tuple[str, ...]) -> tuple[str, ...]:
+        """A non-empty array of distinct values, each one of ``choices``."""
+        allowed = f"a non-empty array of distinct values from {', '.join(choices)}"
+        if isinstance(v, str) or not isinstance(v, (list, tuple)) or not v:
+            self.fail(path, v, "not a non-empty array", allowed)
+        for i, x in enumerate(v):
+            self.choice(f"{path}[{i}]", x, choices)
+        if len(set(v)) != len(v):
+            self.fail(path, v, "a value is repeated", allowed)
+        return tuple(v)
+
+    def seed(self, path: str, v: Any) -> int | None:
+        return None if v is None else self.integer(path, v, ge=0)
+
+    def fraction(self, path: str, v: Any) -> float:
+        return self.number(path, v, ge=0, le=1)
 
 
-def _unknown(src, where, table, allowed):
-    for key in table:
-        if key not in allowed:
-            near = difflib.get_close_matches(key, sorted(allowed), n=1)
-            hint = f" (did you mean {near[0]!r}?)" if near else ""
-            _fail(src, f"{where}{key}", f"unknown field {key!r}{hint}; allowed: "
-                  f"{', '.join(sorted(allowed))}")
+def _read(source) -> tuple[dict, str, Path | None]:
+    """The raw mapping of ``source``, its label for messages and the folder it is in."""
+    if isinstance(source, Mapping):
+        return copy.deepcopy(dict(source)), "<mapping>", None
+    src = str(source)
+    if src in embedded_studies():
+        label, base_dir = f"<embedded study {src}>", None
+        data = resources.files("mechrel.studies").joinpath("data", src + ".toml").read_bytes()
+    else:
+        p = Path(src)
+        if not p.is_file():
+            raise StudyError(f"study {src!r}: no such file and not an embedded study; allowed: "
+                             f"a study file or an embedded study: {', '.join(embedded_studies())}")
+        label, base_dir = str(p), p.parent
+        try:
+            data = p.read_bytes()
+        except OSError as exc:
+            raise StudyError(f"{label}: cannot read the file: {exc.strerror}; allowed: a "
+                             "readable TOML file") from None
+    try:
+        text = data.decode("utf-8-sig")  # a byte order mark, if any, is not TOML
+    except UnicodeDecodeError as exc:
+        raise StudyError(f"{label}: the file is not UTF-8 text ({exc.reason} at byte "
+                         f"{exc.start}); allowed: a UTF-8 TOML file") from None
+    try:
+        return tomllib.loads(text), label, base_dir
+    except tomllib.TOMLDecodeError as exc:
+        raise StudyError(f"{label}: TOML syntax error: {exc}") from None
 
 
-def _number(src, path, value, *, positive=False):
-    if isinstance(value, bool) or not isinstance(value, (int, float)):
-        _fail(src, path, f"{value!r} is not a number")
-    if positive and not value > 0:
-        _fail(src, path, f"{value!r} must be > 0")
-    return float(value)
+def _apply_overrides(raw: dict, overrides: Mapping[str, Any], label: str) -> None:
+    for key, value in overrides.items():
+        node = raw
+        *parents, leaf = key.split(".")
+        for part in parents:
+            node = node.setdefault(part, {})
+            if not isinstance(node, dict):
+                raise StudyError(f"{label}: override {key!r}: {part!r} is not a table")
+        node[leaf] = value
+
+
+def _inputs(c: _Checker, table: Any) -> tuple[dict, dict]:
+    """The distribution specs and the scene paths of ``[inputs]``; each scene path is set by
+    one input only."""
+    table = c.table("inputs", table, "a table of uncertain inputs, e.g. [inputs.clearance] "
+                    "paths = [...], distribution = 'normal', mean = …, std = …")
+    if not table:
+        c.fail("inputs", table, "no uncertain inputs", "at least one [inputs.NAME] table")
+    specs, paths, owner = {}, {}, {}
+    for name, spec in table.items():
+        where = join("inputs", name)
+        spec = dict(c.table(where, spec, "a table with paths, distribution and its parameters"))
+        p = spec.pop("paths", [name])
+        allowed = "a non-empty array of dotted scene paths (a leading '-' negates the value)"
+        if isinstance(p, str) or not isinstance(p, (list, tuple)) or not p:
+            c.fail(where + ".paths", p, "not a non-empty array", allowed)
+        for i, x in enumerate(p):
+            c.string(f"{where}.paths[{i}]", x, allowed)
+            target = x.lstrip("-")
+            if target in owner:
+                c.fail(where + ".paths", p, f"scene path {target!r} is also set by "
+                       f"{owner[target]}", "each scene path set by one input only")
+            owner[target] = where
+        specs[name], paths[name] = spec, tuple(p)
+    return specs, paths
+
+
+def _correlation(c: _Checker, table: Any, names) -> dict | None:
+    if table is None:
+        return None
+    allowed = f'"A,B" = Pearson correlation in [-1, 1], with A and B among {", ".join(names)}'
+    table = c.table("correlation", table, "a table of " + allowed)
+    for key, rho in table.items():
+        pair = key.split(",")
+        if len(pair) != 2 or not all(n in names for n in pair) or pair[0] == pair[1]:
+            c.fail(join("correlation", key), rho, "not a pair of two input names", allowed)
+        c.number(join("correlation", key), rho, ge=-1, le=1)
+    return dict(table)
+
+
+def _allowables(c: _Checker, table: Any) -> dict:
+    table = c.table("allowable", table, "[allowable.QUANTITY] tables with mean and std")
+    c.keys("allowable", table, QUANTITIES, what="the allowables")
+    out = {}
+    for q in QUANTITIES:
+        where = join("allowable", q)
+        t = c.table(where, table.get(q, {}), "a table with mean and std")
+        c.keys(where, t, ("mean", "std"), what="an allowable")
+        mean = c.number(where + ".mean", t.get("mean", DEFAULT_ALLOWABLES[q].mean), gt=0)
+        std = c.number(where + ".std", t.get("std", DEFAULT_ALLOWABLES[q].std), ge=0)
+        out[q] = (mean, std)
+    return out
+
+
+def _reliability(c: _Checker, table: Any) -> dict:
+    t = c.table("reliability", table)
+    c.keys("reliability", t, _RELIABILITY, what="[reliability]")
+    return {"methods": c.choices("reliability.methods", t.get("methods", ["fosm", "mc"]),
+                                 METHODS),
+            "form": c.choice("reliability.form", t.get("form", "two-sided"), FORMS),
+            "n": c.integer("reliability.n", t.get("n", 256), ge=2),
+            "rule": c.choice("reliability.rule", t.get("rule", "sobol"), SAMPLING_RULES),
+            "seed": c.seed("reliability.seed", t.get("seed")),
+            "pce_order": c.integer("reliability.pce_order", t.get("pce_order", 2), ge=1),
+            "max_failure_fraction": c.fraction("reliability.max_failure_fraction",
+                                               t.get("max_failure_fraction", 0.1))}
+
+
+def _sensitivity(c: _Checker, table: Any) -> dict:
+    t = c.table("sensitivity", table)
+    c.keys("sensitivity", t, _SENSITIVITY, what="[sensitivity]")
+    return {"n": c.integer("sensitivity.n", t.get("n", 256), ge=2),
+            "seed": c.seed("sensitivity.seed", t.get("seed")),
+            "max_failure_fraction": c.fraction("sensitivity.max_failure_fraction",
+                                               t.get("max_failure_fraction", 0.05))}
 
 
 def load_study(source, *, overrides: Mapping[str, Any] | None = None) -> Study:
-    """Load and validate a study (embedded name, TOML path or mapping)."""
-    base_dir = None
-    if isinstance(source, Mapping):
-        raw, label = dict(source), "<mapping>"
-    else:
-        text = None
-        src = str(source)
-        if src in embedded_studies():
-            text = resources.files("mechrel.studies").joinpath("data", src + ".toml").read_text()
-            label = f"<embedded study {src}>"
-        else:
-            p = Path(src)
-            if not p.is_file():
-                raise StudyError(f"study {src!r}: no such file and not an embedded study; "
-                                 f"embedded: {', '.join(embedded_studies())}")
-            text, label, base_dir = p.read_text(), str(p), p.parent
-        try:
-            raw = tomllib.loads(text)
-        except tomllib.TOMLDecodeError as exc:
-            raise StudyError(f"{label}: TOML syntax error: {exc}") from None
-    for key, value in (overrides or {}).items():
-        node = raw
-        parts = key.split(".")
-        for part in parts[:-1]:
-            node = node.setdefault(part, {})
-        node[parts[-1]] = value
-    src = label
-    _unknown(src, "", raw, _TOP)
-    for req in ("scene", "inputs"):
-        if req not in raw:
-            _fail(src, req, "missing required field")
-    scene = raw["scene"]
-    if not isinstance(scene, str):
-        _fail(src, "scene", f"{scene!r} must be an embedded scene name or a path (string)")
+    """Load and validate a study.
+
+    Parameters
+    ----------
+    source : str, path or mapping
+        An embedded study name, a TOML file, or the parsed mapping.
+    overrides : mapping, optional
+        ``{"dotted.field": value}`` set in the study before it is validated.
+
+    Returns
+    -------
+    Study
+
+    Raises
+    ------
+    StudyError
+        Naming the file, the field, the value and what is allowed.
+    """
+    raw, label, base_dir = _read(source)
+    overrides = dict(overrides or {})
+    _apply_overrides(raw, overrides, label)
+    c = _Checker(label, [(k, f"{k}={v!r}") for k, v in overrides.items()])
+    c.table("", raw)
+    c.keys("", raw, _TOP, required=("scene", "inputs"), what="a study")
+    default_name = "study" if isinstance(source, Mapping) else Path(str(source)).stem
+    scene = c.string("scene", raw["scene"], _Checker.required_hints["scene"])
     if base_dir is not None and (base_dir / scene).is_file():
         scene = str(base_dir / scene)
-    quantities = tuple(raw.get("quantities", QUANTITIES))
-    for q in quantities:
-        if q not in QUANTITIES:
-            _fail(src, "quantities", f"{q!r} is not one of {', '.join(QUANTITIES)}")
-    inputs, paths = {}, {}
-    if not isinstance(raw["inputs"], Mapping) or not raw["inputs"]:
-        _fail(src, "inputs", "must be a table of uncertain inputs, e.g. "
-              "[inputs.clearance] paths = [...], distribution = 'normal', mean = …, std = …")
-    for name, spec in raw["inputs"].items():
-        if not isinstance(spec, Mapping):
-            _fail(src, f"inputs.{name}", f"{spec!r} must be a table")
-        spec = dict(spec)
-        p = spec.pop("paths", [name])
-        if isinstance(p, str) or not p or not all(isinstance(x, str) for x in p):
-            _fail(src, f"inputs.{name}.paths", f"{p!r} must be a non-empty list of dotted "
-                  "scene paths")
-        paths[name] = tuple(p)
-        inputs[name] = spec
-    allowable = {}
-    defaults = {"displacement": (0.012, 0.004), "velocity": (0.3, 0.1),
-                "acceleration": (18.0, 6.0)}
-    table = raw.get("allowable", {})
-    _unknown(src, "allowable.", table, set(QUANTITIES))
-    for q in quantities:
-        t = table.get(q, {})
-        _unknown(src, f"allowable.{q}.", t, {"mean", "std"})
-        mean = _number(src, f"allowable.{q}.mean", t.get("mean", defaults[q][0]), positive=True)
-        std = _number(src, f"allowable.{q}.std", t.get("std", defaults[q][1]))
-        if std < 0:
-            _fail(src, f"allowable.{q}.std", f"{std!r} must be >= 0")
-        allowable[q] = (mean, std)
-    rel = dict(raw.get("reliability", {}))
-    _unknown(src, "reliability.", rel, _RELIABILITY)
-    methods = rel.get("methods", ["fosm", "mc"])
-    for m in methods:
-        if m not in METHODS:
-            _fail(src, "reliability.methods", f"{m!r} is not one of {', '.join(METHODS)}")
-    rel["methods"] = tuple(methods)
-    if "n" in rel:
-        _number(src, "reliability.n", rel["n"], positive=True)
-    sens = dict(raw.get("sensitivity", {}))
-    _unknown(src, "sensitivity.", sens, _SENSITIVITY)
-    angle_step = _number(src, "angle_step", raw.get("angle_step", 18.0), positive=True)
+    output = raw.get("output")
+    step = raw.get("angle_step", 18.0)
+    angle_step = c.number("angle_step", step, gt=0, unit="degrees")
+    if 360.0 / angle_step != round(360.0 / angle_step):
+        c.fail("angle_step", step, "does not divide 360 degrees",
+               "a divisor of 360 (degrees), e.g. 18, 10 or 5")
     cycles = raw.get("cycles")
-    if cycles is not None:
-        _number(src, "cycles", cycles, positive=True)
-    study = Study(name=str(raw.get("name", Path(str(source)).stem if not isinstance(
-        source, Mapping) else "study")), description=str(raw.get("description", "")),
-        scene=scene, output=raw.get("output"), angle_step=angle_step, cycles=cycles,
-        quantities=quantities, scene_overrides=dict(raw.get("scene_overrides", {})),
-        inputs=inputs, paths=paths, correlation=raw.get("correlation"), allowable=allowable,
-        reliability=rel, sensitivity=sens, source=label)
-    # validate the inputs against chaospy/scipy and the scene paths early, with their names
-    study.uncertain_inputs()
+    specs, paths = _inputs(c, raw["inputs"])
+    study = Study(
+        name=c.string("name", raw.get("name", default_name)),
+        description=c.string("description", raw.get("description", "")),
+        scene=scene, output=None if output is None else c.string("output", output),
+        angle_step=angle_step, cycles=None if cycles is None else c.integer("cycles", cycles, ge=1),
+        quantities=c.choices("quantities", raw.get("quantities", list(QUANTITIES)), QUANTITIES),
+        scene_overrides=dict(c.table("scene_overrides", raw.get("scene_overrides", {}),
+                                     "a table of dotted scene paths and values")),
+        inputs=specs, paths=paths,
+        correlation=_correlation(c, raw.get("correlation"), tuple(specs)),
+        allowable=_allowables(c, raw.get("allowable", {})),
+        reliability=_reliability(c, raw.get("reliability", {})),
+        sensitivity=_sensitivity(c, raw.get("sensitivity", {})), source=label)
+    try:  # the distributions, checked by chaospy/scipy with the input's name
+        study.uncertain_inputs()
+    except StudyError as exc:
+        raise StudyError(f"{label}: {exc}") from None
     return study

@@ -18,6 +18,28 @@ from .model import check_model
 _PACKAGES = ("mechrel", "numpy", "scipy", "pandas", "chaospy", "numpoly", "SALib", "joblib")
 
 
+class SampleFailuresError(StudyError):
+    """An estimator refused to analyse because of failed samples.
+
+    Raised when more than ``max_failure_fraction`` of the samples (or, for Sobol' indices, of
+    the Saltelli blocks) failed, or when too few successful samples are left to estimate
+    anything. Dropping many failed samples biases the estimate when failures depend on the
+    inputs, so the refusal is deliberate; the samples are not lost: ``evaluations`` holds every
+    one of them, with the reasons of the failed ones (``evaluations.failures()``).
+
+    Parameters
+    ----------
+    message : str
+        What was refused and why.
+    evaluations : Evaluations
+        The evaluations the estimator refused to analyse.
+    """
+
+    def __init__(self, message: str, evaluations: Evaluations):
+        super().__init__(message)
+        self.evaluations = evaluations
+
+
 def package_versions() -> dict[str, str]:
     out = {"python": platform.python_version()}
     for p in _PACKAGES:

@@ -36,7 +36,8 @@ Failed samples
 on the model being evaluable), the failures are counted and listed by reason in the result.
 ``failures="as_violation"``: a failed sample counts as out of tolerance at every output
 (conservative for reliability; moments still use the successful samples). Either way the run
-refuses (``StudyError``) if more than ``max_failure_fraction`` of the samples failed.
+refuses if more than ``max_failure_fraction`` of the samples failed (or fewer than 2 succeeded):
+:class:`~mechrel.uq._common.SampleFailuresError`, a ``StudyError`` that carries the evaluations.
 """
 
 from __future__ import annotations
@@ -52,6 +53,7 @@ from scipy import stats
 from mechrel.errors import StudyError
 
 from ._common import (
+    SampleFailuresError,
     check_choice,
     check_fraction,
     check_inputs,
@@ -246,12 +248,14 @@ def monte_carlo(
     if ev.n == 0:
         raise StudyError("monte_carlo: no samples")
     if ev.n_failed > max_failure_fraction * ev.n:
-        raise StudyError(
+        raise SampleFailuresError(
             f"monte_carlo: {failure_message(ev)}, more than max_failure_fraction="
-            f"{max_failure_fraction}; inspect evaluations.failures(), fix the model or raise the threshold"
+            f"{max_failure_fraction}; inspect evaluations.failures(), fix the model or raise the threshold",
+            ev,
         )
     if ev.n_ok < 2:
-        raise StudyError(f"monte_carlo: need at least 2 successful samples, got {ev.n_ok}")
+        raise SampleFailuresError(f"monte_carlo: need at least 2 successful samples, got {ev.n_ok}"
+                                  + (f" ({failure_message(ev)})" if ev.n_failed else ""), ev)
     point, whole = reliability_from_samples(
         ev, allowable=allowable, form=form, allowable_mode=allowable_mode, seed=ss_I,
         confidence_level=confidence_level, ci_method=ci_method, failures=failures,

@@ -15,11 +15,12 @@ Coefficients
 ``method="regression"``: least squares on ``ceil(oversampling · P)`` samples (P basis terms)
 drawn by ``rule`` (rounded up to a power of 2 for ``rule="sobol"``); error estimate: leave-one-out in closed form through the hat matrix,
 e_LOO = mean_i[((y_i − ŷ_i)/(1 − h_ii))²] / Var(y) (relative; ``loo_error``). Failed samples are
-dropped (counted; refuses above ``max_failure_fraction`` or when fewer than P + 1 remain).
+dropped (counted; refuses above ``max_failure_fraction`` or when fewer than P + 1 remain:
+:class:`~mechrel.uq._common.SampleFailuresError`, a ``StudyError`` carrying the evaluations).
 ``method="quadrature"``: spectral projection c_α = Σ_q w_q Ψ_α(ξ_q) y_q on
 ``chaospy.generate_quadrature(order, germ, rule=quadrature_rule, sparse=sparse)`` (Gaussian:
 order + 1 points per dimension, exact for the products Ψ_α·f of degree ≤ 2·order + 1). A failed
-node invalidates the rule: ``StudyError``. Error estimate: relative mean-square error on
+node invalidates the rule: ``SampleFailuresError``. Error estimate: relative mean-square error on
 ``n_validation`` extra random samples (``validation_error``).
 
 Post-processing (directly from the coefficients; chaospy's ``Sens_*`` are not used)
@@ -46,6 +47,7 @@ import pandas as pd
 from mechrel.errors import StudyError
 
 from ._common import (
+    SampleFailuresError,
     check_choice,
     check_fraction,
     check_inputs,
@@ -337,12 +339,13 @@ def polynomial_chaos(
     loo = None
     if method == "regression":
         if ev.n_failed > max_failure_fraction * ev.n:
-            raise StudyError(f"polynomial_chaos: {failure_message(ev)}, more than max_failure_fraction={max_failure_fraction}")
+            raise SampleFailuresError(
+                f"polynomial_chaos: {failure_message(ev)}, more than max_failure_fraction={max_failure_fraction}", ev)
         ok = ev.ok
         if ok.sum() < P + 1:
-            raise StudyError(
+            raise SampleFailuresError(
                 f"polynomial_chaos: {int(ok.sum())} successful samples for {P} basis terms; need more than {P} "
-                "(raise oversampling, lower order or q_norm)"
+                "(raise oversampling, lower order or q_norm)", ev
             )
         Psi = _basis(Z[ok], alphas, rec, order)
         Yk = ev.Y[ok]
@@ -356,9 +359,9 @@ def polynomial_chaos(
         loo = pd.Series(loo_vals, index=ev.output_index, name="loo_error")
     else:
         if ev.n_failed:
-            raise StudyError(
+            raise SampleFailuresError(
                 f"polynomial_chaos: quadrature needs every node; {failure_message(ev)}. "
-                "Use method='regression' (which drops failed samples) or narrow the inputs."
+                "Use method='regression' (which drops failed samples) or narrow the inputs.", ev
             )
         Psi = _basis(Z, alphas, rec, order)
         coef = (Psi * weights[:, None]).T @ ev.Y

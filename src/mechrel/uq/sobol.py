@@ -17,8 +17,10 @@ A Saltelli block is only usable whole (every estimator combines A, B and AB_j of
 sample). A block containing a failed row (model failure, or a non-finite reduced output) is
 dropped entirely; the number of dropped blocks and the failure reasons are reported in the
 result. If more than ``max_failure_fraction`` of the blocks would be dropped the analysis
-refuses (``StudyError``): dropping blocks conditions the design on "the model works", which
-biases the indices when failures depend on the inputs — only acceptable when rare.
+refuses: dropping blocks conditions the design on "the model works", which biases the indices
+when failures depend on the inputs — only acceptable when rare. The refusal (also when fewer
+than 2 complete blocks remain) is a :class:`~mechrel.uq._common.SampleFailuresError`, a
+``StudyError`` that carries the raw evaluations.
 """
 
 from __future__ import annotations
@@ -34,6 +36,7 @@ import pandas as pd
 from mechrel.errors import StudyError
 
 from ._common import (
+    SampleFailuresError,
     check_fraction,
     check_inputs,
     exclusive_source,
@@ -196,14 +199,17 @@ def sobol_indices(
     block_ok = ev.ok.reshape(n_blocks, step).all(axis=1)
     n_drop = int((~block_ok).sum())
     if n_drop > max_failure_fraction * n_blocks:
-        raise StudyError(
+        raise SampleFailuresError(
             f"sobol_indices: {n_drop} of {n_blocks} Saltelli blocks contain a failed sample "
             f"({failure_message(ev)}), more than max_failure_fraction={max_failure_fraction}; "
-            "dropping them would bias the indices. Fix the failing region or narrow the inputs."
+            "dropping them would bias the indices. Fix the failing region or narrow the inputs.", raw
         )
+    n_used = n_blocks - n_drop
+    if n_used < 2:
+        raise SampleFailuresError(f"sobol_indices: need at least 2 complete Saltelli blocks, got {n_used}"
+                                  + (f" ({failure_message(ev)})" if ev.n_failed else ""), raw)
     keep_rows = np.repeat(block_ok, step)
     Y = ev.Y[keep_rows]
-    n_used = int(block_ok.sum())
     problem = _problem(d, inputs.names)
     analyze_seed = int(child_seed(ss, 1).generate_state(1)[0]) + 1  # SALib ignores seed 0
     res = {k: np.full((Y.shape[1], d), np.nan) for k in ("S1", "S1_conf", "ST", "ST_conf")}
