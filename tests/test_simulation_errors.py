@@ -15,3 +15,70 @@ def test_lubricated_film_that_cannot_carry_the_load_is_a_clear_error():
                        overrides={"joints.C.lubricant.viscosity": 1e-6, "analysis.cycles": 0.25})
     with pytest.raises(SimulationError, match=r"stopped at t = .*model = 'transition'"):
         simulate(scene)
+
+
+def test_lubricated_journal_beyond_the_wall_is_a_failed_run_not_a_result():
+    # With a 1e-12 Pa s film the integrator steps over the film's divergence and the journal
+    # ends up outside the bearing (ε = 1.09 within a quarter revolution; 1.62 after two, and
+    # reported as a normal result before this check). The lubricated model has no meaning
+    # there: the run must fail, naming the joint, ε and the way out.
+    from mechrel.errors import SimulationError
+    scene = load_scene("slider-crank-lubricated",
+                       overrides={"joints.C.lubricant.viscosity": 1e-12, "analysis.cycles": 0.25})
+    with pytest.raises(SimulationError, match=r"joint C: the journal left the bearing "
+                       r"\(eccentricity ratio ε = 1\.\d+ >= 1 at t = .*viscosity 1e-12 Pa s.*"
+                       r"model = 'transition'"):
+        simulate(scene)
+
+
+def test_dry_penetration_beyond_the_clearance_is_a_failed_run_not_a_result():
+    # Young's moduli of 1e7 Pa (rubber-soft, 2e4 times softer than steel) let the journal sink
+    # 12 mm into its bearing (clearance 0.5 mm) within a quarter revolution: outside any
+    # small-deformation contact law, so a failed run.
+    from mechrel.errors import SimulationError
+    scene = load_scene("slider-crank-dry", overrides={
+        "joints.C.contact.youngs_modulus_bearing": 1e7,
+        "joints.C.contact.youngs_modulus_journal": 1e7, "analysis.cycles": 0.25})
+    with pytest.raises(SimulationError, match=r"joint C: penetration 0\.0\d+ m at t = .* exceeds "
+                       r"the clearance \(0\.0005 m\).*Young's moduli"):
+        simulate(scene)
+
+
+def test_division_by_zero_in_the_compiled_kernels_is_a_simulation_error():
+    # numba's compiled float division raises ZeroDivisionError (Python's error model). With a
+    # film of 1e200 Pa s the film force overflows and a denominator becomes 0. Before, this
+    # escaped as ZeroDivisionError, which the UQ executor treats as a bug that stops a whole
+    # Monte Carlo run; it is a failed sample.
+    from mechrel.errors import SimulationError
+    scene = load_scene("slider-crank-lubricated",
+                       overrides={"joints.C.lubricant.viscosity": 1e200, "analysis.cycles": 0.05})
+    with pytest.raises(SimulationError, match=r"radau diverged .*ZeroDivisionError"):
+        simulate(scene)
+
+
+@pytest.mark.parametrize("integrator", ["bdf", "lsoda", "scipy-radau"])
+def test_scipy_integrators_honour_max_steps(integrator):
+    # SciPy's solvers used to run inside solve_ivp, which has no step limit: BDF through the
+    # dry slider-crank's impacts did not finish 0.05 revolution in 120 s. The wrapper now steps
+    # the OdeSolver itself and stops at max_steps, with advice that fits a stiff method.
+    from mechrel.errors import SimulationError
+    scene = load_scene("slider-crank-dry",
+                       overrides={"analysis.cycles": 0.05, "solver.max_steps": 5})
+    with pytest.raises(SimulationError, match=rf"'{integrator}' stopped at t = .*maximum number "
+                       r"of steps reached after 5 steps.*raise solver.max_steps \(now 5\).*"
+                       r"'dopri5'"):
+        simulate(scene, integrator=integrator)
+
+
+def test_scipy_event_location_survives_a_grazing_restart():
+    # LSODA through the dry slider-crank's chattering contact (≈ 16 500 event restarts in the
+    # first 1.8 ms): at t = 1.02 ms solve_ivp's own event handling raised "f(a) and f(b) must
+    # have different signs" (the step's end states showed a sign change of a ~0 gap that its
+    # dense output did not), a ValueError that escaped as a crash. The wrapper now places such
+    # an event at the step's end, and the run completes (≈ 6 s).
+    import numpy as np
+    scene = load_scene("slider-crank-dry", overrides={"analysis.cycles": 0.15})
+    res = simulate(scene, integrator="lsoda")
+    assert res.stats["n_impacts"] >= 1 and np.all(np.isfinite(res.a))
+    # the hard-case tests' bound |Φ| ≤ 1e-3 c (c = 0.5 mm); measured 5.7e-8 m
+    assert res.stats["max_position_violation"] < 1e-3 * 0.5e-3

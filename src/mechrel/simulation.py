@@ -227,6 +227,31 @@ def _orbits_and_energy(compiled: CompiledScene, res: IntegrationResult):
     return orbits, energy
 
 
+def _check_orbits(scene: Scene, times: np.ndarray, orbits) -> None:
+    """Raise :class:`SimulationError` when a journal is where its force law has no meaning:
+    a lubricated journal at or beyond the bearing wall (ε ≥ 1; the film's divergence is what
+    keeps it inside, docs/forces.md §5, so reaching the wall means the integrator stepped over
+    the film), or a dry/transition penetration δ = (ε − 1) c beyond the clearance itself
+    (ε ≥ 2; the Lankarani–Nikravesh law is a small-deformation law, δ ≪ radii, and steel joints
+    penetrate micrometres). Such a run is a failed run, not a result."""
+    for name, d in orbits.items():
+        joint = scene.joints[name]
+        eps = d["eps"]
+        i = int(np.argmax(eps))
+        if joint.model == "lubricated" and eps[i] >= 1.0:
+            raise SimulationError(
+                f"joint {name}: the journal left the bearing (eccentricity ratio ε = "
+                f"{eps[i]:.4g} >= 1 at t = {times[i]:.6g} s): the film (viscosity "
+                f"{joint.lubricant.viscosity:g} Pa s) cannot carry the load there; use model = "
+                "'transition' (adds metal contact) or check the load and viscosity")
+        if joint.model != "lubricated" and eps[i] >= 2.0:
+            raise SimulationError(
+                f"joint {name}: penetration {(eps[i] - 1.0) * joint.clearance:.4g} m at t = "
+                f"{times[i]:.6g} s exceeds the clearance ({joint.clearance:g} m): the contact "
+                "law (small deformations) does not apply; check the contact's Young's moduli "
+                "and the load")
+
+
 def _provenance(scene: Scene, wall: float) -> dict:
     from . import __version__
     from .scene import scene_hash
@@ -319,6 +344,7 @@ def simulate(scene: Scene, *, method: str = "auto", integrator: str | None = Non
         ideal = _point_outputs(compiled, resi.y[:, :n], resi.y[:, n:2 * n],
                                resi.ydot[:, n:2 * n])
     orbits, energy = _orbits_and_energy(compiled, res)
+    _check_orbits(scene, times, orbits)
     wall = time.perf_counter() - start
     stats = res.stats.as_dict()
     stats["total_wall_time"] = wall

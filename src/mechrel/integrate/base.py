@@ -147,6 +147,20 @@ class Integrator:
     def _advance(self, system, t0, y0, hist, t_out, ctl):  # pragma: no cover - abstract
         raise NotImplementedError
 
+    def _advice(self, status, system) -> str:
+        """What to try after a failed run, by its status and the scene's effects."""
+        if _has_lubricated(system):
+            return ("if a lubricated joint's film cannot carry the load it drives ε → 1: use "
+                    "model = 'transition' (adds metal contact) or check the load and viscosity")
+        if status == ev.STATUS_MAX_STEPS:
+            return (f"raise solver.max_steps (now {self.max_steps}), or use "
+                    + ("an explicit integrator (solver.integrator = 'dopri5'), which resolves "
+                       "dry impacts in fewer, cheaper steps" if self.stiff else
+                       "a stiff integrator (solver.integrator = 'radau') if the scene is stiff"))
+        return ("try a smaller step or tolerance"
+                + ("" if self.stiff else
+                   ", or a stiff integrator (solver.integrator = 'radau')"))
+
     def _run(self, system, t, y, hist, t_out, progress):
         """``_advance`` over ``t_out``; with a progress bar, in a worker thread while this one
         feeds the bar from the control vector and passes Ctrl-C on as a stop request."""
@@ -198,13 +212,16 @@ class Integrator:
         start = time.perf_counter()
         try:
             Y, YD, hist, total, t, y = self._run(system, t, y, hist, t_out, progress)
-        except np.linalg.LinAlgError as exc:
-            # the compiled Cholesky of the Schur complement raises this when the state has
-            # diverged (e.g. RK4 with too large a step through dry impacts): a failed run,
-            # not a bug, so that `mechrel accuracy` and the UQ executor record it
+        except (np.linalg.LinAlgError, ZeroDivisionError) as exc:
+            # the compiled Cholesky of the Schur complement raises LinAlgError when the state
+            # has diverged (e.g. RK4 with too large a step through dry impacts), and numba's
+            # compiled float division raises ZeroDivisionError (Python's error model) when a
+            # state has overflowed to a zero denominator (e.g. a film of viscosity 1e200): a
+            # failed run, not a bug, so that `mechrel accuracy` and the UQ executor record it
             raise SimulationError(
                 f"{self.name} diverged between t = {t:.6g} s and {t_out[-1]:.6g} s "
-                f"({exc}); use a smaller step or tighter tolerances") from None
+                f"({type(exc).__name__}: {exc}); use a smaller step or tighter tolerances, "
+                "and check the scene's parameters for extreme values") from None
         wall = time.perf_counter() - start
         status = int(total[ev.S_STATUS])
         result_stats = SolverStats(
@@ -220,10 +237,7 @@ class Integrator:
             raise SimulationError(
                 f"integrator {self.name!r} stopped at t = {t:.6g} s: {ev.STATUS_TEXT[status]} "
                 f"after {result_stats.n_steps} steps ({self.settings}); "
-                + ("if a lubricated joint's film cannot carry the load it drives ε → 1: use "
-                   "model = 'transition' (adds metal contact) or check the load and viscosity"
-                   if _has_lubricated(system) else "try a smaller step or tolerance, or a "
-                   "stiff integrator (solver.integrator = 'radau')"))
+                + self._advice(status, system))
         return IntegrationResult(t=t_out, y=Y, ydot=YD, hist=hist, stats=result_stats)
 
 

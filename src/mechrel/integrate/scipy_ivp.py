@@ -1,24 +1,38 @@
 """SciPy's implicit solvers (Radau, BDF, LSODA) around the compiled right-hand side.
 
 A reference and fallback: every right-hand-side call crosses from Python into compiled code
-(tens of µs per call), so the compiled kernels are faster. Contact onsets are located by
-``solve_ivp`` events (plain functions of ``(t, y)``, terminal, direction +1) placed at half
-the onset tolerance inside the contact; separations (direction −1) reset the history. The
-integration restarts after each event with the updated history.
+(tens of µs per call), so the compiled kernels are faster.
+
+The wrapper drives SciPy's :class:`~scipy.integrate.OdeSolver` classes one step at a time, as
+``solve_ivp`` does, so that ``max_steps`` and a stop request apply at every step (inside
+``solve_ivp`` they could not: a BDF run through dry impacts took minutes per millisecond with no
+way to stop it). Contact onsets are located like ``solve_ivp`` events (terminal, direction +1)
+placed at half the onset tolerance inside the contact; separations (direction −1) reset the
+history. Detection and root finding are ``solve_ivp``'s (a sign change of the event function
+between the step's ends; Brent's method on the step's dense output, ``xtol = rtol = 4 eps``), so
+results are those of ``solve_ivp`` with events, with one exception: when the dense output does
+not bracket the sign change that the step's end states show (a grazing restart, where the
+interpolant and the state differ by round-off in the sign of a gap of ~0), ``solve_ivp`` raises
+"f(a) and f(b) must have different signs"; here the event is placed at the step's end, whose
+state does satisfy it. The solver restarts after each event with the updated history.
 """
 
 from __future__ import annotations
 
 import numpy as np
-from scipy.integrate import solve_ivp
+from scipy import integrate
+from scipy.optimize import brentq
 
 from ..mechanics.problem import constraint_violation, gaps, rhs
 from . import events as ev
 from .base import Integrator
 
+_EPS = np.finfo(float).eps
+
 
 class ScipyIVP(Integrator):
-    """Base of the SciPy wrappers; ``method`` is the ``solve_ivp`` method name."""
+    """Base of the SciPy wrappers; ``method`` is the name of the
+    :class:`scipy.integrate.OdeSolver` subclass."""
 
     method = ""
     stiff = True
@@ -29,69 +43,91 @@ class ScipyIVP(Integrator):
         floors = ev.contact_floors(system)
         stats = np.zeros(ev.N_STATS)
         tol = self.onset_tolerance
-        ny = y0.shape[0]
-        Y = np.full((t_out.size, ny), np.nan)
-        YD = np.full((t_out.size, ny), np.nan)
+        solver_class = getattr(integrate, self.method)
+        Y = np.full((t_out.size, y0.shape[0]), np.nan)
+        YD = np.full_like(Y, np.nan)
         t, y = float(t0), y0.copy()
         k = 0
         while k < t_out.size and t_out[k] <= t:
             Y[k], YD[k] = y, rhs(t, y, hist, system)
             k += 1
+        ctl[ev.CTL_DONE] = k
         tend = float(t_out[-1])
         first_step = self.step
-        while t < tend:
-            if ctl[ev.CTL_STOP]:  # checked between events (SciPy's loop is not ours)
-                stats[ev.S_STATUS] = ev.STATUS_STOPPED
-                break
 
-            def fun(tt, yy, _h=hist):
-                # SciPy's finite-difference Jacobians (BDF, Radau) pass columns of a matrix,
-                # i.e. non-contiguous views: copying keeps rhs on its one compiled (C-layout)
-                # signature instead of compiling (~25 s) and running an 'A'-layout variant.
-                return rhs(tt, np.ascontiguousarray(yy), _h, system)
+        def fun(tt, yy):
+            # SciPy's finite-difference Jacobians (BDF, Radau) pass columns of a matrix, i.e.
+            # non-contiguous views: copying keeps rhs on its one compiled (C-layout) signature
+            # instead of compiling (~25 s) and running an 'A'-layout variant.
+            return rhs(tt, np.ascontiguousarray(yy), hist, system)
 
-            evs = []
-            for c in range(hist.size):
-                if hist[c] == 0.0:
-                    def onset(tt, yy, _c=c):
-                        return gaps(tt, yy, system)[0][_c] - 0.5 * tol
-                    onset.terminal, onset.direction = True, 1.0
-                    evs.append(onset)
-                else:
-                    def separation(tt, yy, _c=c):
-                        return gaps(tt, yy, system)[0][_c]
-                    separation.terminal, separation.direction = True, -1.0
-                    evs.append(separation)
-            sol = solve_ivp(fun, (t, tend), y, method=self.method, rtol=self.rtol,
-                            atol=self.atol, dense_output=True, events=evs or None,
-                            first_step=first_step)
-            stats[ev.S_STEPS] += sol.t.size - 1
-            stats[ev.S_RHS] += sol.nfev
-            stats[ev.S_JAC] += sol.njev
-            stats[ev.S_LU] += sol.nlu
-            for col in range(sol.y.shape[1]):
-                p, v = constraint_violation(sol.t[col], sol.y[:, col], system)
+        def event_values(tt, yy):
+            """Onset (gap − tol/2, rising) for joints out of contact, separation (gap,
+            falling) for joints in contact; the event is a sign change in that direction."""
+            g = gaps(tt, yy, system)[0]
+            return np.where(hist == 0.0, g - 0.5 * tol, g), np.where(hist == 0.0, 1.0, -1.0)
+
+        while t < tend:  # one OdeSolver per stretch between events
+            solver = solver_class(fun, t, y, tend, rtol=self.rtol, atol=self.atol,
+                                  first_step=first_step)
+            first_step = None
+            g_old, direction = event_values(t, y)
+            n_fev = n_jev = n_lu = 0
+            event = False
+            while True:
+                if ctl[ev.CTL_STOP]:
+                    stats[ev.S_STATUS] = ev.STATUS_STOPPED
+                    break
+                if stats[ev.S_STEPS] >= self.max_steps:
+                    stats[ev.S_STATUS] = ev.STATUS_MAX_STEPS
+                    break
+                solver.step()
+                stats[ev.S_RHS] += solver.nfev - n_fev
+                stats[ev.S_JAC] += solver.njev - n_jev
+                stats[ev.S_LU] += solver.nlu - n_lu
+                n_fev, n_jev, n_lu = solver.nfev, solver.njev, solver.nlu
+                if solver.status == "failed":
+                    stats[ev.S_STATUS] = ev.STATUS_STEP_UNDERFLOW
+                    break
+                stats[ev.S_STEPS] += 1
+                t_old, t_new, y_new = solver.t_old, solver.t, solver.y
+                sol = solver.dense_output()
+                g_new, _ = event_values(t_new, y_new)
+                up = (g_old <= 0.0) & (g_new >= 0.0) & (direction > 0.0)
+                down = (g_old >= 0.0) & (g_new <= 0.0) & (direction < 0.0)
+                t_stop, y_stop = t_new, y_new
+                for c in np.flatnonzero(up | down):
+                    def g_c(tt, _c=c):
+                        return event_values(tt, sol(tt))[0][_c]
+                    ga, gb = g_c(t_old), g_c(t_new)
+                    root = (brentq(g_c, t_old, t_new, xtol=4 * _EPS, rtol=4 * _EPS)
+                            if ga * gb <= 0.0 else t_new)  # not bracketed: module docstring
+                    if not event or root < t_stop:
+                        t_stop = root
+                    event = True
+                if event and t_stop < t_new:
+                    y_stop = sol(t_stop)
+                p, v = constraint_violation(t_stop, y_stop, system)
                 stats[ev.S_VIOL_POS] = max(stats[ev.S_VIOL_POS], p)
                 stats[ev.S_VIOL_VEL] = max(stats[ev.S_VIOL_VEL], v)
-            if sol.status == -1:
-                stats[ev.S_STATUS] = ev.STATUS_STEP_UNDERFLOW
+                while k < t_out.size and t_out[k] <= t_stop:
+                    Y[k] = sol(t_out[k])
+                    YD[k] = rhs(t_out[k], Y[k], hist, system)
+                    k += 1
+                ctl[ev.CTL_DONE] = k
+                t, y = float(t_stop), np.array(y_stop, dtype=float)
+                g_old = g_new
+                if event or solver.status == "finished" or not np.all(np.isfinite(y)):
+                    break
+            if stats[ev.S_STATUS] != ev.STATUS_OK:
                 break
-            t_stop = float(sol.t[-1])
-            while k < t_out.size and t_out[k] <= t_stop:
-                Y[k] = sol.sol(t_out[k])
-                YD[k] = rhs(t_out[k], Y[k], hist, system)
-                k += 1
-            ctl[ev.CTL_DONE] = k
-            t, y = t_stop, sol.y[:, -1].copy()
             if not np.all(np.isfinite(y)):
                 stats[ev.S_STATUS] = ev.STATUS_NONFINITE
                 break
-            if sol.status == 1:  # an event: update the history and restart
-                if not ev.update_history(t, y, hist, floors, system, stats):
-                    # a separation event at g = 0 exactly: reset explicitly
-                    g, _ = gaps(t, y, system)
-                    hist[(hist != 0.0) & (g <= 0.0)] = 0.0
-            first_step = None
+            if event and not ev.update_history(t, y, hist, floors, system, stats):
+                # a separation event at g = 0 exactly: reset explicitly
+                g, _ = gaps(t, y, system)
+                hist[(hist != 0.0) & (g <= 0.0)] = 0.0
         return Y, YD, hist, stats, t, y
 
 
