@@ -14,8 +14,11 @@ A subclass of :class:`Integrator`
   each instant, the history state after the last instant, the statistics vector of
   :mod:`mechrel.integrate.events` and the final time and state; it keeps
   ``ctl[events.CTL_DONE]`` (``ctl``: a two-element int64 array) at the number of output
-  instants stored so far and stops with ``STATUS_STOPPED`` soon after another thread sets
-  ``ctl[events.CTL_STOP]``;
+  instants stored so far, stops with ``STATUS_STOPPED`` at its next step after another thread
+  sets ``ctl[events.CTL_STOP]`` and with ``STATUS_MAX_STEPS`` after ``self.max_steps`` steps
+  (so a wrapped library solver must be stepped by the subclass, as
+  :mod:`mechrel.integrate.scipy_ivp` does, not run to the end by a driver such as
+  ``solve_ivp``);
 * locates contact onsets before capturing the impact speed (use
   :func:`~mechrel.integrate.events.onset_fraction` and
   :func:`~mechrel.integrate.events.update_history`), and never returns non-finite values
