@@ -45,14 +45,31 @@ def test_dry_penetration_beyond_the_clearance_is_a_failed_run_not_a_result():
 
 
 def test_division_by_zero_in_the_compiled_kernels_is_a_simulation_error():
-    # numba's compiled float division raises ZeroDivisionError (Python's error model). With a
-    # film of 1e200 Pa s the film force overflows and a denominator becomes 0. Before, this
-    # escaped as ZeroDivisionError, which the UQ executor treats as a bug that stops a whole
-    # Monte Carlo run; it is a failed sample.
+    # numba's compiled float division raises ZeroDivisionError (Python's error model). It used
+    # to escape as such, which the UQ executor treats as a bug that stops a whole Monte Carlo
+    # run; it is a failed run. Checked on the contract itself, with an integrator whose
+    # kernel divides by zero.
+    import numpy as np
+    from mechrel.errors import SimulationError
+    from mechrel.integrate.base import DOPRI5
+
+    class Dividing(DOPRI5):
+        def _advance(self, system, t0, y0, hist, t_out, ctl):
+            return 1.0 / 0.0
+
+    with pytest.raises(SimulationError, match=r"dopri5 diverged between t = 0 s and 1 s "
+                       r"\(ZeroDivisionError: float division by zero\).*extreme values"):
+        Dividing().integrate(None, np.zeros(2), np.zeros(0), np.array([0.0, 1.0]))
+
+
+def test_absurd_viscosity_is_a_failed_run():
+    # a film of 1e200 Pa s on the slider-crank: the starting step came out as 0 (‖f‖ overflows),
+    # the kernel divided by it and a ZeroDivisionError escaped. Now the starting step is
+    # floored (events.H_START_FLOOR) and the run fails as a SimulationError like any other.
     from mechrel.errors import SimulationError
     scene = load_scene("slider-crank-lubricated",
                        overrides={"joints.C.lubricant.viscosity": 1e200, "analysis.cycles": 0.05})
-    with pytest.raises(SimulationError, match=r"radau diverged .*ZeroDivisionError"):
+    with pytest.raises(SimulationError, match=r"integrator 'radau' stopped at t = 0 s"):
         simulate(scene)
 
 
@@ -82,3 +99,55 @@ def test_scipy_event_location_survives_a_grazing_restart():
     assert res.stats["n_impacts"] >= 1 and np.all(np.isfinite(res.a))
     # the hard-case tests' bound |Φ| ≤ 1e-3 c (c = 0.5 mm); measured 5.7e-8 m
     assert res.stats["max_position_violation"] < 1e-3 * 0.5e-3
+
+
+def test_output_grid_beyond_memory_is_named_before_anything_is_allocated():
+    # a sample step of 1e-12 rad on the 5000 rpm slider-crank asks for 6e12 output instants
+    # (7e6 GiB): before, numpy raised MemoryError deep inside; now the field is named
+    from mechrel.errors import SimulationError
+    scene = load_scene("slider-crank", overrides={"analysis.sample_step_angle": 1e-12})
+    with pytest.raises(SimulationError, match=r"embedded:slider-crank: "
+                       r"analysis\.sample_step_angle: 6\.28e\+12 output instants .* GiB, more "
+                       r"than this machine's"):
+        simulate(scene)
+
+
+@pytest.mark.parametrize("name, rtol", [("double-pendulum", 0.05), ("slider-crank-dry", 0.01),
+                                        ("slider-crank-lubricated", 0.1)])
+def test_loose_tolerances_take_a_first_step(name, rtol):
+    # A tight atol scales the components that are zero at rest (velocities), so Hairer's first
+    # estimate of the starting step, 0.01 ||y|| / ||f||, fell below the underflow limit
+    # (1e-14 s for the double pendulum at rtol 0.05) and the run stopped before its first step
+    # with "step size underflow after 0 steps". The starting step is now floored at 1e-11 s
+    # (events.H_START_FLOOR) and the error test takes it from there.
+    from mechrel.integrate.events import H_START_FLOOR, H_UNDERFLOW
+    assert H_START_FLOOR == 1e3 * H_UNDERFLOW
+    scene = load_scene(name, overrides={"solver.rtol": rtol, "analysis.cycles": 0.25}
+                       if name != "double-pendulum" else {"solver.rtol": rtol})
+    res = simulate(scene)
+    assert res.stats["n_steps"] > 0 and res.stats["status"] == "ok"
+
+
+@pytest.mark.parametrize("call, error, message", [
+    (lambda sc: simulate("slider-crank"), TypeError,
+     r"simulate: scene must be a Scene, got str 'slider-crank'; load it first"),
+    (lambda sc: __import__("mechrel.scene", fromlist=["with_overrides"]).with_overrides(
+        "slider-crank", {}), TypeError, r"with_overrides: scene must be a Scene, got str"),
+    (lambda sc: simulate(sc, rtol="x"), "SimulationError",
+     r"solver\.rtol: expected a number, got 'x'"),
+    (lambda sc: simulate(sc, tol=1e-6), "SimulationError",
+     r"solver settings of 'dopri5': unknown 'tol'; allowed: atol, rtol, step"),
+    (lambda sc: simulate(sc, integrator="dopri5", fixed_step=True), "SimulationError",
+     r"solver settings of 'dopri5': unknown 'fixed_step'"),
+    # the ideal slider-crank is solved by kinematic analysis, which needs no integrator: a
+    # misspelt one was silently ignored there
+    (lambda sc: simulate(sc, integrator="dopri"), "SimulationError",
+     r"solver\.integrator: unknown integrator 'dopri'; allowed: auto, bdf, dopri5"),
+    (lambda sc: simulate(sc, integrator=""), "SimulationError",
+     r"unknown integrator ''"),
+])
+def test_api_misuse_is_one_clear_error(call, error, message):
+    from mechrel.errors import SimulationError
+    error = SimulationError if error == "SimulationError" else error
+    with pytest.raises(error, match=message):
+        call(load_scene("slider-crank"))

@@ -11,7 +11,9 @@ What runs depends only on what the scene declares:
 
 from __future__ import annotations
 
+import inspect
 import math
+import os
 import platform
 import time
 from dataclasses import dataclass, field
@@ -60,13 +62,24 @@ def scene_kind(scene: Scene) -> str:
 def make_integrator(scene: Scene, integrator: str | None = None, **settings):
     """The integrator a scene asks for (``solver.integrator``; ``"auto"`` → per scene type)."""
     s = scene.solver
-    name = integrator or s.integrator
+    name = s.integrator if integrator is None else integrator
+    if name != "auto" and name not in INTEGRATORS:
+        raise SimulationError(f"solver.integrator: unknown integrator {name!r}; allowed: auto, "
+                              f"{', '.join(sorted(INTEGRATORS))}")
     chosen: dict = {}
     if name == "auto":
         name, chosen = DEFAULT_SOLVERS[scene_kind(scene)]
         chosen = dict(chosen)
         if name not in INTEGRATORS:  # compiled stiff method not available: SciPy's
             name = "lsoda"
+    # step, rtol, atol and the integrator's own keywords (Radau's fixed_step); the step
+    # budget and the onset tolerance come from the scene
+    own = set(inspect.signature(INTEGRATORS[name]).parameters) - {"kwargs"}
+    allowed = sorted(({"step", "rtol", "atol"} | own) - {"max_steps", "onset_tolerance"})
+    unknown = sorted(set(settings) - set(allowed))
+    if unknown:
+        raise SimulationError(f"solver settings of {name!r}: unknown "
+                              f"{', '.join(map(repr, unknown))}; allowed: {', '.join(allowed)}")
     for key in ("step", "rtol", "atol"):
         value = getattr(s, key)
         if value is not None:
@@ -81,6 +94,14 @@ def make_integrator(scene: Scene, integrator: str | None = None, **settings):
                           **chosen)
 
 
+def _physical_memory() -> int | None:
+    """The machine's physical memory (bytes), or None where the OS does not say (Windows)."""
+    try:
+        return os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
+    except (AttributeError, ValueError, OSError):
+        return None
+
+
 def output_times(scene: Scene, compiled: CompiledScene | None = None) -> np.ndarray:
     """Output instants (s) from the scene's analysis settings."""
     compiled = compiled or compile_scene(scene)
@@ -91,7 +112,18 @@ def output_times(scene: Scene, compiled: CompiledScene | None = None) -> np.ndar
     else:
         speed = abs(scene.drivers[a.cycle_driver].speed)
         step = a.sample_step_angle / speed
-    n = int(math.floor(duration / step * (1 + 1e-12))) + 1
+    n = math.floor(duration / step * (1 + 1e-12)) + 1
+    # the state and its derivative, positions, velocities, accelerations and point outputs
+    # at every instant: about 8 arrays of the state's size, 8 bytes per value
+    need = 8 * 8 * n * (2 * compiled.q_guess.size + 2)
+    have = _physical_memory()
+    if have is not None and need > have:
+        field = "analysis.sample_step" if a.sample_step is not None else \
+            "analysis.sample_step_angle"
+        raise SimulationError(
+            f"{scene.source or scene.name}: {field}: {n:.3g} output instants over {duration:.6g} s need about "
+            f"{need / 2**30:.3g} GiB, more than this machine's {have / 2**30:.3g} GiB; allowed: "
+            "a sample step that keeps the output within memory")
     return np.arange(n) * step
 
 
@@ -288,6 +320,11 @@ def simulate(scene: Scene, *, method: str = "auto", integrator: str | None = Non
     SimulationResult
     """
     start = time.perf_counter()
+    if not isinstance(scene, Scene):
+        raise TypeError(f"simulate: scene must be a Scene, got {type(scene).__name__} "
+                        f"{scene!r:.60}; load it first: simulate(load_scene(...))")
+    # made (and so checked) even when kinematic analysis needs no integrator
+    solver = make_integrator(scene, integrator, **solver_settings)
     compiled = compile_scene(scene)
     times = output_times(scene, compiled)
     n = compiled.q_guess.size
@@ -324,7 +361,6 @@ def simulate(scene: Scene, *, method: str = "auto", integrator: str | None = Non
                       labels=compiled.labels["assembly"])
     y0 = np.concatenate([qa, va, np.zeros(problem.N_WORK)])
     hist0 = np.zeros(sys.n_contacts)
-    solver = make_integrator(scene, integrator, **solver_settings)
     bar = None
     if progress:
         from tqdm.auto import tqdm

@@ -44,6 +44,7 @@ from typing import ClassVar
 import numpy as np
 
 from ..errors import SimulationError
+from ..scene.model import MAX_STEPS_LIMIT
 from . import events as ev
 
 
@@ -129,15 +130,23 @@ class Integrator:
 
     def __init__(self, *, step=None, rtol=None, atol=None, max_steps=10_000_000,
                  onset_tolerance=1e-9):
-        self.step = self.defaults.get("step") if step is None else float(step)
-        self.rtol = self.defaults.get("rtol") if rtol is None else float(rtol)
-        self.atol = self.defaults.get("atol") if atol is None else float(atol)
-        self.max_steps = int(max_steps)
-        self.onset_tolerance = float(onset_tolerance)
-        for field in ("step", "rtol", "atol"):
-            value = getattr(self, field)
+        given = {"step": step, "rtol": rtol, "atol": atol}
+        for field, value in given.items():
+            if value is None:
+                value = self.defaults.get(field)
+            elif isinstance(value, bool) or not isinstance(value, (int, float, np.floating)):
+                raise SimulationError(f"solver.{field}: expected a number, got {value!r}")
             if value is not None and not value > 0:
                 raise SimulationError(f"solver.{field}: must be > 0, got {value!r}")
+            setattr(self, field, None if value is None else float(value))
+        self.max_steps = int(max_steps)
+        self.onset_tolerance = float(onset_tolerance)
+        if self.rtol is not None and not self.rtol < 1:
+            raise SimulationError(f"solver.rtol: must be < 1 (a relative tolerance of 1 asks "
+                                  f"for no accuracy), got {self.rtol!r}")
+        if not 0 < self.max_steps <= MAX_STEPS_LIMIT:
+            raise SimulationError(f"solver.max_steps: must be in [1, 2**53], got "
+                                  f"{self.max_steps!r}")
         if not self.adaptive and self.step is None:
             raise SimulationError(f"solver.step: the fixed-step integrator {self.name!r} needs "
                                   "a step (s)")

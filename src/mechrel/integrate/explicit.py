@@ -21,8 +21,8 @@ from numba import njit
 
 from ..mechanics.borrow import borrowed
 from ..mechanics.problem import rhs_inline, rhs_into
-from .events import (CTL_DONE, S_ONSET_REJECTED, S_REJECTED, S_RHS, S_STATUS, S_STEPS,
-                     STATUS_NONFINITE, all_finite,
+from .events import (CTL_DONE, H_START_FLOOR, S_ONSET_REJECTED, S_REJECTED, S_RHS, S_STATUS,
+                     S_STEPS, STATUS_NONFINITE, all_finite,
                      onset_fraction, out_of_budget, record_violation, start,
                      update_history_from)
 
@@ -216,6 +216,7 @@ def dopri5_kernel(sys, t0, y0, hist, t_out, h0, rtol, atol, max_steps, onset_tol
         d0 = math.sqrt(d0 / ny)
         d1 = math.sqrt(d1 / ny)
         h = 1e-6 if (d0 < 1e-5 or d1 < 1e-5) else 0.01 * d0 / d1
+        h = max(h, H_START_FLOOR * max(1.0, abs(t)))
         h = min(h, max(tend - t, 1e-12))
     errold = 1e-4
     rejected_last = False

@@ -109,8 +109,8 @@ from numba import njit
 from ..mechanics.borrow import borrowed
 from ..mechanics.problem import clearance_jacobian, gaps_into, rhs_inline, rhs_into
 from ..mechanics.system import without_clearance_forces
-from .events import (CTL_DONE, S_JAC, S_LU, S_ONSET_REJECTED, S_REJECTED, S_RHS, S_STATUS,
-                     S_STEPS, STATUS_NEWTON, STATUS_NONFINITE,
+from .events import (CTL_DONE, H_START_FLOOR, S_JAC, S_LU, S_ONSET_REJECTED, S_REJECTED, S_RHS,
+                     S_STATUS, S_STEPS, STATUS_NEWTON, STATUS_NONFINITE,
                      all_finite, onset_fraction, out_of_budget, record_violation, start,
                      update_history_from)
 from .base import Integrator
@@ -341,6 +341,7 @@ def radau5_kernel(sys, sys_smooth, t0, y0, hist, t_out, h0, rtol_user, atol_user
         d0 = _rms(y, scal)
         d1 = _rms(f0, scal)
         h = 1e-6 if (d0 < 1e-5 or d1 < 1e-5) else 0.01 * d0 / d1
+        h = max(h, H_START_FLOOR * max(1.0, abs(t)))
     if k < nout:
         h = min(h, tend - t)
     h_fixed = h

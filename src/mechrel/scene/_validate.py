@@ -20,8 +20,8 @@ from ._schema import (
     JOINT_TYPES, NAME_RE, NAME_RULE, OUTPUT_KEYS, SOLVER_KEYS, TOP_KEYS,
 )
 from .model import (
-    CLEARANCE_MODELS, DRIVER_LAWS, GROUND, INTEGRATOR_NAMES, Analysis, Body, Contact, Driver,
-    Friction, Joint, Lubricant, Output, PointRef, Scene, Solver, Transition,
+    CLEARANCE_MODELS, DRIVER_LAWS, GROUND, INTEGRATOR_NAMES, MAX_STEPS_LIMIT, Analysis, Body,
+    Contact, Driver, Friction, Joint, Lubricant, Output, PointRef, Scene, Solver, Transition,
 )
 
 _MISSING = object()
@@ -193,8 +193,8 @@ class Checker:
             self.fail(path, v, f"must be <= {_bound(le)}", allowed)
         return x
 
-    def integer(self, path: str, v: Any, *, gt=None, ge=None) -> int:
-        allowed = describe_number(gt, ge, integer=True)
+    def integer(self, path: str, v: Any, *, gt=None, ge=None, le=None) -> int:
+        allowed = describe_number(gt, ge, le=le, integer=True)
         if isinstance(v, bool) or not isinstance(v, int):
             got = "a boolean" if isinstance(v, bool) else _typename(v)
             self.fail(path, v, f"expected an integer, got {got}", allowed)
@@ -202,6 +202,8 @@ class Checker:
             self.fail(path, v, f"must be > {gt}", allowed)
         if ge is not None and not v >= ge:
             self.fail(path, v, f"must be >= {ge}", allowed)
+        if le is not None and not v <= le:
+            self.fail(path, v, f"must be <= {le}", allowed)
         return int(v)
 
     def string(self, path: str, v: Any, allowed: str = "a string") -> str:
@@ -661,11 +663,14 @@ class _Builder(Checker):
         kw: dict[str, Any] = {}
         if "integrator" in s:
             kw["integrator"] = self.choice("solver.integrator", s["integrator"], INTEGRATOR_NAMES)
-        for k, unit in (("step", "s"), ("rtol", None), ("atol", None)):
+        for k, unit in (("step", "s"), ("atol", None)):
             if k in s:
                 kw[k] = self.number("solver." + k, s[k], gt=0, unit=unit)
+        if "rtol" in s:  # a relative tolerance of 1 or more asks for no accuracy at all
+            kw["rtol"] = self.number("solver.rtol", s["rtol"], gt=0, lt=1)
         if "max_steps" in s:
-            kw["max_steps"] = self.integer("solver.max_steps", s["max_steps"], gt=0)
+            kw["max_steps"] = self.integer("solver.max_steps", s["max_steps"], gt=0,
+                                           le=MAX_STEPS_LIMIT)
         for k in ("baumgarte_alpha", "baumgarte_beta"):
             if k in s:
                 kw[k] = self.number("solver." + k, s[k], ge=0, unit="1/s")

@@ -342,6 +342,10 @@ def load_scene(source: SceneSource, *, overrides: Overrides = ()) -> Scene:
 
 def with_overrides(scene: Scene, overrides: Overrides) -> Scene:
     """A new scene: ``scene``'s raw mapping with ``overrides`` applied, validated again."""
+    if not isinstance(scene, Scene):
+        raise TypeError(f"with_overrides: scene must be a Scene, got {type(scene).__name__} "
+                        f"{scene!r:.60}; to load and override in one call: "
+                        "load_scene(source, overrides=...)")
     raw = thaw(scene.raw) if scene.raw else scene_to_raw(scene)
     ovs = _normalise_overrides(overrides)
     label = scene.source or _MAPPING_LABEL

@@ -171,6 +171,9 @@ class Analysis:
     sample_step_angle: float | None = None
 
 
+MAX_STEPS_LIMIT = 2**53  # the integrators count steps in float64, exact up to 2**53
+
+
 @dataclass(frozen=True)
 class Solver:
     """Integrator settings. ``integrator`` names an entry of
