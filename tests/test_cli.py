@@ -40,9 +40,13 @@ def test_simulate_clearance_scene_with_overrides_and_parquet(tmp_path, capsys):
     (["simulate", "slider-crank", "--set", "bodies.crank.mass=-1"], "bodies.crank.mass"),
     (["simulate", "no-such-scene"], "no-such-scene"),
     (["simulate", "slider-crank", "--out", "x.txt"], "allowed: .csv, .parquet"),
+    (["simulate", "slider-crank", "--out", "."], "has extension '(none)'"),
+    (["simulate", "slider-crank", "--out", "a.csv/b.csv"], "cannot create the folder 'a.csv'"),
+    (["simulate", "slider-crank", "--integrator", "dopri"], "unknown integrator 'dopri'"),
 ])
 def test_bad_input_is_one_line_without_traceback(argv, fragment, capsys, tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)
+    (tmp_path / "a.csv").write_text("a file where a folder is needed")
     assert main(argv + ["--no-progress"]) == 2
     err = capsys.readouterr().err
     assert err.startswith("mechrel: error:") and fragment in err and "Traceback" not in err
@@ -64,3 +68,16 @@ def test_help_names_every_command(capsys):
     text = capsys.readouterr().out
     for cmd in ("simulate", "scenes", "reliability", "sensitivity", "accuracy"):
         assert cmd in text
+
+
+def test_a_wrong_out_fails_before_the_simulation(tmp_path, monkeypatch, capsys):
+    # --out was checked only when the table was written, after a possibly long simulation
+    import mechrel.simulation
+
+    def never(*args, **kwargs):
+        raise AssertionError("simulated although --out is wrong")
+
+    monkeypatch.setattr(mechrel.simulation, "simulate", never)
+    assert main(["simulate", "nine-bar-dry", "--out", str(tmp_path / "r.xlsx"),
+                 "--no-progress"]) == 2
+    assert "allowed: .csv, .parquet" in capsys.readouterr().err

@@ -326,8 +326,17 @@ def simulate(scene: Scene, *, method: str = "auto", integrator: str | None = Non
     # made (and so checked) even when kinematic analysis needs no integrator
     solver = make_integrator(scene, integrator, **solver_settings)
     compiled = compile_scene(scene)
-    times = output_times(scene, compiled)
     n = compiled.q_guess.size
+    if compiled.ideal.n_constraints > n:
+        # more equations than coordinates: the constraint Jacobian cannot have full row rank,
+        # which the Schur complement of the dynamics (and the kinematic analysis) needs; it
+        # used to surface as a step-size or rank failure deep in the integration
+        raise SimulationError(
+            f"{scene.source or scene.name}: over-constrained: with ideal joints the mechanism "
+            f"has {compiled.ideal.n_constraints} constraint equations for {n} coordinates "
+            f"({n // 3} bodies): {', '.join(compiled.labels['ideal'])}; allowed: at most one "
+            "equation per coordinate (remove a driver or a joint)")
+    times = output_times(scene, compiled)
     has_clearance = bool(compiled.clearance_names)
     driven = compiled.ideal.n_constraints == n
     tol = scene.solver.assembly_tolerance

@@ -79,10 +79,13 @@ def _summary_lines(result) -> list[str]:
 def _cmd_simulate(args) -> int:
     from ..io import write_json, write_table
     from ..io.figures import plot_simulation
+    from ..io.tables import check_table_path
     from ..scene import load_scene
     from ..simulation import simulate
 
     scene = load_scene(args.scene, overrides=args.overrides)
+    if args.out:
+        check_table_path(args.out)  # before the simulation, not after it
     result = simulate(scene, integrator=args.integrator, progress=not args.no_progress)
     print("\n".join(_summary_lines(result)))
     if args.out:

@@ -13,22 +13,43 @@ from ..errors import MechrelError
 TABLE_SUFFIXES = (".csv", ".parquet")
 
 
-def write_table(frame, path) -> Path:
-    """Write a DataFrame to ``path``: ``.csv`` or ``.parquet`` (needs pyarrow)."""
+def check_table_path(path) -> Path:
+    """``path`` as a table file that can be written: a ``.csv`` or ``.parquet`` name (the
+    latter with pyarrow installed) in a folder that exists or can be created. Called before a
+    long computation, so that a wrong ``--out`` fails at once, not after it."""
     path = Path(path)
     suffix = path.suffix.lower()
     if suffix not in TABLE_SUFFIXES:
         raise MechrelError(f"--out: {str(path)!r} has extension {suffix or '(none)'!r}; "
                            f"allowed: {', '.join(TABLE_SUFFIXES)}")
-    path.parent.mkdir(parents=True, exist_ok=True)
-    if suffix == ".csv":
-        frame.to_csv(path, index=False)
-    else:
+    if suffix == ".parquet":
         try:
+            import pyarrow  # noqa: F401
+        except ImportError:
+            raise MechrelError("--out: writing Parquet needs pyarrow: pip install "
+                               "'mechrel[parquet]', or write .csv") from None
+    if path.is_dir():
+        raise MechrelError(f"--out: {str(path)!r} is a folder; allowed: a file name ending in "
+                           f"{' or '.join(TABLE_SUFFIXES)}")
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise MechrelError(f"--out: cannot create the folder {str(path.parent)!r} "
+                           f"({exc.strerror}); allowed: a path in a writable folder") from None
+    return path
+
+
+def write_table(frame, path) -> Path:
+    """Write a DataFrame to ``path``: ``.csv`` or ``.parquet`` (needs pyarrow)."""
+    path = check_table_path(path)
+    try:
+        if path.suffix.lower() == ".csv":
+            frame.to_csv(path, index=False)
+        else:
             frame.to_parquet(path, index=False)
-        except ImportError as exc:
-            raise MechrelError("writing Parquet needs pyarrow: pip install 'mechrel[parquet]'"
-                               ) from exc
+    except OSError as exc:
+        raise MechrelError(f"--out: cannot write {str(path)!r} ({exc.strerror or exc}); "
+                           "allowed: a path in a writable folder") from None
     return path
 
 
