@@ -71,7 +71,9 @@ class ScipyIVP(Integrator):
             solver = solver_class(fun, t, y, tend, rtol=self.rtol, atol=self.atol,
                                   first_step=first_step)
             first_step = None
-            g_old, direction = event_values(t, y)
+            contacts = hist.size > 0  # no contact joint, no event functions to evaluate
+            if contacts:
+                g_old, direction = event_values(t, y)
             n_fev = n_jev = n_lu = 0
             event = False
             while True:
@@ -92,11 +94,15 @@ class ScipyIVP(Integrator):
                 stats[ev.S_STEPS] += 1
                 t_old, t_new, y_new = solver.t_old, solver.t, solver.y
                 sol = solver.dense_output()
-                g_new, _ = event_values(t_new, y_new)
-                up = (g_old <= 0.0) & (g_new >= 0.0) & (direction > 0.0)
-                down = (g_old >= 0.0) & (g_new <= 0.0) & (direction < 0.0)
                 t_stop, y_stop = t_new, y_new
-                for c in np.flatnonzero(up | down):
+                crossed = ()
+                if contacts:
+                    g_new, _ = event_values(t_new, y_new)
+                    crossed = np.flatnonzero(
+                        (g_old <= 0.0) & (g_new >= 0.0) & (direction > 0.0)
+                        | (g_old >= 0.0) & (g_new <= 0.0) & (direction < 0.0))
+                    g_old = g_new
+                for c in crossed:
                     def g_c(tt, _c=c):
                         return event_values(tt, sol(tt))[0][_c]
                     ga, gb = g_c(t_old), g_c(t_new)
@@ -116,7 +122,6 @@ class ScipyIVP(Integrator):
                     k += 1
                 ctl[ev.CTL_DONE] = k
                 t, y = float(t_stop), np.array(y_stop, dtype=float)
-                g_old = g_new
                 if event or solver.status == "finished" or not np.all(np.isfinite(y)):
                     break
             if stats[ev.S_STATUS] != ev.STATUS_OK:
