@@ -26,7 +26,7 @@ from mechrel.uq import (
     reliability_one_sided,
     reliability_two_sided,
 )
-from mechrel.uq._common import SampleFailuresError
+from mechrel.uq import SampleFailuresError
 
 # z = 4: a correct estimator falls outside its interval with probability 6e-5 per quantity, so
 # the test is not flaky, yet the intervals (half-width ≈ 4·sqrt(R(1−R)/n)) stay narrow enough

@@ -27,7 +27,7 @@ from mechrel.uq import (
     polynomial_chaos,
     reliability_one_sided,
 )
-from mechrel.uq._common import SampleFailuresError
+from mechrel.uq import SampleFailuresError
 from mechrel.uq.pce import _basis, _recurrences
 
 A0 = np.array([0.3, -1.0])

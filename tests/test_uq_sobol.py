@@ -24,7 +24,7 @@ from mechrel.uq import (
     sobol_design,
     sobol_indices,
 )
-from mechrel.uq._common import SampleFailuresError
+from mechrel.uq import SampleFailuresError
 
 
 def test_ishigami_first_and_total_order():

@@ -35,7 +35,7 @@ def _output_folder(out):
 
 def _estimate(method, evaluations, estimator, **kwargs):
     """``estimator(**kwargs)``; records the evaluations it analysed, or refused to analyse
-    (:class:`~mechrel.uq._common.SampleFailuresError`), as ``evaluations[method]``."""
+    (:class:`~mechrel.uq.SampleFailuresError`), as ``evaluations[method]``."""
     try:
         result = estimator(**kwargs)
     except SampleFailuresError as exc:

@@ -15,6 +15,7 @@ from typing import TYPE_CHECKING
 # Public name -> submodule. Imports are lazy (PEP 562) so that a worker process unpickling a
 # model (which imports ``mechrel.uq.model``) does not pay for scipy.stats, chaospy and SALib.
 _EXPORTS = {
+    "_common": ["SampleFailuresError"],
     "analytic": ["ishigami", "ishigami_indices", "ishigami_inputs", "ishigami_model", "linear_model"],
     "cache": ["EvaluationCache"],
     "executor": ["BACKENDS", "Evaluations", "evaluate"],
@@ -46,6 +47,7 @@ def __dir__():
 
 
 if TYPE_CHECKING:  # pragma: no cover
+    from ._common import SampleFailuresError
     from .analytic import ishigami, ishigami_indices, ishigami_inputs, ishigami_model, linear_model
     from .cache import EvaluationCache
     from .executor import BACKENDS, Evaluations, evaluate
@@ -66,7 +68,7 @@ __all__ = [
     "UncertainInputs", "Normal", "TruncNormal", "Uniform", "LogNormal", "SAMPLING_RULES", "child_seed",
     "Allowable", "DEFAULT_ALLOWABLES", "FORMS",
     # evaluation
-    "evaluate", "Evaluations", "EvaluationCache", "BACKENDS",
+    "evaluate", "Evaluations", "EvaluationCache", "BACKENDS", "SampleFailuresError",
     # designs
     "fosm_design", "fd_steps", "monte_carlo_design", "pce_design", "multi_indices", "sobol_design",
     # estimators and results

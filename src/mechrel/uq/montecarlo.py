@@ -37,7 +37,7 @@ on the model being evaluable), the failures are counted and listed by reason in 
 ``failures="as_violation"``: a failed sample counts as out of tolerance at every output
 (conservative for reliability; moments still use the successful samples). Either way the run
 refuses if more than ``max_failure_fraction`` of the samples failed (or fewer than 2 succeeded):
-:class:`~mechrel.uq._common.SampleFailuresError`, a ``StudyError`` that carries the evaluations.
+:class:`~mechrel.uq.SampleFailuresError`, a ``StudyError`` that carries the evaluations.
 """
 
 from __future__ import annotations

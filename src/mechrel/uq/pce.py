@@ -16,7 +16,7 @@ Coefficients
 drawn by ``rule`` (rounded up to a power of 2 for ``rule="sobol"``); error estimate: leave-one-out in closed form through the hat matrix,
 e_LOO = mean_i[((y_i − ŷ_i)/(1 − h_ii))²] / Var(y) (relative; ``loo_error``). Failed samples are
 dropped (counted; refuses above ``max_failure_fraction`` or when fewer than P + 1 remain:
-:class:`~mechrel.uq._common.SampleFailuresError`, a ``StudyError`` carrying the evaluations).
+:class:`~mechrel.uq.SampleFailuresError`, a ``StudyError`` carrying the evaluations).
 ``method="quadrature"``: spectral projection c_α = Σ_q w_q Ψ_α(ξ_q) y_q on
 ``chaospy.generate_quadrature(order, germ, rule=quadrature_rule, sparse=sparse)`` (Gaussian:
 order + 1 points per dimension, exact for the products Ψ_α·f of degree ≤ 2·order + 1). A failed

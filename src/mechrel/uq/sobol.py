@@ -19,7 +19,7 @@ dropped entirely; the number of dropped blocks and the failure reasons are repor
 result. If more than ``max_failure_fraction`` of the blocks would be dropped the analysis
 refuses: dropping blocks conditions the design on "the model works", which biases the indices
 when failures depend on the inputs — only acceptable when rare. The refusal (also when fewer
-than 2 complete blocks remain) is a :class:`~mechrel.uq._common.SampleFailuresError`, a
+than 2 complete blocks remain) is a :class:`~mechrel.uq.SampleFailuresError`, a
 ``StudyError`` that carries the raw evaluations.
 """
 
