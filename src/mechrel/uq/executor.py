@@ -287,7 +287,7 @@ def _evaluate_chunk(model: Any, X: np.ndarray, n_out: int, chunk_id: int):
 
 def _check_picklable(model: Any) -> None:
     """Fail early, with a clear message, if the model cannot be shipped to workers."""
-    import cloudpickle  # joblib/loky and dask both depend on it
+    import cloudpickle  # a dependency of ours (pyproject.toml); loky and dask use it too
 
     try:
         cloudpickle.dumps(model)
