@@ -221,8 +221,10 @@ def test_bad_study_on_the_command_line_is_one_clear_error(tmp_path, capsys):
 @pytest.mark.parametrize("option, value, message", [
     ("--n", "0", r"argument --n: '0': not a positive integer"),  # was: the study's n, silently
     ("--n", "1.5", r"argument --n: '1\.5': not a positive integer"),
-    ("--max-failure-fraction", "1.5", r"argument --max-failure-fraction: '1\.5': not a number; "
-                                      r"allowed: a number in \[0, 1\]"),
+    ("--max-failure-fraction", "1.5", r"argument --max-failure-fraction: '1\.5': not a number "
+                                      r"in \[0, 1\]; allowed: a number in \[0, 1\]"),
+    ("--max-failure-fraction", "x", r"argument --max-failure-fraction: 'x': not a number "
+                                    r"in \[0, 1\]"),
 ])
 def test_command_line_values_are_checked(command, option, value, message, tmp_path, capsys):
     with pytest.raises(SystemExit) as info:

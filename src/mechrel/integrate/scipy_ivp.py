@@ -30,6 +30,16 @@ from .base import Integrator
 _EPS = np.finfo(float).eps
 
 
+def _event_time(event_values, sol, c, t_old, t_new):
+    """Where event ``c`` crosses zero on the step's dense output ``sol`` (``solve_ivp``'s
+    Brent root); the step's end when the dense output does not bracket it (module docstring)."""
+    def g_c(tt):
+        return event_values(tt, sol(tt))[0][c]
+    if g_c(t_old) * g_c(t_new) > 0.0:
+        return t_new
+    return brentq(g_c, t_old, t_new, xtol=4 * _EPS, rtol=4 * _EPS)
+
+
 class ScipyIVP(Integrator):
     """Base of the SciPy wrappers; ``method`` is the name of the
     :class:`scipy.integrate.OdeSolver` subclass."""
@@ -54,6 +64,7 @@ class ScipyIVP(Integrator):
         ctl[ev.CTL_DONE] = k
         tend = float(t_out[-1])
         first_step = self.step
+        contacts = hist.size > 0  # no contact joint, no event functions to evaluate
 
         def fun(tt, yy):
             # SciPy's finite-difference Jacobians (BDF, Radau) pass columns of a matrix, i.e.
@@ -71,7 +82,6 @@ class ScipyIVP(Integrator):
             solver = solver_class(fun, t, y, tend, rtol=self.rtol, atol=self.atol,
                                   first_step=first_step)
             first_step = None
-            contacts = hist.size > 0  # no contact joint, no event functions to evaluate
             if contacts:
                 g_old, direction = event_values(t, y)
             n_fev = n_jev = n_lu = 0
@@ -95,24 +105,18 @@ class ScipyIVP(Integrator):
                 t_old, t_new, y_new = solver.t_old, solver.t, solver.y
                 sol = solver.dense_output()
                 t_stop, y_stop = t_new, y_new
-                crossed = ()
                 if contacts:
                     g_new, _ = event_values(t_new, y_new)
                     crossed = np.flatnonzero(
                         (g_old <= 0.0) & (g_new >= 0.0) & (direction > 0.0)
                         | (g_old >= 0.0) & (g_new <= 0.0) & (direction < 0.0))
                     g_old = g_new
-                for c in crossed:
-                    def g_c(tt, _c=c):
-                        return event_values(tt, sol(tt))[0][_c]
-                    ga, gb = g_c(t_old), g_c(t_new)
-                    root = (brentq(g_c, t_old, t_new, xtol=4 * _EPS, rtol=4 * _EPS)
-                            if ga * gb <= 0.0 else t_new)  # not bracketed: module docstring
-                    if not event or root < t_stop:
-                        t_stop = root
-                    event = True
-                if event and t_stop < t_new:
-                    y_stop = sol(t_stop)
+                    if crossed.size:  # the earliest crossing ends the stretch
+                        event = True
+                        t_stop = min(_event_time(event_values, sol, c, t_old, t_new)
+                                     for c in crossed)
+                        if t_stop < t_new:
+                            y_stop = sol(t_stop)
                 p, v = constraint_violation(t_stop, y_stop, system)
                 stats[ev.S_VIOL_POS] = max(stats[ev.S_VIOL_POS], p)
                 stats[ev.S_VIOL_VEL] = max(stats[ev.S_VIOL_VEL], v)

@@ -23,7 +23,8 @@ def fraction(text: str) -> float:
     except ValueError:
         value = math.nan
     if not 0 <= value <= 1:
-        raise argparse.ArgumentTypeError(f"{text!r}: not a number; allowed: a number in [0, 1]")
+        raise argparse.ArgumentTypeError(f"{text!r}: not a number in [0, 1]; allowed: a number "
+                                         "in [0, 1]")
     return value
 
 

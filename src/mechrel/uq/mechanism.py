@@ -160,7 +160,7 @@ class MechanismModel:
     def describe(self) -> dict:
         """The scene as given (name, :func:`~mechrel.scene.scene_hash` with ``overrides``
         applied, source), its solver settings and the analysed outputs."""
-        return {"kind": "MechanismModel", "scene": self.scene.name, "scene_hash": self.scene_hash,
+        return {"kind": "MechanismModel", "scene": self._raw["name"], "scene_hash": self.scene_hash,
                 "scene_source": self.scene_source, "solver": dict(self._raw.get("solver", {})),
                 "output": self.output, "quantities": list(self.quantities),
                 "angle_step": self.angle_step, "cycles": self.cycles}
