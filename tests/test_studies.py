@@ -191,6 +191,15 @@ def test_reliability_command_writes_tables_figure_and_provenance(tmp_path, capsy
     assert "FOSM min R" in text and "3 model evaluations" in text
     for name in ("reliability.csv", "reliability.png", "summary.json"):
         assert (out / name).is_file()
+    # the β printed beside an R is that R's index Φ⁻¹(R) (two-sided R here, the default
+    # form), not the paper's one-sided β: checked against the table's R to the 3 printed decimals
+    from scipy.special import ndtri
+    table = pd.read_csv(out / "reliability.csv")
+    for q, angle, beta in re.findall(r"(\w+)\s+FOSM min R \S+ at (\S+)° "
+                                     r"\(β = Φ⁻¹\(R\) = (\S+), two-sided\)", text):
+        row = table[(table["quantity"] == q) & (table["crank_angle"] == float(angle))]
+        assert abs(float(beta) - ndtri(float(row["fosm.reliability"].iloc[0]))) <= 5e-4
+    assert len(re.findall(r"β = Φ⁻¹\(R\)", text)) == 3
     summary = json.loads((out / "summary.json").read_text())
     prov = summary["provenance"]["fosm"]
     assert prov["n_model_evaluations"] == 3 and "model_cache_key" in prov

@@ -252,8 +252,10 @@ def run_reliability(study, *, methods=None, n=None, n_jobs=1, seed=None, out=Non
         if "fosm" in results:
             t = results["fosm"].table.xs(q, level="quantity")
             k = t["reliability"].idxmin()
+            # the index of the R printed: Φ⁻¹(R) of the study's form (the table's ``beta`` is
+            # the paper's one-sided index, which is not Φ⁻¹ of a two-sided R)
             parts.append(f"FOSM min R {t['reliability'].min():.4f} at {k:g}° "
-                         f"(β = {t['beta'].loc[k]:.3f})")
+                         f"(β = Φ⁻¹(R) = {t['beta_generalized'].loc[k]:.3f}, {form})")
         if "pce_reliability" in results:
             t = results["pce_reliability"].table.xs(q, level="quantity")
             parts.append(f"PCE min R {t['reliability'].min():.4f} at "
