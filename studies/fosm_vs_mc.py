@@ -48,7 +48,7 @@ import numpy as np
 import pandas as pd
 from scipy import optimize, stats
 
-from mechrel.studies.cli import positive_int, report_errors
+from mechrel.cli.args import positive_int, report_errors
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from reliability_paper import (  # noqa: E402

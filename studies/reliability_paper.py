@@ -44,7 +44,7 @@ import numpy as np
 import pandas as pd
 from scipy.stats import norm
 
-from mechrel.studies.cli import report_errors
+from mechrel.cli.args import report_errors
 
 PI = math.pi
 QUANTITIES = ("displacement", "velocity", "acceleration")

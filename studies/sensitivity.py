@@ -51,7 +51,7 @@ import numpy as np
 import pandas as pd
 
 from mechrel.errors import StudyError
-from mechrel.studies.cli import positive_int, report_errors
+from mechrel.cli.args import positive_int, report_errors
 from mechrel.uq.mechanism import MechanismModel, _lookup
 
 PI = math.pi

@@ -5,9 +5,11 @@ from __future__ import annotations
 import json
 
 import pandas as pd
+from pathlib import Path
 import pytest
 
 from mechrel.cli.main import main
+from mechrel.errors import MechrelError
 
 
 def test_simulate_writes_table_figure_and_provenance(tmp_path, capsys):
@@ -81,3 +83,121 @@ def test_a_wrong_out_fails_before_the_simulation(tmp_path, monkeypatch, capsys):
     assert main(["simulate", "nine-bar-dry", "--out", str(tmp_path / "r.xlsx"),
                  "--no-progress"]) == 2
     assert "allowed: .csv, .parquet" in capsys.readouterr().err
+
+
+# --------------------------------------------------------------------------- the CLI package
+
+def test_python_dash_m_mechrel_is_the_command():
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    import mechrel
+
+    src = str(Path(mechrel.__file__).parents[1])
+    proc = subprocess.run([sys.executable, "-m", "mechrel", "--help"], capture_output=True,
+                          text=True, env={**__import__("os").environ, "PYTHONPATH": src},
+                          timeout=120)
+    assert proc.returncode == 0, proc.stderr
+    for cmd in ("simulate", "scenes", "reliability", "sensitivity", "accuracy"):
+        assert cmd in proc.stdout
+
+
+def test_every_command_module_is_registered_explicitly():
+    # a subcommand is a module of mechrel.cli with register functions, all listed in COMMANDS
+    import importlib
+    import pkgutil
+
+    import mechrel.cli
+    from mechrel.cli.main import COMMANDS
+
+    found = set()
+    for info in pkgutil.iter_modules(mechrel.cli.__path__):
+        module = importlib.import_module(f"mechrel.cli.{info.name}")
+        found |= {getattr(module, n) for n in dir(module) if n.startswith("register")}
+    assert found == set(COMMANDS)
+
+
+STUDY = """\
+scene = "slider-crank-lubricated"
+cycles = 1
+[scene_overrides]
+"solver.rtol" = 1e-5
+"solver.atol" = 1e-8
+[inputs.clearance]
+paths = ["joints.C.clearance"]
+distribution = "normal"
+mean = 0.5e-3
+std = 0.02e-3
+[reliability]
+methods = ["fosm"]
+"""
+
+
+def test_set_splits_study_fields_from_scene_paths():
+    from mechrel.cli.studies import split_overrides
+
+    study, scene = split_overrides(["reliability.n=64", "inputs.clearance.std=1e-5",
+                                    "joints.C.model=dry", "solver.rtol=1e-6"])
+    assert study == {"reliability.n": 64, "inputs.clearance.std": 1e-5}
+    assert scene == {"joints.C.model": "dry", "solver.rtol": 1e-6}
+    with pytest.raises(MechrelError, match="scene_overrides"):
+        split_overrides(["scene_overrides.x=1"])
+
+
+def test_set_reaches_the_study_and_its_scene(tmp_path, capsys):
+    study_file = tmp_path / "s.toml"
+    study_file.write_text(STUDY)
+    out = tmp_path / "out"
+    rc = main(["reliability", str(study_file), "--set", "solver.rtol=1e-6",
+               "--set", "inputs.clearance.std=1e-5", "--jobs", "1", "--out", str(out),
+               "--no-progress"])
+    assert rc == 0, capsys.readouterr().err
+    summary = json.loads((out / "summary.json").read_text())
+    prov = summary["provenance"]["fosm"]
+    assert prov["model"]["solver"]["rtol"] == 1e-6  # the scene override, after the study's 1e-5
+    assert "std=1e-05" in " ".join(prov["inputs"]["marginals"])
+
+
+@pytest.mark.parametrize("argv, fragment", [
+    (["--set", "joints.C9.clearance=1e-3"], "unknown joint 'C9'"),
+    (["--set", "reliability.n=1"], "reliability.n"),
+    (["--set", "inputs.clearance.std=-1"], "std"),
+    (["--set", "nonsense"], "expected PATH=VALUE"),
+    (["--scheduler", "nonsense://x"], "--scheduler = 'nonsense://x'"),
+])
+def test_bad_study_arguments_fail_before_anything_runs(argv, fragment, tmp_path, capsys,
+                                                       monkeypatch):
+    import mechrel.studies.runner as runner
+
+    def never(*args, **kwargs):
+        raise AssertionError("ran although an argument is wrong")
+
+    monkeypatch.setattr(runner, "run_reliability", never)
+    study_file = tmp_path / "s.toml"
+    study_file.write_text(STUDY)
+    assert main(["reliability", str(study_file), "--out", str(tmp_path / "o"),
+                 "--no-progress"] + argv) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("mechrel: error:") and fragment in err and "Traceback" not in err
+
+
+def test_scheduler_runs_the_study_on_an_existing_dask_cluster(tmp_path, capsys):
+    distributed = pytest.importorskip("distributed")
+    study_file = tmp_path / "s.toml"
+    study_file.write_text(STUDY)
+    with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=False,
+                                  dashboard_address=None) as cluster:
+        rc = main(["reliability", str(study_file), "--scheduler", cluster.scheduler_address,
+                   "--out", str(tmp_path / "dask"), "--no-progress"])
+        assert rc == 0, capsys.readouterr().err
+    local = main(["reliability", str(study_file), "--jobs", "1", "--out", str(tmp_path / "seq"),
+                  "--no-progress"])
+    assert local == 0
+    dask = json.loads((tmp_path / "dask" / "summary.json").read_text())
+    seq = json.loads((tmp_path / "seq" / "summary.json").read_text())
+    assert dask["provenance"]["fosm"]["executor"]["backend"] == "dask"
+    # the same numbers as the in-process run
+    a = pd.read_csv(tmp_path / "dask" / "reliability.csv")
+    b = pd.read_csv(tmp_path / "seq" / "reliability.csv")
+    pd.testing.assert_frame_equal(a, b)

@@ -1,49 +1,115 @@
-"""``mechrel reliability`` and ``mechrel sensitivity``."""
+"""``mechrel reliability`` and ``mechrel sensitivity``: a study file run by the estimators of
+:mod:`mechrel.uq` (:mod:`mechrel.studies.runner`)."""
 
 from __future__ import annotations
 
-import argparse
-import math
-import sys
+import contextlib
 
-from ..errors import MechrelError
+from ..errors import StudyError
+from .args import add_set_option, fraction, positive_int
 
-
-def positive_int(text: str) -> int:
-    """argparse type: an integer >= 1."""
-    if not (text.isdigit() and int(text) >= 1):
-        raise argparse.ArgumentTypeError(f"{text!r}: not a positive integer; allowed: 1, 2, ...")
-    return int(text)
+SET_HELP = ("override a value (repeatable): a study field by its dotted path "
+            "(reliability.n=512, inputs.clearance.std=2e-5, allowable.velocity.mean=0.2, "
+            "reference=same-geometry) or, for any other path, a scene value "
+            "(joints.C1.model=dry), applied after the study's scene_overrides")
 
 
-def fraction(text: str) -> float:
-    """argparse type: a number in [0, 1]."""
+def split_overrides(texts) -> tuple[dict, dict]:
+    """``PATH=VALUE`` strings → (study-field overrides, scene overrides), each ``{path: value}``.
+
+    A path whose first part is a field of a study file (``reliability``, ``inputs``,
+    ``allowable``, ``angle_step``, ...; docs/studies.md) sets that field; any other path is a
+    scene path, checked against the scene when the study's model is built."""
+    from ..scene.loader import parse_override
+    from ..studies.study import STUDY_FIELDS
+
+    study, scene = {}, {}
+    for text in texts:
+        path, value = parse_override(text)
+        head = path.split(".", 1)[0]
+        if head == "scene_overrides":
+            raise StudyError(f"--set {text}: 'scene_overrides' is set by giving the scene path "
+                             "itself; allowed: e.g. --set joints.C1.model=dry")
+        (study if head in STUDY_FIELDS else scene)[path] = value
+    return study, scene
+
+
+@contextlib.contextmanager
+def dask_backend(address: str | None):
+    """``"loky"`` without an address; with one, a :class:`distributed.Client` connected to the
+    scheduler at ``address`` for the duration, and ``"dask"``."""
+    if address is None:
+        yield "loky"
+        return
     try:
-        value = float(text)
-    except ValueError:
-        value = math.nan
-    if not 0 <= value <= 1:
-        raise argparse.ArgumentTypeError(f"{text!r}: not a number in [0, 1]; allowed: a number "
-                                         "in [0, 1]")
-    return value
-
-
-def report_errors(run, args, prog: str) -> int:
-    """``run(args)`` for a study script; a :class:`~mechrel.errors.MechrelError` (a wrong
-    argument or input) is one line ``PROG: error: ...`` on stderr and exit code 2."""
+        from distributed import Client
+    except ImportError:
+        raise StudyError(f"--scheduler = {address!r}: dask.distributed is not installed; "
+                         "allowed: pip install 'mechrel[dask]', or leave out --scheduler") from None
     try:
-        return run(args)
-    except MechrelError as exc:
-        print(f"{prog}: error: {exc}", file=sys.stderr)
-        return 2
+        client = Client(address, timeout="10s")
+    except (OSError, TimeoutError, ValueError, TypeError) as exc:
+        raise StudyError(f"--scheduler = {address!r}: cannot connect to a Dask scheduler there "
+                         f"({type(exc).__name__}: {exc}); allowed: the address of a running "
+                         "scheduler, e.g. tcp://127.0.0.1:8786") from None
+    try:
+        yield "dask"
+    finally:
+        client.close()
+
+
+def _load(args):
+    from ..studies.study import load_study
+
+    study_fields, scene = split_overrides(args.overrides)
+    study = load_study(args.study, overrides=study_fields, scene_overrides=scene)
+    study.model()  # every scene path and input checked here, before anything runs
+    return study
+
+
+def _jobs(args) -> int:
+    if args.jobs is not None:
+        return args.jobs
+    return -1 if args.scheduler else 2
+
+
+def _cmd_reliability(args) -> int:
+    from ..studies.runner import run_reliability
+
+    study = _load(args)
+    methods = None if args.method is None else (args.method,)
+    with dask_backend(args.scheduler) as backend:
+        lines, _ = run_reliability(study, methods=methods, n=args.n, n_jobs=_jobs(args),
+                                   seed=args.seed, out=args.out, backend=backend,
+                                   progress=not args.no_progress,
+                                   max_failure_fraction=args.max_failure_fraction)
+    print("\n".join(lines))
+    return 0
+
+
+def _cmd_sensitivity(args) -> int:
+    from ..studies.runner import run_sensitivity
+
+    study = _load(args)
+    with dask_backend(args.scheduler) as backend:
+        lines, _ = run_sensitivity(study, n=args.n, n_jobs=_jobs(args), seed=args.seed,
+                                   out=args.out, backend=backend, progress=not args.no_progress,
+                                   max_failure_fraction=args.max_failure_fraction)
+    print("\n".join(lines))
+    return 0
 
 
 def _study_args(p, section):
     p.add_argument("study", nargs="?", default="nine-bar-lubricated", metavar="STUDY",
                    help="embedded study name or path to a study .toml "
                         "(default: nine-bar-lubricated)")
+    add_set_option(p, SET_HELP)
     p.add_argument("--n", type=positive_int, help="number of samples (default: the study's)")
-    p.add_argument("--jobs", type=int, default=2, help="parallel workers (default 2)")
+    p.add_argument("--jobs", type=int, default=None,
+                   help="parallel workers (default 2; with --scheduler: all the cluster's)")
+    p.add_argument("--scheduler", metavar="ADDRESS",
+                   help="run the model evaluations on the Dask cluster whose scheduler is at "
+                        "ADDRESS (e.g. tcp://10.0.0.5:8786); needs dask.distributed")
     p.add_argument("--seed", type=int, help="random seed (default: the study's)")
     p.add_argument("--max-failure-fraction", type=fraction, metavar="F",
                    help="refuse to estimate when more than this fraction of the samples failed "
@@ -54,44 +120,7 @@ def _study_args(p, section):
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
 
 
-def _cmd_reliability(args) -> int:
-    from .runner import run_reliability
-    from .study import load_study
-
-    study = load_study(args.study)
-    methods = None if args.method is None else (args.method,)
-    lines, _ = run_reliability(study, methods=methods, n=args.n, n_jobs=args.jobs,
-                               seed=args.seed, out=args.out, progress=not args.no_progress,
-                               max_failure_fraction=args.max_failure_fraction)
-    print("\n".join(lines))
-    return 0
-
-
-def _cmd_sensitivity(args) -> int:
-    from .runner import run_sensitivity
-    from .study import load_study
-
-    study = load_study(args.study)
-    lines, _ = run_sensitivity(study, n=args.n, n_jobs=args.jobs, seed=args.seed, out=args.out,
-                               progress=not args.no_progress,
-                               max_failure_fraction=args.max_failure_fraction)
-    print("\n".join(lines))
-    return 0
-
-
-def _cmd_accuracy(args) -> int:
-    from ..scene import load_scene
-    from .accuracy import run_accuracy
-
-    scene = load_scene(args.scene, overrides=args.overrides)
-    lines, _ = run_accuracy(scene, target=args.target, quick=args.quick, out=args.out,
-                            progress=not args.no_progress, ensemble=args.ensemble,
-                            seed=args.seed)
-    print("\n".join(lines))
-    return 0
-
-
-def register_commands(sub) -> None:
+def register_reliability(sub) -> None:
     p = sub.add_parser(
         "reliability", help="accuracy reliability of a study (FOSM, Monte Carlo, PCE)",
         description="Reliability of the output errors staying within their allowables, per "
@@ -104,6 +133,8 @@ def register_commands(sub) -> None:
                    help="estimator (default: the study's reliability.methods)")
     p.set_defaults(func=_cmd_reliability)
 
+
+def register_sensitivity(sub) -> None:
     p = sub.add_parser(
         "sensitivity", help="Sobol sensitivity indices of a study's error measures",
         description="First- and total-order Sobol indices (SALib, Saltelli design with N base "
@@ -112,26 +143,3 @@ def register_commands(sub) -> None:
                     "written to OUT/sensitivity_failures.csv.")
     _study_args(p, "sensitivity")
     p.set_defaults(func=_cmd_sensitivity)
-
-    p = sub.add_parser(
-        "accuracy", help="error against wall time of integrator settings on a scene",
-        description="Runs the scene with RK4 step sizes, adaptive and stiff tolerances, "
-                    "measures each against a tight-tolerance reference (pointwise errors, or, "
-                    "for chaotic dry-contact scenes, the ensemble means of the error curves' "
-                    "statistics over R perturbed initial states, with their statistical floor), "
-                    "prints a table, saves a plot and recommends the fastest setting that "
-                    "meets the target — or says that the target is below the floor at this R.")
-    p.add_argument("scene", metavar="SCENE", help="embedded scene name or .toml path")
-    p.add_argument("--set", dest="overrides", action="append", default=[],
-                   metavar="PATH=VALUE", help="override a scene value (repeatable)")
-    p.add_argument("--target", type=float, default=0.01,
-                   help="relative error to meet (default 0.01)")
-    p.add_argument("--quick", action="store_true", help="fewer settings")
-    p.add_argument("--ensemble", type=int, metavar="R",
-                   help="dry/transition scenes: perturbed initial states per setting, >= 2 "
-                        "(default 8; the floor falls as 1/sqrt(R), the run time grows R-fold)")
-    p.add_argument("--seed", type=int, default=0,
-                   help="seed of the ensemble's perturbations (default 0)")
-    p.add_argument("--out", default="results/accuracy", metavar="DIR")
-    p.add_argument("--no-progress", action="store_true")
-    p.set_defaults(func=_cmd_accuracy)

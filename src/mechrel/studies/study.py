@@ -21,7 +21,10 @@ from ..uq.inputs import SAMPLING_RULES
 from ..uq.reliability import DEFAULT_ALLOWABLES, FORMS
 
 _TOP = ("allowable", "angle_step", "correlation", "cycles", "description", "inputs", "name",
-        "output", "quantities", "reliability", "scene", "scene_overrides", "sensitivity")
+        "output", "quantities", "reference", "reliability", "scene", "scene_overrides",
+        "sensitivity")
+STUDY_FIELDS = _TOP
+"""The top-level fields of a study file."""
 _RELIABILITY = ("form", "max_failure_fraction", "methods", "n", "pce_order", "rule", "seed")
 _SENSITIVITY = ("max_failure_fraction", "n", "seed")
 METHODS = ("fosm", "mc", "pce")
@@ -227,7 +230,8 @@ def _sensitivity(c: _Checker, table: Any) -> dict:
                                                t.get("max_failure_fraction", 0.05))}
 
 
-def load_study(source, *, overrides: Mapping[str, Any] | None = None) -> Study:
+def load_study(source, *, overrides: Mapping[str, Any] | None = None,
+               scene_overrides: Mapping[str, Any] | None = None) -> Study:
     """Load and validate a study.
 
     Parameters
@@ -236,6 +240,10 @@ def load_study(source, *, overrides: Mapping[str, Any] | None = None) -> Study:
         An embedded study name, a TOML file, or the parsed mapping.
     overrides : mapping, optional
         ``{"dotted.field": value}`` set in the study before it is validated.
+    scene_overrides : mapping, optional
+        ``{"dotted.scene.path": value}`` applied to the scene after the study's own
+        ``scene_overrides`` (what ``--set joints.C1.model=dry`` on the command line does);
+        checked against the scene when :meth:`Study.model` builds it.
 
     Returns
     -------
@@ -270,8 +278,9 @@ def load_study(source, *, overrides: Mapping[str, Any] | None = None) -> Study:
         scene=scene, output=None if output is None else c.string("output", output),
         angle_step=angle_step, cycles=None if cycles is None else c.integer("cycles", cycles, ge=1),
         quantities=c.choices("quantities", raw.get("quantities", list(QUANTITIES)), QUANTITIES),
-        scene_overrides=dict(c.table("scene_overrides", raw.get("scene_overrides", {}),
-                                     "a table of dotted scene paths and values")),
+        scene_overrides={**c.table("scene_overrides", raw.get("scene_overrides", {}),
+                                   "a table of dotted scene paths and values"),
+                         **dict(scene_overrides or {})},
         inputs=specs, paths=paths,
         correlation=_correlation(c, raw.get("correlation"), tuple(specs)),
         allowable=_allowables(c, raw.get("allowable", {})),

@@ -1,0 +1,30 @@
+"""``mechrel scenes``: list the embedded scenes, or describe one."""
+
+from __future__ import annotations
+
+
+def _cmd_scenes(args) -> int:
+    from ..scene import list_scenes, load_scene
+
+    if args.name:
+        scene = load_scene(args.name)
+        print(f"{scene.name}: {scene.description}")
+        print(f"  bodies:  {', '.join(scene.bodies)}")
+        print("  joints:  " + ", ".join(
+            f"{j.name} ({j.type}{', ' + j.model + ' clearance' if j.is_clearance else ''})"
+            for j in scene.joints.values()))
+        print("  drivers: " + (", ".join(
+            f"{d.name} ({d.law}, {d.speed:g} rad/s)" for d in scene.drivers.values()) or "none"))
+        print(f"  outputs: {', '.join(scene.outputs)}")
+        return 0
+    for name, description in list_scenes().items():
+        first = description.strip().splitlines()[0] if description.strip() else ""
+        print(f"{name:28s} {first}")
+    return 0
+
+
+def register(sub) -> None:
+    p = sub.add_parser("scenes", help="list the embedded scenes, or describe one",
+                       description="List the embedded scenes, or describe one.")
+    p.add_argument("name", nargs="?", help="scene to describe")
+    p.set_defaults(func=_cmd_scenes)
