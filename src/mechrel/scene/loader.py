@@ -6,6 +6,7 @@ from __future__ import annotations
 import dataclasses
 import hashlib
 import json
+import math
 import os
 import re
 import tomllib
@@ -251,13 +252,109 @@ def _normalise_overrides(overrides: Any) -> list[tuple[str, Any, str]]:
     return out
 
 
+# Two derived paths (docs/scenes.md, "Overrides"): one component of an array value, and the
+# distance between two points of one body (or of the ground).
+_COMPONENT_RE = re.compile(r"(?P<base>.+)\[(?P<index>\d+)\]\Z")
+_LENGTH_RE = re.compile(r"(?P<owner>ground|bodies\.[A-Za-z_][A-Za-z0-9_]*)\.length\("
+                        r"(?P<fixed>[A-Za-z_][A-Za-z0-9_]*),(?P<moved>[A-Za-z_][A-Za-z0-9_]*)\)\Z")
+_LENGTH_FORM = "OWNER.length(P,Q) with OWNER 'ground' or 'bodies.NAME' and P, Q two of its points"
+
+
+def _is_number(v: Any) -> bool:
+    return isinstance(v, (int, float)) and not isinstance(v, bool)
+
+
+def get_value(raw: Mapping, path: str, *, source: str | None = None) -> Any:
+    """The value at the dotted ``path`` of a scene's raw mapping, including the derived paths
+    that :func:`apply_override` sets: ``PATH[i]`` (component ``i`` of an array, e.g.
+    ``ground.points.O4[0]``) and ``OWNER.length(P,Q)`` (the distance |Q − P| in m between
+    points P and Q of a body, e.g. ``bodies.crank.length(O,A)``, or of the ground).
+
+    Raises :class:`~mechrel.errors.SceneError` naming the path when it is not in the scene."""
+    m = _LENGTH_RE.match(path)
+    if m:
+        table = f"{m['owner']}.points"
+        p = get_value(raw, f"{table}.{m['fixed']}", source=source)
+        q = get_value(raw, f"{table}.{m['moved']}", source=source)
+        return math.hypot(q[0] - p[0], q[1] - p[1])
+    m = _COMPONENT_RE.match(path)
+    if m:
+        array = get_value(raw, m["base"], source=source)
+        i = int(m["index"])
+        if isinstance(array, (str, Mapping)) or not isinstance(array, (list, tuple)) \
+                or i >= len(array):
+            raise SceneError(f"{path}: '{m['base']}' = {fmt_value(array)} has no component {i}; "
+                             "allowed: an index below the array's length",
+                             source=source, path=path)
+        return array[i]
+    node: Any = raw
+    for part in path.split("."):
+        if not isinstance(node, Mapping) or part not in node:
+            raise SceneError(f"{path}: not a value of the scene (no {part!r} there); allowed: a "
+                             "dotted scene path like joints.C1.clearance, PATH[i] for a "
+                             f"component of an array, or {_LENGTH_FORM}", source=source,
+                             path=path)
+        node = node[part]
+    return node
+
+
+def _derived_override(raw: dict, path: str, value: Any, text: str,
+                      source: str | None) -> tuple[str, Any] | None:
+    """The plain (path, value) that a derived path stands for, or None for a plain path.
+
+    ``PATH[i] = x`` sets component i of the array at PATH. ``OWNER.length(P,Q) = L`` moves Q
+    along the line from P through Q so that |Q − P| = L exactly:
+    Q' = P + L (Q − P)/|Q − P| (P, the direction and every other point stay)."""
+    m = _LENGTH_RE.match(path)
+    if m:
+        table = f"{m['owner']}.points"
+        p = get_value(raw, f"{table}.{m['fixed']}", source=source)
+        q = get_value(raw, f"{table}.{m['moved']}", source=source)
+        d = math.hypot(q[0] - p[0], q[1] - p[1])
+        if not (_is_number(value) and math.isfinite(value) and value > 0):
+            raise SceneError(f"override '{text}': a length must be a number > 0 (m); allowed: "
+                             "a positive distance", source=source, path=path)
+        if not d > 0:
+            raise SceneError(f"override '{text}': points {m['fixed']} and {m['moved']} of "
+                             f"{m['owner']} coincide, so the line along which {m['moved']} "
+                             "moves is undefined; allowed: two distinct points",
+                             source=source, path=path)
+        s = value / d
+        return (f"{table}.{m['moved']}",
+                [p[0] + s * (q[0] - p[0]), p[1] + s * (q[1] - p[1])])
+    m = _COMPONENT_RE.match(path)
+    if m:
+        array = get_value(raw, m["base"], source=source)
+        i = int(m["index"])
+        if isinstance(array, (str, Mapping)) or not isinstance(array, (list, tuple)) \
+                or i >= len(array):
+            raise SceneError(f"override '{text}': '{m['base']}' = {fmt_value(array)} has no "
+                             f"component {i}; allowed: an index below the array's length",
+                             source=source, path=path)
+        new = list(array)
+        new[i] = value
+        return m["base"], new
+    if "(" in path or "[" in path:
+        raise SceneError(f"override '{text}': malformed path '{path}'; allowed: a dotted path, "
+                         f"PATH[i] for a component of an array, or {_LENGTH_FORM}",
+                         source=source, path=path)
+    return None
+
+
 def apply_override(raw: dict, path: str, value: Any, *, text: str | None = None,
                    source: str | None = None) -> None:
     """Set the dotted ``path`` of ``raw`` (in place) to ``value``, checking the path against the
     scene layout: every step must be a known field or an existing named entry, and only the
     last step may be a non-table field. Missing fixed sub-tables (``[solver]``,
-    ``[joints.X.lubricant]``, ...) are created."""
+    ``[joints.X.lubricant]``, ...) are created.
+
+    Two derived paths set part of a value (see :func:`get_value`): ``PATH[i]`` one component
+    of an array (``ground.points.O4[0]``), and ``OWNER.length(P,Q)`` the distance between two
+    points of a body or of the ground, by moving Q along the line from P through Q."""
     text = text or f"{path}={fmt_value(value)}"
+    derived = _derived_override(raw, path, value, text, source)
+    if derived is not None:
+        path, value = derived
 
     def fail(problem: str, allowed: str) -> None:
         raise SceneError(f"override '{text}': {problem}; allowed: {allowed}", source=source,

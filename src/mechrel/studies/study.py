@@ -18,6 +18,7 @@ from ..errors import SceneError, StudyError
 from ..scene._validate import Checker, join
 from ..scene.model import QUANTITIES
 from ..uq.inputs import SAMPLING_RULES
+from ..uq.mechanism import REFERENCES
 from ..uq.reliability import DEFAULT_ALLOWABLES, FORMS
 
 _TOP = ("allowable", "angle_step", "correlation", "cycles", "description", "inputs", "name",
@@ -36,7 +37,9 @@ class Study:
 
     ``inputs`` maps an input name to its distribution spec (a mapping understood by
     :meth:`mechrel.uq.inputs.UncertainInputs.from_specs`) and ``paths`` to the scene paths it
-    sets. ``reliability`` and ``sensitivity`` hold every setting of their section, defaults
+    sets. ``reference`` is what the error is measured against under geometric inputs
+    (``"nominal"`` or ``"same-geometry"``, :class:`~mechrel.uq.mechanism.MechanismModel`).
+    ``reliability`` and ``sensitivity`` hold every setting of their section, defaults
     filled in (``methods``, ``form``, ``n``, ``rule``, ``seed``, ``pce_order``,
     ``max_failure_fraction``; ``n``, ``seed``, ``max_failure_fraction``).
     """
@@ -55,6 +58,7 @@ class Study:
     allowable: Mapping[str, tuple[float, float]]
     reliability: Mapping[str, Any]
     sensitivity: Mapping[str, Any]
+    reference: str = "nominal"
     source: str | None = field(default=None, compare=False)
 
     def model(self):
@@ -62,7 +66,8 @@ class Study:
         from ..uq.mechanism import MechanismModel
         return MechanismModel(self.scene, dict(self.paths), output=self.output,
                               quantities=self.quantities, angle_step=self.angle_step,
-                              cycles=self.cycles, overrides=dict(self.scene_overrides))
+                              cycles=self.cycles, overrides=dict(self.scene_overrides),
+                              reference=self.reference)
 
     def uncertain_inputs(self):
         """The :class:`~mechrel.uq.inputs.UncertainInputs` of this study."""
@@ -285,7 +290,9 @@ def load_study(source, *, overrides: Mapping[str, Any] | None = None,
         correlation=_correlation(c, raw.get("correlation"), tuple(specs)),
         allowable=_allowables(c, raw.get("allowable", {})),
         reliability=_reliability(c, raw.get("reliability", {})),
-        sensitivity=_sensitivity(c, raw.get("sensitivity", {})), source=label)
+        sensitivity=_sensitivity(c, raw.get("sensitivity", {})),
+        reference=c.choice("reference", raw.get("reference", "nominal"), REFERENCES),
+        source=label)
     try:  # the distributions, checked by chaospy/scipy with the input's name
         study.uncertain_inputs()
     except StudyError as exc:

@@ -11,6 +11,19 @@ It is deterministic (no randomness: the simulation is deterministic and its sett
 of :meth:`cache_key`) and picklable (it carries the scene's raw mapping, not the compiled
 objects; each worker process rebuilds the scene once and numba loads the compiled kernels from
 its on-disk cache once per process).
+
+Geometric tolerances
+--------------------
+A point's coordinate is an input by its component path, ``bodies.rod.points.B[0]`` or
+``ground.points.O4[1]`` (m), and a link's length by the distance between two of its points,
+``bodies.crank.length(O,A)`` (m): setting it moves A along the line from O through A so that
+|A − O| equals the value exactly (the other points, the body's mass, inertia and frame stay).
+Under such inputs the error is measured against the ideal motion of the *nominal* design
+(``reference="nominal"``, the default): the ideal mechanism with the scene's own point
+coordinates and every other input at the sample's value (a speed tolerance still moves the
+reference, as before); ``reference="same-geometry"`` measures it against the ideal mechanism of
+the sample's own geometry, where a geometric tolerance alone causes no error. Without geometric
+inputs the two are the same.
 """
 
 from __future__ import annotations
@@ -24,9 +37,22 @@ from typing import Sequence
 import numpy as np
 import pandas as pd
 
-from ..errors import MechrelError, StudyError
+from ..errors import MechrelError, SceneError, StudyError
 from ..scene.model import QUANTITIES
 from .model import ModelFailure
+
+REFERENCES = ("nominal", "same-geometry")
+"""What the error is measured against: the ideal motion of the nominal geometry, or of the
+sample's own geometry (see the module docstring)."""
+
+_GEOMETRY = re.compile(r"-?(ground\.points\.|bodies\.[A-Za-z_]\w*\.points\.|"
+                       r"(ground|bodies\.[A-Za-z_]\w*)\.length\()")
+
+
+def is_geometric(path: str) -> bool:
+    """Whether a scene path sets the mechanism's geometry: a point's coordinates (whole or a
+    component) or a length between two points of a body or of the ground."""
+    return bool(_GEOMETRY.match(path))
 
 
 class MechanismModel:
@@ -53,11 +79,17 @@ class MechanismModel:
         scene's own; with more than one, the last whole cycle is used to skip transients).
     overrides : mapping, optional
         Fixed scene overrides applied before the inputs (e.g. the solver).
+    reference : {"nominal", "same-geometry"}
+        The ideal motion the error is measured against when inputs set the geometry (point
+        coordinates, lengths): that of the nominal geometry (default) or of the sample's own.
+        Without geometric inputs both are the ideal counterpart of the sample. With
+        ``"nominal"`` and geometric inputs, a scene without clearance joints is a valid model
+        (its error is the tolerances' kinematic error).
     """
 
     def __init__(self, scene, inputs: Sequence[str], *, output: str | None = None,
                  quantities: Sequence[str] = QUANTITIES, angle_step: float = 18.0,
-                 cycles: float | None = None, overrides=None):
+                 cycles: float | None = None, overrides=None, reference: str = "nominal"):
         from ..scene import load_scene, scene_hash
         from ..scene.loader import thaw
 
@@ -77,10 +109,18 @@ class MechanismModel:
         self.targets = targets
         if not self.input_names or len(set(self.input_names)) != len(self.input_names):
             raise StudyError(f"inputs: must be non-empty and unique, got {self.input_names!r}")
-        if not base.clearance_joints:
-            raise StudyError(f"scene {base.name!r}: has no clearance joints, so its response "
-                             "error is zero; declare a joint with model = 'dry', 'lubricated' "
-                             "or 'transition'")
+        if reference not in REFERENCES:
+            raise StudyError(f"reference: {reference!r} is not a reference; allowed: "
+                             f"{', '.join(map(repr, REFERENCES))}")
+        self.reference = reference
+        geometric = [p for paths in targets.values() for p in paths if is_geometric(p)]
+        self.nominal_reference = reference == "nominal" and bool(geometric)
+        if not base.clearance_joints and not self.nominal_reference:
+            raise StudyError(
+                f"scene {base.name!r}: has no clearance joints, so its response error is zero; "
+                "allowed: a joint with model = 'dry', 'lubricated' or 'transition', or "
+                "geometric inputs (point coordinates, lengths) measured against the nominal "
+                "design" + (" (reference = 'nominal')" if geometric else ""))
         if base.analysis.cycle_driver is None:
             raise StudyError(f"scene {base.name!r}: analysis.cycle_driver is needed to define "
                              "the crank angles of the analysis")
@@ -118,6 +158,9 @@ class MechanismModel:
                 raise StudyError(f"inputs.{name}: names no scene path")
             for path in paths:
                 value = _lookup(base.raw, path.lstrip("-"))
+                if is_geometric(path) and path.startswith("-"):
+                    raise StudyError(f"inputs.{name}: {path!r}: a geometric path cannot be "
+                                     "negated; allowed: the path without '-'")
                 if isinstance(value, bool) or not isinstance(value, (int, float)):
                     raise StudyError(f"inputs: scene path {path!r} holds {value!r}; an "
                                      "uncertain input must be a number")
@@ -150,11 +193,23 @@ class MechanismModel:
 
     @property
     def output_noise(self) -> float:
-        """Relative noise of the outputs from the integrator's tolerance (used by FOSM's
-        automatic finite-difference step): the solver's rtol, or 1e-6 for a fixed-step
-        method, whose error is not controlled."""
+        """Relative noise of the outputs (used by FOSM's automatic finite-difference step).
+
+        A mechanism with clearance joints is integrated: the solver's rtol, or 1e-6 for a
+        fixed-step method, whose error is not controlled. One without (geometric tolerances
+        against the nominal design) is solved by kinematic analysis: Newton–Raphson to
+        |Φ| ≤ ``solver.assembly_tolerance`` (m), relative to the mechanism's size (its largest
+        point distance from a body's frame or the ground's origin), and no less than machine
+        epsilon. The error's reference (the nominal design) is the same in every sample, so its
+        own noise cancels in the differences."""
         from ..simulation import make_integrator
-        integ = make_integrator(self.scene)
+        scene = self.scene
+        if not scene.clearance_joints:
+            pts = [abs(c) for b in scene.bodies.values() for p in b.points.values() for c in p]
+            pts += [abs(c) for p in scene.ground.values() for c in p]
+            size = max(pts) if pts else 1.0
+            return max(scene.solver.assembly_tolerance / size, float(np.finfo(float).eps))
+        integ = make_integrator(scene)
         return float(integ.rtol) if integ.adaptive and integ.rtol else 1e-6
 
     def describe(self) -> dict:
@@ -163,7 +218,8 @@ class MechanismModel:
         return {"kind": "MechanismModel", "scene": self._raw["name"], "scene_hash": self.scene_hash,
                 "scene_source": self.scene_source, "solver": dict(self._raw.get("solver", {})),
                 "output": self.output, "quantities": list(self.quantities),
-                "angle_step": self.angle_step, "cycles": self.cycles}
+                "angle_step": self.angle_step, "cycles": self.cycles,
+                "reference": self.reference}
 
     def cache_key(self) -> str:
         from .. import __version__
@@ -174,6 +230,7 @@ class MechanismModel:
                               "inputs": self.targets, "output": self.output,
                               "quantities": list(self.quantities),
                               "angle_step": self.angle_step, "cycles": self.cycles,
+                              **({"reference": "nominal"} if self.nominal_reference else {}),
                               "mechrel": __version__, "code": simulator_digest()},
                              sort_keys=True)
         return hashlib.sha256(payload.encode()).hexdigest()
@@ -195,12 +252,19 @@ class MechanismModel:
         return values
 
     def simulate(self, x):
-        """The full :class:`~mechrel.simulation.SimulationResult` at input vector ``x``."""
+        """The full :class:`~mechrel.simulation.SimulationResult` at input vector ``x``, its
+        errors measured against the model's ``reference``."""
         from ..scene import with_overrides
         from ..simulation import simulate
 
-        scene = with_overrides(self.scene, self.scene_values(x))
-        return simulate(scene)
+        values = self.scene_values(x)
+        scene = with_overrides(self.scene, values)
+        if not self.nominal_reference:
+            return simulate(scene)
+        # the nominal geometry with the sample's other values (a speed, a clearance)
+        other = {p: v for p, v in values.items() if not is_geometric(p)}
+        reference = with_overrides(self.scene, other) if other else self.scene
+        return simulate(scene, reference=reference)
 
     def evaluate(self, x) -> np.ndarray:
         """Errors at the analysis crank angles of the last cycle, quantity-major (m, m/s, m/s²).
@@ -236,11 +300,12 @@ def _stable_reason(exc: Exception) -> str:
 
 
 def _lookup(raw, path: str):
-    node = raw
-    for part in path.split("."):
-        if not hasattr(node, "get") or part not in node:
-            raise StudyError(f"inputs: {path!r} is not a value of the scene (no {part!r} "
-                             "there); inputs are dotted scene paths like "
-                             "'joints.C1.clearance'")
-        node = node[part]
-    return node
+    from ..scene.loader import get_value
+
+    try:
+        return get_value(raw, path)
+    except SceneError:
+        raise StudyError(f"inputs: {path!r} is not a value of the scene; allowed: dotted scene "
+                         "paths like 'joints.C1.clearance', a component of a point "
+                         "'bodies.rod.points.B[0]' or a length 'bodies.crank.length(O,A)' "
+                         "(docs/uq.md)") from None
