@@ -31,3 +31,14 @@ class SimulationError(MechrelError, RuntimeError):
 
 class StudyError(MechrelError, ValueError):
     """A study file or estimator argument is invalid."""
+
+
+class MechrelWarning(UserWarning):
+    """Base class of mechrel's warnings."""
+
+
+class EstimateWarning(MechrelWarning):
+    """An estimate that may not be trustworthy: its assumptions are not met, its numerical
+    basis is degenerate, or it disagrees with an independent estimate. The result carries the
+    same text in its ``warnings`` field (and the study runners in the console and
+    ``summary.json``), so that a report never states such a number without its caveat."""

@@ -4,6 +4,7 @@
 from __future__ import annotations
 
 import contextlib
+import warnings
 
 from ..errors import StudyError
 from .args import add_set_option, fraction, positive_int
@@ -58,6 +59,17 @@ def dask_backend(address: str | None):
         client.close()
 
 
+@contextlib.contextmanager
+def _warnings_in_summary():
+    """The estimates' :class:`~mechrel.errors.EstimateWarning` are lines of the printed summary
+    (and of its JSON), not also Python warnings on stderr."""
+    from ..errors import EstimateWarning
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", EstimateWarning)
+        yield
+
+
 def _load(args):
     from ..studies.study import load_study
 
@@ -78,7 +90,7 @@ def _cmd_reliability(args) -> int:
 
     study = _load(args)
     methods = None if args.method is None else (args.method,)
-    with dask_backend(args.scheduler) as backend:
+    with dask_backend(args.scheduler) as backend, _warnings_in_summary():
         lines, _ = run_reliability(study, methods=methods, n=args.n, n_jobs=_jobs(args),
                                    seed=args.seed, out=args.out, backend=backend,
                                    progress=not args.no_progress,
@@ -91,7 +103,7 @@ def _cmd_sensitivity(args) -> int:
     from ..studies.runner import run_sensitivity
 
     study = _load(args)
-    with dask_backend(args.scheduler) as backend:
+    with dask_backend(args.scheduler) as backend, _warnings_in_summary():
         lines, _ = run_sensitivity(study, n=args.n, n_jobs=_jobs(args), seed=args.seed,
                                    out=args.out, backend=backend, progress=not args.no_progress,
                                    max_failure_fraction=args.max_failure_fraction)

@@ -143,6 +143,78 @@ def _plot_reliability(fosm_t, mc_t, pce_t, quantities, title, path):
     plt.close(fig)
 
 
+def _warnings_of(results) -> list[str]:
+    """Every estimate's warnings, once each, in the order of the estimates."""
+    out = []
+    for r in results.values():
+        for w in getattr(r, "warnings", ()):
+            if w not in out and not any(w.startswith(o) for o in out):
+                out.append(w)
+    return out
+
+
+def _verdict(results, quantities, model) -> list[str]:
+    """Which estimate to trust for each quantity, and why (the summary's last lines)."""
+    from ..uq.pce import LOO_THRESHOLD
+
+    lines = ["  verdict:"]
+    fosm, mc, pce = results.get("fosm"), results.get("mc"), results.get("pce")
+    nc = results.get("normality")
+    nonsmooth = getattr(model, "nonsmooth", None)
+    for q in quantities:
+        why = []
+        if mc is not None:
+            level = f"{mc.confidence_level:.0%}"
+            n_ok = mc.evaluations.n_ok
+            if fosm is not None and nc is not None:
+                t = nc.table.xs(q, level="quantity")
+                m = mc.table.xs(q, level="quantity")
+                r_out = int(((t["R_fosm"] < t["R_mc_lo"]) | (t["R_fosm"] > t["R_mc_hi"])).sum())
+                mu_out = int(((t["mu_i"] < m["mean_lo"]) | (t["mu_i"] > m["mean_hi"])).sum())
+                if nonsmooth:
+                    why.append(f"FOSM is not applicable ({nonsmooth})")
+                elif r_out or mu_out:
+                    why.append(f"FOSM's R is outside MC's {level} interval at {r_out} and its "
+                               f"mean at {mu_out} of {len(t)} angles")
+                else:
+                    why.append(f"FOSM agrees (its R and mean inside MC's {level} interval at "
+                               "every angle), so FOSM's 2d + 1 runs suffice for this design")
+            if pce is not None:
+                loo = pce.loo_error.xs(q, level="quantity") if pce.loo_error is not None else None
+                worst = float(loo.max()) if loo is not None and loo.notna().any() else float("nan")
+                if not worst <= LOO_THRESHOLD:
+                    why.append(f"PCE is not (leave-one-out error {worst:.3g} > "
+                               f"{LOO_THRESHOLD:g})")
+                else:
+                    why.append(f"PCE fits (leave-one-out error ≤ {worst:.3g})")
+            m = mc.table.xs(q, level="quantity")
+            width = float((m["reliability_hi"] - m["reliability_lo"]).max())
+            if width > 0.1:
+                why.append(f"MC's intervals are up to {width:.2f} wide: raise n to narrow them "
+                           "(the width falls as 1/sqrt(n))")
+            lines.append(f"    {q}: trust Monte Carlo ({n_ok} successful samples, {level} "
+                         "intervals that hold whatever the error's distribution)"
+                         + ("; " + "; ".join(why) if why else ""))
+        elif pce is not None:
+            loo = pce.loo_error.xs(q, level="quantity") if pce.loo_error is not None else None
+            worst = float(loo.max()) if loo is not None and loo.notna().any() else float("nan")
+            if worst <= LOO_THRESHOLD:
+                lines.append(f"    {q}: the PCE surrogate (leave-one-out error ≤ {worst:.3g}); "
+                             "not checked against Monte Carlo")
+            else:
+                lines.append(f"    {q}: no estimate to trust: the PCE's leave-one-out error is "
+                             f"{worst:.3g} > {LOO_THRESHOLD:g} and there is no Monte Carlo run")
+        elif fosm is not None:
+            lines.append(f"    {q}: FOSM only, unchecked (no Monte Carlo run): "
+                         + (f"not applicable ({nonsmooth}); run Monte Carlo" if nonsmooth else
+                            "a first-order, normal model of the error; run --method mc to "
+                            "check it"))
+    if mc is not None:
+        lines.append("    whole cycle: only Monte Carlo estimates it (FOSM and PCE give "
+                     "per-angle reliabilities)")
+    return lines
+
+
 def run_reliability(study, *, methods=None, n=None, n_jobs=1, seed=None, out=None,
                     progress=True, cache=True, backend="loky", max_failure_fraction=None):
     """Run the study's reliability methods and write their results to ``out``.
@@ -278,6 +350,9 @@ def run_reliability(study, *, methods=None, n=None, n_jobs=1, seed=None, out=Non
     wall = time.perf_counter() - start
     n_calls = sum(ev.n_model_calls for ev in evaluations.values())
     lines.append(f"  {n_calls} model evaluations in {wall:.1f} s (n_jobs = {n_jobs})")
+    notes = _warnings_of(results)
+    lines += [f"  warning: {w}" for w in notes]
+    verdict = _verdict(results, study.quantities, model)
     if out:
         written = ["reliability.csv", "reliability.png", "failures.csv", "summary.json"]
         write_table(table.reset_index(), out / "reliability.csv")
@@ -292,8 +367,10 @@ def run_reliability(study, *, methods=None, n=None, n_jobs=1, seed=None, out=Non
         _write_failures(evaluations, out / "failures.csv")
         write_json({**record, "wall_time": wall, "failures": _failure_counts(evaluations),
                     "provenance": {k: dict(v.provenance) for k, v in results.items()},
+                    "warnings": notes, "verdict": [v.strip() for v in verdict[1:]],
                     "summary": lines}, out / "summary.json")
         lines.append(f"  wrote {out}/{', '.join(written)}")
+    lines += verdict  # the summary ends with it
     return lines, results
 
 
@@ -379,6 +456,7 @@ def run_sensitivity(study, *, n=None, n_jobs=1, seed=None, out=None, progress=Tr
                            f"S1={r['S1']:.3f}" for _, r in grp.iterrows())
         lines.append(f"  {out_name}: {ranked}")
     lines += _failure_lines(evaluations, out / "sensitivity_failures.csv" if out else None)
+    lines += [f"  warning: {w}" for w in res.warnings]
     wall = time.perf_counter() - start
     lines.append(f"  wall time {wall:.1f} s (n_jobs = {n_jobs})")
     if out:
@@ -386,8 +464,8 @@ def run_sensitivity(study, *, n=None, n_jobs=1, seed=None, out=None, progress=Tr
         _plot_sobol(res, out / "sensitivity.png", f"{study.name}: what drives the error")
         _write_failures(evaluations, out / "sensitivity_failures.csv")
         write_json({**record, "wall_time": wall, "failures": _failure_counts(evaluations),
-                    "provenance": dict(res.provenance), "summary": lines},
-                   out / "sensitivity.json")
+                    "provenance": dict(res.provenance), "warnings": list(res.warnings),
+                    "summary": lines}, out / "sensitivity.json")
         lines.append(f"  wrote {out}/sensitivity.csv, sensitivity.png, "
                      "sensitivity_failures.csv, sensitivity.json")
     return lines, res

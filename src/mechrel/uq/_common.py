@@ -8,6 +8,7 @@ from importlib.metadata import PackageNotFoundError, version
 from typing import Any
 
 import numpy as np
+import pandas as pd
 
 from mechrel.errors import StudyError
 
@@ -161,3 +162,40 @@ def resolve_outputs_safe(index, output: Any) -> int:
         return int(output)
     raise StudyError(f"output: {output!r} is neither a label of the output index (e.g. {index[:2].tolist()}) "
                      f"nor a position in [0, {len(index)})")
+
+
+def emit_warnings(messages, stacklevel: int = 3) -> tuple[str, ...]:
+    """Issue each message as an :class:`~mechrel.errors.EstimateWarning` and return them as
+    the tuple a result carries in its ``warnings`` field."""
+    import warnings
+
+    from mechrel.errors import EstimateWarning
+
+    out = tuple(str(m) for m in messages)
+    for m in out:
+        warnings.warn(m, EstimateWarning, stacklevel=stacklevel)
+    return out
+
+
+def _labels(index, mask, limit: int = 3) -> str:
+    """The first ``limit`` labels of ``index`` where ``mask`` holds, for messages."""
+    picked = [index[i] for i in np.flatnonzero(mask)[:limit]]
+    text = ", ".join(
+        "(" + ", ".join(f"{v:g}°" if isinstance(v, float) else str(v) for v in p) + ")"
+        if isinstance(p, tuple) else str(p) for p in picked)
+    return text + (", ..." if int(np.sum(mask)) > limit else "")
+
+
+def quantity_scale(index, Y: np.ndarray) -> np.ndarray:
+    """Per output, the largest |value| among the outputs of its quantity (the first level of a
+    MultiIndex; all outputs otherwise) over the rows of ``Y``: the scale against which a value
+    counts as zero."""
+    a = np.max(np.abs(Y), axis=0) if Y.size else np.zeros(len(index))
+    if getattr(index, "nlevels", 1) > 1:
+        groups = index.get_level_values(0)
+        out = np.empty_like(a)
+        for g in pd.unique(groups):
+            m = np.asarray(groups == g)
+            out[m] = a[m].max()
+        return out
+    return np.full_like(a, a.max() if a.size else 0.0)

@@ -38,7 +38,10 @@ import pandas as pd
 from mechrel.errors import StudyError
 
 from ._common import (
+    _labels,
     check_inputs,
+    emit_warnings,
+    quantity_scale,
     exclusive_source,
     executor_kwargs,
     failure_message,
@@ -101,6 +104,11 @@ class FOSMResult:
     ``R_one_sided`` (= Φ(beta), the paper's R), ``beta_minus`` ((μ_I + μ_i)/s),
     ``R_two_sided`` (P(−I < i < I)), ``reliability`` (the one selected by ``form``) and
     ``beta_generalized`` (Φ⁻¹(reliability)).
+
+    ``warnings``: why the numbers may not be trustworthy (each also issued as an
+    :class:`~mechrel.errors.EstimateWarning`): a non-smooth model (dry contact), outputs whose
+    response the step does not resolve (a kink, an impact, chaos), outputs with a zero
+    gradient (σ_i = 0, so β = ±∞ and R ∈ {0, 1} there are not estimates).
     """
 
     table: pd.DataFrame
@@ -112,6 +120,7 @@ class FOSMResult:
     allowable: Any
     evaluations: Evaluations
     provenance: dict = field(repr=False)
+    warnings: tuple[str, ...] = ()
 
     def to_frame(self) -> pd.DataFrame:
         return self.table.copy()
@@ -216,5 +225,49 @@ def fosm(
                   "noise": noise, "steps": h.tolist(), "allowable": repr(allowable) if allowable is not None else "paper defaults",
                   "gradient": "central differences, 2d+1 evaluations"},
     )
+    notes = emit_warnings(fosm_warnings(model, ev.output_index, Y, sigma_i))
     return FOSMResult(table, grad, form, readonly(h), readonly(inputs.std), readonly(inputs.pearson_correlation),
-                      allowable, ev, prov)
+                      allowable, ev, prov, notes)
+
+
+UNRESOLVED = 0.5
+"""FOSM's resolution test: the forward and backward slopes f(μ + h) − f(μ) and f(μ) − f(μ − h)
+of a smooth response differ by O(h f″), a small fraction of either at a step that resolves the
+response; where they differ by more than this fraction of the larger, the step spans a kink, an
+impact or chaotic scatter, and the central difference is not a derivative."""
+ZERO = 1e-12
+"""A gradient, or a slope, is taken as zero when it changes the output by less than this
+fraction of the largest |output| of its quantity (about ten thousand times the rounding of a
+double)."""
+
+
+def fosm_warnings(model, index, Y: np.ndarray, sigma_i: np.ndarray) -> list[str]:
+    """Why a FOSM result from the stencil outputs ``Y`` (rows: μ, then μ ± h_j per input) may
+    not be trustworthy (see :class:`FOSMResult`)."""
+    out = []
+    reason = getattr(model, "nonsmooth", None)
+    if reason:
+        out.append(f"fosm: the model is not smooth ({reason}): its finite-difference gradient "
+                   "is a secant across impacts, not a derivative, and its error is not normal; "
+                   "trust Monte Carlo for this model")
+    scale = quantity_scale(index, Y)
+    floor = ZERO * scale
+    up = Y[1::2] - Y[0]          # (d, n_out) forward changes
+    down = Y[0] - Y[2::2]        # backward changes
+    big = np.maximum(np.abs(up), np.abs(down))
+    unresolved = np.any((big > floor) & (np.abs(up - down) > UNRESOLVED * big), axis=0)
+    if unresolved.any():
+        out.append(f"fosm: the finite-difference step does not resolve the response at "
+                   f"{int(unresolved.sum())} of {len(index)} outputs, e.g. "
+                   f"{_labels(index, unresolved)}: the forward and backward slopes differ by "
+                   f"more than {UNRESOLVED:.0%} (a kink, an impact, a chaotic response, or a "
+                   "turning point where the first-order term vanishes), so σ_i there is not a "
+                   "first-order standard deviation; use Monte Carlo")
+    zero = (sigma_i <= floor) & (scale > 0)
+    if zero.any():
+        out.append(f"fosm: the finite-difference gradient is zero at {int(zero.sum())} of "
+                   f"{len(index)} outputs, e.g. {_labels(index, zero)}: σ_i = 0 gives β = ±∞ "
+                   "and R ∈ {0, 1} there, which is not an estimate (a flat response, a kink "
+                   "between the stencil points, or a step below the model's resolution); "
+                   "use Monte Carlo there")
+    return out

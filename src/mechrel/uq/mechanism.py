@@ -212,6 +212,17 @@ class MechanismModel:
         integ = make_integrator(scene)
         return float(integ.rtol) if integ.adaptive and integ.rtol else 1e-6
 
+    @property
+    def nonsmooth(self) -> str | None:
+        """Why the response is not a smooth function of the inputs, or None: dry contact
+        (``dry`` or ``transition`` joints) makes it piecewise smooth at best, chaotic at worst.
+        FOSM warns on such a model."""
+        dry = [j.name for j in self.scene.clearance_joints if j.model in ("dry", "transition")]
+        if not dry:
+            return None
+        return (f"dry contact in joint{'s' if len(dry) > 1 else ''} {', '.join(dry)}: impacts "
+                "make the response non-smooth, often chaotic")
+
     def describe(self) -> dict:
         """The scene as given (name, :func:`~mechrel.scene.scene_hash` with ``overrides``
         applied, source), its solver settings and the analysed outputs."""

@@ -164,6 +164,7 @@ class MonteCarloResult:
     ``table`` (per output): moments with intervals, ``mu_I``, ``sigma_I``, ``n``,
     ``n_inside``, ``reliability`` with ``reliability_lo``/``_hi``. ``whole_cycle`` (per quantity
     and ``"all"``): the joint event over the cycle. ``failure_counts``: {reason: count}.
+    ``warnings``: caveats of the estimate (for a run on a PCE surrogate, the surrogate's).
     """
 
     table: pd.DataFrame
@@ -180,6 +181,7 @@ class MonteCarloResult:
     evaluations: Evaluations
     seed: Any
     provenance: dict = field(repr=False)
+    warnings: tuple[str, ...] = ()
 
     def to_frame(self) -> pd.DataFrame:
         return self.table.copy()

@@ -33,7 +33,7 @@ from scipy import stats
 
 from mechrel.errors import StudyError
 
-from ._common import check_fraction, make_provenance, resolve_outputs_safe
+from ._common import _labels, check_fraction, emit_warnings, make_provenance, resolve_outputs_safe
 from .first_order import FOSMResult
 from .montecarlo import MonteCarloResult, reliability_from_samples
 from .reliability import reliability_one_sided, reliability_two_sided
@@ -61,7 +61,11 @@ def _ad_normal_pvalue(a2: float, n: int) -> float:
 
 @dataclass(frozen=True, eq=False)
 class NormalityResult:
-    """Per-output normality diagnostics of FOSM against Monte Carlo (frozen)."""
+    """Per-output normality diagnostics of FOSM against Monte Carlo (frozen).
+
+    ``warnings``: outputs where FOSM's mean μ_i or its reliability lies outside the Monte Carlo
+    confidence interval (also issued as :class:`~mechrel.errors.EstimateWarning`).
+    """
 
     table: pd.DataFrame
     alpha: float
@@ -69,6 +73,7 @@ class NormalityResult:
     fosm: FOSMResult
     monte_carlo: MonteCarloResult
     provenance: dict = field(repr=False)
+    warnings: tuple[str, ...] = ()
 
     def to_frame(self) -> pd.DataFrame:
         return self.table.copy()
@@ -174,4 +179,20 @@ def normality_check(
         settings={"alpha": alpha, "form": fosm.form, "tests": "KS vs FOSM normal; Anderson-Darling (interpolated p)",
                   "monte_carlo_rule": monte_carlo.rule},
     )
-    return NormalityResult(table, alpha, fosm.form, fosm, monte_carlo, prov)
+    notes = []
+    level = f"{monte_carlo.confidence_level:.0%}"
+    mt = monte_carlo.table
+    if {"mean_lo", "mean_hi"} <= set(mt.columns):
+        mean_out = ((mu_i < mt["mean_lo"].to_numpy()) | (mu_i > mt["mean_hi"].to_numpy()))
+        if mean_out.any():
+            notes.append(f"fosm vs Monte Carlo: FOSM's mean μ_i lies outside the {level} Monte "
+                         f"Carlo interval of the mean at {int(mean_out.sum())} of {len(mu_i)} "
+                         f"outputs, e.g. {_labels(ev.output_index, mean_out)}: the response is "
+                         "not linear over the inputs' spread there; trust Monte Carlo")
+    if outside.any():
+        notes.append(f"fosm vs Monte Carlo: FOSM's reliability lies outside the {level} Monte "
+                     f"Carlo interval at {int(outside.sum())} of {len(r_fosm)} outputs, e.g. "
+                     f"{_labels(ev.output_index, outside)}: FOSM's normal, first-order model "
+                     "of the error does not hold there; trust Monte Carlo")
+    return NormalityResult(table, alpha, fosm.form, fosm, monte_carlo, prov,
+                           emit_warnings(notes))

@@ -47,6 +47,7 @@ import pandas as pd
 from mechrel.errors import StudyError
 
 from ._common import (
+    emit_warnings,
     SampleFailuresError,
     check_choice,
     check_fraction,
@@ -212,7 +213,11 @@ def pce_design(
 
 @dataclass(frozen=True, eq=False)
 class PCEResult:
-    """A fitted polynomial chaos expansion (frozen). ``coefficients`` is (P, n_out)."""
+    """A fitted polynomial chaos expansion (frozen). ``coefficients`` is (P, n_out).
+
+    ``warnings``: outputs whose leave-one-out error exceeds :data:`LOO_THRESHOLD` (also issued
+    as :class:`~mechrel.errors.EstimateWarning`, and carried by :meth:`reliability`'s result).
+    """
 
     coefficients: np.ndarray
     multi_indices: np.ndarray
@@ -230,6 +235,7 @@ class PCEResult:
     evaluations: Evaluations
     provenance: dict = field(repr=False)
     _recurrence: tuple = field(repr=False, default=())
+    warnings: tuple[str, ...] = ()
 
     def to_frame(self) -> pd.DataFrame:
         """Per output: mean, std, loo_error, validation_error, S1_<input>, ST_<input>."""
@@ -275,6 +281,12 @@ class PCEResult:
         res = monte_carlo(evaluations=ev, seed=ss, **monte_carlo_kwargs)
         res.provenance["surrogate"] = {"method": "pce", "order": self.order, "pce_method": self.method,
                                        "pce_provenance": self.provenance, "rule": rule}
+        if self.warnings:  # the surrogate's caveats belong to every number computed from it
+            import dataclasses
+
+            res = dataclasses.replace(res, warnings=res.warnings + emit_warnings(
+                [f"{w} (this Monte Carlo result is computed on that surrogate; its interval "
+                 "covers the sampling error only)" for w in self.warnings]))
         return res
 
 
@@ -401,5 +413,31 @@ def polynomial_chaos(
                   "sparse": sparse, "q_norm": q_norm, "germ": germ, "n_validation": 0 if val_ev is None else val_ev.n,
                   "failed_samples_dropped": ev.n_failed if method == "regression" else 0},
     )
+    notes = emit_warnings(pce_warnings(loo, ev.output_index, order))
     return PCEResult(readonly(coef), readonly(alphas), order, method, germ, inputs, ev.output_index, mean, std,
-                     s1, st, loo, val, ev, prov, tuple(rec))
+                     s1, st, loo, val, ev, prov, tuple(rec), notes)
+
+
+LOO_THRESHOLD = 0.1
+"""Largest leave-one-out error (the cross-validated squared error relative to the output's
+variance) at which a PCE is taken as trustworthy. Above it more than a tenth of the output's
+variance is not reproduced by the expansion out of its own training points; the surrogate's
+tail probabilities, on which its reliability depends, are then not reliable, however narrow
+the sampling interval of a Monte Carlo run on the surrogate."""
+
+
+def pce_warnings(loo, index, order: int) -> list[str]:
+    """Outputs whose leave-one-out error exceeds :data:`LOO_THRESHOLD`."""
+    if loo is None:
+        return []
+    values = np.asarray(loo, dtype=float)
+    bad = np.isfinite(values) & (values > LOO_THRESHOLD)
+    if not bad.any():
+        return []
+    from ._common import _labels
+
+    return [f"pce: the leave-one-out error of the order-{order} expansion exceeds "
+            f"{LOO_THRESHOLD:g} at {int(bad.sum())} of {len(values)} outputs (max "
+            f"{np.nanmax(values):.3g}, e.g. {_labels(index, bad)}): the surrogate does not "
+            "reproduce the model there, so its moments and reliability are not trustworthy; "
+            "raise the order or the training samples, or use Monte Carlo"]

@@ -36,6 +36,7 @@ import pandas as pd
 from mechrel.errors import StudyError
 
 from ._common import (
+    emit_warnings,
     SampleFailuresError,
     check_fraction,
     check_inputs,
@@ -107,6 +108,7 @@ class SobolResult:
     failure_counts: dict
     evaluations: Evaluations
     provenance: dict = field(repr=False)
+    warnings: tuple[str, ...] = ()
 
     def to_frame(self) -> pd.DataFrame:
         """Long table indexed by (output…, input) with S1, S1_conf, ST, ST_conf."""
@@ -240,5 +242,34 @@ def sobol_indices(
                   "n_blocks_dropped": n_drop, "max_failure_fraction": max_failure_fraction,
                   "constant_outputs": constant},
     )
+    notes = emit_warnings(sobol_warnings(frames, n_used))
     return SobolResult(frames["S1"], frames["S1_conf"], frames["ST"], frames["ST_conf"], second,
-                       n_blocks, n_used, n_drop, ev.failure_counts(), raw, prov)
+                       n_blocks, n_used, n_drop, ev.failure_counts(), raw, prov, notes)
+
+
+CONF_LIMIT = 0.1
+"""Largest half-width of a Sobol' index's confidence interval at which the sample size counts
+as sufficient: indices are fractions of the variance in [0, 1], and an interval wider than
+±0.1 cannot rank inputs whose shares differ by less than that."""
+
+
+def sobol_warnings(frames: dict, n_blocks: int) -> list[str]:
+    """Indices outside [0, 1] by more than their confidence half-width (the estimator has not
+    converged), and intervals wider than ±:data:`CONF_LIMIT` (too few samples)."""
+    out = []
+    for key, name in (("S1", "first-order"), ("ST", "total")):
+        v = frames[key].to_numpy()
+        c = np.abs(frames[key + "_conf"].to_numpy())
+        outside = np.isfinite(v) & ((v < -c) | (v > 1 + c))
+        if outside.any():
+            i, j = np.argwhere(outside)[0]
+            out.append(f"sobol: {int(outside.sum())} {name} indices lie outside [0, 1] by more "
+                       f"than their confidence interval (e.g. {frames[key].columns[j]} on "
+                       f"{frames[key].index[i]}: {v[i, j]:.3f} ± {c[i, j]:.3f}): the estimator "
+                       f"has not converged at N = {n_blocks}; raise N")
+        wide = np.isfinite(c) & (c > CONF_LIMIT)
+        if wide.any():
+            out.append(f"sobol: {int(wide.sum())} {name} indices have a confidence half-width "
+                       f"above {CONF_LIMIT:g} (max {np.nanmax(c):.3f}) at N = {n_blocks}: too "
+                       "few samples to rank the inputs; raise N (the width falls as 1/sqrt(N))")
+    return out

@@ -1,0 +1,150 @@
+"""Estimates that say how far they can be trusted: EstimateWarning and results' warnings."""
+
+from __future__ import annotations
+
+import json
+import warnings
+
+import numpy as np
+import pytest
+
+from mechrel.errors import EstimateWarning, MechrelWarning
+from mechrel.uq import (
+    Allowable,
+    FunctionModel,
+    Normal,
+    UncertainInputs,
+    fosm,
+    monte_carlo,
+    normality_check,
+    polynomial_chaos,
+    sobol_indices,
+)
+
+
+def _abs(x):
+    return np.array([abs(x[0]), x[0] + x[1]])
+
+
+def _linear(x):
+    return np.array([2.0 * x[0] + x[1], x[0] - 3.0 * x[1]])
+
+
+def _square(x):
+    return np.array([x[0] ** 2 + 0.1 * x[1]])
+
+
+def _wiggle(x):
+    return np.array([np.sin(6.0 * x[0]) + 0.05 * x[1]])
+
+
+ALLOW = Allowable(1.0, 0.1)
+INPUTS = UncertainInputs.from_specs({"a": Normal(0.0, 1.0), "b": Normal(0.0, 1.0)})
+
+
+def _quiet(func, **kw):
+    with warnings.catch_warnings(record=True) as got:
+        warnings.simplefilter("always")
+        res = func(**kw)
+    return res, [w for w in got if issubclass(w.category, MechrelWarning)]
+
+
+def test_a_smooth_model_gives_no_warning():
+    res, got = _quiet(fosm, model=FunctionModel(_linear, ["a", "b"], ["p", "q"]), inputs=INPUTS,
+                      allowable=ALLOW, progress=False)
+    assert got == [] and res.warnings == ()
+
+
+def test_a_kink_is_a_zero_gradient_and_an_unresolved_response():
+    # |a| at a = 0: the central difference is exactly 0 (σ = 0, β = ∞ silently, before), and
+    # the forward and backward slopes are +1 and −1
+    model = FunctionModel(_abs, ["a", "b"], ["kink", "smooth"])
+    with pytest.warns(EstimateWarning) as record:
+        res = fosm(model=model, inputs=INPUTS, allowable=ALLOW, progress=False)
+    texts = [str(w.message) for w in record]
+    assert len(res.warnings) == 2 and set(res.warnings) == set(texts)
+    assert "gradient is zero at 1 of 2 outputs, e.g. kink" in res.warnings[1]
+    assert "does not resolve the response at 1 of 2 outputs, e.g. kink" in res.warnings[0]
+    assert res.table.loc["kink", "sigma_i"] == 0  # the number stays; the warning says what it is
+
+
+class _DryModel(FunctionModel):
+    nonsmooth = "dry contact in joint C: impacts make the response non-smooth, often chaotic"
+
+
+def test_fosm_on_a_model_with_dry_contact_warns():
+    model = _DryModel(_linear, ["a", "b"], ["p", "q"])
+    with pytest.warns(EstimateWarning, match=r"fosm: the model is not smooth \(dry contact in "
+                                             r"joint C"):
+        res = fosm(model=model, inputs=INPUTS, allowable=ALLOW, progress=False)
+    assert len(res.warnings) == 1
+
+
+def test_the_mechanism_model_says_when_it_is_not_smooth():
+    from mechrel.uq.mechanism import MechanismModel
+
+    assert MechanismModel("slider-crank-lubricated", ["joints.C.clearance"]).nonsmooth is None
+    dry = MechanismModel("slider-crank-dry", ["joints.C.clearance"]).nonsmooth
+    assert dry.startswith("dry contact in joint C")
+
+
+def test_fosm_mean_and_r_outside_the_monte_carlo_interval_warn():
+    # a² with a ~ N(0, 1): FOSM's mean is 0 and its σ 0 (zero gradient), the true mean 1
+    model = FunctionModel(_square, ["a", "b"], ["sq"])
+    f, _ = _quiet(fosm, model=model, inputs=INPUTS, allowable=ALLOW, progress=False)
+    mc, _ = _quiet(monte_carlo, model=model, inputs=INPUTS, n=256, seed=1, rule="random",
+                   progress=False, allowable=ALLOW)
+    with pytest.warns(EstimateWarning, match="mean μ_i lies outside the 95% Monte Carlo "
+                                             "interval of the mean at 1 of 1 outputs"):
+        nc = normality_check(fosm=f, monte_carlo=mc)
+    assert any("mean" in w for w in nc.warnings)
+
+
+def test_a_pce_that_does_not_fit_warns_and_passes_it_on():
+    model = FunctionModel(_wiggle, ["a", "b"], ["w"])
+    with pytest.warns(EstimateWarning, match=r"pce: the leave-one-out error of the order-2 "
+                                             r"expansion exceeds 0\.1 at 1 of 1 outputs"):
+        pce = polynomial_chaos(model=model, inputs=INPUTS, order=2, seed=3, progress=False)
+    assert float(pce.loo_error.iloc[0]) > 0.1
+    with pytest.warns(EstimateWarning, match="computed on that surrogate"):
+        rel = pce.reliability(n=1024, seed=1, allowable=ALLOW)
+    assert len(rel.warnings) == 1
+    # a quadratic is reproduced by an order-2 expansion: no warning
+    fit, got = _quiet(polynomial_chaos, model=FunctionModel(_square, ["a", "b"], ["sq"]),
+                      inputs=INPUTS, order=2, seed=3, progress=False)
+    assert got == [] and fit.warnings == () and float(fit.loo_error.iloc[0]) < 1e-20
+
+
+def test_sobol_with_too_few_samples_warns():
+    model = FunctionModel(_linear, ["a", "b"], ["p", "q"])
+    with pytest.warns(EstimateWarning, match="confidence half-width above 0.1"):
+        res = sobol_indices(model=model, inputs=INPUTS, n=8, seed=1, progress=False)
+    assert res.warnings
+    big, got = _quiet(sobol_indices, model=model, inputs=INPUTS, n=1024, seed=1,
+                      progress=False)
+    assert got == [] and big.warnings == ()
+
+
+def test_the_reliability_summary_carries_warnings_and_ends_with_a_verdict(tmp_path, capsys):
+    from mechrel.cli.main import main
+
+    f = tmp_path / "s.toml"
+    f.write_text('scene = "slider-crank"\nangle_step = 30.0\n[inputs.crank]\n'
+                 'paths = ["bodies.crank.length(O,A)"]\ndistribution = "normal"\n'
+                 'mean = 0.05\nstd = 1e-5\n[reliability]\nmethods = ["fosm", "mc"]\nn = 16\n'
+                 'seed = 1\n')
+    assert main(["reliability", str(f), "--out", str(tmp_path / "o"), "--no-progress",
+                 "--jobs", "1"]) == 0
+    captured = capsys.readouterr()
+    lines = captured.out.strip().splitlines()
+    assert "EstimateWarning" not in captured.err  # in the summary, not twice
+    summary = json.loads((tmp_path / "o" / "summary.json").read_text())
+    # the velocity at the dead centres does not depend on the crank's length: zero gradient
+    assert any("gradient is zero" in w for w in summary["warnings"])
+    assert any(line.startswith("  warning: fosm: the finite-difference gradient is zero")
+               for line in lines)
+    # the verdict: one line per quantity and the whole cycle, last in the console
+    assert [v.split(":")[0] for v in summary["verdict"]] == [
+        "displacement", "velocity", "acceleration", "whole cycle"]
+    assert lines[-5] == "  verdict:" and lines[-1].strip() == summary["verdict"][-1]
+    assert "trust Monte Carlo (16 successful samples" in summary["verdict"][0]
