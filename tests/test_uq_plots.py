@@ -23,7 +23,7 @@ from mechrel.uq import (  # noqa: E402
     polynomial_chaos,
     sobol_indices,
 )
-from mechrel.uq.plots import plot_fosm_vs_mc, plot_qq, plot_reliability, plot_sobol  # noqa: E402
+from mechrel.uq.plots import CLIP, plot_qq, plot_reliability, plot_sobol  # noqa: E402
 
 ANGLES = np.arange(0.0, 360.0, 18.0)
 
@@ -51,19 +51,45 @@ def test_reliability_and_comparison_plots(results):
     import matplotlib.pyplot as plt
 
     f, mc, norm = results
-    fig = plot_reliability(f, what="beta")
-    assert len(fig.axes) == 3
+    fig = plot_reliability(f)
+    assert len(fig.axes) == 6  # (β, 1 − R) per quantity
     assert fig.axes[-1].get_xlabel() == "crank angle (deg)"
-    assert fig.axes[0].get_title() == "displacement (m)"
-    assert fig.axes[0].get_ylabel() == "reliability index β"
-    fig2 = plot_reliability(mc)
-    fig3 = plot_fosm_vs_mc(f, mc)
-    assert fig3.axes[0].get_legend() is not None
+    assert fig.axes[0].get_ylabel() == "β = Φ⁻¹(R), displacement (m)"
+    fig3 = plot_reliability(f, mc)
+    # a legend in every panel, naming the sample count, the allowable and its cap, and the
+    # whole-cycle R of Monte Carlo
+    for ax in fig3.axes:
+        assert ax.get_legend() is not None
+    texts = [t.get_text() for ax in fig3.axes for t in ax.get_legend().get_texts()]
+    assert "Monte Carlo (n = 1000)" in texts
+    assert any(t.startswith("allowable I ~ N(0.012, 0.004²) m: cap β = μ_I/σ_I = 3.00")
+               for t in texts)
+    assert any(t.startswith("whole cycle (MC): R = ") for t in texts)
     fig4 = plot_qq(norm, ("acceleration", 90.0))
     assert "FOSM normal quantile" in fig4.axes[0].get_xlabel()
-    for fg in (fig, fig2, fig3, fig4):
+    for fg in (fig, fig3, fig4):
         fg.canvas.draw()
         plt.close(fg)
+    with pytest.raises(StudyError, match="expected FOSMResult or MonteCarloResult"):
+        plot_reliability(object())
+
+
+def test_reliability_beyond_the_clip_is_drawn_as_clipped(results):
+    # R = 1 to double precision has no finite β and no point on a log axis of 1 − R: it is
+    # drawn at the edge with an open marker and a label that says so
+    import matplotlib.pyplot as plt
+
+    from mechrel.uq import Allowable
+
+    inputs = UncertainInputs.from_specs({"joints.C1.clearance": Normal(1.0, 0.3),
+                                         "joints.C2.clearance": Normal(1.0, 0.3)})
+    f = fosm(evaluations=results[0].evaluations, inputs=inputs, allowable=Allowable(1e3, 0.0))
+    clipped = (f.table["reliability"] > 1 - CLIP).to_numpy()
+    assert clipped.any(), "the fixture has no R beyond the clip to draw"
+    fig = plot_reliability(f)
+    texts = [t.get_text() for ax in fig.axes for t in ax.get_legend().get_texts()]
+    assert any("(clipped)" in t for t in texts)
+    plt.close(fig)
 
 
 def test_sobol_plots():

@@ -85,60 +85,15 @@ def _refusal(exc, evaluations, out, files, record, section):
         "study file", exc.evaluations)
 
 
-def _plot_reliability(fosm_t, mc_t, pce_t, quantities, title, path):
-    """Per quantity: the reliability index (left, as the paper's figures) and the probability
-    of exceeding the allowable, 1 − R, on a log scale (right), where differences between
-    methods near R = 1 are visible. Monte Carlo shows its confidence interval; a point with no
-    observed failure shows only its upper bound (▼). ``pce_t``: Monte Carlo on the PCE
-    surrogate, drawn as a line (its interval covers only the sampling error)."""
+def _agg() -> None:
+    """Draw without a display (before pyplot is imported; keeps a backend already chosen)."""
     import matplotlib
     matplotlib.use("Agg", force=False)
-    import matplotlib.pyplot as plt
-    from scipy.stats import norm
 
-    fig, axes = plt.subplots(len(quantities), 2, figsize=(11, 2.7 * len(quantities) + 0.6),
-                             sharex=True, constrained_layout=True, squeeze=False)
-    floor = 1e-7
-    for row, q in zip(axes, quantities):
-        ax_b, ax_p = row
-        if fosm_t is not None:
-            f = fosm_t.xs(q, level="quantity")
-            ax_b.plot(f.index, f["beta_generalized"], "o-", ms=4, label="FOSM")
-            ax_p.semilogy(f.index, np.maximum(1 - f["reliability"], floor), "o-", ms=4,
-                          label="FOSM")
-        if pce_t is not None:
-            p = pce_t.xs(q, level="quantity")
-            pf = 1 - p["reliability"]
-            ax_b.plot(p.index, norm.ppf(np.clip(p["reliability"], 0, 1 - floor)), "-",
-                      color="C2", label="PCE surrogate")
-            ax_p.semilogy(p.index, np.maximum(pf, floor), "-", color="C2", label="PCE surrogate")
-        if mc_t is not None:
-            m = mc_t.xs(q, level="quantity")
-            pf = 1 - m["reliability"]
-            hi, lo = 1 - m["reliability_lo"], 1 - m["reliability_hi"]
-            ax_p.fill_between(m.index, np.maximum(lo, floor), np.maximum(hi, floor),
-                              color="C1", alpha=0.25, label="MC 95 % interval")
-            seen = pf > 0
-            ax_p.semilogy(m.index[seen], pf[seen], "s--", ms=3, color="C1", label="Monte Carlo")
-            ax_p.plot(m.index[~seen], hi[~seen], "v", ms=5, color="C1",
-                      label="MC upper bound (no failure seen)" if (~seen).any() else None)
-            beta_mc = norm.ppf(np.clip(m["reliability"], 0, 1 - floor))
-            ax_b.plot(m.index[seen], beta_mc[seen], "s--", ms=3, color="C1",
-                      label="Monte Carlo")
-            ax_b.fill_between(m.index, norm.ppf(np.clip(m["reliability_lo"], floor, 1 - floor)),
-                              norm.ppf(np.clip(m["reliability_hi"], floor, 1 - floor)),
-                              color="C1", alpha=0.2)
-        ax_b.set_ylabel(f"β ({q})")
-        ax_p.set_ylabel(f"1 − R ({q})")
-        for ax in row:
-            ax.grid(alpha=0.3, which="both")
-        ax_p.legend(fontsize=7, loc="best")
-    for ax in axes[-1]:
-        ax.set_xlabel("crank angle (deg)")
-        ax.set_xticks(np.arange(0, 361, 36))
-    axes[0][0].set_title("reliability index Φ⁻¹(R)")
-    axes[0][1].set_title("probability of exceeding the allowable")
-    fig.suptitle(title)
+
+def _save(fig, path) -> None:
+    import matplotlib.pyplot as plt
+
     fig.savefig(path, dpi=130)
     plt.close(fig)
 
@@ -359,11 +314,13 @@ def run_reliability(study, *, methods=None, n=None, n_jobs=1, seed=None, out=Non
         if "mc" in results:
             write_table(results["mc"].whole_cycle.reset_index(), out / "whole_cycle.csv")
             written.insert(1, "whole_cycle.csv")
-        _plot_reliability(results["fosm"].table if "fosm" in results else None,
-                          results["mc"].table if "mc" in results else None,
-                          results["pce_reliability"].table if "pce" in results else None,
-                          study.quantities, f"{study.name}: reliability per crank angle "
-                          f"({form})", out / "reliability.png")
+        from ..uq.plots import plot_reliability
+        _agg()
+
+        _save(plot_reliability(*(results[k] for k in ("fosm", "mc", "pce_reliability")
+                                 if k in results),
+                               title=f"{study.name}: reliability per crank angle ({form})"),
+              out / "reliability.png")
         _write_failures(evaluations, out / "failures.csv")
         write_json({**record, "wall_time": wall, "failures": _failure_counts(evaluations),
                     "provenance": {k: dict(v.provenance) for k, v in results.items()},
@@ -372,32 +329,6 @@ def run_reliability(study, *, methods=None, n=None, n_jobs=1, seed=None, out=Non
         lines.append(f"  wrote {out}/{', '.join(written)}")
     lines += verdict  # the summary ends with it
     return lines, results
-
-
-def _plot_sobol(result, path, title):
-    import matplotlib
-    matplotlib.use("Agg", force=False)
-    import matplotlib.pyplot as plt
-
-    first, total = result.first, result.total
-    fc, tc = result.first_conf, result.total_conf
-    outputs = list(first.index)
-    inputs = list(first.columns)
-    fig, axes = plt.subplots(1, len(outputs), figsize=(4.2 * len(outputs), 3.6),
-                             constrained_layout=True, squeeze=False)
-    x = np.arange(len(inputs))
-    for ax, out in zip(axes[0], outputs):
-        ax.bar(x - 0.2, first.loc[out], 0.4, yerr=fc.loc[out], capsize=3, label="first order S1")
-        ax.bar(x + 0.2, total.loc[out], 0.4, yerr=tc.loc[out], capsize=3, label="total order ST")
-        ax.set_xticks(x, inputs, rotation=20)
-        ax.set_ylim(0, 1.05)
-        ax.set_title(str(out).replace("peak_abs_", "peak |error|: "), fontsize=10)
-        ax.grid(axis="y", alpha=0.3)
-    axes[0][0].set_ylabel("Sobol index")
-    axes[0][0].legend(fontsize=8)
-    fig.suptitle(title)
-    fig.savefig(path, dpi=130)
-    plt.close(fig)
 
 
 def run_sensitivity(study, *, n=None, n_jobs=1, seed=None, out=None, progress=True,
@@ -461,7 +392,11 @@ def run_sensitivity(study, *, n=None, n_jobs=1, seed=None, out=None, progress=Tr
     lines.append(f"  wall time {wall:.1f} s (n_jobs = {n_jobs})")
     if out:
         write_table(table, out / "sensitivity.csv")
-        _plot_sobol(res, out / "sensitivity.png", f"{study.name}: what drives the error")
+        from ..uq.plots import plot_sobol
+        _agg()
+
+        _save(plot_sobol(res, title=f"{study.name}: what drives the error"),
+              out / "sensitivity.png")
         _write_failures(evaluations, out / "sensitivity_failures.csv")
         write_json({**record, "wall_time": wall, "failures": _failure_counts(evaluations),
                     "provenance": dict(res.provenance), "warnings": list(res.warnings),

@@ -13,7 +13,7 @@ import pandas as pd
 
 from mechrel.errors import StudyError
 
-__all__ = ["plot_reliability", "plot_fosm_vs_mc", "plot_qq", "plot_sobol"]
+__all__ = ["plot_reliability", "reliability_panels", "plot_qq", "plot_sobol"]
 
 UNITS = {"displacement": "m", "velocity": "m/s", "acceleration": "m/s²"}
 
@@ -55,72 +55,176 @@ def _title(q: str) -> str:
     return f"{q} ({UNITS[q]})" if q in UNITS else q
 
 
-def plot_reliability(result: Any, *, what: str = "reliability", axes: Any = None):
-    """Reliability (``what="reliability"``) or reliability index (``what="beta"``) vs crank angle,
-    for a FOSM or Monte Carlo result (MC: with its confidence band; its β is Φ⁻¹(R))."""
-    from scipy import special
+CLIP = 1e-7
+"""Smallest probability of exceeding the allowable drawn on the log axis (and largest index,
+Φ⁻¹(1 − CLIP) ≈ 5.2): values beyond it, R = 1 to double precision among them, are drawn at the
+edge with an open marker and labelled as clipped, not as data."""
 
+
+def _kind(result: Any) -> str:
     from .first_order import FOSMResult
     from .montecarlo import MonteCarloResult
 
-    if what not in ("reliability", "beta"):
-        raise StudyError(f"what: got {what!r}; allowed: ['reliability', 'beta']")
-    if not isinstance(result, (FOSMResult, MonteCarloResult)):
-        raise StudyError(f"plot_reliability: expected a FOSMResult or MonteCarloResult, got {type(result).__name__}")
-    t = result.table
-    panels = _panels(t.index)
-    fig, axs = _new_axes(len(panels), axes)
-    is_mc = isinstance(result, MonteCarloResult)
-    for ax, (q, pos) in zip(axs, panels):
-        x, xlabel = _xvalues(t.index, pos)
-        if what == "reliability":
-            y = t["reliability"].to_numpy()[pos]
+    if isinstance(result, FOSMResult):
+        return "fosm"
+    if isinstance(result, MonteCarloResult):
+        return "surrogate" if "surrogate" in result.provenance else "mc"
+    raise StudyError(f"plot_reliability: expected FOSMResult or MonteCarloResult results, got "
+                     f"{type(result).__name__}")
+
+
+def reliability_panels(ax_beta: Any, ax_pf: Any, x: np.ndarray, *, fosm: Any = None,
+                       mc: Any = None, surrogate: Any = None, allowable: Any = None,
+                       whole_cycle: Any = None, clip: float = CLIP) -> None:
+    """One quantity's reliability on two axes: the index β = Φ⁻¹(R) (``ax_beta``) and the
+    probability of exceeding the allowable 1 − R on a log scale (``ax_pf``; None to skip).
+
+    ``fosm``, ``surrogate``: (R array, label); ``mc``: (R, R_lo, R_hi, n, confidence level);
+    ``allowable``: (μ_I, σ_I) drawn as the cap Φ(μ_I/σ_I) that no design reaches (R of a zero
+    error, σ_I > 0), and named in the legend; ``whole_cycle``: (R, lo, hi) of the whole cycle.
+    Values beyond ``clip`` are drawn at the edge with open markers and say so; both axes get a
+    legend.
+    """
+    from scipy import special
+
+    bmax = float(special.ndtri(1 - clip))
+
+    def beta_of(R, color, style, label, ms):
+        """β of R on ``ax_beta``; beyond ±bmax at the edge with open markers, not as data."""
+        over, under = R > 1 - clip, R < clip
+        inside = ~(over | under)
+        ax_beta.plot(x, np.where(inside, special.ndtri(np.clip(R, clip, 1 - clip)), np.nan),
+                     style, color=color, ms=ms, label=label)
+        name = label.split(" (")[0]
+        if over.any():
+            ax_beta.plot(x[over], np.full(over.sum(), bmax), "^", mfc="none", color=color, ms=6,
+                         label=f"{name}: β above {bmax:.1f} (clipped)")
+        if under.any():
+            ax_beta.plot(x[under], np.full(under.sum(), -bmax), "v", mfc="none", color=color,
+                         ms=6, label=f"{name}: β below −{bmax:.1f} (clipped)")
+
+    def draw(R, style, color, label, ms=4):
+        R = np.asarray(R, dtype=float)
+        beta_of(R, color, style, label, ms)
+        if ax_pf is not None:
+            pf = 1 - R
+            over = pf < clip
+            ax_pf.semilogy(x, np.where(over, np.nan, pf), style, color=color, ms=ms, label=label)
+            if over.any():
+                ax_pf.plot(x[over], np.full(over.sum(), clip), "v", mfc="none", color=color,
+                           ms=6, label=f"{label.split(' (')[0]}: 1 − R below {clip:g} (clipped)")
+
+    if mc is not None:
+        R, lo, hi, n, level = mc
+        R, lo, hi = (np.asarray(v, dtype=float) for v in (R, lo, hi))
+        band = f"MC {100 * level:.0f} % interval"
+        ax_beta.fill_between(x, special.ndtri(np.clip(lo, clip, 1 - clip)),
+                             special.ndtri(np.clip(hi, clip, 1 - clip)), color="C1", alpha=0.2,
+                             label=band)
+        seen = R < 1  # an exceedance was observed; elsewhere only an upper bound on 1 − R
+        label = f"Monte Carlo (n = {n})"
+        beta_of(np.where(seen, R, np.nan), "C1", "s--", label, 3)
+        if ax_pf is not None:
+            ax_pf.fill_between(x, np.maximum(1 - hi, clip), np.maximum(1 - lo, clip),
+                               color="C1", alpha=0.25, label=band)
+            ax_pf.semilogy(x, np.where(seen, 1 - R, np.nan), "s--", ms=3, color="C1",
+                           label=label)
+            if (~seen).any():
+                ax_pf.plot(x[~seen], 1 - lo[~seen], "v", ms=5, color="C1",
+                           label="MC upper bound (no exceedance seen)")
+    if fosm is not None:
+        draw(fosm[0], "o-", "C0", fosm[1])
+    if surrogate is not None:
+        draw(surrogate[0], "-", "C2", surrogate[1], ms=0)
+    if allowable is not None:
+        mu_I, sd_I, unit = allowable
+        text = f"allowable I ~ N({mu_I:.3g}, {sd_I:.3g}²) {unit}".rstrip()
+        if sd_I > 0:
+            cap = float(special.ndtr(mu_I / sd_I))
+            ax_beta.axhline(min(mu_I / sd_I, bmax), color="0.4", ls=":", lw=1,
+                            label=f"{text}: cap β = μ_I/σ_I = {mu_I / sd_I:.2f}")
+            if ax_pf is not None:
+                ax_pf.axhline(max(1 - cap, clip), color="0.4", ls=":", lw=1,
+                              label=f"cap: 1 − Φ(μ_I/σ_I) = {1 - cap:.2g} (zero error)")
         else:
-            y = t["beta_generalized"].to_numpy()[pos] if not is_mc else special.ndtri(t["reliability"].to_numpy()[pos])
-        label = ("Monte Carlo" if is_mc else "FOSM") + f" ({result.form})"
-        if what == "beta" and (is_mc or result.form == "two-sided"):
-            label += ", Φ⁻¹(R)"
-        ax.plot(x, y, "o-" if is_mc else "s-", ms=4, label=label)
-        if is_mc:
-            lo, hi = t["reliability_lo"].to_numpy()[pos], t["reliability_hi"].to_numpy()[pos]
-            if what == "beta":
-                lo, hi = special.ndtri(lo), special.ndtri(hi)
-            ax.fill_between(x, lo, hi, alpha=0.25, label=f"{100 * result.confidence_level:.0f}% interval")
-        elif what == "beta" and result.form == "two-sided":
-            ax.plot(x, t["beta"].to_numpy()[pos], "--", lw=1, label="paper's β (one-sided)")
-        ax.set_ylabel("reliability R" if what == "reliability" else "reliability index β")
-        ax.set_title(_title(q) if q else "")
-        ax.grid(alpha=0.3)
-        ax.legend(loc="best", fontsize=8)
-    axs[-1].set_xlabel(xlabel)
-    fig.tight_layout()
-    return fig
+            ax_beta.plot([], [], " ", label=f"{text} (fixed)")
+    if whole_cycle is not None and ax_pf is not None:
+        R, lo, hi = whole_cycle
+        ax_pf.plot([], [], " ", label=f"whole cycle (MC): R = {R:.4f} [{lo:.4f}, {hi:.4f}]")
+    for ax in (ax_beta, ax_pf):
+        if ax is not None:
+            ax.grid(alpha=0.3, which="both")
+            ax.legend(fontsize=7, loc="best")
 
 
-def plot_fosm_vs_mc(fosm: Any, monte_carlo: Any, *, axes: Any = None):
-    """FOSM reliability vs Monte Carlo (same form) with the Monte Carlo confidence band."""
-    if fosm.form != monte_carlo.form:
-        raise StudyError(
-            f"plot_fosm_vs_mc: FOSM form {fosm.form!r} differs from Monte Carlo form {monte_carlo.form!r}; "
-            "compute both with the same form"
-        )
-    t_f, t_m = fosm.table, monte_carlo.table
-    if not t_f.index.equals(t_m.index):
-        raise StudyError("plot_fosm_vs_mc: the two results have different outputs")
-    panels = _panels(t_f.index)
-    fig, axs = _new_axes(len(panels), axes)
-    for ax, (q, pos) in zip(axs, panels):
-        x, xlabel = _xvalues(t_f.index, pos)
-        ax.fill_between(x, t_m["reliability_lo"].to_numpy()[pos], t_m["reliability_hi"].to_numpy()[pos],
-                        color="C1", alpha=0.25, label=f"MC {100 * monte_carlo.confidence_level:.0f}% interval")
-        ax.plot(x, t_m["reliability"].to_numpy()[pos], "o", color="C1", ms=4, label=f"Monte Carlo (n={int(t_m['n'].iloc[0])})")
-        ax.plot(x, t_f["reliability"].to_numpy()[pos], "-", color="C0", lw=1.5, label="FOSM")
-        ax.set_ylabel(f"reliability R ({fosm.form})")
-        ax.set_title(_title(q) if q else "")
-        ax.grid(alpha=0.3)
-        ax.legend(loc="best", fontsize=8)
-    axs[-1].set_xlabel(xlabel)
-    fig.tight_layout()
+def plot_reliability(*results: Any, title: str | None = None):
+    """The reliability of every quantity over the crank angle from any of a FOSM result, a
+    Monte Carlo result and a Monte Carlo result on a PCE surrogate (same ``form``).
+
+    One row per quantity: left the reliability index β = Φ⁻¹(R) of the form's R, right the
+    probability of exceeding the allowable 1 − R on a log scale, where methods differ near
+    R = 1. Monte Carlo shows its sample count and confidence band (▼ where no exceedance was
+    seen: only an upper bound), the allowable is named with its cap Φ(μ_I/σ_I), the whole-cycle
+    R of Monte Carlo is given, and values beyond :data:`CLIP` are drawn as clipped.
+    """
+    plt = _plt()
+    by = {}
+    for r in results:
+        k = _kind(r)
+        if k in by:
+            raise StudyError(f"plot_reliability: two {k} results; pass at most one of each")
+        by[k] = r
+    if not by:
+        raise StudyError("plot_reliability: pass at least one FOSMResult or MonteCarloResult")
+    forms = {r.form for r in by.values()}
+    if len(forms) > 1:
+        raise StudyError(f"plot_reliability: the results have different forms {sorted(forms)}; "
+                         "compute them with the same form")
+    form = forms.pop()
+    first = next(iter(by.values()))
+    index = first.table.index
+    for r in by.values():
+        if not r.table.index.equals(index):
+            raise StudyError("plot_reliability: the results have different outputs")
+    panels = _panels(index)
+    fig, axes = plt.subplots(len(panels), 2, figsize=(11.5, 2.9 * len(panels) + 0.7),
+                             sharex=True, constrained_layout=True, squeeze=False)
+    xlabel = "output"
+    for row, (q, pos) in zip(axes, panels):
+        x, xlabel = _xvalues(index, pos)
+        t = first.table
+        allowable = None
+        if {"mu_I", "sigma_I"} <= set(t.columns):
+            mu_I, sd_I = t["mu_I"].to_numpy()[pos], t["sigma_I"].to_numpy()[pos]
+            if np.ptp(mu_I) == 0 and np.ptp(sd_I) == 0:
+                allowable = (float(mu_I[0]), float(sd_I[0]), UNITS.get(q, ""))
+        kw = {"allowable": allowable}
+        if "fosm" in by:
+            kw["fosm"] = (by["fosm"].table["reliability"].to_numpy()[pos], f"FOSM ({form})")
+        if "surrogate" in by:
+            kw["surrogate"] = (by["surrogate"].table["reliability"].to_numpy()[pos],
+                               "PCE surrogate")
+        if "mc" in by:
+            m = by["mc"]
+            t = m.table
+            kw["mc"] = (t["reliability"].to_numpy()[pos], t["reliability_lo"].to_numpy()[pos],
+                        t["reliability_hi"].to_numpy()[pos], int(t["n"].iloc[pos[0]]),
+                        m.confidence_level)
+            wc = m.whole_cycle
+            if q in wc.index:
+                kw["whole_cycle"] = tuple(float(wc.loc[q, c]) for c in
+                                          ("reliability", "reliability_lo", "reliability_hi"))
+        reliability_panels(row[0], row[1], x, **kw)
+        row[0].set_ylabel(f"β = Φ⁻¹(R), {_title(q)}" if q else "β = Φ⁻¹(R)")
+        row[1].set_ylabel(f"1 − R, {q}" if q else "1 − R")
+    for ax in axes[-1]:
+        ax.set_xlabel(xlabel)
+        if xlabel.startswith("crank angle"):
+            ax.set_xticks(np.arange(0, 361, 36))
+    axes[0][0].set_title(f"reliability index Φ⁻¹(R) ({form})")
+    axes[0][1].set_title("probability of exceeding the allowable")
+    if title:
+        fig.suptitle(title)
     return fig
 
 
@@ -164,9 +268,10 @@ def _pos(index: pd.Index, output: Any) -> int:
     return resolve_outputs_safe(index, output)
 
 
-def plot_sobol(result: Any, output: Any = None, *, ax: Any = None):
-    """Bar chart of first- and total-order Sobol' indices of one output (default: the first),
-    from a SobolResult (with confidence intervals) or a PCEResult."""
+def plot_sobol(result: Any, output: Any = None, *, title: str | None = None):
+    """Bar charts of first- and total-order Sobol' indices, one panel per output (default: every
+    output; ``output``: one label or position), from a SobolResult (with confidence intervals)
+    or a PCEResult."""
     plt = _plt()
     from .pce import PCEResult
     from .sobol import SobolResult
@@ -181,24 +286,25 @@ def plot_sobol(result: Any, output: Any = None, *, ax: Any = None):
         src = f"PCE order {result.order}"
     else:
         raise StudyError(f"plot_sobol: expected a SobolResult or PCEResult, got {type(result).__name__}")
-    k = 0 if output is None else _pos(s1.index, output)
-    label = s1.index[k]
+    rows = range(len(s1.index)) if output is None else [_pos(s1.index, output)]
     names = list(s1.columns)
     x = np.arange(len(names))
-    if ax is None:
-        fig, ax = plt.subplots(figsize=(max(4.5, 0.9 * len(names) + 2), 3.6))
-    else:
-        fig = ax.figure
+    long = max(len(n) for n in names) > 8
+    fig, axes = plt.subplots(1, len(rows), figsize=(max(4.5, 0.9 * len(names) + 2) * len(rows), 3.8),
+                             constrained_layout=True, squeeze=False)
     w = 0.38
-    ax.bar(x - w / 2, s1.iloc[k].to_numpy(), w, yerr=None if c1 is None else c1.iloc[k].to_numpy(),
-           capsize=3, label="first order S_i")
-    ax.bar(x + w / 2, st.iloc[k].to_numpy(), w, yerr=None if ct is None else ct.iloc[k].to_numpy(),
-           capsize=3, label="total order S_Ti")
-    ax.set_xticks(x, names, rotation=30 if max(len(n) for n in names) > 8 else 0, ha="right" if max(len(n) for n in names) > 8 else "center")
-    ax.set_ylabel("Sobol' index (share of variance)")
-    ax.set_ylim(min(0.0, float(np.nanmin(s1.iloc[k]) - 0.05)), 1.05)
-    ax.set_title(f"{_label(s1.index, k)} — {src}", fontsize=9)
-    ax.grid(axis="y", alpha=0.3)
-    ax.legend(fontsize=8)
-    fig.tight_layout()
+    for ax, k in zip(axes[0], rows):
+        ax.bar(x - w / 2, s1.iloc[k].to_numpy(), w, yerr=None if c1 is None else c1.iloc[k].to_numpy(),
+               capsize=3, label="first order S_i")
+        ax.bar(x + w / 2, st.iloc[k].to_numpy(), w, yerr=None if ct is None else ct.iloc[k].to_numpy(),
+               capsize=3, label="total order S_Ti")
+        ax.set_xticks(x, names, rotation=30 if long else 0, ha="right" if long else "center")
+        ax.set_ylim(min(0.0, float(np.nanmin(s1.iloc[k]) - 0.05)), 1.05)
+        ax.set_title(f"{_label(s1.index, k).replace('peak_abs_', 'peak |error|: ')} — {src}",
+                     fontsize=9)
+        ax.grid(axis="y", alpha=0.3)
+        ax.legend(fontsize=8)
+    axes[0][0].set_ylabel("Sobol' index (share of variance)")
+    if title:
+        fig.suptitle(title)
     return fig
