@@ -76,3 +76,139 @@ def simulator_digest() -> str:
     for rel in ("simulation.py", "uq/mechanism.py"):
         h.update((_PACKAGE / rel).read_bytes())
     return h.hexdigest()
+
+
+# ----------------------------------------------------------------------------- cold cache
+
+# The compiled entry points a simulation calls from Python: the integrators' kernels (which
+# inline the right-hand side, the force laws and the event handling) and the kinematic
+# analysis (the ideal counterpart, and ideal scenes). Compiling them is the one-off cost of a
+# cold cache: minutes on two cores.
+_ENTRY_POINTS = {
+    "rk4": ("mechrel.integrate.explicit", "rk4_kernel"),
+    "dopri5": ("mechrel.integrate.explicit", "dopri5_kernel"),
+    "radau": ("mechrel.integrate.radau", "radau5_kernel"),
+    "kinematics": ("mechrel.mechanics.kinematics", "_kinematics"),
+}
+_TIMES = "kernel-compile-seconds.json"
+DEFAULT_COMPILE_SECONDS = {"rk4": 60.0, "dopri5": 70.0, "radau": 110.0, "kinematics": 10.0}
+"""First-compilation times (s) measured on two shared cores, used until this machine has
+measured its own (stored beside the cache)."""
+
+
+def is_compiled(entry: str) -> bool:
+    """Whether ``entry`` (a key of the entry points: ``rk4``, ``dopri5``, ``radau``,
+    ``kinematics``) is compiled in this process or has an index in numba's on-disk cache, i.e.
+    whether calling it will not compile it from scratch."""
+    import importlib
+
+    module, name = _ENTRY_POINTS[entry]
+    dispatcher = getattr(importlib.import_module(module), name)
+    if dispatcher.signatures:
+        return True
+    try:  # numba's cache locator: the index file of the function's cached overloads
+        return os.path.exists(dispatcher._cache._cache_file._index_path)
+    except AttributeError:  # another numba layout: assume cached rather than announce wrongly
+        return True
+
+
+def cold_entries(scene) -> list[str]:
+    """The compiled entry points ``scene`` needs that are not compiled yet."""
+    from .simulation import make_integrator
+
+    need = ["kinematics"]
+    if scene.clearance_joints or not scene.drivers:
+        integrator = make_integrator(scene).name
+        if integrator in _ENTRY_POINTS:
+            need.append(integrator)
+    return [e for e in need if not is_compiled(e)]
+
+
+def _times_file() -> Path:
+    return _PACKAGE / "__pycache__" / _TIMES
+
+
+def _expected_seconds(entries) -> float:
+    import json
+
+    try:
+        known = json.loads(_times_file().read_text())
+    except (OSError, ValueError):
+        known = {}
+    return sum(float(known.get(e, DEFAULT_COMPILE_SECONDS[e])) for e in entries)
+
+
+def _record_seconds(entries, seconds: float) -> None:
+    import json
+
+    try:
+        known = json.loads(_times_file().read_text())
+    except (OSError, ValueError):
+        known = {}
+    # the time of the whole warm-up, shared out in proportion to the defaults
+    total = sum(DEFAULT_COMPILE_SECONDS[e] for e in entries)
+    for e in entries:
+        known[e] = round(seconds * DEFAULT_COMPILE_SECONDS[e] / total, 1)
+    try:
+        _times_file().parent.mkdir(exist_ok=True)
+        _times_file().write_text(json.dumps(known))
+    except OSError:  # read-only installation
+        pass
+
+
+def warm_up(scene, *, progress: bool = True, file=None) -> float:
+    """Compile the kernels ``scene`` needs if the cache is cold, announcing it.
+
+    On a cold cache: prints "compiling simulation kernels, once — about N s" (N: this
+    machine's last measured compile time, or :data:`DEFAULT_COMPILE_SECONDS`) and a bar of the
+    elapsed time against N while a short run of ``scene`` compiles them (the numbers of later
+    runs do not depend on it). Returns the seconds spent (0 on a warm cache, without output).
+    Worker processes then load the kernels from the on-disk cache."""
+    import sys
+    import threading
+    import time
+
+    cold = cold_entries(scene)
+    if not cold:
+        return 0.0
+    from .scene import with_overrides
+    from .simulation import simulate
+
+    expected = _expected_seconds(cold)
+    out = file or sys.stderr
+    # two output instants: the kernels compile on their first call, whatever its length
+    a = scene.analysis
+    speed = abs(scene.drivers[a.cycle_driver].speed) if a.cycle_driver else 0.0
+    step = a.sample_step if a.sample_step is not None else (
+        a.sample_step_angle / speed if speed else 1e-3)
+    short = with_overrides(scene, {"analysis.duration": step})
+    box = {}
+
+    def work():
+        try:
+            simulate(short)
+        except BaseException as exc:  # a scene that fails to run fails in its real run too
+            box["exc"] = exc
+
+    start = time.perf_counter()
+    worker = threading.Thread(target=work, name="mechrel-compile", daemon=True)
+    worker.start()
+    label = f"compiling simulation kernels, once — about {expected:.0f} s"
+    if progress:
+        from tqdm.auto import tqdm
+
+        with tqdm(total=round(expected), desc=label, unit="s", file=out,
+                  bar_format="{desc}: {bar} {n:.0f}/{total:.0f} s") as bar:
+            while worker.is_alive():
+                worker.join(0.5)
+                bar.n = min(time.perf_counter() - start, bar.total)
+                bar.refresh()
+            bar.n = bar.total
+            bar.refresh()
+    else:
+        print(label, file=out, flush=True)
+        worker.join()
+    spent = time.perf_counter() - start
+    if "exc" not in box:
+        _record_seconds(cold, spent)
+    return spent

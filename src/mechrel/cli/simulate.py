@@ -58,6 +58,9 @@ def _cmd_simulate(args) -> int:
     scene = load_scene(args.scene, overrides=args.overrides)
     if args.out:
         check_table_path(args.out)  # before the simulation, not after it
+    from .._kernel_cache import warm_up
+
+    warm_up(scene, progress=not args.no_progress)  # announces a cold cache's compilation
     result = simulate(scene, integrator=args.integrator, progress=not args.no_progress)
     print("\n".join(_summary_lines(result)))
     if args.out:

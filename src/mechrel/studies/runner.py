@@ -98,6 +98,15 @@ def _save(fig, path) -> None:
     plt.close(fig)
 
 
+def _warm_up(model, progress) -> None:
+    """On a cold kernel cache, compile here, announced and with a bar of the elapsed time,
+    before the workers start (they then load the kernels instead of each compiling them
+    behind a progress bar standing at 0)."""
+    from .._kernel_cache import warm_up
+
+    warm_up(model.scene, progress=progress)
+
+
 def _warnings_of(results) -> list[str]:
     """Every estimate's warnings, once each, in the order of the estimates."""
     out = []
@@ -222,6 +231,7 @@ def run_reliability(study, *, methods=None, n=None, n_jobs=1, seed=None, out=Non
     model = study.model()
     inputs = study.uncertain_inputs()
     allow = study.allowables()
+    _warm_up(model, progress)
     cache_path = (out / "evaluations.sqlite") if (out and cache) else None
     common = dict(n_jobs=n_jobs, backend=backend, cache=cache_path, progress=progress)
     record = {"study": study.name, "source": study.source, "methods": list(methods), "n": n,
@@ -365,6 +375,7 @@ def run_sensitivity(study, *, n=None, n_jobs=1, seed=None, out=None, progress=Tr
     out = _output_folder(out)
     model = study.model()
     inputs = study.uncertain_inputs()
+    _warm_up(model, progress)
     record = {"study": study.name, "source": study.source, "n": n, "seed": seed,
               "max_failure_fraction": max_failure_fraction}
     evaluations = {}

@@ -1,0 +1,44 @@
+"""The one-off compilation of a cold kernel cache is announced, with its progress."""
+
+from __future__ import annotations
+
+import io
+import json
+
+import mechrel._kernel_cache as kc
+from mechrel.scene import load_scene
+
+
+def test_compiled_kernels_are_recognised_as_warm():
+    from mechrel.simulation import simulate
+
+    scene = load_scene("slider-crank-dry", overrides={"analysis.cycles": 0.01})
+    simulate(scene)  # compiled (or loaded from the cache) in this process now
+    assert kc.is_compiled("dopri5") and kc.is_compiled("kinematics")
+    assert kc.cold_entries(scene) == []
+    out = io.StringIO()
+    assert kc.warm_up(scene, file=out) == 0.0 and out.getvalue() == ""  # silent when warm
+
+
+def test_a_cold_cache_is_announced_and_its_time_recorded(monkeypatch, tmp_path):
+    # a cold cache simulated by the check (a real cold compile takes minutes): warm_up says
+    # what it does and how long it takes, shows the elapsed time, and records the time taken
+    times = tmp_path / "kernel-compile-seconds.json"
+    monkeypatch.setattr(kc, "is_compiled", lambda entry: False)
+    monkeypatch.setattr(kc, "_times_file", lambda: times)
+    scene = load_scene("slider-crank-lubricated")
+    assert kc.cold_entries(scene) == ["kinematics", "radau"]
+    out = io.StringIO()
+    spent = kc.warm_up(scene, file=out)
+    text = out.getvalue()
+    expected = kc.DEFAULT_COMPILE_SECONDS["kinematics"] + kc.DEFAULT_COMPILE_SECONDS["radau"]
+    assert f"compiling simulation kernels, once — about {expected:.0f} s" in text
+    assert f"/{expected:.0f} s" in text  # the bar's total: the expected seconds
+    recorded = json.loads(times.read_text())
+    assert set(recorded) == {"kinematics", "radau"}
+    assert abs(sum(recorded.values()) - spent) < 0.2  # shared out, rounded to 0.1 s each
+    # the next announcement uses this machine's measured time
+    out = io.StringIO()
+    kc.warm_up(scene, progress=False, file=out)
+    assert out.getvalue().startswith(
+        f"compiling simulation kernels, once — about {sum(recorded.values()):.0f} s")
