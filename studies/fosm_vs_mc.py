@@ -264,19 +264,23 @@ def plot_reliability(res, name, path):
     fig, axes = plt.subplots(3, 2, figsize=(12, 8.5), sharex=True, constrained_layout=True)
     n = int(res["allowables"][name]["mc"].table["n"].iloc[0])
     floor = 1e-5
+    from mechrel.uq.plots import reliability_panels
+
+    mc_res = res["allowables"][name]["mc"]
     for row, q in zip(axes, QUANTITIES):
         g = _q(t, q)
         x = g.index.to_numpy(dtype=float)
         a, b = row
-        pf, lo, hi = 1 - g["R_mc"], 1 - g["R_mc_hi"], 1 - g["R_mc_lo"]
-        seen = pf > 0
-        a.fill_between(x, np.maximum(lo, floor), np.maximum(hi, floor), color="C1", alpha=0.25,
-                       label="MC 95 % interval")
-        a.semilogy(x[seen], pf[seen], "o", color="C1", ms=4,
-                   label=(f"conditional MC, I integrated (n = {n})" if name == "paper" else f"Monte Carlo (n = {n})"))
-        if (~seen).any():
-            a.plot(x[~seen], hi[~seen], "v", color="C1", ms=5, label="MC upper bound (none seen)")
-        a.semilogy(x, np.maximum(1 - g["R_fosm"], floor), "-", color="C0", lw=1.6, label="FOSM (normal formula)")
+        m = _q(mc_res.table, q)
+        allow = None
+        if {"mu_I", "sigma_I"} <= set(m.columns) and m["mu_I"].nunique() == 1 \
+                and m["sigma_I"].nunique() == 1:
+            allow = (float(m["mu_I"].iloc[0]), float(m["sigma_I"].iloc[0]), UNITS[q])
+        # the shared panel (mechrel.uq.plots): MC band, points, ▼ bounds, FOSM, the allowable
+        reliability_panels(None, a, x, fosm=(g["R_fosm"].to_numpy(), "FOSM (normal formula)"),
+                           mc=(g["R_mc"].to_numpy(), g["R_mc_lo"].to_numpy(),
+                               g["R_mc_hi"].to_numpy(), n, 0.95),
+                           allowable=allow, clip=floor)
         lin = 1 - g["R_lin"]
         a.plot(x[lin > 0], lin[lin > 0], "x", color="C2", ms=5, label="MC of FOSM's linear model, same sample")
         a.set_ylabel(f"{q}\n1 − R = P(|i| > I)")
@@ -290,9 +294,8 @@ def plot_reliability(res, name, path):
         for ax in row:
             ax.grid(alpha=0.3, which="both")
             ax.set_xticks(np.arange(0, 361, 36))
-        if q == QUANTITIES[0]:
-            a.legend(fontsize=7, loc="lower left")
-            b.legend(fontsize=7, loc="lower left")
+        a.legend(fontsize=7, loc="lower left")
+        b.legend(fontsize=7, loc="lower left")
     for ax in axes[-1]:
         ax.set_xlabel("crank angle (deg)")
     allow = ("paper's allowable I ~ N(μ_I, σ_I²)" if name == "paper" else

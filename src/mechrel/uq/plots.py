@@ -77,7 +77,8 @@ def reliability_panels(ax_beta: Any, ax_pf: Any, x: np.ndarray, *, fosm: Any = N
                        mc: Any = None, surrogate: Any = None, allowable: Any = None,
                        whole_cycle: Any = None, clip: float = CLIP) -> None:
     """One quantity's reliability on two axes: the index β = Φ⁻¹(R) (``ax_beta``) and the
-    probability of exceeding the allowable 1 − R on a log scale (``ax_pf``; None to skip).
+    probability of exceeding the allowable 1 − R on a log scale (``ax_pf``); either may be
+    None to skip it.
 
     ``fosm``, ``surrogate``: (R array, label); ``mc``: (R, R_lo, R_hi, n, confidence level);
     ``allowable``: (μ_I, σ_I) drawn as the cap Φ(μ_I/σ_I) that no design reaches (R of a zero
@@ -91,6 +92,8 @@ def reliability_panels(ax_beta: Any, ax_pf: Any, x: np.ndarray, *, fosm: Any = N
 
     def beta_of(R, color, style, label, ms):
         """β of R on ``ax_beta``; beyond ±bmax at the edge with open markers, not as data."""
+        if ax_beta is None:
+            return
         over, under = R > 1 - clip, R < clip
         inside = ~(over | under)
         ax_beta.plot(x, np.where(inside, special.ndtri(np.clip(R, clip, 1 - clip)), np.nan),
@@ -118,9 +121,10 @@ def reliability_panels(ax_beta: Any, ax_pf: Any, x: np.ndarray, *, fosm: Any = N
         R, lo, hi, n, level = mc
         R, lo, hi = (np.asarray(v, dtype=float) for v in (R, lo, hi))
         band = f"MC {100 * level:.0f} % interval"
-        ax_beta.fill_between(x, special.ndtri(np.clip(lo, clip, 1 - clip)),
-                             special.ndtri(np.clip(hi, clip, 1 - clip)), color="C1", alpha=0.2,
-                             label=band)
+        if ax_beta is not None:
+            ax_beta.fill_between(x, special.ndtri(np.clip(lo, clip, 1 - clip)),
+                                 special.ndtri(np.clip(hi, clip, 1 - clip)), color="C1",
+                                 alpha=0.2, label=band)
         seen = R < 1  # an exceedance was observed; elsewhere only an upper bound on 1 − R
         label = f"Monte Carlo (n = {n})"
         beta_of(np.where(seen, R, np.nan), "C1", "s--", label, 3)
@@ -141,13 +145,23 @@ def reliability_panels(ax_beta: Any, ax_pf: Any, x: np.ndarray, *, fosm: Any = N
         text = f"allowable I ~ N({mu_I:.3g}, {sd_I:.3g}²) {unit}".rstrip()
         if sd_I > 0:
             cap = float(special.ndtr(mu_I / sd_I))
-            ax_beta.axhline(min(mu_I / sd_I, bmax), color="0.4", ls=":", lw=1,
-                            label=f"{text}: cap β = μ_I/σ_I = {mu_I / sd_I:.2f}")
+            # the cap is drawn where it is on the axis; beyond the clip it is only named
+            if ax_beta is not None:
+                label = f"{text}: cap β = μ_I/σ_I = {mu_I / sd_I:.2f}"
+                if mu_I / sd_I <= bmax:
+                    ax_beta.axhline(mu_I / sd_I, color="0.4", ls=":", lw=1, label=label)
+                else:
+                    ax_beta.plot([], [], " ", label=label + " (off the axis)")
             if ax_pf is not None:
-                ax_pf.axhline(max(1 - cap, clip), color="0.4", ls=":", lw=1,
-                              label=f"cap: 1 − Φ(μ_I/σ_I) = {1 - cap:.2g} (zero error)")
+                label = (f"cap: 1 − Φ(μ_I/σ_I) = {1 - cap:.2g} (zero error)"
+                         + ("" if ax_beta is not None else f", {text}"))
+                if 1 - cap >= clip:
+                    ax_pf.axhline(1 - cap, color="0.4", ls=":", lw=1, label=label)
+                else:
+                    ax_pf.plot([], [], " ", label=label + " (off the axis)")
         else:
-            ax_beta.plot([], [], " ", label=f"{text} (fixed)")
+            (ax_beta if ax_beta is not None else ax_pf).plot([], [], " ",
+                                                             label=f"{text} (fixed)")
     if whole_cycle is not None and ax_pf is not None:
         R, lo, hi = whole_cycle
         ax_pf.plot([], [], " ", label=f"whole cycle (MC): R = {R:.4f} [{lo:.4f}, {hi:.4f}]")
