@@ -201,3 +201,13 @@ def test_scheduler_runs_the_study_on_an_existing_dask_cluster(tmp_path, capsys):
     a = pd.read_csv(tmp_path / "dask" / "reliability.csv")
     b = pd.read_csv(tmp_path / "seq" / "reliability.csv")
     pd.testing.assert_frame_equal(a, b)
+
+
+@pytest.mark.parametrize("argv, fragment", [
+    (["--jobs", "0"], "argument --jobs: '0': not a number of workers; allowed"),
+    (["--seed", "-3"], "argument --seed: '-3': not a seed; allowed: an integer >= 0"),
+])
+def test_bad_numbers_are_refused_by_the_parser(argv, fragment, capsys):
+    with pytest.raises(SystemExit) as info:
+        main(["reliability", "nine-bar-lubricated", "--no-progress"] + argv)
+    assert info.value.code == 2 and fragment in capsys.readouterr().err

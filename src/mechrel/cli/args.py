@@ -17,6 +17,21 @@ def positive_int(text: str) -> int:
     return int(text)
 
 
+def jobs(text: str) -> int:
+    """argparse type: a number of parallel workers, an integer >= 1 or -1 (all)."""
+    if not (text.isdigit() and int(text) >= 1) and text.strip() != "-1":
+        raise argparse.ArgumentTypeError(f"{text!r}: not a number of workers; allowed: 1, 2, "
+                                         "... or -1 (all cores, or all the cluster's workers)")
+    return int(text)
+
+
+def seed(text: str) -> int:
+    """argparse type: a seed, an integer >= 0."""
+    if not text.isdigit():
+        raise argparse.ArgumentTypeError(f"{text!r}: not a seed; allowed: an integer >= 0")
+    return int(text)
+
+
 def fraction(text: str) -> float:
     """argparse type: a number in [0, 1]."""
     try:

@@ -7,7 +7,7 @@ import contextlib
 import warnings
 
 from ..errors import StudyError
-from .args import add_set_option, fraction, positive_int
+from .args import add_set_option, fraction, jobs, positive_int, seed
 
 SET_HELP = ("override a value (repeatable): a study field by its dotted path "
             "(reliability.n=512, inputs.clearance.std=2e-5, allowable.velocity.mean=0.2, "
@@ -117,12 +117,12 @@ def _study_args(p, section):
                         "(default: nine-bar-lubricated)")
     add_set_option(p, SET_HELP)
     p.add_argument("--n", type=positive_int, help="number of samples (default: the study's)")
-    p.add_argument("--jobs", type=int, default=None,
+    p.add_argument("--jobs", type=jobs, default=None,
                    help="parallel workers (default 2; with --scheduler: all the cluster's)")
     p.add_argument("--scheduler", metavar="ADDRESS",
                    help="run the model evaluations on the Dask cluster whose scheduler is at "
                         "ADDRESS (e.g. tcp://10.0.0.5:8786); needs dask.distributed")
-    p.add_argument("--seed", type=int, help="random seed (default: the study's)")
+    p.add_argument("--seed", type=seed, help="random seed (default: the study's)")
     p.add_argument("--max-failure-fraction", type=fraction, metavar="F",
                    help="refuse to estimate when more than this fraction of the samples failed "
                         f"(default: the study's {section}.max_failure_fraction); the failed "
