@@ -90,7 +90,6 @@ def test_a_wrong_out_fails_before_the_simulation(tmp_path, monkeypatch, capsys):
 def test_python_dash_m_mechrel_is_the_command():
     import subprocess
     import sys
-    from pathlib import Path
 
     import mechrel
 
@@ -197,6 +196,7 @@ def test_scheduler_runs_the_study_on_an_existing_dask_cluster(tmp_path, capsys):
     dask = json.loads((tmp_path / "dask" / "summary.json").read_text())
     seq = json.loads((tmp_path / "seq" / "summary.json").read_text())
     assert dask["provenance"]["fosm"]["executor"]["backend"] == "dask"
+    assert seq["provenance"]["fosm"]["executor"]["backend"] == "sequential"
     # the same numbers as the in-process run
     a = pd.read_csv(tmp_path / "dask" / "reliability.csv")
     b = pd.read_csv(tmp_path / "seq" / "reliability.csv")
