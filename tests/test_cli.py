@@ -211,3 +211,24 @@ def test_bad_numbers_are_refused_by_the_parser(argv, fragment, capsys):
     with pytest.raises(SystemExit) as info:
         main(["reliability", "nine-bar-lubricated", "--no-progress"] + argv)
     assert info.value.code == 2 and fragment in capsys.readouterr().err
+
+
+def test_set_on_sensitivity_and_its_warnings_in_the_json(tmp_path, capsys):
+    # the ideal slider-crank with two length tolerances (kinematics only, fast): --set changes
+    # the study's N and a scene value; eight Saltelli samples are too few, and it says so
+    f = tmp_path / "s.toml"
+    f.write_text('scene = "slider-crank"\nangle_step = 30.0\n'
+                 '[inputs.crank]\npaths = ["bodies.crank.length(O,A)"]\n'
+                 'distribution = "normal"\nmean = 0.05\nstd = 1e-5\n'
+                 '[inputs.rod]\npaths = ["bodies.rod.length(A,B)"]\n'
+                 'distribution = "normal"\nmean = 0.12\nstd = 1e-5\n')
+    out = tmp_path / "o"
+    assert main(["sensitivity", str(f), "--set", "sensitivity.n=8", "--set",
+                 "solver.assembly_tolerance=1e-13", "--jobs", "1", "--out", str(out),
+                 "--no-progress"]) == 0
+    text = capsys.readouterr().out
+    assert "N = 8, 32 model runs" in text
+    record = json.loads((out / "sensitivity.json").read_text())
+    assert record["provenance"]["model"]["solver"]["assembly_tolerance"] == 1e-13
+    assert any("too few samples" in w for w in record["warnings"])
+    assert "  warning: sobol:" in text
