@@ -148,3 +148,25 @@ def test_the_reliability_summary_carries_warnings_and_ends_with_a_verdict(tmp_pa
         "displacement", "velocity", "acceleration", "whole cycle"]
     assert lines[-5] == "  verdict:" and lines[-1].strip() == summary["verdict"][-1]
     assert "trust Monte Carlo (16 successful samples" in summary["verdict"][0]
+
+
+def test_the_verdict_on_a_dry_scene_says_fosm_does_not_apply(tmp_path):
+    # the dry slider-crank (one cycle, 18° analysis points, 8 samples): FOSM warns that the model
+    # is not smooth, and the verdict trusts Monte Carlo and says why not FOSM
+    from mechrel.studies.runner import run_reliability
+    from mechrel.studies.study import load_study
+
+    study = load_study({"scene": "slider-crank-dry", "cycles": 1, "angle_step": 18.0,
+                        "scene_overrides": {"solver.rtol": 1e-6, "solver.atol": 1e-9},
+                        "inputs": {"clearance": {"paths": ["joints.C.clearance"],
+                                                 "distribution": "normal", "mean": 0.5e-3,
+                                                 "std": 0.02e-3}},
+                        "reliability": {"methods": ["fosm", "mc"], "n": 8, "seed": 2}})
+    with pytest.warns(EstimateWarning, match="fosm: the model is not smooth"):
+        lines, results = run_reliability(study, n_jobs=1, progress=False,
+                                         out=tmp_path / "o")
+    assert any("dry contact in joint C" in w for w in results["fosm"].warnings)
+    verdict = json.loads((tmp_path / "o" / "summary.json").read_text())["verdict"]
+    for v in verdict[:3]:
+        assert "trust Monte Carlo (8 successful samples" in v
+        assert "FOSM is not applicable (dry contact in joint C" in v
