@@ -170,3 +170,22 @@ def test_the_verdict_on_a_dry_scene_says_fosm_does_not_apply(tmp_path):
     for v in verdict[:3]:
         assert "trust Monte Carlo (8 successful samples" in v
         assert "FOSM is not applicable (dry contact in joint C" in v
+
+
+def test_sobol_indices_outside_the_unit_interval_beyond_their_interval_warn():
+    # the check on its own, on indices as SALib can return them at small N: −0.3 ± 0.1 lies
+    # outside [0, 1] beyond its interval (warned), −0.05 ± 0.1 and 1.04 ± 0.05 do not
+    import pandas as pd
+
+    from mechrel.uq.sobol import sobol_warnings
+
+    idx = pd.Index(["y"])
+    cols = pd.Index(["a", "b", "c"], name="input")
+    frames = {"S1": pd.DataFrame([[-0.3, -0.05, 1.04]], index=idx, columns=cols),
+              "S1_conf": pd.DataFrame([[0.1, 0.1, 0.05]], index=idx, columns=cols),
+              "ST": pd.DataFrame([[0.2, 0.3, 0.9]], index=idx, columns=cols),
+              "ST_conf": pd.DataFrame([[0.01, 0.01, 0.01]], index=idx, columns=cols)}
+    out = sobol_warnings(frames, 64)
+    assert len(out) == 1
+    assert out[0].startswith("sobol: 1 first-order indices lie outside [0, 1] by more than "
+                             "their confidence interval (e.g. a on y: -0.300 ± 0.100)")
