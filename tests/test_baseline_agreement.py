@@ -2,7 +2,7 @@
 ``benchmarks/baseline_numpy.py`` at random states of every scene type.
 
 The baseline re-derives the constraints, Jacobian, γ, Baumgarte terms, the augmented solve and
-the dry / lubricated / transition force laws from docs/mechanics.md and equations.md (it shares
+the dry / lubricated / transition force laws from docs/mechanics.md and docs/reference.md (it shares
 only the scene arrays of ``compile_scene`` with mechrel), so agreement here checks both.
 
 States: the ideal mechanism's kinematics at a random crank angle, perturbed (10 µm, 1 mm/s) so

@@ -314,7 +314,7 @@ def test_transition_with_vanishing_viscosity_behaves_like_dry():
     # penetration, same dissipation. The slider trajectories differ by ~2 % of the error's
     # range after a quarter revolution: the blend band weakens the contact force for
     # δ < e1 and the tiny film (a squeeze damper of ~2 N s/m at ε = 0.99) perturbs the
-    # impact sequence, which dry impacts amplify (chaotic, equations.md).
+    # impact sequence, which dry impacts amplify (chaotic, docs/reference.md).
     span = {"analysis.cycles": 0.25}
     dry = run("slider-crank-dry", span)
     check_run(dry)

@@ -219,7 +219,7 @@ def test_nine_bar_variants(name, model):
 
 
 def test_nine_bar_assembles_over_a_cycle():
-    """The reconstruction of nine-bar.md: one branch over the whole cycle, stroke ≈ 68.6 mm,
+    """The reconstruction of docs/reference.md: one branch over the whole cycle, stroke ≈ 68.6 mm,
     top dead centre near t ≈ 0.244 s (checked every 3° of crank 1)."""
     s = load_scene("nine-bar")
     idx = list(s.bodies).index("slider")

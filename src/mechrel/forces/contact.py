@@ -3,7 +3,7 @@
 Sources
 -------
 - Chen, Wang & Gao (2022), Arch. Appl. Mech., eqs. (4)–(6), with the corrections of
-  ``shared/reference/equations.md``: c_e (not c_r) in eq. (5), and the conformal radius
+  ``docs/reference.md``: c_e (not c_r) in eq. (5), and the conformal radius
   combination R_B R_S / (R_B − R_S) in eq. (6).
 - Lankarani, H.M. & Nikravesh, P.E. (1990), "A contact force model with hysteresis damping for
   impact analysis of multibody systems", J. Mech. Des. 112, 369–376; and (1994), "Continuous
