@@ -38,7 +38,8 @@ def contact_stiffness(R_B, R_S, E_B, nu_B, E_S, nu_S, conformal=True):
     internal contact; Flores et al. 2004/2006 after Lankarani & Nikravesh 1990) or
     :math:`R^* = R_B R_S / (R_B + R_S)` for ``conformal=False`` (the formula as printed in the
     paper, which is the one for two convex cylinders). For the paper's joint (R_B = 15 mm,
-    c = 0.5 mm) the two differ by :math:`\\sqrt{(R_B + R_S)/(R_B - R_S)} = \\sqrt{59} \\approx 7.68`.
+    c = 0.5 mm) the two differ by
+    :math:`\\sqrt{(R_B + R_S)/(R_B - R_S)} = \\sqrt{59} \\approx 7.68`.
 
     Parameters
     ----------

@@ -220,7 +220,8 @@ def full_film_squeeze(eps, eps_dot, mu, R_S, L, c):
 
     .. math::
 
-        F_r = -\\frac{12 \\pi \\mu R_S^3 L}{c^2} \\frac{\\dot\\varepsilon}{(1 - \\varepsilon^2)^{3/2}}
+        F_r = -\\frac{12 \\pi \\mu R_S^3 L}{c^2}
+        \\frac{\\dot\\varepsilon}{(1 - \\varepsilon^2)^{3/2}}
 
     Pure squeeze (w = 0) with no cavitation; used to check the Gumbel forces, which must satisfy
     F_r(+ε̇) − F_r(−ε̇) = full_film_squeeze(ε, ε̇) because the full-film pressure is odd in ε̇.

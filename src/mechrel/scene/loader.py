@@ -13,15 +13,15 @@ from collections.abc import Mapping, Sequence
 from importlib import resources
 from pathlib import Path
 from types import MappingProxyType
-from typing import Any, Union
+from typing import Any
 
 from ..errors import SceneError
 from ._schema import EXCLUSIVE, SCHEMA, Named
 from ._validate import build_scene, fmt_value, scene_to_raw, suggest
 from .model import Scene
 
-SceneSource = Union[str, os.PathLike, Mapping, Scene]
-Overrides = Union[Mapping[str, Any], Sequence[str], Sequence[tuple[str, Any]]]
+SceneSource = str | os.PathLike | Mapping | Scene
+Overrides = Mapping[str, Any] | Sequence[str] | Sequence[tuple[str, Any]]
 
 _MAPPING_LABEL = "<mapping>"
 
@@ -384,8 +384,9 @@ def with_overrides(scene: Scene, overrides: Overrides) -> Scene:
     Examples
     --------
     >>> base = load_scene("slider-crank-dry")
-    >>> with_overrides(base, ["joints.C.friction.coefficient=0.05"]).joints["C"].friction.coefficient
-    0.05
+    >>> changed = with_overrides(base, ["joints.C.friction.coefficient=0.05"])
+    >>> changed.joints["C"].friction.coefficient, base.joints["C"].friction.coefficient
+    (0.05, 0.01)
     """
     if not isinstance(scene, Scene):
         raise TypeError(f"with_overrides: scene must be a Scene, got {type(scene).__name__} "
@@ -441,7 +442,8 @@ def scene_hash(scene: Scene) -> str:
     >>> b = load_scene("nine-bar-dry", overrides={"joints.C1.clearance": 0.3e-3})
     >>> len(scene_hash(a)), scene_hash(a) == scene_hash(b)
     (64, False)
-    >>> scene_hash(with_overrides(b, {"joints.C1.clearance": a.joints["C1"].clearance})) == scene_hash(a)
+    >>> back = with_overrides(b, {"joints.C1.clearance": a.joints["C1"].clearance})
+    >>> scene_hash(back) == scene_hash(a)
     True
     """
     cached = scene.__dict__.get("_scene_hash")

@@ -10,14 +10,14 @@ from ..errors import MechrelError
 
 
 def positive_int(text: str) -> int:
-    """argparse type: an integer >= 1."""
+    """Argparse type: an integer >= 1."""
     if not (text.isdigit() and int(text) >= 1):
         raise argparse.ArgumentTypeError(f"{text!r}: not a positive integer; allowed: 1, 2, ...")
     return int(text)
 
 
 def fraction(text: str) -> float:
-    """argparse type: a number in [0, 1]."""
+    """Argparse type: a number in [0, 1]."""
     try:
         value = float(text)
     except ValueError:

@@ -182,7 +182,6 @@ def plot_sobol(result: Any, output: Any = None, *, ax: Any = None):
     else:
         raise StudyError(f"plot_sobol: expected a SobolResult or PCEResult, got {type(result).__name__}")
     k = 0 if output is None else _pos(s1.index, output)
-    label = s1.index[k]
     names = list(s1.columns)
     x = np.arange(len(names))
     if ax is None:
