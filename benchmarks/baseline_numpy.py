@@ -3,7 +3,7 @@ independent reference.
 
 What it is
 ----------
-The same model as mechrel (docs/mechanics.md, shared/reference/equations.md and the force laws
+The same model as mechrel (docs/mechanics.md, docs/reference.md and the force laws
 documented in ``mechrel.forces``), written again the way a careful engineer would write it
 first: a plain NumPy right-hand side (Python loops over the joints, dense Φ, Φ_q, γ, the
 augmented system of the corrected eq. 24 solved with ``numpy.linalg.solve``) integrated with
@@ -20,7 +20,7 @@ Two uses:
 * ``tests/test_baseline_agreement.py`` checks that :meth:`Baseline.rhs` equals mechrel's
   compiled ``mechrel.mechanics.problem.rhs`` at random states of every scene type.
 
-Force laws (as implemented here, written from equations.md and the paper's eqs. 4–19)
+Force laws (as implemented here, written from docs/reference.md and the paper's eqs. 4–19)
 ---------------------------------------------------------------------------------------
 e = r_S − r_B (journal centre − bearing centre), r = |e|, n = e/r, t = n rotated +90°,
 δ = r − c, δ̇ = ė·n, γ̇ = (ė·t)/r, ε = r/c, ε̇ = δ̇/c, w = ω_S + ω_B − 2γ̇.
@@ -31,7 +31,7 @@ e = r_S − r_B (journal centre − bearing centre), r = |e|, n = e/r, t = n rot
   v_T = ė·t + ω_S R_S − ω_B R_B, c_d of eq. 8, F_T = −c_f c_d F_N sign(v_T);
   F (on the journal) = −F_N n + F_T t, M_S = R_S F_T, M_B = −R_B F_T.
 * Lubricated (Pinkus–Sternlicht, Gumbel): the paper's branch form, eqs. 11–12 for ε̇ ≥ 0 and
-  the sign-corrected eqs. 13–14 for ε̇ < 0, with k of eq. 15 never divided by ε̇ (equations.md):
+  the sign-corrected eqs. 13–14 for ε̇ < 0, with k of eq. 15 never divided by ε̇ (docs/reference.md):
   κ = ε̇ k = sign(ε̇) sqrt((1 − ε²)(w²/4 + ε̇²/ε²)), 1.5/(k + 1.5) = 1.5 ε̇/(κ + 1.5 ε̇);
   the small-eccentricity factor (min(ε, ε0)/ε0)^λ (the continuous form of eqs. 16–17 that
   mechrel documents); ε clamped at ε_max in the transition model and only at the numerical

@@ -2,7 +2,7 @@
 ``benchmarks/baseline_numpy.py`` at random states of every scene type.
 
 The baseline re-derives the constraints, Jacobian, γ, Baumgarte terms, the augmented solve and
-the dry / lubricated / transition force laws from docs/mechanics.md and equations.md (it shares
+the dry / lubricated / transition force laws from docs/mechanics.md and docs/reference.md (it shares
 only the scene arrays of ``compile_scene`` with mechrel), so agreement here checks both.
 
 States: the ideal mechanism's kinematics at a random crank angle, perturbed (10 µm, 1 mm/s) so
@@ -82,7 +82,8 @@ def random_states(bl: Baseline, rng: np.random.Generator, n_states: int, regimes
                 regimes[("film ε band", int(band))] = regimes.get(("film ε band", int(band)), 0) + 1
                 r = eps * c
             elif jt.model == "dry":
-                r = c + (-0.5 * c if rng.random() < 0.25 else 10 ** rng.uniform(-9, math.log10(5e-5)))
+                r = c + (-0.5 * c if rng.random() < 0.25
+                         else 10 ** rng.uniform(-9, math.log10(5e-5)))
             else:
                 e1 = jt.p["e1"]
                 r = c + (rng.uniform(-0.5 * c, 0.0), rng.uniform(0.0, e1),
@@ -190,7 +191,8 @@ def test_rhs_matches_numpy_baseline(label, cases):
             "clearance power": abs(pcl1 - pcl2) / pcl_scale if pcl_scale > 0 else abs(pcl1 - pcl2),
             "power (rhs)": abs(f1[2 * n + 1] - f2[2 * n + 1]) / pcl_scale if pcl_scale > 0 else
             abs(f1[2 * n + 1] - f2[2 * n + 1]),
-            "clearance power (applied)": abs(p1 - p2) / pcl_scale if pcl_scale > 0 else abs(p1 - p2),
+            "clearance power (applied)": (abs(p1 - p2) / pcl_scale if pcl_scale > 0
+                                          else abs(p1 - p2)),
         }
         for key, val in checks.items():
             worst[key] = max(worst.get(key, 0.0), float(val))

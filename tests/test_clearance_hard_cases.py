@@ -13,7 +13,8 @@ apply to every run (:func:`check_run`):
 * energy balance |ΔT + ΔV − W_in − W_cl| ≤ 1e-4 · scale over the run, scale = max(T, |W_in|,
   dissipated energy) (J). All runs use rtol = 1e-7, atol = 1e-10 (pinned by :func:`run`: the
   lubricated and transition defaults, and the dry default of the time these bounds were
-  measured; it is 1e-8 now) except the friction run, which checks monotone dissipation at 1e-9. The balance combines integrated states whose error is controlled
+  measured; it is 1e-8 now) except the friction run, which checks monotone dissipation at 1e-9.
+  The balance combines integrated states whose error is controlled
   per step at rtol; their global error is 10–1000 × rtol over the short spans here, so 1e-4
   (1000 × rtol) is the bound the tolerance justifies. Measured: 1e-8 (DOPRI5) to 2e-6
   (LSODA, Radau near ε = 1).
@@ -80,7 +81,7 @@ def joint_states(res, joint):
 
 
 def run(scene, overrides=None, **kw):
-    """simulate at rtol 1e-7, atol 1e-10 unless told otherwise: the tolerance the bounds of
+    """Simulate at rtol 1e-7, atol 1e-10 unless told otherwise: the tolerance the bounds of
     this file are reasoned from (module docstring), whatever the scene type's default."""
     kw.setdefault("rtol", 1e-7)
     kw.setdefault("atol", 1e-10)
@@ -314,7 +315,7 @@ def test_transition_with_vanishing_viscosity_behaves_like_dry():
     # penetration, same dissipation. The slider trajectories differ by ~2 % of the error's
     # range after a quarter revolution: the blend band weakens the contact force for
     # δ < e1 and the tiny film (a squeeze damper of ~2 N s/m at ε = 0.99) perturbs the
-    # impact sequence, which dry impacts amplify (chaotic, equations.md).
+    # impact sequence, which dry impacts amplify (chaotic, docs/reference.md).
     span = {"analysis.cycles": 0.25}
     dry = run("slider-crank-dry", span)
     check_run(dry)

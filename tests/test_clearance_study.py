@@ -1,4 +1,4 @@
-"""studies/response_errors.py: the transcribed paper ranges, and a smoke run of ``--quick``."""
+"""paper/response_errors.py: the transcribed paper ranges, and a smoke run of ``--quick``."""
 
 from __future__ import annotations
 
@@ -11,9 +11,8 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
-STUDY = ROOT / "studies" / "response_errors.py"
-# shared/ stands beside the checkout (here and in CI)
-PAPER = ROOT.parent / "shared" / "reference" / "chen-wang-gao-2022.txt"
+STUDY = ROOT / "paper" / "response_errors.py"
+REFERENCE = ROOT / "docs" / "reference.md"
 
 
 def _module():
@@ -24,12 +23,44 @@ def _module():
     return mod
 
 
-@pytest.mark.skipif(not PAPER.exists(), reason="the paper's text is not available")
-def test_transcribed_ranges_match_the_paper_text():
+def test_transcribed_ranges_are_the_ones_docs_reference_restates():
+    # docs/reference.md restates the 30 ranges of the paper's §4.1–4.3 (the paper's text is not
+    # in the repository): the study compares against exactly those numbers, in that order.
     mod = _module()
-    found = mod.extract_paper_ranges(PAPER.read_text(encoding="utf-8"))
-    assert len(found) == len(mod.PAPER_RANGES) == 30
-    mod.check_paper_ranges(PAPER)  # raises SystemExit on any difference
+    rows = mod.documented_ranges(REFERENCE.read_text(encoding="utf-8"))
+    assert len(rows) == len(mod.PAPER_RANGES) == 30
+    units = {"displacement": "m", "velocity": "m/s", "acceleration": "m/s²"}
+    for (s, c, q, lo, hi), (ds, dc, dq, dlo, dhi, du) in zip(mod.PAPER_RANGES, rows):
+        # the same decimal literals: equal as floats
+        assert (s, c, q, lo, hi, units[q]) == (ds, dc, dq, dlo, dhi, du)
+
+
+def test_paper_text_check_reads_the_latex_ranges_and_names_a_difference(tmp_path):
+    # check_paper_ranges parses the paper's LaTeX-like text ("[-4.047 \\times 10^{-3} \\text{m},
+    # ...]"); fed the documented ranges in that form it passes, and one changed digit stops it.
+    mod = _module()
+    units = {"displacement": "m", "velocity": "m/s", "acceleration": "m/s^2"}
+
+    def latex(x):
+        m, e = f"{x:.6e}".split("e")
+        return f"{float(m):g} \\times 10^{{{int(e)}}}"
+
+    def text(ranges):
+        body = " ".join(f"[{latex(lo)} \\text{{{units[q].removesuffix('^2')}}}"
+                        f"{'^2' if q == 'acceleration' else ''}, {latex(hi)} "
+                        f"\\text{{{units[q].removesuffix('^2')}}}"
+                        f"{'^2' if q == 'acceleration' else ''}]" for _, _, q, lo, hi in ranges)
+        return f"4.1 Impacts of dry contact {body} Fig. 17 Acceleration error of slider"
+
+    good = tmp_path / "good.txt"
+    good.write_text(text(mod.PAPER_RANGES), encoding="utf-8")
+    mod.check_paper_ranges(good)
+    bad = list(mod.PAPER_RANGES)
+    bad[4] = bad[4][:3] + (-366.0, bad[4][4])
+    (tmp_path / "bad.txt").write_text(text(bad), encoding="utf-8")
+    with pytest.raises(SystemExit, match="transcription differs for §4.1 \\(3π\\) dry-3pi "
+                                         "acceleration"):
+        mod.check_paper_ranges(tmp_path / "bad.txt")
 
 
 def test_every_compared_case_with_a_paper_section_has_its_ranges():

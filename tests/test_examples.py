@@ -1,5 +1,11 @@
-"""Every script in examples/ runs as ``python examples/NAME.py --out DIR``, exits 0 and writes at
-least one figure (.png) into DIR."""
+"""Every script in examples/ runs as documented and writes its figure.
+
+The convention (docs/api.md, README): ``python examples/NAME.py --out DIR`` exits 0 and writes
+at least one PNG into DIR. Each script checks its own numbers where it makes a claim (the Dask
+example stops with an error if the cluster's results differ from the in-process ones).
+The scripts run against the mechrel the tests import (installed or checkout), so they share
+its compiled-kernel cache.
+"""
 
 from __future__ import annotations
 
@@ -12,20 +18,23 @@ import pytest
 
 import mechrel
 
-EXAMPLES = sorted((Path(__file__).resolve().parents[1] / "examples").glob("*.py"))
+ROOT = Path(__file__).resolve().parents[1]
+SCRIPTS = sorted((ROOT / "examples").glob("*.py"))
 
 
-@pytest.mark.parametrize("script", EXAMPLES, ids=[p.stem for p in EXAMPLES])
+def test_the_examples_are_there():
+    names = {p.stem for p in SCRIPTS}
+    assert {"four_bar", "generic_model", "dask_cluster", "four_bar_tolerances"} <= names
+
+
+@pytest.mark.parametrize("script", SCRIPTS, ids=[p.stem for p in SCRIPTS])
 def test_example_runs_and_writes_a_figure(script, tmp_path):
     src = str(Path(mechrel.__file__).resolve().parents[1])
-    env = {**os.environ, "PYTHONPATH": src + os.pathsep + os.environ.get("PYTHONPATH", ""),
-           "MPLBACKEND": "Agg"}
-    proc = subprocess.run([sys.executable, str(script), "--out", str(tmp_path)], env=env,
-                          capture_output=True, text=True, timeout=600)
-    assert proc.returncode == 0, proc.stderr[-2000:]
-    assert list(tmp_path.glob("*.png")), f"{script.name} wrote no figure"
-    assert proc.stdout.strip(), f"{script.name} printed nothing"
-
-
-def test_there_are_examples():
-    assert any(p.stem == "four_bar_tolerances" for p in EXAMPLES)
+    env = {**os.environ, "MPLBACKEND": "Agg",
+           "PYTHONPATH": os.pathsep.join([src, *filter(None, [os.environ.get("PYTHONPATH")])])}
+    proc = subprocess.run([sys.executable, str(script), "--out", str(tmp_path)], cwd=ROOT,
+                          env=env, capture_output=True, text=True, timeout=900)
+    assert proc.returncode == 0, proc.stderr[-4000:]
+    pngs = list(tmp_path.glob("*.png"))
+    assert pngs and all(p.stat().st_size > 10_000 for p in pngs), proc.stdout
+    assert proc.stdout.strip(), "an example prints what it computed"

@@ -59,15 +59,18 @@ def reynolds_forces(eps, w, eps_dot=0.0, gumbel=True):
     sol = solve_ivp(dp, (-math.pi, math.pi), [0.0], method="DOP853", rtol=1e-13, atol=1e-12,
                     dense_output=True, events=zero)
     p = lambda f: sol.sol(f)[0]  # noqa: E731
-    cuts = [-math.pi] + [z for z in sol.t_events[0] if -math.pi + 1e-9 < z < math.pi - 1e-9] + [math.pi]
+    inner = [z for z in sol.t_events[0] if -math.pi + 1e-9 < z < math.pi - 1e-9]
+    cuts = [-math.pi, *inner, math.pi]
     Fr = Ft = 0.0
     # absolute floor far below the forces compared (a component can be exactly 0 by symmetry)
     tiny = 1e-12 * R_S * L * A * (abs(w) + abs(eps_dot))
     for a, b in zip(cuts[:-1], cuts[1:]):
         if gumbel and p(0.5 * (a + b)) <= 0.0:
             continue
-        Fr += quad(lambda f: -R_S * L * p(f) * math.cos(f), a, b, epsabs=tiny, epsrel=1e-12, limit=200)[0]
-        Ft += quad(lambda f: -R_S * L * p(f) * math.sin(f), a, b, epsabs=tiny, epsrel=1e-12, limit=200)[0]
+        Fr += quad(lambda f: -R_S * L * p(f) * math.cos(f), a, b, epsabs=tiny, epsrel=1e-12,
+                   limit=200)[0]
+        Ft += quad(lambda f: -R_S * L * p(f) * math.sin(f), a, b, epsabs=tiny, epsrel=1e-12,
+                   limit=200)[0]
     return Fr, Ft, p(math.pi)
 
 

@@ -35,7 +35,8 @@ def test_layout_and_round_trip():
     [
         ({"clearance": -1e-4}, "clearance", "> 0"),
         ({"clearance": 0.0}, "clearance", "> 0"),
-        ({"bearing_radius": 5e-4}, "bearing_radius", "R_S = bearing_radius - clearance must be > 0"),
+        ({"bearing_radius": 5e-4}, "bearing_radius",
+         "R_S = bearing_radius - clearance must be > 0"),
         ({"bearing_radius": 1e-4}, "bearing_radius", "> clearance"),
         ({"restitution": 0.0}, "restitution", "(0, 1]"),
         ({"restitution": 1.2}, "restitution", "(0, 1]"),

@@ -113,7 +113,8 @@ def friction_rig(v0, v1, T=0.2):
     ts = np.linspace(0.0, T, 2001)
     p = pack_params(model="dry", v0=v0, v1=v1, **COMMON)
     d0 = (100.0 / K) ** (2 / 3)  # static penetration
-    return ts, simulate(p, lambda t: (0.0, -100.0), lambda t: 3 * math.pi * math.cos(10 * math.pi * t),
+    return ts, simulate(p, lambda t: (0.0, -100.0),
+                        lambda t: 3 * math.pi * math.cos(10 * math.pi * t),
                         T, [0.0, -(C + d0), 0.0, 0.0], ts, method="RK45", rtol=1e-7)[0]
 
 

@@ -47,7 +47,7 @@ def test_slider_crank_kinematics_matches_closed_form():
     assert np.allclose(res.crank_angle, np.degrees(theta), atol=1e-9)
 
 
-NINE_BAR_JOINTS_MM = {  # nine-bar.md, joint positions at t = 0
+NINE_BAR_JOINTS_MM = {  # docs/reference.md, joint positions at t = 0
     ("crank1", "A"): (22.309, 39.081), ("crank2", "B"): (54.339, -501.745),
     ("plate", "P"): (324.059, -84.300), ("plate", "Q"): (704.225, -17.439),
     ("plate", "R"): (605.366, -247.063), ("slider", "S"): (670.000, -575.769),
@@ -68,7 +68,7 @@ def test_nine_bar_assembly_matches_reference_positions():
     q, _ = assemble(compiled.ideal, compiled.q_guess, 0.0)
     for (body, point), (x, y) in NINE_BAR_JOINTS_MM.items():
         px, py = _point(scene, compiled, q, body, point)
-        # nine-bar.md prints positions to 1 µm (3 decimals in mm): the round-off is 0.5e-6 m,
+        # docs/reference.md prints positions to 1 µm (3 decimals in mm): the round-off is 0.5e-6 m,
         # within the 1e-6 m the foundation issue asks for.
         assert abs(px - x * 1e-3) <= 1e-6 and abs(py - y * 1e-3) <= 1e-6, (body, point, px, py)
 
@@ -79,7 +79,7 @@ def test_nine_bar_full_cycle_stroke_and_violation():
     assert res.crank_angle[-1] == pytest.approx(360.0)
     assert res.stats["max_position_violation"] <= 1e-8
     d = res.outputs["slider"]["displacement"]
-    # nine-bar.md: stroke about 68.6 mm; sampled every 1°, the extremes are within
+    # docs/reference.md: stroke about 68.6 mm; sampled every 1°, the extremes are within
     # (ω Δt)² x''/8 ≈ 1e-6 m of the true ones.
     assert (d.max() - d.min()) * 1e3 == pytest.approx(68.6, abs=0.1)
 

@@ -22,7 +22,8 @@ from mechrel.scene.loader import canonical_json, deep_merge
 
 @pytest.mark.parametrize("text, value", [
     ("0.3e-3", 0.3e-3), ("1e-3", 1e-3), ("2", 2), ("-4.5", -4.5), ("inf", math.inf),
-    ('"dry"', "dry"), ("dry", "dry"), ("scipy-radau", "scipy-radau"), (" lubricated ", "lubricated"),
+    ('"dry"', "dry"), ("dry", "dry"), ("scipy-radau", "scipy-radau"),
+    (" lubricated ", "lubricated"),
     ("[1.0, 2.0]", [1.0, 2.0]), ("true", True), ("false", False),
     ("{ viscosity = 0.2 }", {"viscosity": 0.2}), (".5", 0.5), ("5.", 5.0), ("", ""),
     ("1.0.0", "1.0.0"), ("a = 1", "a = 1"),
@@ -64,7 +65,8 @@ def test_overrides_as_mapping_and_pairs():
 
 
 def test_override_into_missing_sub_table_uses_defaults():
-    s = load_scene("slider-crank", overrides=["joints.C.model=transition", "joints.C.transition.e1=2e-5"])
+    s = load_scene("slider-crank",
+                   overrides=["joints.C.model=transition", "joints.C.transition.e1=2e-5"])
     t = s.joints["C"].transition
     assert t.e1 == 2e-5 and t.eps_max == 0.99  # default filled
     assert s.joints["C"].lubricant.viscosity == 0.4 and s.joints["C"].contact is not None
@@ -100,7 +102,8 @@ def test_with_overrides():
     s = with_overrides(base, {"joints.C1.clearance": 0.7e-3})
     assert s.joints["C1"].clearance == 0.7e-3 and base.joints["C1"].clearance == 0.5e-3
     assert s.source == base.source
-    assert with_overrides(base, ()) == base and scene_hash(with_overrides(base, ())) == scene_hash(base)
+    assert with_overrides(base, ()) == base
+    assert scene_hash(with_overrides(base, ())) == scene_hash(base)
     assert load_scene(base, overrides={"joints.C1.clearance": 0.7e-3}) == s
     # a scene built without the loader (empty raw) still works
     bare = dataclasses.replace(base, raw={})

@@ -345,11 +345,12 @@ def test_refused_sensitivity_writes_its_failures(tmp_path, capsys):
     assert summary["failures"]["sobol"]["n_failed"] == failing.sum()
 
 
-STUDY_SCRIPTS = Path(__file__).resolve().parents[1] / "studies"
+STUDY_SCRIPTS = Path(__file__).resolve().parents[1] / "paper"
 
 
 def _script(name):
-    spec = importlib.util.spec_from_file_location(f"study_script_{name}", STUDY_SCRIPTS / f"{name}.py")
+    spec = importlib.util.spec_from_file_location(f"study_script_{name}",
+                                                  STUDY_SCRIPTS / f"{name}.py")
     module = importlib.util.module_from_spec(spec)
     sys.modules[spec.name] = module  # dataclasses look their module up while it executes
     spec.loader.exec_module(module)

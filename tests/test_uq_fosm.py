@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -92,7 +93,7 @@ def _quadratic(x):
 
 
 def test_quadratic_gradient_is_exact_for_any_step():
-    """f = x0² + 3 x1: central differences are exact for quadratics (truncation ∝ f‴ = 0), so
+    """F = x0² + 3 x1: central differences are exact for quadratics (truncation ∝ f‴ = 0), so
     even a step of half a standard deviation gives ∇f = (2μ0, 3)."""
     inputs = UncertainInputs.from_specs({"x0": Normal(2.0, 0.3), "x1": Normal(0.0, 0.1)})
     m = FunctionModel(_quadratic, inputs.names, ["y"])
@@ -212,7 +213,7 @@ def test_failed_stencil_point_is_an_error_naming_it():
 def test_results_are_frozen():
     model, inputs, _, _ = _linear()
     res = fosm(model=model, inputs=inputs, allowable=Allowable(1.0, 0.2))
-    with pytest.raises(Exception):
+    with pytest.raises(dataclasses.FrozenInstanceError):
         res.form = "one-sided"
     with pytest.raises(ValueError):
         res.evaluations.Y[0, 0] = 1.0

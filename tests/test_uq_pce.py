@@ -43,7 +43,7 @@ def _closed_form(inputs):
 
 @pytest.mark.parametrize("method, sparse", [("regression", False), ("quadrature", False), ("quadrature", True)])
 def test_order_one_is_exact_for_a_linear_model(method, sparse):
-    """y = a + Bx is in the span of the order-1 basis: the fit is exact up to rounding.
+    """Y = a + Bx is in the span of the order-1 basis: the fit is exact up to rounding.
 
     Orthonormal degree-1 polynomials are (x − mean)/std for normal and uniform marginals, so the
     coefficients are c₀ = a + Bμ and c_j = B_j·σ_j (to 1e-10: least squares on 8 well-spread

@@ -17,7 +17,7 @@ import os
 import platform
 import time
 from dataclasses import dataclass, field
-from typing import Mapping
+from collections.abc import Mapping
 
 import numpy as np
 
@@ -121,7 +121,8 @@ def output_times(scene: Scene, compiled: CompiledScene | None = None) -> np.ndar
         field = "analysis.sample_step" if a.sample_step is not None else \
             "analysis.sample_step_angle"
         raise SimulationError(
-            f"{scene.source or scene.name}: {field}: {n:.3g} output instants over {duration:.6g} s need about "
+            f"{scene.source or scene.name}: {field}: {n:.3g} output instants over "
+            f"{duration:.6g} s need about "
             f"{need / 2**30:.3g} GiB, more than this machine's {have / 2**30:.3g} GiB; allowed: "
             "a sample step that keeps the output within memory")
     return np.arange(n) * step

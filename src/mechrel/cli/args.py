@@ -1,5 +1,5 @@
 """Argument types and error reporting shared by the ``mechrel`` subcommands and the study
-scripts (``studies/*.py``)."""
+scripts (``paper/*.py``)."""
 
 from __future__ import annotations
 
@@ -11,14 +11,14 @@ from ..errors import MechrelError
 
 
 def positive_int(text: str) -> int:
-    """argparse type: an integer >= 1."""
+    """Argparse type: an integer >= 1."""
     if not (text.isdigit() and int(text) >= 1):
         raise argparse.ArgumentTypeError(f"{text!r}: not a positive integer; allowed: 1, 2, ...")
     return int(text)
 
 
 def jobs(text: str) -> int:
-    """argparse type: a number of parallel workers, an integer >= 1 or -1 (all)."""
+    """Argparse type: a number of parallel workers, an integer >= 1 or -1 (all)."""
     if not (text.isdigit() and int(text) >= 1) and text.strip() != "-1":
         raise argparse.ArgumentTypeError(f"{text!r}: not a number of workers; allowed: 1, 2, "
                                          "... or -1 (all cores, or all the cluster's workers)")
@@ -26,14 +26,14 @@ def jobs(text: str) -> int:
 
 
 def seed(text: str) -> int:
-    """argparse type: a seed, an integer >= 0."""
+    """Argparse type: a seed, an integer >= 0."""
     if not text.isdigit():
         raise argparse.ArgumentTypeError(f"{text!r}: not a seed; allowed: an integer >= 0")
     return int(text)
 
 
 def fraction(text: str) -> float:
-    """argparse type: a number in [0, 1]."""
+    """Argparse type: a number in [0, 1]."""
     try:
         value = float(text)
     except ValueError:

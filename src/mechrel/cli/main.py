@@ -12,12 +12,14 @@ import argparse
 import sys
 
 from ..errors import MechrelError
-from . import accuracy, scenes, simulate, studies
+from . import accuracy, pictures, scenes, simulate, studies
 from .simulate import EPILOG
 
 COMMANDS = (
     scenes.register,
     simulate.register,
+    pictures.register_draw,
+    pictures.register_animate,
     studies.register_reliability,
     studies.register_sensitivity,
     accuracy.register,

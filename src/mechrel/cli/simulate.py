@@ -14,6 +14,8 @@ examples:
   mechrel simulate slider-crank                kinematics of the ideal slider-crank
   mechrel simulate nine-bar-lubricated --out results/nine-bar.csv
   mechrel simulate nine-bar --set joints.C1.model=dry --set joints.C1.clearance=0.3e-3
+  mechrel draw my-scene.toml --out my-scene.png     check a scene file before simulating it
+  mechrel animate nine-bar-lubricated --out nine-bar.gif
 
 SCENE is an embedded scene name or a path to a TOML scene file (format: docs/scenes.md).
 All values are SI units (m, kg, s, rad, Pa, Pa s).

@@ -3,7 +3,7 @@
 Sources
 -------
 - Chen, Wang & Gao (2022), Arch. Appl. Mech., eqs. (4)–(6), with the corrections of
-  ``shared/reference/equations.md``: c_e (not c_r) in eq. (5), and the conformal radius
+  ``docs/reference.md``: c_e (not c_r) in eq. (5), and the conformal radius
   combination R_B R_S / (R_B − R_S) in eq. (6).
 - Lankarani, H.M. & Nikravesh, P.E. (1990), "A contact force model with hysteresis damping for
   impact analysis of multibody systems", J. Mech. Des. 112, 369–376; and (1994), "Continuous
@@ -38,7 +38,8 @@ def contact_stiffness(R_B, R_S, E_B, nu_B, E_S, nu_S, conformal=True):
     internal contact; Flores et al. 2004/2006 after Lankarani & Nikravesh 1990) or
     :math:`R^* = R_B R_S / (R_B + R_S)` for ``conformal=False`` (the formula as printed in the
     paper, which is the one for two convex cylinders). For the paper's joint (R_B = 15 mm,
-    c = 0.5 mm) the two differ by :math:`\\sqrt{(R_B + R_S)/(R_B - R_S)} = \\sqrt{59} \\approx 7.68`.
+    c = 0.5 mm) the two differ by
+    :math:`\\sqrt{(R_B + R_S)/(R_B - R_S)} = \\sqrt{59} \\approx 7.68`.
 
     Parameters
     ----------
@@ -60,6 +61,21 @@ def contact_stiffness(R_B, R_S, E_B, nu_B, E_S, nu_S, conformal=True):
     ------
     mechrel.errors.SceneError
         An argument is outside its range (the message names it).
+
+    Examples
+    --------
+    The paper's joint (bearing radius 15 mm, clearance 0.5 mm, steel on steel):
+
+    >>> K = contact_stiffness(15e-3, 14.5e-3, 206e9, 0.3, 206e9, 0.3)
+    >>> f"{K:.4e}"
+    '9.9536e+10'
+    >>> K_printed = contact_stiffness(15e-3, 14.5e-3, 206e9, 0.3, 206e9, 0.3, conformal=False)
+    >>> round((K / K_printed) ** 2, 9)   # (R_B + R_S) / (R_B - R_S)
+    59.0
+    >>> contact_stiffness(15e-3, 15e-3, 206e9, 0.3, 206e9, 0.3)
+    Traceback (most recent call last):
+    ...
+    mechrel.errors.SceneError: R_B = 0.015 is invalid: allowed > R_S = 0.015 (m)
     """
     R_B, R_S, E_B, nu_B, E_S, nu_S = (_real(name, v) for name, v in (
         ("R_B", R_B), ("R_S", R_S), ("E_B", E_B), ("nu_B", nu_B), ("E_S", E_S), ("nu_S", nu_S)))
@@ -117,6 +133,19 @@ def ln_normal_force(delta, delta_dot, impact_speed, K, n, c_e):
     -------
     float
         F_N (N), ≥ 0; the force on the journal is −F_N along n = e/|e|.
+
+    Examples
+    --------
+    1 µm penetration, K = 1e10 N/m^1.5, impact speed 0.1 m/s, c_e = 0.9:
+
+    >>> round(ln_normal_force(1e-6, 0.0, 0.1, 1e10, 1.5, 0.9), 9)   # at rest: Hertz K δ^1.5
+    10.0
+    >>> round(ln_normal_force(1e-6, 0.1, 0.1, 1e10, 1.5, 0.9), 9)   # approach: 1 + 0.75(1 − 0.81)
+    11.425
+    >>> ln_normal_force(1e-6, -1.0, 0.1, 1e10, 1.5, 0.9)   # fast separation: never pulls
+    0.0
+    >>> ln_normal_force(-1e-6, 0.1, 0.1, 1e10, 1.5, 0.9)   # no penetration
+    0.0
     """
     if not delta > 0.0:
         return 0.0
@@ -129,6 +158,13 @@ def contact_energy(delta, K, n):
     """Elastic energy stored in the Hertzian spring, K δ^(n+1)/(n+1) for δ > 0, else 0 (J).
 
     Source: the conservative part of the Lankarani–Nikravesh law, F = K δ^n (Hertz).
+
+    Examples
+    --------
+    >>> round(contact_energy(1e-6, 1e10, 1.5), 15)   # 1e10 · (1e-6)^2.5 / 2.5
+    4e-06
+    >>> contact_energy(0.0, 1e10, 1.5)
+    0.0
     """
     if not delta > 0.0:
         return 0.0

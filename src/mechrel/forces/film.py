@@ -12,7 +12,7 @@ uses min(ε, ε_max)).
 Sources
 -------
 - Chen, Wang & Gao (2022), Arch. Appl. Mech., eqs. (10)–(18), with the corrections of
-  ``shared/reference/equations.md``: wedge speed w = ω_S + ω_B − 2γ̇ (frame invariant), sign of
+  ``docs/reference.md``: wedge speed w = ω_S + ω_B − 2γ̇ (frame invariant), sign of
   eq. (13), and k of eq. (15) never divided by ε̇.
 - Pinkus, O. & Sternlicht, B. (1961), Theory of Hydrodynamic Lubrication, McGraw-Hill
   (dynamically loaded long bearing, Gumbel / π-film conditions).
@@ -142,7 +142,7 @@ def film_forces(eps, eps_dot, w, mu, R_S, L, c, lam, eps0):
     See :func:`film_forces_eps_w` for the closed form actually evaluated.
 
     Source: Pinkus & Sternlicht (1961); Flores et al. (2009); paper eqs. (11)–(17) as
-    corrected in equations.md. The long-bearing (infinitely long) approximation is a modelling
+    corrected in docs/reference.md. The long-bearing (infinitely long) approximation is a modelling
     choice: the paper's bearing has L/D ≈ 1.4.
 
     Parameters
@@ -220,7 +220,8 @@ def full_film_squeeze(eps, eps_dot, mu, R_S, L, c):
 
     .. math::
 
-        F_r = -\\frac{12 \\pi \\mu R_S^3 L}{c^2} \\frac{\\dot\\varepsilon}{(1 - \\varepsilon^2)^{3/2}}
+        F_r = -\\frac{12 \\pi \\mu R_S^3 L}{c^2}
+        \\frac{\\dot\\varepsilon}{(1 - \\varepsilon^2)^{3/2}}
 
     Pure squeeze (w = 0) with no cavitation; used to check the Gumbel forces, which must satisfy
     F_r(+ε̇) − F_r(−ε̇) = full_film_squeeze(ε, ε̇) because the full-film pressure is odd in ε̇.

@@ -40,6 +40,17 @@ def dynamic_correction(v_abs, v0, v1):
     -------
     float
         c_d in [0, 1].
+
+    Examples
+    --------
+    v0 = 0.1 mm/s, v1 = 10 mm/s (mechrel's defaults):
+
+    >>> dynamic_correction(0.5e-4, 1e-4, 1e-2)   # below v0: no friction
+    0.0
+    >>> round(dynamic_correction(5.05e-3, 1e-4, 1e-2), 12)   # half-way between v0 and v1
+    0.5
+    >>> dynamic_correction(1.0, 1e-4, 1e-2)
+    1.0
     """
     if v_abs < v0:
         return 0.0
@@ -74,5 +85,16 @@ def friction_force(F_N, v_t, c_f, v0, v1):
     -------
     float
         F_T (N), component along t of the friction force on the journal.
+
+    Examples
+    --------
+    F_N = 100 N, c_f = 0.05, sliding at ±0.5 m/s (above v1): the force opposes the slip.
+
+    >>> friction_force(100.0, 0.5, 0.05, 1e-4, 1e-2)
+    -5.0
+    >>> friction_force(100.0, -0.5, 0.05, 1e-4, 1e-2)
+    5.0
+    >>> friction_force(100.0, 0.0, 0.05, 1e-4, 1e-2)   # no slip: exactly zero, no 0/0
+    -0.0
     """
     return -c_f * F_N * math.copysign(dynamic_correction(abs(v_t), v0, v1), v_t)

@@ -19,7 +19,7 @@ For a dry joint, P + dE_el/dt = −(F_N − K δ^n) δ̇ + F_T v_T ≤ 0 (dissip
 
 Sources
 -------
-Chen, Wang & Gao (2022), eqs. (1)–(19) as corrected in shared/reference/equations.md;
+Chen, Wang & Gao (2022), eqs. (1)–(19) as corrected in docs/reference.md;
 Lankarani & Nikravesh (1990/1994); Ambrósio (2002); Pinkus & Sternlicht (1961);
 Flores et al. (2009, transition model).
 """

@@ -172,7 +172,8 @@ def pack_params(
     _check("clearance", clearance, c > 0.0, "> 0 (radial clearance R_B - R_S, m)")
     RB = _real("bearing_radius", bearing_radius)
     _check("bearing_radius", bearing_radius, RB > c,
-           f"> clearance = {c!r} (the journal radius R_S = bearing_radius - clearance must be > 0, m)")
+           f"> clearance = {c!r} (the journal radius R_S = bearing_radius - clearance "
+           "must be > 0, m)")
     RS = RB - c
     L = _real("length", length)
     _check("length", length, L > 0.0, "> 0 (bearing length, m)")

@@ -6,7 +6,7 @@ that was not in contact at its start, with a penetration above ``onset_tol`` (m)
 and retried with the step that the secant of the gap puts at ``onset_tol / 2`` inside the
 contact; repeated until the step ends within ``(0, onset_tol]``. Only then is δ̇⁻ recorded:
 taking it at the end of an arbitrary first step in contact would bias the LN damping
-(equations.md, "Numerical character").
+(docs/reference.md, "Numerical character").
 """
 
 from __future__ import annotations

@@ -698,8 +698,10 @@ def radau5_kernel(sys, sys_smooth, t0, y0, hist, t_out, h0, rtol_user, atol_user
 class Radau(Integrator):
     """Compiled Radau IIA of order 5 (RADAU5) for stiff scenes (lubricated joints).
 
-    Parameters (besides :class:`~mechrel.integrate.base.Integrator`'s)
-    ------------------------------------------------------------------
+    Takes the settings of :class:`~mechrel.integrate.base.Integrator` and these.
+
+    Parameters
+    ----------
     fixed_step : bool
         Integrate at the constant step ``step`` without error control (for convergence-order
         checks only).

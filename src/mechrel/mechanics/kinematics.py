@@ -307,7 +307,7 @@ def _lu_solve(f, b):
 
 @njit(cache=True, inline='always')
 def _max_abs(x):
-    """max |x_i| (0 for an empty x); NaN if any entry is NaN, so that a NaN never passes a
+    """Max |x_i| (0 for an empty x); NaN if any entry is NaN, so that a NaN never passes a
     tolerance test (as with ``np.max(np.abs(x))``)."""
     r = 0.0
     for i in range(x.shape[0]):

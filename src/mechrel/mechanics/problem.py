@@ -272,7 +272,7 @@ def applied_forces_trig(t, q, v, hist, sys, Q, cs, sn, gap, gaprate):
 
 @njit(cache=True, inline='always')
 def body_trig(q, cs, sn):
-    """cos θ and sin θ of every body into ``cs``, ``sn``."""
+    """Cos θ and sin θ of every body into ``cs``, ``sn``."""
     for b in range(cs.shape[0]):
         th = q[3 * b + 2]
         cs[b] = math.cos(th)
@@ -331,8 +331,8 @@ def constraint_terms(t, q, v, sys, ws):
     """Φ, Φ̇ = Φ_q q̇ + Φ_t, the sparse rows of Φ_q and γ of the state, into ``ws``.
 
     One sine and cosine per body. Row r of Φ_q acts on at most two bodies
-    (``sys.row_body[r]``) with the coefficients ``ws.coef[6 r:6 r + 6]``. With ``A s`` the body-fixed
-    vector s in global axes, ``B s = ∂(A s)/∂θ = (−(A s)_y, (A s)_x)``, and
+    (``sys.row_body[r]``) with the coefficients ``ws.coef[6 r:6 r + 6]``. With ``A s`` the
+    body-fixed vector s in global axes, ``B s = ∂(A s)/∂θ = (−(A s)_y, (A s)_x)``, and
     ``γ = −(Φ_q q̇)_q q̇ − 2 Φ_qt q̇ − Φ_tt`` (Nikravesh 1988, §6.2): for a revolute joint
     ``(A_i s_i) ω_i² − (A_j s_j) ω_j²``, for a point on a line ``n·(A_i s_i) ω_i²``, for a driver
     its angular acceleration, zero for fixed angles. The Baumgarte combination
@@ -985,7 +985,7 @@ def gaps(t, y, sys):
 
 @njit(cache=True)
 def violation_from(ws):
-    """max |Φ| (m or rad) and max |Φ_q q̇ + Φ_t| (m/s or rad/s) of the state whose
+    """Max |Φ| (m or rad) and max |Φ_q q̇ + Φ_t| (m/s or rad/s) of the state whose
     constraint terms are in ``ws`` (after :func:`constraint_terms` or :func:`rhs_into`)."""
     ws = borrowed(ws)
     phi = ws.phi
@@ -1000,7 +1000,7 @@ def violation_from(ws):
 
 @njit(cache=True)
 def constraint_violation(t, y, sys):
-    """max |Φ| (m or rad) and max |Φ_q q̇ + Φ_t| (m/s or rad/s) of the state ``y``."""
+    """Max |Φ| (m or rad) and max |Φ_q q̇ + Φ_t| (m/s or rad/s) of the state ``y``."""
     n = sys.mass.shape[0]
     ws = make_workspace(sys)
     constraint_terms(t, y[:n], y[n:2 * n], sys, ws)

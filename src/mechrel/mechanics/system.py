@@ -339,7 +339,8 @@ def _schur_structure(m: int, key: bytes) -> tuple:
     # contributions to S at permuted positions (p ≥ q), one per shared body, as flat indices
     # into the row-major L (m × m) and coefficient (m × 6) arrays of the workspace
     sp = same[np.ix_(perm, perm)]
-    p_, q_, a_, b_ = np.nonzero(sp & (np.arange(m)[:, None] >= np.arange(m)[None, :])[:, :, None, None])
+    lower = (np.arange(m)[:, None] >= np.arange(m)[None, :])[:, :, None, None]
+    p_, q_, a_, b_ = np.nonzero(sp & lower)
     sc = np.stack([p_ * m + q_, 6 * perm[p_] + 3 * a_, 6 * perm[q_] + 3 * b_,
                    3 * rb[perm[p_], a_]], axis=1)
     # symbolic Cholesky: pattern of L (lower, with fill) in the permuted order

@@ -14,15 +14,15 @@ from collections.abc import Mapping, Sequence
 from importlib import resources
 from pathlib import Path
 from types import MappingProxyType
-from typing import Any, Union
+from typing import Any
 
 from ..errors import SceneError
 from ._schema import EXCLUSIVE, SCHEMA, Named
 from ._validate import build_scene, fmt_value, scene_to_raw, suggest
 from .model import Scene
 
-SceneSource = Union[str, os.PathLike, Mapping, Scene]
-Overrides = Union[Mapping[str, Any], Sequence[str], Sequence[tuple[str, Any]]]
+SceneSource = str | os.PathLike | Mapping | Scene
+Overrides = Mapping[str, Any] | Sequence[str] | Sequence[tuple[str, Any]]
 
 _MAPPING_LABEL = "<mapping>"
 
@@ -54,12 +54,24 @@ def _data_dir():
 
 
 def embedded_names() -> tuple[str, ...]:
-    """Names of the scenes shipped in ``mechrel/scene/data``."""
+    """Names of the scenes shipped in ``mechrel/scene/data``.
+
+    Examples
+    --------
+    >>> "nine-bar-lubricated" in embedded_names()
+    True
+    """
     return tuple(sorted(p.name[:-5] for p in _data_dir().iterdir() if p.name.endswith(".toml")))
 
 
 def list_scenes() -> dict[str, str]:
-    """``{name: description}`` of every embedded scene (each one is loaded and validated)."""
+    """``{name: description}`` of every embedded scene (each one is loaded and validated).
+
+    Examples
+    --------
+    >>> sorted(list_scenes())[:2]
+    ['double-pendulum', 'nine-bar']
+    """
     return {name: load_scene(name).description for name in embedded_names()}
 
 
@@ -204,7 +216,13 @@ _NUMBER_RE = re.compile(r"[+-]?(\d+\.?\d*|\.\d+)([eE][+-]?\d+)?\Z")
 def parse_value(text: str) -> Any:
     """An override VALUE: a TOML literal (``0.3e-3``, ``"dry"``, ``[1.0, 2.0]``, ``true``,
     ``{viscosity = 0.2}``); a plain number TOML rejects (``.5``, ``5.``); otherwise the text
-    itself as a string (so ``dry`` means ``"dry"``)."""
+    itself as a string (so ``dry`` means ``"dry"``).
+
+    Examples
+    --------
+    >>> parse_value("0.3e-3"), parse_value(".5"), parse_value("dry"), parse_value("[1.0, 2.0]")
+    (0.0003, 0.5, 'dry', [1.0, 2.0])
+    """
     s = text.strip()
     try:
         doc = tomllib.loads(f"__value__ = {s}")
@@ -218,7 +236,17 @@ def parse_value(text: str) -> Any:
 
 
 def parse_override(text: str) -> tuple[str, Any]:
-    """``"PATH=VALUE"`` → ``(PATH, value)`` (see :func:`parse_value`)."""
+    """``"PATH=VALUE"`` → ``(PATH, value)`` (see :func:`parse_value`).
+
+    Examples
+    --------
+    >>> parse_override("joints.C1.clearance = 0.3e-3")
+    ('joints.C1.clearance', 0.0003)
+    >>> parse_override("joints.C1.clearance")
+    Traceback (most recent call last):
+    ...
+    mechrel.errors.SceneError: override "joints.C1.clearance": expected PATH=VALUE; ...
+    """
     if not isinstance(text, str) or "=" not in text:
         raise SceneError(f"override {fmt_value(text)}: expected PATH=VALUE; allowed: e.g. "
                          "joints.C1.clearance=0.3e-3 or joints.C1.model=dry")
@@ -422,6 +450,16 @@ def load_scene(source: SceneSource, *, overrides: Overrides = ()) -> Scene:
 
     Raises :class:`~mechrel.errors.SceneError` (one, naming source, field path, value and what is
     allowed) for any problem.
+
+    Examples
+    --------
+    >>> scene = load_scene("nine-bar-dry", overrides={"joints.C1.clearance": 0.3e-3})
+    >>> scene.joints["C1"].model, scene.joints["C1"].clearance
+    ('dry', 0.0003)
+    >>> load_scene("nine-bar-dry", overrides=["joints.C1.clearance=-1"])
+    Traceback (most recent call last):
+    ...
+    mechrel.errors.SceneError: embedded:nine-bar-dry: joints.C1.clearance = -1...
     """
     if isinstance(source, Scene):
         return with_overrides(source, overrides)
@@ -438,7 +476,15 @@ def load_scene(source: SceneSource, *, overrides: Overrides = ()) -> Scene:
 
 
 def with_overrides(scene: Scene, overrides: Overrides) -> Scene:
-    """A new scene: ``scene``'s raw mapping with ``overrides`` applied, validated again."""
+    """A new scene: ``scene``'s raw mapping with ``overrides`` applied, validated again.
+
+    Examples
+    --------
+    >>> base = load_scene("slider-crank-dry")
+    >>> changed = with_overrides(base, ["joints.C.friction.coefficient=0.05"])
+    >>> changed.joints["C"].friction.coefficient, base.joints["C"].friction.coefficient
+    (0.05, 0.01)
+    """
     if not isinstance(scene, Scene):
         raise TypeError(f"with_overrides: scene must be a Scene, got {type(scene).__name__} "
                         f"{scene!r:.60}; to load and override in one call: "
@@ -466,7 +512,13 @@ _CANONICAL_ENCODER = json.JSONEncoder(sort_keys=True, separators=(",", ":"),
 
 
 def canonical_json(scene: Scene) -> str:
-    """Canonical JSON of the scene's raw mapping (sorted keys, no spaces, exact floats)."""
+    """Canonical JSON of the scene's raw mapping (sorted keys, no spaces, exact floats).
+
+    Examples
+    --------
+    >>> canonical_json(load_scene("slider-crank"))[:40]
+    '{"analysis":{"cycle_driver":"crank","cyc'
+    """
     raw = scene.raw if scene.raw else scene_to_raw(scene)
     return _CANONICAL_ENCODER.encode(raw)
 
@@ -480,6 +532,16 @@ def scene_hash(scene: Scene) -> str:
     records it in its provenance): a scene is frozen, so its hash cannot change. A scene built
     directly from mutable mappings that are changed afterwards would keep a stale hash, as it
     would keep stale validation.
+
+    Examples
+    --------
+    >>> a = load_scene("nine-bar-dry")
+    >>> b = load_scene("nine-bar-dry", overrides={"joints.C1.clearance": 0.3e-3})
+    >>> len(scene_hash(a)), scene_hash(a) == scene_hash(b)
+    (64, False)
+    >>> back = with_overrides(b, {"joints.C1.clearance": a.joints["C1"].clearance})
+    >>> scene_hash(back) == scene_hash(a)
+    True
     """
     cached = scene.__dict__.get("_scene_hash")
     if cached is None:

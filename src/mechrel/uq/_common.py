@@ -81,7 +81,7 @@ def make_provenance(
         "settings": dict(settings),
         "executor": evs[0].settings if evs else None,
         "versions": package_versions(),
-        "created": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
+        "created": _dt.datetime.now(_dt.UTC).isoformat(timespec="seconds"),
     }
 
 

@@ -35,7 +35,7 @@ import pandas as pd
 
 from mechrel.errors import MechrelError, StudyError
 
-from .cache import EvaluationCache, as_cache
+from .cache import as_cache
 from .model import as_output_index, check_model, describe_model
 
 __all__ = ["Evaluations", "evaluate", "BACKENDS", "combined_cache_key"]
@@ -122,7 +122,7 @@ class Evaluations:
         status: Any = None,
         reasons: Any = None,
         cache_key: str | None = None,
-    ) -> "Evaluations":
+    ) -> Evaluations:
         """Wrap precomputed arrays. Rows of Y with non-finite values are marked failed
         (reason ``"non-finite output"``) unless ``status`` is given."""
         X = np.atleast_2d(np.asarray(X, dtype=float))
@@ -182,7 +182,7 @@ class Evaluations:
         df.index.name = "sample"
         return df
 
-    def subset(self, rows: Any) -> "Evaluations":
+    def subset(self, rows: Any) -> Evaluations:
         """Rows selected by a boolean mask or integer positions."""
         rows = np.asarray(rows)
         if rows.dtype == bool:
@@ -193,7 +193,7 @@ class Evaluations:
             self.wall_time, self.settings, self.model,
         )
 
-    def select_outputs(self, outputs: Any) -> "Evaluations":
+    def select_outputs(self, outputs: Any) -> Evaluations:
         """Keep some outputs: labels of ``output_index``, a boolean mask, or integer positions."""
         pos = resolve_outputs(self.output_index, outputs)
         return Evaluations(
@@ -202,7 +202,7 @@ class Evaluations:
             self.wall_time, self.settings, self.model,
         )
 
-    def reduce(self, reducer: Callable) -> "Evaluations":
+    def reduce(self, reducer: Callable) -> Evaluations:
         """Apply ``reducer(Y, output_index) -> (Z (n, k), new_index)`` to the outputs
         (e.g. :func:`mechrel.uq.peak_abs`). Failed rows stay failed."""
         Z, idx = reducer(np.array(self.Y), self.output_index)

@@ -34,7 +34,7 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Any, Union
+from typing import Any
 
 import numpy as np
 import pandas as pd
@@ -80,7 +80,7 @@ class Normal:
     std: float
     kind = "normal"
 
-    def validated(self, name: str) -> "Normal":
+    def validated(self, name: str) -> Normal:
         return Normal(_finite(name, "mean", self.mean), _finite(name, "std", self.std, positive=True))
 
     def scipy(self):
@@ -105,7 +105,7 @@ class TruncNormal:
     upper: float
     kind = "truncnormal"
 
-    def validated(self, name: str) -> "TruncNormal":
+    def validated(self, name: str) -> TruncNormal:
         mean = _finite(name, "mean", self.mean)
         std = _finite(name, "std", self.std, positive=True)
         try:
@@ -150,7 +150,7 @@ class Uniform:
     upper: float
     kind = "uniform"
 
-    def validated(self, name: str) -> "Uniform":
+    def validated(self, name: str) -> Uniform:
         lo = _finite(name, "lower", self.lower)
         hi = _finite(name, "upper", self.upper)
         if not lo < hi:
@@ -177,7 +177,7 @@ class LogNormal:
     std: float
     kind = "lognormal"
 
-    def validated(self, name: str) -> "LogNormal":
+    def validated(self, name: str) -> LogNormal:
         return LogNormal(
             _finite(name, "mean", self.mean, positive=True), _finite(name, "std", self.std, positive=True)
         )
@@ -203,7 +203,7 @@ class LogNormal:
         return np.exp(mu + s * z)
 
 
-Marginal = Union[Normal, TruncNormal, Uniform, LogNormal]
+Marginal = Normal | TruncNormal | Uniform | LogNormal
 _KINDS: dict[str, tuple[type, tuple[str, ...]]] = {
     "normal": (Normal, ("mean", "std")),
     "truncnormal": (TruncNormal, ("mean", "std", "lower", "upper")),
@@ -239,7 +239,7 @@ def _parse_marginal(name: str, spec: Any) -> Marginal:
 
 
 def as_seed_sequence(seed: Any) -> np.random.SeedSequence:
-    """int / SeedSequence / None → SeedSequence (None draws fresh OS entropy, recorded in
+    """Int / SeedSequence / None → SeedSequence (None draws fresh OS entropy, recorded in
     ``.entropy`` so that the run can be repeated)."""
     if isinstance(seed, np.random.SeedSequence):
         return seed
@@ -337,7 +337,7 @@ class UncertainInputs:
         cls,
         specs: Mapping[str, Any],
         correlation: Any = None,
-    ) -> "UncertainInputs":
+    ) -> UncertainInputs:
         """Build from ``{name: spec}``.
 
         ``spec`` is a marginal object (``Normal(mean, std)``, ``TruncNormal(mean, std, lower,
@@ -475,7 +475,7 @@ class UncertainInputs:
 
     @property
     def joint(self):
-        """chaospy joint distribution: ``J(marginals)``, or ``Nataf(J(marginals), R_z)``."""
+        """Chaospy joint distribution: ``J(marginals)``, or ``Nataf(J(marginals), R_z)``."""
         import chaospy
 
         j = chaospy.J(*[m.chaospy() for m in self.marginals])
@@ -499,7 +499,7 @@ class UncertainInputs:
             "correlation": None if self.correlation is None else self.correlation.tolist(),
         }
 
-    def reordered(self, names: Sequence[str]) -> "UncertainInputs":
+    def reordered(self, names: Sequence[str]) -> UncertainInputs:
         """The same inputs in the order ``names`` (must be the same set)."""
         names = tuple(names)
         if names == self.names:

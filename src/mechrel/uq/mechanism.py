@@ -32,7 +32,7 @@ import hashlib
 import json
 import math
 import re
-from typing import Sequence
+from collections.abc import Sequence
 
 import numpy as np
 import pandas as pd
@@ -254,7 +254,7 @@ class MechanismModel:
             raise StudyError(f"x: expected {len(self.input_names)} values "
                              f"({', '.join(self.input_names)}), got {x.size}")
         values = {}
-        for (name, paths), value in zip(self.targets.items(), map(float, x)):
+        for (_name, paths), value in zip(self.targets.items(), map(float, x)):
             for path in paths:
                 if path.startswith("-"):
                     values[path[1:]] = -value

@@ -36,7 +36,6 @@ from mechrel.errors import StudyError
 from ._common import _labels, check_fraction, emit_warnings, make_provenance, resolve_outputs_safe
 from .first_order import FOSMResult
 from .montecarlo import MonteCarloResult, reliability_from_samples
-from .reliability import reliability_one_sided, reliability_two_sided
 
 __all__ = ["normality_check", "NormalityResult"]
 

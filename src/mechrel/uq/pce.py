@@ -24,7 +24,7 @@ node invalidates the rule: ``SampleFailuresError``. Error estimate: relative mea
 ``n_validation`` extra random samples (``validation_error``).
 
 Post-processing (directly from the coefficients; chaospy's ``Sens_*`` are not used)
-----------------------------------------------------------------------------------
+-----------------------------------------------------------------------------------
 mean = c_0, Var = Σ_{α≠0} c_α², first-order S_j = Σ_{α: only α_j > 0} c_α² / Var, total-order
 S_Tj = Σ_{α: α_j > 0} c_α² / Var. Sobol' indices are only reported for independent inputs (for a
 correlated germ they would be indices of the decorrelated z, not of x).

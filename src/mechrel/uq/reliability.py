@@ -153,7 +153,7 @@ def bivariate_normal_cdf(h, k, rho) -> np.ndarray:
     out = np.empty(h.shape, dtype=float)
     h = h.ravel(); k = k.ravel(); rho = rho.ravel()
     res = np.empty(h.shape, dtype=float)
-    Ph, Pk = special.ndtr(h), special.ndtr(k)
+    Ph = special.ndtr(h)
     one = rho >= 1 - 1e-15
     mone = rho <= -1 + 1e-15
     res[one] = special.ndtr(np.minimum(h[one], k[one]))

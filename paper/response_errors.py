@@ -1,7 +1,7 @@
 """Dynamic response errors of the slider: the study of Chen, Wang & Gao (2022), §4, on mechrel's
 nine-bar, plus the slider-crank benchmark with a clearance joint between rod and slider.
 
-    python studies/response_errors.py --out results/response_errors [--quick]
+    python paper/response_errors.py --out results/response_errors [--quick]
 
 What is simulated
 -----------------
@@ -43,8 +43,8 @@ Outputs (in ``--out``)
 ----------------------
 ``errors.csv``: one row per comparison, case and quantity: min, max and time of the peak of
 the error over the analysed revolution (SI units) beside the paper's published range
-(:data:`PAPER_RANGES`, transcribed from §4.1–4.3 and checked against the paper's text with
-``--paper``). ``runs.csv``: one row per case: wall time, integrator, steps, rhs evaluations,
+(:data:`PAPER_RANGES`, transcribed from §4.1–4.3, restated in docs/reference.md and, given a
+text copy of the paper, checked against it with ``--paper FILE``). ``runs.csv``: one row per case: wall time, integrator, steps, rhs evaluations,
 impacts, max ε per joint, max constraint violation, energy balance. ``summary.md``: both as
 markdown tables, with the figures. ``fig_*.png``: per comparison, errors (3 stacked panels)
 and journal orbits inside their clearance circles. ``series/<case>.csv.gz``: the analysed
@@ -73,8 +73,8 @@ QTY = ("displacement", "velocity", "acceleration")
 UNIT = {"displacement": "m", "velocity": "m/s", "acceleration": "m/s²"}
 # display units for figures and the markdown table
 SHOW = {"displacement": ("mm", 1e3), "velocity": ("m/s", 1.0), "acceleration": ("m/s²", 1.0)}
-# shared/ stands beside the checkout
-PAPER_TEXT = Path(__file__).resolve().parents[2] / "shared" / "reference" / "chen-wang-gao-2022.txt"
+# docs/reference.md restates the ranges of PAPER_RANGES (tests/test_clearance_study.py checks it)
+REFERENCE_DOC = Path(__file__).resolve().parents[1] / "docs" / "reference.md"
 
 
 def _speed(w):
@@ -204,6 +204,19 @@ def extract_paper_ranges(text: str) -> list[tuple[float, float, str]]:
         hi = float(m.group(5)) * 10.0 ** int(m.group(6) or 0)
         out.append((lo, hi, m.group(3) + (m.group(4) or "")))
     return out
+
+
+def documented_ranges(text: str) -> list[tuple[str, str, str, float, float, str]]:
+    """The rows (section, case, quantity, min, max, unit) of docs/reference.md's range table."""
+    start = text.index("<!-- paper-ranges: begin")
+    end = text.index("<!-- paper-ranges: end", start)
+    rows = []
+    for line in text[start:end].splitlines():
+        cells = [c.strip() for c in line.strip().strip("|").split("|")]
+        if len(cells) == 6 and cells[0][:1].isdigit():
+            rows.append((cells[0], cells[1], cells[2], float(cells[3]), float(cells[4]),
+                         cells[5]))
+    return rows
 
 
 def check_paper_ranges(path: Path) -> None:
@@ -448,14 +461,16 @@ def main(argv=None):
     ap.add_argument("--sample-deg", type=float, default=None,
                     help="output sampling in degrees of crank rotation (default 0.05, "
                          "--quick 0.25)")
-    ap.add_argument("--paper", type=Path, default=PAPER_TEXT,
-                    help="the paper's text, to check the transcribed ranges (skipped if the "
-                         "file does not exist)")
+    ap.add_argument("--paper", type=Path, default=None,
+                    help="a text copy of the paper (not in the repository), to check the "
+                         "transcribed ranges against it before running")
     args = ap.parse_args(argv)
     sample = args.sample_deg or (0.25 if args.quick else 0.05)
     out = Path(args.out)
     (out / "series").mkdir(parents=True, exist_ok=True)
-    if args.paper and args.paper.exists():
+    if args.paper is not None:
+        if not args.paper.is_file():
+            ap.error(f"--paper = {args.paper}: no such file; allowed: a text copy of the paper")
         check_paper_ranges(args.paper)
 
     comparisons = [c for c in COMPARISONS if not args.quick or c.key in QUICK]
@@ -488,7 +503,7 @@ def main(argv=None):
     used = ", ".join(sorted({f"{r['integrator']} rtol = {r['rtol']:g}" for r in run_rows}))
     settings = (f"Settings: two revolutions of the driving crank, the second analysed; outputs "
                 f"every {sample:g}° of crank rotation; each scene type's default integrator "
-                f"({used}). Command: `python studies/response_errors.py --out {out}"
+                f"({used}). Command: `python paper/response_errors.py --out {out}"
                 f"{' --quick' if args.quick else ''}"
                 f"{'' if args.sample_deg is None else f' --sample-deg {args.sample_deg:g}'}`.")
     (out / "summary.md").write_text(markdown(comparisons, rows, run_rows, figures, settings),
