@@ -173,7 +173,9 @@ class SimulationResult:
     outputs : dict
         ``outputs[name][quantity]`` (m, m/s, m/s²) of the simulated mechanism.
     ideal : dict or None
-        The same for the ideal counterpart (scenes with clearance joints).
+        The same for the ideal counterpart: the scene's own mechanism with all joints ideal
+        (scenes with clearance joints), or the ideal mechanism of the ``reference`` design
+        given to :func:`simulate`.
     q, v, a : ndarray, shape (n_times, n)
         Coordinates (m, rad) and their first and second derivatives.
     orbits : dict
@@ -284,26 +286,91 @@ def _check_orbits(scene: Scene, times: np.ndarray, orbits) -> None:
                 "and the load")
 
 
-def _provenance(scene: Scene, wall: float) -> dict:
+def _provenance(scene: Scene, wall: float, reference: Scene | None = None) -> dict:
     from . import __version__
     from .scene import scene_hash
 
     import numba
     import scipy
 
-    return {"scene": scene.name, "scene_hash": scene_hash(scene), "mechrel": __version__,
-            "numpy": np.__version__, "scipy": scipy.__version__, "numba": numba.__version__,
-            "python": platform.python_version(), "wall_time": wall}
+    out = {"scene": scene.name, "scene_hash": scene_hash(scene), "mechrel": __version__,
+           "numpy": np.__version__, "scipy": scipy.__version__, "numba": numba.__version__,
+           "python": platform.python_version(), "wall_time": wall}
+    if reference is not None:
+        out["reference"] = reference.name
+        out["reference_hash"] = scene_hash(reference)
+    return out
 
 
-def simulate(scene: Scene, *, method: str = "auto", integrator: str | None = None,
-             progress: bool = False, **solver_settings) -> SimulationResult:
+def _reference_outputs(reference: Scene, times: np.ndarray):
+    """The outputs of ``reference``'s ideal mechanism at ``times`` (kinematic analysis when it
+    is fully driven, forward dynamics otherwise)."""
+    compiled = compile_scene(reference)
+    n = compiled.q_guess.size
+    if compiled.ideal.n_constraints != n:
+        return None
+    tol = reference.solver.assembly_tolerance
+    q0, _ = assemble(compiled.ideal, compiled.q_guess, 0.0, tol=tol,
+                     labels=compiled.labels["ideal"])
+    Q, V, A, _ = kinematic_analysis(compiled.ideal, q0, times, tol=tol,
+                                    labels=compiled.labels["ideal"])
+    return _point_outputs(compiled, Q, V, A)
+
+
+def _ideal_by_dynamics(source: Scene, solver, times: np.ndarray):
+    """The outputs of ``source``'s ideal mechanism by forward dynamics (undriven scenes)."""
+    compiled = compile_scene(source)
+    n = compiled.q_guess.size
+    tol = source.solver.assembly_tolerance
+    q0, _ = assemble(compiled.ideal, compiled.q_guess, 0.0, tol=tol,
+                     labels=compiled.labels["ideal"])
+    qi, vi = assemble(compiled.ideal, q0, 0.0, tol=tol)
+    resi = solver.integrate(compiled.ideal, np.concatenate([qi, vi, np.zeros(2)]),
+                            np.zeros(0), times)
+    return _point_outputs(compiled, resi.y[:, :n], resi.y[:, n:2 * n], resi.ydot[:, n:2 * n])
+
+
+def _check_reference(scene: Scene, reference: Scene) -> None:
+    """Raise :class:`SimulationError` unless ``reference`` can serve as the ideal counterpart
+    of ``scene``: the same output names, the same bodies and the same drivers (the output
+    instants come from ``scene``, so the reference must be driven the same way at them)."""
+    if not isinstance(reference, Scene):
+        raise SimulationError(f"simulate: reference = {reference!r:.60}: not a Scene; allowed: "
+                              "None or a Scene from load_scene(...)")
+    name = reference.source or reference.name
+
+    def refuse(what, mine, theirs):
+        raise SimulationError(
+            f"simulate: reference = {name}: {what} {theirs!r} differ from the scene's "
+            f"{mine!r}; allowed: a reference with the scene's {what} (the same mechanism with "
+            "other dimensions or joint models)")
+
+    if tuple(scene.bodies) != tuple(reference.bodies):
+        refuse("bodies", tuple(scene.bodies), tuple(reference.bodies))
+    if tuple(scene.outputs) != tuple(reference.outputs):
+        refuse("output names", tuple(scene.outputs), tuple(reference.outputs))
+    if scene.analysis.cycle_driver != reference.analysis.cycle_driver:
+        refuse("cycle driver", scene.analysis.cycle_driver, reference.analysis.cycle_driver)
+    if dict(scene.drivers) != dict(reference.drivers):
+        refuse("drivers", dict(scene.drivers), dict(reference.drivers))
+
+
+def simulate(scene: Scene, *, reference: Scene | None = None, method: str = "auto",
+             integrator: str | None = None, progress: bool = False,
+             **solver_settings) -> SimulationResult:
     """Simulate a scene over its analysis span.
 
     Parameters
     ----------
     scene : Scene
         From :func:`mechrel.scene.load_scene`.
+    method : {"auto", "kinematics", "dynamics"}
+    reference : Scene, optional
+        The design the errors are measured against: the ideal (all-joints-ideal) mechanism of
+        ``reference`` instead of that of ``scene`` (e.g. the nominal design when ``scene``
+        carries geometric tolerances). It must have the scene's output names, bodies and
+        drivers (:class:`SimulationError` otherwise). With a reference the result always has
+        an ideal counterpart and errors, also for a scene without clearance joints.
     method : {"auto", "kinematics", "dynamics"}
         ``auto`` uses kinematic analysis for a fully driven scene without clearance joints and
         forward dynamics otherwise; ``dynamics`` forces forward dynamics (e.g. to check an
@@ -323,6 +390,8 @@ def simulate(scene: Scene, *, method: str = "auto", integrator: str | None = Non
     if not isinstance(scene, Scene):
         raise TypeError(f"simulate: scene must be a Scene, got {type(scene).__name__} "
                         f"{scene!r:.60}; load it first: simulate(load_scene(...))")
+    if reference is not None:
+        _check_reference(scene, reference)
     # made (and so checked) even when kinematic analysis needs no integrator
     solver = make_integrator(scene, integrator, **solver_settings)
     compiled = compile_scene(scene)
@@ -354,6 +423,9 @@ def simulate(scene: Scene, *, method: str = "auto", integrator: str | None = Non
         Qi, Vi, Ai, viol_i = kinematic_analysis(compiled.ideal, q0, times, tol=tol,
                                                 labels=compiled.labels["ideal"])
         ideal = _point_outputs(compiled, Qi, Vi, Ai)
+    # the ideal counterpart the errors are measured against: the reference design's, or the
+    # scene's own ideal mechanism
+    counterpart = ideal if reference is None else _reference_outputs(reference, times)
 
     if not has_clearance and driven and method != "dynamics":
         wall = time.perf_counter() - start
@@ -361,9 +433,9 @@ def simulate(scene: Scene, *, method: str = "auto", integrator: str | None = Non
                  "max_position_violation": float(viol_i), "wall_time": wall, "status": "ok"}
         return SimulationResult(scene=scene, time=times,
                                 crank_angle=_crank_angle(scene, compiled, times),
-                                outputs=ideal, ideal=None, q=Qi, v=Vi, a=Ai,
-                                method="kinematics", stats=stats,
-                                provenance=_provenance(scene, wall))
+                                outputs=ideal, ideal=None if reference is None else counterpart,
+                                q=Qi, v=Vi, a=Ai, method="kinematics", stats=stats,
+                                provenance=_provenance(scene, wall, reference))
 
     sys = compiled.dynamic
     qa, va = assemble(compiled.assembly, q0, 0.0, tol=tol,
@@ -382,12 +454,9 @@ def simulate(scene: Scene, *, method: str = "auto", integrator: str | None = Non
     Y, YD = res.y, res.ydot
     Q, V, A = Y[:, :n], Y[:, n:2 * n], YD[:, n:2 * n]
     outputs = _point_outputs(compiled, Q, V, A)
-    if has_clearance and ideal is None:  # undriven mechanism: ideal counterpart by dynamics
-        qi, vi = assemble(compiled.ideal, q0, 0.0, tol=tol)
-        resi = solver.integrate(compiled.ideal, np.concatenate([qi, vi, np.zeros(2)]),
-                                np.zeros(0), times)
-        ideal = _point_outputs(compiled, resi.y[:, :n], resi.y[:, n:2 * n],
-                               resi.ydot[:, n:2 * n])
+    if counterpart is None and (has_clearance or reference is not None):
+        # undriven mechanism: ideal counterpart by dynamics
+        counterpart = _ideal_by_dynamics(reference or scene, solver, times)
     orbits, energy = _orbits_and_energy(compiled, res)
     _check_orbits(scene, times, orbits)
     wall = time.perf_counter() - start
@@ -395,7 +464,9 @@ def simulate(scene: Scene, *, method: str = "auto", integrator: str | None = Non
     stats["total_wall_time"] = wall
     return SimulationResult(scene=scene, time=times,
                             crank_angle=_crank_angle(scene, compiled, times),
-                            outputs=outputs, ideal=ideal if has_clearance else None,
+                            outputs=outputs,
+                            ideal=counterpart if has_clearance or reference is not None
+                            else None,
                             q=Q, v=V, a=A, method="dynamics", stats=stats,
-                            provenance=_provenance(scene, wall),
+                            provenance=_provenance(scene, wall, reference),
                             orbits=orbits, energy=energy)
