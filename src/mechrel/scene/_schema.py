@@ -51,7 +51,8 @@ DRIVER_KEYS_BY_LAW = {
 DRIVER_KEYS = tuple(dict.fromkeys(k for ks in DRIVER_KEYS_BY_LAW.values() for k in ks))
 
 BODY_KEYS = ("mass", "inertia", "position", "angle", "points")
-OUTPUT_KEYS = ("point", "axis")
+# the fields of every output kind (mechrel.outputs.OUTPUT_KINDS says which kind uses which)
+OUTPUT_KEYS = ("kind", "point", "axis", "body", "joint")
 TOP_KEYS = ("name", "description", "gravity", "ground", "bodies", "joints", "drivers",
             "outputs", "analysis", "solver")
 

@@ -289,7 +289,7 @@ class _Builder(Checker):
         joints = self._joints(top.get("joints", {}), bodies, ground)
         self._zero_length_links(bodies, joints)
         drivers = self._drivers(top.get("drivers", {}), bodies)
-        outputs = self._outputs(top.get("outputs", {}), bodies, ground)
+        outputs = self._outputs(top.get("outputs", {}), bodies, ground, joints)
         analysis = self._analysis(top["analysis"], drivers)
         solver = self._solver(top.get("solver", {}))
         return Scene(
@@ -574,18 +574,45 @@ class _Builder(Checker):
             out[name] = Driver(name=name, body=body, law=law, **kw)
         return out
 
-    def _outputs(self, v: Any, bodies, ground) -> dict[str, Output]:
+    def _outputs(self, v: Any, bodies, ground, joints) -> dict[str, Output]:
+        from ..outputs import OUTPUT_KINDS
+
         ot = self.table("outputs", v, "an [outputs.NAME] table per output")
         out = {}
         for name, o in ot.items():
             p = join("outputs", name)
             self.name(p, name, "output")
             self.table(p, o)
-            self.keys(p, o, OUTPUT_KEYS, required=OUTPUT_KEYS, what="an output")
-            ref = self._ref(p + ".point", o["point"], bodies, ground, ground_ok=False)
-            ax = self.vec2(p + ".axis", o["axis"], nonzero=True)
-            n = math.hypot(*ax)
-            out[name] = Output(name=name, point=ref, axis=(ax[0] / n, ax[1] / n))
+            kind = self.choice(p + ".kind", o.get("kind", "point"), tuple(OUTPUT_KINDS))
+            fields_ = OUTPUT_KINDS[kind].fields
+            self.keys(p, o, ("kind",) + fields_, required=fields_,
+                      what=f"an output of kind '{kind}'")
+            if kind == "point":
+                ref = self._ref(p + ".point", o["point"], bodies, ground, ground_ok=False)
+                ax = self.vec2(p + ".axis", o["axis"], nonzero=True)
+                n = math.hypot(*ax)
+                out[name] = Output(name=name, point=ref, axis=(ax[0] / n, ax[1] / n))
+            elif kind == "body":
+                body = self.string(p + ".body", o["body"], "the name of a moving body")
+                if body not in bodies:
+                    self.fail(p + ".body", body, f"unknown body{suggest(body, list(bodies))}",
+                              f"one of {', '.join(bodies)}")
+                out[name] = Output(name=name, kind=kind, body=body)
+            else:  # joint: a revolute joint with clearance data (ideal ones are concentric)
+                usable = [n for n, j in joints.items()
+                          if j.type == "revolute" and j.clearance > 0]
+                allowed = (f"a revolute joint with a clearance: one of {', '.join(usable)}"
+                           if usable else "a revolute joint with a clearance (this scene has "
+                           "none: give a joint clearance, bearing_radius and length)")
+                joint = self.string(p + ".joint", o["joint"], allowed)
+                if joint not in joints:
+                    self.fail(p + ".joint", joint, f"unknown joint{suggest(joint, list(joints))}",
+                              allowed)
+                if joint not in usable:
+                    self.fail(p + ".joint", joint, "has no clearance" if
+                              joints[joint].type == "revolute" else
+                              f"not a revolute joint (a {joints[joint].type} joint)", allowed)
+                out[name] = Output(name=name, kind=kind, joint=joint)
         return out
 
     # -- analysis, solver
@@ -736,8 +763,17 @@ def scene_to_raw(scene: Scene) -> dict:
                    for n, b in scene.bodies.items()},
         "joints": joints,
         "drivers": drivers,
-        "outputs": {n: {"point": str(o.point), "axis": _pair(o.axis)}
-                    for n, o in scene.outputs.items()},
+        "outputs": {n: _output_raw(o) for n, o in scene.outputs.items()},
         "analysis": {k: v for k, v in _dc(scene.analysis).items() if v is not None},
         "solver": {k: v for k, v in _dc(scene.solver).items() if v is not None},
     }
+
+
+def _output_raw(o: Output) -> dict:
+    """The canonical raw table of an output: ``kind`` only when it is not the default
+    ``point`` (so the scenes written before output kinds keep their hash)."""
+    if o.kind == "point":
+        return {"point": str(o.point), "axis": _pair(o.axis)}
+    if o.kind == "body":
+        return {"kind": o.kind, "body": o.body}
+    return {"kind": o.kind, "joint": o.joint}

@@ -11,10 +11,11 @@ import pandas as pd
 
 from ..errors import StudyError
 from ..io import write_json, write_table
+from ..outputs import QUANTITY_INFO
 from ..uq._common import SampleFailuresError, check_choice, failure_message
 from .study import METHODS
 
-UNITS = {"displacement": "m", "velocity": "m/s", "acceleration": "m/s²"}
+UNITS = {name: q.unit for name, q in QUANTITY_INFO.items()}  # SI, from the output kinds
 
 
 def _output_folder(out):
@@ -85,6 +86,19 @@ def _refusal(exc, evaluations, out, files, record, section):
         "study file", exc.evaluations)
 
 
+def _angles(table):
+    """The rows of a per-output table at the analysis angles (without the cycle extremes),
+    with the crank angles as floats."""
+    from ..uq.reliability import per_angle_mask
+    t = table[per_angle_mask(table.index)].copy()
+    names = list(t.index.names)
+    k = names.index("crank_angle")
+    t.index = pd.MultiIndex.from_tuples(
+        [tuple(float(v) if i == k else v for i, v in enumerate(lbl)) for lbl in t.index],
+        names=names)
+    return t
+
+
 def _plot_reliability(fosm_t, mc_t, pce_t, quantities, title, path):
     """Per quantity: the reliability index (left, as the paper's figures) and the probability
     of exceeding the allowable, 1 − R, on a log scale (right), where differences between
@@ -102,18 +116,18 @@ def _plot_reliability(fosm_t, mc_t, pce_t, quantities, title, path):
     for row, q in zip(axes, quantities):
         ax_b, ax_p = row
         if fosm_t is not None:
-            f = fosm_t.xs(q, level="quantity")
+            f = _angles(fosm_t).xs(q, level="quantity")
             ax_b.plot(f.index, f["beta_generalized"], "o-", ms=4, label="FOSM")
             ax_p.semilogy(f.index, np.maximum(1 - f["reliability"], floor), "o-", ms=4,
                           label="FOSM")
         if pce_t is not None:
-            p = pce_t.xs(q, level="quantity")
+            p = _angles(pce_t).xs(q, level="quantity")
             pf = 1 - p["reliability"]
             ax_b.plot(p.index, norm.ppf(np.clip(p["reliability"], 0, 1 - floor)), "-",
                       color="C2", label="PCE surrogate")
             ax_p.semilogy(p.index, np.maximum(pf, floor), "-", color="C2", label="PCE surrogate")
         if mc_t is not None:
-            m = mc_t.xs(q, level="quantity")
+            m = _angles(mc_t).xs(q, level="quantity")
             pf = 1 - m["reliability"]
             hi, lo = 1 - m["reliability_lo"], 1 - m["reliability_hi"]
             ax_p.fill_between(m.index, np.maximum(lo, floor), np.maximum(hi, floor),
@@ -250,16 +264,16 @@ def run_reliability(study, *, methods=None, n=None, n_jobs=1, seed=None, out=Non
     for q in study.quantities:
         parts = [f"  {q:13s}"]
         if "fosm" in results:
-            t = results["fosm"].table.xs(q, level="quantity")
+            t = _angles(results["fosm"].table).xs(q, level="quantity")
             k = t["reliability"].idxmin()
             parts.append(f"FOSM min R {t['reliability'].min():.4f} at {k:g}° "
                          f"(β = {t['beta'].loc[k]:.3f})")
         if "pce_reliability" in results:
-            t = results["pce_reliability"].table.xs(q, level="quantity")
+            t = _angles(results["pce_reliability"].table).xs(q, level="quantity")
             parts.append(f"PCE min R {t['reliability'].min():.4f} at "
                          f"{t['reliability'].idxmin():g}°")
         if "mc" in results:
-            t = results["mc"].table.xs(q, level="quantity")
+            t = _angles(results["mc"].table).xs(q, level="quantity")
             k = t["reliability"].idxmin()
             parts.append(f"MC min R {t['reliability'].min():.4f} "
                          f"[{t['reliability_lo'].loc[k]:.4f}, {t['reliability_hi'].loc[k]:.4f}]"

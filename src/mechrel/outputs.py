@@ -1,0 +1,177 @@
+"""What a scene can report: the output kinds, in one table.
+
+An ``[outputs.NAME]`` table of a scene picks a ``kind`` (default ``"point"``); each kind has
+its scene fields, its quantities (with SI and display units and a default allowable error, if
+any), how they are computed from the mechanism's state, and what the ideal mechanism's value
+is. :data:`OUTPUT_KINDS` is that table; :data:`QUANTITY_INFO` indexes its quantities by name.
+The simulation (:func:`values`), the scene validation, the command line's summary and figures,
+the uncertainty model (:class:`~mechrel.uq.MechanismModel`) and the default allowables
+(:data:`mechrel.uq.reliability.DEFAULT_ALLOWABLES`) all read it, so a new kind is one entry
+here, its scene fields in ``scene/_schema.py`` and ``scene/_validate.py`` (docs/scenes.md,
+"How to add an output kind").
+
+Every function ``values(scene, compiled, output, Q, V, A, ideal, actual)`` gets the
+coordinates ``Q`` (m, rad), their rates ``V`` and accelerations ``A`` at the instants of
+interest (rows) and returns ``{quantity: array}`` in SI units; ``ideal`` says whether the state
+is the ideal mechanism's (for kinds whose ideal value is not the same formula on the ideal
+state) and ``actual`` is the simulated scene (``scene`` may be a reference design).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from types import MappingProxyType
+from typing import Callable, Mapping
+
+import numpy as np
+
+
+@dataclass(frozen=True)
+class Quantity:
+    """One quantity of an output kind.
+
+    Attributes
+    ----------
+    name : str
+    unit : str
+        SI unit of the values (and of the errors).
+    display_unit : str
+        Unit of the command line's summary and figures.
+    display_scale : float
+        Display value = SI value × ``display_scale``.
+    allowable : tuple of float or None
+        Default allowable error (mean, standard deviation) in SI units, or None (a study must
+        give one).
+    """
+
+    name: str
+    unit: str
+    display_unit: str
+    display_scale: float
+    allowable: tuple[float, float] | None = None
+
+
+@dataclass(frozen=True)
+class OutputKind:
+    """One row of :data:`OUTPUT_KINDS` (module docstring)."""
+
+    name: str
+    fields: tuple[str, ...]
+    quantities: tuple[Quantity, ...]
+    computed: str
+    ideal: str
+    values: Callable
+
+
+def _body(compiled, name):
+    return compiled.body_index[name]
+
+
+def _point_values(scene, compiled, output, Q, V, A, ideal, actual):
+    """A body point's position, velocity and acceleration projected on the unit ``axis``."""
+    b = _body(compiled, output.point.body)
+    sx, sy = scene.bodies[output.point.body].points[output.point.point]
+    ux, uy = output.axis
+    th = Q[:, 3 * b + 2]
+    w = V[:, 3 * b + 2]
+    al = A[:, 3 * b + 2]
+    c, s = np.cos(th), np.sin(th)
+    ax, ay = c * sx - s * sy, s * sx + c * sy  # A s
+    px, py = Q[:, 3 * b] + ax, Q[:, 3 * b + 1] + ay
+    vx, vy = V[:, 3 * b] - ay * w, V[:, 3 * b + 1] + ax * w
+    accx = A[:, 3 * b] - ay * al - ax * w * w
+    accy = A[:, 3 * b + 1] + ax * al - ay * w * w
+    return {"displacement": px * ux + py * uy, "velocity": vx * ux + vy * uy,
+            "acceleration": accx * ux + accy * uy}
+
+
+def _body_values(scene, compiled, output, Q, V, A, ideal, actual):
+    """A body's absolute angle, angular velocity and angular acceleration."""
+    b = _body(compiled, output.body)
+    return {"angle": Q[:, 3 * b + 2], "angular_velocity": V[:, 3 * b + 2],
+            "angular_acceleration": A[:, 3 * b + 2]}
+
+
+def _global_point(scene, compiled, ref, Q):
+    if ref.body == "ground":
+        x, y = scene.ground[ref.point]
+        return np.full(Q.shape[0], float(x)), np.full(Q.shape[0], float(y))
+    b = _body(compiled, ref.body)
+    sx, sy = scene.bodies[ref.body].points[ref.point]
+    th = Q[:, 3 * b + 2]
+    c, s = np.cos(th), np.sin(th)
+    return Q[:, 3 * b] + c * sx - s * sy, Q[:, 3 * b + 1] + s * sx + c * sy
+
+
+def _joint_values(scene, compiled, output, Q, V, A, ideal, actual):
+    """Eccentricity ratio ε = |e|/c, minimum film thickness h_min = c (1 − ε) (rigid
+    surfaces; negative while a dry journal penetrates) and penetration max(|e| − c, 0) of a
+    clearance joint, e = journal point − bearing point. The ideal joint is concentric:
+    ε = 0, h_min = c (the clearance of the simulated scene ``actual``), no penetration."""
+    joint = scene.joints[output.joint]
+    c = joint.clearance
+    if ideal:
+        c = actual.joints[output.joint].clearance
+        n = Q.shape[0]
+        return {"eccentricity_ratio": np.zeros(n), "min_film_thickness": np.full(n, c),
+                "penetration": np.zeros(n)}
+    bx, by = _global_point(scene, compiled, joint.points[0], Q)
+    jx, jy = _global_point(scene, compiled, joint.points[1], Q)
+    e = np.hypot(jx - bx, jy - by)
+    return {"eccentricity_ratio": e / c, "min_film_thickness": c - e,
+            "penetration": np.maximum(e - c, 0.0)}
+
+
+OUTPUT_KINDS: Mapping[str, OutputKind] = MappingProxyType({
+    "point": OutputKind(
+        name="point", fields=("point", "axis"),
+        quantities=(Quantity("displacement", "m", "mm", 1e3, (0.012, 0.004)),
+                    Quantity("velocity", "m/s", "m/s", 1.0, (0.3, 0.1)),
+                    Quantity("acceleration", "m/s²", "m/s²", 1.0, (18.0, 6.0))),
+        computed="the point's position, velocity and acceleration projected on the unit axis "
+                 "(any direction)",
+        ideal="the same point of the ideal mechanism at the same instant",
+        values=_point_values),
+    "body": OutputKind(
+        name="body", fields=("body",),
+        quantities=(Quantity("angle", "rad", "deg", 180.0 / math.pi),
+                    Quantity("angular_velocity", "rad/s", "rad/s", 1.0),
+                    Quantity("angular_acceleration", "rad/s²", "rad/s²", 1.0)),
+        computed="the body's absolute angle θ and its first and second time derivatives",
+        ideal="the same body of the ideal mechanism at the same instant",
+        values=_body_values),
+    "joint": OutputKind(
+        name="joint", fields=("joint",),
+        quantities=(Quantity("eccentricity_ratio", "1", "", 1.0),
+                    Quantity("min_film_thickness", "m", "µm", 1e6),
+                    Quantity("penetration", "m", "µm", 1e6)),
+        computed="ε = |e|/c, h_min = c (1 − ε) and max(|e| − c, 0) of a revolute joint with "
+                 "a clearance c, e = journal point − bearing point (0 while the joint is ideal)",
+        ideal="the ideal joint is concentric: ε = 0, h_min = c, no penetration",
+        values=_joint_values),
+})
+
+#: Every quantity of every kind by name (names are unique across kinds).
+QUANTITY_INFO: Mapping[str, Quantity] = MappingProxyType(
+    {q.name: q for kind in OUTPUT_KINDS.values() for q in kind.quantities})
+
+
+def quantities_of(output) -> tuple[str, ...]:
+    """The quantity names of a scene output (an :class:`~mechrel.scene.model.Output`)."""
+    return tuple(q.name for q in OUTPUT_KINDS[output.kind].quantities)
+
+
+def values(scene, compiled, Q, V, A, *, ideal: bool = False, actual=None) -> dict:
+    """``{output: {quantity: array}}`` of every output of ``scene`` at the states (rows of
+    ``Q``, ``V``, ``A``); ``actual``: the simulated scene when ``scene`` is a reference
+    design (default ``scene``)."""
+    actual = scene if actual is None else actual
+    return {name: OUTPUT_KINDS[o.kind].values(scene, compiled, o, Q, V, A, ideal, actual)
+            for name, o in scene.outputs.items()}
+
+
+def display(quantity: str) -> tuple[str, float]:
+    """(display unit, scale) of a quantity name; ("", 1.0) for an unknown one."""
+    q = QUANTITY_INFO.get(quantity)
+    return (q.display_unit, q.display_scale) if q is not None else ("", 1.0)
