@@ -124,3 +124,47 @@ def test_cli_simulate_plots_every_output(tmp_path, capsys):
     import pandas as pd
     cols = pd.read_csv(out).columns
     assert "rocker.angular_acceleration.error" in cols and "film.eccentricity_ratio" in cols
+
+
+def test_path_deviation_is_the_distance_from_the_ideal_path():
+    # the coupler midpoint's curve: the deviation (polyline of 7200 instants, distance to its
+    # segments) against an independent one, the distance to the nearest vertex of the ideal
+    # path sampled at 20 times as many instants by the same kinematic analysis, which is
+    # between the true distance d and sqrt(d² + (ds/2)²), ds its longest chord; 1e-8 m for
+    # the polyline's sag
+    from scipy.spatial import cKDTree
+
+    from mechrel.mechanics.kinematics import assemble, kinematic_analysis
+    from mechrel.mechanics.system import compile_scene
+    from mechrel.outputs import distance_to_path, ideal_path
+    scene = load_scene("four-bar", overrides={
+        "bodies.coupler.points.M": [0.0, 0.03],
+        "outputs.curve": {"kind": "path", "point": "coupler.M"},
+        "outputs.mx": {"point": "coupler.M", "axis": [1.0, 0.0]},
+        "outputs.my": {"point": "coupler.M", "axis": [0.0, 1.0]}})
+    res = simulate(scene, extremes=True)
+    mx, my = res.outputs["mx"]["displacement"], res.outputs["my"]["displacement"]
+    cs = compile_scene(scene)
+    q0, _ = assemble(cs.ideal, cs.q_guess, 0.0)
+    T = np.linspace(0.0, cs.period, 144_001)
+    Q = kinematic_analysis(cs.ideal, q0, T)[0]
+    b = cs.body_index["coupler"]
+    th = Q[:, 3 * b + 2]
+    fine = np.column_stack([Q[:, 3 * b] - 0.03 * np.sin(th), Q[:, 3 * b + 1] + 0.03 * np.cos(th)])
+    d_ref = cKDTree(fine).query(np.column_stack([mx, my]))[0]
+    dev = res.outputs["curve"]["path_deviation"]
+    ds = np.max(np.hypot(*np.diff(fine, axis=0).T))
+    assert np.all(dev <= d_ref + 1e-8)
+    assert np.all(d_ref <= np.sqrt(dev ** 2 + (ds / 2) ** 2) + 1e-8)
+    assert dev.max() > 1e-5  # the clearances move the point off its curve by tens of µm
+    # the deviation is smaller than the same-time distance (timing along the path is no error)
+    same_time = np.hypot(res.error("mx", "displacement"), res.error("my", "displacement"))
+    assert np.all(dev <= same_time + 1e-12) and np.any(dev < 0.5 * same_time)
+    assert np.all(res.ideal["curve"]["path_deviation"] == 0.0)
+    assert res.extremes["curve"]["path_deviation"]["max_abs"] >= dev[-361:].max()
+    path = ideal_path(scene, scene.outputs["curve"].point)
+    assert np.max(distance_to_path(path[100:200, 0], path[100:200, 1], path)) < 1e-15
+    with pytest.raises(SceneError, match=r"outputs\.c\.axis = .*unknown field 'axis' for an "
+                       r"output of kind 'path'"):
+        load_scene("four-bar", overrides={"outputs.c": {"kind": "path", "point": "rocker.B",
+                                                        "axis": [1.0, 0.0]}})

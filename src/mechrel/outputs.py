@@ -10,11 +10,12 @@ the uncertainty model (:class:`~mechrel.uq.MechanismModel`) and the default allo
 here, its scene fields in ``scene/_schema.py`` and ``scene/_validate.py`` (docs/scenes.md,
 "How to add an output kind").
 
-Every function ``values(scene, compiled, output, Q, V, A, ideal, actual)`` gets the
-coordinates ``Q`` (m, rad), their rates ``V`` and accelerations ``A`` at the instants of
+Every function ``values(scene, compiled, output, Q, V, A, ideal, actual, counterpart)`` gets
+the coordinates ``Q`` (m, rad), their rates ``V`` and accelerations ``A`` at the instants of
 interest (rows) and returns ``{quantity: array}`` in SI units; ``ideal`` says whether the state
 is the ideal mechanism's (for kinds whose ideal value is not the same formula on the ideal
-state) and ``actual`` is the simulated scene (``scene`` may be a reference design).
+state), ``actual`` is the simulated scene (``scene`` may be a reference design) and
+``counterpart`` the scene whose ideal mechanism the errors are measured against.
 """
 
 from __future__ import annotations
@@ -68,7 +69,7 @@ def _body(compiled, name):
     return compiled.body_index[name]
 
 
-def _point_values(scene, compiled, output, Q, V, A, ideal, actual):
+def _point_values(scene, compiled, output, Q, V, A, ideal, actual, counterpart):
     """A body point's position, velocity and acceleration projected on the unit ``axis``."""
     b = _body(compiled, output.point.body)
     sx, sy = scene.bodies[output.point.body].points[output.point.point]
@@ -86,7 +87,7 @@ def _point_values(scene, compiled, output, Q, V, A, ideal, actual):
             "acceleration": accx * ux + accy * uy}
 
 
-def _body_values(scene, compiled, output, Q, V, A, ideal, actual):
+def _body_values(scene, compiled, output, Q, V, A, ideal, actual, counterpart):
     """A body's absolute angle, angular velocity and angular acceleration."""
     b = _body(compiled, output.body)
     return {"angle": Q[:, 3 * b + 2], "angular_velocity": V[:, 3 * b + 2],
@@ -104,7 +105,7 @@ def _global_point(scene, compiled, ref, Q):
     return Q[:, 3 * b] + c * sx - s * sy, Q[:, 3 * b + 1] + s * sx + c * sy
 
 
-def _joint_values(scene, compiled, output, Q, V, A, ideal, actual):
+def _joint_values(scene, compiled, output, Q, V, A, ideal, actual, counterpart):
     """Eccentricity ratio ε = |e|/c, minimum film thickness h_min = c (1 − ε) (rigid
     surfaces; negative while a dry journal penetrates) and penetration max(|e| − c, 0) of a
     clearance joint, e = journal point − bearing point. The ideal joint is concentric:
@@ -121,6 +122,74 @@ def _joint_values(scene, compiled, output, Q, V, A, ideal, actual):
     e = np.hypot(jx - bx, jy - by)
     return {"eccentricity_ratio": e / c, "min_film_thickness": c - e,
             "penetration": np.maximum(e - c, 0.0)}
+
+
+# Instants per cycle of the ideal path (a closed polyline) that path deviations are measured
+# against: chord sag ds² / (8 R) ≤ 1e-8 m for paths ≤ 1 m long with curvature radius ≥ 1 mm.
+PATH_POINTS = 7200
+_PATHS: dict = {}
+
+
+def ideal_path(counterpart, ref) -> np.ndarray:
+    """The path (PATH_POINTS + 1, 2) (m) of point ``ref`` on the ideal mechanism of
+    ``counterpart`` over one cycle of its cycle driver, from kinematic analysis (cached)."""
+    from .errors import SimulationError
+    from .mechanics.kinematics import assemble, kinematic_analysis
+    from .mechanics.system import compile_scene
+    from .scene import scene_hash
+
+    key = (scene_hash(counterpart), str(ref))
+    if key in _PATHS:
+        return _PATHS[key]
+    compiled = compile_scene(counterpart)
+    if compiled.period is None or compiled.ideal.n_constraints != compiled.q_guess.size:
+        raise SimulationError(f"a path output ({ref}) needs a fully driven mechanism with "
+                              "analysis.cycle_driver (its ideal path is one cycle of it); "
+                              "allowed: kind = 'point' on other scenes")
+    tol = counterpart.solver.assembly_tolerance
+    q0, _ = assemble(compiled.ideal, compiled.q_guess, 0.0, tol=tol,
+                     labels=compiled.labels["ideal"])
+    T = np.linspace(0.0, compiled.period, PATH_POINTS + 1)
+    Q, _, _, _ = kinematic_analysis(compiled.ideal, q0, T, tol=tol,
+                                    labels=compiled.labels["ideal"])
+    x, y = _global_point(counterpart, compiled, ref, Q)
+    if len(_PATHS) > 16:
+        _PATHS.clear()
+    _PATHS[key] = np.column_stack([x, y])
+    return _PATHS[key]
+
+
+def distance_to_path(px, py, path) -> np.ndarray:
+    """Distance (m) of the points (px, py) from the polyline ``path``: the smallest distance
+    to the segments next to the 8 nearest vertices (the nearest point of a finely sampled
+    smooth curve lies on one of them)."""
+    from scipy.spatial import cKDTree
+
+    P = np.column_stack([px, py])
+    m = path.shape[0]
+    _, idx = cKDTree(path).query(P, k=min(8, m))
+    idx = np.atleast_2d(idx.T).T
+    best = np.full(P.shape[0], np.inf)
+    for col in range(idx.shape[1]):
+        for shift in (-1, 0):
+            i0 = np.clip(idx[:, col] + shift, 0, m - 2)
+            a, b = path[i0], path[i0 + 1]
+            ab = b - a
+            den = np.maximum(np.einsum("ij,ij->i", ab, ab), 1e-300)
+            t = np.clip(np.einsum("ij,ij->i", P - a, ab) / den, 0.0, 1.0)
+            d = np.hypot(*(P - a - t[:, None] * ab).T)
+            best = np.minimum(best, d)
+    return best
+
+
+def _path_values(scene, compiled, output, Q, V, A, ideal, actual, counterpart):
+    """The distance of a point from the ideal mechanism's path of the same point (the coupler
+    curve), not from the same-time ideal point: a timing difference along the path is no
+    deviation. The ideal point is on its path: 0."""
+    if ideal:
+        return {"path_deviation": np.zeros(Q.shape[0])}
+    px, py = _global_point(scene, compiled, output.point, Q)
+    return {"path_deviation": distance_to_path(px, py, ideal_path(counterpart, output.point))}
 
 
 OUTPUT_KINDS: Mapping[str, OutputKind] = MappingProxyType({
@@ -150,6 +219,13 @@ OUTPUT_KINDS: Mapping[str, OutputKind] = MappingProxyType({
                  "a clearance c, e = journal point − bearing point (0 while the joint is ideal)",
         ideal="the ideal joint is concentric: ε = 0, h_min = c, no penetration",
         values=_joint_values),
+    "path": OutputKind(
+        name="path", fields=("point",),
+        quantities=(Quantity("path_deviation", "m", "µm", 1e6),),
+        computed="the distance from the point's position to the ideal mechanism's path of the "
+                 "same point over one cycle (a polyline of PATH_POINTS instants)",
+        ideal="0: the ideal point lies on its own path",
+        values=_path_values),
 })
 
 #: Every quantity of every kind by name (names are unique across kinds).
@@ -162,12 +238,16 @@ def quantities_of(output) -> tuple[str, ...]:
     return tuple(q.name for q in OUTPUT_KINDS[output.kind].quantities)
 
 
-def values(scene, compiled, Q, V, A, *, ideal: bool = False, actual=None) -> dict:
+def values(scene, compiled, Q, V, A, *, ideal: bool = False, actual=None,
+           counterpart=None) -> dict:
     """``{output: {quantity: array}}`` of every output of ``scene`` at the states (rows of
     ``Q``, ``V``, ``A``); ``actual``: the simulated scene when ``scene`` is a reference
-    design (default ``scene``)."""
+    design, ``counterpart``: the scene whose ideal mechanism is the reference (both default
+    ``scene``)."""
     actual = scene if actual is None else actual
-    return {name: OUTPUT_KINDS[o.kind].values(scene, compiled, o, Q, V, A, ideal, actual)
+    counterpart = scene if counterpart is None else counterpart
+    return {name: OUTPUT_KINDS[o.kind].values(scene, compiled, o, Q, V, A, ideal, actual,
+                                              counterpart)
             for name, o in scene.outputs.items()}
 
 

@@ -151,11 +151,13 @@ def _crank_angle(scene: Scene, compiled: CompiledScene, times: np.ndarray):
     return (theta - th0) * sign * (180.0 / math.pi)
 
 
-def _outputs(scene: Scene, compiled: CompiledScene, Q, V, A, *, ideal=False, actual=None):
+def _outputs(scene: Scene, compiled: CompiledScene, Q, V, A, *, ideal=False, actual=None,
+             counterpart=None):
     """Every output of ``scene`` at the states ``Q``, ``V``, ``A`` (rows), by its kind
     (:data:`mechrel.outputs.OUTPUT_KINDS`)."""
     from .outputs import values
-    return values(scene, compiled, Q, V, A, ideal=ideal, actual=actual)
+    return values(scene, compiled, Q, V, A, ideal=ideal, actual=actual,
+                  counterpart=counterpart)
 
 
 @dataclass(frozen=True)
@@ -575,7 +577,7 @@ def simulate(scene: Scene, *, reference: Scene | None = None, method: str = "aut
             bar.close()
     Y, YD = res.y, res.ydot
     Q, V, A = Y[:, :n], Y[:, n:2 * n], YD[:, n:2 * n]
-    outputs = _outputs(scene, compiled, Q, V, A)
+    outputs = _outputs(scene, compiled, Q, V, A, counterpart=reference)
     if counterpart is None and (has_clearance or reference is not None):
         # undriven mechanism: ideal counterpart by dynamics
         counterpart = _ideal_by_dynamics(reference or scene, solver, times, scene)
@@ -589,7 +591,8 @@ def simulate(scene: Scene, *, reference: Scene | None = None, method: str = "aut
         Ql = np.concatenate([Y[sel, :n], log[:, 1:1 + n]])[first]
         Vl = np.concatenate([Y[sel, n:2 * n], log[:, 1 + n:1 + 2 * n]])[first]
         Al = np.concatenate([YD[sel, n:2 * n], log[:, 1 + ny + n:1 + ny + 2 * n]])[first]
-        ext = _extremes_of(scene, compiled, T, _outputs(scene, compiled, Ql, Vl, Al),
+        ext = _extremes_of(scene, compiled, T,
+                           _outputs(scene, compiled, Ql, Vl, Al, counterpart=reference),
                            _ideal_at(scene, compiled, reference, q0, solver, T, times[~sel]))
     wall = time.perf_counter() - start
     stats = res.stats.as_dict()

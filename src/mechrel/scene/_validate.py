@@ -587,7 +587,10 @@ class _Builder(Checker):
             fields_ = OUTPUT_KINDS[kind].fields
             self.keys(p, o, ("kind",) + fields_, required=fields_,
                       what=f"an output of kind '{kind}'")
-            if kind == "point":
+            if kind == "path":
+                ref = self._ref(p + ".point", o["point"], bodies, ground, ground_ok=False)
+                out[name] = Output(name=name, kind=kind, point=ref)
+            elif kind == "point":
                 ref = self._ref(p + ".point", o["point"], bodies, ground, ground_ok=False)
                 ax = self.vec2(p + ".axis", o["axis"], nonzero=True)
                 n = math.hypot(*ax)
@@ -776,4 +779,6 @@ def _output_raw(o: Output) -> dict:
         return {"point": str(o.point), "axis": _pair(o.axis)}
     if o.kind == "body":
         return {"kind": o.kind, "body": o.body}
+    if o.kind == "path":
+        return {"kind": o.kind, "point": str(o.point)}
     return {"kind": o.kind, "joint": o.joint}

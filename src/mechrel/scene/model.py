@@ -151,8 +151,9 @@ class Driver:
 class Output:
     """What the scene reports, by ``kind`` (:data:`mechrel.outputs.OUTPUT_KINDS`): ``point``
     (a body point's displacement, velocity and acceleration along the unit ``axis``),
-    ``body`` (a body's angle and its rates) or ``joint`` (a clearance joint's eccentricity
-    ratio, minimum film thickness and penetration). Fields another kind uses are None."""
+    ``body`` (a body's angle and its rates), ``joint`` (a clearance joint's eccentricity
+    ratio, minimum film thickness and penetration) or ``path`` (a point's distance from its
+    ideal path). Fields another kind uses are None."""
 
     name: str
     point: PointRef | None = None
