@@ -49,8 +49,7 @@ def test_extremes_fields_and_locations():
     assert list(frame.index) == ([("tip", q) for q in QTY]
                                  + [("rocker", q) for q in ("angle", "angular_velocity",
                                                            "angular_acceleration")]
-                                 + [("film", q) for q in ("eccentricity_ratio",
-                                                          "min_film_thickness", "penetration")])
+)
     period = 2 * math.pi / res.scene.drivers["crank"].speed
     for qty in QTY:
         d = res.extremes["tip"][qty]

@@ -11,7 +11,8 @@ from mechrel.outputs import OUTPUT_KINDS, QUANTITY_INFO
 from mechrel.scene import load_scene
 from mechrel.simulation import simulate
 
-IDEAL = {"joints.A.model": "ideal", "joints.B.model": "ideal",
+FILM = {"kind": "joint", "joint": "A"}
+IDEAL = {"joints.A.model": "ideal", "joints.B.model": "ideal", "outputs.film": FILM,
          "analysis.sample_step_angle": math.radians(5.0)}
 
 
@@ -43,7 +44,7 @@ def test_joint_outputs_against_the_journal_orbits():
     # post-processing (compiled, from the eccentricity vector), h_min = c (1 − ε) and the
     # penetration of the dry pin B; the ideal joint is concentric
     scene = load_scene("four-bar", overrides={
-        "outputs.pin_b": {"kind": "joint", "joint": "B"}})
+        "outputs.film": FILM, "outputs.pin_b": {"kind": "joint", "joint": "B"}})
     res = simulate(scene)
     for name, joint, c in (("film", "A", 0.1e-3), ("pin_b", "B", 0.2e-3)):
         out = res.outputs[name]
@@ -96,12 +97,12 @@ def test_the_table_feeds_the_allowables_and_the_model():
                        r"\['angle', 'angular_acceleration', 'angular_velocity'\]"):
         resolve_allowables(model.output_index, None)
     with pytest.raises(StudyError, match=r"quantities: \['velocity'\] must be a non-empty subset "
-                       r"of \['eccentricity_ratio', 'min_film_thickness', 'penetration'\] \(the "
+                       r"of \['eccentricity_ratio', 'min_film_thickness', 'penetration', 'reaction_force'\] \(the "
                        r"quantities of output 'film', kind 'joint'\)"):
         MechanismModel("four-bar", ["joints.B.clearance"], output="film",
-                       quantities=["velocity"])
+                       quantities=["velocity"], overrides={"outputs.film": FILM})
     film = MechanismModel("four-bar", ["joints.A.lubricant.viscosity"], output="film",
-                          quantities=["min_film_thickness"])
+                          quantities=["min_film_thickness"], overrides={"outputs.film": FILM})
     y = film.evaluate(film.nominal)
     # error = h_min − c = −c ε: in (−c, 0] (angles, max, min); its max_abs is c × the largest
     # ε of the cycle
@@ -115,7 +116,7 @@ def test_cli_simulate_plots_every_output(tmp_path, capsys):
 
     out = tmp_path / "fb.csv"
     assert main(["simulate", "four-bar", "--set", "analysis.cycles=0.25", "--no-progress",
-                 "--out", str(out)]) == 0
+                 "--set", 'outputs.film={kind = "joint", joint = "A"}', "--out", str(out)]) == 0
     text = capsys.readouterr().out
     for line in ("output tip (point):", "output rocker (body):", "output film (joint):",
                  "min_film_thickness", "angle"):
@@ -168,3 +169,46 @@ def test_path_deviation_is_the_distance_from_the_ideal_path():
                        r"output of kind 'path'"):
         load_scene("four-bar", overrides={"outputs.c": {"kind": "path", "point": "rocker.B",
                                                         "axis": [1.0, 0.0]}})
+
+
+def test_reaction_forces():
+    # ideal four-bar: |λ| of joints A and B against an independent inverse dynamics, the
+    # Newton-Euler equations of the coupler and the rocker solved for the pin forces
+    # (6 equations, 6 unknowns) from the simulated accelerations; 1e-6 relative (the
+    # kinematic accelerations and the Schur solve agree to round-off)
+    scene = load_scene("four-bar", overrides={
+        **IDEAL, "outputs.pin_b": {"kind": "joint", "joint": "B"}})
+    res = simulate(scene)
+    cp, rk = 3, 6  # coupler and rocker coordinates in q (bodies crank, coupler, rocker)
+    mc, Jc, mr, Jr, g = 0.24, 4.5e-4, 0.19, 2.28e-4, np.array([0.0, -9.81])
+    fa, fb = [], []
+    for q, a in zip(res.q, res.a):
+        def at(i, sx, sy):
+            th = q[i + 2]
+            return np.array([np.cos(th) * sx - np.sin(th) * sy, np.sin(th) * sx + np.cos(th) * sy])
+        rA, rB = at(cp, -0.075, 0.0), at(cp, 0.075, 0.0)        # from the coupler's centre
+        rB2, rO = at(rk, 0.06, 0.0), at(rk, -0.06, 0.0)          # from the rocker's centre
+        M = np.zeros((6, 6))  # unknowns F_A (on coupler), F_B (on coupler), F_O4 (on rocker)
+        M[0:2, 0:2] = M[0:2, 2:4] = np.eye(2)
+        M[2, 0:2] = [-rA[1], rA[0]]
+        M[2, 2:4] = [-rB[1], rB[0]]
+        M[3:5, 2:4] = -np.eye(2)
+        M[3:5, 4:6] = np.eye(2)
+        M[5, 2:4] = [rB2[1], -rB2[0]]
+        M[5, 4:6] = [-rO[1], rO[0]]
+        rhs = np.concatenate([mc * a[cp:cp + 2] - mc * g, [Jc * a[cp + 2]],
+                              mr * a[rk:rk + 2] - mr * g, [Jr * a[rk + 2]]])
+        F = np.linalg.solve(M, rhs)
+        fa.append(np.hypot(*F[0:2]))
+        fb.append(np.hypot(*F[2:4]))
+    assert np.allclose(res.outputs["film"]["reaction_force"], fa, rtol=1e-6, atol=1e-9)
+    assert np.allclose(res.outputs["pin_b"]["reaction_force"], fb, rtol=1e-6, atol=1e-9)
+    # with clearances: the dry pin B carries force only in contact; the ideal reference is the
+    # ideal mechanism's |λ|
+    dyn = simulate(load_scene("four-bar", overrides={
+        "outputs.pin_b": {"kind": "joint", "joint": "B"}}), extremes=True)
+    f, pen = dyn.outputs["pin_b"]["reaction_force"], dyn.outputs["pin_b"]["penetration"]
+    assert np.all(f[pen == 0] == 0) and np.all(f[pen > 0] > 0)
+    assert dyn.ideal["pin_b"]["reaction_force"].min() > 0
+    assert dyn.extremes["pin_b"]["reaction_force"]["max_abs"] >= np.abs(
+        dyn.error("pin_b", "reaction_force")[-361:]).max()

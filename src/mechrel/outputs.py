@@ -10,9 +10,10 @@ the uncertainty model (:class:`~mechrel.uq.MechanismModel`) and the default allo
 here, its scene fields in ``scene/_schema.py`` and ``scene/_validate.py`` (docs/scenes.md,
 "How to add an output kind").
 
-Every function ``values(scene, compiled, output, Q, V, A, ideal, actual, counterpart)`` gets
-the coordinates ``Q`` (m, rad), their rates ``V`` and accelerations ``A`` at the instants of
-interest (rows) and returns ``{quantity: array}`` in SI units; ``ideal`` says whether the state
+Every function ``values(scene, compiled, output, st, ideal, actual, counterpart)`` gets the
+states :class:`States` (instants ``T``, coordinates ``Q`` (m, rad), their rates ``V`` and
+accelerations ``A``, one row per instant, and the history state ``H`` of the contact joints or
+None) and returns ``{quantity: array}`` in SI units; ``ideal`` says whether the state
 is the ideal mechanism's (for kinds whose ideal value is not the same formula on the ideal
 state), ``actual`` is the simulated scene (``scene`` may be a reference design) and
 ``counterpart`` the scene whose ideal mechanism the errors are measured against.
@@ -65,12 +66,26 @@ class OutputKind:
     values: Callable
 
 
+@dataclass(frozen=True)
+class States:
+    """The mechanism's states at some instants (rows): ``T`` (s), ``Q`` (m, rad), ``V``,
+    ``A``, and ``H`` the contact joints' history state (impact speeds, m/s) or None (the ideal
+    mechanism has none)."""
+
+    T: np.ndarray
+    Q: np.ndarray
+    V: np.ndarray
+    A: np.ndarray
+    H: np.ndarray | None = None
+
+
 def _body(compiled, name):
     return compiled.body_index[name]
 
 
-def _point_values(scene, compiled, output, Q, V, A, ideal, actual, counterpart):
+def _point_values(scene, compiled, output, st, ideal, actual, counterpart):
     """A body point's position, velocity and acceleration projected on the unit ``axis``."""
+    Q, V, A = st.Q, st.V, st.A
     b = _body(compiled, output.point.body)
     sx, sy = scene.bodies[output.point.body].points[output.point.point]
     ux, uy = output.axis
@@ -87,8 +102,9 @@ def _point_values(scene, compiled, output, Q, V, A, ideal, actual, counterpart):
             "acceleration": accx * ux + accy * uy}
 
 
-def _body_values(scene, compiled, output, Q, V, A, ideal, actual, counterpart):
+def _body_values(scene, compiled, output, st, ideal, actual, counterpart):
     """A body's absolute angle, angular velocity and angular acceleration."""
+    Q, V, A = st.Q, st.V, st.A
     b = _body(compiled, output.body)
     return {"angle": Q[:, 3 * b + 2], "angular_velocity": V[:, 3 * b + 2],
             "angular_acceleration": A[:, 3 * b + 2]}
@@ -105,23 +121,86 @@ def _global_point(scene, compiled, ref, Q):
     return Q[:, 3 * b] + c * sx - s * sy, Q[:, 3 * b + 1] + s * sx + c * sy
 
 
-def _joint_values(scene, compiled, output, Q, V, A, ideal, actual, counterpart):
+def _joint_values(scene, compiled, output, st, ideal, actual, counterpart):
     """Eccentricity ratio ε = |e|/c, minimum film thickness h_min = c (1 − ε) (rigid
     surfaces; negative while a dry journal penetrates) and penetration max(|e| − c, 0) of a
     clearance joint, e = journal point − bearing point. The ideal joint is concentric:
     ε = 0, h_min = c (the clearance of the simulated scene ``actual``), no penetration."""
+    Q, V, A = st.Q, st.V, st.A
     joint = scene.joints[output.joint]
     c = joint.clearance
     if ideal:
         c = actual.joints[output.joint].clearance
         n = Q.shape[0]
         return {"eccentricity_ratio": np.zeros(n), "min_film_thickness": np.full(n, c),
-                "penetration": np.zeros(n)}
+                "penetration": np.zeros(n),
+                "reaction_force": _multiplier_force(compiled, "ideal", output.joint, st)}
     bx, by = _global_point(scene, compiled, joint.points[0], Q)
     jx, jy = _global_point(scene, compiled, joint.points[1], Q)
     e = np.hypot(jx - bx, jy - by)
+    if joint.is_clearance:
+        force = _clearance_force(scene, compiled, joint, st)
+    else:
+        force = _multiplier_force(compiled, "dynamic", output.joint, st)
     return {"eccentricity_ratio": e / c, "min_film_thickness": c - e,
-            "penetration": np.maximum(e - c, 0.0)}
+            "penetration": np.maximum(e - c, 0.0), "reaction_force": force}
+
+
+def _global_velocity(scene, compiled, ref, Q, V):
+    if ref.body == "ground":
+        return np.zeros(Q.shape[0]), np.zeros(Q.shape[0]), np.zeros(Q.shape[0])
+    b = _body(compiled, ref.body)
+    sx, sy = scene.bodies[ref.body].points[ref.point]
+    th, w = Q[:, 3 * b + 2], V[:, 3 * b + 2]
+    c, s = np.cos(th), np.sin(th)
+    ax, ay = c * sx - s * sy, s * sx + c * sy
+    return V[:, 3 * b] - ay * w, V[:, 3 * b + 1] + ax * w, w
+
+
+def _clearance_force(scene, compiled, joint, st):
+    """|F| (N) of a clearance joint's force law (contact and friction, film, or both) at the
+    states, with the impact speeds of ``st.H`` (the force law of the simulation itself)."""
+    from .forces.joint import clearance_force
+
+    k = compiled.clearance_names.index(joint.name)
+    sys = compiled.dynamic
+    h = int(sys.cl_hist[k])
+    p = sys.cl_p[k]
+    bx, by = _global_point(scene, compiled, joint.points[0], st.Q)
+    jx, jy = _global_point(scene, compiled, joint.points[1], st.Q)
+    bvx, bvy, wb = _global_velocity(scene, compiled, joint.points[0], st.Q, st.V)
+    jvx, jvy, wj = _global_velocity(scene, compiled, joint.points[1], st.Q, st.V)
+    if h >= 0 and st.H is None:
+        raise ValueError("the history state is needed for a dry joint's force")
+    out = np.empty(st.Q.shape[0])
+    for i in range(out.size):
+        impact = float(st.H[i, h]) if h >= 0 else 0.0
+        fx, fy, _, _, _ = clearance_force(jx[i] - bx[i], jy[i] - by[i], jvx[i] - bvx[i],
+                                          jvy[i] - bvy[i], wb[i], wj[i], impact, p)
+        out[i] = math.hypot(fx, fy)
+    return out
+
+
+def _multiplier_force(compiled, which, name, st):
+    """|λ| (N) of the two constraint rows of revolute joint ``name`` in system ``which``
+    (``"ideal"`` or ``"dynamic"``): the force the joint transmits, from the equations of
+    motion at the states (for the driven ideal mechanism, its inverse dynamics)."""
+    from .mechanics.problem import N_WORK, accelerations
+
+    sys = getattr(compiled, which)
+    labels = compiled.labels[which]
+    rows = [i for i, lbl in enumerate(labels) if lbl.startswith(f"joints.{name} (")]
+    n = st.Q.shape[1]
+    hist = np.zeros(sys.n_contacts)
+    out = np.empty(st.Q.shape[0])
+    for i in range(out.size):
+        y = np.concatenate([st.Q[i], st.V[i], np.zeros(N_WORK)])
+        if st.H is not None and which == "dynamic":
+            hist = np.ascontiguousarray(st.H[i])
+        lam = accelerations(float(st.T[i]), y, hist, sys)[1]
+        out[i] = math.hypot(lam[rows[0]], lam[rows[1]])
+    assert y.size == 2 * n + N_WORK
+    return out
 
 
 # Instants per cycle of the ideal path (a closed polyline) that path deviations are measured
@@ -182,10 +261,11 @@ def distance_to_path(px, py, path) -> np.ndarray:
     return best
 
 
-def _path_values(scene, compiled, output, Q, V, A, ideal, actual, counterpart):
+def _path_values(scene, compiled, output, st, ideal, actual, counterpart):
     """The distance of a point from the ideal mechanism's path of the same point (the coupler
     curve), not from the same-time ideal point: a timing difference along the path is no
     deviation. The ideal point is on its path: 0."""
+    Q, V, A = st.Q, st.V, st.A
     if ideal:
         return {"path_deviation": np.zeros(Q.shape[0])}
     px, py = _global_point(scene, compiled, output.point, Q)
@@ -214,10 +294,15 @@ OUTPUT_KINDS: Mapping[str, OutputKind] = MappingProxyType({
         name="joint", fields=("joint",),
         quantities=(Quantity("eccentricity_ratio", "1", "", 1.0),
                     Quantity("min_film_thickness", "m", "µm", 1e6),
-                    Quantity("penetration", "m", "µm", 1e6)),
+                    Quantity("penetration", "m", "µm", 1e6),
+                    Quantity("reaction_force", "N", "N", 1.0)),
         computed="ε = |e|/c, h_min = c (1 − ε) and max(|e| − c, 0) of a revolute joint with "
-                 "a clearance c, e = journal point − bearing point (0 while the joint is ideal)",
-        ideal="the ideal joint is concentric: ε = 0, h_min = c, no penetration",
+                 "a clearance c, e = journal point − bearing point (0 while the joint is "
+                 "ideal); the magnitude of the force it transmits: its force law's (contact "
+                 "and friction, film) for a clearance joint, the constraint force |λ| for an "
+                 "ideal one",
+        ideal="the ideal joint is concentric: ε = 0, h_min = c, no penetration; its force is "
+              "the ideal mechanism's constraint force |λ| (inverse dynamics)",
         values=_joint_values),
     "path": OutputKind(
         name="path", fields=("point",),
@@ -238,7 +323,7 @@ def quantities_of(output) -> tuple[str, ...]:
     return tuple(q.name for q in OUTPUT_KINDS[output.kind].quantities)
 
 
-def values(scene, compiled, Q, V, A, *, ideal: bool = False, actual=None,
+def values(scene, compiled, T, Q, V, A, *, H=None, ideal: bool = False, actual=None,
            counterpart=None) -> dict:
     """``{output: {quantity: array}}`` of every output of ``scene`` at the states (rows of
     ``Q``, ``V``, ``A``); ``actual``: the simulated scene when ``scene`` is a reference
@@ -246,7 +331,8 @@ def values(scene, compiled, Q, V, A, *, ideal: bool = False, actual=None,
     ``scene``)."""
     actual = scene if actual is None else actual
     counterpart = scene if counterpart is None else counterpart
-    return {name: OUTPUT_KINDS[o.kind].values(scene, compiled, o, Q, V, A, ideal, actual,
+    st = States(np.asarray(T, dtype=float), Q, V, A, H)
+    return {name: OUTPUT_KINDS[o.kind].values(scene, compiled, o, st, ideal, actual,
                                               counterpart)
             for name, o in scene.outputs.items()}
 

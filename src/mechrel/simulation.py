@@ -151,12 +151,12 @@ def _crank_angle(scene: Scene, compiled: CompiledScene, times: np.ndarray):
     return (theta - th0) * sign * (180.0 / math.pi)
 
 
-def _outputs(scene: Scene, compiled: CompiledScene, Q, V, A, *, ideal=False, actual=None,
-             counterpart=None):
-    """Every output of ``scene`` at the states ``Q``, ``V``, ``A`` (rows), by its kind
-    (:data:`mechrel.outputs.OUTPUT_KINDS`)."""
+def _outputs(scene: Scene, compiled: CompiledScene, T, Q, V, A, *, H=None, ideal=False,
+             actual=None, counterpart=None):
+    """Every output of ``scene`` at the instants ``T`` and states ``Q``, ``V``, ``A`` (rows),
+    ``H`` the contact history there, by its kind (:data:`mechrel.outputs.OUTPUT_KINDS`)."""
     from .outputs import values
-    return values(scene, compiled, Q, V, A, ideal=ideal, actual=actual,
+    return values(scene, compiled, T, Q, V, A, H=H, ideal=ideal, actual=actual,
                   counterpart=counterpart)
 
 
@@ -341,7 +341,7 @@ def _reference_outputs(reference: Scene, times: np.ndarray, actual: Scene):
                      labels=compiled.labels["ideal"])
     Q, V, A, _ = kinematic_analysis(compiled.ideal, q0, times, tol=tol,
                                     labels=compiled.labels["ideal"])
-    return _outputs(reference, compiled, Q, V, A, ideal=True, actual=actual)
+    return _outputs(reference, compiled, times, Q, V, A, ideal=True, actual=actual)
 
 
 def _ideal_by_dynamics(source: Scene, solver, times: np.ndarray, actual: Scene):
@@ -354,7 +354,8 @@ def _ideal_by_dynamics(source: Scene, solver, times: np.ndarray, actual: Scene):
     qi, vi = assemble(compiled.ideal, q0, 0.0, tol=tol)
     resi = solver.integrate(compiled.ideal, np.concatenate([qi, vi, np.zeros(2)]),
                             np.zeros(0), times, t0=0.0)
-    return _outputs(source, compiled, resi.y[:, :n], resi.y[:, n:2 * n], resi.ydot[:, n:2 * n],
+    return _outputs(source, compiled, times, resi.y[:, :n], resi.y[:, n:2 * n],
+                    resi.ydot[:, n:2 * n],
                     ideal=True, actual=actual)
 
 
@@ -443,7 +444,7 @@ def _ideal_at(scene, compiled, reference, q0, solver, T, lead):
         Qi, Vi, Ai, _ = kinematic_analysis(compiled.ideal, q0, TT,
                                            tol=scene.solver.assembly_tolerance,
                                            labels=compiled.labels["ideal"])
-        got = _outputs(scene, compiled, Qi, Vi, Ai, ideal=True)
+        got = _outputs(scene, compiled, TT, Qi, Vi, Ai, ideal=True)
     else:
         return _ideal_by_dynamics(scene, solver, T, scene)
     return {name: {qty: values[m:] for qty, values in d.items()} for name, d in got.items()}
@@ -532,7 +533,7 @@ def simulate(scene: Scene, *, reference: Scene | None = None, method: str = "aut
     if driven and (has_clearance or method in ("auto", "kinematics")):
         Qi, Vi, Ai, viol_i = kinematic_analysis(compiled.ideal, q0, times, tol=tol,
                                                 labels=compiled.labels["ideal"])
-        ideal = _outputs(scene, compiled, Qi, Vi, Ai, ideal=True)
+        ideal = _outputs(scene, compiled, times, Qi, Vi, Ai, ideal=True)
     # the ideal counterpart the errors are measured against: the reference design's, or the
     # scene's own ideal mechanism
     counterpart = ideal if reference is None else _reference_outputs(reference, times, scene)
@@ -548,7 +549,8 @@ def simulate(scene: Scene, *, reference: Scene | None = None, method: str = "aut
                                                tol=tol, labels=compiled.labels["ideal"])
             m = lead.size
             ext = _extremes_of(scene, compiled, T,
-                               _outputs(scene, compiled, Qf[m:], Vf[m:], Af[m:], ideal=True),
+                               _outputs(scene, compiled, T, Qf[m:], Vf[m:], Af[m:],
+                                        ideal=True),
                                _ideal_at(scene, compiled, reference, q0, solver, T, lead))
         wall = time.perf_counter() - start
         stats = {"integrator": "kinematic-analysis", "n_steps": times.size,
@@ -577,7 +579,7 @@ def simulate(scene: Scene, *, reference: Scene | None = None, method: str = "aut
             bar.close()
     Y, YD = res.y, res.ydot
     Q, V, A = Y[:, :n], Y[:, n:2 * n], YD[:, n:2 * n]
-    outputs = _outputs(scene, compiled, Q, V, A, counterpart=reference)
+    outputs = _outputs(scene, compiled, times, Q, V, A, H=res.hist_out, counterpart=reference)
     if counterpart is None and (has_clearance or reference is not None):
         # undriven mechanism: ideal counterpart by dynamics
         counterpart = _ideal_by_dynamics(reference or scene, solver, times, scene)
@@ -591,8 +593,9 @@ def simulate(scene: Scene, *, reference: Scene | None = None, method: str = "aut
         Ql = np.concatenate([Y[sel, :n], log[:, 1:1 + n]])[first]
         Vl = np.concatenate([Y[sel, n:2 * n], log[:, 1 + n:1 + 2 * n]])[first]
         Al = np.concatenate([YD[sel, n:2 * n], log[:, 1 + ny + n:1 + ny + 2 * n]])[first]
+        Hl = np.concatenate([res.hist_out[sel], log[:, 1 + 2 * ny:]])[first]
         ext = _extremes_of(scene, compiled, T,
-                           _outputs(scene, compiled, Ql, Vl, Al, counterpart=reference),
+                           _outputs(scene, compiled, T, Ql, Vl, Al, H=Hl, counterpart=reference),
                            _ideal_at(scene, compiled, reference, q0, solver, T, times[~sel]))
     wall = time.perf_counter() - start
     stats = res.stats.as_dict()

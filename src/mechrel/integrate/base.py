@@ -8,7 +8,7 @@ A subclass of :class:`Integrator`
   (bool), ``adaptive`` (bool) and ``defaults`` (a dict of the settings it uses: some of
   ``step``, ``rtol``, ``atol``);
 * implements ``_advance(system, t0, y0, hist, t_out, ctl, log_from, n_dense) -> (Y, YD, hist,
-  stats, t, y, log)`` which integrates the right-hand side of :mod:`mechrel.mechanics.problem`
+  stats, t, y, log, H)`` which integrates the right-hand side of :mod:`mechrel.mechanics.problem`
   (compiled kernels: ``rhs_into`` with one ``make_workspace``) from ``(t0, y0)`` over the
   increasing output instants ``t_out`` (all ≥ t0), returning the state ``Y`` and its
   derivative ``YD`` at each instant, the history state after the last instant, the statistics
@@ -16,7 +16,9 @@ A subclass of :class:`Integrator`
   for every accepted step that ends after ``log_from`` (s; ``inf``: no log), rows
   ``(t, y, dy/dt, hist)`` at ``n_dense`` equally spaced points of the step's continuous
   extension inside it (those at or after ``log_from``) and at its end
-  (:func:`~mechrel.integrate.events.log_row`); the log changes nothing else; it keeps
+  (:func:`~mechrel.integrate.events.log_row`), and the history state at each output
+  instant ``H`` (the one its derivative was evaluated with); neither changes anything else; it
+  keeps
   ``ctl[events.CTL_DONE]`` (``ctl``: a two-element int64 array) at the number of output
   instants stored so far, stops with ``STATUS_STOPPED`` at its next step after another thread
   sets ``ctl[events.CTL_STOP]`` and with ``STATUS_MAX_STEPS`` after ``self.max_steps`` steps
@@ -100,8 +102,9 @@ class SolverStats:
 
 @dataclass(frozen=True)
 class IntegrationResult:
-    """``t``, ``y``, ``ydot`` at the output instants; ``log``: the solution log (rows
-    ``(t, y, dy/dt, hist)``, empty unless asked for with ``log_from``)."""
+    """``t``, ``y``, ``ydot`` and the history state ``hist_out`` at the output instants;
+    ``hist`` after the last one; ``log``: the solution log (rows ``(t, y, dy/dt, hist)``,
+    None unless asked for with ``log_from``)."""
 
     t: np.ndarray
     y: np.ndarray
@@ -109,6 +112,7 @@ class IntegrationResult:
     hist: np.ndarray
     stats: SolverStats
     log: np.ndarray | None = None
+    hist_out: np.ndarray | None = None
 
 
 def _has_lubricated(system) -> bool:
@@ -243,7 +247,7 @@ class Integrator:
         hist = np.ascontiguousarray(hist0, dtype=float).copy()
         start = time.perf_counter()
         try:
-            Y, YD, hist, total, t, y, log = self._run(system, t, y, hist, t_out, progress,
+            Y, YD, hist, total, t, y, log, H = self._run(system, t, y, hist, t_out, progress,
                                                       float(log_from), dense_points)
         except (np.linalg.LinAlgError, ZeroDivisionError) as exc:
             # the compiled Cholesky of the Schur complement raises LinAlgError when the state
@@ -272,7 +276,7 @@ class Integrator:
                 f"after {result_stats.n_steps} steps ({self.settings}); "
                 + self._advice(status, system))
         return IntegrationResult(t=t_out, y=Y, ydot=YD, hist=hist, stats=result_stats,
-                                 log=log if math.isfinite(log_from) else None)
+                                 log=log if math.isfinite(log_from) else None, hist_out=H)
 
 
 class RK4(Integrator):

@@ -58,7 +58,8 @@ def _rk4_step(t, y, h, hist, sys, ws, K, tmp, out):
 @njit(cache=True, nogil=True)
 def rk4_kernel(sys, t0, y0, hist, t_out, h, max_steps, onset_tol, ctl, log_from, n_dense):
     """Classical RK4 with step ``h`` (s); steps are shortened to land on every output instant
-    and to locate contact onsets. Returns (Y, YD, hist, stats, t, y, log). ``ctl``: the control
+    and to locate contact onsets. Returns (Y, YD, hist, stats, t, y, log, H), H the history
+    state at each output instant. ``ctl``: the control
     vector of :mod:`~mechrel.integrate.events` (outputs stored, for a progress display in
     another thread; a stop request, checked once per step). ``log_from``, ``n_dense``: the
     solution log (:func:`~mechrel.integrate.events.log_row`; inf: none); RK4 has no continuous
@@ -71,6 +72,9 @@ def rk4_kernel(sys, t0, y0, hist, t_out, h, max_steps, onset_tol, ctl, log_from,
     evaluations per step and nothing else, except a re-evaluation when the history changes."""
     nout = t_out.shape[0]
     Y, YD, stats, floors, y, f, k, _, ws = start(sys, t0, y0, hist, t_out)
+    H = np.zeros((nout, hist.shape[0]))  # the history state at each output instant
+    for i in range(k):
+        H[i] = hist
     ctl[CTL_DONE] = k
     t = t0
     ny = y.shape[0]
@@ -142,9 +146,10 @@ def rk4_kernel(sys, t0, y0, hist, t_out, h, max_steps, onset_tol, ctl, log_from,
         while k < nout and t_out[k] <= t:
             Y[k] = y
             YD[k] = K[0]
+            H[k] = hist
             k += 1
         ctl[CTL_DONE] = k
-    return Y, YD, hist, stats, t, y, log[:nlog]
+    return Y, YD, hist, stats, t, y, log[:nlog], H
 
 
 # Dormand–Prince 5(4) tableau (Hairer, Nørsett & Wanner, Table II.5.2).
@@ -218,11 +223,14 @@ def _error_norm(err, y, ynew, rtol, atol):
 def dopri5_kernel(sys, t0, y0, hist, t_out, h0, rtol, atol, max_steps, onset_tol, ctl,
                   log_from, n_dense):
     """Adaptive Dormand–Prince 5(4). ``h0`` ≤ 0 picks the initial step automatically.
-    Returns (Y, YD, hist, stats, t, y, log); ``ctl``, ``log_from``, ``n_dense`` as in
+    Returns (Y, YD, hist, stats, t, y, log, H); ``ctl``, ``log_from``, ``n_dense`` as in
     :func:`rk4_kernel` (the points inside a step from the continuous extension)."""
     nout = t_out.shape[0]
     ny = y0.shape[0]
     Y, YD, stats, floors, y, f, k, tend, ws = start(sys, t0, y0, hist, t_out)
+    H = np.zeros((nout, hist.shape[0]))  # the history state at each output instant
+    for i in range(k):
+        H[i] = hist
     ctl[CTL_DONE] = k
     K = np.empty((7, ny))
     K[0] = f
@@ -294,6 +302,7 @@ def dopri5_kernel(sys, t0, y0, hist, t_out, h0, rtol, atol, max_steps, onset_tol
                 r4 = r2 - h * K[6, i] - r3
                 Y[k, i] = y[i] + th * (r2 + th1 * (r3 + th * (r4 + th1 * dense[i])))
             rhs_into(t_out[k], Y[k], hist, sys, ws, YD[k])
+            H[k] = hist
             stats[S_RHS] += 1
             k += 1
         ctl[CTL_DONE] = k
@@ -329,4 +338,4 @@ def dopri5_kernel(sys, t0, y0, hist, t_out, h0, rtol, atol, max_steps, onset_tol
         errold = max(en, 1e-4)
         h *= fac
         rejected_last = False
-    return Y, YD, hist, stats, t, y, log[:nlog]
+    return Y, YD, hist, stats, t, y, log[:nlog], H

@@ -318,7 +318,8 @@ def radau5_kernel(sys, sys_smooth, t0, y0, hist, t_out, h0, rtol_user, atol_user
     kept constant (no error control; for convergence-order checks) except that the last step
     ends on ``t_out[-1]``; Newton may then take up to ``NIT_FIXED`` iterations with a fresh
     Jacobian at every step, and a failure stops with ``STATUS_NEWTON``.
-    Returns ``(Y, YD, hist, stats, t, y, log)``; ``ctl``, ``log_from`` and ``n_dense`` as in
+    Returns ``(Y, YD, hist, stats, t, y, log, H)`` (H: the history state at each output
+    instant); ``ctl``, ``log_from`` and ``n_dense`` as in
     :func:`~mechrel.integrate.explicit.rk4_kernel` (the points inside a step from the
     collocation polynomial).
     """
@@ -332,6 +333,9 @@ def radau5_kernel(sys, sys_smooth, t0, y0, hist, t_out, h0, rtol_user, atol_user
     nit = NIT_FIXED if fixed else NIT
 
     Y, YD, stats, floors, y, f0, k, tend, ws = start(sys, t0, y0, hist, t_out)
+    H = np.zeros((nout, hist.shape[0]))  # the history state at each output instant
+    for i in range(k):
+        H[i] = hist
     ctl[CTL_DONE] = k
     t = t0
     scal = np.empty(ny)
@@ -646,6 +650,7 @@ def radau5_kernel(sys, sys_smooth, t0, y0, hist, t_out, h0, rtol_user, atol_user
                         Y[k, i] = y[i] + s * (cont1[i] + (s - C2M1)
                                               * (cont2[i] + (s - C1M1) * cont3[i]))
                 rhs_into(t_out[k], Y[k], hist, sys, ws, YD[k])
+                H[k] = hist
                 stats[S_RHS] += 1
                 k += 1
             ctl[CTL_DONE] = k
@@ -708,7 +713,7 @@ def radau5_kernel(sys, sys_smooth, t0, y0, hist, t_out, h0, rtol_user, atol_user
             need_lu = True
             if not caljac:
                 need_jac = True
-    return Y, YD, hist, stats, t, y, log[:nlog]
+    return Y, YD, hist, stats, t, y, log[:nlog], H
 
 
 # ---------------------------------------------------------------------------- the class

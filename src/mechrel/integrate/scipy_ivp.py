@@ -57,10 +57,11 @@ class ScipyIVP(Integrator):
         solver_class = getattr(integrate, self.method)
         Y = np.full((t_out.size, y0.shape[0]), np.nan)
         YD = np.full_like(Y, np.nan)
+        H = np.zeros((t_out.size, hist.size))  # the history state at each output instant
         t, y = float(t0), y0.copy()
         k = 0
         while k < t_out.size and t_out[k] <= t:
-            Y[k], YD[k] = y, rhs(t, y, hist, system)
+            Y[k], YD[k], H[k] = y, rhs(t, y, hist, system), hist
             k += 1
         ctl[ev.CTL_DONE] = k
         tend = float(t_out[-1])
@@ -124,6 +125,7 @@ class ScipyIVP(Integrator):
                 while k < t_out.size and t_out[k] <= t_stop:
                     Y[k] = sol(t_out[k])
                     YD[k] = rhs(t_out[k], Y[k], hist, system)
+                    H[k] = hist
                     k += 1
                 ctl[ev.CTL_DONE] = k
                 if t_stop > log_from:  # points of the step's dense output, then its end
@@ -149,7 +151,7 @@ class ScipyIVP(Integrator):
                 g, _ = gaps(t, y, system)
                 hist[(hist != 0.0) & (g <= 0.0)] = 0.0
         width = 1 + 2 * y0.shape[0] + hist.shape[0]
-        return Y, YD, hist, stats, t, y, np.array(log).reshape(-1, width)
+        return Y, YD, hist, stats, t, y, np.array(log).reshape(-1, width), H
 
 
 class ScipyRadau(ScipyIVP):
