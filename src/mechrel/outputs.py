@@ -185,21 +185,22 @@ def _multiplier_force(compiled, which, name, st):
     """|λ| (N) of the two constraint rows of revolute joint ``name`` in system ``which``
     (``"ideal"`` or ``"dynamic"``): the force the joint transmits, from the equations of
     motion at the states (for the driven ideal mechanism, its inverse dynamics)."""
-    from .mechanics.problem import N_WORK, accelerations
+    from .mechanics.problem import N_WORK, accelerations_into, make_workspace
 
     sys = getattr(compiled, which)
     labels = compiled.labels[which]
-    rows = [i for i, lbl in enumerate(labels) if lbl.startswith(f"joints.{name} (")]
+    r0, r1 = [i for i, lbl in enumerate(labels) if lbl.startswith(f"joints.{name} (")]
     n = st.Q.shape[1]
-    hist = np.zeros(sys.n_contacts)
+    ws = make_workspace(sys)
+    lam = ws.lam
+    Y = np.zeros((st.Q.shape[0], 2 * n + N_WORK))
+    Y[:, :n], Y[:, n:2 * n] = st.Q, st.V
+    use_h = st.H is not None and which == "dynamic" and st.H.shape[1] > 0
+    H = np.ascontiguousarray(st.H) if use_h else np.zeros((st.Q.shape[0], sys.n_contacts))
     out = np.empty(st.Q.shape[0])
     for i in range(out.size):
-        y = np.concatenate([st.Q[i], st.V[i], np.zeros(N_WORK)])
-        if st.H is not None and which == "dynamic":
-            hist = np.ascontiguousarray(st.H[i])
-        lam = accelerations(float(st.T[i]), y, hist, sys)[1]
-        out[i] = math.hypot(lam[rows[0]], lam[rows[1]])
-    assert y.size == 2 * n + N_WORK
+        accelerations_into(float(st.T[i]), Y[i], H[i], sys, ws)
+        out[i] = math.hypot(lam[r0], lam[r1])
     return out
 
 

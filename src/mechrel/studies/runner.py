@@ -284,7 +284,8 @@ def run_reliability(study, *, methods=None, n=None, n_jobs=1, seed=None, out=Non
         wc = mc.whole_cycle
         for key, row in wc.iterrows():
             lines.append(f"  whole-cycle reliability ({key}): {row['reliability']:.4f} "
-                         f"[{row['reliability_lo']:.4f}, {row['reliability_hi']:.4f}]")
+                         f"[{row['reliability_lo']:.4f}, {row['reliability_hi']:.4f}] "
+                         f"(from the {row['basis']})")
         lines.append(f"  Monte Carlo: {mc.evaluations.n} samples ({rule}), {mc.n_failed} failed")
     lines += _failure_lines(evaluations, out / "failures.csv" if out else None)
     wall = time.perf_counter() - start
