@@ -587,36 +587,39 @@ class _Builder(Checker):
             fields_ = OUTPUT_KINDS[kind].fields
             self.keys(p, o, ("kind",) + fields_, required=fields_,
                       what=f"an output of kind '{kind}'")
-            if kind == "path":
-                ref = self._ref(p + ".point", o["point"], bodies, ground, ground_ok=False)
-                out[name] = Output(name=name, kind=kind, point=ref)
-            elif kind == "point":
-                ref = self._ref(p + ".point", o["point"], bodies, ground, ground_ok=False)
-                ax = self.vec2(p + ".axis", o["axis"], nonzero=True)
-                n = math.hypot(*ax)
-                out[name] = Output(name=name, point=ref, axis=(ax[0] / n, ax[1] / n))
-            elif kind == "body":
-                body = self.string(p + ".body", o["body"], "the name of a moving body")
-                if body not in bodies:
-                    self.fail(p + ".body", body, f"unknown body{suggest(body, list(bodies))}",
-                              f"one of {', '.join(bodies)}")
-                out[name] = Output(name=name, kind=kind, body=body)
-            else:  # joint: a revolute joint with clearance data (ideal ones are concentric)
-                usable = [n for n, j in joints.items()
-                          if j.type == "revolute" and j.clearance > 0]
-                allowed = (f"a revolute joint with a clearance: one of {', '.join(usable)}"
-                           if usable else "a revolute joint with a clearance (this scene has "
-                           "none: give a joint clearance, bearing_radius and length)")
-                joint = self.string(p + ".joint", o["joint"], allowed)
-                if joint not in joints:
-                    self.fail(p + ".joint", joint, f"unknown joint{suggest(joint, list(joints))}",
-                              allowed)
-                if joint not in usable:
-                    self.fail(p + ".joint", joint, "has no clearance" if
-                              joints[joint].type == "revolute" else
-                              f"not a revolute joint (a {joints[joint].type} joint)", allowed)
-                out[name] = Output(name=name, kind=kind, joint=joint)
+            values = {f: self._output_field(f"{p}.{f}", f, o[f], bodies, ground, joints)
+                      for f in fields_}
+            out[name] = Output(name=name, kind=kind, **values)
         return out
+
+    def _output_field(self, path: str, field: str, v: Any, bodies, ground, joints):
+        """One field of an output table, by its name (the fields the output kinds of
+        mechrel.outputs.OUTPUT_KINDS use; a kind with a new field adds it here, to
+        ``OUTPUT_KEYS`` and to ``Output``)."""
+        if field == "point":
+            return self._ref(path, v, bodies, ground, ground_ok=False)
+        if field == "axis":
+            ax = self.vec2(path, v, nonzero=True)
+            n = math.hypot(*ax)
+            return (ax[0] / n, ax[1] / n)
+        if field == "body":
+            body = self.string(path, v, "the name of a moving body")
+            if body not in bodies:
+                self.fail(path, body, f"unknown body{suggest(body, list(bodies))}",
+                          f"one of {', '.join(bodies)}")
+            return body
+        # joint: a revolute joint with clearance data (an ideal one reads as concentric)
+        usable = [n for n, j in joints.items() if j.type == "revolute" and j.clearance > 0]
+        allowed = (f"a revolute joint with a clearance: one of {', '.join(usable)}"
+                   if usable else "a revolute joint with a clearance (this scene has none: "
+                   "give a joint clearance, bearing_radius and length)")
+        joint = self.string(path, v, allowed)
+        if joint not in joints:
+            self.fail(path, joint, f"unknown joint{suggest(joint, list(joints))}", allowed)
+        if joint not in usable:
+            self.fail(path, joint, "has no clearance" if joints[joint].type == "revolute"
+                      else f"not a revolute joint (a {joints[joint].type} joint)", allowed)
+        return joint
 
     # -- analysis, solver
     def _analysis(self, v: Any, drivers: Mapping[str, Driver]) -> Analysis:
@@ -773,12 +776,12 @@ def scene_to_raw(scene: Scene) -> dict:
 
 
 def _output_raw(o: Output) -> dict:
-    """The canonical raw table of an output: ``kind`` only when it is not the default
-    ``point`` (so the scenes written before output kinds keep their hash)."""
-    if o.kind == "point":
-        return {"point": str(o.point), "axis": _pair(o.axis)}
-    if o.kind == "body":
-        return {"kind": o.kind, "body": o.body}
-    if o.kind == "path":
-        return {"kind": o.kind, "point": str(o.point)}
-    return {"kind": o.kind, "joint": o.joint}
+    """The canonical raw table of an output: its kind's fields, and ``kind`` only when it is
+    not the default ``point`` (so the scenes written before output kinds keep their hash)."""
+    from ..outputs import OUTPUT_KINDS
+
+    raw = {} if o.kind == "point" else {"kind": o.kind}
+    for f in OUTPUT_KINDS[o.kind].fields:
+        v = getattr(o, f)
+        raw[f] = _pair(v) if f == "axis" else str(v)
+    return raw
