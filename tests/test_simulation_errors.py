@@ -54,7 +54,7 @@ def test_division_by_zero_in_the_compiled_kernels_is_a_simulation_error():
     from mechrel.integrate.base import DOPRI5
 
     class Dividing(DOPRI5):
-        def _advance(self, system, t0, y0, hist, t_out, ctl):
+        def _advance(self, system, t0, y0, hist, t_out, ctl, log_from, n_dense):
             return 1.0 / 0.0
 
     with pytest.raises(SimulationError, match=r"dopri5 diverged between t = 0 s and 1 s "

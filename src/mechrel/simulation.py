@@ -26,7 +26,7 @@ from .integrate import INTEGRATORS, IntegrationResult, get_integrator
 from .mechanics import problem
 from .mechanics.kinematics import assemble, kinematic_analysis
 from .mechanics.system import CompiledScene, compile_scene
-from .scene.model import QUANTITIES, Scene
+from .scene.model import Scene
 
 # Default integrator per scene type, chosen from measurements (docs/performance.md).
 DEFAULT_SOLVERS: dict[str, tuple[str, dict]] = {
@@ -45,6 +45,19 @@ DEFAULT_SOLVERS: dict[str, tuple[str, dict]] = {
     # step), peak slider acceleration within 2e-4 m/s² of a tight reference (docs/performance.md)
     "lubricated": ("radau", {"rtol": 1e-7, "atol": 1e-10}),
 }
+
+
+# Points of the integrator's continuous extension logged inside each step for the cycle
+# extremes, beside the step's end (docs/mechanics.md, "Cycle extremes"): the four-bar's peak
+# acceleration errors change by < 1e-3 (relative) from 3 to 15 points (tests/test_extremes.py).
+DENSE_POINTS = 3
+# Kinematic-only runs (an ideal scene against a reference design) have no steps: their extremes
+# come from this many equal intervals of the window (smooth errors, error of the peak
+# ~ (window / KINEMATIC_POINTS)^2 / 8 of its curvature).
+KINEMATIC_POINTS = 3600
+# The statistics of every output's error over the window, in SimulationResult.extremes.
+EXTREME_FIELDS = ("max", "max_time", "max_angle", "min", "min_time", "min_angle",
+                  "max_abs", "max_abs_time", "max_abs_angle")
 
 
 def scene_kind(scene: Scene) -> str:
@@ -139,25 +152,13 @@ def _crank_angle(scene: Scene, compiled: CompiledScene, times: np.ndarray):
     return (theta - th0) * sign * (180.0 / math.pi)
 
 
-def _point_outputs(compiled: CompiledScene, Q, V, A):
-    """Displacement, velocity, acceleration of every output point along its axis."""
-    out = {}
-    for k, name in enumerate(compiled.output_names):
-        b = compiled.out_body[k]
-        sx, sy = compiled.out_s[k]
-        ux, uy = compiled.out_axis[k]
-        th = Q[:, 3 * b + 2]
-        w = V[:, 3 * b + 2]
-        al = A[:, 3 * b + 2]
-        c, s = np.cos(th), np.sin(th)
-        ax, ay = c * sx - s * sy, s * sx + c * sy  # A s
-        px, py = Q[:, 3 * b] + ax, Q[:, 3 * b + 1] + ay
-        vx, vy = V[:, 3 * b] - ay * w, V[:, 3 * b + 1] + ax * w
-        accx = A[:, 3 * b] - ay * al - ax * w * w
-        accy = A[:, 3 * b + 1] + ax * al - ay * w * w
-        out[name] = {"displacement": px * ux + py * uy, "velocity": vx * ux + vy * uy,
-                     "acceleration": accx * ux + accy * uy}
-    return out
+def _outputs(scene: Scene, compiled: CompiledScene, T, Q, V, A, *, H=None, ideal=False,
+             actual=None, counterpart=None):
+    """Every output of ``scene`` at the instants ``T`` and states ``Q``, ``V``, ``A`` (rows),
+    ``H`` the contact history there, by its kind (:data:`mechrel.outputs.OUTPUT_KINDS`)."""
+    from .outputs import values
+    return values(scene, compiled, T, Q, V, A, H=H, ideal=ideal, actual=actual,
+                  counterpart=counterpart)
 
 
 @dataclass(frozen=True)
@@ -172,7 +173,8 @@ class SimulationResult:
     crank_angle : ndarray or None
         Rotation of the cycle driver since t = 0 (degrees), when the analysis has one.
     outputs : dict
-        ``outputs[name][quantity]`` (m, m/s, m/s²) of the simulated mechanism.
+        ``outputs[name][quantity]`` of the simulated mechanism, in SI units; the quantities
+        of each output are those of its kind (:data:`mechrel.outputs.OUTPUT_KINDS`).
     ideal : dict or None
         The same for the ideal counterpart: the scene's own mechanism with all joints ideal
         (scenes with clearance joints), or the ideal mechanism of the ``reference`` design
@@ -191,6 +193,15 @@ class SimulationResult:
         Solver statistics (:class:`~mechrel.integrate.SolverStats` as a dict) or those of the
         kinematic analysis; always includes ``max_position_violation`` and ``wall_time``.
     provenance : dict
+    extremes : dict or None
+        With ``simulate(..., extremes=True)``: ``extremes[output][quantity][field]`` for the
+        fields of :data:`EXTREME_FIELDS`: the largest (``max``) and smallest (``min``) signed
+        error and the largest magnitude (``max_abs``) over the analysis window (the last cycle
+        of the cycle driver, or the whole span), each with the instant (``*_time``, s) and
+        the cycle driver's rotation since t = 0 (``*_angle``, degrees; NaN without a cycle
+        driver) where it occurs. Found on the integrator's solution (every accepted step's end
+        and ``dense_points`` points of its continuous extension inside it, plus the output
+        instants), not on the output grid (docs/mechanics.md, "Cycle extremes").
     """
 
     scene: Scene
@@ -206,6 +217,22 @@ class SimulationResult:
     provenance: Mapping
     orbits: Mapping[str, Mapping[str, np.ndarray]] = field(default_factory=dict)
     energy: Mapping[str, np.ndarray] = field(default_factory=dict)
+    extremes: Mapping[str, Mapping[str, Mapping[str, float]]] | None = None
+
+    def extremes_frame(self):
+        """The cycle extremes as a :class:`pandas.DataFrame`: one row per ``(output,
+        quantity)``, the columns of :data:`EXTREME_FIELDS` (values in SI units, times in s,
+        angles in degrees of the cycle driver's rotation since t = 0)."""
+        import pandas as pd
+
+        if self.extremes is None:
+            raise SimulationError("this result has no cycle extremes; simulate(scene, "
+                                  "extremes=True) computes them")
+        rows = {(name, qty): d for name, qs in self.extremes.items() for qty, d in qs.items()}
+        frame = pd.DataFrame.from_dict(rows, orient="index", columns=list(EXTREME_FIELDS))
+        frame.index = pd.MultiIndex.from_tuples(frame.index, names=["output", "quantity"])
+        frame.attrs["provenance"] = dict(self.provenance)
+        return frame
 
     def error(self, output: str, quantity: str) -> np.ndarray:
         """Simulated minus ideal ``quantity`` of ``output``."""
@@ -224,7 +251,7 @@ class SimulationResult:
         if self.crank_angle is not None:
             cols["crank_angle"] = self.crank_angle
         for name, quantities in self.outputs.items():
-            for qty in QUANTITIES:
+            for qty in quantities:
                 cols[f"{name}.{qty}"] = quantities[qty]
                 if self.ideal is not None:
                     cols[f"{name}.{qty}.ideal"] = self.ideal[name][qty]
@@ -303,7 +330,7 @@ def _provenance(scene: Scene, wall: float, reference: Scene | None = None) -> di
     return out
 
 
-def _reference_outputs(reference: Scene, times: np.ndarray):
+def _reference_outputs(reference: Scene, times: np.ndarray, actual: Scene):
     """The outputs of ``reference``'s ideal mechanism at ``times`` (kinematic analysis when it
     is fully driven, forward dynamics otherwise)."""
     compiled = compile_scene(reference)
@@ -315,10 +342,10 @@ def _reference_outputs(reference: Scene, times: np.ndarray):
                      labels=compiled.labels["ideal"])
     Q, V, A, _ = kinematic_analysis(compiled.ideal, q0, times, tol=tol,
                                     labels=compiled.labels["ideal"])
-    return _point_outputs(compiled, Q, V, A)
+    return _outputs(reference, compiled, times, Q, V, A, ideal=True, actual=actual)
 
 
-def _ideal_by_dynamics(source: Scene, solver, times: np.ndarray):
+def _ideal_by_dynamics(source: Scene, solver, times: np.ndarray, actual: Scene):
     """The outputs of ``source``'s ideal mechanism by forward dynamics (undriven scenes)."""
     compiled = compile_scene(source)
     n = compiled.q_guess.size
@@ -327,8 +354,10 @@ def _ideal_by_dynamics(source: Scene, solver, times: np.ndarray):
                      labels=compiled.labels["ideal"])
     qi, vi = assemble(compiled.ideal, q0, 0.0, tol=tol)
     resi = solver.integrate(compiled.ideal, np.concatenate([qi, vi, np.zeros(2)]),
-                            np.zeros(0), times)
-    return _point_outputs(compiled, resi.y[:, :n], resi.y[:, n:2 * n], resi.ydot[:, n:2 * n])
+                            np.zeros(0), times, t0=0.0)
+    return _outputs(source, compiled, times, resi.y[:, :n], resi.y[:, n:2 * n],
+                    resi.ydot[:, n:2 * n],
+                    ideal=True, actual=actual)
 
 
 def _check_reference(scene: Scene, reference: Scene) -> None:
@@ -350,15 +379,81 @@ def _check_reference(scene: Scene, reference: Scene) -> None:
         refuse("bodies", tuple(scene.bodies), tuple(reference.bodies))
     if tuple(scene.outputs) != tuple(reference.outputs):
         refuse("output names", tuple(scene.outputs), tuple(reference.outputs))
+    kinds = {n: (o.kind, o.body, o.joint) for n, o in scene.outputs.items()}
+    theirs = {n: (o.kind, o.body, o.joint) for n, o in reference.outputs.items()}
+    if kinds != theirs:
+        refuse("output kinds (kind, body, joint)", kinds, theirs)
     if scene.analysis.cycle_driver != reference.analysis.cycle_driver:
         refuse("cycle driver", scene.analysis.cycle_driver, reference.analysis.cycle_driver)
     if dict(scene.drivers) != dict(reference.drivers):
         refuse("drivers", dict(scene.drivers), dict(reference.drivers))
 
 
+def analysis_window(compiled: CompiledScene, times: np.ndarray) -> float:
+    """Start (s) of the window the cycle extremes cover: the last cycle of the cycle driver
+    (one period before the last output instant), or the whole span without a cycle driver."""
+    if compiled.cycle_driver < 0 or compiled.period is None:
+        return float(times[0])
+    return max(float(times[0]), float(times[-1]) - compiled.period)
+
+
+def _window_points(times: np.ndarray, t_lo: float, extra_t: np.ndarray):
+    """The output instants at or after ``t_lo`` merged with the instants ``extra_t``, sorted,
+    duplicates dropped: ``(T, sel, first)`` with ``sel`` the mask of the output instants kept
+    and ``first`` the positions in ``concatenate([times[sel], extra_t])`` that make ``T``."""
+    span = max(float(times[-1]) - t_lo, 1.0)
+    sel = times >= t_lo - 1e-12 * span
+    T = np.concatenate([times[sel], extra_t])
+    T, first = np.unique(T, return_index=True)
+    return T, sel, first
+
+
+def _extremes_of(scene, compiled, T, outputs, ideal):
+    """``{output: {quantity: {field: value}}}`` of the error ``outputs − ideal`` at ``T``."""
+    angles = _crank_angle(scene, compiled, T)
+    out = {}
+    for name, quantities in outputs.items():
+        out[name] = {}
+        for qty, values in quantities.items():
+            err = values - ideal[name][qty]
+            if not np.all(np.isfinite(err)):
+                raise SimulationError(f"output {name}.{qty}: a non-finite error on the "
+                                      "solution log (cycle extremes)")
+            d = {}
+            for key, i in (("max", int(np.argmax(err))), ("min", int(np.argmin(err))),
+                           ("max_abs", int(np.argmax(np.abs(err))))):
+                d[key] = float(abs(err[i]) if key == "max_abs" else err[i])
+                d[f"{key}_time"] = float(T[i])
+                d[f"{key}_angle"] = float(angles[i]) if angles is not None else math.nan
+            out[name][qty] = {k: d[k] for k in EXTREME_FIELDS}
+    return out
+
+
+def _ideal_at(scene, compiled, reference, q0, solver, T, lead):
+    """The counterpart's outputs at the instants ``T``: the reference design's ideal mechanism
+    or the scene's own, by kinematic analysis (driven) or forward dynamics. ``lead``: the
+    output instants before ``T[0]``, through which the kinematic analysis follows the
+    mechanism from its assembly at t = 0 (Newton from the t = 0 state a whole cycle later
+    would have to turn the crank by 2π in one linearised step)."""
+    m = lead.size
+    TT = np.concatenate([lead, T])
+    if reference is not None:
+        got = _reference_outputs(reference, TT, scene)
+        if got is None:
+            return _ideal_by_dynamics(reference, solver, T, scene)
+    elif compiled.ideal.n_constraints == compiled.q_guess.size:
+        Qi, Vi, Ai, _ = kinematic_analysis(compiled.ideal, q0, TT,
+                                           tol=scene.solver.assembly_tolerance,
+                                           labels=compiled.labels["ideal"])
+        got = _outputs(scene, compiled, TT, Qi, Vi, Ai, ideal=True)
+    else:
+        return _ideal_by_dynamics(scene, solver, T, scene)
+    return {name: {qty: values[m:] for qty, values in d.items()} for name, d in got.items()}
+
+
 def simulate(scene: Scene, *, reference: Scene | None = None, method: str = "auto",
-             integrator: str | None = None, progress: bool = False,
-             **solver_settings) -> SimulationResult:
+             integrator: str | None = None, progress: bool = False, extremes: bool = False,
+             dense_points: int = DENSE_POINTS, **solver_settings) -> SimulationResult:
     """Simulate a scene over its analysis span.
 
     Parameters
@@ -380,6 +475,13 @@ def simulate(scene: Scene, *, reference: Scene | None = None, method: str = "aut
         Overrides ``scene.solver.integrator``.
     progress : bool
         Show a progress bar over the output instants.
+    extremes : bool
+        Also find the cycle extremes of every output's error on the integrator's solution
+        (:attr:`SimulationResult.extremes`); needs an ideal counterpart (clearance joints or a
+        ``reference``). Without it the run is bitwise what it was.
+    dense_points : int
+        Points of the integrator's continuous extension evaluated inside each step for the
+        extremes (besides the step's end), ≥ 0.
     **solver_settings
         ``step``, ``rtol``, ``atol`` overrides.
 
@@ -416,6 +518,15 @@ def simulate(scene: Scene, *, reference: Scene | None = None, method: str = "aut
     if method == "kinematics" and (has_clearance or not driven):
         raise SimulationError("method='kinematics' needs a fully driven scene without "
                               "clearance joints")
+    if extremes and not has_clearance and reference is None:
+        raise SimulationError(
+            f"simulate: extremes = True: scene {scene.name!r} has no clearance joints and no "
+            "reference design, so its outputs have no error whose extremes could be found; "
+            "allowed: extremes with a clearance joint or a reference")
+    if isinstance(dense_points, bool) or not isinstance(dense_points, (int, np.integer)) \
+            or dense_points < 0:
+        raise SimulationError(f"simulate: dense_points = {dense_points!r}: not an integer >= 0; "
+                              "allowed: 0, 1, 2, ... points inside each integrator step")
     q0, _ = assemble(compiled.ideal, compiled.q_guess, 0.0, tol=tol,
                      labels=compiled.labels["ideal"])
 
@@ -423,12 +534,25 @@ def simulate(scene: Scene, *, reference: Scene | None = None, method: str = "aut
     if driven and (has_clearance or method in ("auto", "kinematics")):
         Qi, Vi, Ai, viol_i = kinematic_analysis(compiled.ideal, q0, times, tol=tol,
                                                 labels=compiled.labels["ideal"])
-        ideal = _point_outputs(compiled, Qi, Vi, Ai)
+        ideal = _outputs(scene, compiled, times, Qi, Vi, Ai, ideal=True)
     # the ideal counterpart the errors are measured against: the reference design's, or the
     # scene's own ideal mechanism
-    counterpart = ideal if reference is None else _reference_outputs(reference, times)
+    counterpart = ideal if reference is None else _reference_outputs(reference, times, scene)
 
     if not has_clearance and driven and method != "dynamics":
+        ext = None
+        if extremes:  # no integrator steps: a fine uniform sampling of the window
+            t_lo = analysis_window(compiled, times)
+            fine = np.linspace(t_lo, float(times[-1]), KINEMATIC_POINTS + 1)
+            T, sel, _ = _window_points(times, t_lo, fine)
+            lead = times[~sel]
+            Qf, Vf, Af, _ = kinematic_analysis(compiled.ideal, q0, np.concatenate([lead, T]),
+                                               tol=tol, labels=compiled.labels["ideal"])
+            m = lead.size
+            ext = _extremes_of(scene, compiled, T,
+                               _outputs(scene, compiled, T, Qf[m:], Vf[m:], Af[m:],
+                                        ideal=True),
+                               _ideal_at(scene, compiled, reference, q0, solver, T, lead))
         wall = time.perf_counter() - start
         stats = {"integrator": "kinematic-analysis", "n_steps": times.size,
                  "max_position_violation": float(viol_i), "wall_time": wall, "status": "ok"}
@@ -436,7 +560,7 @@ def simulate(scene: Scene, *, reference: Scene | None = None, method: str = "aut
                                 crank_angle=_crank_angle(scene, compiled, times),
                                 outputs=ideal, ideal=None if reference is None else counterpart,
                                 q=Qi, v=Vi, a=Ai, method="kinematics", stats=stats,
-                                provenance=_provenance(scene, wall, reference))
+                                provenance=_provenance(scene, wall, reference), extremes=ext)
 
     sys = compiled.dynamic
     qa, va = assemble(compiled.assembly, q0, 0.0, tol=tol,
@@ -447,22 +571,38 @@ def simulate(scene: Scene, *, reference: Scene | None = None, method: str = "aut
     if progress:
         from tqdm.auto import tqdm
         bar = tqdm(total=times.size, desc=f"simulate {scene.name}", unit="sample", leave=False)
+    t_lo = analysis_window(compiled, times) if extremes else None
     try:
-        res = solver.integrate(sys, y0, hist0, times, progress=bar)
+        res = solver.integrate(sys, y0, hist0, times, progress=bar, log_from=t_lo,
+                               dense_points=dense_points)
     finally:
         if bar is not None:
             bar.close()
     Y, YD = res.y, res.ydot
     Q, V, A = Y[:, :n], Y[:, n:2 * n], YD[:, n:2 * n]
-    outputs = _point_outputs(compiled, Q, V, A)
+    outputs = _outputs(scene, compiled, times, Q, V, A, H=res.hist_out, counterpart=reference)
     if counterpart is None and (has_clearance or reference is not None):
         # undriven mechanism: ideal counterpart by dynamics
-        counterpart = _ideal_by_dynamics(reference or scene, solver, times)
+        counterpart = _ideal_by_dynamics(reference or scene, solver, times, scene)
     orbits, energy = _orbits_and_energy(compiled, res)
     _check_orbits(scene, times, orbits)
+    ext = None
+    if extremes:
+        ny = Y.shape[1]
+        log = res.log
+        T, sel, first = _window_points(times, t_lo, log[:, 0])
+        Ql = np.concatenate([Y[sel, :n], log[:, 1:1 + n]])[first]
+        Vl = np.concatenate([Y[sel, n:2 * n], log[:, 1 + n:1 + 2 * n]])[first]
+        Al = np.concatenate([YD[sel, n:2 * n], log[:, 1 + ny + n:1 + ny + 2 * n]])[first]
+        Hl = np.concatenate([res.hist_out[sel], log[:, 1 + 2 * ny:]])[first]
+        ext = _extremes_of(scene, compiled, T,
+                           _outputs(scene, compiled, T, Ql, Vl, Al, H=Hl, counterpart=reference),
+                           _ideal_at(scene, compiled, reference, q0, solver, T, times[~sel]))
     wall = time.perf_counter() - start
     stats = res.stats.as_dict()
     stats["total_wall_time"] = wall
+    if extremes:
+        stats["n_extreme_points"] = int(T.size)
     return SimulationResult(scene=scene, time=times,
                             crank_angle=_crank_angle(scene, compiled, times),
                             outputs=outputs,
@@ -470,4 +610,4 @@ def simulate(scene: Scene, *, reference: Scene | None = None, method: str = "aut
                             else None,
                             q=Q, v=V, a=A, method="dynamics", stats=stats,
                             provenance=_provenance(scene, wall, reference),
-                            orbits=orbits, energy=energy)
+                            orbits=orbits, energy=energy, extremes=ext)

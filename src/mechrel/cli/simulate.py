@@ -23,6 +23,10 @@ All values are SI units (m, kg, s, rad, Pa, Pa s).
 
 
 def _summary_lines(result) -> list[str]:
+    import numpy as np
+
+    from ..outputs import display
+
     st = result.stats
     lines = [f"scene {result.scene.name} ({result.method}): {result.time.size} samples over "
              f"{result.time[-1]:.4g} s",
@@ -31,13 +35,18 @@ def _summary_lines(result) -> list[str]:
              f"{st.get('n_impacts', 0)} impacts; max constraint violation "
              f"{st['max_position_violation']:.2e}; wall {st['wall_time']:.3f} s"]
     for name, q in result.outputs.items():
-        d = q["displacement"]
-        lines.append(f"  output {name}: displacement {d.min() * 1e3:.3f} … {d.max() * 1e3:.3f} mm "
-                     f"(stroke {(d.max() - d.min()) * 1e3:.3f} mm), peak |acceleration| "
-                     f"{abs(q['acceleration']).max():.4g} m/s²")
+        kind = result.scene.outputs[name].kind
+        lines.append(f"  output {name} ({kind}):")
+        for qty, values in q.items():
+            unit, scale = display(qty)
+            v = values * scale
+            line = f"    {qty} {v.min():.4g} … {v.max():.4g} {unit}"
+            if qty == "displacement":
+                line += f" (stroke {np.ptp(v):.3f} {unit})"
+            lines.append(line)
         if result.ideal is not None:
-            for qty, unit, scale in (("displacement", "mm", 1e3), ("velocity", "m/s", 1.0),
-                                     ("acceleration", "m/s²", 1.0)):
+            for qty in q:
+                unit, scale = display(qty)
                 e = result.error(name, qty) * scale
                 lines.append(f"    {qty} error {e.min():.4g} … {e.max():.4g} {unit}")
     for name, orb in result.orbits.items():

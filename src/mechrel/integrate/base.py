@@ -7,12 +7,18 @@ A subclass of :class:`Integrator`
 * sets the class attributes ``name`` (the scene's ``solver.integrator`` value), ``stiff``
   (bool), ``adaptive`` (bool) and ``defaults`` (a dict of the settings it uses: some of
   ``step``, ``rtol``, ``atol``);
-* implements ``_advance(system, t0, y0, hist, t_out, ctl) -> (Y, YD, hist, stats, t, y)``
-  which integrates the right-hand side of :mod:`mechrel.mechanics.problem` (compiled kernels:
-  ``rhs_into`` with one ``make_workspace``) from ``(t0, y0)`` over the increasing
-  output instants ``t_out`` (all ≥ t0), returning the state ``Y`` and its derivative ``YD`` at
-  each instant, the history state after the last instant, the statistics vector of
-  :mod:`mechrel.integrate.events` and the final time and state; it keeps
+* implements ``_advance(system, t0, y0, hist, t_out, ctl, log_from, n_dense) -> (Y, YD, hist,
+  stats, t, y, log, H)`` which integrates the right-hand side of :mod:`mechrel.mechanics.problem`
+  (compiled kernels: ``rhs_into`` with one ``make_workspace``) from ``(t0, y0)`` over the
+  increasing output instants ``t_out`` (all ≥ t0), returning the state ``Y`` and its
+  derivative ``YD`` at each instant, the history state after the last instant, the statistics
+  vector of :mod:`mechrel.integrate.events`, the final time and state, and the solution log:
+  for every accepted step that ends after ``log_from`` (s; ``inf``: no log), rows
+  ``(t, y, dy/dt, hist)`` at ``n_dense`` equally spaced points of the step's continuous
+  extension inside it (those at or after ``log_from``) and at its end
+  (:func:`~mechrel.integrate.events.log_row`), and the history state at each output
+  instant ``H`` (the one its derivative was evaluated with); neither changes anything else; it
+  keeps
   ``ctl[events.CTL_DONE]`` (``ctl``: a two-element int64 array) at the number of output
   instants stored so far, stops with ``STATUS_STOPPED`` at its next step after another thread
   sets ``ctl[events.CTL_STOP]`` and with ``STATUS_MAX_STEPS`` after ``self.max_steps`` steps
@@ -36,6 +42,7 @@ while it waits sets ``ctl[CTL_STOP]``; the kernel stops at its next step and the
 
 from __future__ import annotations
 
+import math
 import threading
 import time
 from dataclasses import dataclass
@@ -95,11 +102,17 @@ class SolverStats:
 
 @dataclass(frozen=True)
 class IntegrationResult:
+    """``t``, ``y``, ``ydot`` and the history state ``hist_out`` at the output instants;
+    ``hist`` after the last one; ``log``: the solution log (rows ``(t, y, dy/dt, hist)``,
+    None unless asked for with ``log_from``)."""
+
     t: np.ndarray
     y: np.ndarray
     ydot: np.ndarray
     hist: np.ndarray
     stats: SolverStats
+    log: np.ndarray | None = None
+    hist_out: np.ndarray | None = None
 
 
 def _has_lubricated(system) -> bool:
@@ -156,7 +169,8 @@ class Integrator:
         keys = ("step",) if not self.adaptive else ("rtol", "atol")
         return {k: getattr(self, k) for k in keys}
 
-    def _advance(self, system, t0, y0, hist, t_out, ctl):  # pragma: no cover - abstract
+    def _advance(self, system, t0, y0, hist, t_out, ctl, log_from=math.inf,
+                 n_dense=0):  # pragma: no cover - abstract
         raise NotImplementedError
 
     def _advice(self, status, system) -> str:
@@ -173,17 +187,17 @@ class Integrator:
                 + ("" if self.stiff else
                    ", or a stiff integrator (solver.integrator = 'radau')"))
 
-    def _run(self, system, t, y, hist, t_out, progress):
+    def _run(self, system, t, y, hist, t_out, progress, log_from, n_dense):
         """``_advance`` over ``t_out``; with a progress bar, in a worker thread while this one
         feeds the bar from the control vector and passes Ctrl-C on as a stop request."""
         ctl = np.zeros(2, dtype=np.int64)
         if progress is None:
-            return self._advance(system, t, y, hist, t_out, ctl)
+            return self._advance(system, t, y, hist, t_out, ctl, log_from, n_dense)
         box = {}
 
         def work():
             try:
-                box["out"] = self._advance(system, t, y, hist, t_out, ctl)
+                box["out"] = self._advance(system, t, y, hist, t_out, ctl, log_from, n_dense)
             except BaseException as exc:  # handed to the caller's thread below
                 box["exc"] = exc
 
@@ -209,12 +223,22 @@ class Integrator:
             raise box["exc"]
         return box["out"]
 
-    def integrate(self, system, y0, hist0, t_out, *, t0=None, progress=None) -> IntegrationResult:
+    def integrate(self, system, y0, hist0, t_out, *, t0=None, progress=None, log_from=None,
+                  dense_points=0) -> IntegrationResult:
         """Integrate from ``(t0, y0)`` (default ``t0 = t_out[0]``) over ``t_out``.
 
         ``progress``: a tqdm-like object with ``update(n)``, advanced as output instants are
         stored (polled every 0.1 s; module docstring). It does not change the result.
+        ``log_from`` (s): keep the solution log (module docstring) from this instant on, with
+        ``dense_points`` (≥ 0) points inside each step; ``None``: no log. The log does not
+        change the result either.
         """
+        if log_from is None:
+            log_from = math.inf
+        dense_points = int(dense_points)
+        if dense_points < 0:
+            raise SimulationError(f"dense_points = {dense_points}: must be >= 0; allowed: an "
+                                  "integer >= 0 (points logged inside each step)")
         t_out = np.ascontiguousarray(t_out, dtype=float)
         if t_out.ndim != 1 or t_out.size == 0 or np.any(np.diff(t_out) <= 0):
             raise SimulationError("output instants must be a non-empty increasing sequence")
@@ -223,7 +247,8 @@ class Integrator:
         hist = np.ascontiguousarray(hist0, dtype=float).copy()
         start = time.perf_counter()
         try:
-            Y, YD, hist, total, t, y = self._run(system, t, y, hist, t_out, progress)
+            Y, YD, hist, total, t, y, log, H = self._run(system, t, y, hist, t_out, progress,
+                                                      float(log_from), dense_points)
         except (np.linalg.LinAlgError, ZeroDivisionError) as exc:
             # the compiled Cholesky of the Schur complement raises LinAlgError when the state
             # has diverged (e.g. RK4 with too large a step through dry impacts), and numba's
@@ -250,7 +275,8 @@ class Integrator:
                 f"integrator {self.name!r} stopped at t = {t:.6g} s: {ev.STATUS_TEXT[status]} "
                 f"after {result_stats.n_steps} steps ({self.settings}); "
                 + self._advice(status, system))
-        return IntegrationResult(t=t_out, y=Y, ydot=YD, hist=hist, stats=result_stats)
+        return IntegrationResult(t=t_out, y=Y, ydot=YD, hist=hist, stats=result_stats,
+                                 log=log if math.isfinite(log_from) else None, hist_out=H)
 
 
 class RK4(Integrator):
@@ -263,10 +289,10 @@ class RK4(Integrator):
     adaptive = False
     defaults = {"step": None}
 
-    def _advance(self, system, t0, y0, hist, t_out, ctl):
+    def _advance(self, system, t0, y0, hist, t_out, ctl, log_from=math.inf, n_dense=0):
         from .explicit import rk4_kernel
         return rk4_kernel(system, t0, y0, hist, t_out, self.step, self.max_steps,
-                          self.onset_tolerance, ctl)
+                          self.onset_tolerance, ctl, log_from, n_dense)
 
 
 class DOPRI5(Integrator):
@@ -275,7 +301,8 @@ class DOPRI5(Integrator):
     name = "dopri5"
     defaults = {"rtol": 1e-8, "atol": 1e-10}
 
-    def _advance(self, system, t0, y0, hist, t_out, ctl):
+    def _advance(self, system, t0, y0, hist, t_out, ctl, log_from=math.inf, n_dense=0):
         from .explicit import dopri5_kernel
         return dopri5_kernel(system, t0, y0, hist, t_out, self.step or 0.0, self.rtol,
-                             self.atol, self.max_steps, self.onset_tolerance, ctl)
+                             self.atol, self.max_steps, self.onset_tolerance, ctl, log_from,
+                             n_dense)

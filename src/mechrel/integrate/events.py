@@ -153,3 +153,36 @@ def out_of_budget(stats, h, t, max_steps, ctl):
         stats[S_STATUS] = STATUS_STEP_UNDERFLOW
         return True
     return False
+
+
+# The solution log (cycle extremes, docs/mechanics.md "Cycle extremes from the solution"): rows
+# (t, y, dy/dt, hist) at every accepted step's end and at ``n_dense`` equally spaced points of
+# the step's continuous extension inside it, for steps ending after ``log_from`` (s). A run
+# that does not ask for it passes ``log_from = inf``: it then costs one comparison per step and
+# changes nothing (the logged points are evaluated after everything the step needs).
+LOG_START_ROWS = 256
+
+
+@njit(cache=True)
+def new_log(log_from, ny, nh):
+    """An empty log (0 rows when ``log_from`` is inf, i.e. no log asked for)."""
+    rows = 0 if math.isinf(log_from) else LOG_START_ROWS
+    return np.empty((rows, 1 + 2 * ny + nh)), 0
+
+
+@njit(cache=True)
+def log_row(log, n, t, y, yd, hist):
+    """Append (t, y, yd, hist) as row ``n`` of ``log``, doubling it when full; returns
+    ``(log, n + 1)``."""
+    if n == log.shape[0]:
+        bigger = np.empty((max(2 * n, LOG_START_ROWS), log.shape[1]))
+        bigger[:n] = log[:n]
+        log = bigger
+    ny = y.shape[0]
+    log[n, 0] = t
+    for i in range(ny):
+        log[n, 1 + i] = y[i]
+        log[n, 1 + ny + i] = yd[i]
+    for i in range(hist.shape[0]):
+        log[n, 1 + 2 * ny + i] = hist[i]
+    return log, n + 1

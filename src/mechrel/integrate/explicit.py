@@ -22,7 +22,7 @@ from numba import njit
 from ..mechanics.borrow import borrowed
 from ..mechanics.problem import rhs_inline, rhs_into
 from .events import (CTL_DONE, H_START_FLOOR, S_ONSET_REJECTED, S_REJECTED, S_RHS, S_STATUS,
-                     S_STEPS, STATUS_NONFINITE, all_finite,
+                     S_STEPS, STATUS_NONFINITE, all_finite, log_row, new_log,
                      onset_fraction, out_of_budget, record_violation, start,
                      update_history_from)
 
@@ -56,11 +56,15 @@ def _rk4_step(t, y, h, hist, sys, ws, K, tmp, out):
 
 
 @njit(cache=True, nogil=True)
-def rk4_kernel(sys, t0, y0, hist, t_out, h, max_steps, onset_tol, ctl):
+def rk4_kernel(sys, t0, y0, hist, t_out, h, max_steps, onset_tol, ctl, log_from, n_dense):
     """Classical RK4 with step ``h`` (s); steps are shortened to land on every output instant
-    and to locate contact onsets. Returns (Y, YD, hist, stats, t, y). ``ctl``: the control
+    and to locate contact onsets. Returns (Y, YD, hist, stats, t, y, log, H), H the history
+    state at each output instant. ``ctl``: the control
     vector of :mod:`~mechrel.integrate.events` (outputs stored, for a progress display in
-    another thread; a stop request, checked once per step).
+    another thread; a stop request, checked once per step). ``log_from``, ``n_dense``: the
+    solution log (:func:`~mechrel.integrate.events.log_row`; inf: none); RK4 has no continuous
+    extension of its own, so the points inside a step come from the cubic Hermite interpolant
+    of the step's end values and derivatives (third order, below the method's fourth).
 
     Each step ends with the right-hand side at its end state, which is the next step's first
     stage, the derivative stored at an output instant, and the source of the contact gaps
@@ -68,6 +72,9 @@ def rk4_kernel(sys, t0, y0, hist, t_out, h, max_steps, onset_tol, ctl):
     evaluations per step and nothing else, except a re-evaluation when the history changes."""
     nout = t_out.shape[0]
     Y, YD, stats, floors, y, f, k, _, ws = start(sys, t0, y0, hist, t_out)
+    H = np.zeros((nout, hist.shape[0]))  # the history state at each output instant
+    for i in range(k):
+        H[i] = hist
     ctl[CTL_DONE] = k
     t = t0
     ny = y.shape[0]
@@ -83,6 +90,9 @@ def rk4_kernel(sys, t0, y0, hist, t_out, h, max_steps, onset_tol, ctl):
     gd1 = np.empty(nh)
     for i in range(nh):
         g0[i] = ws.gap[i]  # start() evaluated f(t0, y0)
+    log, nlog = new_log(log_from, ny, nh)
+    ylog = np.empty(ny)
+    flog = np.empty(ny)
     while k < nout:
         if out_of_budget(stats, h, t, max_steps, ctl):
             break
@@ -104,10 +114,28 @@ def rk4_kernel(sys, t0, y0, hist, t_out, h, max_steps, onset_tol, ctl):
             stats[S_STATUS] = STATUS_NONFINITE
             break
         # land exactly on the output instant (hk was computed as its difference)
+        told = t
         t = t_out[k] if hk == t_out[k] - t else t + hk
         y, ynew = ynew, y
         stats[S_STEPS] += 1
         record_violation(ws, stats)  # ws holds the terms of the new state (K[4])
+        if t > log_from:  # the solution log: Hermite points inside the step, then its end
+            hs = t - told  # the step went from (told, ynew, K[0]) to (t, y, K[4])
+            for j in range(1, n_dense + 1):
+                th = j / (n_dense + 1.0)
+                tj = told + th * hs
+                if tj >= log_from:
+                    h00 = (1.0 + 2.0 * th) * (1.0 - th) ** 2
+                    h10 = th * (1.0 - th) ** 2
+                    h01 = th * th * (3.0 - 2.0 * th)
+                    h11 = th * th * (th - 1.0)
+                    for i in range(ny):
+                        ylog[i] = (h00 * ynew[i] + h01 * y[i]
+                                   + hs * (h10 * K[0, i] + h11 * K[4, i]))
+                    rhs_into(tj, ylog, hist, sys, ws, flog)
+                    stats[S_RHS] += 1
+                    log, nlog = log_row(log, nlog, tj, ylog, flog, hist)
+            log, nlog = log_row(log, nlog, t, y, K[4], hist)
         for i in range(ny):
             K[0, i] = K[4, i]
         if contacts:
@@ -118,9 +146,10 @@ def rk4_kernel(sys, t0, y0, hist, t_out, h, max_steps, onset_tol, ctl):
         while k < nout and t_out[k] <= t:
             Y[k] = y
             YD[k] = K[0]
+            H[k] = hist
             k += 1
         ctl[CTL_DONE] = k
-    return Y, YD, hist, stats, t, y
+    return Y, YD, hist, stats, t, y, log[:nlog], H
 
 
 # Dormand–Prince 5(4) tableau (Hairer, Nørsett & Wanner, Table II.5.2).
@@ -191,12 +220,17 @@ def _error_norm(err, y, ynew, rtol, atol):
 
 
 @njit(cache=True, nogil=True)
-def dopri5_kernel(sys, t0, y0, hist, t_out, h0, rtol, atol, max_steps, onset_tol, ctl):
+def dopri5_kernel(sys, t0, y0, hist, t_out, h0, rtol, atol, max_steps, onset_tol, ctl,
+                  log_from, n_dense):
     """Adaptive Dormand–Prince 5(4). ``h0`` ≤ 0 picks the initial step automatically.
-    Returns (Y, YD, hist, stats, t, y); ``ctl`` as in :func:`rk4_kernel`."""
+    Returns (Y, YD, hist, stats, t, y, log, H); ``ctl``, ``log_from``, ``n_dense`` as in
+    :func:`rk4_kernel` (the points inside a step from the continuous extension)."""
     nout = t_out.shape[0]
     ny = y0.shape[0]
     Y, YD, stats, floors, y, f, k, tend, ws = start(sys, t0, y0, hist, t_out)
+    H = np.zeros((nout, hist.shape[0]))  # the history state at each output instant
+    for i in range(k):
+        H[i] = hist
     ctl[CTL_DONE] = k
     K = np.empty((7, ny))
     K[0] = f
@@ -227,6 +261,9 @@ def dopri5_kernel(sys, t0, y0, hist, t_out, h0, rtol, atol, max_steps, onset_tol
     gd1 = np.empty(nh)
     for i in range(nh):  # from start()'s f(t0, y0); then the end of one step is the next's start
         g0[i] = ws.gap[i]
+    log, nlog = new_log(log_from, ny, nh)
+    ylog = np.empty(ny)
+    flog = np.empty(ny)
     while k < nout:
         if out_of_budget(stats, h, t, max_steps, ctl):
             break
@@ -265,9 +302,25 @@ def dopri5_kernel(sys, t0, y0, hist, t_out, h0, rtol, atol, max_steps, onset_tol
                 r4 = r2 - h * K[6, i] - r3
                 Y[k, i] = y[i] + th * (r2 + th1 * (r3 + th * (r4 + th1 * dense[i])))
             rhs_into(t_out[k], Y[k], hist, sys, ws, YD[k])
+            H[k] = hist
             stats[S_RHS] += 1
             k += 1
         ctl[CTL_DONE] = k
+        if t > log_from:  # the solution log: points of the continuous extension, then the end
+            for j in range(1, n_dense + 1):
+                th = j / (n_dense + 1.0)
+                tj = told + th * h
+                if tj >= log_from:
+                    th1 = 1.0 - th
+                    for i in range(ny):
+                        r2 = ynew[i] - y[i]
+                        r3 = h * K[0, i] - r2
+                        r4 = r2 - h * K[6, i] - r3
+                        ylog[i] = y[i] + th * (r2 + th1 * (r3 + th * (r4 + th1 * dense[i])))
+                    rhs_into(tj, ylog, hist, sys, ws, flog)
+                    stats[S_RHS] += 1
+                    log, nlog = log_row(log, nlog, tj, ylog, flog, hist)
+            log, nlog = log_row(log, nlog, t, ynew, K[6], hist)
         y, ynew = ynew, y
         for i in range(ny):
             K[0, i] = K[6, i]
@@ -285,4 +338,4 @@ def dopri5_kernel(sys, t0, y0, hist, t_out, h0, rtol, atol, max_steps, onset_tol
         errold = max(en, 1e-4)
         h *= fac
         rejected_last = False
-    return Y, YD, hist, stats, t, y
+    return Y, YD, hist, stats, t, y, log[:nlog], H

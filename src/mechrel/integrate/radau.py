@@ -111,8 +111,8 @@ from ..mechanics.problem import clearance_jacobian, gaps_into, rhs_inline, rhs_i
 from ..mechanics.system import without_clearance_forces
 from .events import (CTL_DONE, H_START_FLOOR, S_JAC, S_LU, S_ONSET_REJECTED, S_REJECTED, S_RHS,
                      S_STATUS, S_STEPS, STATUS_NEWTON, STATUS_NONFINITE,
-                     all_finite, onset_fraction, out_of_budget, record_violation, start,
-                     update_history_from)
+                     all_finite, log_row, new_log, onset_fraction, out_of_budget,
+                     record_violation, start, update_history_from)
 from .base import Integrator
 
 # ---------------------------------------------------------------------------- constants
@@ -311,15 +311,17 @@ def _rms(a, scal):
 # ---------------------------------------------------------------------------- the kernel
 @njit(cache=True, nogil=True)
 def radau5_kernel(sys, sys_smooth, t0, y0, hist, t_out, h0, rtol_user, atol_user, max_steps,
-                  onset_tol, fixed, ctl):
+                  onset_tol, fixed, ctl, log_from, n_dense):
     """Radau IIA (order 5) from ``(t0, y0)`` over the increasing output instants ``t_out``.
 
     ``h0`` ≤ 0 picks the initial step automatically. With ``fixed`` True the step ``h0`` is
     kept constant (no error control; for convergence-order checks) except that the last step
     ends on ``t_out[-1]``; Newton may then take up to ``NIT_FIXED`` iterations with a fresh
     Jacobian at every step, and a failure stops with ``STATUS_NEWTON``.
-    Returns ``(Y, YD, hist, stats, t, y)``; ``ctl`` as in
-    :func:`~mechrel.integrate.explicit.rk4_kernel`.
+    Returns ``(Y, YD, hist, stats, t, y, log, H)`` (H: the history state at each output
+    instant); ``ctl``, ``log_from`` and ``n_dense`` as in
+    :func:`~mechrel.integrate.explicit.rk4_kernel` (the points inside a step from the
+    collocation polynomial).
     """
     nout = t_out.shape[0]
     ny = y0.shape[0]
@@ -331,6 +333,9 @@ def radau5_kernel(sys, sys_smooth, t0, y0, hist, t_out, h0, rtol_user, atol_user
     nit = NIT_FIXED if fixed else NIT
 
     Y, YD, stats, floors, y, f0, k, tend, ws = start(sys, t0, y0, hist, t_out)
+    H = np.zeros((nout, hist.shape[0]))  # the history state at each output instant
+    for i in range(k):
+        H[i] = hist
     ctl[CTL_DONE] = k
     t = t0
     scal = np.empty(ny)
@@ -405,6 +410,9 @@ def radau5_kernel(sys, sys_smooth, t0, y0, hist, t_out, h0, rtol_user, atol_user
     gd1 = np.empty(nh)
     if contacts:
         gaps_into(t, y, sys, g0, gd1)  # kept from step to step: the end of one is the next's start
+    log, nlog = new_log(log_from, ny, nh)
+    ylog = np.zeros(ny)
+    flog = np.zeros(ny)
     while k < nout:
         if need_jac:
             if partial and n_partial < MAX_PARTIAL:
@@ -642,9 +650,21 @@ def radau5_kernel(sys, sys_smooth, t0, y0, hist, t_out, h0, rtol_user, atol_user
                         Y[k, i] = y[i] + s * (cont1[i] + (s - C2M1)
                                               * (cont2[i] + (s - C1M1) * cont3[i]))
                 rhs_into(t_out[k], Y[k], hist, sys, ws, YD[k])
+                H[k] = hist
                 stats[S_RHS] += 1
                 k += 1
             ctl[CTL_DONE] = k
+            if t > log_from:  # the solution log: points of the collocation polynomial
+                for j in range(1, n_dense + 1):
+                    s = j / (n_dense + 1.0) - 1.0
+                    tj = t + s * hold
+                    if tj >= log_from:
+                        for i in range(ny):
+                            ylog[i] = y[i] + s * (cont1[i] + (s - C2M1)
+                                                  * (cont2[i] + (s - C1M1) * cont3[i]))
+                        rhs_into(tj, ylog, hist, sys, ws, flog)
+                        stats[S_RHS] += 1
+                        log, nlog = log_row(log, nlog, tj, ylog, flog, hist)
             if not all_finite(y):
                 stats[S_STATUS] = STATUS_NONFINITE
                 break
@@ -655,6 +675,8 @@ def radau5_kernel(sys, sys_smooth, t0, y0, hist, t_out, h0, rtol_user, atol_user
             rhs_into(t, y, hist, sys, ws, f0)
             record_violation(ws, stats)
             stats[S_RHS] += 1
+            if t > log_from:  # and the step's end
+                log, nlog = log_row(log, nlog, t, y, f0, hist)
             for i in range(ny):
                 scal[i] = atol + rtol * abs(y[i])
             caljac = False
@@ -691,7 +713,7 @@ def radau5_kernel(sys, sys_smooth, t0, y0, hist, t_out, h0, rtol_user, atol_user
             need_lu = True
             if not caljac:
                 need_jac = True
-    return Y, YD, hist, stats, t, y
+    return Y, YD, hist, stats, t, y, log[:nlog], H
 
 
 # ---------------------------------------------------------------------------- the class
@@ -734,7 +756,7 @@ class Radau(Integrator):
             out["fixed_step"] = True
         return out
 
-    def _advance(self, system, t0, y0, hist, t_out, ctl):
+    def _advance(self, system, t0, y0, hist, t_out, ctl, log_from=math.inf, n_dense=0):
         return radau5_kernel(system, without_clearance_forces(system), t0, y0, hist, t_out,
                              self.step or 0.0, self.rtol, self.atol, self.max_steps,
-                             self.onset_tolerance, self.fixed_step, ctl)
+                             self.onset_tolerance, self.fixed_step, ctl, log_from, n_dense)

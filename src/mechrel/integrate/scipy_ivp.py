@@ -48,18 +48,20 @@ class ScipyIVP(Integrator):
     stiff = True
     defaults = {"rtol": 1e-6, "atol": 1e-9}
 
-    def _advance(self, system, t0, y0, hist, t_out, ctl):
+    def _advance(self, system, t0, y0, hist, t_out, ctl, log_from=np.inf, n_dense=0):
         hist = hist.copy()
+        log = []  # the solution log's rows (Integrator's contract), for steps ending after log_from
         floors = ev.contact_floors(system)
         stats = np.zeros(ev.N_STATS)
         tol = self.onset_tolerance
         solver_class = getattr(integrate, self.method)
         Y = np.full((t_out.size, y0.shape[0]), np.nan)
         YD = np.full_like(Y, np.nan)
+        H = np.zeros((t_out.size, hist.size))  # the history state at each output instant
         t, y = float(t0), y0.copy()
         k = 0
         while k < t_out.size and t_out[k] <= t:
-            Y[k], YD[k] = y, rhs(t, y, hist, system)
+            Y[k], YD[k], H[k] = y, rhs(t, y, hist, system), hist
             k += 1
         ctl[ev.CTL_DONE] = k
         tend = float(t_out[-1])
@@ -123,8 +125,19 @@ class ScipyIVP(Integrator):
                 while k < t_out.size and t_out[k] <= t_stop:
                     Y[k] = sol(t_out[k])
                     YD[k] = rhs(t_out[k], Y[k], hist, system)
+                    H[k] = hist
                     k += 1
                 ctl[ev.CTL_DONE] = k
+                if t_stop > log_from:  # points of the step's dense output, then its end
+                    for j in range(1, n_dense + 1):
+                        tj = t_old + j / (n_dense + 1.0) * (t_stop - t_old)
+                        if tj >= log_from:
+                            yj = np.asarray(sol(tj), dtype=float)
+                            log.append(np.concatenate([[tj], yj, rhs(tj, yj, hist, system),
+                                                       hist]))
+                    ys = np.asarray(y_stop, dtype=float)
+                    log.append(np.concatenate([[t_stop], ys, rhs(t_stop, ys, hist, system),
+                                               hist]))
                 t, y = float(t_stop), np.array(y_stop, dtype=float)
                 if event or solver.status == "finished" or not np.all(np.isfinite(y)):
                     break
@@ -137,7 +150,8 @@ class ScipyIVP(Integrator):
                 # a separation event at g = 0 exactly: reset explicitly
                 g, _ = gaps(t, y, system)
                 hist[(hist != 0.0) & (g <= 0.0)] = 0.0
-        return Y, YD, hist, stats, t, y
+        width = 1 + 2 * y0.shape[0] + hist.shape[0]
+        return Y, YD, hist, stats, t, y, np.array(log).reshape(-1, width), H
 
 
 class ScipyRadau(ScipyIVP):

@@ -6,8 +6,6 @@ from pathlib import Path
 
 import numpy as np
 
-UNITS = {"displacement": ("mm", 1e3), "velocity": ("m/s", 1.0), "acceleration": ("m/s²", 1.0)}
-
 
 def _axis(result):
     if result.crank_angle is not None:
@@ -16,45 +14,50 @@ def _axis(result):
 
 
 def plot_simulation(result, path=None, *, output: str | None = None):
-    """Displacement, velocity and acceleration of one output over the analysis span; for a
-    scene with clearance joints, the ideal curves and the errors, and the journal orbits
-    inside their clearance circles. Returns the matplotlib Figure (saved when ``path``)."""
+    """Every quantity of every output (or of ``output`` only) over the analysis span, in the
+    display units of the output kinds' table (:data:`mechrel.outputs.OUTPUT_KINDS`); with an
+    ideal counterpart, the ideal curves and the errors; and the journal orbits inside their
+    clearance circles. Returns the matplotlib Figure (saved when ``path``)."""
     import matplotlib
 
     matplotlib.use("Agg", force=False)
     import matplotlib.pyplot as plt
 
-    output = output or next(iter(result.outputs))
+    from ..outputs import display
+
+    names = [output] if output is not None else list(result.outputs)
+    rows = [(name, qty) for name in names for qty in result.outputs[name]]
     x, xlabel = _axis(result)
     has_err = result.ideal is not None
     n_orbit = len(result.orbits)
     ncols = 2 if has_err else 1
-    fig = plt.figure(figsize=(6.5 * ncols + (4 if n_orbit else 0), 8), constrained_layout=True)
-    gs = fig.add_gridspec(3, ncols + (1 if n_orbit else 0))
-    for row, qty in enumerate(("displacement", "velocity", "acceleration")):
-        unit, scale = UNITS[qty]
+    fig = plt.figure(figsize=(6.5 * ncols + (4 if n_orbit else 0), 2.4 * len(rows) + 0.8),
+                     constrained_layout=True)
+    gs = fig.add_gridspec(len(rows), ncols + (1 if n_orbit else 0))
+    for row, (name, qty) in enumerate(rows):
+        unit, scale = display(qty)
         ax = fig.add_subplot(gs[row, 0])
-        ax.plot(x, result.outputs[output][qty] * scale, lw=1.2, label="with clearance" if has_err
-                else output)
+        ax.plot(x, result.outputs[name][qty] * scale, lw=1.2, label="with clearance" if has_err
+                else name)
         if has_err:
-            ax.plot(x, result.ideal[output][qty] * scale, lw=1.0, ls="--", color="k",
+            ax.plot(x, result.ideal[name][qty] * scale, lw=1.0, ls="--", color="k",
                     label="ideal")
-        ax.set_ylabel(f"{qty} ({unit})")
+        ax.set_ylabel(f"{qty} ({unit})", fontsize=8)
         ax.grid(alpha=0.3)
-        if row == 0:
-            ax.set_title(f"{result.scene.name}: {output}")
+        if row == 0 or rows[row - 1][0] != name:
+            ax.set_title(f"{result.scene.name}: {name}")
             ax.legend(loc="best", fontsize=8)
-        if row == 2:
+        if row == len(rows) - 1:
             ax.set_xlabel(xlabel)
         if has_err:
             ax = fig.add_subplot(gs[row, 1])
-            ax.plot(x, result.error(output, qty) * scale, lw=1.0, color="C3")
+            ax.plot(x, result.error(name, qty) * scale, lw=1.0, color="C3")
             ax.axhline(0.0, color="k", lw=0.5)
-            ax.set_ylabel(f"{qty} error ({unit})")
+            ax.set_ylabel(f"{qty} error ({unit})", fontsize=8)
             ax.grid(alpha=0.3)
             if row == 0:
                 ax.set_title("error = with clearance − ideal")
-            if row == 2:
+            if row == len(rows) - 1:
                 ax.set_xlabel(xlabel)
     if n_orbit:
         sub = gs[:, ncols].subgridspec(n_orbit, 1)

@@ -123,7 +123,7 @@ class CompiledScene(NamedTuple):
     contact_names: tuple[str, ...]
     driver_names: tuple[str, ...]
     output_names: tuple[str, ...]
-    out_body: np.ndarray  # (no,) body index of each output point
+    out_body: np.ndarray  # (no,) body index of each point output (kind "point", in order)
     out_s: np.ndarray  # (no, 2) point in the body frame
     out_axis: np.ndarray  # (no, 2) unit axis
     cycle_driver: int  # index into drivers, −1 if none
@@ -381,8 +381,10 @@ def compile_scene(scene: Scene) -> CompiledScene:
         b = scene.bodies[name]
         q_guess[3 * k:3 * k + 3] = (b.position[0], b.position[1], b.angle)
 
-    out_body, out_s, out_axis = [], [], []
+    out_body, out_s, out_axis = [], [], []  # the point outputs (the numpy baseline reads them)
     for out in scene.outputs.values():
+        if out.kind != "point":
+            continue
         i, s = _point(scene, out.point, index)
         if i < 0:
             raise SceneError(f"outputs.{out.name}.point: {out.point} is a ground point; an "

@@ -51,7 +51,13 @@ DRIVER_KEYS_BY_LAW = {
 DRIVER_KEYS = tuple(dict.fromkeys(k for ks in DRIVER_KEYS_BY_LAW.values() for k in ks))
 
 BODY_KEYS = ("mass", "inertia", "position", "angle", "points")
-OUTPUT_KEYS = ("point", "axis")
+# the fields of every output kind (mechrel.outputs.OUTPUT_KINDS says which kind uses which)
+def _output_keys() -> tuple:
+    from ..outputs import OUTPUT_KINDS
+    return ("kind",) + tuple(dict.fromkeys(f for k in OUTPUT_KINDS.values() for f in k.fields))
+
+
+OUTPUT_KEYS = _output_keys()
 TOP_KEYS = ("name", "description", "gravity", "ground", "bodies", "joints", "drivers",
             "outputs", "analysis", "solver")
 

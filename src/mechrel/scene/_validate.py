@@ -17,7 +17,7 @@ from typing import Any, NoReturn
 from ..errors import SceneError
 from ._schema import (
     ANALYSIS_KEYS, BODY_KEYS, DRIVER_KEYS, DRIVER_KEYS_BY_LAW, JOINT_KEYS, JOINT_KEYS_BY_TYPE,
-    JOINT_TYPES, NAME_RE, NAME_RULE, OUTPUT_KEYS, SOLVER_KEYS, TOP_KEYS,
+    JOINT_TYPES, NAME_RE, NAME_RULE, SOLVER_KEYS, TOP_KEYS,
 )
 from .model import (
     CLEARANCE_MODELS, DRIVER_LAWS, GROUND, INTEGRATOR_NAMES, MAX_STEPS_LIMIT, Analysis, Body,
@@ -289,7 +289,7 @@ class _Builder(Checker):
         joints = self._joints(top.get("joints", {}), bodies, ground)
         self._zero_length_links(bodies, joints)
         drivers = self._drivers(top.get("drivers", {}), bodies)
-        outputs = self._outputs(top.get("outputs", {}), bodies, ground)
+        outputs = self._outputs(top.get("outputs", {}), bodies, ground, joints)
         analysis = self._analysis(top["analysis"], drivers)
         solver = self._solver(top.get("solver", {}))
         return Scene(
@@ -574,19 +574,52 @@ class _Builder(Checker):
             out[name] = Driver(name=name, body=body, law=law, **kw)
         return out
 
-    def _outputs(self, v: Any, bodies, ground) -> dict[str, Output]:
+    def _outputs(self, v: Any, bodies, ground, joints) -> dict[str, Output]:
+        from ..outputs import OUTPUT_KINDS
+
         ot = self.table("outputs", v, "an [outputs.NAME] table per output")
         out = {}
         for name, o in ot.items():
             p = join("outputs", name)
             self.name(p, name, "output")
             self.table(p, o)
-            self.keys(p, o, OUTPUT_KEYS, required=OUTPUT_KEYS, what="an output")
-            ref = self._ref(p + ".point", o["point"], bodies, ground, ground_ok=False)
-            ax = self.vec2(p + ".axis", o["axis"], nonzero=True)
-            n = math.hypot(*ax)
-            out[name] = Output(name=name, point=ref, axis=(ax[0] / n, ax[1] / n))
+            kind = self.choice(p + ".kind", o.get("kind", "point"), tuple(OUTPUT_KINDS))
+            fields_ = OUTPUT_KINDS[kind].fields
+            self.keys(p, o, ("kind",) + fields_, required=fields_,
+                      what=f"an output of kind '{kind}'")
+            values = {f: self._output_field(f"{p}.{f}", f, o[f], bodies, ground, joints)
+                      for f in fields_}
+            out[name] = Output(name=name, kind=kind, **values)
         return out
+
+    def _output_field(self, path: str, field: str, v: Any, bodies, ground, joints):
+        """One field of an output table, by its name (the fields the output kinds of
+        mechrel.outputs.OUTPUT_KINDS use; a kind with a new field adds it here, to
+        ``OUTPUT_KEYS`` and to ``Output``)."""
+        if field == "point":
+            return self._ref(path, v, bodies, ground, ground_ok=False)
+        if field == "axis":
+            ax = self.vec2(path, v, nonzero=True)
+            n = math.hypot(*ax)
+            return (ax[0] / n, ax[1] / n)
+        if field == "body":
+            body = self.string(path, v, "the name of a moving body")
+            if body not in bodies:
+                self.fail(path, body, f"unknown body{suggest(body, list(bodies))}",
+                          f"one of {', '.join(bodies)}")
+            return body
+        # joint: a revolute joint with clearance data (an ideal one reads as concentric)
+        usable = [n for n, j in joints.items() if j.type == "revolute" and j.clearance > 0]
+        allowed = (f"a revolute joint with a clearance: one of {', '.join(usable)}"
+                   if usable else "a revolute joint with a clearance (this scene has none: "
+                   "give a joint clearance, bearing_radius and length)")
+        joint = self.string(path, v, allowed)
+        if joint not in joints:
+            self.fail(path, joint, f"unknown joint{suggest(joint, list(joints))}", allowed)
+        if joint not in usable:
+            self.fail(path, joint, "has no clearance" if joints[joint].type == "revolute"
+                      else f"not a revolute joint (a {joints[joint].type} joint)", allowed)
+        return joint
 
     # -- analysis, solver
     def _analysis(self, v: Any, drivers: Mapping[str, Driver]) -> Analysis:
@@ -736,8 +769,19 @@ def scene_to_raw(scene: Scene) -> dict:
                    for n, b in scene.bodies.items()},
         "joints": joints,
         "drivers": drivers,
-        "outputs": {n: {"point": str(o.point), "axis": _pair(o.axis)}
-                    for n, o in scene.outputs.items()},
+        "outputs": {n: _output_raw(o) for n, o in scene.outputs.items()},
         "analysis": {k: v for k, v in _dc(scene.analysis).items() if v is not None},
         "solver": {k: v for k, v in _dc(scene.solver).items() if v is not None},
     }
+
+
+def _output_raw(o: Output) -> dict:
+    """The canonical raw table of an output: its kind's fields, and ``kind`` only when it is
+    not the default ``point`` (so the scenes written before output kinds keep their hash)."""
+    from ..outputs import OUTPUT_KINDS
+
+    raw = {} if o.kind == "point" else {"kind": o.kind}
+    for f in OUTPUT_KINDS[o.kind].fields:
+        v = getattr(o, f)
+        raw[f] = _pair(v) if f == "axis" else str(v)
+    return raw

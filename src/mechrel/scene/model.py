@@ -149,11 +149,18 @@ class Driver:
 
 @dataclass(frozen=True)
 class Output:
-    """A body point's displacement, velocity and acceleration along the unit ``axis``."""
+    """What the scene reports, by ``kind`` (:data:`mechrel.outputs.OUTPUT_KINDS`): ``point``
+    (a body point's displacement, velocity and acceleration along the unit ``axis``),
+    ``body`` (a body's angle and its rates), ``joint`` (a clearance joint's eccentricity
+    ratio, minimum film thickness and penetration) or ``path`` (a point's distance from its
+    ideal path). Fields another kind uses are None."""
 
     name: str
-    point: PointRef
-    axis: Vec2
+    point: PointRef | None = None
+    axis: Vec2 | None = None
+    kind: str = "point"
+    body: str | None = None
+    joint: str | None = None
 
 
 @dataclass(frozen=True)

@@ -10,10 +10,11 @@ import pandas as pd
 
 from ..errors import StudyError
 from ..io import write_json, write_table
+from ..outputs import QUANTITY_INFO
 from ..uq._common import SampleFailuresError, check_choice, failure_message
 from .study import METHODS
 
-UNITS = {"displacement": "m", "velocity": "m/s", "acceleration": "m/s²"}
+UNITS = {name: q.unit for name, q in QUANTITY_INFO.items()}  # SI, from the output kinds
 
 
 def _output_folder(out):
@@ -82,6 +83,19 @@ def _refusal(exc, evaluations, out, files, record, section):
         "(an estimate over the successful samples only is biased when failures depend on the "
         f"inputs): --max-failure-fraction F, or max_failure_fraction under [{section}] in the "
         "study file", exc.evaluations)
+
+
+def _angles(table):
+    """The rows of a per-output table at the analysis angles (without the cycle extremes),
+    with the crank angles as floats."""
+    from ..uq.reliability import per_angle_mask
+    t = table[per_angle_mask(table.index)].copy()
+    names = list(t.index.names)
+    k = names.index("crank_angle")
+    t.index = pd.MultiIndex.from_tuples(
+        [tuple(float(v) if i == k else v for i, v in enumerate(lbl)) for lbl in t.index],
+        names=names)
+    return t
 
 
 def _agg() -> None:
@@ -286,18 +300,18 @@ def run_reliability(study, *, methods=None, n=None, n_jobs=1, seed=None, out=Non
     for q in study.quantities:
         parts = [f"  {q:13s}"]
         if "fosm" in results:
-            t = results["fosm"].table.xs(q, level="quantity")
+            t = _angles(results["fosm"].table).xs(q, level="quantity")
             k = t["reliability"].idxmin()
             # the index of the R printed: Φ⁻¹(R) of the study's form (the table's ``beta`` is
             # the paper's one-sided index, which is not Φ⁻¹ of a two-sided R)
             parts.append(f"FOSM min R {t['reliability'].min():.4f} at {k:g}° "
                          f"(β = Φ⁻¹(R) = {t['beta_generalized'].loc[k]:.3f}, {form})")
         if "pce_reliability" in results:
-            t = results["pce_reliability"].table.xs(q, level="quantity")
+            t = _angles(results["pce_reliability"].table).xs(q, level="quantity")
             parts.append(f"PCE min R {t['reliability'].min():.4f} at "
                          f"{t['reliability'].idxmin():g}°")
         if "mc" in results:
-            t = results["mc"].table.xs(q, level="quantity")
+            t = _angles(results["mc"].table).xs(q, level="quantity")
             k = t["reliability"].idxmin()
             parts.append(f"MC min R {t['reliability'].min():.4f} "
                          f"[{t['reliability_lo'].loc[k]:.4f}, {t['reliability_hi'].loc[k]:.4f}]"
@@ -308,7 +322,8 @@ def run_reliability(study, *, methods=None, n=None, n_jobs=1, seed=None, out=Non
         wc = mc.whole_cycle
         for key, row in wc.iterrows():
             lines.append(f"  whole-cycle reliability ({key}): {row['reliability']:.4f} "
-                         f"[{row['reliability_lo']:.4f}, {row['reliability_hi']:.4f}]")
+                         f"[{row['reliability_lo']:.4f}, {row['reliability_hi']:.4f}] "
+                         f"(from the {row['basis']})")
         lines.append(f"  Monte Carlo: {mc.evaluations.n} samples ({rule}), {mc.n_failed} failed")
     lines += _failure_lines(evaluations, out / "failures.csv" if out else None)
     wall = time.perf_counter() - start

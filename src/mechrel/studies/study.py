@@ -17,6 +17,7 @@ from typing import Any
 
 from ..errors import SceneError, StudyError
 from ..scene._validate import Checker, join
+from ..outputs import QUANTITY_INFO
 from ..scene.model import QUANTITIES
 from ..uq.inputs import SAMPLING_RULES
 from ..uq.mechanism import REFERENCES
@@ -200,15 +201,23 @@ def _correlation(c: _Checker, table: Any, names) -> dict | None:
 
 
 def _allowables(c: _Checker, table: Any) -> dict:
+    """Per quantity (mechrel.outputs.QUANTITY_INFO): the given mean and std, else the
+    quantity's default allowable; a quantity without a default has none unless given."""
     table = c.table("allowable", table, "[allowable.QUANTITY] tables with mean and std")
-    c.keys("allowable", table, QUANTITIES, what="the allowables")
+    c.keys("allowable", table, tuple(QUANTITY_INFO), what="the allowables")
     out = {}
-    for q in QUANTITIES:
+    for q, info in QUANTITY_INFO.items():
+        if q not in table and q not in DEFAULT_ALLOWABLES:
+            continue
         where = join("allowable", q)
         t = c.table(where, table.get(q, {}), "a table with mean and std")
         c.keys(where, t, ("mean", "std"), what="an allowable")
-        mean = c.number(where + ".mean", t.get("mean", DEFAULT_ALLOWABLES[q].mean), gt=0)
-        std = c.number(where + ".std", t.get("std", DEFAULT_ALLOWABLES[q].std), ge=0)
+        if "mean" not in t and q not in DEFAULT_ALLOWABLES:
+            c.fail(where + ".mean", t, "missing: this quantity has no default allowable",
+                   f"a number > 0 ({info.unit})")
+        default = DEFAULT_ALLOWABLES.get(q)
+        mean = c.number(where + ".mean", t.get("mean", default.mean if default else None), gt=0)
+        std = c.number(where + ".std", t.get("std", default.std if default else 0.0), ge=0)
         out[q] = (mean, std)
     return out
 
@@ -283,7 +292,8 @@ def load_study(source, *, overrides: Mapping[str, Any] | None = None,
         description=c.string("description", raw.get("description", "")),
         scene=scene, output=None if output is None else c.string("output", output),
         angle_step=angle_step, cycles=None if cycles is None else c.integer("cycles", cycles, ge=1),
-        quantities=c.choices("quantities", raw.get("quantities", list(QUANTITIES)), QUANTITIES),
+        quantities=c.choices("quantities", raw.get("quantities", list(QUANTITIES)),
+                             tuple(QUANTITY_INFO)),
         scene_overrides={**c.table("scene_overrides", raw.get("scene_overrides", {}),
                                    "a table of dotted scene paths and values"),
                          **dict(scene_overrides or {})},

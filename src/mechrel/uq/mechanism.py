@@ -5,7 +5,12 @@ are dotted scene paths (``joints.C1.clearance``, ``joints.C1.lubricant.viscosity
 ``drivers.crank1.speed``, ``bodies.rod3.points.P``… any numeric scene value); its outputs are
 the signed errors (with clearance − ideal) of one output point's displacement (m), velocity
 (m/s) and acceleration (m/s²) at the analysis crank angles (every 18° by default, as in the
-paper's §5), labelled by a ``(quantity, crank_angle)`` MultiIndex.
+paper's §5), labelled by a ``(quantity, crank_angle)`` MultiIndex, followed by each quantity's
+cycle extremes over the analysed cycle, labelled ``(quantity, "max")``, ``(quantity, "min")``
+and ``(quantity, "max_abs")`` (:data:`~mechrel.uq.reliability.EXTREME_STATS`): the largest and
+smallest signed error and the largest |error|, found on the integrator's solution (every step
+and points inside it), not on the analysis angles (docs/uq.md, "Outputs of the mechanism
+model"). :meth:`MechanismModel.extremes` says where in the cycle they occur.
 
 It is deterministic (no randomness: the simulation is deterministic and its settings are part
 of :meth:`cache_key`) and picklable (it carries the scene's raw mapping, not the compiled
@@ -38,8 +43,9 @@ import numpy as np
 import pandas as pd
 
 from ..errors import MechrelError, SceneError, StudyError
-from ..scene.model import QUANTITIES
+from ..outputs import quantities_of
 from .model import ModelFailure
+from .reliability import EXTREME_STATS
 
 REFERENCES = ("nominal", "same-geometry")
 """What the error is measured against: the ideal motion of the nominal geometry, or of the
@@ -70,8 +76,9 @@ class MechanismModel:
         cranks turning in opposite senses at one uncertain speed).
     output : str, optional
         Output name (default: the scene's first output).
-    quantities : sequence of str
-        Subset of ``("displacement", "velocity", "acceleration")``.
+    quantities : sequence of str, optional
+        Subset of the output's quantities (by its kind, :data:`mechrel.outputs.OUTPUT_KINDS`;
+        a point: ``("displacement", "velocity", "acceleration")``); default: all of them.
     angle_step : float
         Crank-angle step of the analysis points (degrees); the scene is sampled at this step.
     cycles : float, optional
@@ -85,11 +92,15 @@ class MechanismModel:
         Without geometric inputs both are the ideal counterpart of the sample. With
         ``"nominal"`` and geometric inputs, a scene without clearance joints is a valid model
         (its error is the tolerances' kinematic error).
+    extremes : bool
+        Append the cycle extremes of each quantity to the outputs (default). Without them
+        the outputs are the analysis angles only and whole-cycle estimates fall back on them.
     """
 
     def __init__(self, scene, inputs: Sequence[str], *, output: str | None = None,
-                 quantities: Sequence[str] = QUANTITIES, angle_step: float = 18.0,
-                 cycles: float | None = None, overrides=None, reference: str = "nominal"):
+                 quantities: Sequence[str] | None = None, angle_step: float = 18.0,
+                 cycles: float | None = None, overrides=None, reference: str = "nominal",
+                 extremes: bool = True):
         from ..scene import load_scene, scene_hash
         from ..scene.loader import thaw
 
@@ -124,16 +135,19 @@ class MechanismModel:
         if base.analysis.cycle_driver is None:
             raise StudyError(f"scene {base.name!r}: analysis.cycle_driver is needed to define "
                              "the crank angles of the analysis")
-        bad = [q for q in quantities if q not in QUANTITIES]
-        if bad or not quantities:
-            raise StudyError(f"quantities: {list(quantities)!r} must be a non-empty subset of "
-                             f"{list(QUANTITIES)}")
         if not (angle_step > 0 and 360.0 / angle_step == round(360.0 / angle_step)):
             raise StudyError(f"angle_step: {angle_step!r} must be > 0 and divide 360 degrees")
         self.output = output or next(iter(base.outputs))
         if self.output not in base.outputs:
             raise StudyError(f"output: {self.output!r} is not an output of scene "
                              f"{base.name!r}; allowed: {', '.join(base.outputs)}")
+        own = quantities_of(base.outputs[self.output])
+        quantities = own if quantities is None else tuple(quantities)
+        bad = [q for q in quantities if q not in own]
+        if bad or not quantities:
+            raise StudyError(f"quantities: {list(quantities)!r} must be a non-empty subset of "
+                             f"{list(own)} (the quantities of output {self.output!r}, kind "
+                             f"{base.outputs[self.output].kind!r})")
         self.quantities = tuple(quantities)
         self.angle_step = float(angle_step)
         if base.analysis.cycles is None:
@@ -172,8 +186,13 @@ class MechanismModel:
         self._scene = base
         angles = np.arange(0.0, 360.0 + 0.5 * self.angle_step, self.angle_step)
         self.crank_angles = angles
-        self.output_index = pd.MultiIndex.from_product([self.quantities, angles],
-                                                       names=["quantity", "crank_angle"])
+        if not isinstance(extremes, bool):
+            raise StudyError(f"extremes: {extremes!r} is not a boolean; allowed: True, False")
+        self.with_extremes = extremes
+        labels = [(q, float(a)) for q in self.quantities for a in angles]
+        if extremes:
+            labels += [(q, stat) for q in self.quantities for stat in EXTREME_STATS]
+        self.output_index = pd.MultiIndex.from_tuples(labels, names=["quantity", "crank_angle"])
 
     # pickling: ship the raw mapping, rebuild the scene in the worker
     def __getstate__(self):
@@ -230,18 +249,20 @@ class MechanismModel:
                 "scene_source": self.scene_source, "solver": dict(self._raw.get("solver", {})),
                 "output": self.output, "quantities": list(self.quantities),
                 "angle_step": self.angle_step, "cycles": self.cycles,
-                "reference": self.reference}
+                "reference": self.reference, "extremes": self.with_extremes}
 
     def cache_key(self) -> str:
         from .. import __version__
         from .._kernel_cache import simulator_digest
         from ..scene import scene_hash
+        from ..simulation import DENSE_POINTS
 
         payload = json.dumps({"kind": "MechanismModel", "scene": scene_hash(self.scene),
                               "inputs": self.targets, "output": self.output,
                               "quantities": list(self.quantities),
                               "angle_step": self.angle_step, "cycles": self.cycles,
                               **({"reference": "nominal"} if self.nominal_reference else {}),
+                              "extremes": self.with_extremes, "dense_points": DENSE_POINTS,
                               "mechrel": __version__, "code": simulator_digest()},
                              sort_keys=True)
         return hashlib.sha256(payload.encode()).hexdigest()
@@ -271,14 +292,34 @@ class MechanismModel:
         values = self.scene_values(x)
         scene = with_overrides(self.scene, values)
         if not self.nominal_reference:
-            return simulate(scene)
+            return simulate(scene, extremes=self.with_extremes)
         # the nominal geometry with the sample's other values (a speed, a clearance)
         other = {p: v for p, v in values.items() if not is_geometric(p)}
         reference = with_overrides(self.scene, other) if other else self.scene
-        return simulate(scene, reference=reference)
+        return simulate(scene, reference=reference, extremes=self.with_extremes)
+
+    def extremes(self, x) -> pd.DataFrame:
+        """Where the cycle extremes occur at input vector ``x``: one row per quantity and
+        statistic (:data:`~mechrel.uq.reliability.EXTREME_STATS`), columns ``value``,
+        ``time`` (s since the start of the run) and ``crank_angle`` (degrees, from the start
+        of the analysed cycle, as the analysis angles)."""
+        res = self.simulate(x)
+        if res.extremes is None:
+            raise StudyError("extremes: this model was made with extremes=False")
+        n_per_cycle = self.crank_angles.size - 1
+        start = res.crank_angle[res.time.size - 1 - n_per_cycle]
+        rows = []
+        for q in self.quantities:
+            d = res.extremes[self.output][q]
+            for stat in EXTREME_STATS:
+                rows.append((q, stat, d[stat], d[f"{stat}_time"], d[f"{stat}_angle"] - start))
+        frame = pd.DataFrame(rows, columns=["quantity", "statistic", "value", "time",
+                                            "crank_angle"])
+        return frame.set_index(["quantity", "statistic"])
 
     def evaluate(self, x) -> np.ndarray:
-        """Errors at the analysis crank angles of the last cycle, quantity-major (m, m/s, m/s²).
+        """Errors at the analysis crank angles of the last cycle, quantity-major (m, m/s, m/s²),
+        then (with ``extremes``) each quantity's cycle extremes (module docstring).
 
         Raises :class:`~mechrel.uq.ModelFailure` with the reason when the scene is invalid at
         ``x`` (e.g. a clearance ≤ 0), cannot assemble, or the integrator fails."""
@@ -291,7 +332,11 @@ class MechanismModel:
         n_per_cycle = self.crank_angles.size - 1
         last = res.time.size - 1
         rows = np.arange(last - n_per_cycle, last + 1)
-        out = np.concatenate([res.error(self.output, q)[rows] for q in self.quantities])
+        parts = [res.error(self.output, q)[rows] for q in self.quantities]
+        if self.with_extremes:
+            parts.append(np.array([res.extremes[self.output][q][stat]
+                                   for q in self.quantities for stat in EXTREME_STATS]))
+        out = np.concatenate(parts)
         if not np.all(np.isfinite(out)):
             raise ModelFailure("non-finite response error")
         return out

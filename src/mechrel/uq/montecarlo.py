@@ -17,10 +17,15 @@ An ``Allowable(mean, 0)`` makes the two identical.
 
 Whole-cycle reliability
 -----------------------
-P(the event holds at every output of a quantity, jointly, in the same sample), per quantity and
-for all outputs together ("all"). It is ≤ the smallest point-in-time reliability of the group by
-construction (an intersection of events), the quantity that matters for "stays within accuracy
-over the cycle".
+P(the event holds at every instant of the cycle, jointly, in the same sample), per quantity and
+for all quantities together ("all"): the quantity that matters for "stays within accuracy over
+the cycle". When the model reports the cycle extremes (the ``max``/``min``/``max_abs`` entries
+of :class:`~mechrel.uq.MechanismModel`'s ``crank_angle`` level, found on the integrator's
+solution), the event is the one at the extreme: max |i| ≤ I (two-sided) or max i ≤ I
+(one-sided); the table's ``basis`` column says "cycle extreme". Otherwise it is the event at
+every analysis angle ("analysis angles"), which misses what happens between them (impact
+spikes), so it can only overstate the reliability. Either way it is ≤ the smallest
+point-in-time reliability of the group. ``n_outputs`` counts the analysis angles.
 
 Intervals
 ---------
@@ -66,7 +71,8 @@ from ._common import (
 from .executor import Evaluations
 from .inputs import SAMPLING_RULES, _check_n, as_seed_sequence, child_seed, seed_record
 from .model import check_model
-from .reliability import binomial_interval, check_form, resolve_allowables
+from .reliability import (binomial_interval, check_form, per_angle_mask, resolve_allowables,
+                          whole_cycle_column)
 
 __all__ = ["monte_carlo", "monte_carlo_design", "MonteCarloResult", "reliability_from_samples", "ALLOWABLE_MODES", "FAILURE_MODES"]
 
@@ -117,19 +123,33 @@ def reliability_from_samples(
          "reliability": k / n_eff if n_eff else np.nan, "reliability_lo": lo, "reliability_hi": hi},
         index=ev.output_index,
     )
+    # whole cycle: the event at the cycle extreme of each quantity when the model reports its
+    # cycle extremes (found on the integrator's solution), else at every analysis angle
+    angle = per_angle_mask(ev.output_index)
     wc_rows = []
     labels = list(dict.fromkeys(groups.tolist()))
-    if len(labels) > 1 or labels != ["all"]:
-        for g in labels:
-            cols = groups == g
-            kk = int(np.all(inside[:, cols], axis=1).sum())
-            wc_rows.append((g, int(cols.sum()), kk))
-    wc_rows.append(("all", len(groups), int(np.all(inside, axis=1).sum())))
+    joint = np.ones(inside.shape[0], dtype=bool)
+    bases = set()
+    for g in labels:
+        col = whole_cycle_column(ev.output_index, g, form)
+        if col is not None:
+            ok_g, basis = inside[:, col], "cycle extreme"
+        else:
+            ok_g, basis = np.all(inside[:, (groups == g) & angle], axis=1), "analysis angles"
+        joint &= ok_g
+        bases.add(basis)
+        wc_rows.append((g, int(((groups == g) & angle).sum()), int(ok_g.sum()), basis))
+    all_row = ("all", int(angle.sum()), int(joint.sum()),
+               bases.pop() if len(bases) == 1 else "mixed")
+    if len(labels) == 1 and labels == ["all"]:
+        wc_rows = []
+    wc_rows.append(all_row)
     kw = np.array([r[2] for r in wc_rows])
     wlo, whi = binomial_interval(kw, n_eff, confidence_level=confidence_level, method=ci_method)
     whole = pd.DataFrame(
         {"n_outputs": [r[1] for r in wc_rows], "n": n_eff, "n_inside": kw,
-         "reliability": kw / n_eff if n_eff else np.nan, "reliability_lo": wlo, "reliability_hi": whi},
+         "reliability": kw / n_eff if n_eff else np.nan, "reliability_lo": wlo, "reliability_hi": whi,
+         "basis": [r[3] for r in wc_rows]},
         index=pd.Index([r[0] for r in wc_rows], name="group"),
     )
     return point, whole

@@ -12,10 +12,12 @@ import numpy as np
 import pandas as pd
 
 from mechrel.errors import StudyError
+from mechrel.outputs import QUANTITY_INFO
 
 __all__ = ["plot_reliability", "reliability_panels", "plot_qq", "plot_sobol"]
 
-UNITS = {"displacement": "m", "velocity": "m/s", "acceleration": "m/s²"}
+# SI unit of every quantity, from the output kinds' table
+UNITS = {name: q.unit for name, q in QUANTITY_INFO.items()}
 
 
 def _plt():
@@ -25,16 +27,22 @@ def _plt():
 
 
 def _panels(index: pd.Index) -> list[tuple[str, np.ndarray]]:
-    """[(quantity label, positions)] — one panel per quantity, or one for everything."""
+    """[(quantity label, positions)] — one panel per quantity, or one for everything; the
+    positions of the analysis angles only (not the cycle extremes)."""
+    from .reliability import per_angle_mask
+
+    angle = per_angle_mask(index)
     if isinstance(index, pd.MultiIndex) and "quantity" in index.names:
         q = np.asarray(index.get_level_values("quantity").astype(str))
-        return [(u, np.flatnonzero(q == u)) for u in dict.fromkeys(q.tolist())]
-    return [("", np.arange(len(index)))]
+        return [(u, np.flatnonzero((q == u) & angle)) for u in dict.fromkeys(q.tolist())]
+    return [("", np.flatnonzero(angle))]
 
 
 def _xvalues(index: pd.Index, pos: np.ndarray) -> tuple[np.ndarray, str]:
     if isinstance(index, pd.MultiIndex) and "crank_angle" in index.names:
-        return np.asarray(index.get_level_values("crank_angle"), dtype=float)[pos], "crank angle (deg)"
+        # only the analysis angles are numbers (the cycle extremes are labelled by name)
+        angles = np.asarray(index.get_level_values("crank_angle"), dtype=object)[pos]
+        return angles.astype(float), "crank angle (deg)"
     if not isinstance(index, pd.MultiIndex) and index.dtype.kind in "if":
         return np.asarray(index, dtype=float)[pos], str(index.name or "output")
     return np.arange(len(pos), dtype=float), "output"
@@ -271,7 +279,8 @@ def plot_qq(normality: Any, output: Any, *, ax: Any = None):
 def _label(index: pd.Index, output: Any) -> str:
     lbl = index[_pos(index, output)]
     if isinstance(lbl, tuple) and isinstance(index, pd.MultiIndex) and "crank_angle" in index.names:
-        parts = [f"{v:g}°" if n == "crank_angle" else str(v) for n, v in zip(index.names, lbl)]
+        parts = [f"{v:g}°" if n == "crank_angle" and not isinstance(v, str) else str(v)
+                 for n, v in zip(index.names, lbl)]
         return " at ".join(parts)
     return str(lbl)
 

@@ -29,6 +29,7 @@ import pandas as pd
 from scipy import special, stats
 
 from mechrel.errors import StudyError
+from mechrel.outputs import QUANTITY_INFO
 
 __all__ = [
     "Allowable",
@@ -36,6 +37,9 @@ __all__ = [
     "FORMS",
     "resolve_allowables",
     "output_groups",
+    "EXTREME_STATS",
+    "per_angle_mask",
+    "whole_cycle_column",
     "reliability_one_sided",
     "reliability_two_sided",
     "bivariate_normal_cdf",
@@ -65,13 +69,13 @@ class Allowable:
         object.__setattr__(self, "std", s)
 
 
-#: The paper's allowable errors (§5): displacement 0.012 ± 0.004 m, velocity 0.3 ± 0.1 m/s,
-#: acceleration 18 ± 6 m/s² (mean ± standard deviation), keyed by the ``quantity`` level.
+#: The default allowable errors by the ``quantity`` level, from the output kinds' table
+#: (:data:`mechrel.outputs.OUTPUT_KINDS`): the paper's (§5) for a point's motion, displacement
+#: 0.012 ± 0.004 m, velocity 0.3 ± 0.1 m/s, acceleration 18 ± 6 m/s² (mean ± standard
+#: deviation); quantities without a default (a body's angle, a joint's film) need one given.
 DEFAULT_ALLOWABLES: Mapping[str, Allowable] = MappingProxyType({
-    "displacement": Allowable(0.012, 0.004),
-    "velocity": Allowable(0.3, 0.1),
-    "acceleration": Allowable(18.0, 6.0),
-})
+    name: Allowable(*q.allowable) for name, q in QUANTITY_INFO.items()
+    if q.allowable is not None})
 
 
 def output_groups(index: pd.Index) -> np.ndarray:
@@ -81,6 +85,37 @@ def output_groups(index: pd.Index) -> np.ndarray:
     if index.name == "quantity":
         return np.asarray(index.astype(str))
     return np.full(len(index), "all", dtype=object)
+
+
+#: The labels of the cycle extremes in a model's ``crank_angle`` level (beside the numeric
+#: analysis angles): the largest and smallest signed error and the largest |error| over the
+#: analysed cycle, found on the integrator's solution (:class:`~mechrel.uq.MechanismModel`).
+EXTREME_STATS = ("max", "min", "max_abs")
+
+
+def per_angle_mask(index: pd.Index) -> np.ndarray:
+    """True for the outputs at an analysis angle, False for the cycle extremes
+    (:data:`EXTREME_STATS` in the ``crank_angle`` level); all True for other indexes."""
+    if isinstance(index, pd.MultiIndex) and "crank_angle" in index.names:
+        angles = index.get_level_values("crank_angle")
+        return np.array([not isinstance(a, str) for a in angles], dtype=bool)
+    return np.ones(len(index), dtype=bool)
+
+
+def whole_cycle_column(index: pd.Index, group: str, form: str) -> int | None:
+    """Position of the output whose event is the whole-cycle event of ``group`` (a quantity):
+    the cycle's largest |error| (``max_abs``) for the two-sided form, its largest signed error
+    (``max``) for the one-sided one, |i| ≤ I (i ≤ I) at every instant being max |i| ≤ I
+    (max i ≤ I). ``None`` when the index has no cycle extremes (the analysis angles then stand
+    in for the cycle)."""
+    if not (isinstance(index, pd.MultiIndex) and "crank_angle" in index.names
+            and "quantity" in index.names):
+        return None
+    stat = "max_abs" if form == "two-sided" else "max"
+    q = index.get_level_values("quantity").astype(str)
+    a = index.get_level_values("crank_angle")
+    hits = [i for i in range(len(index)) if q[i] == group and isinstance(a[i], str) and a[i] == stat]
+    return hits[0] if hits else None
 
 
 def resolve_allowables(index: pd.Index, allowable: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -56,12 +56,21 @@ __all__ = ["sobol_design", "sobol_indices", "SobolResult", "peak_abs"]
 def peak_abs(Y: np.ndarray, index: pd.Index, level: str = "quantity"):
     """Reducer: peak |error| over the cycle, one scalar per ``quantity`` (or over all outputs
     when the index has no such level). Use with ``sobol_indices(reducer=peak_abs)`` or
-    ``Evaluations.reduce(peak_abs)``."""
+    ``Evaluations.reduce(peak_abs)``. When the outputs include the cycle extremes
+    (``max_abs`` in the ``crank_angle`` level, found on the integrator's solution), that is the
+    peak; otherwise the largest |error| at the analysis angles."""
+    from .reliability import per_angle_mask, whole_cycle_column
+
     if isinstance(index, pd.MultiIndex) and level in index.names:
-        labels = index.get_level_values(level)
-        uniq = list(dict.fromkeys(labels))
-        Z = np.column_stack([np.max(np.abs(Y[:, np.asarray(labels == u)]), axis=1) for u in uniq])
-        return Z, pd.Index([f"peak_abs_{u}" for u in uniq], name="output")
+        labels = np.asarray(index.get_level_values(level))
+        angle = per_angle_mask(index)
+        uniq = list(dict.fromkeys(labels.tolist()))
+        cols = []
+        for u in uniq:
+            col = whole_cycle_column(index, str(u), "two-sided") if level == "quantity" else None
+            cols.append(np.abs(Y[:, col]) if col is not None else
+                        np.max(np.abs(Y[:, (labels == u) & angle]), axis=1))
+        return np.column_stack(cols), pd.Index([f"peak_abs_{u}" for u in uniq], name="output")
     return np.max(np.abs(Y), axis=1)[:, None], pd.Index(["peak_abs"], name="output")
 
 

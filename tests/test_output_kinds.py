@@ -1,0 +1,215 @@
+"""Output kinds (mechrel.outputs): a body's angle and rates, a clearance joint's eccentricity,
+film and penetration; their scene syntax, errors, ideal references and the table's users."""
+
+import math
+
+import numpy as np
+import pytest
+
+from mechrel.errors import SceneError, StudyError
+from mechrel.outputs import OUTPUT_KINDS, QUANTITY_INFO
+from mechrel.scene import load_scene
+from mechrel.simulation import simulate
+
+FILM = {"kind": "joint", "joint": "A"}
+IDEAL = {"joints.A.model": "ideal", "joints.B.model": "ideal", "outputs.film": FILM,
+         "analysis.sample_step_angle": math.radians(5.0)}
+
+
+def test_the_rocker_angle_is_the_closed_form_and_agrees_with_the_tip():
+    # ideal four-bar: the rocker angle is atan2 of the tip B about O4 (circle intersection,
+    # 1e-10 rad: assembly at 1e-12); its rates agree with the tip's motion along x, computed by
+    # the point kind from the rocker's centre, to round-off: tip x = 0.14 + 0.12 cos θ
+    res = simulate(load_scene("four-bar", overrides=IDEAL))
+    th = np.radians(res.crank_angle)
+    ax, ay = 0.05 * np.cos(th), 0.05 * np.sin(th)
+    dx, dy = 0.14 - ax, -ay
+    d = np.hypot(dx, dy)
+    a = (0.15 ** 2 - 0.12 ** 2 + d * d) / (2 * d)
+    h = np.sqrt(0.15 ** 2 - a * a)
+    bx, by = ax + a * dx / d - h * dy / d, ay + a * dy / d + h * dx / d
+    rocker = res.outputs["rocker"]
+    assert np.max(np.abs(rocker["angle"] - np.arctan2(by, bx - 0.14))) < 1e-10
+    # the film output of the (now ideal) joint A: concentric
+    assert np.all(res.outputs["film"]["eccentricity_ratio"] < 1e-9)
+    tip = res.outputs["tip"]
+    theta, w, al = rocker["angle"], rocker["angular_velocity"], rocker["angular_acceleration"]
+    assert np.allclose(tip["velocity"], -0.12 * w * np.sin(theta), rtol=0, atol=1e-12)
+    assert np.allclose(tip["acceleration"], -0.12 * (al * np.sin(theta) + w * w * np.cos(theta)),
+                       rtol=0, atol=1e-9)
+
+
+def test_joint_outputs_against_the_journal_orbits():
+    # ε from the output kind (point positions) against the simulation's own orbit
+    # post-processing (compiled, from the eccentricity vector), h_min = c (1 − ε) and the
+    # penetration of the dry pin B; the ideal joint is concentric
+    scene = load_scene("four-bar", overrides={
+        "outputs.film": FILM, "outputs.pin_b": {"kind": "joint", "joint": "B"}})
+    res = simulate(scene)
+    for name, joint, c in (("film", "A", 0.1e-3), ("pin_b", "B", 0.2e-3)):
+        out = res.outputs[name]
+        assert np.allclose(out["eccentricity_ratio"], res.orbits[joint]["eps"], rtol=0, atol=1e-9)
+        assert np.allclose(out["min_film_thickness"], c * (1 - out["eccentricity_ratio"]),
+                           rtol=0, atol=1e-15)
+        assert np.array_equal(out["penetration"],
+                              np.maximum(c * out["eccentricity_ratio"] - c, 0.0)) or \
+            np.allclose(out["penetration"], np.maximum(c * (out["eccentricity_ratio"] - 1), 0),
+                        rtol=0, atol=1e-15)
+        assert np.all(res.ideal[name]["eccentricity_ratio"] == 0.0)
+        assert np.all(res.ideal[name]["min_film_thickness"] == c)
+    assert res.outputs["pin_b"]["penetration"].max() > 0      # the dry pin impacts
+    assert res.outputs["film"]["penetration"].max() == 0      # the film keeps A off its wall
+    frame = res.to_frame()
+    assert "film.min_film_thickness.error" in frame and "rocker.angle.ideal" in frame
+
+
+@pytest.mark.parametrize("table, match", [
+    ({"kind": "angle", "body": "rocker"},
+     r"outputs\.x\.kind = \"angle\": unknown value; allowed: one of point, body, joint"),
+    ({"kind": "body", "body": "roker"},
+     r"outputs\.x\.body = \"roker\": unknown body \(did you mean 'rocker'\?\); allowed: one of "
+     r"crank, coupler, rocker"),
+    ({"kind": "body", "body": "rocker", "axis": [1.0, 0.0]},
+     r"outputs\.x\.axis = \[1\.0, 0\.0\]: unknown field 'axis' for an output of kind 'body'"),
+    ({"kind": "body"}, r"outputs\.x\.body: missing required field"),
+    ({"kind": "joint", "joint": "O2"},
+     r"outputs\.x\.joint = \"O2\": has no clearance; allowed: a revolute joint with a "
+     r"clearance: one of A, B"),
+    ({"kind": "joint", "joint": "Q"},
+     r"outputs\.x\.joint = \"Q\": unknown joint.*allowed: a revolute joint with a clearance"),
+])
+def test_bad_output_tables_are_one_clear_scene_error(table, match):
+    with pytest.raises(SceneError, match=r"embedded:four-bar: " + match):
+        load_scene("four-bar", overrides={"outputs.x": table})
+
+
+def test_the_table_feeds_the_allowables_and_the_model():
+    from mechrel.uq import DEFAULT_ALLOWABLES, MechanismModel
+    from mechrel.uq.reliability import resolve_allowables
+
+    # the paper's allowables are the point kind's; the other kinds have none by default
+    assert {k: (a.mean, a.std) for k, a in DEFAULT_ALLOWABLES.items()} == {
+        "displacement": (0.012, 0.004), "velocity": (0.3, 0.1), "acceleration": (18.0, 6.0)}
+    assert set(QUANTITY_INFO) == {q.name for k in OUTPUT_KINDS.values() for q in k.quantities}
+    model = MechanismModel("four-bar", ["joints.B.clearance"], output="rocker")
+    assert model.quantities == ("angle", "angular_velocity", "angular_acceleration")
+    with pytest.raises(StudyError, match=r"allowable: no allowable error for quantity "
+                       r"\['angle', 'angular_acceleration', 'angular_velocity'\]"):
+        resolve_allowables(model.output_index, None)
+    with pytest.raises(StudyError, match=r"quantities: \['velocity'\] must be a non-empty subset "
+                       r"of \['eccentricity_ratio', 'min_film_thickness', 'penetration', "
+                       r"'reaction_force'\] \(the "
+                       r"quantities of output 'film', kind 'joint'\)"):
+        MechanismModel("four-bar", ["joints.B.clearance"], output="film",
+                       quantities=["velocity"], overrides={"outputs.film": FILM})
+    film = MechanismModel("four-bar", ["joints.A.lubricant.viscosity"], output="film",
+                          quantities=["min_film_thickness"], overrides={"outputs.film": FILM})
+    y = film.evaluate(film.nominal)
+    # error = h_min − c = −c ε: in (−c, 0] (angles, max, min); its max_abs is c × the largest
+    # ε of the cycle
+    assert np.all(y[:-1] <= 0) and np.all(y[:-1] > -0.1e-3)
+    assert film.output_index[-1] == ("min_film_thickness", "max_abs")
+    assert y[-1] == pytest.approx(0.1e-3 * 0.956, rel=0.01)
+
+
+def test_cli_simulate_plots_every_output(tmp_path, capsys):
+    from mechrel.cli.main import main
+
+    out = tmp_path / "fb.csv"
+    assert main(["simulate", "four-bar", "--set", "analysis.cycles=0.25", "--no-progress",
+                 "--set", 'outputs.film={kind = "joint", joint = "A"}', "--out", str(out)]) == 0
+    text = capsys.readouterr().out
+    for line in ("output tip (point):", "output rocker (body):", "output film (joint):",
+                 "min_film_thickness", "angle"):
+        assert line in text
+    assert out.with_suffix(".png").stat().st_size > 0
+    import pandas as pd
+    cols = pd.read_csv(out).columns
+    assert "rocker.angular_acceleration.error" in cols and "film.eccentricity_ratio" in cols
+
+
+def test_path_deviation_is_the_distance_from_the_ideal_path():
+    # the coupler midpoint's curve: the deviation (polyline of 7200 instants, distance to its
+    # segments) against an independent one, the distance to the nearest vertex of the ideal
+    # path sampled at 20 times as many instants by the same kinematic analysis, which is
+    # between the true distance d and sqrt(d² + (ds/2)²), ds its longest chord; 1e-8 m for
+    # the polyline's sag
+    from scipy.spatial import cKDTree
+
+    from mechrel.mechanics.kinematics import assemble, kinematic_analysis
+    from mechrel.mechanics.system import compile_scene
+    from mechrel.outputs import distance_to_path, ideal_path
+    scene = load_scene("four-bar", overrides={
+        "bodies.coupler.points.M": [0.0, 0.03],
+        "outputs.curve": {"kind": "path", "point": "coupler.M"},
+        "outputs.mx": {"point": "coupler.M", "axis": [1.0, 0.0]},
+        "outputs.my": {"point": "coupler.M", "axis": [0.0, 1.0]}})
+    res = simulate(scene, extremes=True)
+    mx, my = res.outputs["mx"]["displacement"], res.outputs["my"]["displacement"]
+    cs = compile_scene(scene)
+    q0, _ = assemble(cs.ideal, cs.q_guess, 0.0)
+    T = np.linspace(0.0, cs.period, 144_001)
+    Q = kinematic_analysis(cs.ideal, q0, T)[0]
+    b = cs.body_index["coupler"]
+    th = Q[:, 3 * b + 2]
+    fine = np.column_stack([Q[:, 3 * b] - 0.03 * np.sin(th), Q[:, 3 * b + 1] + 0.03 * np.cos(th)])
+    d_ref = cKDTree(fine).query(np.column_stack([mx, my]))[0]
+    dev = res.outputs["curve"]["path_deviation"]
+    ds = np.max(np.hypot(*np.diff(fine, axis=0).T))
+    assert np.all(dev <= d_ref + 1e-8)
+    assert np.all(d_ref <= np.sqrt(dev ** 2 + (ds / 2) ** 2) + 1e-8)
+    assert dev.max() > 1e-5  # the clearances move the point off its curve by tens of µm
+    # the deviation is smaller than the same-time distance (timing along the path is no error)
+    same_time = np.hypot(res.error("mx", "displacement"), res.error("my", "displacement"))
+    assert np.all(dev <= same_time + 1e-12) and np.any(dev < 0.5 * same_time)
+    assert np.all(res.ideal["curve"]["path_deviation"] == 0.0)
+    assert res.extremes["curve"]["path_deviation"]["max_abs"] >= dev[-361:].max()
+    path = ideal_path(scene, scene.outputs["curve"].point)
+    assert np.max(distance_to_path(path[100:200, 0], path[100:200, 1], path)) < 1e-15
+    with pytest.raises(SceneError, match=r"outputs\.c\.axis = .*unknown field 'axis' for an "
+                       r"output of kind 'path'"):
+        load_scene("four-bar", overrides={"outputs.c": {"kind": "path", "point": "rocker.B",
+                                                        "axis": [1.0, 0.0]}})
+
+
+def test_reaction_forces():
+    # ideal four-bar: |λ| of joints A and B against an independent inverse dynamics, the
+    # Newton-Euler equations of the coupler and the rocker solved for the pin forces
+    # (6 equations, 6 unknowns) from the simulated accelerations; 1e-6 relative (the
+    # kinematic accelerations and the Schur solve agree to round-off)
+    scene = load_scene("four-bar", overrides={
+        **IDEAL, "outputs.pin_b": {"kind": "joint", "joint": "B"}})
+    res = simulate(scene)
+    cp, rk = 3, 6  # coupler and rocker coordinates in q (bodies crank, coupler, rocker)
+    mc, Jc, mr, Jr, g = 0.24, 4.5e-4, 0.19, 2.28e-4, np.array([0.0, -9.81])
+    fa, fb = [], []
+    for q, a in zip(res.q, res.a):
+        def at(i, sx, sy):
+            th = q[i + 2]
+            return np.array([np.cos(th) * sx - np.sin(th) * sy, np.sin(th) * sx + np.cos(th) * sy])
+        rA, rB = at(cp, -0.075, 0.0), at(cp, 0.075, 0.0)        # from the coupler's centre
+        rB2, rO = at(rk, 0.06, 0.0), at(rk, -0.06, 0.0)          # from the rocker's centre
+        M = np.zeros((6, 6))  # unknowns F_A (on coupler), F_B (on coupler), F_O4 (on rocker)
+        M[0:2, 0:2] = M[0:2, 2:4] = np.eye(2)
+        M[2, 0:2] = [-rA[1], rA[0]]
+        M[2, 2:4] = [-rB[1], rB[0]]
+        M[3:5, 2:4] = -np.eye(2)
+        M[3:5, 4:6] = np.eye(2)
+        M[5, 2:4] = [rB2[1], -rB2[0]]
+        M[5, 4:6] = [-rO[1], rO[0]]
+        rhs = np.concatenate([mc * a[cp:cp + 2] - mc * g, [Jc * a[cp + 2]],
+                              mr * a[rk:rk + 2] - mr * g, [Jr * a[rk + 2]]])
+        F = np.linalg.solve(M, rhs)
+        fa.append(np.hypot(*F[0:2]))
+        fb.append(np.hypot(*F[2:4]))
+    assert np.allclose(res.outputs["film"]["reaction_force"], fa, rtol=1e-6, atol=1e-9)
+    assert np.allclose(res.outputs["pin_b"]["reaction_force"], fb, rtol=1e-6, atol=1e-9)
+    # with clearances: the dry pin B carries force only in contact; the ideal reference is the
+    # ideal mechanism's |λ|
+    dyn = simulate(load_scene("four-bar", overrides={
+        "outputs.pin_b": {"kind": "joint", "joint": "B"}}), extremes=True)
+    f, pen = dyn.outputs["pin_b"]["reaction_force"], dyn.outputs["pin_b"]["penetration"]
+    assert np.all(f[pen == 0] == 0) and np.all(f[pen > 0] > 0)
+    assert dyn.ideal["pin_b"]["reaction_force"].min() > 0
+    assert dyn.extremes["pin_b"]["reaction_force"]["max_abs"] >= np.abs(
+        dyn.error("pin_b", "reaction_force")[-361:]).max()
