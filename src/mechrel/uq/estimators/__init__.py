@@ -140,7 +140,7 @@ def _fraction(name: str, v: Any) -> float:
 _FORM_SETTINGS = {
     "step": Setting(1e-4, _pos_float, "finite-difference step in standard normal units"),
     "scheme": Setting("central", _choice(("central", "forward")), "finite-difference scheme"),
-    "tol": Setting(1e-6, _pos_float, "convergence tolerance"),
+    "tol": Setting(1e-6, _pos_float, "tolerance of the surface criterion |g|/|g0|"),
     "max_iter": Setting(100, _pos_int(1), "iteration limit"),
 }
 _FAILURES = {
@@ -172,7 +172,8 @@ for _m in (
     Method("sobol_indices", "sobol:sobol_indices", "sobol:SobolResult", "sensitivity",
            "Sobol' indices (SALib / Saltelli)"),
     Method("form", "estimators.form:form", "estimators.form:FORMResult", "rare_event",
-           "FORM: design point by iHLRF, P_f = Φ(−β)", _FORM_SETTINGS | {"start": Setting(None)}),
+           "FORM: design point by iHLRF, P_f = Φ(−β)",
+           _FORM_SETTINGS | {"start": Setting(None), "tol_direction": Setting(None)}),
     Method("sorm", "estimators.sorm:sorm", "estimators.sorm:SORMResult", "rare_event",
            "SORM: Breitung / Hohenbichler-Rackwitz / Tvedt from the curvatures at the design point",
            _FORM_SETTINGS | {"design_point": Setting(None),
@@ -204,17 +205,10 @@ def get_method(name: str) -> Method:
         raise StudyError(f"method: got {name!r}; allowed: {sorted(METHODS)}") from None
 
 
-_LAZY = {
-    "LimitState": "limit_state", "form": "form", "FORMResult": "form", "FORMConvergenceError": "form",
-    "sorm": "sorm", "SORMResult": "sorm", "importance_sampling": "importance",
-    "ImportanceSamplingResult": "importance", "subset_simulation": "subset", "SubsetSimulationResult": "subset",
-}
-
-
-def __getattr__(name: str):
-    mod = _LAZY.get(name)
-    if mod is None:
-        raise AttributeError(f"module 'mechrel.uq.estimators' has no attribute {name!r}")
-    value = getattr(importlib.import_module(f".{mod}", __name__), name)
-    globals()[name] = value
-    return value
+# The estimators themselves (eager: each module shares its name with its function, and the
+# function must win; they import only numpy/scipy/pandas).
+from .limit_state import LimitState  # noqa: E402
+from .form import FORMConvergenceError, FORMResult, form  # noqa: E402
+from .sorm import SORMResult, sorm  # noqa: E402
+from .importance import ImportanceSamplingResult, importance_sampling  # noqa: E402
+from .subset import SubsetSimulationResult, subset_simulation  # noqa: E402

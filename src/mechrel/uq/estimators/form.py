@@ -12,7 +12,10 @@ Search: the improved Hasofer–Lind–Rackwitz–Fiessler iteration (Zhang & Der
 with λ_k = b^j (b = 1/2) the first step satisfying Armijo's rule (parameter 1/4) on the merit function
 m(u) = ½‖u‖² + c_k |G(u)|, c_k = γ · max(‖u_k‖/‖∇G_k‖, ½‖u_k + d_k‖²/|G_k|), γ = 2, for which
 d_k is a descent direction. Converged when |G_k| ≤ tol·|G_0| and ‖u_k − (α_k·u_k) α_k‖ ≤
-tol·max(1, ‖u_k‖) with α_k = −∇G_k/‖∇G_k‖ (u_k on the surface and parallel to the normal).
+tol_direction·max(1, ‖u_k‖) with α_k = −∇G_k/‖∇G_k‖ (u_k on the surface and parallel to the
+normal). The error of β is about |G(u*)|/‖∇G‖ (first order in the surface criterion) plus
+β·(direction error)²/2 (second order), so the direction tolerance can be looser than the
+finite-difference round-off of the gradient allows for the surface one.
 
 Gradients by central (or forward) differences in u with step ``step``: the 2d (or d) points and
 the centre go to the executor together, so they run in parallel and are cached.
@@ -41,6 +44,7 @@ from ._problem import Problem, RareEventResult
 __all__ = ["form", "FORMResult", "FORMConvergenceError", "design_point_search"]
 
 SCHEMES = ("central", "forward")
+EPS = float(np.finfo(float).eps)
 
 
 class FORMConvergenceError(StudyError):
@@ -103,7 +107,7 @@ def gradient(problem: Problem, u: np.ndarray, *, step: float, scheme: str) -> tu
 
 
 def design_point_search(problem: Problem, *, u0: np.ndarray, step: float, scheme: str, tol: float,
-                        max_iter: int, armijo: float = 0.25, gamma: float = 2.0,
+                        tol_direction: float, max_iter: int, armijo: float = 0.25, gamma: float = 2.0,
                         max_halvings: int = 30) -> tuple[np.ndarray, float, np.ndarray, pd.DataFrame, float]:
     """iHLRF iteration (module docstring); returns (u*, G*, ∇G*, history, G(u0))."""
     u = np.array(u0, dtype=float)
@@ -129,13 +133,14 @@ def design_point_search(problem: Problem, *, u0: np.ndarray, step: float, scheme
         alpha = -dG / norm
         crit_g = abs(G) / abs(g0) if g0 != 0 else abs(G)
         crit_u = float(np.linalg.norm(u - (alpha @ u) * alpha)) / max(1.0, float(np.linalg.norm(u)))
-        converged = crit_g <= tol and crit_u <= tol
+        converged = crit_g <= tol and crit_u <= tol_direction
         if converged or k == max_iter:
             rows.append((k, float(np.linalg.norm(u)), G, np.nan, np.nan, crit_g, crit_u, problem.n_evaluations))
             if not converged:
                 raise FORMConvergenceError(
                     f"{problem.what}: design-point search did not converge in max_iter = {max_iter} iterations "
-                    f"(last: |g|/|g0| = {crit_g:.3g}, direction criterion = {crit_u:.3g}, tol = {tol:g}); "
+                    f"(last: |g|/|g0| = {crit_g:.3g}, direction criterion = {crit_u:.3g}, tol = {tol:g}, "
+                    f"tol_direction = {tol_direction:g}); "
                     "allowed: a larger max_iter or tol, a larger step for a noisy model, or a sampling method; "
                     "the iterates are in .history", hist())
             return u, G, dG, hist(), g0
@@ -149,7 +154,9 @@ def design_point_search(problem: Problem, *, u0: np.ndarray, step: float, scheme
             Gt, okt, _r = problem.g((u + lam * d)[None, :])
             if okt[0]:
                 mt = 0.5 * float((u + lam * d) @ (u + lam * d)) + c * abs(float(Gt[0]))
-                if slope >= 0 or mt - m0 <= armijo * lam * slope:  # slope >= 0: plain HL-RF step
+                # slope >= 0: plain HL-RF step; a merit change below the merit's own round-off
+                # means u_k is the solution to working precision
+                if slope >= 0 or mt - m0 <= armijo * lam * slope or mt - m0 <= 16 * EPS * m0:
                     break
             lam *= 0.5
         else:
@@ -180,6 +187,7 @@ def form(
     step: float = 1e-4,
     scheme: str = "central",
     tol: float = 1e-6,
+    tol_direction: float | None = None,
     max_iter: int = 100,
     start: Any = None,
     n_jobs: int = 1,
@@ -200,8 +208,9 @@ def form(
     step, scheme
         Finite-difference step in standard normal units and ``"central"`` (2d + 1 points per
         iteration, default) or ``"forward"`` (d + 1).
-    tol, max_iter
-        Convergence tolerance of both criteria and the iteration limit.
+    tol, tol_direction, max_iter
+        Tolerances of the surface and the direction criteria (``tol_direction=None``: ``tol``)
+        and the iteration limit.
     start
         Starting point in physical units (one value per input, allowables last), default the
         origin of u (the medians).
@@ -219,14 +228,16 @@ def form(
     """
     problem = Problem(model=model, inputs=inputs, limit_state=limit_state, n_jobs=n_jobs, backend=backend,
                       cache=cache, progress=progress, chunk_size=chunk_size, what="form")
-    return _form(problem, seed=seed, step=step, scheme=scheme, tol=tol, max_iter=max_iter, start=start)
+    return _form(problem, seed=seed, step=step, scheme=scheme, tol=tol, tol_direction=tol_direction,
+                 max_iter=max_iter, start=start)
 
 
 def _form(problem: Problem, *, seed: Any, step: float, scheme: str, tol: float, max_iter: int,
-          start: Any, method: str = "form") -> FORMResult:
+          start: Any, tol_direction: float | None = None, method: str = "form") -> FORMResult:
     step = check_positive("step", step)
     check_choice("scheme", scheme, SCHEMES)
     tol = check_positive("tol", tol)
+    tol_direction = tol if tol_direction is None else check_positive("tol_direction", tol_direction)
     max_iter = check_positive("max_iter", max_iter, integer=True, minimum=0)
     if start is None:
         u0 = np.zeros(problem.d)
@@ -235,7 +246,8 @@ def _form(problem: Problem, *, seed: Any, step: float, scheme: str, tol: float, 
         if x0.shape != (problem.d,) or not np.all(np.isfinite(x0)):
             raise StudyError(f"start: got {start!r}; allowed: {problem.d} finite values in the order {list(problem.names)}")
         u0 = problem.inputs.to_standard_normal(x0[None, :])[0]
-    u, G, dG, history, g0 = design_point_search(problem, u0=u0, step=step, scheme=scheme, tol=tol, max_iter=max_iter)
+    u, G, dG, history, g0 = design_point_search(problem, u0=u0, step=step, scheme=scheme, tol=tol,
+                                                       tol_direction=tol_direction, max_iter=max_iter)
     norm = float(np.linalg.norm(dG))
     alpha = -dG / norm
     # signed β: positive when the origin is safe (g0 > 0); β = α·u* on the converged surface
@@ -248,7 +260,8 @@ def _form(problem: Problem, *, seed: Any, step: float, scheme: str, tol: float, 
                           "n_iterations": [int(history.index[-1])], "g_origin": [float(g0)]},
                          index=pd.Index([problem.limit_state.name], name="limit_state"))
     prov = problem.provenance(method=method, seed=seed_record(seed),
-                              settings={"step": step, "scheme": scheme, "tol": tol, "max_iter": max_iter,
+                              settings={"step": step, "scheme": scheme, "tol": tol, "tol_direction": tol_direction,
+                                        "max_iter": max_iter,
                                         "start": None if start is None else list(map(float, np.ravel(start))),
                                         "algorithm": "iHLRF (Zhang & Der Kiureghian 1995), Armijo on ½‖u‖² + c|G|"})
     u_ro, g_ro = np.array(u), np.array(dG)
