@@ -128,8 +128,9 @@ def design_point_search(problem: Problem, *, u0: np.ndarray, step: float, scheme
             rows.append((k, float(np.linalg.norm(u)), G, np.nan, np.nan, np.nan, np.nan, problem.n_evaluations))
             raise FORMConvergenceError(
                 f"{problem.what}: gradient of g is zero at iteration {k} (u = {np.round(u, 4).tolist()}, g = {G:.6g}); "
-                "the limit state does not depend on the inputs there (never or always violated?); "
-                "allowed: a limit state whose margin varies with the inputs", hist())
+                "the limit state does not depend on the inputs there (never or always violated?), or the point is on "
+                "a tie of a series/parallel system (min/max of equal branches); allowed: a limit state whose margin "
+                "varies with the inputs, another start=, or subset_simulation for systems", hist())
         alpha = -dG / norm
         crit_g = abs(G) / abs(g0) if g0 != 0 else abs(G)
         crit_u = float(np.linalg.norm(u - (alpha @ u) * alpha)) / max(1.0, float(np.linalg.norm(u)))
