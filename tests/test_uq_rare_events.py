@@ -310,14 +310,15 @@ def test_form_history_and_convergence_errors():
 
 # ---------------------------------------------------------------- SORM
 def test_sorm_parabolic_at_beta_4_5():
-    """β = 4.5, κ = 0.2: curvature exact, Tvedt within 1 % of the quadrature, all within 10 %
-    in a few dozen evaluations; FORM alone is 40 % off."""
+    """β = 4.5, κ = 0.2: curvature exact; Hohenbichler–Rackwitz (default) and Tvedt within 1 % of
+    the quadrature, Breitung within 10 %, in a few dozen evaluations; FORM alone is 40 % off."""
     exact = _exact_parabola(4.5, 0.2)
     res = sorm(model=_vec(_parabola, STD2), inputs=STD2)
     assert isinstance(res, SORMResult)
     assert res.curvatures == pytest.approx([0.2], abs=1e-6)
     assert res.table["beta_form"].iloc[0] == pytest.approx(4.5, abs=1e-10)
     assert res.pf == pytest.approx(exact, rel=0.01)
+    assert res.table["pf_tvedt"].iloc[0] == pytest.approx(exact, rel=0.001)
     for col in ("pf_breitung", "pf_hohenbichler", "pf_tvedt"):
         assert res.table[col].iloc[0] == pytest.approx(exact, rel=0.10)
     assert res.table["pf_form"].iloc[0] / exact - 1 > 0.3
@@ -331,6 +332,11 @@ def test_sorm_formulas_closed_forms_and_error():
     psi = stats.norm.pdf(b) / special.ndtr(-b)
     assert p["hohenbichler"] == pytest.approx(special.ndtr(-b) / math.sqrt((1 + psi * 0.1) * (1 - psi * 0.2)), rel=1e-14)
     assert sorm_probabilities(b, [0.0, 0.0]) == pytest.approx({n: special.ndtr(-b) for n in p}, rel=1e-15)
+    # κ = −0.32 at β = 3: Breitung defined (1 + βκ = 0.04), Hohenbichler (ψ = 3.283: 1 + ψκ < 0)
+    # and Tvedt (1 + 4κ < 0) are not: None, never NaN
+    q = sorm_probabilities(3.0, [-0.32])
+    assert q["breitung"] == pytest.approx(special.ndtr(-3.0) / math.sqrt(0.04), rel=1e-13)
+    assert q["hohenbichler"] is None and q["tvedt"] is None
     with pytest.raises(StudyError, match=r"curvature κ = \[-0.5\] at β = 3: 1 \+ βκ ≤ 0"):
         sorm_probabilities(b, [0.1, -0.5])
 

@@ -19,9 +19,12 @@ Tvedt (1990), three terms
     A₃ = (β + 1)[βΦ(−β) − φ(β)] [Π(1 + βκ_i)^(−1/2) − Re Π(1 + (β + i)κ_i)^(−1/2)],
     P₃ = A₁ + A₂ + A₃.
 
-Each needs 1 + βκ_i > 0 (the paraboloid must not close around the origin); a curvature below
-−1/β is an error naming it, not a number. ``formula`` picks the one reported as ``pf``; all
-three are in the table.
+Each needs its factors positive: 1 + βκ_i > 0 for Breitung (a curvature below −1/β is an
+error naming it, not a number: the paraboloid closes around the origin), 1 + ψκ_i > 0 for
+Hohenbichler–Rackwitz, 1 + (β + 1)κ_i > 0 for Tvedt. ``formula`` picks the one reported as
+``pf`` (default Hohenbichler–Rackwitz, defined for the widest range of curvatures); an
+undefined choice is an error naming the formulas that are defined. All three are in
+the table, an undefined one as NaN (only possible for negative curvatures).
 """
 
 from __future__ import annotations
@@ -43,7 +46,7 @@ from .form import FORMResult, _form, check_positive
 
 __all__ = ["sorm", "SORMResult", "sorm_probabilities", "FORMULAS"]
 
-FORMULAS = ("tvedt", "hohenbichler", "breitung")
+FORMULAS = ("hohenbichler", "tvedt", "breitung")
 
 
 @dataclass(frozen=True, eq=False)
@@ -65,7 +68,12 @@ class SORMResult(RareEventResult):
 
 def sorm_probabilities(beta: float, kappa: Any) -> dict:
     """{breitung, hohenbichler, tvedt}: P_f of the paraboloid with curvatures ``kappa`` at
-    distance ``beta`` (module docstring). Raises StudyError when 1 + βκ_i ≤ 0."""
+    distance ``beta`` (module docstring).
+
+    Breitung needs 1 + βκ_i > 0 (else StudyError: no second-order estimate exists),
+    Hohenbichler–Rackwitz 1 + ψκ_i > 0 and Tvedt 1 + (β + 1)κ_i > 0; a formula whose condition
+    fails (only possible for negative curvatures) is ``None``.
+    """
     k = np.asarray(kappa, dtype=float).reshape(-1)
     if np.any(1.0 + beta * k <= 0):
         bad = k[1.0 + beta * k <= 0]
@@ -78,12 +86,15 @@ def sorm_probabilities(beta: float, kappa: Any) -> dict:
     phi = stats.norm.pdf(beta)
     psi = phi / pf1 if pf1 > 0 else beta
     P_b = float(np.prod((1.0 + beta * k) ** -0.5))
-    breitung = pf1 * P_b
-    hr = pf1 * float(np.prod((1.0 + psi * k) ** -0.5))
-    c = beta * pf1 - phi
-    a2 = c * (P_b - float(np.prod((1.0 + (beta + 1.0) * k) ** -0.5)))
-    a3 = (beta + 1.0) * c * (P_b - float(np.real(np.prod((1.0 + (beta + 1j) * k) ** -0.5))))
-    return {"breitung": float(breitung), "hohenbichler": float(hr), "tvedt": float(breitung + a2 + a3)}
+    breitung = float(pf1 * P_b)
+    hr = float(pf1 * np.prod((1.0 + psi * k) ** -0.5)) if np.all(1.0 + psi * k > 0) else None
+    tvedt = None
+    if np.all(1.0 + (beta + 1.0) * k > 0):
+        c = beta * pf1 - phi
+        a2 = c * (P_b - float(np.prod((1.0 + (beta + 1.0) * k) ** -0.5)))
+        a3 = (beta + 1.0) * c * (P_b - float(np.real(np.prod((1.0 + (beta + 1j) * k) ** -0.5))))
+        tvedt = float(breitung + a2 + a3)
+    return {"breitung": breitung, "hohenbichler": hr, "tvedt": tvedt}
 
 
 def curvatures(problem: Problem, u: np.ndarray, dG: np.ndarray, g_star: float, *, step: float) -> np.ndarray:
@@ -126,7 +137,7 @@ def sorm(
     limit_state: Any = None,
     seed: Any = None,
     design_point: FORMResult | None = None,
-    formula: str = "tvedt",
+    formula: str = "hohenbichler",
     curvature_step: float = 1e-2,
     step: float = 1e-4,
     scheme: str = "central",
@@ -142,7 +153,9 @@ def sorm(
 
     ``design_point``: a :class:`FORMResult` of the same model, inputs and limit state (else FORM
     runs here with ``step``, ``scheme``, ``tol``, ``max_iter``). ``formula``: which estimate is
-    ``pf`` (``"tvedt"``, ``"hohenbichler"`` or ``"breitung"``). ``curvature_step``: the
+    ``pf``: ``"hohenbichler"`` (default: defined for the widest range of negative curvatures,
+    κ > −1/ψ, ψ ≈ β + 1/β), ``"tvedt"`` (the most accurate for a true paraboloid, needs
+    κ > −1/(β + 1)) or ``"breitung"`` (the asymptotic form). ``curvature_step``: the
     second-difference step in standard normal units (its truncation error is O(step²) times
     the fourth derivative; its round-off ≈ ε|G|/step²: enlarge it for a noisy model).
     ``seed`` is unused (shared interface).
@@ -167,6 +180,12 @@ def sorm(
     kappa = curvatures(problem, np.array(fr.u_star), np.array(fr.grad_u), fr.g_star, step=curvature_step)
     probs = sorm_probabilities(beta, kappa)
     pf = probs[formula]
+    if pf is None:
+        defined = [f for f in FORMULAS if probs[f] is not None]
+        raise StudyError(
+            f"sorm: formula = {formula!r}: undefined for the curvatures κ = {np.round(kappa, 4).tolist()} at "
+            f"β = {beta:.4g} (a factor 1 + cκ ≤ 0); allowed here: {defined}")
+    probs = {f: (np.nan if v is None else v) for f, v in probs.items()}  # undefined: NaN in the table, documented
     n_ev = problem.n_evaluations + (fr.n_evaluations if design_point is not None else 0)
     table = pd.DataFrame({"pf": [pf], "beta": [float(-special.ndtri(pf))], "beta_form": [beta],
                           "pf_form": [fr.pf], "pf_breitung": [probs["breitung"]],
