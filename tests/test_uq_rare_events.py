@@ -424,6 +424,15 @@ def test_subset_failures_counted_and_refused():
     assert abs(res.pf - special.ndtr(-3.0)) <= 3 * res.cov * res.pf
     with pytest.raises(SampleFailuresError, match="more than max_failure_fraction=0.001"):
         subset_simulation(model=model, inputs=STD2, n_per_level=1000, seed=3, max_failure_fraction=0.001)
+    # importance sampling: excluded failures leave the estimate alone (they lie far from the
+    # design point (3, 0)); counted as failures they add their weighted share
+    kw = dict(model=model, inputs=STD2, n=2000, seed=5, progress=False)
+    ex = importance_sampling(**kw)
+    asf = importance_sampling(**kw, failures="as_failure")
+    assert ex.table["n_failed_model"].iloc[0] == asf.table["n_failed_model"].iloc[0] > 0
+    assert abs(ex.pf - special.ndtr(-3.0)) <= 3 * ex.cov * ex.pf
+    assert asf.pf > ex.pf
+    assert sum(ex.failure_counts.values()) == ex.table["n_failed_model"].iloc[0]
 
 
 def test_subset_errors():
@@ -446,6 +455,11 @@ def test_same_seed_same_result_any_n_jobs_and_resume_from_cache(tmp_path):
     c = subset_simulation(**kw, n_jobs=1, cache=tmp_path)
     pd.testing.assert_frame_equal(a.table, c.table, check_exact=True)
     assert c.provenance["n_model_calls"] == 0 and c.provenance["n_cached"] == c.n_evaluations
+    # FORM's stencils and line-search points are cached rows too
+    f1 = form(model=model, inputs=STD2, cache=tmp_path / "form")
+    f2 = form(model=model, inputs=STD2, cache=tmp_path / "form")
+    assert f2.beta == f1.beta and f2.provenance["n_model_calls"] == 0
+    assert f1.provenance["limit_state"]["components"][0]["kind"] == "margin"
 
 
 def test_registry_lists_every_method_and_validates_settings():
