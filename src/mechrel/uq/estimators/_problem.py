@@ -104,16 +104,7 @@ class Problem:
 
     def all_evaluations(self) -> Evaluations | None:
         """The rows of every executor call, concatenated in call order."""
-        evs = self.evaluations
-        if not evs:
-            return None
-        e0 = evs[-1]
-        return Evaluations(
-            np.concatenate([e.X for e in evs]), np.concatenate([e.Y for e in evs]),
-            np.concatenate([e.status for e in evs]), tuple(r for e in evs for r in e.reasons),
-            e0.input_names, e0.output_index, e0.cache_key, sum(e.n_model_calls for e in evs),
-            sum(e.n_cached for e in evs), sum(e.wall_time for e in evs), e0.settings, e0.model,
-        )
+        return concat_evaluations(self.evaluations)
 
     def provenance(self, *, method: str, seed: Any, settings: dict, extra_evaluations=()) -> dict:
         evs = list(extra_evaluations) + self.evaluations
@@ -121,6 +112,22 @@ class Problem:
                                wall_time=time.perf_counter() - self.t0, inputs=self.inputs)
         prov["limit_state"] = self.limit_state.describe()
         return prov
+
+
+def concat_evaluations(evs: list) -> Evaluations | None:
+    """Several :class:`Evaluations` of one model as one, rows in order (None for none)."""
+    evs = [e for e in evs if e is not None]
+    if not evs:
+        return None
+    if len(evs) == 1:
+        return evs[0]
+    e0 = evs[-1]
+    return Evaluations(
+        np.concatenate([e.X for e in evs]), np.concatenate([e.Y for e in evs]),
+        np.concatenate([e.status for e in evs]), tuple(r for e in evs for r in e.reasons),
+        e0.input_names, e0.output_index, e0.cache_key, sum(e.n_model_calls for e in evs),
+        sum(e.n_cached for e in evs), sum(e.wall_time for e in evs), e0.settings, e0.model,
+    )
 
 
 class RareEventResult:

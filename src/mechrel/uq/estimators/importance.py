@@ -28,9 +28,8 @@ from mechrel.errors import StudyError
 from .._common import SampleFailuresError, check_fraction
 from ..executor import Evaluations
 from ..inputs import as_seed_sequence, child_seed, seed_record
-from ._problem import Problem, RareEventResult, common_settings
+from ._problem import Problem, RareEventResult, common_settings, concat_evaluations
 from .form import FORMResult, _form, check_positive
-from .sorm import _concat
 
 __all__ = ["importance_sampling", "ImportanceSamplingResult"]
 
@@ -140,5 +139,5 @@ def importance_sampling(
                                         "centre": u_star.tolist(),
                                         "interval": "normal approximation (central limit theorem)"})
     counts = dict(pd.Series([r for r in reasons if r is not None], dtype=object).value_counts())
-    evs = [e for e in extra + [problem.all_evaluations()] if e is not None]
-    return ImportanceSamplingResult(table, fr, {str(k): int(v) for k, v in counts.items()}, _concat(evs), prov)
+    return ImportanceSamplingResult(table, fr, {str(k): int(v) for k, v in counts.items()},
+                                    concat_evaluations(extra + problem.evaluations), prov)

@@ -41,7 +41,7 @@ from mechrel.errors import StudyError
 from .._common import check_choice
 from ..executor import Evaluations
 from ..inputs import seed_record
-from ._problem import Problem, RareEventResult
+from ._problem import Problem, RareEventResult, concat_evaluations
 from .form import FORMResult, _form, check_positive
 
 __all__ = ["sorm", "SORMResult", "sorm_probabilities", "FORMULAS"]
@@ -198,17 +198,4 @@ def sorm(
                                         {"step": step, "scheme": scheme, "tol": tol, "max_iter": max_iter}})
     kap = np.array(kappa)
     kap.setflags(write=False)
-    evs = [e for e in extra + [problem.all_evaluations()] if e is not None]
-    return SORMResult(table, kap, fr, formula, _concat(evs), prov)
-
-
-def _concat(evs: list) -> Evaluations | None:
-    if not evs:
-        return None
-    if len(evs) == 1:
-        return evs[0]
-    e0 = evs[-1]
-    return Evaluations(np.concatenate([e.X for e in evs]), np.concatenate([e.Y for e in evs]),
-                       np.concatenate([e.status for e in evs]), tuple(r for e in evs for r in e.reasons),
-                       e0.input_names, e0.output_index, e0.cache_key, sum(e.n_model_calls for e in evs),
-                       sum(e.n_cached for e in evs), sum(e.wall_time for e in evs), e0.settings, e0.model)
+    return SORMResult(table, kap, fr, formula, concat_evaluations(extra + problem.evaluations), prov)
