@@ -435,6 +435,29 @@ def test_subset_failures_counted_and_refused():
     assert sum(ex.failure_counts.values()) == ex.table["n_failed_model"].iloc[0]
 
 
+def test_subset_on_a_frequent_event_warns_and_is_crude_mc():
+    always = _vec(lambda X: 0.5 - X[:, 0], STD2)  # P_f = Φ(−0.5) = 0.31
+    with pytest.warns(UserWarning, match="not a rare event, the result is crude Monte Carlo"):
+        res = subset_simulation(model=always, inputs=STD2, n_per_level=1000, seed=0)
+    assert res.n_evaluations == 1000 and res.table["n_levels"].iloc[0] == 1
+    p = special.ndtr(-0.5)
+    assert abs(res.pf - p) <= 3 * math.sqrt(p * (1 - p) / 1000)  # binomial 3σ
+
+
+@settings(max_examples=30, deadline=None)
+@given(st.lists(st.floats(-10, 10), min_size=3, max_size=3), st.floats(0.1, 5))
+def test_series_below_components_below_parallel(y, a):
+    idx = pd.Index(["y0", "y1", "y2"])
+    parts = [LimitState.exceedance("y0", a, name="c0"), LimitState.margin("y1"),
+             LimitState.exceedance("y2", a, kind="upper", name="c2")]
+    Y = np.array([y])
+    comp = LimitState.series(*parts).bind(idx).components(Y)[0]
+    assert comp.tolist() == [a - abs(y[0]), y[1], a - y[2]]
+    ser = LimitState.series(*parts).bind(idx)(Y)[0]
+    par = LimitState.parallel(*parts).bind(idx)(Y)[0]
+    assert ser == comp.min() and par == comp.max() and ser <= par
+
+
 def test_subset_errors():
     never = _vec(lambda X: np.full(len(X), 1.0), STD2)
     with pytest.raises(StudyError, match="threshold stopped decreasing|max_levels"):

@@ -10,8 +10,11 @@ Search: the improved Hasofer–Lind–Rackwitz–Fiessler iteration (Zhang & Der
     d_k = [(∇G_k·u_k − G_k)/‖∇G_k‖²] ∇G_k − u_k,    u_{k+1} = u_k + λ_k d_k,
 
 with λ_k = b^j (b = 1/2) the first step satisfying Armijo's rule (parameter 1/4) on the merit function
-m(u) = ½‖u‖² + c_k |G(u)|, c_k = γ · max(‖u_k‖/‖∇G_k‖, ½‖u_k + d_k‖²/|G_k|), γ = 2, for which
-d_k is a descent direction. Converged when |G_k| ≤ tol·|G_0| and ‖u_k − (α_k·u_k) α_k‖ ≤
+m(u) = ½‖u‖² + c_k |G(u)|, c_k = γ · max(‖u_k‖, ‖u_k + d_k‖)/‖∇G_k‖, γ = 2: c_k > ‖u_k‖/‖∇G_k‖
+makes d_k a descent direction (Zhang & Der Kiureghian's condition), and the ‖u_k + d_k‖ term
+accepts the full step from the origin on a linear G. Both terms scale like u/‖∇G‖, so the
+merit does not depend on the units of g (a form with ½‖u + d‖²/|G| instead blows up as G → 0
+in small units, e.g. metres of error, and stalls the line search). Converged when |G_k| ≤ tol·|G_0| and ‖u_k − (α_k·u_k) α_k‖ ≤
 tol_direction·max(1, ‖u_k‖) with α_k = −∇G_k/‖∇G_k‖ (u_k on the surface and parallel to the
 normal). The error of β is about |G(u*)|/‖∇G‖ (first order in the surface criterion) plus
 β·(direction error)²/2 (second order), so the direction tolerance can be looser than the
@@ -146,8 +149,7 @@ def design_point_search(problem: Problem, *, u0: np.ndarray, step: float, scheme
                     "the iterates are in .history", hist())
             return u, G, dG, hist(), g0
         d = (dG @ u - G) / norm**2 * dG - u
-        c = gamma * max(float(np.linalg.norm(u)) / norm,
-                        0.5 * float(np.linalg.norm(u + d)) ** 2 / abs(G) if G != 0 else 0.0)
+        c = gamma * max(float(np.linalg.norm(u)), float(np.linalg.norm(u + d))) / norm
         m0 = 0.5 * float(u @ u) + c * abs(G)
         slope = float((u + c * np.sign(G) * dG) @ d)
         lam = 1.0

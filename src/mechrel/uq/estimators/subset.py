@@ -228,6 +228,9 @@ def subset_simulation(
         gamma = _gamma((CG <= max(b2, 0.0)).astype(float), p_next)
     tab = pd.DataFrame(levels, columns=["level", "threshold", "p", "gamma", "cov", "acceptance", "n_evaluations"]
                        ).set_index("level")
+    if len(levels) == 1:
+        warnings.warn(f"subset_simulation: {pf:.3g} of the level-0 samples fail (≥ p0 = {p0}): not a rare event, "
+                      "the result is crude Monte Carlo on n_per_level samples", stacklevel=2)
     if pf == 0:
         warnings.warn("subset_simulation: no sample of the last level failed; P_f is estimated as 0 "
                       "(below the resolution of this run): increase n_per_level", stacklevel=2)
