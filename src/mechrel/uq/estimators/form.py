@@ -166,8 +166,10 @@ def design_point_search(problem: Problem, *, u0: np.ndarray, step: float, scheme
             rows.append((k, float(np.linalg.norm(u)), G, c, lam, crit_g, crit_u, problem.n_evaluations))
             raise FORMConvergenceError(
                 f"{problem.what}: line search found no step decreasing the merit function at iteration {k} "
-                f"after {max_halvings} halvings (failed model points or a non-smooth limit state); "
-                "allowed: a sampling method (importance_sampling, subset_simulation)", hist())
+                f"after {max_halvings} halvings (a noisy model, failed model points or a non-smooth limit state); "
+                "allowed: for a noisy (ODE-integrated) model a larger step= and tol= (e.g. 0.05 and 1e-3), "
+                "else a sampling method (importance_sampling, subset_simulation); the iterates are in .history",
+                hist())
         rows.append((k, float(np.linalg.norm(u)), G, c, lam, crit_g, crit_u, problem.n_evaluations))
         u = u + lam * d
     raise AssertionError("unreachable")  # pragma: no cover
