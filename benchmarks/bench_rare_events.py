@@ -41,8 +41,13 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _common import git_state  # noqa: E402
 
 from mechrel.uq import FunctionModel, LogNormal, Normal, UncertainInputs, evaluate  # noqa: E402
-from mechrel.uq.estimators import (LimitState, form, importance_sampling, sorm,  # noqa: E402
-                                   subset_simulation)
+from mechrel.uq.estimators import (
+    LimitState,
+    form,
+    importance_sampling,
+    sorm,  # noqa: E402
+    subset_simulation,
+)
 
 SQ2 = math.sqrt(2.0)
 
@@ -69,17 +74,43 @@ def problems():
     ln = UncertainInputs.from_specs({"R": LogNormal(10.0, 1.5), "S": LogNormal(3.0, 0.6)})
     (mr, sr), (ms, ss) = ln.marginals[0].log_params, ln.marginals[1].log_params
     std = UncertainInputs.from_specs({"x1": Normal(0.0, 1.0), "x2": Normal(0.0, 1.0)})
-    par = integrate.quad(lambda v: stats.norm.pdf(v) * stats.norm.sf(4.5 + 0.1 * v * v), -np.inf, np.inf,
-                         epsabs=0, epsrel=1e-12)[0]
+    par = integrate.quad(
+        lambda v: stats.norm.pdf(v) * stats.norm.sf(4.5 + 0.1 * v * v),
+        -np.inf,
+        np.inf,
+        epsabs=0,
+        epsrel=1e-12,
+    )[0]
     b4 = [f"b{i}" for i in range(1, 5)]
     return [
-        ("lognormal R-S", FunctionModel(_rs, ln.names, ["g"], key="rs", vectorized=True), ln, None,
-         float(special.ndtr(-(mr - ms) / math.hypot(sr, ss)))),
-        ("parabola", FunctionModel(_parabola, std.names, ["g"], key="par", vectorized=True), std, None, par),
-        ("four-branch", FunctionModel(_four_branch, std.names, b4, key="4b", vectorized=True), std,
-         LimitState.series(*(LimitState.margin(b) for b in b4)), 2.2228e-3),
-        ("RP25", FunctionModel(_rp25, std.names, ["g1", "g2"], key="rp25", vectorized=True), std,
-         LimitState.parallel(LimitState.margin("g1"), LimitState.margin("g2")), 4.148566293759747e-05),
+        (
+            "lognormal R-S",
+            FunctionModel(_rs, ln.names, ["g"], key="rs", vectorized=True),
+            ln,
+            None,
+            float(special.ndtr(-(mr - ms) / math.hypot(sr, ss))),
+        ),
+        (
+            "parabola",
+            FunctionModel(_parabola, std.names, ["g"], key="par", vectorized=True),
+            std,
+            None,
+            par,
+        ),
+        (
+            "four-branch",
+            FunctionModel(_four_branch, std.names, b4, key="4b", vectorized=True),
+            std,
+            LimitState.series(*(LimitState.margin(b) for b in b4)),
+            2.2228e-3,
+        ),
+        (
+            "RP25",
+            FunctionModel(_rp25, std.names, ["g1", "g2"], key="rp25", vectorized=True),
+            std,
+            LimitState.parallel(LimitState.margin("g1"), LimitState.margin("g2")),
+            4.148566293759747e-05,
+        ),
     ]
 
 
@@ -104,30 +135,81 @@ def run(reps: int) -> pd.DataFrame:
         kw = dict(model=model, inputs=inputs, limit_state=ls)
         with np.errstate(divide="ignore"):
             p, n = mean_value_fosm(model, inputs, ls)
-        rows.append((name, pf, "FOSM (mean value)", 2 * inputs.d + 1, n, p / pf - 1, p / pf - 1, np.nan))
+        rows.append(
+            (name, pf, "FOSM (mean value)", 2 * inputs.d + 1, n, p / pf - 1, p / pf - 1, np.nan)
+        )
         try:
             fr = form(**kw)
-            rows.append((name, pf, "FORM", 0, fr.n_evaluations, fr.pf / pf - 1, fr.pf / pf - 1, np.nan))
+            rows.append(
+                (name, pf, "FORM", 0, fr.n_evaluations, fr.pf / pf - 1, fr.pf / pf - 1, np.nan)
+            )
             so = sorm(**kw, design_point=fr, formula="tvedt")
-            rows.append((name, pf, "SORM (Tvedt)", 0, so.n_evaluations, so.pf / pf - 1, so.pf / pf - 1, np.nan))
+            rows.append(
+                (
+                    name,
+                    pf,
+                    "SORM (Tvedt)",
+                    0,
+                    so.n_evaluations,
+                    so.pf / pf - 1,
+                    so.pf / pf - 1,
+                    np.nan,
+                )
+            )
         except Exception as e:  # noqa: BLE001 - a benchmark records what fails
             print(f"{name}: FORM/SORM failed: {e}")
-            rows.append((name, pf, f"FORM failed: {type(e).__name__}", 0, np.nan, np.nan, np.nan, np.nan))
+            rows.append(
+                (name, pf, f"FORM failed: {type(e).__name__}", 0, np.nan, np.nan, np.nan, np.nan)
+            )
             fr = None
         if fr is not None:
             for n_is in (250, 500, 1000, 2000):
-                res = [importance_sampling(**kw, n=n_is, seed=s, design_point=fr, progress=False) for s in range(reps)]
+                res = [
+                    importance_sampling(**kw, n=n_is, seed=s, design_point=fr, progress=False)
+                    for s in range(reps)
+                ]
                 err = np.abs([r.pf / pf - 1 for r in res])
-                rows.append((name, pf, "IS", n_is, res[0].n_evaluations, float(np.median(err)),
-                             float(np.quantile(err, 0.9)), float(np.mean([r.cov for r in res]))))
+                rows.append(
+                    (
+                        name,
+                        pf,
+                        "IS",
+                        n_is,
+                        res[0].n_evaluations,
+                        float(np.median(err)),
+                        float(np.quantile(err, 0.9)),
+                        float(np.mean([r.cov for r in res])),
+                    )
+                )
         for N in (500, 1000, 2000, 3000):
             res = [subset_simulation(**kw, n_per_level=N, seed=s) for s in range(reps)]
             err = np.abs([r.pf / pf - 1 for r in res])
-            rows.append((name, pf, "subset", N, float(np.mean([r.n_evaluations for r in res])), float(np.median(err)),
-                         float(np.quantile(err, 0.9)), float(np.mean([r.cov for r in res]))))
+            rows.append(
+                (
+                    name,
+                    pf,
+                    "subset",
+                    N,
+                    float(np.mean([r.n_evaluations for r in res])),
+                    float(np.median(err)),
+                    float(np.quantile(err, 0.9)),
+                    float(np.mean([r.cov for r in res])),
+                )
+            )
         print(f"{name} done", flush=True)
-    return pd.DataFrame(rows, columns=["problem", "pf_ref", "method", "setting", "n_evaluations",
-                                       "rel_error_median", "rel_error_q90", "cov_mean"])
+    return pd.DataFrame(
+        rows,
+        columns=[
+            "problem",
+            "pf_ref",
+            "method",
+            "setting",
+            "n_evaluations",
+            "rel_error_median",
+            "rel_error_q90",
+            "cov_mean",
+        ],
+    )
 
 
 def _rowwise(x):
@@ -140,8 +222,10 @@ def _batch(X):
 
 def overhead(rows: int, repeat: int) -> pd.DataFrame:
     X = np.random.default_rng(0).standard_normal((rows, 2))
-    models = {"row-wise": FunctionModel(_rowwise, ["a", "b"], ["g"], key="o"),
-              "vectorized": FunctionModel(_batch, ["a", "b"], ["g"], key="o", vectorized=True)}
+    models = {
+        "row-wise": FunctionModel(_rowwise, ["a", "b"], ["g"], key="o"),
+        "vectorized": FunctionModel(_batch, ["a", "b"], ["g"], key="o", vectorized=True),
+    }
     times = {k: [] for k in models}
     ref = None
     for _ in range(repeat):
@@ -151,10 +235,15 @@ def overhead(rows: int, repeat: int) -> pd.DataFrame:
             times[k].append(time.perf_counter() - t0)
             if ref is None:
                 ref = ev.Y
-            # same numbers up to the last bit (numpy's scalar and array arithmetic may round differently)
+            # same numbers up to the last bit (numpy's scalar and array arithmetic may round
+            # differently)
             assert np.allclose(ev.Y, ref, rtol=4 * np.finfo(float).eps, atol=0)
-    return pd.DataFrame({k: {"median_s": float(np.median(v)), "us_per_row": 1e6 * float(np.median(v)) / rows}
-                         for k, v in times.items()}).T
+    return pd.DataFrame(
+        {
+            k: {"median_s": float(np.median(v)), "us_per_row": 1e6 * float(np.median(v)) / rows}
+            for k, v in times.items()
+        }
+    ).T
 
 
 def plot(df: pd.DataFrame, out: Path) -> None:
@@ -167,10 +256,24 @@ def plot(df: pd.DataFrame, out: Path) -> None:
     fig, axes = plt.subplots(1, len(probs), figsize=(4 * len(probs), 3.6), sharey=True)
     for ax, p in zip(np.atleast_1d(axes), probs):
         d = df[df["problem"] == p]
-        for (meth, mk), col in zip((("FOSM (mean value)", "s"), ("FORM", "o"), ("SORM (Tvedt)", "D"), ("IS", "^-"),
-                                    ("subset", "v-")), ("C0", "C1", "C2", "C3", "C4")):
+        for (meth, mk), col in zip(
+            (
+                ("FOSM (mean value)", "s"),
+                ("FORM", "o"),
+                ("SORM (Tvedt)", "D"),
+                ("IS", "^-"),
+                ("subset", "v-"),
+            ),
+            ("C0", "C1", "C2", "C3", "C4"),
+        ):
             s = d[d["method"] == meth]
-            ax.loglog(s["n_evaluations"], np.maximum(np.abs(s["rel_error_median"]), 1e-16), mk, color=col, label=meth)
+            ax.loglog(
+                s["n_evaluations"],
+                np.maximum(np.abs(s["rel_error_median"]), 1e-16),
+                mk,
+                color=col,
+                label=meth,
+            )
         ax.axhline(0.1, color="grey", lw=0.8, ls=":")
         ax.set_title(f"{p} (P_f = {d['pf_ref'].iloc[0]:.3g})")
         ax.set_xlabel("model evaluations")
@@ -198,7 +301,8 @@ def main() -> None:
     pd.set_option("display.width", 160)
     print(df.to_string(index=False, float_format=lambda v: f"{v:.3g}"))
     print(ov.to_string(float_format=lambda v: f"{v:.3g}"))
-    print(f"row-wise / vectorized = {ov.loc['row-wise', 'median_s'] / ov.loc['vectorized', 'median_s']:.1f}")
+    ratio = ov.loc["row-wise", "median_s"] / ov.loc["vectorized", "median_s"]
+    print(f"row-wise / vectorized = {ratio:.1f}")
     print(f"git {git_state()}, {time.perf_counter() - t0:.0f} s")
 
 

@@ -39,9 +39,15 @@ def main() -> None:
     ap.add_argument("--out", default="results/examples")
     out = Path(ap.parse_args().out)
     out.mkdir(parents=True, exist_ok=True)
-    inputs = UncertainInputs.from_specs({"c1": LogNormal(1.0e-4, 2.5e-5), "c2": LogNormal(1.0e-4, 2.5e-5)})
-    index = pd.MultiIndex.from_product([["displacement"], ANGLES], names=["quantity", "crank_angle"])
-    model = FunctionModel(slider_errors, inputs.names, index, key="slider example v1", vectorized=True)
+    inputs = UncertainInputs.from_specs(
+        {"c1": LogNormal(1.0e-4, 2.5e-5), "c2": LogNormal(1.0e-4, 2.5e-5)}
+    )
+    index = pd.MultiIndex.from_product(
+        [["displacement"], ANGLES], names=["quantity", "crank_angle"]
+    )
+    model = FunctionModel(
+        slider_errors, inputs.names, index, key="slider example v1", vectorized=True
+    )
     X = inputs.sample(100_000, seed=7)
     peak = np.abs(slider_errors(X)).max(axis=1)
     rows = []
@@ -49,22 +55,39 @@ def main() -> None:
     for i, a_mm in enumerate((3.6, 4.2, 4.8, 5.4, 6.0, 6.6, 7.0)):
         a = a_mm * 1e-3
         cycle = LimitState.exceedance(["displacement"], a, kind="abs", name="whole cycle")
-        ss = subset_simulation(model=model, inputs=inputs, limit_state=cycle, n_per_level=2000,
-                               seed=child_seed(study_seed, i))
+        ss = subset_simulation(
+            model=model,
+            inputs=inputs,
+            limit_state=cycle,
+            n_per_level=2000,
+            seed=child_seed(study_seed, i),
+        )
         # point in time: FORM/SORM at every angle where the error can reach a (upper side; the
         # error is positive on 0°-180° for positive clearances), keep the worst angle
         best = None
         for theta in ANGLES[(ANGLES > 0) & (ANGLES < 180)]:
-            ls = LimitState.exceedance(("displacement", theta), a, kind="upper", name=f"{theta:g} deg")
+            ls = LimitState.exceedance(
+                ("displacement", theta), a, kind="upper", name=f"{theta:g} deg"
+            )
             so = sorm(model=model, inputs=inputs, limit_state=ls)
             if best is None or so.pf > best[1].pf:
                 best = (theta, so)
         theta, so = best
         k = int(np.sum(peak >= a))
-        rows.append({"allowable_mm": a_mm, "pf_cycle_subset": ss.pf, "cov_subset": ss.cov,
-                     "evals_subset": ss.n_evaluations, "pf_cycle_mc": k / len(X) if k >= 10 else np.nan,
-                     "worst_angle": theta, "pf_point_form": so.form.pf, "pf_point_sorm": so.pf,
-                     "evals_form_sorm": so.n_evaluations, "importance_c1": so.form.importance["c1"]})
+        rows.append(
+            {
+                "allowable_mm": a_mm,
+                "pf_cycle_subset": ss.pf,
+                "cov_subset": ss.cov,
+                "evals_subset": ss.n_evaluations,
+                "pf_cycle_mc": k / len(X) if k >= 10 else np.nan,
+                "worst_angle": theta,
+                "pf_point_form": so.form.pf,
+                "pf_point_sorm": so.pf,
+                "evals_form_sorm": so.n_evaluations,
+                "importance_c1": so.form.importance["c1"],
+            }
+        )
     df = pd.DataFrame(rows).set_index("allowable_mm")
     pd.set_option("display.width", 160)
     print(df.to_string(float_format=lambda v: f"{v:.3g}"))
@@ -75,8 +98,13 @@ def main() -> None:
     import matplotlib.pyplot as plt
 
     fig, ax = plt.subplots(figsize=(6, 4))
-    ax.errorbar(df.index, df["pf_cycle_subset"], yerr=1.96 * df["cov_subset"] * df["pf_cycle_subset"], fmt="o-",
-                label="whole cycle, subset simulation (95 %)")
+    ax.errorbar(
+        df.index,
+        df["pf_cycle_subset"],
+        yerr=1.96 * df["cov_subset"] * df["pf_cycle_subset"],
+        fmt="o-",
+        label="whole cycle, subset simulation (95 %)",
+    )
     ax.semilogy(df.index, df["pf_cycle_mc"], "k+", ms=10, label="whole cycle, crude MC (10⁵)")
     ax.semilogy(df.index, df["pf_point_form"], "s--", label="worst angle, FORM")
     ax.semilogy(df.index, df["pf_point_sorm"], "d:", label="worst angle, SORM")

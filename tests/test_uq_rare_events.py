@@ -65,7 +65,7 @@ def _log_r_minus_s(X):
 
 
 def _parabola(X, beta=4.5, kappa=0.2):
-    """g = β − u₂ + ½κu₁²: design point (0, β), curvature κ."""
+    """Margin g = β − u₂ + ½κu₁²: design point (0, β), curvature κ."""
     return beta - X[:, 1] + 0.5 * kappa * X[:, 0] ** 2
 
 
@@ -187,7 +187,7 @@ def test_whole_cycle_limit_state_against_numpy_and_first_passage_bound():
 
 
 def test_random_allowable_is_an_extra_independent_input():
-    """y ~ N(10, 1) against I ~ N(14, 0.8) (upper): β = 4/√(1 + 0.64) exactly (linear, normal)."""
+    """Output y ~ N(10, 1) against I ~ N(14, 0.8) (upper): β = 4/√(1 + 0.64) exactly (linear, normal)."""
     inputs = UncertainInputs.from_specs({"R": Normal(10.0, 1.0)})
     model = _vec(lambda X: X[:, 0], inputs, ["y"])
     res = form(model=model, inputs=inputs, limit_state=LimitState.exceedance("y", Normal(14.0, 0.8), kind="upper"))
@@ -254,7 +254,7 @@ def test_vectorized_function_model_same_rows_failures_and_cache(tmp_path):
 @settings(max_examples=25, deadline=None)
 @given(st.floats(0.5, 5.0), st.floats(0.1, 3.0), st.floats(0.1, 3.0), st.floats(-0.8, 0.8))
 def test_form_exact_on_linear_normal(mu_diff, s_r, s_s, rho):
-    """g = R − S, (R, S) correlated normals: β = (μ_R − μ_S)/√(σ_R² + σ_S² − 2ρσ_Rσ_S).
+    """Margin g = R − S, (R, S) correlated normals: β = (μ_R − μ_S)/√(σ_R² + σ_S² − 2ρσ_Rσ_S).
 
     The converged β is off by |G(u*)|/‖∇G‖ ≤ tol·|G(0)|/‖∇G‖ (the surface criterion): tol = 1e-12
     bounds it below 1e-10 here; the gradient of a linear g has no truncation error, its round-off
@@ -270,7 +270,7 @@ def test_form_exact_on_linear_normal(mu_diff, s_r, s_s, rho):
 
 @pytest.mark.parametrize("func", [_log_r_minus_s, _r_minus_s])
 def test_form_exact_on_lognormal_r_minus_s(func):
-    """ln R − ln S with lognormal R, S is linear in u: β = (μ_lnR − μ_lnS)/√(σ_lnR² + σ_lnS²).
+    """The margin ln R − ln S with lognormal R, S is linear in u: β = (μ_lnR − μ_lnS)/√(σ_lnR² + σ_lnS²).
     R − S has the same failure surface (nonlinear g, same design point). P_f ≈ 1e-6 here."""
     inputs = UncertainInputs.from_specs({"R": LogNormal(10.0, 1.5), "S": LogNormal(3.0, 0.6)})
     (mr, sr), (ms, ss) = inputs.marginals[0].log_params, inputs.marginals[1].log_params

@@ -112,7 +112,7 @@ def gradient(problem: Problem, u: np.ndarray, *, step: float, scheme: str) -> tu
 def design_point_search(problem: Problem, *, u0: np.ndarray, step: float, scheme: str, tol: float,
                         tol_direction: float, max_iter: int, armijo: float = 0.25, gamma: float = 2.0,
                         max_halvings: int = 30) -> tuple[np.ndarray, float, np.ndarray, pd.DataFrame, float]:
-    """iHLRF iteration (module docstring); returns (u*, G*, ∇G*, history, G(u0))."""
+    """The iHLRF iteration (module docstring); returns (u*, G*, ∇G*, history, G(u0))."""
     u = np.array(u0, dtype=float)
     rows = []
     g0 = None

@@ -108,13 +108,13 @@ class LimitState:
 
     # ------------------------------------------------------------------ constructors
     @classmethod
-    def margin(cls, output: Any = None, *, name: str | None = None) -> "LimitState":
-        """g = the output ``output`` (None: the model's only output)."""
+    def margin(cls, output: Any = None, *, name: str | None = None) -> LimitState:
+        """The margin g is the output ``output`` (None: the model's only output)."""
         nm = str(name if name is not None else ("g" if output is None else output))
         return cls((Component(nm, "margin", (output,)),), "series", nm)
 
     @classmethod
-    def exceedance(cls, outputs: Any, allowable: Any, *, kind: str = "abs", name: str | None = None) -> "LimitState":
+    def exceedance(cls, outputs: Any, allowable: Any, *, kind: str = "abs", name: str | None = None) -> LimitState:
         """An output label, or a list of labels (their series system), against ``allowable``."""
         if kind not in KINDS[1:]:
             raise StudyError(f"LimitState.exceedance: kind = {kind!r}: unknown; allowed: {list(KINDS[1:])}")
@@ -125,19 +125,19 @@ class LimitState:
         return cls((Component(nm, kind, outs, _check_allowable(nm, allowable)),), "series", nm)
 
     @classmethod
-    def from_function(cls, func: Callable[[np.ndarray], Any], *, name: str = "g") -> "LimitState":
-        """g = ``func(Y)``, Y the (n, n_out) output matrix, returning (n,) values."""
+    def from_function(cls, func: Callable[[np.ndarray], Any], *, name: str = "g") -> LimitState:
+        """The margin g = ``func(Y)``, Y the (n, n_out) output matrix, returning (n,) values."""
         if not callable(func):
             raise StudyError(f"LimitState.from_function: func = {func!r}: not callable; allowed: a function Y -> g")
         return cls((Component(str(name), "margin", (None,), None, func),), "series", str(name))
 
     @classmethod
-    def series(cls, *states: "LimitState", name: str = "series") -> "LimitState":
+    def series(cls, *states: LimitState, name: str = "series") -> LimitState:
         """Failure when any of ``states`` fails (g = min)."""
         return cls(_flatten(states, "series"), "series", name)
 
     @classmethod
-    def parallel(cls, *states: "LimitState", name: str = "parallel") -> "LimitState":
+    def parallel(cls, *states: LimitState, name: str = "parallel") -> LimitState:
         """Failure when all of ``states`` fail (g = max)."""
         return cls(_flatten(states, "parallel"), "parallel", name)
 
@@ -147,7 +147,7 @@ class LimitState:
         """{extra input name: marginal} of the random allowables, in component order."""
         return {f"allowable[{c.name}]": c.allowable for c in self.components if c.random}
 
-    def bind(self, output_index: pd.Index) -> "BoundLimitState":
+    def bind(self, output_index: pd.Index) -> BoundLimitState:
         """Resolve the output labels against a model's ``output_index``."""
         pos = []
         for c in self.components:
