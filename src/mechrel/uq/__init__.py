@@ -19,6 +19,8 @@ _EXPORTS = {
     "analytic": ["ishigami", "ishigami_indices", "ishigami_inputs", "ishigami_model", "linear_model"],
     "cache": ["EvaluationCache"],
     "executor": ["BACKENDS", "Evaluations", "evaluate"],
+    "estimators": ["METHODS", "LimitState", "form", "FORMResult", "FORMConvergenceError", "sorm", "SORMResult",
+                   "importance_sampling", "ImportanceSamplingResult", "subset_simulation", "SubsetSimulationResult"],
     "first_order": ["FOSMResult", "fd_steps", "fosm", "fosm_design"],
     "inputs": ["SAMPLING_RULES", "LogNormal", "Normal", "TruncNormal", "UncertainInputs", "Uniform", "child_seed"],
     "model": ["FunctionModel", "Model", "ModelFailure"],
@@ -50,6 +52,8 @@ if TYPE_CHECKING:  # pragma: no cover
     from ._common import SampleFailuresError
     from .analytic import ishigami, ishigami_indices, ishigami_inputs, ishigami_model, linear_model
     from .cache import EvaluationCache
+    from .estimators import (METHODS, FORMConvergenceError, FORMResult, ImportanceSamplingResult, LimitState,
+                             SORMResult, SubsetSimulationResult, form, importance_sampling, sorm, subset_simulation)
     from .executor import BACKENDS, Evaluations, evaluate
     from .first_order import FOSMResult, fd_steps, fosm, fosm_design
     from .inputs import SAMPLING_RULES, LogNormal, Normal, TruncNormal, UncertainInputs, Uniform, child_seed
@@ -66,7 +70,7 @@ __all__ = [
     # problem
     "Model", "ModelFailure", "FunctionModel", "MechanismModel",
     "UncertainInputs", "Normal", "TruncNormal", "Uniform", "LogNormal", "SAMPLING_RULES", "child_seed",
-    "Allowable", "DEFAULT_ALLOWABLES", "FORMS",
+    "Allowable", "DEFAULT_ALLOWABLES", "FORMS", "LimitState",
     # evaluation
     "evaluate", "Evaluations", "EvaluationCache", "BACKENDS", "SampleFailuresError",
     # designs
@@ -74,6 +78,8 @@ __all__ = [
     # estimators and results
     "fosm", "FOSMResult", "monte_carlo", "MonteCarloResult", "polynomial_chaos", "PCEResult",
     "sobol_indices", "SobolResult", "peak_abs", "normality_check", "NormalityResult",
+    "form", "FORMResult", "FORMConvergenceError", "sorm", "SORMResult", "importance_sampling",
+    "ImportanceSamplingResult", "subset_simulation", "SubsetSimulationResult", "METHODS",
     # formulas
     "reliability_one_sided", "reliability_two_sided", "bivariate_normal_cdf", "binomial_interval",
     # analytic models

@@ -259,7 +259,27 @@ def combined_cache_key(model: Any, input_names: tuple[str, ...], n_out: int) -> 
 
 
 def _evaluate_chunk(model: Any, X: np.ndarray, n_out: int, chunk_id: int):
-    """Worker: evaluate rows of X; per-sample failures are recorded, not raised."""
+    """Worker: evaluate rows of X; per-sample failures are recorded, not raised.
+
+    A model with a true ``vectorized`` attribute is called once for the whole chunk
+    (``evaluate_batch``); non-finite rows are failures; if the batch call raises a per-sample
+    error, the chunk is re-evaluated row by row so that only the rows that raise fail."""
+    if getattr(model, "vectorized", False) and X.shape[0]:
+        try:
+            Yb = np.asarray(model.evaluate_batch(np.array(X)), dtype=float)
+        except StudyError:
+            raise
+        except MechrelError:
+            Yb = None  # isolate the failing rows below
+        if Yb is not None:
+            if Yb.shape != (X.shape[0], n_out):
+                raise StudyError(
+                    f"model.evaluate_batch returned shape {Yb.shape} for {X.shape[0]} rows; expected ({X.shape[0]}, {n_out})"
+                )
+            fin = np.isfinite(Yb)
+            okb = fin.all(axis=1)
+            reasons_b = [None if o else f"non-finite output ({int((~f).sum())} of {n_out} entries)" for o, f in zip(okb, fin)]
+            return chunk_id, np.where(okb[:, None], Yb, np.nan), okb, reasons_b, X.shape[0]
     Y = np.full((X.shape[0], n_out), np.nan)
     ok = np.zeros(X.shape[0], dtype=bool)
     reasons: list[str | None] = [None] * X.shape[0]

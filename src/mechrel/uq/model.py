@@ -72,6 +72,10 @@ class Model(Protocol):
         """Outputs (``n_out``,) at one input vector ``x`` (``d``,); raises ``ModelFailure``."""
         ...
 
+    # Optional (not part of the runtime check): ``vectorized: bool`` and
+    # ``evaluate_batch(X (m, d)) -> (m, n_out)``; when ``vectorized`` is true the executor calls
+    # ``evaluate_batch`` once per chunk (see :class:`FunctionModel`).
+
     def cache_key(self) -> str:
         """Stable hash of everything that determines the outputs except ``x``."""
         ...
@@ -136,6 +140,14 @@ class FunctionModel:
         A version tag you change whenever ``func`` changes meaning: the cache cannot see inside
         ``func``. The cache key hashes ``key``, the function's qualified name, the input names
         and the output labels.
+    vectorized
+        ``True``: ``func`` takes a batch ``X`` (m, d) and returns (m, n_out) (or (m,) for one
+        output), and the executor calls it once per chunk instead of once per row (saving the
+        per-call Python overhead). Failures stay per row: a row with a non-finite output is a
+        failure with its reason; if the batch call raises :class:`ModelFailure` (or another
+        per-sample ``MechrelError``), the executor re-evaluates that chunk row by row so that only
+        the rows that raise are failures. Not part of the cache key: a vectorised and a row-wise
+        function computing the same numbers share cached results.
     """
 
     def __init__(
@@ -144,6 +156,7 @@ class FunctionModel:
         input_names: Sequence[str],
         output_index: Any,
         key: str = "",
+        vectorized: bool = False,
     ):
         if not callable(func):
             raise StudyError(f"FunctionModel.func: must be callable, got {type(func).__name__}")
@@ -159,6 +172,9 @@ class FunctionModel:
             )
         self.output_index = as_output_index(output_index, what="FunctionModel.output_index")
         self.key = str(key)
+        if not isinstance(vectorized, (bool, np.bool_)):
+            raise StudyError(f"FunctionModel.vectorized: got {vectorized!r}; allowed: True or False")
+        self.vectorized = bool(vectorized)
 
     def __repr__(self) -> str:
         return (
@@ -167,7 +183,10 @@ class FunctionModel:
         )
 
     def evaluate(self, x: np.ndarray) -> np.ndarray:
-        y = np.asarray(self.func(np.asarray(x, dtype=float)), dtype=float).reshape(-1)
+        x = np.asarray(x, dtype=float)
+        if self.vectorized:
+            return self.evaluate_batch(x[None, :])[0]
+        y = np.asarray(self.func(x), dtype=float).reshape(-1)
         if y.shape[0] != len(self.output_index):
             raise StudyError(
                 f"FunctionModel {_func_name(self.func)}: returned {y.shape[0]} outputs, "
@@ -175,8 +194,27 @@ class FunctionModel:
             )
         return y
 
+    def evaluate_batch(self, X: np.ndarray) -> np.ndarray:
+        """Outputs (m, n_out) at the rows of ``X`` (m, d) in one call of a vectorised ``func``
+        (row by row for a row-wise one)."""
+        X = np.asarray(X, dtype=float)
+        n_out = len(self.output_index)
+        if not self.vectorized:
+            return np.stack([self.evaluate(x) for x in X]) if len(X) else np.empty((0, n_out))
+        Y = np.asarray(self.func(X), dtype=float)
+        if Y.ndim == 1 and n_out == 1:
+            Y = Y[:, None]
+        if Y.shape != (X.shape[0], n_out):
+            raise StudyError(
+                f"FunctionModel {_func_name(self.func)} (vectorized): returned shape {Y.shape} for "
+                f"{X.shape[0]} rows; allowed: ({X.shape[0]}, {n_out})"
+                + (f" or ({X.shape[0]},)" if n_out == 1 else "")
+            )
+        return Y
+
     def describe(self) -> dict:
-        return {"kind": "FunctionModel", "func": _func_name(self.func), "key": self.key}
+        return {"kind": "FunctionModel", "func": _func_name(self.func), "key": self.key,
+                "vectorized": self.vectorized}
 
     def cache_key(self) -> str:
         payload = json.dumps(

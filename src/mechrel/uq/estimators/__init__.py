@@ -1,0 +1,214 @@
+"""Reliability estimators for rare events, and the one table of every ``mechrel.uq`` method.
+
+Methods (one module each): :func:`form` (``form.py``), :func:`sorm` (``sorm.py``),
+:func:`importance_sampling` (``importance.py``), :func:`subset_simulation` (``subset.py``);
+limit states in ``limit_state.py``. They share one keyword-only interface::
+
+    method(model=, inputs=, limit_state=, seed=, <settings>, n_jobs=, backend=, cache=, progress=)
+
+and return frozen results with ``.table``/``.to_frame()``, ``.pf``, ``.beta``,
+``.n_evaluations``, ``.evaluations`` and ``.provenance``.
+
+The registry
+------------
+:data:`METHODS` maps a method's name to a :class:`Method`: the estimator and its result type
+(imported lazily, as ``"module:attribute"`` under ``mechrel.uq``), its settings with defaults and
+checks, and its kind. The older estimators (``fosm``, ``monte_carlo``, ``polynomial_chaos``,
+``sobol_indices``) are listed by reference, their settings read from their signatures (their
+own argument checks apply). Adding a method is one module plus one :func:`register` call (or
+one entry below); ``docs/uq.md`` ("How to add a method") shows it.
+"""
+
+from __future__ import annotations
+
+import importlib
+import inspect
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+from types import MappingProxyType
+from typing import Any
+
+from mechrel.errors import StudyError
+
+__all__ = [
+    "METHODS", "Method", "Setting", "register", "get_method", "COMMON_ARGUMENTS",
+    "LimitState", "form", "FORMResult", "FORMConvergenceError", "sorm", "SORMResult",
+    "importance_sampling", "ImportanceSamplingResult", "subset_simulation", "SubsetSimulationResult",
+]
+
+#: Arguments every estimator takes that are not method settings (the shared interface; the
+#: older estimators take ``allowable``/``form`` in place of ``limit_state``).
+COMMON_ARGUMENTS = ("model", "inputs", "limit_state", "evaluations", "seed", "n_jobs", "backend",
+                    "cache", "progress", "chunk_size")
+
+
+@dataclass(frozen=True)
+class Setting:
+    """One method setting: its default and an optional check ``check(name, value) -> value``
+    that raises :class:`~mechrel.errors.StudyError` naming the setting, the value and what is
+    allowed (None: the estimator checks it itself)."""
+
+    default: Any
+    check: Callable[[str, Any], Any] | None = None
+    doc: str = ""
+
+
+@dataclass(frozen=True)
+class Method:
+    """One row of the registry.
+
+    ``estimator`` and ``result`` are ``"module:attribute"`` paths under ``mechrel.uq``.
+    ``settings`` None: read from the estimator's signature (every keyword not in
+    :data:`COMMON_ARGUMENTS`, checked by the estimator).
+    """
+
+    name: str
+    estimator: str
+    result: str
+    kind: str
+    summary: str
+    declared_settings: Mapping[str, Setting] | None = field(default=None)
+
+    def _load(self, path: str):
+        mod, attr = path.split(":")
+        return getattr(importlib.import_module(f"mechrel.uq.{mod}"), attr)
+
+    @property
+    def function(self) -> Callable:
+        return self._load(self.estimator)
+
+    @property
+    def result_type(self) -> type:
+        return self._load(self.result)
+
+    @property
+    def settings(self) -> Mapping[str, Setting]:
+        if self.declared_settings is not None:
+            return MappingProxyType(dict(self.declared_settings))
+        sig = inspect.signature(self.function)
+        return MappingProxyType({
+            k: Setting(p.default if p.default is not inspect.Parameter.empty else None)
+            for k, p in sig.parameters.items() if k not in COMMON_ARGUMENTS
+        })
+
+    def validate(self, settings: Mapping[str, Any] | None = None) -> dict:
+        """The full settings: defaults overridden by ``settings``, each checked; an unknown key is
+        an error listing the allowed ones."""
+        given = dict(settings or {})
+        known = self.settings
+        unknown = sorted(set(given) - set(known))
+        if unknown:
+            raise StudyError(f"{self.name}: settings {unknown}: unknown; allowed: {sorted(known)}")
+        out = {}
+        for k, s in known.items():
+            v = given.get(k, s.default)
+            out[k] = s.check(f"{self.name}.{k}", v) if (s.check is not None and k in given) else v
+        return out
+
+    def __call__(self, **kwargs: Any):
+        """Run the estimator: common arguments pass through, settings are validated first."""
+        common = {k: v for k, v in kwargs.items() if k in COMMON_ARGUMENTS}
+        settings = self.validate({k: v for k, v in kwargs.items() if k not in COMMON_ARGUMENTS})
+        return self.function(**common, **settings)
+
+
+def _pos_int(minimum: int) -> Callable[[str, Any], int]:
+    def check(name: str, v: Any) -> int:
+        from .form import check_positive
+        return check_positive(name, v, integer=True, minimum=minimum - 1)
+    return check
+
+
+def _pos_float(name: str, v: Any) -> float:
+    from .form import check_positive
+    return check_positive(name, v)
+
+
+def _choice(allowed: tuple) -> Callable[[str, Any], Any]:
+    def check(name: str, v: Any) -> Any:
+        if v not in allowed:
+            raise StudyError(f"{name}: got {v!r}; allowed: {list(allowed)}")
+        return v
+    return check
+
+
+def _fraction(name: str, v: Any) -> float:
+    from .._common import check_fraction
+    return check_fraction(name, v, open_lo=True, open_hi=True)
+
+
+_FORM_SETTINGS = {
+    "step": Setting(1e-4, _pos_float, "finite-difference step in standard normal units"),
+    "scheme": Setting("central", _choice(("central", "forward")), "finite-difference scheme"),
+    "tol": Setting(1e-6, _pos_float, "tolerance of the surface criterion |g|/|g0|"),
+    "max_iter": Setting(100, _pos_int(1), "iteration limit"),
+}
+_FAILURES = {
+    "failures": Setting("exclude", _choice(("exclude", "as_failure")), "what a failed model sample counts as"),
+    "max_failure_fraction": Setting(0.1, None, "refuse above this fraction of failed samples"),
+    "confidence_level": Setting(0.95, _fraction, "level of the interval on P_f"),
+}
+
+_METHODS: dict[str, Method] = {}
+
+
+def register(method: Method) -> Method:
+    """Add ``method`` to :data:`METHODS` (its name must be new)."""
+    if not isinstance(method, Method):
+        raise StudyError(f"register: got {type(method).__name__}; allowed: a Method")
+    if method.name in _METHODS:
+        raise StudyError(f"register: method {method.name!r} is already registered; allowed: a new name")
+    _METHODS[method.name] = method
+    return method
+
+
+for _m in (
+    Method("fosm", "first_order:fosm", "first_order:FOSMResult", "reliability",
+           "first-order second-moment interference formula (the paper's eqs. 25-28)"),
+    Method("monte_carlo", "montecarlo:monte_carlo", "montecarlo:MonteCarloResult", "reliability",
+           "crude Monte Carlo reliability and moments"),
+    Method("polynomial_chaos", "pce:polynomial_chaos", "pce:PCEResult", "surrogate",
+           "polynomial chaos expansion (chaospy)"),
+    Method("sobol_indices", "sobol:sobol_indices", "sobol:SobolResult", "sensitivity",
+           "Sobol' indices (SALib / Saltelli)"),
+    Method("form", "estimators.form:form", "estimators.form:FORMResult", "rare_event",
+           "FORM: design point by iHLRF, P_f = Φ(−β)",
+           _FORM_SETTINGS | {"start": Setting(None), "tol_direction": Setting(None)}),
+    Method("sorm", "estimators.sorm:sorm", "estimators.sorm:SORMResult", "rare_event",
+           "SORM: Hohenbichler-Rackwitz / Tvedt / Breitung from the curvatures at the design point",
+           _FORM_SETTINGS | {"design_point": Setting(None),
+                             "formula": Setting("hohenbichler", _choice(("hohenbichler", "tvedt", "breitung"))),
+                             "curvature_step": Setting(1e-2, _pos_float)}),
+    Method("importance_sampling", "estimators.importance:importance_sampling",
+           "estimators.importance:ImportanceSamplingResult", "rare_event",
+           "importance sampling centred on the FORM design point",
+           _FORM_SETTINGS | _FAILURES | {"n": Setting(1000, _pos_int(2)), "design_point": Setting(None)}),
+    Method("subset_simulation", "estimators.subset:subset_simulation",
+           "estimators.subset:SubsetSimulationResult", "rare_event",
+           "subset simulation (Au & Beck) with conditional sampling or modified Metropolis",
+           _FAILURES | {"n_per_level": Setting(1000, _pos_int(10)), "p0": Setting(0.1, _fraction),
+                        "proposal": Setting("conditional", _choice(("conditional", "modified_metropolis"))),
+                        "rho": Setting(0.8, None), "spread": Setting(1.0, _pos_float),
+                        "max_levels": Setting(20, _pos_int(1))}),
+):
+    register(_m)
+
+#: name → :class:`Method`, read-only.
+METHODS: Mapping[str, Method] = MappingProxyType(_METHODS)
+
+
+def get_method(name: str) -> Method:
+    """The registered method ``name``; an unknown name is an error listing the known ones."""
+    try:
+        return METHODS[name]
+    except (KeyError, TypeError):
+        raise StudyError(f"method: got {name!r}; allowed: {sorted(METHODS)}") from None
+
+
+# The estimators themselves (eager: each module shares its name with its function, and the
+# function must win; they import only numpy/scipy/pandas).
+from .limit_state import LimitState  # noqa: E402
+from .form import FORMConvergenceError, FORMResult, form  # noqa: E402
+from .sorm import SORMResult, sorm  # noqa: E402
+from .importance import ImportanceSamplingResult, importance_sampling  # noqa: E402
+from .subset import SubsetSimulationResult, subset_simulation  # noqa: E402

@@ -1,0 +1,143 @@
+"""Importance sampling centred on the FORM design point.
+
+Draw u⁽ᵏ⁾ ~ N(u*, I) (the standard normal density shifted to the design point, Melchers 1989;
+Ditlevsen & Madsen 1996 §15) and weight each failure by the likelihood ratio
+
+    w(u) = φ_d(u)/φ_d(u − u*) = exp(−u·u* + ½‖u*‖²),
+
+    P̂_f = (1/n) Σ 1[g(u⁽ᵏ⁾) ≤ 0] w(u⁽ᵏ⁾),  Var P̂_f = (1/n) · sample variance of 1[g ≤ 0] w,
+
+c.o.v. = √Var / P̂_f, and the confidence interval P̂_f ± z √Var (the central limit theorem on the
+n iid weighted indicators). When the failure domain is dominated by one design point the
+c.o.v. at n samples is about that of crude Monte Carlo at P_f ≈ 1/2, whatever P_f is; with several
+design points of similar β (series systems) the points the shifted density misses give no
+warning in the c.o.v.: use subset simulation there.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import pandas as pd
+from scipy import special, stats
+
+from mechrel.errors import StudyError
+
+from .._common import SampleFailuresError, check_fraction
+from ..executor import Evaluations
+from ..inputs import as_seed_sequence, child_seed, seed_record
+from ._problem import Problem, RareEventResult, common_settings, concat_evaluations
+from .form import FORMResult, _form, check_positive
+
+__all__ = ["importance_sampling", "ImportanceSamplingResult"]
+
+
+@dataclass(frozen=True, eq=False)
+class ImportanceSamplingResult(RareEventResult):
+    """Importance-sampling result (frozen).
+
+    ``table`` (one row): ``pf``, ``beta`` (−Φ⁻¹(pf)), ``cov``, ``pf_lo``, ``pf_hi``,
+    ``n_samples``, ``n_failed_domain`` (samples with g ≤ 0), ``n_failed_model``,
+    ``n_evaluations`` (FORM's included). ``form``: the FORM result giving the centre.
+    """
+
+    table: pd.DataFrame
+    form: FORMResult
+    failure_counts: dict
+    evaluations: Evaluations | None
+    provenance: dict = field(repr=False)
+
+    @property
+    def cov(self) -> float:
+        return float(self.table["cov"].iloc[0])
+
+
+def importance_sampling(
+    *,
+    model: Any,
+    inputs: Any,
+    limit_state: Any = None,
+    seed: Any = None,
+    n: int = 1000,
+    design_point: FORMResult | None = None,
+    confidence_level: float = 0.95,
+    failures: str = "exclude",
+    max_failure_fraction: float = 0.1,
+    step: float = 1e-4,
+    scheme: str = "central",
+    tol: float = 1e-6,
+    max_iter: int = 100,
+    n_jobs: int = 1,
+    backend: str = "loky",
+    cache: Any = None,
+    progress: bool = True,
+    chunk_size: int | None = None,
+) -> ImportanceSamplingResult:
+    """P_f by importance sampling around the design point (module docstring).
+
+    ``n`` samples from ``seed``'s first child stream; ``design_point`` a :class:`FORMResult`
+    of the same problem (else FORM runs first with ``step``/``scheme``/``tol``/``max_iter``).
+    ``failures``: a sample the model cannot evaluate is left out (``"exclude"``, the estimate
+    is then conditional on the model being evaluable) or counted as a failure of the limit
+    state (``"as_failure"``); more than ``max_failure_fraction`` failed samples is an error.
+    """
+    n = check_positive("n", n, integer=True, minimum=1)
+    check_fraction("confidence_level", confidence_level, open_lo=True, open_hi=True)
+    common_settings(failures=failures, max_failure_fraction=max_failure_fraction)
+    ss = as_seed_sequence(seed)
+    problem = Problem(model=model, inputs=inputs, limit_state=limit_state, n_jobs=n_jobs, backend=backend,
+                      cache=cache, progress=progress, chunk_size=chunk_size, what="importance_sampling")
+    extra = []
+    if design_point is None:
+        fr = _form(problem, seed=None, step=step, scheme=scheme, tol=tol, max_iter=max_iter, start=None)
+        n_form = problem.n_evaluations
+    else:
+        if not isinstance(design_point, FORMResult) or tuple(design_point.design_point.index) != problem.names:
+            raise StudyError(f"importance_sampling: design_point = {type(design_point).__name__}: not a FORMResult "
+                             f"of inputs {list(problem.names)}; allowed: None or form(...) of the same problem")
+        fr = design_point
+        n_form = fr.n_evaluations
+        if fr.evaluations is not None:
+            extra = [fr.evaluations]
+    u_star = np.array(fr.u_star)
+    U = u_star[None, :] + np.random.default_rng(child_seed(ss, 0)).standard_normal((n, problem.d))
+    n_before = problem.n_evaluations
+    G, ok, reasons = problem.g(U)
+    n_bad = int((~ok).sum())
+    if n_bad > max_failure_fraction * n:
+        counts = pd.Series([r for r in reasons if r is not None]).value_counts().to_dict()
+        raise SampleFailuresError(
+            f"importance_sampling: {n_bad} of {n} samples failed ({counts}), more than max_failure_fraction="
+            f"{max_failure_fraction}; allowed: fix the model or raise max_failure_fraction", problem.all_evaluations())
+    logw = -U @ u_star + 0.5 * float(u_star @ u_star)
+    ind = np.where(ok, G <= 0, failures == "as_failure").astype(float)
+    rows = ok if failures == "exclude" else np.ones(n, dtype=bool)
+    vals = ind[rows] * np.exp(logw[rows])
+    m = int(rows.sum())
+    if m < 2:
+        raise SampleFailuresError(f"importance_sampling: {m} usable samples; allowed: at least 2", problem.all_evaluations())
+    pf = float(vals.mean())
+    se = float(vals.std(ddof=1) / np.sqrt(m))
+    z = float(stats.norm.ppf(0.5 + confidence_level / 2))
+    k_fail = int(ind[rows].sum())
+    if k_fail == 0:
+        raise StudyError(
+            f"importance_sampling: none of the {m} samples around the design point failed (g ≤ 0), so P_f and its "
+            "c.o.v. are not estimable; the design point is wrong (FORM converged to a local point?) or g is flat "
+            "there; allowed: check the FORM result, or use subset_simulation")
+    cov = se / pf
+    table = pd.DataFrame({"pf": [pf], "beta": [float(-special.ndtri(pf))], "cov": [cov],
+                          "pf_lo": [max(pf - z * se, 0.0)], "pf_hi": [pf + z * se],
+                          "n_samples": [n], "n_failed_domain": [k_fail], "n_failed_model": [n_bad],
+                          "n_evaluations": [n_form + problem.n_evaluations - n_before]},
+                         index=pd.Index([problem.limit_state.name], name="limit_state"))
+    prov = problem.provenance(method="importance_sampling", seed=seed_record(ss), extra_evaluations=extra,
+                              settings={"n": n, "confidence_level": confidence_level, "failures": failures,
+                                        "max_failure_fraction": max_failure_fraction,
+                                        "centre": u_star.tolist(),
+                                        "interval": "normal approximation (central limit theorem)"})
+    counts = dict(pd.Series([r for r in reasons if r is not None], dtype=object).value_counts())
+    return ImportanceSamplingResult(table, fr, {str(k): int(v) for k, v in counts.items()},
+                                    concat_evaluations(extra + problem.evaluations), prov)

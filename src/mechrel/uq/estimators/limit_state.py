@@ -1,0 +1,249 @@
+"""Limit states: failure is g ≤ 0.
+
+A :class:`LimitState` turns the outputs of a model (the rows of ``Y``, labelled by the model's
+``output_index``) and, optionally, random allowables into one safety margin g per sample:
+g > 0 safe, g ≤ 0 failed. It knows nothing about mechanisms: it addresses outputs by their
+labels, so it works with any model that names its outputs.
+
+Building blocks
+---------------
+``LimitState.margin(output)``
+    The output *is* the margin: g = y (a Python function g(x) wrapped as a one-output
+    :class:`~mechrel.uq.FunctionModel`; ``output=None`` takes the model's only output).
+``LimitState.exceedance(outputs, allowable, kind=...)``
+    An output (or a group of outputs) against an allowable a:
+    ``kind="abs"``   g = a − max_k |y_k|  (failure: some |y_k| ≥ a; a tolerance on the magnitude),
+    ``kind="upper"`` g = a − max_k y_k    (failure: some y_k ≥ a),
+    ``kind="lower"`` g = min_k y_k − a    (failure: some y_k ≤ a).
+    A group of outputs is the series system of its members, so listing every crank angle of a
+    quantity (or a model's cycle-extreme output) gives the whole-cycle (first-passage) event.
+``LimitState.from_function(func)``
+    g = func(Y) for any vectorised function of the output matrix Y (n, n_out) → (n,).
+``LimitState.series(*states)`` / ``LimitState.parallel(*states)``
+    g = min over components (failure when any component fails) / max over components (failure
+    when all fail).
+
+Allowables
+----------
+A number is a fixed allowable. A marginal (``Normal``, ``LogNormal``, ``Uniform``,
+``TruncNormal`` of :mod:`mechrel.uq.inputs`) is a random allowable: an extra uncertain input,
+independent of the model's inputs (the paper's interference model), named
+``"allowable[<component name>]"``. The reliability estimators append it to the inputs; it never
+reaches the model, so the model is not re-run for a change of the allowable alone.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from mechrel.errors import StudyError
+
+from ..inputs import LogNormal, Normal, TruncNormal, Uniform
+
+__all__ = ["LimitState", "Component", "KINDS", "SYSTEMS", "BoundLimitState"]
+
+KINDS = ("margin", "abs", "upper", "lower")
+SYSTEMS = ("series", "parallel")
+_MARGINALS = (Normal, TruncNormal, Uniform, LogNormal)
+
+
+def _check_allowable(name: str, allowable: Any):
+    if isinstance(allowable, _MARGINALS):
+        return allowable.validated(f"allowable[{name}]")
+    if isinstance(allowable, (bool, np.bool_)) or not isinstance(allowable, (int, float, np.integer, np.floating)):
+        raise StudyError(
+            f"LimitState: allowable[{name}] = {allowable!r}: not a number or a marginal; "
+            "allowed: a finite float (fixed) or Normal/LogNormal/Uniform/TruncNormal (random)"
+        )
+    a = float(allowable)
+    if not np.isfinite(a):
+        raise StudyError(f"LimitState: allowable[{name}] = {allowable!r}: not finite; allowed: a finite float")
+    return a
+
+
+@dataclass(frozen=True)
+class Component:
+    """One failure mode: g_c from a group of outputs (see the module docstring)."""
+
+    name: str
+    kind: str
+    outputs: tuple = (None,)
+    allowable: Any = None
+    func: Callable | None = None
+
+    @property
+    def random(self) -> bool:
+        return isinstance(self.allowable, _MARGINALS)
+
+
+@dataclass(frozen=True)
+class LimitState:
+    """A limit state g(x) (failure: g ≤ 0), a series or parallel system of :class:`Component`.
+
+    Build it with :meth:`margin`, :meth:`exceedance`, :meth:`from_function`, :meth:`series`
+    or :meth:`parallel`.
+    """
+
+    components: tuple[Component, ...]
+    system: str = "series"
+    name: str = "g"
+
+    def __post_init__(self):
+        if self.system not in SYSTEMS:
+            raise StudyError(f"LimitState: system = {self.system!r}: unknown; allowed: {list(SYSTEMS)}")
+        comps = tuple(self.components)
+        if not comps or not all(isinstance(c, Component) for c in comps):
+            raise StudyError("LimitState: components = (): needs at least one Component; "
+                             "allowed: LimitState.margin/exceedance/from_function/series/parallel")
+        names = [c.name for c in comps]
+        if len(set(names)) != len(names):
+            raise StudyError(f"LimitState: component names = {names}: duplicated; allowed: unique names "
+                             "(pass name= to each component)")
+        object.__setattr__(self, "components", comps)
+
+    # ------------------------------------------------------------------ constructors
+    @classmethod
+    def margin(cls, output: Any = None, *, name: str | None = None) -> LimitState:
+        """The margin g is the output ``output`` (None: the model's only output)."""
+        nm = str(name if name is not None else ("g" if output is None else output))
+        return cls((Component(nm, "margin", (output,)),), "series", nm)
+
+    @classmethod
+    def exceedance(cls, outputs: Any, allowable: Any, *, kind: str = "abs", name: str | None = None) -> LimitState:
+        """An output label, or a list of labels (their series system), against ``allowable``."""
+        if kind not in KINDS[1:]:
+            raise StudyError(f"LimitState.exceedance: kind = {kind!r}: unknown; allowed: {list(KINDS[1:])}")
+        outs = tuple(outputs) if isinstance(outputs, (list, pd.Index, np.ndarray)) else (outputs,)
+        if len(outs) == 0:
+            raise StudyError("LimitState.exceedance: outputs = []: empty; allowed: one label or a list of labels")
+        nm = str(name if name is not None else (outs[0] if len(outs) == 1 else f"{outs[0]}..{outs[-1]}"))
+        return cls((Component(nm, kind, outs, _check_allowable(nm, allowable)),), "series", nm)
+
+    @classmethod
+    def from_function(cls, func: Callable[[np.ndarray], Any], *, name: str = "g") -> LimitState:
+        """The margin g = ``func(Y)``, Y the (n, n_out) output matrix, returning (n,) values."""
+        if not callable(func):
+            raise StudyError(f"LimitState.from_function: func = {func!r}: not callable; allowed: a function Y -> g")
+        return cls((Component(str(name), "margin", (None,), None, func),), "series", str(name))
+
+    @classmethod
+    def series(cls, *states: LimitState, name: str = "series") -> LimitState:
+        """Failure when any of ``states`` fails (g = min)."""
+        return cls(_flatten(states, "series"), "series", name)
+
+    @classmethod
+    def parallel(cls, *states: LimitState, name: str = "parallel") -> LimitState:
+        """Failure when all of ``states`` fail (g = max)."""
+        return cls(_flatten(states, "parallel"), "parallel", name)
+
+    # ------------------------------------------------------------------ use
+    @property
+    def random_allowables(self) -> dict:
+        """{extra input name: marginal} of the random allowables, in component order."""
+        return {f"allowable[{c.name}]": c.allowable for c in self.components if c.random}
+
+    def bind(self, output_index: pd.Index) -> BoundLimitState:
+        """Resolve the output labels against a model's ``output_index``."""
+        pos = []
+        for c in self.components:
+            if c.func is not None:
+                pos.append(None)
+                continue
+            if c.outputs == (None,):
+                if len(output_index) != 1:
+                    raise StudyError(
+                        f"LimitState: output = None for component {c.name!r}, but the model has "
+                        f"{len(output_index)} outputs; allowed: one of {output_index[:4].tolist()}..."
+                    )
+                pos.append(np.array([0]))
+                continue
+            p = []
+            for lbl in c.outputs:
+                try:
+                    loc = output_index.get_loc(lbl)
+                except (KeyError, TypeError):
+                    loc = None
+                if isinstance(loc, slice):
+                    loc = np.arange(len(output_index))[loc]
+                elif isinstance(loc, np.ndarray):
+                    loc = np.flatnonzero(loc)
+                if loc is None or np.size(loc) == 0:
+                    raise StudyError(
+                        f"LimitState: output = {lbl!r} (component {c.name!r}): not a label of the "
+                        f"model's output_index; allowed: e.g. {output_index[:4].tolist()}"
+                    )
+                p.extend(np.atleast_1d(loc).tolist())
+            pos.append(np.array(p, dtype=int))
+        return BoundLimitState(self, tuple(pos))
+
+    def describe(self) -> dict:
+        return {"name": self.name, "system": self.system,
+                "components": [{"name": c.name, "kind": c.kind, "outputs": [repr(o) for o in c.outputs],
+                                "allowable": repr(c.allowable),
+                                "func": None if c.func is None else getattr(c.func, "__qualname__", repr(c.func))}
+                               for c in self.components]}
+
+
+def _flatten(states: Sequence[LimitState], system: str) -> tuple[Component, ...]:
+    out: list[Component] = []
+    for s in states:
+        if not isinstance(s, LimitState):
+            raise StudyError(f"LimitState.{system}: got {type(s).__name__}; allowed: LimitState objects")
+        if len(s.components) > 1 and s.system != system:
+            raise StudyError(
+                f"LimitState.{system}: a {s.system} system {s.name!r} cannot be nested in a {system} system; "
+                "allowed: one level (a group of outputs in one component is already a series system)"
+            )
+        out.extend(s.components)
+    if not out:
+        raise StudyError(f"LimitState.{system}: no states given; allowed: one or more LimitState")
+    return tuple(out)
+
+
+@dataclass(frozen=True)
+class BoundLimitState:
+    """A :class:`LimitState` with its output positions resolved for one model."""
+
+    state: LimitState
+    positions: tuple
+
+    def components(self, Y: np.ndarray, A: np.ndarray | None = None) -> np.ndarray:
+        """(n, n_components) component margins; ``A`` (n, n_random) holds the random allowables
+        in the order of :attr:`LimitState.random_allowables`."""
+        Y = np.asarray(Y, dtype=float)
+        n = Y.shape[0]
+        out = np.empty((n, len(self.state.components)))
+        ia = 0
+        for k, (c, p) in enumerate(zip(self.state.components, self.positions)):
+            if c.func is not None:
+                g = np.asarray(c.func(Y), dtype=float).reshape(-1)
+                if g.shape != (n,):
+                    raise StudyError(f"LimitState {c.name!r}: func returned shape {g.shape} for {n} rows; allowed: ({n},)")
+                out[:, k] = g
+                continue
+            if c.random:
+                a = A[:, ia]
+                ia += 1
+            else:
+                a = c.allowable
+            y = Y[:, p]
+            if c.kind == "margin":
+                out[:, k] = y.min(axis=1)
+            elif c.kind == "abs":
+                out[:, k] = a - np.abs(y).max(axis=1)
+            elif c.kind == "upper":
+                out[:, k] = a - y.max(axis=1)
+            else:
+                out[:, k] = y.min(axis=1) - a
+        return out
+
+    def __call__(self, Y: np.ndarray, A: np.ndarray | None = None) -> np.ndarray:
+        """(n,) system margin g."""
+        G = self.components(Y, A)
+        with np.errstate(invalid="ignore"):
+            return G.min(axis=1) if self.state.system == "series" else G.max(axis=1)

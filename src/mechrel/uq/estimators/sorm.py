@@ -1,0 +1,201 @@
+"""SORM: second-order corrections to FORM from the curvatures at the design point.
+
+Around the design point u* (β = ‖u*‖, unit normal α = u*/β pointing into the failure domain)
+rotate u to (v, u_n), v in the tangent plane. The limit surface is approximated by the
+paraboloid u_n = β + ½ Σ κ_i v_i², whose principal curvatures κ_i are the eigenvalues of
+Qᵀ H Q / ‖∇G‖, H the Hessian of G at u*, Q an orthonormal basis of the tangent plane
+(κ > 0: the surface bends away from the origin, smaller P_f). The Hessian block Qᵀ H Q is
+taken by central second differences along the columns of Q (2(d − 1)² model evaluations, in
+one parallel, cached executor call).
+
+P_f of the paraboloid (ψ = φ(β)/Φ(−β)):
+
+Breitung (1984), asymptotic for β → ∞
+    P₁ = Φ(−β) Π (1 + β κ_i)^(−1/2)
+Hohenbichler & Rackwitz (1988)
+    P₂ = Φ(−β) Π (1 + ψ κ_i)^(−1/2)
+Tvedt (1990), three terms
+    A₁ = P₁,  A₂ = [βΦ(−β) − φ(β)] [Π(1 + βκ_i)^(−1/2) − Π(1 + (β + 1)κ_i)^(−1/2)],
+    A₃ = (β + 1)[βΦ(−β) − φ(β)] [Π(1 + βκ_i)^(−1/2) − Re Π(1 + (β + i)κ_i)^(−1/2)],
+    P₃ = A₁ + A₂ + A₃.
+
+Each needs its factors positive: 1 + βκ_i > 0 for Breitung (a curvature below −1/β is an
+error naming it, not a number: the paraboloid closes around the origin), 1 + ψκ_i > 0 for
+Hohenbichler–Rackwitz, 1 + (β + 1)κ_i > 0 for Tvedt. ``formula`` picks the one reported as
+``pf`` (default Hohenbichler–Rackwitz, defined for the widest range of curvatures); an
+undefined choice is an error naming the formulas that are defined. All three are in
+the table, an undefined one as NaN (only possible for negative curvatures).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import pandas as pd
+from scipy import special, stats
+
+from mechrel.errors import StudyError
+
+from .._common import check_choice
+from ..executor import Evaluations
+from ..inputs import seed_record
+from ._problem import Problem, RareEventResult, concat_evaluations
+from .form import FORMResult, _form, check_positive
+
+__all__ = ["sorm", "SORMResult", "sorm_probabilities", "FORMULAS"]
+
+FORMULAS = ("hohenbichler", "tvedt", "breitung")
+
+
+@dataclass(frozen=True, eq=False)
+class SORMResult(RareEventResult):
+    """SORM result (frozen).
+
+    ``table`` (one row): ``pf`` (by ``formula``), ``beta`` (= −Φ⁻¹(pf)), ``beta_form``,
+    ``pf_form``, ``pf_breitung``, ``pf_hohenbichler``, ``pf_tvedt``, ``n_evaluations``
+    (FORM's included). ``curvatures``: the principal curvatures κ_i. ``form``: the FORM result.
+    """
+
+    table: pd.DataFrame
+    curvatures: np.ndarray
+    form: FORMResult
+    formula: str
+    evaluations: Evaluations | None
+    provenance: dict = field(repr=False)
+
+
+def sorm_probabilities(beta: float, kappa: Any) -> dict:
+    """{breitung, hohenbichler, tvedt}: P_f of the paraboloid with curvatures ``kappa`` at
+    distance ``beta`` (module docstring).
+
+    Breitung needs 1 + βκ_i > 0 (else StudyError: no second-order estimate exists),
+    Hohenbichler–Rackwitz 1 + ψκ_i > 0 and Tvedt 1 + (β + 1)κ_i > 0; a formula whose condition
+    fails (only possible for negative curvatures) is ``None``.
+    """
+    k = np.asarray(kappa, dtype=float).reshape(-1)
+    if np.any(1.0 + beta * k <= 0):
+        bad = k[1.0 + beta * k <= 0]
+        raise StudyError(
+            f"sorm: curvature κ = {bad.tolist()} at β = {beta:.4g}: 1 + βκ ≤ 0, the second-order approximation "
+            "is undefined (the failure domain curls around the origin); allowed: κ > −1/β; use "
+            "importance_sampling or subset_simulation"
+        )
+    pf1 = special.ndtr(-beta)
+    phi = stats.norm.pdf(beta)
+    psi = phi / pf1 if pf1 > 0 else beta
+    P_b = float(np.prod((1.0 + beta * k) ** -0.5))
+    breitung = float(pf1 * P_b)
+    hr = float(pf1 * np.prod((1.0 + psi * k) ** -0.5)) if np.all(1.0 + psi * k > 0) else None
+    tvedt = None
+    if np.all(1.0 + (beta + 1.0) * k > 0):
+        c = beta * pf1 - phi
+        a2 = c * (P_b - float(np.prod((1.0 + (beta + 1.0) * k) ** -0.5)))
+        a3 = (beta + 1.0) * c * (P_b - float(np.real(np.prod((1.0 + (beta + 1j) * k) ** -0.5))))
+        tvedt = float(breitung + a2 + a3)
+    return {"breitung": breitung, "hohenbichler": hr, "tvedt": tvedt}
+
+
+def curvatures(problem: Problem, u: np.ndarray, dG: np.ndarray, g_star: float, *, step: float) -> np.ndarray:
+    """Principal curvatures at u* by central second differences in the tangent plane."""
+    d = u.shape[0]
+    if d == 1:
+        return np.empty(0)
+    n = -dG / np.linalg.norm(dG)
+    # orthonormal basis: QR of [n, e_1, ..., e_d] with n first, the other d-1 columns span the plane
+    Q, _ = np.linalg.qr(np.column_stack([n, np.eye(d)]))
+    T = Q[:, 1:d]
+    m = d - 1
+    pts = []
+    for i in range(m):
+        pts += [u + step * T[:, i], u - step * T[:, i]]
+    pairs = [(i, j) for i in range(m) for j in range(i + 1, m)]
+    for i, j in pairs:
+        for si, sj in ((1, 1), (1, -1), (-1, 1), (-1, -1)):
+            pts.append(u + step * (si * T[:, i] + sj * T[:, j]))
+    G, ok, reasons = problem.g(np.array(pts))
+    if not ok.all():
+        bad = [reasons[i] for i in np.flatnonzero(~ok)][:3]
+        raise StudyError(f"sorm: {int((~ok).sum())} of the {len(pts)} curvature points failed ({bad}); "
+                         "allowed: a smaller curvature_step, or a sampling method")
+    Hm = np.empty((m, m))
+    for i in range(m):
+        Hm[i, i] = (G[2 * i] - 2.0 * g_star + G[2 * i + 1]) / step**2
+    base = 2 * m
+    for k, (i, j) in enumerate(pairs):
+        gpp, gpm, gmp, gmm = G[base + 4 * k : base + 4 * k + 4]
+        Hm[i, j] = Hm[j, i] = (gpp - gpm - gmp + gmm) / (4.0 * step**2)
+    # G ≈ ‖∇G‖(β − u_n) + ½ vᵀ H v  →  u_n = β + vᵀ H v / (2‖∇G‖)
+    return np.sort(np.linalg.eigvalsh(Hm / np.linalg.norm(dG)))
+
+
+def sorm(
+    *,
+    model: Any,
+    inputs: Any,
+    limit_state: Any = None,
+    seed: Any = None,
+    design_point: FORMResult | None = None,
+    formula: str = "hohenbichler",
+    curvature_step: float = 1e-2,
+    step: float = 1e-4,
+    scheme: str = "central",
+    tol: float = 1e-6,
+    max_iter: int = 100,
+    n_jobs: int = 1,
+    backend: str = "loky",
+    cache: Any = None,
+    progress: bool = False,
+    chunk_size: int | None = None,
+) -> SORMResult:
+    """Second-order reliability from the curvatures at FORM's design point.
+
+    ``design_point``: a :class:`FORMResult` of the same model, inputs and limit state (else FORM
+    runs here with ``step``, ``scheme``, ``tol``, ``max_iter``). ``formula``: which estimate is
+    ``pf``: ``"hohenbichler"`` (default: defined for the widest range of negative curvatures,
+    κ > −1/ψ, ψ ≈ β + 1/β), ``"tvedt"`` (the most accurate for a true paraboloid, needs
+    κ > −1/(β + 1)) or ``"breitung"`` (the asymptotic form). ``curvature_step``: the
+    second-difference step in standard normal units (its truncation error is O(step²) times
+    the fourth derivative; its round-off ≈ ε|G|/step²: enlarge it for a noisy model).
+    ``seed`` is unused (shared interface).
+    """
+    check_choice("formula", formula, FORMULAS)
+    curvature_step = check_positive("curvature_step", curvature_step)
+    problem = Problem(model=model, inputs=inputs, limit_state=limit_state, n_jobs=n_jobs, backend=backend,
+                      cache=cache, progress=progress, chunk_size=chunk_size, what="sorm")
+    extra = []
+    if design_point is None:
+        fr = _form(problem, seed=seed, step=step, scheme=scheme, tol=tol, max_iter=max_iter, start=None)
+    else:
+        if not isinstance(design_point, FORMResult):
+            raise StudyError(f"sorm: design_point = {design_point!r}: not a FORMResult; allowed: None or form(...)")
+        if tuple(design_point.design_point.index) != problem.names:
+            raise StudyError(f"sorm: design_point inputs {list(design_point.design_point.index)} differ from "
+                             f"{list(problem.names)}; allowed: a FORMResult of the same inputs and limit state")
+        fr = design_point
+        if fr.evaluations is not None:
+            extra = [fr.evaluations]
+    beta = fr.beta
+    kappa = curvatures(problem, np.array(fr.u_star), np.array(fr.grad_u), fr.g_star, step=curvature_step)
+    probs = sorm_probabilities(beta, kappa)
+    pf = probs[formula]
+    if pf is None:
+        defined = [f for f in FORMULAS if probs[f] is not None]
+        raise StudyError(
+            f"sorm: formula = {formula!r}: undefined for the curvatures κ = {np.round(kappa, 4).tolist()} at "
+            f"β = {beta:.4g} (a factor 1 + cκ ≤ 0); allowed here: {defined}")
+    probs = {f: (np.nan if v is None else v) for f, v in probs.items()}  # undefined: NaN in the table, documented
+    n_ev = problem.n_evaluations + (fr.n_evaluations if design_point is not None else 0)
+    table = pd.DataFrame({"pf": [pf], "beta": [float(-special.ndtri(pf))], "beta_form": [beta],
+                          "pf_form": [fr.pf], "pf_breitung": [probs["breitung"]],
+                          "pf_hohenbichler": [probs["hohenbichler"]], "pf_tvedt": [probs["tvedt"]],
+                          "n_evaluations": [n_ev]},
+                         index=pd.Index([problem.limit_state.name], name="limit_state"))
+    prov = problem.provenance(method="sorm", seed=seed_record(seed), extra_evaluations=extra,
+                              settings={"formula": formula, "curvature_step": curvature_step,
+                                        "form": "given" if design_point is not None else
+                                        {"step": step, "scheme": scheme, "tol": tol, "max_iter": max_iter}})
+    kap = np.array(kappa)
+    kap.setflags(write=False)
+    return SORMResult(table, kap, fr, formula, concat_evaluations(extra + problem.evaluations), prov)

@@ -1,0 +1,250 @@
+"""Subset simulation (Au & Beck 2001) with conditional sampling or modified Metropolis.
+
+P_f = P(F_1) Π P(F_{i+1} | F_i) with nested events F_i = {g ≤ b_i}, b_1 > b_2 > … > b_m = 0.
+Level 0 draws N iid standard normal samples; each level sets b_i to the p₀-quantile of g (mean
+of the N·p₀-th and N·p₀+1-th smallest values), keeps the N_c = N·p₀ samples below it as seeds
+and grows from each a Markov chain of 1/p₀ states (the seed first) whose stationary law is the
+standard normal conditioned on F_i. It stops at the first level whose quantile is ≤ 0:
+
+    P̂_f = p₀^(m−1) · #{g ≤ 0}/N.
+
+Markov chains (all chains advance together, one executor call per step):
+
+``"conditional"`` (Papaioannou et al. 2015)
+    candidate v = ρ u + √(1 − ρ²) ξ, ξ ~ N(0, I) (it leaves N(0, I) invariant, so no density
+    ratio is needed); accepted when g(v) ≤ b_i, else the chain stays.
+``"modified_metropolis"`` (Au & Beck 2001)
+    per coordinate, candidate ξ_j ~ N(u_j, σ²) accepted with probability min(1, φ(ξ_j)/φ(u_j));
+    the resulting vector is accepted when g ≤ b_i.
+
+Coefficient of variation (Au & Beck 2001, eqs. 24–29): for the level probabilities
+δ_i² = (1 − p_i)/(N p_i) · (1 + γ_i), with γ_i = 2 Σ_{k=1}^{N_s−1} (1 − k N_c/N) R_i(k)/R_i(0)
+from the correlation R_i(k) of the indicator along the chains (γ₀ = 0), and δ² ≈ Σ δ_i²
+(treating the levels as uncorrelated; the levels are positively correlated, so this is a lower
+bound on the true δ, Au & Beck's remark). The result reports δ and a normal interval
+P̂_f(1 ± zδ) clipped at 0.
+
+Randomness: level i uses the i-th child of ``seed`` for all its draws, in the parent process;
+the executor only evaluates rows, so the result is identical for any ``n_jobs``.
+"""
+
+from __future__ import annotations
+
+import math
+import warnings
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import pandas as pd
+from scipy import special, stats
+
+from mechrel.errors import StudyError
+
+from .._common import SampleFailuresError, check_choice, check_fraction
+from ..executor import Evaluations
+from ..inputs import as_seed_sequence, child_seed, seed_record
+from ._problem import Problem, RareEventResult, common_settings
+from .form import check_positive
+
+__all__ = ["subset_simulation", "SubsetSimulationResult", "PROPOSALS"]
+
+PROPOSALS = ("conditional", "modified_metropolis")
+
+
+@dataclass(frozen=True, eq=False)
+class SubsetSimulationResult(RareEventResult):
+    """Subset-simulation result (frozen).
+
+    ``table`` (one row): ``pf``, ``beta`` (−Φ⁻¹(pf)), ``cov`` (Au–Beck δ), ``pf_lo``,
+    ``pf_hi``, ``n_levels``, ``n_failed_model``, ``n_evaluations``. ``levels`` (one row per
+    level): ``threshold`` b_i, ``p`` (conditional probability), ``gamma``, ``cov``,
+    ``acceptance`` (of the chains grown at that level), ``n_evaluations``.
+    """
+
+    table: pd.DataFrame
+    levels: pd.DataFrame
+    evaluations: Evaluations | None
+    provenance: dict = field(repr=False)
+
+    @property
+    def cov(self) -> float:
+        return float(self.table["cov"].iloc[0])
+
+
+def _gamma(ind: np.ndarray, p: float) -> float:
+    """Au–Beck γ from the indicator array (N_c chains, N_s states)."""
+    nc, ns = ind.shape
+    N = nc * ns
+    r0 = p * (1.0 - p)
+    if r0 <= 0 or ns < 2:
+        return 0.0
+    g = 0.0
+    for k in range(1, ns):
+        rk = float(np.sum(ind[:, : ns - k] * ind[:, k:])) / (N - k * nc) - p * p
+        g += (1.0 - k * nc / N) * rk / r0
+    return 2.0 * g
+
+
+def subset_simulation(
+    *,
+    model: Any,
+    inputs: Any,
+    limit_state: Any = None,
+    seed: Any = None,
+    n_per_level: int = 1000,
+    p0: float = 0.1,
+    proposal: str = "conditional",
+    rho: float = 0.8,
+    spread: float = 1.0,
+    max_levels: int = 20,
+    confidence_level: float = 0.95,
+    failures: str = "exclude",
+    max_failure_fraction: float = 0.1,
+    n_jobs: int = 1,
+    backend: str = "loky",
+    cache: Any = None,
+    progress: bool = False,
+    chunk_size: int | None = None,
+) -> SubsetSimulationResult:
+    """P_f by subset simulation (module docstring).
+
+    ``n_per_level`` N (N·p₀ and 1/p₀ must be integers), ``p0`` the level probability,
+    ``proposal`` ``"conditional"`` (correlation ``rho``) or ``"modified_metropolis"``
+    (proposal std ``spread``), ``max_levels`` (P_f ≥ p₀^max_levels is resolvable).
+    ``failures``: a sample the model cannot evaluate is dropped at level 0 and rejected in a
+    chain (``"exclude"``: the chain stays where it is), or counted as a failure of the limit
+    state (``"as_failure"``). Total failures above ``max_failure_fraction`` are an error.
+    """
+    N = check_positive("n_per_level", n_per_level, integer=True, minimum=1)
+    p0 = check_fraction("p0", p0, open_lo=True, open_hi=True)
+    nc = N * p0
+    ns = 1.0 / p0
+    if abs(nc - round(nc)) > 1e-9 or abs(ns - round(ns)) > 1e-9 or round(nc) < 1:
+        raise StudyError(f"p0: got {p0!r} with n_per_level = {N}; allowed: 1/p0 and n_per_level·p0 integers "
+                         "(e.g. p0 = 0.1 with n_per_level a multiple of 10)")
+    nc, ns = int(round(nc)), int(round(ns))
+    check_choice("proposal", proposal, PROPOSALS)
+    rho = check_fraction("rho", rho, open_lo=False, open_hi=True)
+    spread = check_positive("spread", spread)
+    max_levels = check_positive("max_levels", max_levels, integer=True, minimum=0)
+    check_fraction("confidence_level", confidence_level, open_lo=True, open_hi=True)
+    common_settings(failures=failures, max_failure_fraction=max_failure_fraction)
+    ss = as_seed_sequence(seed)
+    problem = Problem(model=model, inputs=inputs, limit_state=limit_state, n_jobs=n_jobs, backend=backend,
+                      cache=cache, progress=progress, chunk_size=chunk_size, what="subset_simulation")
+    d = problem.d
+    fail_value = -np.inf if failures == "as_failure" else np.nan
+    n_bad = 0
+
+    def g_of(U):
+        nonlocal n_bad
+        G, ok, _ = problem.g(U)
+        n_bad += int((~ok).sum())
+        G = np.where(ok, G, fail_value)
+        if n_bad > max_failure_fraction * problem.n_evaluations and problem.n_evaluations >= N:
+            ev = problem.all_evaluations()
+            raise SampleFailuresError(
+                f"subset_simulation: {n_bad} of {problem.n_evaluations} samples failed "
+                f"({ev.failure_counts() if ev is not None else {}}), more than max_failure_fraction="
+                f"{max_failure_fraction}; allowed: fix the model or raise max_failure_fraction", ev)
+        return G
+
+    rng = np.random.default_rng(child_seed(ss, 0))
+    U = rng.standard_normal((N, d))
+    G = g_of(U)
+    keep = ~np.isnan(G)
+    U, G = U[keep], G[keep]
+    levels = []
+    pf = None
+    delta2 = 0.0
+    n_prev = 0
+    gamma = 0.0
+    acc = np.nan
+    for level in range(max_levels + 1):
+        n_here = G.shape[0]
+        order = np.argsort(G, kind="stable")
+        k_fail = int(np.sum(G <= 0))
+        m_seeds = int(round(n_here * p0))
+        if m_seeds < 1:
+            raise StudyError(f"subset_simulation: only {n_here} usable samples at level {level}; "
+                             "allowed: a larger n_per_level or fewer model failures")
+        b = 0.5 * (G[order[m_seeds - 1]] + G[order[m_seeds]]) if m_seeds < n_here else G[order[-1]]
+        if b <= 0 or k_fail >= m_seeds:  # last level: count failures directly
+            p = k_fail / n_here
+            pf = p0**level * p
+            d2 = (1 - p) / (n_here * p) * (1 + gamma) if p > 0 else np.inf
+            delta2 += d2
+            levels.append((level, 0.0, p, gamma, math.sqrt(d2), acc, problem.n_evaluations - n_prev))
+            break
+        if level == max_levels:
+            raise StudyError(
+                f"subset_simulation: level {level} reached max_levels = {max_levels} with threshold b = {b:.6g} > 0 "
+                f"(P_f < p0^max_levels = {p0**max_levels:.3g}, or the limit state is never violated); "
+                "allowed: a larger max_levels, or check the limit state")
+        if level > 0 and not b < levels[-1][1]:
+            raise StudyError(
+                f"subset_simulation: the threshold stopped decreasing at level {level} (b = {b:.6g}); g is flat "
+                "above 0 on a set of positive probability, so the failure domain cannot be reached "
+                "(never violated?); allowed: a limit state whose margin varies continuously")
+        d2 = (1 - p0) / (n_here * p0) * (1 + gamma)
+        delta2 += d2
+        levels.append((level, float(b), p0, gamma, math.sqrt(d2), acc, problem.n_evaluations - n_prev))
+        n_prev = problem.n_evaluations
+        # grow the chains of the next level from the seeds
+        seeds = order[:m_seeds]
+        cu = U[seeds].copy()
+        cg = G[seeds].copy()
+        chains_u = [cu.copy()]
+        chains_g = [cg.copy()]
+        lrng = np.random.default_rng(child_seed(ss, level + 1))
+        n_acc = 0
+        for _ in range(ns - 1):
+            if proposal == "conditional":
+                cand = rho * cu + math.sqrt(1 - rho * rho) * lrng.standard_normal(cu.shape)
+            else:
+                xi = cu + spread * lrng.standard_normal(cu.shape)
+                ratio = np.exp(-0.5 * (xi**2 - cu**2))
+                take = lrng.random(cu.shape) < np.minimum(1.0, ratio)
+                cand = np.where(take, xi, cu)
+            gc = g_of(cand)
+            accept = gc <= b  # NaN (excluded failure) compares False: rejected
+            n_acc += int(accept.sum())
+            cu = np.where(accept[:, None], cand, cu)
+            cg = np.where(accept, gc, cg)
+            chains_u.append(cu.copy())
+            chains_g.append(cg.copy())
+        acc = n_acc / (m_seeds * (ns - 1))
+        CU = np.stack(chains_u, axis=1)  # (chains, states, d)
+        CG = np.stack(chains_g, axis=1)  # (chains, states)
+        U = CU.reshape(-1, d)
+        G = CG.reshape(-1)
+        # γ for the next level's probability uses the indicator of its own threshold, known once
+        # that threshold is set: compute it lazily at the top of the next iteration
+        nxt = np.sort(G, kind="stable")
+        m2 = int(round(G.shape[0] * p0))
+        b2 = 0.5 * (nxt[m2 - 1] + nxt[m2]) if m2 < G.shape[0] else nxt[-1]
+        p_next = float(np.mean(CG <= max(b2, 0.0))) if b2 > 0 else float(np.mean(CG <= 0))
+        gamma = _gamma((CG <= max(b2, 0.0)).astype(float), p_next)
+    tab = pd.DataFrame(levels, columns=["level", "threshold", "p", "gamma", "cov", "acceptance", "n_evaluations"]
+                       ).set_index("level")
+    if len(levels) == 1:
+        warnings.warn(f"subset_simulation: {pf:.3g} of the level-0 samples fail (≥ p0 = {p0}): not a rare event, "
+                      "the result is crude Monte Carlo on n_per_level samples", stacklevel=2)
+    if pf == 0:
+        warnings.warn("subset_simulation: no sample of the last level failed; P_f is estimated as 0 "
+                      "(below the resolution of this run): increase n_per_level", stacklevel=2)
+    delta = math.sqrt(delta2)
+    z = float(stats.norm.ppf(0.5 + confidence_level / 2))
+    table = pd.DataFrame({"pf": [pf], "beta": [float(-special.ndtri(pf)) if pf > 0 else np.inf], "cov": [delta],
+                          "pf_lo": [max(pf * (1 - z * delta), 0.0)], "pf_hi": [pf * (1 + z * delta)],
+                          "n_levels": [len(levels)], "n_failed_model": [n_bad],
+                          "n_evaluations": [problem.n_evaluations]},
+                         index=pd.Index([problem.limit_state.name], name="limit_state"))
+    prov = problem.provenance(method="subset_simulation", seed=seed_record(ss),
+                              settings={"n_per_level": N, "p0": p0, "proposal": proposal, "rho": rho,
+                                        "spread": spread, "max_levels": max_levels,
+                                        "confidence_level": confidence_level, "failures": failures,
+                                        "max_failure_fraction": max_failure_fraction,
+                                        "cov": "Au & Beck (2001), levels treated as uncorrelated"})
+    return SubsetSimulationResult(table, tab, problem.all_evaluations(), prov)
