@@ -59,7 +59,9 @@ def _escape_bars(app, what, name, obj, options, lines):
         if stripped.startswith(".. math::"):
             in_math, math_indent = True, indent
             continue
-        if in_math or "|" not in line or stripped.startswith(("|", "+")):
+        # a line block or a grid-table row starts with "| " or "+"; a line that starts with an
+        # absolute value (|e| ...) is prose and gets escaped like any other
+        if in_math or "|" not in line or stripped.startswith(("| ", "+")) or stripped == "|":
             continue
         parts = _LITERAL.split(line)
         lines[i] = "".join(p if k % 2 else p.replace("|", r"\|") for k, p in enumerate(parts))
