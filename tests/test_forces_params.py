@@ -59,7 +59,7 @@ def test_layout_and_round_trip():
         ({"exponent": 0.5}, "exponent", "[1, 3]"),
         ({"clearance": float("nan")}, "clearance", "finite"),
         ({"length": "long"}, "length", "not a number"),
-        ({"bearing": "finite-ish"}, "bearing", "'long', 'short'"),
+        ({"bearing": "finite-ish"}, "bearing", "'finite', 'long', 'short'"),
         ({"bearing": 2}, "bearing", "one of"),
     ],
 )

@@ -328,5 +328,6 @@ def test_scene_selects_the_bearing_and_short_runs():
 
 
 def test_scene_rejects_unknown_bearing():
-    with pytest.raises(SceneError, match=r'joints\.C1\.lubricant\.bearing = "finit": unknown value; allowed: one of long, short'):
-        load_scene("nine-bar-lubricated", overrides={"joints.C1.lubricant.bearing": "finit"})
+    with pytest.raises(SceneError, match=r'joints\.C1\.lubricant\.bearing = "shrt": unknown '
+                       r"value \(did you mean 'short'\?\); allowed: one of long, short, finite"):
+        load_scene("nine-bar-lubricated", overrides={"joints.C1.lubricant.bearing": "shrt"})

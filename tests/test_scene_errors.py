@@ -252,7 +252,7 @@ CASES = [
     ("eps0-above-one", _edit("eps0 = 0.1", "eps0 = 1.5"),
      ["joints.C.lubricant.eps0", "= 1.5", "must be <= 1", "in (0, 1]"]),
     ("bearing-unknown", _edit("eps0 = 0.1", 'eps0 = 0.1\nbearing = "shrot"'),
-     ["joints.C.lubricant.bearing", "shrot", "did you mean 'short'", "one of long, short"]),
+     ["joints.C.lubricant.bearing", "shrot", "did you mean 'short'", "one of long, short, finite"]),
     ("eps-max-one", _edit("eps_max = 0.99", "eps_max = 1"),
      ["joints.C.transition.eps_max", "= 1", "must be < 1", "in (0, 1)"]),
     ("eccentricity-outside-clearance", _edit("length = 40e-3", "length = 40e-3\ninitial_eccentricity = [1e-3, 0.0]"),

@@ -21,6 +21,7 @@ from mechrel.forces.params import (
     P_C, P_CE, P_CF, P_E1, P_EPS0, P_EPSMAX, P_FLOOR, P_K, P_L, P_LAMBDA, P_MODEL, P_MU, P_N,
     P_BEARING, P_RB, P_RS, P_V0, P_V1, PARAM_NAMES, pack_params, unpack_params,
 )
+from mechrel.forces.finite_film import finite_film_forces
 from mechrel.forces.short_film import ocvirk_steady, short_film_forces
 
 __all__ = [
@@ -28,6 +29,7 @@ __all__ = [
     "dynamic_correction", "friction_force",
     "film_forces", "film_forces_eps_w", "half_sommerfeld_steady", "full_film_squeeze",
     "small_eccentricity_factor", "short_film_forces", "ocvirk_steady",
+    "finite_film_forces",
     "MODELS", "BEARINGS", "ClearanceModel", "BearingModel", "model_by_code", "pack_joint",
     "BEARING_LONG", "BEARING_SHORT", "BEARING_NAMES", "LIMITS", "P_BEARING",
     "clearance_force", "transition_weight", "transition_energy",

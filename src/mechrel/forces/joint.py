@@ -32,10 +32,11 @@ import numba
 
 from mechrel.forces.contact import ln_normal_force
 from mechrel.forces.film import film_forces_eps_w
+from mechrel.forces.finite_film import finite_film_forces
 from mechrel.forces.friction import friction_force
 from mechrel.forces.short_film import short_film_forces
 from mechrel.forces.params import (
-    BEARING_LONG, MODEL_DRY, MODEL_LUBRICATED, MODEL_TRANSITION, P_BEARING, P_C, P_CE, P_CF, P_E1, P_EPS0, P_EPSMAX,
+    BEARING_LONG, BEARING_SHORT, MODEL_DRY, MODEL_LUBRICATED, MODEL_TRANSITION, P_BEARING, P_C, P_CE, P_CF, P_E1, P_EPS0, P_EPSMAX,
     P_FLOOR, P_K, P_L, P_LAMBDA, P_MODEL, P_MU, P_N, P_RB, P_RS, P_V0, P_V1,
 )
 
@@ -106,7 +107,8 @@ def clearance_force(ex, ey, vx, vy, omega_B, omega_S, impact_speed, p):
       p[P_CF] == 0. No film code runs.
     - Lubricated (MODEL_LUBRICATED): F = F_r n + F_t t from the film model p[P_BEARING]
       (:func:`mechrel.forces.film.film_forces_eps_w` for the long bearing,
-      :func:`mechrel.forces.short_film.short_film_forces` for the short one) at the actual ε.
+      :func:`mechrel.forces.short_film.short_film_forces` for the short one,
+      :func:`mechrel.forces.finite_film.finite_film_forces` for the finite one) at the actual ε.
       The model has no contact: the divergence of the film force as ε → 1 (squeeze term ∝ ε̇/(1 − ε²)^1.5, whose impulse
       ∫ dε/(1 − ε²)^1.5 is unbounded) is the only thing that keeps the journal inside the
       bearing, so the film must not be clamped at a ε_max < 1 (a clamp at 0.99 let a 1 cP
@@ -187,9 +189,12 @@ def clearance_force(ex, ey, vx, vy, omega_B, omega_S, impact_speed, p):
         if p[P_BEARING] == BEARING_LONG:
             F_r, F_t = film_forces_eps_w(eps_e, vn / c, eps_w_e, p[P_MU], R_S, p[P_L], c,
                                          p[P_LAMBDA], p[P_EPS0])
-        else:  # BEARING_SHORT (pack_params admits no other code)
+        elif p[P_BEARING] == BEARING_SHORT:
             F_r, F_t = short_film_forces(eps_e, vn / c, eps_w_e, p[P_MU], R_S, p[P_L], c,
                                          p[P_LAMBDA], p[P_EPS0])
+        else:  # BEARING_FINITE (pack_params admits no other code)
+            F_r, F_t = finite_film_forces(eps_e, vn / c, eps_w_e, p[P_MU], R_S, p[P_L], c,
+                                          p[P_LAMBDA], p[P_EPS0])
         Fx += s_film * (F_r * nx + F_t * tx)
         Fy += s_film * (F_r * ny + F_t * ty)
 

@@ -27,7 +27,7 @@ from typing import Any
 
 __all__ = [
     "ClearanceModel", "BearingModel", "MODELS", "BEARINGS", "MODEL_DRY", "MODEL_LUBRICATED",
-    "MODEL_TRANSITION", "BEARING_LONG", "BEARING_SHORT", "DEFAULT_BEARING", "SUBTABLE_PARAMS",
+    "MODEL_TRANSITION", "BEARING_LONG", "BEARING_SHORT", "BEARING_FINITE", "DEFAULT_BEARING", "SUBTABLE_PARAMS",
     "model_by_code", "pack_joint",
 ]
 
@@ -44,6 +44,9 @@ BEARING_LONG = 0
 BEARING_SHORT = 1
 """Short (Ocvirk) bearing with rotation and squeeze, half-Sommerfeld film:
 :func:`mechrel.forces.short_film.short_film_forces`."""
+BEARING_FINITE = 2
+"""Finite-length bearing, 0.25 ≤ L/D ≤ 4, from tabulated 2-D Reynolds solutions, half-Sommerfeld
+film: :func:`mechrel.forces.finite_film.finite_film_forces`."""
 
 SUBTABLE_PARAMS: Mapping[str, Mapping[str, str]] = MappingProxyType({
     "contact": MappingProxyType({"restitution": "restitution", "exponent": "exponent",
@@ -190,6 +193,13 @@ _BEARINGS = (
         summary="short bearing (Ocvirk), rotation and squeeze, half-Sommerfeld film",
         source="Ocvirk (1952) short-bearing Reynolds equation; Hamrock, Schmid & Jacobson "
                "(2004), Fundamentals of Fluid Film Lubrication, ch. 10",
+    ),
+    BearingModel(
+        name="finite", code=BEARING_FINITE,
+        summary="finite-length bearing (0.25 <= L/D <= 4), half-Sommerfeld film, the short "
+                "bearing corrected by tabulated 2-D Reynolds solutions",
+        source="own finite-volume Reynolds solutions (mechrel.forces.reynolds); reduction to "
+               "an equivalent squeeze as in Childs, Moes & van der Helm (1977)",
     ),
 )
 BEARINGS: Mapping[str, BearingModel] = MappingProxyType({b.name: b for b in _BEARINGS})

@@ -20,13 +20,14 @@ import numpy as np
 
 from mechrel.errors import SceneError
 from mechrel.forces.models import (
-    BEARING_LONG, BEARING_SHORT, BEARINGS, DEFAULT_BEARING, MODEL_DRY, MODEL_LUBRICATED,
-    MODEL_TRANSITION, MODELS,
+    BEARING_FINITE, BEARING_LONG, BEARING_SHORT, BEARINGS, DEFAULT_BEARING, MODEL_DRY,
+    MODEL_LUBRICATED, MODEL_TRANSITION, MODELS,
 )
 
 __all__ = [
     "MODEL_DRY", "MODEL_LUBRICATED", "MODEL_TRANSITION", "MODEL_NAMES", "BEARING_LONG",
-    "BEARING_SHORT", "BEARING_NAMES", "P_BEARING", "LIMITS", "describe_range",
+    "BEARING_SHORT", "BEARING_FINITE", "FINITE_LD_RANGE", "BEARING_NAMES", "P_BEARING",
+    "LIMITS", "describe_range",
     "P_MODEL", "P_C", "P_RB", "P_RS", "P_L", "P_K", "P_N", "P_CE", "P_FLOOR", "P_CF",
     "P_V0", "P_V1", "P_MU", "P_LAMBDA", "P_EPS0", "P_E1", "P_EPSMAX", "N_PARAMS",
     "PARAM_NAMES", "DEFAULTS", "pack_params", "unpack_params",
@@ -56,7 +57,7 @@ P_LAMBDA = 13   # small-eccentricity correction exponent λ (-)
 P_EPS0 = 14     # small-eccentricity correction threshold ε0 (-), in (0, 1]
 P_E1 = 15       # transition band width e1 (m)
 P_EPSMAX = 16   # transition model: ε at which the film is clamped, ε_max (-), in (0, 1)
-P_BEARING = 17  # film model code (BEARING_LONG / BEARING_SHORT), stored as float
+P_BEARING = 17  # film model code (BEARING_LONG / BEARING_SHORT / BEARING_FINITE), as float
 N_PARAMS = 18
 
 PARAM_NAMES = (
@@ -105,6 +106,10 @@ exactly the same values. Cross-field rules (R_S > 0, v1 > v0, viscosity > 0 for 
 are checked by :func:`pack_params` and restated by the scene validation with scene paths."""
 
 
+FINITE_LD_RANGE = (0.25, 4.0)
+"""L/D = length / (2 R_S) range of the finite-length film's table (-)."""
+
+
 def describe_range(gt=None, ge=None, lt=None, le=None, unit=None) -> str:
     """``"a finite number in (0, 1]"``-style text of a range (the scene's message style)."""
     lo = (gt, "(") if gt is not None else (ge, "[") if ge is not None else None
@@ -134,7 +139,9 @@ def _limited(field: str, value: Any) -> float:
 
 def _check(field: str, value: Any, ok: bool, allowed: str) -> None:
     if not ok:
-        raise SceneError(f"{field} = {value!r} is invalid: allowed {allowed}", path=field)
+        err = SceneError(f"{field} = {value!r} is invalid: allowed {allowed}", path=field)
+        err.value, err.allowed = value, allowed  # for the scene loader's message
+        raise err
 
 
 def _real(field: str, value: Any) -> float:
@@ -203,7 +210,7 @@ def pack_params(
         Eccentricity ratio at which the film force is clamped in the transition model (-),
         in (0, 1). The lubricated model does not clamp (its film keeps ε < 1; see
         :func:`mechrel.forces.joint.clearance_force`).
-    bearing : {"long", "short"}, default "long"
+    bearing : {"long", "short", "finite"}, default "long"
         Film model of the lubricated and transition models
         (:data:`mechrel.forces.models.BEARINGS`); not read by the dry model.
 
@@ -251,6 +258,12 @@ def pack_params(
     e0 = _limited("eps0", eps0)
     w1 = _limited("e1", e1)
     em = _limited("eps_max", eps_max)
+    if row.has_film and bcode == BEARING_FINITE:
+        lo, hi = FINITE_LD_RANGE
+        ld = L / (2.0 * RS)
+        _check("length", length, lo * (1 - 1e-12) <= ld <= hi * (1 + 1e-12),
+               f"L/D = length / (2 journal radius) in [{lo:g}, {hi:g}] for bearing 'finite' "
+               f"(here L/D = {ld:.4g}); use bearing 'long' above, 'short' below")
 
     p = np.empty(N_PARAMS, dtype=np.float64)
     p[P_MODEL] = code

@@ -51,7 +51,7 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-__all__ = ["reynolds_forces", "CAVITATION"]
+__all__ = ["reynolds_forces", "half_sommerfeld_directions", "CAVITATION"]
 
 CAVITATION = ("half-sommerfeld", "reynolds")
 
@@ -147,14 +147,55 @@ def reynolds_forces(eps: float, eps_dot: float, eps_w: float, mu: float, R: floa
     else:
         P = _lcp_active_set(K, f)
     Pg = P.reshape(n_z, n_theta)
+    Fr, Ft = _force(Pg, th, dth, dz, mu, R, c)
+    if return_pressure:
+        return Fr, Ft, (th, (np.arange(n_z) + 0.5) * dz, Pg)
+    return Fr, Ft
+
+
+def _force(Pg, th, dth, dz, mu, R, c):
     # both halves of the bearing: twice the half domain
     s_cos = 2.0 * float(np.sum(Pg * np.cos(th))) * dth * dz
     s_sin = 2.0 * float(np.sum(Pg * np.sin(th))) * dth * dz
     k = mu * R ** 4 / (c * c)
-    Fr, Ft = -k * s_cos, -k * s_sin
-    if return_pressure:
-        return Fr, Ft, (th, (np.arange(n_z) + 0.5) * dz, Pg)
-    return Fr, Ft
+    return -k * s_cos, -k * s_sin
+
+
+def half_sommerfeld_directions(eps: float, l_over_d: float, directions, *, n_theta: int = 240,
+                               n_z: int = 40) -> np.ndarray:
+    """Half-Sommerfeld forces for unit (ε̇, εw/2) = (cos ϑ, sin ϑ) over many directions ϑ.
+
+    The full-film problem is linear in G = ε̇ cos θ − (εw/2) sin θ, so one factorisation and
+    two solves (G = cos θ, G = −sin θ) give the full-film pressure of every direction; each is
+    then clipped and integrated. Forces are returned per unit μR²L/c²... precisely: the
+    returned (F_r, F_t) are for μ = 1, R = 1, c = 1 and L = 2·l_over_d (so D = 2), to be
+    scaled by μ R⁴/c² · A for a physical bearing (A = hypot(ε̇, εw/2) in 1/s).
+
+    Parameters
+    ----------
+    eps : float
+        ε (-), 0 ≤ ε < 1.
+    l_over_d : float
+        L/D (-).
+    directions : array_like
+        ϑ values (rad).
+    n_theta, n_z : int
+        Grid (see :func:`reynolds_forces`).
+
+    Returns
+    -------
+    numpy.ndarray
+        Shape (len(directions), 2): (F_r, F_t) per direction.
+    """
+    K, th, dth, dz = _operator(eps, l_over_d, n_theta, n_z)
+    lu = spla.splu(K.tocsc())
+    Pc = lu.solve(np.tile(12.0 * np.cos(th) * dth * dz, n_z))
+    Ps = lu.solve(np.tile(-12.0 * np.sin(th) * dth * dz, n_z))
+    out = np.empty((len(directions), 2))
+    for i, v in enumerate(directions):
+        P = np.maximum(math.cos(v) * Pc + math.sin(v) * Ps, 0.0).reshape(n_z, n_theta)
+        out[i] = _force(P, th, dth, dz, 1.0, 1.0, 1.0)
+    return out
 
 
 def _lcp_active_set(K, f, max_iter: int = 200) -> np.ndarray:

@@ -15,7 +15,7 @@ from types import MappingProxyType
 from typing import Any, NoReturn
 
 from ..errors import SceneError
-from ..forces.models import BEARINGS, MODELS, SUBTABLE_PARAMS
+from ..forces.models import BEARINGS, MODELS, SUBTABLE_PARAMS, pack_joint
 from ..forces.params import LIMITS
 from ._schema import (
     ANALYSIS_KEYS, BODY_KEYS, DRIVER_KEYS, DRIVER_KEYS_BY_LAW, JOINT_KEYS, JOINT_KEYS_BY_TYPE,
@@ -460,9 +460,27 @@ class _Builder(Checker):
                          ("lubricant", self._lubricant), ("transition", self._transition)):
             subs[k] = (check(join(p, k), j.get(k, {}), model) if k in j or k in needs
                        else None)
-        return Joint(name=name, type="revolute", points=(a, b), model=model, clearance=clearance,
-                     bearing_radius=bearing_radius, length=length,
-                     initial_eccentricity=ecc, initial_eccentricity_rate=ecc_rate, **subs)
+        joint = Joint(name=name, type="revolute", points=(a, b), model=model,
+                      clearance=clearance, bearing_radius=bearing_radius, length=length,
+                      initial_eccentricity=ecc, initial_eccentricity_rate=ecc_rate, **subs)
+        if not ideal:
+            self._force_law(p, joint)
+        return joint
+
+    def _force_law(self, p: str, joint: Joint) -> None:
+        """The force law's cross-field rules (e.g. the finite film's L/D range), checked by
+        :func:`mechrel.forces.params.pack_params`, the one validator, and reported with the
+        scene path of the field."""
+        try:
+            pack_joint(joint)
+        except SceneError as err:
+            if not hasattr(err, "allowed"):
+                raise
+            field = err.path
+            where = {param: f"{sub}.{key}" for sub, keys in SUBTABLE_PARAMS.items()
+                     for key, param in keys.items()}
+            self.fail(join(p, where.get(field, field)), err.value,
+                      f"not allowed by the '{joint.model}' force law", err.allowed)
 
     def _sub(self, path: str, v: Any, cls, specs: Mapping[str, dict]) -> dict:
         t = self.table(path, v)
