@@ -14,6 +14,14 @@ from mechrel.forces.finite_film import correction
 from mechrel.forces.finite_table import EPS_NODES, GRID, LD_NODES, TABLE_PATH, THETA_NODES, build_table
 from mechrel.forces.joint import EPS_GUARD, clearance_force
 from mechrel.forces.reynolds import half_sommerfeld_directions
+
+# Raimondi & Boyd (1958), ASLE Trans. 1, 159-209, full bearing, Reynolds condition:
+# (L/D, ε) → (S, attitude °); the same values and source as tests/test_forces_short_film.py
+RAIMONDI_BOYD = {
+    (1.0, 0.6): (0.121, 50.58), (1.0, 0.8): (0.0446, 36.24), (1.0, 0.9): (0.0188, 26.45),
+    (0.5, 0.6): (0.319, 48.14), (0.5, 0.8): (0.0923, 33.31), (0.5, 0.9): (0.0313, 23.66),
+    (0.25, 0.6): (1.07, 46.72), (0.25, 0.8): (0.261, 31.04), (0.25, 0.9): (0.0736, 21.85),
+}
 from mechrel.scene import load_scene
 from mechrel.simulation import simulate
 
@@ -164,3 +172,62 @@ def test_nine_bar_with_finite_films_and_a_transition_joint():
         "joints.C.lubricant.bearing": "finite"}))
     assert tr.stats["status"] == "ok" and tr.orbits["C"]["eps"].max() > 1.0
     assert np.all(np.isfinite(tr.energy["balance"]))
+
+
+# ------------------------------------------------ Swift–Stieber (Reynolds-condition) table ---
+
+def finite_rc(eps, ed, ew, LD):
+    return finite_film_forces(eps, ed, ew, MU, R_S, LD * 2 * R_S, C, 0.0, EPS0, True)
+
+
+def test_reynolds_condition_finite_film_against_raimondi_boyd():
+    # The published steady table (Raimondi & Boyd 1958; values and source in
+    # tests/test_forces_short_film.py) read off the compiled finite film with cavitation
+    # "reynolds": S within 2 % (the table's 3 digits, our 240 × 16 grid, the interpolation),
+    # attitude within 1.5°.
+    w = 10.0
+    for (LD, eps), (S_rb, phi_rb) in RAIMONDI_BOYD.items():
+        Ll = LD * 2 * R_S
+        Fr, Ft = finite_rc(eps, 0.0, eps * w, LD)
+        S = (R_S / C) ** 2 * MU * (w / (2 * math.pi)) / (math.hypot(Fr, Ft) / (Ll * 2 * R_S))
+        assert S == pytest.approx(S_rb, rel=0.02), (LD, eps)
+        assert abs(math.degrees(math.atan2(Ft, -Fr)) - phi_rb) < 1.5, (LD, eps)
+
+
+@pytest.mark.parametrize("LD, eps", [(1.0, 0.5), (1.4, 0.8), (0.7, 0.93), (2.5, 0.3)])
+def test_reynolds_condition_finite_film_against_the_solver(LD, eps):
+    # Against the complementarity solution on the table's own grid (240 × 16), on and off
+    # the nodes, four directions: only the table's interpolation error remains (< 2 %).
+    from mechrel.forces.reynolds import reynolds_condition_directions
+    dirs = [0.0, 0.5 * math.pi, 2.2, -0.7]
+    ref = K2D * reynolds_condition_directions(eps, LD, dirs, n_theta=240, n_z=16)
+    for k, v in enumerate(dirs):
+        assert _rel(finite_rc(eps, math.cos(v), 2.0 * math.sin(v), LD), ref[k]) < 0.02
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("LD", [0.5, 1.0, 1.4, 2.0])
+@pytest.mark.parametrize("eps", [0.2, 0.5, 0.8, 0.9])
+def test_reynolds_condition_finite_film_against_a_finer_solution(LD, eps):
+    # the matrix, against a 480 × 32 complementarity solution (grid error of the
+    # table's 240 × 16 grid included): within 2 %
+    from mechrel.forces.reynolds import reynolds_condition_directions
+    ref = K2D * reynolds_condition_directions(eps, LD, [0.5 * math.pi, 0.0], n_theta=480,
+                                              n_z=32)
+    assert _rel(finite_rc(eps, 0.0, 2.0, LD), ref[0]) < 0.02
+    assert _rel(finite_rc(eps, 1.0, 0.0, LD), ref[1]) < 0.02
+
+
+def test_reynolds_condition_needs_the_finite_film():
+    for bearing in ("long", "short"):
+        with pytest.raises(SceneError) as info:
+            pack_params(model="lubricated", clearance=C, bearing_radius=R_S + C, length=0.04,
+                        stiffness=1e10, restitution=0.9, viscosity=MU, bearing=bearing,
+                        cavitation="reynolds")
+        msg = str(info.value)
+        assert msg.startswith("cavitation") and "needs bearing 'finite'" in msg
+    with pytest.raises(SceneError, match=r"joints\.C1\.lubricant\.cavitation = \"reynolds\""):
+        load_scene("nine-bar-lubricated", overrides={"joints.C1.lubricant.cavitation": "reynolds"})
+    sc = load_scene("nine-bar-lubricated", overrides={"joints.C1.lubricant.cavitation": "reynolds",
+                                                      "joints.C1.lubricant.bearing": "finite"})
+    assert sc.joints["C1"].lubricant.cavitation == "reynolds"

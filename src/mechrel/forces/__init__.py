@@ -19,7 +19,7 @@ from mechrel.forces.params import (
     BEARING_LONG, BEARING_NAMES, BEARING_SHORT, DEFAULTS, LIMITS, MODEL_DRY, MODEL_LUBRICATED,
     MODEL_NAMES, MODEL_TRANSITION, N_PARAMS,
     P_C, P_CE, P_CF, P_E1, P_EPS0, P_EPSMAX, P_FLOOR, P_K, P_L, P_LAMBDA, P_MODEL, P_MU, P_N,
-    P_BEARING, P_RB, P_RS, P_V0, P_V1, PARAM_NAMES, pack_params, unpack_params,
+    P_BEARING, P_CAVITATION, P_RB, P_RS, P_V0, P_V1, PARAM_NAMES, pack_params, unpack_params,
 )
 from mechrel.forces.finite_film import finite_film_forces
 from mechrel.forces.short_film import ocvirk_steady, short_film_forces
@@ -31,7 +31,7 @@ __all__ = [
     "small_eccentricity_factor", "short_film_forces", "ocvirk_steady",
     "finite_film_forces",
     "MODELS", "BEARINGS", "ClearanceModel", "BearingModel", "model_by_code", "pack_joint",
-    "BEARING_LONG", "BEARING_SHORT", "BEARING_NAMES", "LIMITS", "P_BEARING",
+    "BEARING_LONG", "BEARING_SHORT", "BEARING_NAMES", "LIMITS", "P_BEARING", "P_CAVITATION",
     "clearance_force", "transition_weight", "transition_energy",
     "pack_params", "unpack_params", "DEFAULTS", "PARAM_NAMES", "MODEL_NAMES",
     "MODEL_DRY", "MODEL_LUBRICATED", "MODEL_TRANSITION", "N_PARAMS",

@@ -15,6 +15,9 @@ force of :mod:`mechrel.forces.short_film` (it carries the ε → 1 singularity, 
 L/D → 0), and tabulate the correction q(L/D, ε, ϑ) from our own finite-volume Reynolds
 solutions (:mod:`mechrel.forces.finite_table`, data ``forces/data/finite_bearing_hs.npz``):
 
+* one table per cavitation condition: half-Sommerfeld (``finite_bearing_hs.npz``) and
+  Swift–Stieber (``finite_bearing_rc.npz``, the 2-D Reynolds-condition force over the
+  half-Sommerfeld short one; positively homogeneous in (ε̇, εw/2) as well);
 * L/D = 0.25·2^(k/2), k = 0..8; ε = 1 − (1 − s)², s = 0, 0.05, ..., 0.9; ϑ = 0, π/12, ..., π,
   with q(−ϑ) = conj q(ϑ) (mirror symmetry w → −w);
 * cubic Lagrange interpolation in each of the three uniform index variables (4×4×4 nodes),
@@ -37,14 +40,39 @@ import math
 import numba
 import numpy as np
 
-from mechrel.forces.finite_table import TABLE_PATH
+from pathlib import Path
+
 from mechrel.forces.short_film import short_film_forces
 
-__all__ = ["finite_film_forces", "correction", "LD_MIN", "LD_MAX"]
+__all__ = ["finite_film_forces", "correction", "LD_MIN", "LD_MAX", "TABLE_PATH",
+           "TABLE_PATH_RC", "TABLES_PRESENT"]
 
-with np.load(TABLE_PATH) as _data:
-    _Q = np.ascontiguousarray(_data["q"], dtype=np.float64)
-_N_LD, _N_S, _N_TH = _Q.shape[0], _Q.shape[1], _Q.shape[2]
+TABLE_PATH = Path(__file__).resolve().parent / "data" / "finite_bearing_hs.npz"
+"""Half-Sommerfeld correction table (package data, built by :mod:`mechrel.forces.finite_table`)."""
+TABLE_PATH_RC = Path(__file__).resolve().parent / "data" / "finite_bearing_rc.npz"
+"""Swift–Stieber correction table."""
+_SHAPE = (9, 19, 13, 2)  # L/D, ε, ϑ nodes of mechrel.forces.finite_table; real and imaginary
+
+
+def _load(path: Path) -> np.ndarray:
+    # A missing table (e.g. while it is being rebuilt from scratch) leaves NaN in its place;
+    # pack_params then refuses the finite film instead of passing NaN on.
+    try:
+        with np.load(path) as data:
+            q = np.ascontiguousarray(data["q"], dtype=np.float64)
+    except FileNotFoundError:
+        return np.full(_SHAPE, np.nan)
+    if q.shape != _SHAPE:
+        raise ValueError(f"{path}: table of shape {q.shape}, expected {_SHAPE}")
+    return q
+
+
+_Q = _load(TABLE_PATH)
+_Q_RC = _load(TABLE_PATH_RC)
+TABLES_PRESENT = {"half-sommerfeld": bool(np.all(np.isfinite(_Q))),
+                  "reynolds": bool(np.all(np.isfinite(_Q_RC)))}
+"""Whether each correction table was loaded (cavitation condition → bool)."""
+_N_LD, _N_S, _N_TH = _SHAPE[0], _SHAPE[1], _SHAPE[2]
 LD_MIN = 0.25
 """Smallest L/D of the table (-)."""
 LD_MAX = 0.25 * 2.0 ** ((_N_LD - 1) / 2.0)
@@ -75,7 +103,7 @@ def _stencil(x, n):
 
 
 @numba.njit(cache=True, fastmath=False)
-def correction(l_over_d, eps, theta):
+def correction(l_over_d, eps, theta, reynolds=False):
     """Complex correction q = (Re, Im) of the finite bearing over the short one (-).
 
     Parameters
@@ -86,6 +114,8 @@ def correction(l_over_d, eps, theta):
         ε (-), ≥ 0; above 0.99 the value at 0.99 is used.
     theta : float
         Direction ϑ = atan2(εw/2, ε̇) (rad), in [−π, π].
+    reynolds : bool
+        Swift–Stieber table instead of the half-Sommerfeld one.
 
     Returns
     -------
@@ -109,6 +139,7 @@ def correction(l_over_d, eps, theta):
     wx = _lagrange4(tx)
     ws = _lagrange4(ts)
     wy = _lagrange4(ty)
+    Q = _Q_RC if reynolds else _Q
     qr = 0.0
     qi = 0.0
     for c in range(4):
@@ -123,19 +154,20 @@ def correction(l_over_d, eps, theta):
         for a in range(4):
             for b in range(4):
                 w = wx[a] * ws[b] * wy[c]
-                qr += w * _Q[i0 + a, j0 + b, k, 0]
-                qi += w * sign * _Q[i0 + a, j0 + b, k, 1]
+                qr += w * Q[i0 + a, j0 + b, k, 0]
+                qi += w * sign * Q[i0 + a, j0 + b, k, 1]
     if conj:
         qi = -qi
     return qr, qi
 
 
 @numba.njit(cache=True, fastmath=False)
-def finite_film_forces(eps, eps_dot, eps_w, mu, R_S, L, c, lam, eps0):
+def finite_film_forces(eps, eps_dot, eps_w, mu, R_S, L, c, lam, eps0, reynolds=False):
     """Finite-length bearing film forces, half-Sommerfeld, rotation and squeeze (N).
 
     Parameters as :func:`mechrel.forces.short_film.short_film_forces`; L/D = L/(2 R_S) must be
-    in [0.25, 4].
+    in [0.25, 4]. ``reynolds``: Swift–Stieber cavitation (its own table) instead of
+    half-Sommerfeld.
 
     Returns
     -------
@@ -143,5 +175,5 @@ def finite_film_forces(eps, eps_dot, eps_w, mu, R_S, L, c, lam, eps0):
         (F_r, F_t): force on the journal along n and along t.
     """
     Fr, Ft = short_film_forces(eps, eps_dot, eps_w, mu, R_S, L, c, lam, eps0)
-    qr, qi = correction(L / (2.0 * R_S), eps, math.atan2(0.5 * eps_w, eps_dot))
+    qr, qi = correction(L / (2.0 * R_S), eps, math.atan2(0.5 * eps_w, eps_dot), reynolds)
     return Fr * qr - Ft * qi, Fr * qi + Ft * qr

@@ -36,7 +36,8 @@ from mechrel.forces.finite_film import finite_film_forces
 from mechrel.forces.friction import friction_force
 from mechrel.forces.short_film import short_film_forces
 from mechrel.forces.params import (
-    BEARING_LONG, BEARING_SHORT, MODEL_DRY, MODEL_LUBRICATED, MODEL_TRANSITION, P_BEARING, P_C, P_CE, P_CF, P_E1, P_EPS0, P_EPSMAX,
+    BEARING_LONG, BEARING_SHORT, MODEL_DRY, MODEL_LUBRICATED, MODEL_TRANSITION, P_BEARING, P_C,
+    P_CAVITATION, P_CE, P_CF, P_E1, P_EPS0, P_EPSMAX,
     P_FLOOR, P_K, P_L, P_LAMBDA, P_MODEL, P_MU, P_N, P_RB, P_RS, P_V0, P_V1,
 )
 
@@ -194,7 +195,7 @@ def clearance_force(ex, ey, vx, vy, omega_B, omega_S, impact_speed, p):
                                          p[P_LAMBDA], p[P_EPS0])
         else:  # BEARING_FINITE (pack_params admits no other code)
             F_r, F_t = finite_film_forces(eps_e, vn / c, eps_w_e, p[P_MU], R_S, p[P_L], c,
-                                          p[P_LAMBDA], p[P_EPS0])
+                                          p[P_LAMBDA], p[P_EPS0], p[P_CAVITATION] != 0.0)
         Fx += s_film * (F_r * nx + F_t * tx)
         Fy += s_film * (F_r * ny + F_t * ty)
 

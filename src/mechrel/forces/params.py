@@ -27,7 +27,8 @@ from mechrel.forces.models import (
 __all__ = [
     "MODEL_DRY", "MODEL_LUBRICATED", "MODEL_TRANSITION", "MODEL_NAMES", "BEARING_LONG",
     "BEARING_SHORT", "BEARING_FINITE", "FINITE_LD_RANGE", "BEARING_NAMES", "P_BEARING",
-    "LIMITS", "describe_range",
+    "LIMITS", "describe_range", "P_CAVITATION", "CAVITATION_NAMES",
+    "CAVITATION_HALF_SOMMERFELD", "CAVITATION_REYNOLDS",
     "P_MODEL", "P_C", "P_RB", "P_RS", "P_L", "P_K", "P_N", "P_CE", "P_FLOOR", "P_CF",
     "P_V0", "P_V1", "P_MU", "P_LAMBDA", "P_EPS0", "P_E1", "P_EPSMAX", "N_PARAMS",
     "PARAM_NAMES", "DEFAULTS", "pack_params", "unpack_params",
@@ -37,6 +38,12 @@ __all__ = [
 MODEL_NAMES = {m.name: m.code for m in MODELS.values()}
 """Scene name → integer code of every clearance model (:data:`mechrel.forces.models.MODELS`)."""
 BEARING_NAMES = {b.name: b.code for b in BEARINGS.values()}
+CAVITATION_HALF_SOMMERFELD = 0
+"""Gümbel film: the positive part of the full-film pressure (every film model)."""
+CAVITATION_REYNOLDS = 1
+"""Swift–Stieber film: p ≥ 0 with zero gradient at rupture (the finite film only)."""
+CAVITATION_NAMES = {"half-sommerfeld": CAVITATION_HALF_SOMMERFELD,
+                    "reynolds": CAVITATION_REYNOLDS}
 """Scene name → integer code of every film model (:data:`mechrel.forces.models.BEARINGS`)."""
 
 # --- indices into the parameter vector ---------------------------------------------------------
@@ -58,12 +65,13 @@ P_EPS0 = 14     # small-eccentricity correction threshold ε0 (-), in (0, 1]
 P_E1 = 15       # transition band width e1 (m)
 P_EPSMAX = 16   # transition model: ε at which the film is clamped, ε_max (-), in (0, 1)
 P_BEARING = 17  # film model code (BEARING_LONG / BEARING_SHORT / BEARING_FINITE), as float
-N_PARAMS = 18
+P_CAVITATION = 18  # film cavitation code (CAVITATION_HALF_SOMMERFELD / CAVITATION_REYNOLDS)
+N_PARAMS = 19
 
 PARAM_NAMES = (
     "model", "clearance", "bearing_radius", "journal_radius", "length", "stiffness",
     "exponent", "restitution", "impact_speed_floor", "friction_coefficient", "v0", "v1",
-    "viscosity", "lam", "eps0", "e1", "eps_max", "bearing",
+    "viscosity", "lam", "eps0", "e1", "eps_max", "bearing", "cavitation",
 )
 """Field name of each index, in index order (``PARAM_NAMES[P_K] == "stiffness"``)."""
 
@@ -173,6 +181,7 @@ def pack_params(
     e1: float = DEFAULTS["e1"],
     eps_max: float = DEFAULTS["eps_max"],
     bearing: str = DEFAULT_BEARING,
+    cavitation: str = "half-sommerfeld",
 ) -> np.ndarray:
     """Validate a clearance joint's parameters and pack them into the vector the force law reads.
 
@@ -213,6 +222,9 @@ def pack_params(
     bearing : {"long", "short", "finite"}, default "long"
         Film model of the lubricated and transition models
         (:data:`mechrel.forces.models.BEARINGS`); not read by the dry model.
+    cavitation : {"half-sommerfeld", "reynolds"}, default "half-sommerfeld"
+        Cavitation condition of the film; "reynolds" (Swift–Stieber) needs bearing "finite"
+        (the long and short films are half-Sommerfeld closed forms).
 
     Returns
     -------
@@ -236,6 +248,16 @@ def pack_params(
             f"bearing = {bearing!r} is invalid: allowed one of {sorted(BEARING_NAMES)}",
             path="bearing")
     bcode = BEARING_NAMES[bearing.lower()]
+    if not isinstance(cavitation, str) or cavitation.lower() not in CAVITATION_NAMES:
+        raise SceneError(
+            f"cavitation = {cavitation!r} is invalid: allowed one of "
+            f"{sorted(CAVITATION_NAMES)}", path="cavitation")
+    ccode = CAVITATION_NAMES[cavitation.lower()]
+    if row.has_film:
+        _check("cavitation", cavitation,
+               ccode == CAVITATION_HALF_SOMMERFELD or bcode == BEARING_FINITE,
+               f"'half-sommerfeld' for bearing {bearing!r} (closed form); 'reynolds' needs "
+               "bearing 'finite'")
 
     c = _limited("clearance", clearance)
     RB = _real("bearing_radius", bearing_radius)
@@ -259,6 +281,11 @@ def pack_params(
     w1 = _limited("e1", e1)
     em = _limited("eps_max", eps_max)
     if row.has_film and bcode == BEARING_FINITE:
+        from mechrel.forces.finite_film import TABLES_PRESENT
+        cav = cavitation.lower()
+        _check("bearing", bearing, TABLES_PRESENT[cav],
+               f"a bearing for which a table is installed: the {cav} table of the finite film "
+               "is missing; build it with python -m mechrel.forces.finite_table")
         lo, hi = FINITE_LD_RANGE
         ld = L / (2.0 * RS)
         _check("length", length, lo * (1 - 1e-12) <= ld <= hi * (1 + 1e-12),
@@ -284,6 +311,7 @@ def pack_params(
     p[P_E1] = w1
     p[P_EPSMAX] = em
     p[P_BEARING] = bcode
+    p[P_CAVITATION] = ccode
     return p
 
 
@@ -299,4 +327,5 @@ def unpack_params(p: np.ndarray) -> dict[str, Any]:
     names = {v: k for k, v in MODEL_NAMES.items()}
     out["model"] = names[int(arr[P_MODEL])]
     out["bearing"] = {v: k for k, v in BEARING_NAMES.items()}[int(arr[P_BEARING])]
+    out["cavitation"] = {v: k for k, v in CAVITATION_NAMES.items()}[int(arr[P_CAVITATION])]
     return out

@@ -51,7 +51,8 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-__all__ = ["reynolds_forces", "half_sommerfeld_directions", "CAVITATION"]
+__all__ = ["reynolds_forces", "half_sommerfeld_directions", "reynolds_condition_directions",
+           "CAVITATION"]
 
 CAVITATION = ("half-sommerfeld", "reynolds")
 
@@ -198,11 +199,31 @@ def half_sommerfeld_directions(eps: float, l_over_d: float, directions, *, n_the
     return out
 
 
-def _lcp_active_set(K, f, max_iter: int = 200) -> np.ndarray:
-    """Solve P ≥ 0, K P − f ≥ 0, P (K P − f) = 0 by a primal–dual active-set iteration."""
+def reynolds_condition_directions(eps: float, l_over_d: float, directions, *,
+                                  n_theta: int = 240, n_z: int = 40) -> np.ndarray:
+    """As :func:`half_sommerfeld_directions`, with the Swift–Stieber (Reynolds) condition.
+
+    One complementarity problem per direction; each starts from the previous direction's
+    cavitated set, so that neighbouring directions take few active-set steps.
+    """
+    K, th, dth, dz = _operator(eps, l_over_d, n_theta, n_z)
+    gc = np.tile(12.0 * np.cos(th) * dth * dz, n_z)
+    gs = np.tile(-12.0 * np.sin(th) * dth * dz, n_z)
+    out = np.empty((len(directions), 2))
+    free = None
+    for i, v in enumerate(directions):
+        f = math.cos(v) * gc + math.sin(v) * gs
+        P, free = _lcp_active_set(K, f, free=free, return_set=True)
+        out[i] = _force(P.reshape(n_z, n_theta), th, dth, dz, 1.0, 1.0, 1.0)
+    return out
+
+
+def _lcp_active_set(K, f, max_iter: int = 200, free=None, return_set=False):
+    """Solve P ≥ 0, K P − f ≥ 0, P (K P − f) = 0 by a primal–dual active-set iteration
+    (``free``: a starting guess of the set where P > 0; default all)."""
     N = f.size
     Kc = K.tocsr()
-    free = np.ones(N, dtype=bool)
+    free = np.ones(N, dtype=bool) if free is None else free.copy()
     P = np.zeros(N)
     for _ in range(max_iter):
         P = np.zeros(N)
@@ -214,6 +235,7 @@ def _lcp_active_set(K, f, max_iter: int = 200) -> np.ndarray:
         new_free[free & (P < 0.0)] = False
         new_free[~free & (lam < 0.0)] = True
         if np.array_equal(new_free, free):
-            return np.maximum(P, 0.0)
+            P = np.maximum(P, 0.0)
+            return (P, free) if return_set else P
         free = new_free
     raise RuntimeError(f"Reynolds-condition active set did not settle in {max_iter} iterations")

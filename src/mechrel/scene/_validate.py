@@ -17,6 +17,7 @@ from typing import Any, NoReturn
 from ..errors import SceneError
 from ..forces.models import BEARINGS, MODELS, SUBTABLE_PARAMS, pack_joint
 from ..forces.params import LIMITS
+from ..forces.reynolds import CAVITATION
 from ._schema import (
     ANALYSIS_KEYS, BODY_KEYS, DRIVER_KEYS, DRIVER_KEYS_BY_LAW, JOINT_KEYS, JOINT_KEYS_BY_TYPE,
     JOINT_TYPES, NAME_RE, NAME_RULE, OUTPUT_KEYS, SOLVER_KEYS, TOP_KEYS,
@@ -477,9 +478,9 @@ class _Builder(Checker):
             if not hasattr(err, "allowed"):
                 raise
             field = err.path
-            where = {param: f"{sub}.{key}" for sub, keys in SUBTABLE_PARAMS.items()
+            where = {param: join(join(p, sub), key) for sub, keys in SUBTABLE_PARAMS.items()
                      for key, param in keys.items()}
-            self.fail(join(p, where.get(field, field)), err.value,
+            self.fail(where.get(field, join(p, field)), err.value,
                       f"not allowed by the '{joint.model}' force law", err.allowed)
 
     def _sub(self, path: str, v: Any, cls, specs: Mapping[str, dict]) -> dict:
@@ -522,7 +523,8 @@ class _Builder(Checker):
 
     def _lubricant(self, path: str, v: Any, model: str) -> Lubricant:
         d = self._sub(path, v, Lubricant, {**self._limits("lubricant"),
-                                           "bearing": dict(choices=tuple(BEARINGS))})
+                                           "bearing": dict(choices=tuple(BEARINGS)),
+                                           "cavitation": dict(choices=CAVITATION)})
         row = MODELS.get(model)
         if row is not None and row.has_film and not d["viscosity"] > 0:
             films = [f"'{m.name}'" for m in MODELS.values() if m.has_film]

@@ -82,12 +82,13 @@ class Friction:
 class Lubricant:
     """The lubricant film. ``viscosity`` in Pa s (100 cP = 0.1 Pa s); ``bearing`` the film
     model, a key of :data:`mechrel.forces.models.BEARINGS` (``"long"``: Pinkus–Sternlicht,
-    the paper's; ``"short"``: Ocvirk)."""
+    the paper's; ``"short"``: Ocvirk; ``"finite"``: finite length, 0.25 <= L/D <= 4)."""
 
     viscosity: float = 0.1
     lam: float = _FORCE_DEFAULTS["lam"]
     eps0: float = _FORCE_DEFAULTS["eps0"]
     bearing: str = _DEFAULT_BEARING
+    cavitation: str = "half-sommerfeld"  # "reynolds" (Swift–Stieber): finite bearing only
 
 
 @dataclass(frozen=True)
