@@ -18,7 +18,7 @@ def test_layout_and_round_trip():
     assert p.dtype == np.float64 and p.shape == (P.N_PARAMS,)
     idx = [P.P_MODEL, P.P_C, P.P_RB, P.P_RS, P.P_L, P.P_K, P.P_N, P.P_CE, P.P_FLOOR, P.P_CF,
            P.P_V0, P.P_V1, P.P_MU, P.P_LAMBDA, P.P_EPS0, P.P_E1, P.P_EPSMAX, P.P_BEARING,
-           P.P_CAVITATION]
+           P.P_CAVITATION, P.P_SHEAR]
     assert sorted(idx) == list(range(P.N_PARAMS)) and len(P.PARAM_NAMES) == P.N_PARAMS
     assert p[P.P_MODEL] == P.MODEL_TRANSITION
     assert p[P.P_RS] == 0.015 - 5e-4

@@ -12,7 +12,9 @@ The returned force (Fx, Fy) acts on the JOURNAL at the journal centre; the beari
 centre (R_S F_T), M_B the moment on the bearing body about the bearing centre (−R_B F_T).
 Dry: F = −F_N n + F_T t (the normal force pushes the journal back toward the bearing centre;
 friction opposes the slip). Lubricated: F = F_r n + F_t t (eq. 18; F_r < 0 when ε̇ > 0: the
-squeeze film resists the approach). The film carries no moment in this model (pressure only).
+squeeze film resists the approach). The film's viscous shear torques (:func:`film_shear_torques`)
+are applied only when p[P_SHEAR] is set (lubricant.shear_torque; off by default, as in the
+paper).
 
 Power of the joint on the mechanism: P = F·v + M_S ω_S + M_B ω_B (the caller integrates it).
 For a dry joint, P + dE_el/dt = −(F_N − K δ^n) δ̇ + F_T v_T ≤ 0 (dissipation).
@@ -37,11 +39,11 @@ from mechrel.forces.friction import friction_force
 from mechrel.forces.short_film import short_film_forces
 from mechrel.forces.params import (
     BEARING_LONG, BEARING_SHORT, MODEL_DRY, MODEL_LUBRICATED, MODEL_TRANSITION, P_BEARING, P_C,
-    P_CAVITATION, P_CE, P_CF, P_E1, P_EPS0, P_EPSMAX,
+    P_CAVITATION, P_SHEAR, P_CE, P_CF, P_E1, P_EPS0, P_EPSMAX,
     P_FLOOR, P_K, P_L, P_LAMBDA, P_MODEL, P_MU, P_N, P_RB, P_RS, P_V0, P_V1,
 )
 
-__all__ = ["clearance_force", "transition_weight", "transition_energy"]
+__all__ = ["clearance_force", "transition_weight", "transition_energy", "film_shear_torques"]
 
 _TINY = 2.2250738585072014e-308  # smallest normal float64
 EPS_GUARD = 1.0 - 1e-9
@@ -72,6 +74,46 @@ def transition_energy(delta, K, n, e1):
     if delta <= e1:
         return K * delta ** (n + 2.0) / ((n + 2.0) * e1)
     return K * e1 ** (n + 1.0) / (n + 2.0) + K * (delta ** (n + 1.0) - e1 ** (n + 1.0)) / (n + 1.0)
+
+
+@numba.njit(cache=True, fastmath=False)
+def film_shear_torques(eps, F_t, omega_S, omega_B, mu, R_S, L, c):
+    """Viscous shear torques of the film on the journal and on the bearing (N m).
+
+    With θ from n and h = c(1 − ε cos θ), the shear stress on the journal surface is
+    μ(U_S − U_B)/h + (h/2)∂p/∂x and on the bearing surface μ(U_S − U_B)/h − (h/2)∂p/∂x
+    (Couette plus Poiseuille parts; U the surface speeds, x = Rθ). Integrated over the
+    circumference, with the shear acting over the full film (Petroff's assumption: the
+    cavitated region still transmits shear), and integrating the pressure part by parts
+    (∫h ∂p/∂θ dθ = −∫p ∂h/∂θ dθ, ∂h/∂θ = cε sin θ):
+
+    .. math::
+
+        T_S = -\frac{2\pi\mu R^3 L (\omega_S - \omega_B)}{c\sqrt{1-\varepsilon^2}}
+              - \frac{e}{2} F_t,
+        \qquad
+        T_B = +\frac{2\pi\mu R^3 L (\omega_S - \omega_B)}{c\sqrt{1-\varepsilon^2}}
+              - \frac{e}{2} F_t,
+
+    e = εc and F_t the film's tangential force on the journal. They satisfy the moment balance
+    T_S + T_B + e F_t = 0 of the fluid ring (the film force on the journal acts at the journal
+    centre, its reaction at the bearing centre). With them the film's power on the mechanism,
+    F·v + T_S ω_S + T_B ω_B = c (F_r ε̇ − F_t εw/2) − T_c (ω_S − ω_B), is the sum of the
+    pressure film's dissipation (≤ 0) and the Couette dissipation −T_c(ω_S − ω_B) ≤ 0, and it
+    vanishes for a rigid rotation of the whole joint. At ε = 0 this is Petroff's law.
+    Source: Hamrock, Schmid & Jacobson (2004), ch. 8 and 10 (friction torque of journal
+    bearings); Pinkus & Sternlicht (1961), ch. 3.
+
+    Returns
+    -------
+    (float, float)
+        (T_S, T_B): torque on the journal body about its centre, on the bearing body about its
+        centre (N m).
+    """
+    om = (1.0 - eps) * (1.0 + eps)
+    Tc = 2.0 * math.pi * mu * R_S * R_S * R_S * L * (omega_S - omega_B) / (c * math.sqrt(om))
+    half = 0.5 * eps * c * F_t
+    return -Tc - half, Tc - half
 
 
 @numba.njit(cache=True, fastmath=False)
@@ -198,5 +240,10 @@ def clearance_force(ex, ey, vx, vy, omega_B, omega_S, impact_speed, p):
                                           p[P_LAMBDA], p[P_EPS0], p[P_CAVITATION] != 0.0)
         Fx += s_film * (F_r * nx + F_t * tx)
         Fy += s_film * (F_r * ny + F_t * ty)
+        if p[P_SHEAR] != 0.0:
+            T_S, T_B = film_shear_torques(eps_e, F_t, omega_S, omega_B, p[P_MU], R_S,
+                                          p[P_L], c)
+            M_S += s_film * T_S
+            M_B += s_film * T_B
 
     return Fx, Fy, M_S, M_B, E_el

@@ -54,7 +54,8 @@ SUBTABLE_PARAMS: Mapping[str, Mapping[str, str]] = MappingProxyType({
     "friction": MappingProxyType({"coefficient": "friction_coefficient", "v0": "v0",
                                   "v1": "v1"}),
     "lubricant": MappingProxyType({"viscosity": "viscosity", "lam": "lam", "eps0": "eps0",
-                                   "bearing": "bearing", "cavitation": "cavitation"}),
+                                   "bearing": "bearing", "cavitation": "cavitation",
+                                   "shear_torque": "shear_torque"}),
     "transition": MappingProxyType({"e1": "e1", "eps_max": "eps_max"}),
 })
 """Scene sub-table key → :func:`mechrel.forces.params.pack_params` keyword, per sub-table.

@@ -27,7 +27,7 @@ from mechrel.forces.models import (
 __all__ = [
     "MODEL_DRY", "MODEL_LUBRICATED", "MODEL_TRANSITION", "MODEL_NAMES", "BEARING_LONG",
     "BEARING_SHORT", "BEARING_FINITE", "FINITE_LD_RANGE", "BEARING_NAMES", "P_BEARING",
-    "LIMITS", "describe_range", "P_CAVITATION", "CAVITATION_NAMES",
+    "LIMITS", "describe_range", "P_CAVITATION", "P_SHEAR", "CAVITATION_NAMES",
     "CAVITATION_HALF_SOMMERFELD", "CAVITATION_REYNOLDS",
     "P_MODEL", "P_C", "P_RB", "P_RS", "P_L", "P_K", "P_N", "P_CE", "P_FLOOR", "P_CF",
     "P_V0", "P_V1", "P_MU", "P_LAMBDA", "P_EPS0", "P_E1", "P_EPSMAX", "N_PARAMS",
@@ -66,12 +66,13 @@ P_E1 = 15       # transition band width e1 (m)
 P_EPSMAX = 16   # transition model: ε at which the film is clamped, ε_max (-), in (0, 1)
 P_BEARING = 17  # film model code (BEARING_LONG / BEARING_SHORT / BEARING_FINITE), as float
 P_CAVITATION = 18  # film cavitation code (CAVITATION_HALF_SOMMERFELD / CAVITATION_REYNOLDS)
-N_PARAMS = 19
+P_SHEAR = 19    # 1: apply the film's viscous shear torques to journal and bearing, 0: not
+N_PARAMS = 20
 
 PARAM_NAMES = (
     "model", "clearance", "bearing_radius", "journal_radius", "length", "stiffness",
     "exponent", "restitution", "impact_speed_floor", "friction_coefficient", "v0", "v1",
-    "viscosity", "lam", "eps0", "e1", "eps_max", "bearing", "cavitation",
+    "viscosity", "lam", "eps0", "e1", "eps_max", "bearing", "cavitation", "shear_torque",
 )
 """Field name of each index, in index order (``PARAM_NAMES[P_K] == "stiffness"``)."""
 
@@ -182,6 +183,7 @@ def pack_params(
     eps_max: float = DEFAULTS["eps_max"],
     bearing: str = DEFAULT_BEARING,
     cavitation: str = "half-sommerfeld",
+    shear_torque: bool = False,
 ) -> np.ndarray:
     """Validate a clearance joint's parameters and pack them into the vector the force law reads.
 
@@ -225,6 +227,9 @@ def pack_params(
     cavitation : {"half-sommerfeld", "reynolds"}, default "half-sommerfeld"
         Cavitation condition of the film; "reynolds" (Swift–Stieber) needs bearing "finite"
         (the long and short films are half-Sommerfeld closed forms).
+    shear_torque : bool, default False
+        Apply the film's viscous shear torques to journal and bearing
+        (:func:`mechrel.forces.joint.film_shear_torques`); off by default, as in the paper.
 
     Returns
     -------
@@ -253,6 +258,8 @@ def pack_params(
             f"cavitation = {cavitation!r} is invalid: allowed one of "
             f"{sorted(CAVITATION_NAMES)}", path="cavitation")
     ccode = CAVITATION_NAMES[cavitation.lower()]
+    _check("shear_torque", shear_torque, isinstance(shear_torque, (bool, np.bool_)),
+           "true or false")
     if row.has_film:
         _check("cavitation", cavitation,
                ccode == CAVITATION_HALF_SOMMERFELD or bcode == BEARING_FINITE,
@@ -312,6 +319,7 @@ def pack_params(
     p[P_EPSMAX] = em
     p[P_BEARING] = bcode
     p[P_CAVITATION] = ccode
+    p[P_SHEAR] = 1.0 if shear_torque else 0.0
     return p
 
 
@@ -328,4 +336,5 @@ def unpack_params(p: np.ndarray) -> dict[str, Any]:
     out["model"] = names[int(arr[P_MODEL])]
     out["bearing"] = {v: k for k, v in BEARING_NAMES.items()}[int(arr[P_BEARING])]
     out["cavitation"] = {v: k for k, v in CAVITATION_NAMES.items()}[int(arr[P_CAVITATION])]
+    out["shear_torque"] = bool(arr[P_SHEAR])
     return out

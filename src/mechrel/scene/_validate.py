@@ -493,6 +493,11 @@ class _Builder(Checker):
             val = t.get(f.name, f.default)
             if "choices" in spec:
                 out[f.name] = self.choice(join(path, f.name), val, spec["choices"])
+            elif spec.get("boolean"):
+                if not isinstance(val, bool):
+                    self.fail(join(path, f.name), val, f"expected true or false, got "
+                              f"{_typename(val)}", "true or false")
+                out[f.name] = val
             else:
                 out[f.name] = self.number(join(path, f.name), val, **spec)
         return out
@@ -524,7 +529,8 @@ class _Builder(Checker):
     def _lubricant(self, path: str, v: Any, model: str) -> Lubricant:
         d = self._sub(path, v, Lubricant, {**self._limits("lubricant"),
                                            "bearing": dict(choices=tuple(BEARINGS)),
-                                           "cavitation": dict(choices=CAVITATION)})
+                                           "cavitation": dict(choices=CAVITATION),
+                                           "shear_torque": dict(boolean=True)})
         row = MODELS.get(model)
         if row is not None and row.has_film and not d["viscosity"] > 0:
             films = [f"'{m.name}'" for m in MODELS.values() if m.has_film]

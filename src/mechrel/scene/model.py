@@ -89,6 +89,7 @@ class Lubricant:
     eps0: float = _FORCE_DEFAULTS["eps0"]
     bearing: str = _DEFAULT_BEARING
     cavitation: str = "half-sommerfeld"  # "reynolds" (Swift–Stieber): finite bearing only
+    shear_torque: bool = False  # film shear torques on journal and bearing (not in the paper)
 
 
 @dataclass(frozen=True)
