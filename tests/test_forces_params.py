@@ -17,7 +17,8 @@ def test_layout_and_round_trip():
     p = pack_params(**BASE)
     assert p.dtype == np.float64 and p.shape == (P.N_PARAMS,)
     idx = [P.P_MODEL, P.P_C, P.P_RB, P.P_RS, P.P_L, P.P_K, P.P_N, P.P_CE, P.P_FLOOR, P.P_CF,
-           P.P_V0, P.P_V1, P.P_MU, P.P_LAMBDA, P.P_EPS0, P.P_E1, P.P_EPSMAX]
+           P.P_V0, P.P_V1, P.P_MU, P.P_LAMBDA, P.P_EPS0, P.P_E1, P.P_EPSMAX, P.P_BEARING,
+           P.P_CAVITATION, P.P_SHEAR]
     assert sorted(idx) == list(range(P.N_PARAMS)) and len(P.PARAM_NAMES) == P.N_PARAMS
     assert p[P.P_MODEL] == P.MODEL_TRANSITION
     assert p[P.P_RS] == 0.015 - 5e-4
@@ -28,6 +29,12 @@ def test_layout_and_round_trip():
             assert d[k] == v, k
     assert pack_params(**{**BASE, "model": "dry", "viscosity": 0.0})[P.P_MODEL] == P.MODEL_DRY
     assert pack_params(**{**BASE, "model": "Lubricated"})[P.P_MODEL] == P.MODEL_LUBRICATED
+    assert d["bearing"] == "long" and p[P.P_BEARING] == P.BEARING_LONG
+    assert d["cavitation"] == "half-sommerfeld" and p[P.P_CAVITATION] == 0
+    q = pack_params(**{**BASE, "bearing": "short"})
+    assert q[P.P_BEARING] == P.BEARING_SHORT and unpack_params(q)["bearing"] == "short"
+    # eps0 = 1 (the printed form of the paper's correction) is allowed, as in a scene
+    assert pack_params(**{**BASE, "eps0": 1.0})[P.P_EPS0] == 1.0
 
 
 @pytest.mark.parametrize(
@@ -55,6 +62,10 @@ def test_layout_and_round_trip():
         ({"exponent": 0.5}, "exponent", "[1, 3]"),
         ({"clearance": float("nan")}, "clearance", "finite"),
         ({"length": "long"}, "length", "not a number"),
+        ({"bearing": "finite-ish"}, "bearing", "'finite', 'long', 'short'"),
+        ({"bearing": 2}, "bearing", "one of"),
+        ({"cavitation": "jfo"}, "cavitation", "'half-sommerfeld', 'reynolds'"),
+        ({"cavitation": "reynolds"}, "cavitation", "needs bearing 'finite'"),
     ],
 )
 def test_errors_name_field_and_range(change, field, allowed):

@@ -248,8 +248,11 @@ CASES = [
      ["joints.C.contact.exponent", "= 0.5", "must be >= 1", "a finite number in [1, 3]"]),
     ("exponent-above-three", _edit("restitution = 0.9", "restitution = 0.9\nexponent = 3.5"),
      ["joints.C.contact.exponent", "= 3.5", "must be <= 3", "a finite number in [1, 3]"]),
-    ("eps0-one", _edit("eps0 = 0.1", "eps0 = 1.0"),
-     ["joints.C.lubricant.eps0", "= 1.0", "must be < 1", "in (0, 1)"]),
+    # eps0 = 1 is allowed (the paper's printed form); the range is the force law's (0, 1]
+    ("eps0-above-one", _edit("eps0 = 0.1", "eps0 = 1.5"),
+     ["joints.C.lubricant.eps0", "= 1.5", "must be <= 1", "in (0, 1]"]),
+    ("bearing-unknown", _edit("eps0 = 0.1", 'eps0 = 0.1\nbearing = "shrot"'),
+     ["joints.C.lubricant.bearing", "shrot", "did you mean 'short'", "one of long, short, finite"]),
     ("eps-max-one", _edit("eps_max = 0.99", "eps_max = 1"),
      ["joints.C.transition.eps_max", "= 1", "must be < 1", "in (0, 1)"]),
     ("eccentricity-outside-clearance", _edit("length = 40e-3", "length = 40e-3\ninitial_eccentricity = [1e-3, 0.0]"),

@@ -22,28 +22,18 @@ from collections.abc import Mapping
 import numpy as np
 
 from .errors import SimulationError
+from .forces.models import MODELS
 from .integrate import INTEGRATORS, IntegrationResult, get_integrator
 from .mechanics import problem
 from .mechanics.kinematics import assemble, kinematic_analysis
 from .mechanics.system import CompiledScene, compile_scene
 from .scene.model import Scene
 
-# Default integrator per scene type, chosen from measurements (docs/performance.md).
+# Default integrator per scene kind: "ideal" here, each clearance model's from its row of the
+# table of models (mechrel.forces.models.MODELS, where the measurements behind each are cited).
 DEFAULT_SOLVERS: dict[str, tuple[str, dict]] = {
     "ideal": ("dopri5", {"rtol": 1e-9, "atol": 1e-12}),
-    # dry: 1e-7 was shown biased by the ensemble measure (nine-bar-dry, R = 32, two seeds:
-    # velocity statistics 5 % and acceleration statistics 13-21 % off the DOPRI5 1e-11
-    # reference; slider-crank-dry velocity statistics 4 %); from 1e-8 on no setting is shown
-    # to exceed 1 %, for 1.4x the evaluations (docs/performance.md, "What accuracy costs")
-    "dry": ("dopri5", {"rtol": 1e-8, "atol": 1e-11}),
-    # the film of a transition joint makes it stiff like a lubricated one: on the nine-bar
-    # radau needs 15x (100 cP, no impact), 4x (10 cP, 5 impacts) and 1.2x (1 cP, 16 impacts)
-    # fewer rhs evaluations than DOPRI5 (docs/performance.md)
-    "transition": ("radau", {"rtol": 1e-7, "atol": 1e-10}),
-    # compiled Radau IIA: 8x faster than LSODA at the same tolerances on the lubricated
-    # nine-bar (0.023 vs 0.18 s, 6.5k vs 13.6k rhs evaluations per cycle, no Python per
-    # step), peak slider acceleration within 2e-4 m/s² of a tight reference (docs/performance.md)
-    "lubricated": ("radau", {"rtol": 1e-7, "atol": 1e-10}),
+    **{m.name: (m.solver[0], dict(m.solver[1])) for m in MODELS.values()},
 }
 
 
@@ -61,15 +51,13 @@ EXTREME_FIELDS = ("max", "max_time", "max_angle", "min", "min_time", "min_angle"
 
 
 def scene_kind(scene: Scene) -> str:
-    """``ideal``, ``dry``, ``transition`` or ``lubricated``: the most demanding effect declared.
+    """``ideal`` or the name of a clearance model: the most demanding effect declared.
 
-    A lubricated joint makes the problem stiff; a dry or transition joint makes it
-    non-smooth; the stiff default wins when both are present."""
-    models = {j.model for j in scene.clearance_joints}
-    for kind in ("lubricated", "transition", "dry"):
-        if kind in models:
-            return kind
-    return "ideal"
+    A film makes the problem stiff; contact makes it non-smooth; when a scene mixes models the
+    one of highest ``precedence`` in the table of models wins (lubricated, then transition,
+    then dry: the stiff default wins)."""
+    rows = [j.clearance_model for j in scene.clearance_joints]
+    return max(rows, key=lambda m: m.precedence).name if rows else "ideal"
 
 
 def make_integrator(scene: Scene, integrator: str | None = None, **settings):
@@ -298,15 +286,18 @@ def _check_orbits(scene: Scene, times: np.ndarray, orbits) -> None:
     penetrate micrometres). Such a run is a failed run, not a result."""
     for name, d in orbits.items():
         joint = scene.joints[name]
+        model = joint.clearance_model
         eps = d["eps"]
         i = int(np.argmax(eps))
-        if joint.model == "lubricated" and eps[i] >= 1.0:
+        if model.film_only and eps[i] >= 1.0:
+            contact = ", ".join(f"'{m.name}'" for m in MODELS.values()
+                                if m.has_film and m.has_contact)
             raise SimulationError(
                 f"joint {name}: the journal left the bearing (eccentricity ratio ε = "
                 f"{eps[i]:.4g} >= 1 at t = {times[i]:.6g} s): the film (viscosity "
                 f"{joint.lubricant.viscosity:g} Pa s) cannot carry the load there; use model = "
-                "'transition' (adds metal contact) or check the load and viscosity")
-        if joint.model != "lubricated" and eps[i] >= 2.0:
+                f"{contact} (adds metal contact) or check the load and viscosity")
+        if model.has_contact and eps[i] >= 2.0:
             raise SimulationError(
                 f"joint {name}: penetration {(eps[i] - 1.0) * joint.clearance:.4g} m at t = "
                 f"{times[i]:.6g} s exceeds the clearance ({joint.clearance:g} m): the contact "

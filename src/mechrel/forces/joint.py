@@ -12,7 +12,9 @@ The returned force (Fx, Fy) acts on the JOURNAL at the journal centre; the beari
 centre (R_S F_T), M_B the moment on the bearing body about the bearing centre (−R_B F_T).
 Dry: F = −F_N n + F_T t (the normal force pushes the journal back toward the bearing centre;
 friction opposes the slip). Lubricated: F = F_r n + F_t t (eq. 18; F_r < 0 when ε̇ > 0: the
-squeeze film resists the approach). The film carries no moment in this model (pressure only).
+squeeze film resists the approach). The film's viscous shear torques (:func:`film_shear_torques`)
+are applied only when p[P_SHEAR] is set (lubricant.shear_torque; off by default, as in the
+paper).
 
 Power of the joint on the mechanism: P = F·v + M_S ω_S + M_B ω_B (the caller integrates it).
 For a dry joint, P + dE_el/dt = −(F_N − K δ^n) δ̇ + F_T v_T ≤ 0 (dissipation).
@@ -32,13 +34,16 @@ import numba
 
 from mechrel.forces.contact import ln_normal_force
 from mechrel.forces.film import film_forces_eps_w
+from mechrel.forces.finite_film import finite_film_forces
 from mechrel.forces.friction import friction_force
+from mechrel.forces.short_film import short_film_forces
 from mechrel.forces.params import (
-    MODEL_DRY, MODEL_LUBRICATED, MODEL_TRANSITION, P_C, P_CE, P_CF, P_E1, P_EPS0, P_EPSMAX,
+    BEARING_LONG, BEARING_SHORT, MODEL_DRY, MODEL_LUBRICATED, MODEL_TRANSITION, P_BEARING, P_C,
+    P_CAVITATION, P_SHEAR, P_CE, P_CF, P_E1, P_EPS0, P_EPSMAX,
     P_FLOOR, P_K, P_L, P_LAMBDA, P_MODEL, P_MU, P_N, P_RB, P_RS, P_V0, P_V1,
 )
 
-__all__ = ["clearance_force", "transition_weight", "transition_energy"]
+__all__ = ["clearance_force", "transition_weight", "transition_energy", "film_shear_torques"]
 
 _TINY = 2.2250738585072014e-308  # smallest normal float64
 EPS_GUARD = 1.0 - 1e-9
@@ -69,6 +74,46 @@ def transition_energy(delta, K, n, e1):
     if delta <= e1:
         return K * delta ** (n + 2.0) / ((n + 2.0) * e1)
     return K * e1 ** (n + 1.0) / (n + 2.0) + K * (delta ** (n + 1.0) - e1 ** (n + 1.0)) / (n + 1.0)
+
+
+@numba.njit(cache=True, fastmath=False)
+def film_shear_torques(eps, F_t, omega_S, omega_B, mu, R_S, L, c):
+    """Viscous shear torques of the film on the journal and on the bearing (N m).
+
+    With θ from n and h = c(1 − ε cos θ), the shear stress on the journal surface is
+    μ(U_S − U_B)/h + (h/2)∂p/∂x and on the bearing surface μ(U_S − U_B)/h − (h/2)∂p/∂x
+    (Couette plus Poiseuille parts; U the surface speeds, x = Rθ). Integrated over the
+    circumference, with the shear acting over the full film (Petroff's assumption: the
+    cavitated region still transmits shear), and integrating the pressure part by parts
+    (∫h ∂p/∂θ dθ = −∫p ∂h/∂θ dθ, ∂h/∂θ = cε sin θ):
+
+    .. math::
+
+        T_S = -\frac{2\\pi\\mu R^3 L (\\omega_S - \\omega_B)}{c\\sqrt{1-\varepsilon^2}}
+              - \frac{e}{2} F_t,
+        \\qquad
+        T_B = +\frac{2\\pi\\mu R^3 L (\\omega_S - \\omega_B)}{c\\sqrt{1-\varepsilon^2}}
+              - \frac{e}{2} F_t,
+
+    e = εc and F_t the film's tangential force on the journal. They satisfy the moment balance
+    T_S + T_B + e F_t = 0 of the fluid ring (the film force on the journal acts at the journal
+    centre, its reaction at the bearing centre). With them the film's power on the mechanism,
+    F·v + T_S ω_S + T_B ω_B = c (F_r ε̇ − F_t εw/2) − T_c (ω_S − ω_B), is the sum of the
+    pressure film's dissipation (≤ 0) and the Couette dissipation −T_c(ω_S − ω_B) ≤ 0, and it
+    vanishes for a rigid rotation of the whole joint. At ε = 0 this is Petroff's law.
+    Source: Hamrock, Schmid & Jacobson (2004), ch. 8 and 10 (friction torque of journal
+    bearings); Pinkus & Sternlicht (1961), ch. 3.
+
+    Returns
+    -------
+    (float, float)
+        (T_S, T_B): torque on the journal body about its centre, on the bearing body about its
+        centre (N m).
+    """
+    om = (1.0 - eps) * (1.0 + eps)
+    Tc = 2.0 * math.pi * mu * R_S * R_S * R_S * L * (omega_S - omega_B) / (c * math.sqrt(om))
+    half = 0.5 * eps * c * F_t
+    return -Tc - half, Tc - half
 
 
 @numba.njit(cache=True, fastmath=False)
@@ -103,9 +148,12 @@ def clearance_force(ex, ey, vx, vy, omega_B, omega_S, impact_speed, p):
     -----
     - Dry (MODEL_DRY): F = −F_N n + F_T t while δ > 0, else 0. Friction is not evaluated when
       p[P_CF] == 0. No film code runs.
-    - Lubricated (MODEL_LUBRICATED): F = F_r n + F_t t from
-      :func:`mechrel.forces.film.film_forces_eps_w` at the actual ε. The model has no contact:
-      the divergence of the film force as ε → 1 (squeeze term ∝ ε̇/(1 − ε²)^1.5, whose impulse
+    - Lubricated (MODEL_LUBRICATED): F = F_r n + F_t t from the film model p[P_BEARING]
+      (:func:`mechrel.forces.film.film_forces_eps_w` for the long bearing,
+      :func:`mechrel.forces.short_film.short_film_forces` for the short one,
+      :func:`mechrel.forces.finite_film.finite_film_forces` for the finite one) at the actual ε.
+      The model has no contact: the divergence of the film force as ε → 1 (squeeze term
+      ∝ ε̇/(1 − ε²)^1.5, whose impulse
       ∫ dε/(1 − ε²)^1.5 is unbounded) is the only thing that keeps the journal inside the
       bearing, so the film must not be clamped at a ε_max < 1 (a clamp at 0.99 let a 1 cP
       slider-crank journal reach ε ≈ 13, and the 0.7 mm nine-bar reach ε = 1.0005).
@@ -182,9 +230,21 @@ def clearance_force(ex, ey, vx, vy, omega_B, omega_S, impact_speed, p):
         # ε·w = (|e|(ω_S + ω_B) − 2 v·t)/c stays bounded at e = 0; scale it to the clamped ε.
         eps_w = (r * (omega_S + omega_B) - 2.0 * vt) / c
         eps_w_e = eps_w * (eps_max / max(eps, eps_max))
-        F_r, F_t = film_forces_eps_w(eps_e, vn / c, eps_w_e, p[P_MU], R_S, p[P_L], c,
-                                     p[P_LAMBDA], p[P_EPS0])
+        if p[P_BEARING] == BEARING_LONG:
+            F_r, F_t = film_forces_eps_w(eps_e, vn / c, eps_w_e, p[P_MU], R_S, p[P_L], c,
+                                         p[P_LAMBDA], p[P_EPS0])
+        elif p[P_BEARING] == BEARING_SHORT:
+            F_r, F_t = short_film_forces(eps_e, vn / c, eps_w_e, p[P_MU], R_S, p[P_L], c,
+                                         p[P_LAMBDA], p[P_EPS0])
+        else:  # BEARING_FINITE (pack_params admits no other code)
+            F_r, F_t = finite_film_forces(eps_e, vn / c, eps_w_e, p[P_MU], R_S, p[P_L], c,
+                                          p[P_LAMBDA], p[P_EPS0], p[P_CAVITATION] != 0.0)
         Fx += s_film * (F_r * nx + F_t * tx)
         Fy += s_film * (F_r * ny + F_t * ty)
+        if p[P_SHEAR] != 0.0:
+            T_S, T_B = film_shear_torques(eps_e, F_t, omega_S, omega_B, p[P_MU], R_S,
+                                          p[P_L], c)
+            M_S += s_film * T_S
+            M_B += s_film * T_B
 
     return Fx, Fy, M_S, M_B, E_el

@@ -19,23 +19,32 @@ from typing import Any
 import numpy as np
 
 from mechrel.errors import SceneError
+from mechrel.forces.models import (
+    BEARING_FINITE, BEARING_LONG, BEARING_SHORT, BEARINGS, DEFAULT_BEARING, MODEL_DRY,
+    MODEL_LUBRICATED, MODEL_TRANSITION, MODELS,
+)
 
 __all__ = [
-    "MODEL_DRY", "MODEL_LUBRICATED", "MODEL_TRANSITION", "MODEL_NAMES",
+    "MODEL_DRY", "MODEL_LUBRICATED", "MODEL_TRANSITION", "MODEL_NAMES", "BEARING_LONG",
+    "BEARING_SHORT", "BEARING_FINITE", "FINITE_LD_RANGE", "BEARING_NAMES", "P_BEARING",
+    "LIMITS", "describe_range", "P_CAVITATION", "P_SHEAR", "CAVITATION_NAMES",
+    "CAVITATION_HALF_SOMMERFELD", "CAVITATION_REYNOLDS",
     "P_MODEL", "P_C", "P_RB", "P_RS", "P_L", "P_K", "P_N", "P_CE", "P_FLOOR", "P_CF",
     "P_V0", "P_V1", "P_MU", "P_LAMBDA", "P_EPS0", "P_E1", "P_EPSMAX", "N_PARAMS",
     "PARAM_NAMES", "DEFAULTS", "pack_params", "unpack_params",
 ]
 
-# --- clearance models -------------------------------------------------------------------------
-MODEL_DRY = 0
-"""Dry contact: Lankarani–Nikravesh normal force + modified Coulomb friction (eqs. 4–9)."""
-MODEL_LUBRICATED = 1
-"""Pinkus–Sternlicht long-bearing film only (eqs. 10–18), film evaluated at min(ε, ε_max)."""
-MODEL_TRANSITION = 2
-"""Blend of dry and lubricated over c ≤ |e| ≤ c + e1 (eq. 19, Flores et al. 2009)."""
-
-MODEL_NAMES = {"dry": MODEL_DRY, "lubricated": MODEL_LUBRICATED, "transition": MODEL_TRANSITION}
+# --- clearance models: codes and names come from the table of models ------------------------
+MODEL_NAMES = {m.name: m.code for m in MODELS.values()}
+"""Scene name → integer code of every clearance model (:data:`mechrel.forces.models.MODELS`)."""
+BEARING_NAMES = {b.name: b.code for b in BEARINGS.values()}
+CAVITATION_HALF_SOMMERFELD = 0
+"""Gümbel film: the positive part of the full-film pressure (every film model)."""
+CAVITATION_REYNOLDS = 1
+"""Swift–Stieber film: p ≥ 0 with zero gradient at rupture (the finite film only)."""
+CAVITATION_NAMES = {"half-sommerfeld": CAVITATION_HALF_SOMMERFELD,
+                    "reynolds": CAVITATION_REYNOLDS}
+"""Scene name → integer code of every film model (:data:`mechrel.forces.models.BEARINGS`)."""
 
 # --- indices into the parameter vector ---------------------------------------------------------
 P_MODEL = 0     # model code (MODEL_DRY / MODEL_LUBRICATED / MODEL_TRANSITION), stored as float
@@ -55,12 +64,15 @@ P_LAMBDA = 13   # small-eccentricity correction exponent λ (-)
 P_EPS0 = 14     # small-eccentricity correction threshold ε0 (-), in (0, 1]
 P_E1 = 15       # transition band width e1 (m)
 P_EPSMAX = 16   # transition model: ε at which the film is clamped, ε_max (-), in (0, 1)
-N_PARAMS = 17
+P_BEARING = 17  # film model code (BEARING_LONG / BEARING_SHORT / BEARING_FINITE), as float
+P_CAVITATION = 18  # film cavitation code (CAVITATION_HALF_SOMMERFELD / CAVITATION_REYNOLDS)
+P_SHEAR = 19    # 1: apply the film's viscous shear torques to journal and bearing, 0: not
+N_PARAMS = 20
 
 PARAM_NAMES = (
     "model", "clearance", "bearing_radius", "journal_radius", "length", "stiffness",
     "exponent", "restitution", "impact_speed_floor", "friction_coefficient", "v0", "v1",
-    "viscosity", "lam", "eps0", "e1", "eps_max",
+    "viscosity", "lam", "eps0", "e1", "eps_max", "bearing", "cavitation", "shear_torque",
 )
 """Field name of each index, in index order (``PARAM_NAMES[P_K] == "stiffness"``)."""
 
@@ -78,10 +90,67 @@ DEFAULTS: dict[str, float] = {
 }
 """Defaults of :func:`pack_params` where the paper gives no value (justified in docs/forces.md)."""
 
+LIMITS: dict[str, dict] = {
+    "clearance": dict(gt=0, unit="m"),
+    "length": dict(gt=0, unit="m"),
+    "stiffness": dict(gt=0, unit="N/m^n"),
+    "exponent": dict(ge=1, le=3),
+    "restitution": dict(gt=0, le=1),
+    "impact_speed_floor": dict(gt=0, unit="m/s"),
+    "friction_coefficient": dict(ge=0),
+    "v0": dict(ge=0, unit="m/s"),
+    "v1": dict(gt=0, unit="m/s"),
+    "viscosity": dict(ge=0, unit="Pa s"),
+    "lam": dict(ge=0),
+    "eps0": dict(gt=0, le=1),
+    "e1": dict(gt=0, unit="m"),
+    "eps_max": dict(gt=0, lt=1),
+}
+"""Allowed range of each force-law value (keywords ``gt``, ``ge``, ``lt``, ``le``, ``unit``).
+
+The one statement of these ranges: :func:`pack_params` checks them, and the scene validation
+checks the same entries for the scene keys that feed them
+(:data:`mechrel.forces.models.SUBTABLE_PARAMS`), so that a scene and a direct call accept
+exactly the same values. Cross-field rules (R_S > 0, v1 > v0, viscosity > 0 for a film model)
+are checked by :func:`pack_params` and restated by the scene validation with scene paths."""
+
+
+FINITE_LD_RANGE = (0.25, 4.0)
+"""L/D = length / (2 R_S) range of the finite-length film's table (-)."""
+
+
+def describe_range(gt=None, ge=None, lt=None, le=None, unit=None) -> str:
+    """``"a finite number in (0, 1]"``-style text of a range (the scene's message style)."""
+    lo = (gt, "(") if gt is not None else (ge, "[") if ge is not None else None
+    hi = (lt, ")") if lt is not None else (le, "]") if le is not None else None
+    if lo and hi:
+        rng = f" in {lo[1]}{lo[0]:g}, {hi[0]:g}{hi[1]}"
+    elif lo:
+        rng = f" {'>' if gt is not None else '>='} {lo[0]:g}"
+    elif hi:
+        rng = f" {'<' if lt is not None else '<='} {hi[0]:g}"
+    else:
+        rng = ""
+    return "a finite number" + rng + (f" ({unit})" if unit else "")
+
+
+def _in_range(x: float, gt=None, ge=None, lt=None, le=None, unit=None) -> bool:
+    return ((gt is None or x > gt) and (ge is None or x >= ge)
+            and (lt is None or x < lt) and (le is None or x <= le))
+
+
+def _limited(field: str, value: Any) -> float:
+    x = _real(field, value)
+    spec = LIMITS[field]
+    _check(field, value, _in_range(x, **spec), describe_range(**spec))
+    return x
+
 
 def _check(field: str, value: Any, ok: bool, allowed: str) -> None:
     if not ok:
-        raise SceneError(f"{field} = {value!r} is invalid: allowed {allowed}", path=field)
+        err = SceneError(f"{field} = {value!r} is invalid: allowed {allowed}", path=field)
+        err.value, err.allowed = value, allowed  # for the scene loader's message
+        raise err
 
 
 def _real(field: str, value: Any) -> float:
@@ -112,14 +181,16 @@ def pack_params(
     eps0: float = DEFAULTS["eps0"],
     e1: float = DEFAULTS["e1"],
     eps_max: float = DEFAULTS["eps_max"],
+    bearing: str = DEFAULT_BEARING,
+    cavitation: str = "half-sommerfeld",
+    shear_torque: bool = False,
 ) -> np.ndarray:
     """Validate a clearance joint's parameters and pack them into the vector the force law reads.
 
     Parameters
     ----------
     model : {"dry", "lubricated", "transition"}
-        Clearance model (see :data:`MODEL_DRY`, :data:`MODEL_LUBRICATED`,
-        :data:`MODEL_TRANSITION`).
+        Clearance model, a key of :data:`mechrel.forces.models.MODELS`.
     clearance : float
         Radial clearance c = R_B − R_S (m), > 0.
     bearing_radius : float
@@ -150,6 +221,15 @@ def pack_params(
         Eccentricity ratio at which the film force is clamped in the transition model (-),
         in (0, 1). The lubricated model does not clamp (its film keeps ε < 1; see
         :func:`mechrel.forces.joint.clearance_force`).
+    bearing : {"long", "short", "finite"}, default "long"
+        Film model of the lubricated and transition models
+        (:data:`mechrel.forces.models.BEARINGS`); not read by the dry model.
+    cavitation : {"half-sommerfeld", "reynolds"}, default "half-sommerfeld"
+        Cavitation condition of the film; "reynolds" (Swift–Stieber) needs bearing "finite"
+        (the long and short films are half-Sommerfeld closed forms).
+    shear_torque : bool, default False
+        Apply the film's viscous shear torques to journal and bearing
+        (:func:`mechrel.forces.joint.film_shear_torques`); off by default, as in the paper.
 
     Returns
     -------
@@ -166,44 +246,59 @@ def pack_params(
         raise SceneError(
             f"model = {model!r} is invalid: allowed one of {sorted(MODEL_NAMES)}", path="model"
         )
-    code = MODEL_NAMES[model.lower()]
+    row = MODELS[model.lower()]
+    code = row.code
+    if not isinstance(bearing, str) or bearing.lower() not in BEARING_NAMES:
+        raise SceneError(
+            f"bearing = {bearing!r} is invalid: allowed one of {sorted(BEARING_NAMES)}",
+            path="bearing")
+    bcode = BEARING_NAMES[bearing.lower()]
+    if not isinstance(cavitation, str) or cavitation.lower() not in CAVITATION_NAMES:
+        raise SceneError(
+            f"cavitation = {cavitation!r} is invalid: allowed one of "
+            f"{sorted(CAVITATION_NAMES)}", path="cavitation")
+    ccode = CAVITATION_NAMES[cavitation.lower()]
+    _check("shear_torque", shear_torque, isinstance(shear_torque, (bool, np.bool_)),
+           "true or false")
+    if row.has_film:
+        _check("cavitation", cavitation,
+               ccode == CAVITATION_HALF_SOMMERFELD or bcode == BEARING_FINITE,
+               f"'half-sommerfeld' for bearing {bearing!r} (closed form); 'reynolds' needs "
+               "bearing 'finite'")
 
-    c = _real("clearance", clearance)
-    _check("clearance", clearance, c > 0.0, "> 0 (radial clearance R_B - R_S, m)")
+    c = _limited("clearance", clearance)
     RB = _real("bearing_radius", bearing_radius)
     _check("bearing_radius", bearing_radius, RB > c,
            f"> clearance = {c!r} (the journal radius R_S = bearing_radius - clearance "
            "must be > 0, m)")
     RS = RB - c
-    L = _real("length", length)
-    _check("length", length, L > 0.0, "> 0 (bearing length, m)")
-    K = _real("stiffness", stiffness)
-    _check("stiffness", stiffness, K > 0.0, "> 0 (N/m^n)")
-    n = _real("exponent", exponent)
-    _check("exponent", exponent, 1.0 <= n <= 3.0, "in [1, 3] (1.5 for Hertzian contact)")
-    ce = _real("restitution", restitution)
-    _check("restitution", restitution, 0.0 < ce <= 1.0, "in (0, 1]")
-    floor = _real("impact_speed_floor", impact_speed_floor)
-    _check("impact_speed_floor", impact_speed_floor, floor > 0.0, "> 0 (m/s)")
-    cf = _real("friction_coefficient", friction_coefficient)
-    _check("friction_coefficient", friction_coefficient, cf >= 0.0, ">= 0")
-    a0 = _real("v0", v0)
-    _check("v0", v0, a0 >= 0.0, ">= 0 (m/s)")
-    a1 = _real("v1", v1)
+    L = _limited("length", length)
+    K = _limited("stiffness", stiffness)
+    n = _limited("exponent", exponent)
+    ce = _limited("restitution", restitution)
+    floor = _limited("impact_speed_floor", impact_speed_floor)
+    cf = _limited("friction_coefficient", friction_coefficient)
+    a0 = _limited("v0", v0)
+    a1 = _limited("v1", v1)
     _check("v1", v1, a1 > a0, f"> v0 = {a0!r} (m/s)")
-    mu = _real("viscosity", viscosity)
-    if code == MODEL_DRY:
-        _check("viscosity", viscosity, mu >= 0.0, ">= 0 (Pa s)")
-    else:
+    mu = _limited("viscosity", viscosity)
+    if row.has_film:
         _check("viscosity", viscosity, mu > 0.0, f"> 0 (Pa s) for model {model!r}")
-    lm = _real("lam", lam)
-    _check("lam", lam, lm >= 0.0, ">= 0")
-    e0 = _real("eps0", eps0)
-    _check("eps0", eps0, 0.0 < e0 <= 1.0, "in (0, 1]")
-    w1 = _real("e1", e1)
-    _check("e1", e1, w1 > 0.0, "> 0 (m)")
-    em = _real("eps_max", eps_max)
-    _check("eps_max", eps_max, 0.0 < em < 1.0, "in (0, 1)")
+    lm = _limited("lam", lam)
+    e0 = _limited("eps0", eps0)
+    w1 = _limited("e1", e1)
+    em = _limited("eps_max", eps_max)
+    if row.has_film and bcode == BEARING_FINITE:
+        from mechrel.forces.finite_film import TABLES_PRESENT
+        cav = cavitation.lower()
+        _check("bearing", bearing, TABLES_PRESENT[cav],
+               f"a bearing for which a table is installed: the {cav} table of the finite film "
+               "is missing; build it with python -m mechrel.forces.finite_table")
+        lo, hi = FINITE_LD_RANGE
+        ld = L / (2.0 * RS)
+        _check("length", length, lo * (1 - 1e-12) <= ld <= hi * (1 + 1e-12),
+               f"L/D = length / (2 journal radius) in [{lo:g}, {hi:g}] for bearing 'finite' "
+               f"(here L/D = {ld:.4g}); use bearing 'long' above, 'short' below")
 
     p = np.empty(N_PARAMS, dtype=np.float64)
     p[P_MODEL] = code
@@ -223,13 +318,16 @@ def pack_params(
     p[P_EPS0] = e0
     p[P_E1] = w1
     p[P_EPSMAX] = em
+    p[P_BEARING] = bcode
+    p[P_CAVITATION] = ccode
+    p[P_SHEAR] = 1.0 if shear_torque else 0.0
     return p
 
 
 def unpack_params(p: np.ndarray) -> dict[str, Any]:
     """Inverse of :func:`pack_params` for reports and debugging: ``{field name: value}``.
 
-    The model is returned by name (``"dry"``, ``"lubricated"``, ``"transition"``).
+    The model and the bearing are returned by name (``"dry"``, ``"long"``, ...).
     """
     arr = np.asarray(p, dtype=np.float64)
     if arr.shape != (N_PARAMS,):
@@ -237,4 +335,7 @@ def unpack_params(p: np.ndarray) -> dict[str, Any]:
     out: dict[str, Any] = {name: float(arr[i]) for i, name in enumerate(PARAM_NAMES)}
     names = {v: k for k, v in MODEL_NAMES.items()}
     out["model"] = names[int(arr[P_MODEL])]
+    out["bearing"] = {v: k for k, v in BEARING_NAMES.items()}[int(arr[P_BEARING])]
+    out["cavitation"] = {v: k for k, v in CAVITATION_NAMES.items()}[int(arr[P_CAVITATION])]
+    out["shear_torque"] = bool(arr[P_SHEAR])
     return out

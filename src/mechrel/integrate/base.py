@@ -115,9 +115,12 @@ class IntegrationResult:
     hist_out: np.ndarray | None = None
 
 
-def _has_lubricated(system) -> bool:
-    from ..forces.params import MODEL_LUBRICATED, P_MODEL
-    return bool(np.any(system.cl_p[:, P_MODEL] == MODEL_LUBRICATED))
+def _film_only_models(system) -> list:
+    """The film-only clearance models (table of models) among the system's joints."""
+    from ..forces.models import MODELS
+    from ..forces.params import P_MODEL
+    codes = set(system.cl_p[:, P_MODEL].astype(int).tolist())
+    return [m for m in MODELS.values() if m.film_only and m.code in codes]
 
 
 class Integrator:
@@ -175,9 +178,14 @@ class Integrator:
 
     def _advice(self, status, system) -> str:
         """What to try after a failed run, by its status and the scene's effects."""
-        if _has_lubricated(system):
-            return ("if a lubricated joint's film cannot carry the load it drives ε → 1: use "
-                    "model = 'transition' (adds metal contact) or check the load and viscosity")
+        film_only = _film_only_models(system)
+        if film_only:
+            from ..forces.models import MODELS
+            contact = ", ".join(f"'{m.name}'" for m in MODELS.values()
+                                if m.has_film and m.has_contact)
+            return (f"if a {film_only[0].name} joint's film cannot carry the load it drives "
+                    f"ε → 1: use model = {contact} (adds metal contact) or check the load and "
+                    "viscosity")
         if status == ev.STATUS_MAX_STEPS:
             return (f"raise solver.max_steps (now {self.max_steps}), or use "
                     + ("an explicit integrator (solver.integrator = 'dopri5'), which resolves "

@@ -19,7 +19,7 @@ from typing import NamedTuple
 import numpy as np
 
 from ..errors import SceneError
-from ..scene.model import GROUND, Contact, Joint, Scene
+from ..scene.model import GROUND, Joint, Scene
 
 # Driver laws, in the order of the ``dr_law`` codes.
 LAW_CONSTANT_SPEED = 0
@@ -150,41 +150,17 @@ def _driver_row(d) -> np.ndarray:
 
 
 def clearance_parameters(joint: Joint) -> np.ndarray:
-    """Pack a clearance joint's force-law parameters (:func:`mechrel.forces.params.pack_params`)."""
-    from ..forces.contact import contact_stiffness
-    from ..forces.params import pack_params
+    """Pack a clearance joint's force-law parameters by its model's row of the table of
+    models (:func:`mechrel.forces.models.pack_joint`)."""
+    from ..forces.models import pack_joint
 
-    path = f"joints.{joint.name}"
-    if joint.bearing_radius is None or joint.length is None:
-        raise SceneError(f"{path}: a '{joint.model}' clearance joint needs bearing_radius and "
-                         f"length (m); got bearing_radius={joint.bearing_radius!r}, "
-                         f"length={joint.length!r}", path=path)
-    R_B = joint.bearing_radius
-    R_S = R_B - joint.clearance
-    kw = dict(model=joint.model, clearance=joint.clearance, bearing_radius=R_B,
-              length=joint.length)
-    # The contact parameters are packed for every model (a lubricated joint never reads them).
-    c = joint.contact or Contact()
-    kw.update(stiffness=contact_stiffness(R_B, R_S, c.youngs_modulus_bearing, c.poisson_bearing,
-                                          c.youngs_modulus_journal, c.poisson_journal,
-                                          c.stiffness == "conformal"),
-              exponent=c.exponent, restitution=c.restitution,
-              impact_speed_floor=c.impact_speed_floor)
-    if joint.model in ("dry", "transition") and joint.friction is not None:
-        kw.update(friction_coefficient=joint.friction.coefficient, v0=joint.friction.v0,
-                  v1=joint.friction.v1)
-    if joint.model in ("lubricated", "transition"):
-        lub = joint.lubricant
-        kw.update(viscosity=lub.viscosity, lam=lub.lam, eps0=lub.eps0)
-    if joint.model == "transition":
-        kw.update(e1=joint.transition.e1, eps_max=joint.transition.eps_max)
-    return pack_params(**kw)
+    return pack_joint(joint)
 
 
 def _system(scene: Scene, index, clearance_as: str) -> tuple[System, tuple[str, ...]]:
     """Build one System and a label per constraint row; ``clearance_as`` in
     {"force", "offset", "ideal"}."""
-    from ..forces.params import MODEL_LUBRICATED, N_PARAMS, P_MODEL
+    from ..forces.params import N_PARAMS
 
     nb = len(index)
     mass = np.empty(3 * nb)
@@ -206,11 +182,11 @@ def _system(scene: Scene, index, clearance_as: str) -> tuple[System, tuple[str, 
                 p = clearance_parameters(joint)
                 cl_b.append(b); cl_sb.append(sb); cl_j.append(j); cl_sj.append(sj)
                 cl_p.append(p)
-                if int(p[P_MODEL]) == MODEL_LUBRICATED:
-                    cl_hist.append(-1)
-                else:
+                if joint.clearance_model.has_contact:
                     cl_hist.append(n_contact)
                     n_contact += 1
+                else:
+                    cl_hist.append(-1)
                 continue
             # Revolute equation written journal-side minus bearing-side, so that a clearance
             # joint assembled at eccentricity e0 reads r_S - r_B - e0 = 0.
@@ -407,7 +383,7 @@ def compile_scene(scene: Scene) -> CompiledScene:
         ideal=systems["ideal"][0], labels={k: v[1] for k, v in systems.items()},
         body_names=names, body_index=index, q_guess=q_guess,
         clearance_names=tuple(j.name for j in clearance),
-        contact_names=tuple(j.name for j in clearance if j.model != "lubricated"),
+        contact_names=tuple(j.name for j in clearance if j.clearance_model.has_contact),
         driver_names=driver_names, output_names=tuple(scene.outputs),
         out_body=np.asarray(out_body, dtype=np.int64).reshape(-1),
         out_s=np.asarray(out_s, dtype=float).reshape(-1, 2),

@@ -15,6 +15,9 @@ from types import MappingProxyType
 from typing import Any, NoReturn
 
 from ..errors import SceneError
+from ..forces.models import BEARINGS, MODELS, SUBTABLE_PARAMS, pack_joint
+from ..forces.params import LIMITS
+from ..forces.reynolds import CAVITATION
 from ._schema import (
     ANALYSIS_KEYS, BODY_KEYS, DRIVER_KEYS, DRIVER_KEYS_BY_LAW, JOINT_KEYS, JOINT_KEYS_BY_TYPE,
     JOINT_TYPES, NAME_RE, NAME_RULE, SOLVER_KEYS, TOP_KEYS,
@@ -450,19 +453,35 @@ class _Builder(Checker):
                       f"(clearance = {clearance:g} m)", "|initial_eccentricity| < clearance")
         ecc_rate = self.vec2(p + ".initial_eccentricity_rate",
                              j.get("initial_eccentricity_rate", (0.0, 0.0)), unit="m/s")
-        contact = friction = lubricant = transition = None
-        if "contact" in j or model in ("dry", "transition"):
-            contact = self._contact(p + ".contact", j.get("contact", {}))
-        if "friction" in j:
-            friction = self._friction(p + ".friction", j["friction"])
-        if "lubricant" in j or model in ("lubricated", "transition"):
-            lubricant = self._lubricant(p + ".lubricant", j.get("lubricant", {}), model)
-        if "transition" in j or model == "transition":
-            transition = self._transition(p + ".transition", j.get("transition", {}))
-        return Joint(name=name, type="revolute", points=(a, b), model=model, clearance=clearance,
-                     bearing_radius=bearing_radius, length=length, contact=contact,
-                     friction=friction, lubricant=lubricant, transition=transition,
-                     initial_eccentricity=ecc, initial_eccentricity_rate=ecc_rate)
+        # which sub-tables a model needs comes from its row in the table of models; a sub-table
+        # given but not needed is validated too (and ignored by the force law)
+        needs = () if ideal else MODELS[model].requires
+        subs = {}
+        for k, check in (("contact", self._contact), ("friction", self._friction),
+                         ("lubricant", self._lubricant), ("transition", self._transition)):
+            subs[k] = (check(join(p, k), j.get(k, {}), model) if k in j or k in needs
+                       else None)
+        joint = Joint(name=name, type="revolute", points=(a, b), model=model,
+                      clearance=clearance, bearing_radius=bearing_radius, length=length,
+                      initial_eccentricity=ecc, initial_eccentricity_rate=ecc_rate, **subs)
+        if not ideal:
+            self._force_law(p, joint)
+        return joint
+
+    def _force_law(self, p: str, joint: Joint) -> None:
+        """The force law's cross-field rules (e.g. the finite film's L/D range), checked by
+        :func:`mechrel.forces.params.pack_params`, the one validator, and reported with the
+        scene path of the field."""
+        try:
+            pack_joint(joint)
+        except SceneError as err:
+            if not hasattr(err, "allowed"):
+                raise
+            field = err.path
+            where = {param: join(join(p, sub), key) for sub, keys in SUBTABLE_PARAMS.items()
+                     for key, param in keys.items()}
+            self.fail(where.get(field, join(p, field)), err.value,
+                      f"not allowed by the '{joint.model}' force law", err.allowed)
 
     def _sub(self, path: str, v: Any, cls, specs: Mapping[str, dict]) -> dict:
         t = self.table(path, v)
@@ -474,44 +493,55 @@ class _Builder(Checker):
             val = t.get(f.name, f.default)
             if "choices" in spec:
                 out[f.name] = self.choice(join(path, f.name), val, spec["choices"])
+            elif spec.get("boolean"):
+                if not isinstance(val, bool):
+                    self.fail(join(path, f.name), val, f"expected true or false, got "
+                              f"{_typename(val)}", "true or false")
+                out[f.name] = val
             else:
                 out[f.name] = self.number(join(path, f.name), val, **spec)
         return out
 
-    def _contact(self, path: str, v: Any) -> Contact:
+    @staticmethod
+    def _limits(sub: str) -> dict[str, dict]:
+        """The allowed ranges of a sub-table's force-law keys: the entries of
+        :data:`mechrel.forces.params.LIMITS` (one statement of each range)."""
+        return {key: LIMITS[param] for key, param in SUBTABLE_PARAMS[sub].items()
+                if param in LIMITS}
+
+    def _contact(self, path: str, v: Any, model: str) -> Contact:
         pa = dict(gt=0, unit="Pa")
         nu = dict(gt=-1, lt=0.5)
         return Contact(**self._sub(path, v, Contact, {
             "youngs_modulus_bearing": pa, "youngs_modulus_journal": pa,
             "poisson_bearing": nu, "poisson_journal": nu,
-            "restitution": dict(gt=0, le=1), "exponent": dict(ge=1, le=3),
             "stiffness": dict(choices=("conformal", "paper")),
-            "impact_speed_floor": dict(gt=0, unit="m/s"),
+            **self._limits("contact"),
         }))
 
-    def _friction(self, path: str, v: Any) -> Friction:
-        d = self._sub(path, v, Friction, {
-            "coefficient": dict(ge=0), "v0": dict(ge=0, unit="m/s"), "v1": dict(gt=0, unit="m/s"),
-        })
+    def _friction(self, path: str, v: Any, model: str) -> Friction:
+        d = self._sub(path, v, Friction, self._limits("friction"))
         if not d["v1"] > d["v0"]:
             self.fail(path + ".v1", d["v1"], f"must be greater than v0 = {fmt_value(d['v0'])}",
                       "v1 > v0 >= 0 (m/s)")
         return Friction(**d)
 
     def _lubricant(self, path: str, v: Any, model: str) -> Lubricant:
-        d = self._sub(path, v, Lubricant, {
-            "viscosity": dict(ge=0, unit="Pa s"), "lam": dict(ge=0), "eps0": dict(gt=0, lt=1),
-        })
-        if model in ("lubricated", "transition") and not d["viscosity"] > 0:
+        d = self._sub(path, v, Lubricant, {**self._limits("lubricant"),
+                                           "bearing": dict(choices=tuple(BEARINGS)),
+                                           "cavitation": dict(choices=CAVITATION),
+                                           "shear_torque": dict(boolean=True)})
+        row = MODELS.get(model)
+        if row is not None and row.has_film and not d["viscosity"] > 0:
+            films = [f"'{m.name}'" for m in MODELS.values() if m.has_film]
+            films = " and ".join([", ".join(films[:-1]), films[-1]] if len(films) > 1 else films)
             self.fail(path + ".viscosity", d["viscosity"],
                       f"a '{model}' joint needs a film, and a film of zero viscosity carries no "
-                      "load", "> 0 (Pa s) for models 'lubricated' and 'transition'")
+                      "load", f"> 0 (Pa s) for models {films}")
         return Lubricant(**d)
 
-    def _transition(self, path: str, v: Any) -> Transition:
-        return Transition(**self._sub(path, v, Transition, {
-            "e1": dict(gt=0, unit="m"), "eps_max": dict(gt=0, lt=1),
-        }))
+    def _transition(self, path: str, v: Any, model: str) -> Transition:
+        return Transition(**self._sub(path, v, Transition, self._limits("transition")))
 
     def _zero_length_links(self, bodies: Mapping[str, Body], joints: Mapping[str, Joint]) -> None:
         used: dict[str, dict[str, str]] = {}

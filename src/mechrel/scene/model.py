@@ -13,6 +13,8 @@ from dataclasses import dataclass, field
 from types import MappingProxyType
 from typing import Literal
 
+from ..forces.models import DEFAULT_BEARING as _DEFAULT_BEARING
+from ..forces.models import MODELS as _MODELS
 from ..forces.params import DEFAULTS as _FORCE_DEFAULTS
 
 Vec2 = tuple[float, float]
@@ -20,7 +22,9 @@ Vec2 = tuple[float, float]
 GROUND = "ground"
 """Reserved body name for the frame; its points are the scene's ``ground`` points."""
 
-CLEARANCE_MODELS = ("ideal", "dry", "lubricated", "transition")
+CLEARANCE_MODELS = ("ideal", *_MODELS)
+"""Allowed values of ``joints.NAME.model``: ``"ideal"`` and the clearance models of
+:data:`mechrel.forces.models.MODELS`."""
 DRIVER_LAWS = ("constant-speed", "constant-acceleration", "harmonic", "smooth-start")
 QUANTITIES = ("displacement", "velocity", "acceleration")
 INTEGRATOR_NAMES = ("auto", "rk4", "dopri5", "radau", "scipy-radau", "bdf", "lsoda")
@@ -76,11 +80,16 @@ class Friction:
 
 @dataclass(frozen=True)
 class Lubricant:
-    """Pinkus–Sternlicht long bearing film. ``viscosity`` in Pa s (100 cP = 0.1 Pa s)."""
+    """The lubricant film. ``viscosity`` in Pa s (100 cP = 0.1 Pa s); ``bearing`` the film
+    model, a key of :data:`mechrel.forces.models.BEARINGS` (``"long"``: Pinkus–Sternlicht,
+    the paper's; ``"short"``: Ocvirk; ``"finite"``: finite length, 0.25 <= L/D <= 4)."""
 
     viscosity: float = 0.1
     lam: float = _FORCE_DEFAULTS["lam"]
     eps0: float = _FORCE_DEFAULTS["eps0"]
+    bearing: str = _DEFAULT_BEARING
+    cavitation: str = "half-sommerfeld"  # "reynolds" (Swift–Stieber): finite bearing only
+    shear_torque: bool = False  # film shear torques on journal and bearing (not in the paper)
 
 
 @dataclass(frozen=True)
@@ -111,7 +120,7 @@ class Joint:
     points: tuple[PointRef, ...]
     direction: Vec2 | None = None
     angle: float | None = None
-    model: Literal["ideal", "dry", "lubricated", "transition"] = "ideal"
+    model: str = "ideal"  # one of CLEARANCE_MODELS
     clearance: float = 0.0
     bearing_radius: float | None = None
     length: float | None = None
@@ -125,6 +134,11 @@ class Joint:
     @property
     def is_clearance(self) -> bool:
         return self.type == "revolute" and self.model != "ideal"
+
+    @property
+    def clearance_model(self):
+        """The row of :data:`mechrel.forces.models.MODELS` of a clearance joint (else None)."""
+        return _MODELS.get(self.model) if self.is_clearance else None
 
 
 @dataclass(frozen=True)

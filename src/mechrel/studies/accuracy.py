@@ -61,6 +61,7 @@ import numpy as np
 import pandas as pd
 
 from ..errors import MechrelError, StudyError
+from ..forces.models import MODELS
 from ..scene.model import QUANTITIES
 
 STATISTICS = ("peak", "rms", "p95")
@@ -75,8 +76,9 @@ DEFAULT_PERTURBATION = 1e-6
 far below any manufacturing tolerance, yet well above the assembly tolerance (1e-12 m by
 default; a smaller offset would not survive assembly, which stops when |Φ| <= tolerance)."""
 
-CHAOTIC_KINDS = ("dry", "transition")
-"""Scene types measured by ensemble statistics (impacts make their trajectories chaotic)."""
+CHAOTIC_KINDS = tuple(m.name for m in MODELS.values() if m.chaotic)
+"""Scene kinds measured by ensemble statistics (impacts make their trajectories chaotic):
+the clearance models marked ``chaotic`` in the table of models."""
 
 
 def _stat_measures(err: np.ndarray) -> np.ndarray:
@@ -310,7 +312,7 @@ def default_candidates(scene, kind: str, quick: bool = False) -> list[tuple[str,
         divisions = [8e3] if quick else [4e3, 16e3]
         cands += [("dopri5", {"rtol": t, "atol": t * 1e-3}) for t in tols]
         cands += [("rk4", {"step": period / d}) for d in divisions]
-        if kind == "transition":  # its film makes it stiff (simulation.DEFAULT_SOLVERS)
+        if MODELS[kind].stiff:  # e.g. transition: its film makes it stiff
             cands += [(stiff[0], {"rtol": t, "atol": t * 1e-3}) for t in (1e-5, 1e-7)]
         return cands
     tols = [1e-4, 1e-6, 1e-8] if quick else [1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 1e-9]
@@ -320,7 +322,7 @@ def default_candidates(scene, kind: str, quick: bool = False) -> list[tuple[str,
         cands += [("dopri5", {"rtol": t, "atol": t * 1e-3}) for t in tols]
     for name in stiff:
         cands += [(name, {"rtol": t, "atol": t * 1e-3}) for t in tols]
-    if kind == "lubricated":
+    if kind in MODELS and MODELS[kind].stiff:  # an explicit method, for comparison
         cands += [("dopri5", {"rtol": t, "atol": t * 1e-3}) for t in tols[:2]]
     return cands
 
@@ -485,7 +487,8 @@ def accuracy_report(scene, *, candidates=None, reference=None, target: float = 0
         else 1
     if reference is None:
         stiff = "radau" if "radau" in INTEGRATORS else "lsoda"
-        reference = ((stiff, {"rtol": 1e-11, "atol": 1e-14}) if kind == "lubricated"
+        reference = ((stiff, {"rtol": 1e-11, "atol": 1e-14})
+                     if kind in MODELS and MODELS[kind].stiff and not statistical
                      else ("dopri5", {"rtol": 1e-11, "atol": 1e-14}))
     t0 = time.perf_counter()
     cands = candidates if candidates is not None else default_candidates(scene, kind, quick)
