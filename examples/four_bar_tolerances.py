@@ -33,6 +33,7 @@ from mechrel.errors import EstimateWarning  # noqa: E402
 from mechrel.uq import Allowable, Normal, TruncNormal, UncertainInputs, fosm, monte_carlo  # noqa: E402
 from mechrel.uq.mechanism import MechanismModel  # noqa: E402
 from mechrel.uq.plots import plot_reliability  # noqa: E402
+from mechrel.uq.reliability import per_angle_mask  # noqa: E402
 
 INPUTS = {
     "O4_x": (["ground.points.O4[0]"], Normal(0.14, 20e-6)),          # m
@@ -65,9 +66,11 @@ def main(argv=None) -> int:
           f"FOSM {f.evaluations.n} runs, Monte Carlo {mc.evaluations.n} runs "
           f"({mc.n_failed} failed)")
     share = f.importance().groupby(level="quantity").mean()
+    angles_f = per_angle_mask(f.table.index)  # the analysis angles (not the cycle extremes)
+    angles_m = per_angle_mask(mc.table.index)
     for q in ("displacement", "velocity", "acceleration"):
-        tf = f.table.xs(q, level="quantity")
-        tm = mc.table.xs(q, level="quantity")
+        tf = f.table[angles_f].xs(q, level="quantity")
+        tm = mc.table[angles_m].xs(q, level="quantity")
         k = tm["reliability"].idxmin()
         wc = mc.whole_cycle.loc[q]
         pivot = share.loc[q, ["O4_x", "O4_y"]].sum()
