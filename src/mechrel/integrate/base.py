@@ -29,9 +29,11 @@ A subclass of :class:`Integrator`
 ``_advance`` in a worker thread and advances the bar from ``ctl[CTL_DONE]`` every 0.1 s: the
 compiled kernels release the GIL, so the display costs the integration nothing and, unlike
 splitting the grid into chunks (each a restart of the step-size and Jacobian history), does not
-change the result: with and without a progress bar the numbers are bitwise the same. Ctrl-C
-while it waits sets ``ctl[CTL_STOP]``; the kernel stops at its next step and the
-``KeyboardInterrupt`` goes on, with a note of how far the integration got.
+change the result: with and without a progress bar the numbers are bitwise the same. On the
+main thread it does so without a progress bar too, so that Ctrl-C (or SIGTERM, which the
+command line turns into :class:`~mechrel.errors.Interrupted`) while it waits sets
+``ctl[CTL_STOP]``; the kernel stops at its next step and the ``KeyboardInterrupt`` goes on,
+with a note of how far the integration got.
 """
 
 from __future__ import annotations
@@ -174,10 +176,14 @@ class Integrator:
                    ", or a stiff integrator (solver.integrator = 'radau')"))
 
     def _run(self, system, t, y, hist, t_out, progress):
-        """``_advance`` over ``t_out``; with a progress bar, in a worker thread while this one
-        feeds the bar from the control vector and passes Ctrl-C on as a stop request."""
+        """``_advance`` over ``t_out``. On the main thread (where Python handles Ctrl-C and
+        SIGTERM), in a worker thread while this one waits, feeds the progress bar (if any)
+        from the control vector and passes an interrupt on as a stop request: the compiled
+        kernels release the GIL and do not look at Python's signals, so run on the main thread
+        they ignored Ctrl-C until the end of the integration. Elsewhere (a thread of the
+        caller's), directly."""
         ctl = np.zeros(2, dtype=np.int64)
-        if progress is None:
+        if progress is None and threading.current_thread() is not threading.main_thread():
             return self._advance(system, t, y, hist, t_out, ctl)
         box = {}
 
@@ -196,10 +202,10 @@ class Integrator:
                 worker.join(0.1)  # shorter than the first poll still fills the bar
                 alive = worker.is_alive()
                 k = int(ctl[ev.CTL_DONE])
-                if k > shown:
+                if k > shown and progress is not None:
                     progress.update(k - shown)
                     shown = k
-        except KeyboardInterrupt as exc:
+        except KeyboardInterrupt as exc:  # Ctrl-C, or SIGTERM (mechrel.errors.Interrupted)
             ctl[ev.CTL_STOP] = 1  # the kernel stops at its next step
             worker.join()
             exc.add_note(f"{self.name}: integration stopped after {int(ctl[ev.CTL_DONE])} of "

@@ -16,6 +16,22 @@ def positive_int(text: str) -> int:
     return int(text)
 
 
+def seed_int(text: str) -> int:
+    """argparse type: an integer >= 0."""
+    if not text.isdigit():
+        raise argparse.ArgumentTypeError(f"{text!r}: not a non-negative integer; allowed: 0, 1, "
+                                         "2, ...")
+    return int(text)
+
+
+def jobs_int(text: str) -> int:
+    """argparse type: an integer >= 1, or -1 (all cores)."""
+    if not (text == "-1" or text.isdigit() and int(text) >= 1):
+        raise argparse.ArgumentTypeError(f"{text!r}: not a number of workers; allowed: 1, 2, "
+                                         "... or -1 (all cores)")
+    return int(text)
+
+
 def fraction(text: str) -> float:
     """argparse type: a number in [0, 1]."""
     try:
@@ -43,8 +59,9 @@ def _study_args(p, section):
                    help="embedded study name or path to a study .toml "
                         "(default: nine-bar-lubricated)")
     p.add_argument("--n", type=positive_int, help="number of samples (default: the study's)")
-    p.add_argument("--jobs", type=int, default=2, help="parallel workers (default 2)")
-    p.add_argument("--seed", type=int, help="random seed (default: the study's)")
+    p.add_argument("--jobs", type=jobs_int, default=2,
+                   help="parallel workers, -1 for all cores (default 2)")
+    p.add_argument("--seed", type=seed_int, help="random seed, >= 0 (default: the study's)")
     p.add_argument("--max-failure-fraction", type=fraction, metavar="F",
                    help="refuse to estimate when more than this fraction of the samples failed "
                         f"(default: the study's {section}.max_failure_fraction); the failed "
@@ -52,6 +69,9 @@ def _study_args(p, section):
     p.add_argument("--out", default="results", metavar="DIR",
                    help="output folder (default: results/)")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    p.add_argument("--no-cache", action="store_true",
+                   help="do not read or write OUT/evaluations.sqlite (e.g. when it is damaged "
+                        "and you want to keep it)")
 
 
 def _cmd_reliability(args) -> int:
@@ -62,7 +82,8 @@ def _cmd_reliability(args) -> int:
     methods = None if args.method is None else (args.method,)
     lines, _ = run_reliability(study, methods=methods, n=args.n, n_jobs=args.jobs,
                                seed=args.seed, out=args.out, progress=not args.no_progress,
-                               max_failure_fraction=args.max_failure_fraction)
+                               max_failure_fraction=args.max_failure_fraction,
+                               cache=not args.no_cache)
     print("\n".join(lines))
     return 0
 
@@ -74,7 +95,8 @@ def _cmd_sensitivity(args) -> int:
     study = load_study(args.study)
     lines, _ = run_sensitivity(study, n=args.n, n_jobs=args.jobs, seed=args.seed, out=args.out,
                                progress=not args.no_progress,
-                               max_failure_fraction=args.max_failure_fraction)
+                               max_failure_fraction=args.max_failure_fraction,
+                               cache=not args.no_cache)
     print("\n".join(lines))
     return 0
 
