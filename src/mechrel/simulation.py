@@ -21,7 +21,7 @@ from typing import Mapping
 
 import numpy as np
 
-from .errors import SimulationError
+from .errors import AssemblyError, SimulationError
 from .integrate import INTEGRATORS, IntegrationResult, get_integrator
 from .mechanics import problem
 from .mechanics.kinematics import assemble, kinematic_analysis
@@ -296,6 +296,43 @@ def _provenance(scene: Scene, wall: float) -> dict:
             "python": platform.python_version(), "wall_time": wall}
 
 
+def _check_step_budget(solver, times) -> None:
+    """Refuse up front a fixed-step run whose steps over the span exceed ``solver.max_steps``
+    (it would stop at the budget, after running it all, with "maximum number of steps")."""
+    if solver.adaptive or times.size < 2:
+        return
+    span = float(times[-1] - times[0])
+    needed = span / solver.step
+    if needed > solver.max_steps:
+        raise SimulationError(
+            f"solver.step = {solver.step:g} s: the analysis span of {span:g} s needs "
+            f"{needed:.3g} steps of {solver.name}, more than solver.max_steps = "
+            f"{solver.max_steps}; allowed: solver.step >= {span / solver.max_steps:.3g} s, or "
+            "a larger solver.max_steps (each step costs about a microsecond or more)")
+
+
+# Magnitudes (SI) beyond which a scene value is named when a run fails: no quantity of a
+# planar mechanism comes near it (Young's moduli are ~1e11 Pa), and products and squares of
+# such values overflow float64 in the force laws and the kinematics.
+EXTREME_MAGNITUDE = 1e15
+
+
+def extreme_values(scene: Scene) -> list[str]:
+    """``PATH = VALUE`` of the scene's numbers of magnitude >= :data:`EXTREME_MAGNITUDE`."""
+    from collections.abc import Mapping
+    found, stack = [], [(scene.raw or {}, "")]
+    while stack:
+        node, path = stack.pop()
+        if isinstance(node, Mapping):
+            stack.extend((v, f"{path}.{k}" if path else str(k)) for k, v in node.items())
+        elif isinstance(node, (list, tuple)):
+            stack.extend((v, f"{path}[{i}]") for i, v in enumerate(node))
+        elif (isinstance(node, (int, float)) and not isinstance(node, bool)
+              and abs(node) >= EXTREME_MAGNITUDE):
+            found.append(f"{path} = {node:g}")
+    return sorted(found)
+
+
 def simulate(scene: Scene, *, method: str = "auto", integrator: str | None = None,
              progress: bool = False, **solver_settings) -> SimulationResult:
     """Simulate a scene over its analysis span.
@@ -318,7 +355,30 @@ def simulate(scene: Scene, *, method: str = "auto", integrator: str | None = Non
     Returns
     -------
     SimulationResult
+
+    Raises
+    ------
+    AssemblyError, SimulationError
+        A failed run; when the scene holds values of magnitude >= ``EXTREME_MAGNITUDE``
+        the message names them first (their overflow is the likely cause).
     """
+    try:
+        return _simulate(scene, method=method, integrator=integrator, progress=progress,
+                         **solver_settings)
+    except (AssemblyError, SimulationError) as exc:
+        extreme = extreme_values(scene) if isinstance(scene, Scene) else []
+        if not extreme:
+            raise
+        # a failure of a scene with values of no physical magnitude is their overflow, not a
+        # toggle position or a step size: say so first
+        raise type(exc)(f"{scene.source or scene.name}: the run failed with values of extreme "
+                        f"magnitude in the scene, which overflow float64 arithmetic: "
+                        f"{', '.join(extreme[:4])}; allowed: values of physical magnitude "
+                        f"(SI, below {EXTREME_MAGNITUDE:g}) (the failure: {exc})") from None
+
+
+def _simulate(scene: Scene, *, method: str = "auto", integrator: str | None = None,
+              progress: bool = False, **solver_settings) -> SimulationResult:
     start = time.perf_counter()
     if not isinstance(scene, Scene):
         raise TypeError(f"simulate: scene must be a Scene, got {type(scene).__name__} "
@@ -337,6 +397,7 @@ def simulate(scene: Scene, *, method: str = "auto", integrator: str | None = Non
             f"({n // 3} bodies): {', '.join(compiled.labels['ideal'])}; allowed: at most one "
             "equation per coordinate (remove a driver or a joint)")
     times = output_times(scene, compiled)
+    _check_step_budget(solver, times)
     has_clearance = bool(compiled.clearance_names)
     driven = compiled.ideal.n_constraints == n
     tol = scene.solver.assembly_tolerance

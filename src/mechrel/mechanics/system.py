@@ -178,7 +178,14 @@ def clearance_parameters(joint: Joint) -> np.ndarray:
         kw.update(viscosity=lub.viscosity, lam=lub.lam, eps0=lub.eps0)
     if joint.model == "transition":
         kw.update(e1=joint.transition.e1, eps_max=joint.transition.eps_max)
-    return pack_params(**kw)
+    try:
+        return pack_params(**kw)
+    except SceneError as exc:  # name the joint; say where a derived value comes from
+        field = exc.path or "parameters"
+        derived = ("; it is computed from bearing_radius, clearance and the contact's "
+                   "elastic moduli: check those for extreme values"
+                   if field == "stiffness" else "")
+        raise SceneError(f"{path}: {exc}{derived}", path=f"{path}.{field}") from None
 
 
 def _system(scene: Scene, index, clearance_as: str) -> tuple[System, tuple[str, ...]]:

@@ -58,6 +58,9 @@ def _study_args(p, section):
     p.add_argument("study", nargs="?", default="nine-bar-lubricated", metavar="STUDY",
                    help="embedded study name or path to a study .toml "
                         "(default: nine-bar-lubricated)")
+    p.add_argument("--scene", metavar="SCENE",
+                   help="embedded scene name or scene file to use instead of the study's "
+                        "scene (a file the study names must be in the study file's folder)")
     p.add_argument("--n", type=positive_int, help="number of samples (default: the study's)")
     p.add_argument("--jobs", type=jobs_int, default=2,
                    help="parallel workers, -1 for all cores (default 2)")
@@ -78,7 +81,7 @@ def _cmd_reliability(args) -> int:
     from .runner import run_reliability
     from .study import load_study
 
-    study = load_study(args.study)
+    study = load_study(args.study, overrides={"scene": args.scene} if args.scene else None)
     methods = None if args.method is None else (args.method,)
     lines, _ = run_reliability(study, methods=methods, n=args.n, n_jobs=args.jobs,
                                seed=args.seed, out=args.out, progress=not args.no_progress,
@@ -92,7 +95,7 @@ def _cmd_sensitivity(args) -> int:
     from .runner import run_sensitivity
     from .study import load_study
 
-    study = load_study(args.study)
+    study = load_study(args.study, overrides={"scene": args.scene} if args.scene else None)
     lines, _ = run_sensitivity(study, n=args.n, n_jobs=args.jobs, seed=args.seed, out=args.out,
                                progress=not args.no_progress,
                                max_failure_fraction=args.max_failure_fraction,
