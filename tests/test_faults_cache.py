@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from mechrel.errors import CacheError, MechrelWarning, StudyError
-from mechrel.uq import EvaluationCache, linear_model, evaluate
+from mechrel.uq import EvaluationCache, evaluate, linear_model
 from mechrel.uq import cache as cache_mod
 
 NAMES = ("a", "b")

@@ -153,3 +153,24 @@ def test_second_run_on_a_held_folder_is_refused_at_once(tmp_path, capsys):
     assert sorted(p.name for p in out.iterdir()) == [LOCK_NAME]  # nothing evaluated
     with hold_folder(out):  # released: it can be taken again
         pass
+
+
+def test_simulate_checks_every_file_it_writes_before_running(tmp_path, capsys):
+    (tmp_path / "r.png").mkdir()
+    assert main(["simulate", "slider-crank", "--out", str(tmp_path / "r.csv")]) == 2
+    assert capsys.readouterr().err == (
+        f"mechrel: error: --out: '{tmp_path}/r.png', which this run writes beside r.csv, is a "
+        "folder; allowed: a file name (remove or rename the folder)\n")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["r.png"]
+
+
+def test_a_file_system_without_locks_is_one_clear_error(tmp_path, monkeypatch):
+    from mechrel.io import lock
+
+    def no_locks(fd):
+        raise OSError(errno.ENOLCK, os.strerror(errno.ENOLCK))
+    monkeypatch.setattr(lock, "_try_lock", no_locks)
+    with pytest.raises(OutputError, match=r"cannot lock the folder \(No locks available\); "
+                                          r"allowed: a folder on a file system that supports"):
+        with hold_folder(tmp_path):
+            pass

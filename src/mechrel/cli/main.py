@@ -8,7 +8,7 @@ import threading
 import warnings
 from pathlib import Path
 
-from ..errors import Interrupted, MechrelError, MechrelWarning
+from ..errors import Interrupted, MechrelError, MechrelWarning, OutputError
 
 EPILOG = """\
 examples:
@@ -87,7 +87,13 @@ def _cmd_simulate(args) -> int:
 
     scene = load_scene(args.scene, overrides=args.overrides)
     if args.out:
-        check_table_path(args.out)  # before the simulation, not after it
+        out = check_table_path(args.out)  # before the simulation, not after it
+        for sibling in (out.with_suffix(".png"), out.with_suffix(".json"),
+                        out.with_name(out.stem + "-orbits" + out.suffix)):
+            if sibling.is_dir():
+                raise OutputError(f"--out: {str(sibling)!r}, which this run writes beside "
+                                  f"{out.name}, is a folder; allowed: a file name (remove or "
+                                  "rename the folder)")
     result = simulate(scene, integrator=args.integrator, progress=not args.no_progress)
     print("\n".join(_summary_lines(result)))
     if args.out:

@@ -70,7 +70,13 @@ def hold_folder(folder, *, what: str = "out"):
         raise OutputError(f"{what} = {str(folder)!r}: cannot create the lock file {LOCK_NAME} "
                           f"({exc.strerror or exc}); allowed: a writable folder") from None
     try:
-        if not _try_lock(fd):
+        try:
+            locked = _try_lock(fd)
+        except OSError as exc:  # e.g. ENOLCK: a file system without locks
+            raise OutputError(f"{what} = {str(folder)!r}: cannot lock the folder "
+                              f"({exc.strerror or exc}); allowed: a folder on a file system "
+                              "that supports file locks") from None
+        if not locked:
             raise OutputError(f"{what} = {str(folder)!r}: another run (pid {_holder(fd)}) holds "
                               f"{folder}; allowed: wait for it to finish, or give this run "
                               "another output folder")

@@ -133,7 +133,7 @@ def _read(source) -> tuple[dict, str, Path | None]:
     return read_toml_text(data, label, StudyError), label, base_dir
 
 
-def _scene_source(c: "_Checker", scene: str, base_dir: Path | None, given: bool) -> str:
+def _scene_source(c: _Checker, scene: str, base_dir: Path | None, given: bool) -> str:
     """The study's ``scene``: an embedded scene name as it is; a path relative to the study
     file's folder (the current folder for a mapping or an embedded study), which it must not
     leave — unless the caller gave it (``given``: an override), when it is taken as it is."""

@@ -37,7 +37,9 @@ def register_backend() -> str:
     global _registered
     if not _registered:
         import joblib
-        from joblib._parallel_backends import LokyBackend  # subclassed, as joblib documents
+        from joblib._parallel_backends import (
+            LokyBackend,  # subclassed, as joblib documents
+        )
 
         class MechrelLokyBackend(LokyBackend):
             def _prepare_worker_env(self, n_jobs):
