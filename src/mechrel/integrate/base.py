@@ -29,15 +29,19 @@ A subclass of :class:`Integrator`
 ``_advance`` in a worker thread and advances the bar from ``ctl[CTL_DONE]`` every 0.1 s: the
 compiled kernels release the GIL, so the display costs the integration nothing and, unlike
 splitting the grid into chunks (each a restart of the step-size and Jacobian history), does not
-change the result: with and without a progress bar the numbers are bitwise the same. On the
-main thread it does so without a progress bar too, so that Ctrl-C (or SIGTERM, which the
-command line turns into :class:`~mechrel.errors.Interrupted`) while it waits sets
-``ctl[CTL_STOP]``; the kernel stops at its next step and the ``KeyboardInterrupt`` goes on,
-with a note of how far the integration got.
+change the result: with and without a progress bar the numbers are bitwise the same. Ctrl-C
+while it waits sets ``ctl[CTL_STOP]``; the kernel stops at its next step and the
+``KeyboardInterrupt`` goes on, with a note of how far the integration got. Without a progress
+bar the kernel runs on the caller's thread; on the main thread a signal (Ctrl-C, or SIGTERM,
+which the command line turns into :class:`~mechrel.errors.Interrupted`) sets ``ctl[CTL_STOP]``
+through :class:`_SignalWatcher`, with the same effect.
 """
 
 from __future__ import annotations
 
+import contextlib
+import os
+import signal
 import threading
 import time
 from dataclasses import dataclass
@@ -109,6 +113,55 @@ def _has_lubricated(system) -> bool:
     return bool(np.any(system.cl_p[:, P_MODEL] == MODEL_LUBRICATED))
 
 
+class _SignalWatcher:
+    """Stops the running kernel when a signal arrives while it runs on the main thread.
+
+    Python runs its signal handlers (Ctrl-C's ``KeyboardInterrupt``, the command line's SIGTERM
+    handler) only between bytecodes of the main thread, never inside a compiled kernel; but
+    the C-level handler writes the signal's number to the "wakeup fd"
+    (:func:`signal.set_wakeup_fd`) at once. During a kernel call that fd is a pipe read by
+    this daemon thread (one per process, started on first use), which sets the kernel's
+    ``ctl[CTL_STOP]``: the kernel stops at its next step, returns, and Python raises the
+    signal's exception right after the call. The kernel keeps the main thread (no hand-over
+    to another thread, which cost 5-15 ms per integration on a loaded machine); the caller's
+    own wakeup fd (asyncio's) is restored after the call."""
+
+    def __init__(self):
+        self._read, self._write = os.pipe()
+        os.set_blocking(self._write, False)
+        self.ctl = None  # the control vector of the kernel running now, if any
+        threading.Thread(target=self._watch, name="mechrel-signal-watch", daemon=True).start()
+
+    def _watch(self):
+        while True:
+            if os.read(self._read, 512) and self.ctl is not None:
+                self.ctl[ev.CTL_STOP] = 1
+
+    @contextlib.contextmanager
+    def watching(self, ctl):
+        try:
+            old = signal.set_wakeup_fd(self._write, warn_on_full_buffer=False)
+        except ValueError:  # not the main thread of the main interpreter
+            yield
+            return
+        self.ctl = ctl
+        try:
+            yield
+        finally:
+            self.ctl = None
+            signal.set_wakeup_fd(old)
+
+
+_WATCHER: _SignalWatcher | None = None
+
+
+def _signal_watcher() -> _SignalWatcher:
+    global _WATCHER
+    if _WATCHER is None:
+        _WATCHER = _SignalWatcher()
+    return _WATCHER
+
+
 class Integrator:
     """Base class; see the module docstring for the subclass contract.
 
@@ -176,15 +229,22 @@ class Integrator:
                    ", or a stiff integrator (solver.integrator = 'radau')"))
 
     def _run(self, system, t, y, hist, t_out, progress):
-        """``_advance`` over ``t_out``. On the main thread (where Python handles Ctrl-C and
-        SIGTERM), in a worker thread while this one waits, feeds the progress bar (if any)
-        from the control vector and passes an interrupt on as a stop request: the compiled
-        kernels release the GIL and do not look at Python's signals, so run on the main thread
-        they ignored Ctrl-C until the end of the integration. Elsewhere (a thread of the
-        caller's), directly."""
+        """``_advance`` over ``t_out``. With a progress bar, in a worker thread while this one
+        feeds the bar from the control vector and passes Ctrl-C on as a stop request. Without
+        one, on this thread; on the main thread under :class:`_SignalWatcher`, so that Ctrl-C
+        and SIGTERM stop the kernel at its next step (a compiled kernel does not look at
+        Python's signals: before, it ran to its end first)."""
         ctl = np.zeros(2, dtype=np.int64)
-        if progress is None and threading.current_thread() is not threading.main_thread():
-            return self._advance(system, t, y, hist, t_out, ctl)
+        if progress is None:
+            if threading.current_thread() is not threading.main_thread():  # no signal is handled on this thread: nothing to watch
+                return self._advance(system, t, y, hist, t_out, ctl)
+            try:
+                with _signal_watcher().watching(ctl):
+                    return self._advance(system, t, y, hist, t_out, ctl)
+            except KeyboardInterrupt as exc:  # Ctrl-C, or SIGTERM (mechrel.errors.Interrupted)
+                exc.add_note(f"{self.name}: integration stopped after "
+                             f"{int(ctl[ev.CTL_DONE])} of {t_out.size} output instants")
+                raise
         box = {}
 
         def work():
@@ -202,10 +262,10 @@ class Integrator:
                 worker.join(0.1)  # shorter than the first poll still fills the bar
                 alive = worker.is_alive()
                 k = int(ctl[ev.CTL_DONE])
-                if k > shown and progress is not None:
+                if k > shown:
                     progress.update(k - shown)
                     shown = k
-        except KeyboardInterrupt as exc:  # Ctrl-C, or SIGTERM (mechrel.errors.Interrupted)
+        except KeyboardInterrupt as exc:
             ctl[ev.CTL_STOP] = 1  # the kernel stops at its next step
             worker.join()
             exc.add_note(f"{self.name}: integration stopped after {int(ctl[ev.CTL_DONE])} of "
