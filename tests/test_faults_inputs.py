@@ -91,7 +91,7 @@ def test_extends_may_not_leave_the_folder_of_the_file_given(outside, how):
         load_scene(scene)
     msg = str(info.value)
     # (a long value is shortened in the message, as every value is)
-    assert re.match(rf"{re.escape(str(scene))}: extends = \"[^\"]+\": not read: it is outside "
+    assert re.match(rf"{re.escape(str(scene))}: extends = .+?: not read: it is outside "
                     rf"'{re.escape(str(user))}', the folder of the scene file given; allowed:", msg)
     assert "TOP-SECRET-VALUE" not in msg
     # given directly by the user, the same file is loaded (and its own error is shown)
@@ -128,7 +128,7 @@ def test_study_scene_is_relative_to_the_study_file_and_confined(outside, monkeyp
         study.write_text(STUDY.format(scene=ext))
         with pytest.raises(StudyError) as info:
             load_study(study)
-        assert re.match(rf"{re.escape(str(study))}: scene = \"[^\"]+\": not read: it is "
+        assert re.match(rf"{re.escape(str(study))}: scene = .+?: not read: it is "
                         rf"outside '{re.escape(str(user))}', the folder of the study file",
                         str(info.value))
         assert "TOP-SECRET-VALUE" not in str(info.value)
