@@ -121,8 +121,8 @@ class _SignalWatcher:
     the C-level handler writes the signal's number to the "wakeup fd"
     (:func:`signal.set_wakeup_fd`) at once. During a kernel call that fd is a pipe read by
     this daemon thread (one per process, started on first use), which sets the kernel's
-    ``ctl[CTL_STOP]``: the kernel stops at its next step, returns, and Python raises the
-    signal's exception right after the call. The kernel keeps the main thread (no hand-over
+    ``ctl[CTL_STOP]``: the kernel stops at its next step, returns, and the signal's own
+    handler runs right after the call (raising ``KeyboardInterrupt``). The kernel keeps the main thread (no hand-over
     to another thread, which cost 5-15 ms per integration on a loaded machine); the caller's
     own wakeup fd (asyncio's) is restored after the call."""
 
@@ -139,17 +139,38 @@ class _SignalWatcher:
 
     @contextlib.contextmanager
     def watching(self, ctl):
+        """For the ``with`` block: the wakeup fd is this watcher's pipe, and the Python
+        handlers of SIGINT and SIGTERM (if Python-level) are replaced by one that only records
+        the signal: run inside a callback of the compiled code (numba calls Python to unpickle
+        constants), a raising handler made numba's dispatcher fail with ``SystemError``. The
+        recorded signal's own handler is called after the block (raising there)."""
         try:
-            old = signal.set_wakeup_fd(self._write, warn_on_full_buffer=False)
+            old_fd = signal.set_wakeup_fd(self._write, warn_on_full_buffer=False)
         except ValueError:  # not the main thread of the main interpreter
             yield
             return
+        pending = []
+
+        def defer(signum, frame):
+            pending.append(signum)
+            ctl[ev.CTL_STOP] = 1
+
+        saved = {}
+        for sig in (signal.SIGINT, signal.SIGTERM):
+            handler = signal.getsignal(sig)
+            if callable(handler):
+                saved[sig] = handler
+                signal.signal(sig, defer)
         self.ctl = ctl
         try:
             yield
         finally:
             self.ctl = None
-            signal.set_wakeup_fd(old)
+            for sig, handler in saved.items():
+                signal.signal(sig, handler)
+            signal.set_wakeup_fd(old_fd)
+        if pending:
+            saved[pending[0]](pending[0], None)
 
 
 _WATCHER: _SignalWatcher | None = None
