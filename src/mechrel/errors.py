@@ -33,6 +33,25 @@ class StudyError(MechrelError, ValueError):
     """A study file or estimator argument is invalid."""
 
 
+class CacheError(StudyError):
+    """An evaluation cache cannot be used: not a mechrel cache, damaged, or not writable.
+
+    The message names the file and what to do (delete it, or run without the cache)."""
+
+
+class OutputError(StudyError):
+    """An output folder or file cannot be used: not writable, or held by another run."""
+
+
+class Interrupted(KeyboardInterrupt):
+    """A run stopped by a signal (SIGTERM; Ctrl-C raises :class:`KeyboardInterrupt`): raised
+    on the main thread by the command line's signal handler, handled as Ctrl-C is."""
+
+    def __init__(self, signum: int):
+        self.signum = signum
+        super().__init__(signum)
+
+
 class MechrelWarning(UserWarning):
     """Base class of mechrel's warnings."""
 

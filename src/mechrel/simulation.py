@@ -21,7 +21,7 @@ from collections.abc import Mapping
 
 import numpy as np
 
-from .errors import SimulationError
+from .errors import AssemblyError, SimulationError
 from .forces.models import MODELS
 from .integrate import INTEGRATORS, IntegrationResult, get_integrator
 from .mechanics import problem
@@ -442,6 +442,43 @@ def _ideal_at(scene, compiled, reference, q0, solver, T, lead):
     return {name: {qty: values[m:] for qty, values in d.items()} for name, d in got.items()}
 
 
+def _check_step_budget(solver, times) -> None:
+    """Refuse up front a fixed-step run whose steps over the span exceed ``solver.max_steps``
+    (it would stop at the budget, after running it all, with "maximum number of steps")."""
+    if solver.adaptive or times.size < 2:
+        return
+    span = float(times[-1] - times[0])
+    needed = span / solver.step
+    if needed > solver.max_steps:
+        raise SimulationError(
+            f"solver.step = {solver.step:g} s: the analysis span of {span:g} s needs "
+            f"{needed:.3g} steps of {solver.name}, more than solver.max_steps = "
+            f"{solver.max_steps}; allowed: solver.step >= {span / solver.max_steps:.3g} s, or "
+            "a larger solver.max_steps (each step costs about a microsecond or more)")
+
+
+# Magnitudes (SI) beyond which a scene value is named when a run fails: no quantity of a
+# planar mechanism comes near it (Young's moduli are ~1e11 Pa), and products and squares of
+# such values overflow float64 in the force laws and the kinematics.
+EXTREME_MAGNITUDE = 1e15
+
+
+def extreme_values(scene: Scene) -> list[str]:
+    """``PATH = VALUE`` of the scene's numbers of magnitude >= :data:`EXTREME_MAGNITUDE`."""
+    from collections.abc import Mapping
+    found, stack = [], [(scene.raw or {}, "")]
+    while stack:
+        node, path = stack.pop()
+        if isinstance(node, Mapping):
+            stack.extend((v, f"{path}.{k}" if path else str(k)) for k, v in node.items())
+        elif isinstance(node, (list, tuple)):
+            stack.extend((v, f"{path}[{i}]") for i, v in enumerate(node))
+        elif (isinstance(node, (int, float)) and not isinstance(node, bool)
+              and abs(node) >= EXTREME_MAGNITUDE):
+            found.append(f"{path} = {node:g}")
+    return sorted(found)
+
+
 def simulate(scene: Scene, *, reference: Scene | None = None, method: str = "auto",
              integrator: str | None = None, progress: bool = False, extremes: bool = False,
              dense_points: int = DENSE_POINTS, **solver_settings) -> SimulationResult:
@@ -451,7 +488,6 @@ def simulate(scene: Scene, *, reference: Scene | None = None, method: str = "aut
     ----------
     scene : Scene
         From :func:`mechrel.scene.load_scene`.
-    method : {"auto", "kinematics", "dynamics"}
     reference : Scene, optional
         The design the errors are measured against: the ideal (all-joints-ideal) mechanism of
         ``reference`` instead of that of ``scene`` (e.g. the nominal design when ``scene``
@@ -479,7 +515,32 @@ def simulate(scene: Scene, *, reference: Scene | None = None, method: str = "aut
     Returns
     -------
     SimulationResult
+
+    Raises
+    ------
+    AssemblyError, SimulationError
+        A failed run; when the scene holds values of magnitude >= ``EXTREME_MAGNITUDE``
+        the message names them first (their overflow is the likely cause).
     """
+    try:
+        return _simulate(scene, reference=reference, method=method, integrator=integrator,
+                         progress=progress, extremes=extremes, dense_points=dense_points,
+                         **solver_settings)
+    except (AssemblyError, SimulationError) as exc:
+        extreme = extreme_values(scene) if isinstance(scene, Scene) else []
+        if not extreme:
+            raise
+        # a failure of a scene with values of no physical magnitude is their overflow, not a
+        # toggle position or a step size: say so first
+        raise type(exc)(f"{scene.source or scene.name}: the run failed with values of extreme "
+                        f"magnitude in the scene, which overflow float64 arithmetic: "
+                        f"{', '.join(extreme[:4])}; allowed: values of physical magnitude "
+                        f"(SI, below {EXTREME_MAGNITUDE:g}) (the failure: {exc})") from None
+
+
+def _simulate(scene: Scene, *, reference: Scene | None, method: str, integrator: str | None,
+              progress: bool, extremes: bool, dense_points: int,
+              **solver_settings) -> SimulationResult:
     start = time.perf_counter()
     if not isinstance(scene, Scene):
         raise TypeError(f"simulate: scene must be a Scene, got {type(scene).__name__} "
@@ -500,6 +561,7 @@ def simulate(scene: Scene, *, reference: Scene | None = None, method: str = "aut
             f"({n // 3} bodies): {', '.join(compiled.labels['ideal'])}; allowed: at most one "
             "equation per coordinate (remove a driver or a joint)")
     times = output_times(scene, compiled)
+    _check_step_budget(solver, times)
     has_clearance = bool(compiled.clearance_names)
     driven = compiled.ideal.n_constraints == n
     tol = scene.solver.assembly_tolerance

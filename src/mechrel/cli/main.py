@@ -10,8 +10,11 @@ from __future__ import annotations
 
 import argparse
 import sys
+import threading
+import warnings
+from pathlib import Path
 
-from ..errors import MechrelError
+from ..errors import Interrupted, MechrelError, MechrelWarning
 from . import accuracy, pictures, scenes, simulate, studies
 from .simulate import EPILOG
 
@@ -42,20 +45,65 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _raise_interrupted(signum, frame):
+    raise Interrupted(signum)
+
+
+def _interrupted_line(exc: KeyboardInterrupt, args) -> str:
+    """One line for an interrupt: by what, and what of the run is kept."""
+    import signal
+
+    name = signal.Signals(exc.signum).name if isinstance(exc, Interrupted) else "Ctrl-C"
+    line = f"mechrel: interrupted ({name})"
+    out = getattr(args, "out", None)
+    if args.command in ("reliability", "sensitivity") and out and not args.no_cache:
+        line += (f"; the finished model evaluations are kept in {Path(out) / 'evaluations.sqlite'}"
+                 ": the same command resumes from them")
+    return line
+
+
+def _show_warning(message, category, filename, lineno, file=None, line=None):
+    """Mechrel's own warnings as one line ``mechrel: warning: ...``; others as Python shows
+    them."""
+    if issubclass(category, MechrelWarning):
+        print(f"mechrel: warning: {message}", file=sys.stderr if file is None else file)
+    else:
+        _python_showwarning(message, category, filename, lineno, file, line)
+
+
+_python_showwarning = warnings.showwarning
+
+
 def main(argv=None) -> int:
+    """The command line. A :class:`~mechrel.errors.MechrelError` is one line on stderr and exit
+    code 2; Ctrl-C and SIGTERM stop the run promptly (running integrations at their next step,
+    worker processes at once) with one line, exit code 128 + the signal number (130, 143)."""
+    import signal
+
     parser = build_parser()
     args = parser.parse_args(argv)
     if not getattr(args, "func", None):
         parser.print_help()
         return 0
+    on_main = threading.current_thread() is threading.main_thread()
+    old_term = signal.signal(signal.SIGTERM, _raise_interrupted) if on_main else None
     try:
-        return args.func(args)
+        with warnings.catch_warnings():
+            warnings.showwarning = _show_warning
+            return args.func(args)
     except MechrelError as exc:
         print(f"mechrel: error: {exc}", file=sys.stderr)
         return 2
-    except KeyboardInterrupt:
-        print("mechrel: interrupted", file=sys.stderr)
-        return 130
+    except KeyboardInterrupt as exc:
+        print(_interrupted_line(exc, args), file=sys.stderr)
+        return 128 + (exc.signum if isinstance(exc, Interrupted) else signal.SIGINT)
+    except BrokenPipeError:  # e.g. `mechrel simulate ... | head`: the reader has gone
+        import os
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())  # no error at exit
+        return 128 + signal.SIGPIPE
+    finally:
+        if on_main:
+            signal.signal(signal.SIGTERM, old_term)
 
 
 if __name__ == "__main__":  # pragma: no cover

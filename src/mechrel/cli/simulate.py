@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from ..errors import OutputError
 from .args import add_set_option
 
 EPILOG = """\
@@ -68,7 +69,13 @@ def _cmd_simulate(args) -> int:
 
     scene = load_scene(args.scene, overrides=args.overrides)
     if args.out:
-        check_table_path(args.out)  # before the simulation, not after it
+        out = check_table_path(args.out)  # before the simulation, not after it
+        for sibling in (out.with_suffix(".png"), out.with_suffix(".json"),
+                        out.with_name(out.stem + "-orbits" + out.suffix)):
+            if sibling.is_dir():
+                raise OutputError(f"--out: {str(sibling)!r}, which this run writes beside "
+                                  f"{out.name}, is a folder; allowed: a file name (remove or "
+                                  "rename the folder)")
     from .._kernel_cache import warm_up
 
     warm_up(scene, progress=not args.no_progress)  # announces a cold cache's compilation

@@ -74,6 +74,8 @@ def _load(args):
     from ..studies.study import load_study
 
     study_fields, scene = split_overrides(args.overrides)
+    if args.scene:  # given on the command line: not confined to the study file's folder
+        study_fields["scene"] = args.scene
     study = load_study(args.study, overrides=study_fields, scene_overrides=scene)
     study.model()  # every scene path and input checked here, before anything runs
     return study
@@ -94,7 +96,8 @@ def _cmd_reliability(args) -> int:
         lines, _ = run_reliability(study, methods=methods, n=args.n, n_jobs=_jobs(args),
                                    seed=args.seed, out=args.out, backend=backend,
                                    progress=not args.no_progress,
-                                   max_failure_fraction=args.max_failure_fraction)
+                                   max_failure_fraction=args.max_failure_fraction,
+                                   cache=not args.no_cache)
     print("\n".join(lines))
     return 0
 
@@ -106,7 +109,8 @@ def _cmd_sensitivity(args) -> int:
     with dask_backend(args.scheduler) as backend, _warnings_in_summary():
         lines, _ = run_sensitivity(study, n=args.n, n_jobs=_jobs(args), seed=args.seed,
                                    out=args.out, backend=backend, progress=not args.no_progress,
-                                   max_failure_fraction=args.max_failure_fraction)
+                                   max_failure_fraction=args.max_failure_fraction,
+                                   cache=not args.no_cache)
     print("\n".join(lines))
     return 0
 
@@ -115,6 +119,9 @@ def _study_args(p, section):
     p.add_argument("study", nargs="?", default="nine-bar-lubricated", metavar="STUDY",
                    help="embedded study name or path to a study .toml "
                         "(default: nine-bar-lubricated)")
+    p.add_argument("--scene", metavar="SCENE",
+                   help="embedded scene name or scene file to use instead of the study's "
+                        "scene (a file the study names must be in the study file's folder)")
     add_set_option(p, SET_HELP)
     p.add_argument("--n", type=positive_int, help="number of samples (default: the study's)")
     p.add_argument("--jobs", type=jobs, default=None,
@@ -130,6 +137,9 @@ def _study_args(p, section):
     p.add_argument("--out", default="results", metavar="DIR",
                    help="output folder (default: results/)")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    p.add_argument("--no-cache", action="store_true",
+                   help="do not read or write OUT/evaluations.sqlite (e.g. when it is damaged "
+                        "and you want to keep it)")
 
 
 def register_reliability(sub) -> None:

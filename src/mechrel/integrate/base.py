@@ -37,12 +37,18 @@ compiled kernels release the GIL, so the display costs the integration nothing a
 splitting the grid into chunks (each a restart of the step-size and Jacobian history), does not
 change the result: with and without a progress bar the numbers are bitwise the same. Ctrl-C
 while it waits sets ``ctl[CTL_STOP]``; the kernel stops at its next step and the
-``KeyboardInterrupt`` goes on, with a note of how far the integration got.
+``KeyboardInterrupt`` goes on, with a note of how far the integration got. Without a progress
+bar the kernel runs on the caller's thread; on the main thread a signal (Ctrl-C, or SIGTERM,
+which the command line turns into :class:`~mechrel.errors.Interrupted`) sets ``ctl[CTL_STOP]``
+through :class:`_SignalWatcher`, with the same effect.
 """
 
 from __future__ import annotations
 
+import contextlib
 import math
+import os
+import signal
 import threading
 import time
 from dataclasses import dataclass
@@ -123,6 +129,76 @@ def _film_only_models(system) -> list:
     return [m for m in MODELS.values() if m.film_only and m.code in codes]
 
 
+class _SignalWatcher:
+    """Stops the running kernel when a signal arrives while it runs on the main thread.
+
+    Python runs its signal handlers (Ctrl-C's ``KeyboardInterrupt``, the command line's SIGTERM
+    handler) only between bytecodes of the main thread, never inside a compiled kernel; but
+    the C-level handler writes the signal's number to the "wakeup fd"
+    (:func:`signal.set_wakeup_fd`) at once. During a kernel call that fd is a pipe read by
+    this daemon thread (one per process, started on first use), which sets the kernel's
+    ``ctl[CTL_STOP]``: the kernel stops at its next step, returns, and the signal's own
+    handler runs right after the call (raising ``KeyboardInterrupt``). The kernel keeps the
+    main thread (no hand-over to another thread, which cost 5-15 ms per integration on a loaded machine); the caller's
+    own wakeup fd (asyncio's) is restored after the call."""
+
+    def __init__(self):
+        self._read, self._write = os.pipe()
+        os.set_blocking(self._write, False)
+        self.ctl = None  # the control vector of the kernel running now, if any
+        threading.Thread(target=self._watch, name="mechrel-signal-watch", daemon=True).start()
+
+    def _watch(self):
+        while True:
+            if os.read(self._read, 512) and self.ctl is not None:
+                self.ctl[ev.CTL_STOP] = 1
+
+    @contextlib.contextmanager
+    def watching(self, ctl):
+        """For the ``with`` block: the wakeup fd is this watcher's pipe, and the Python
+        handlers of SIGINT and SIGTERM (if Python-level) are replaced by one that only records
+        the signal: run inside a callback of the compiled code (numba calls Python to unpickle
+        constants), a raising handler made numba's dispatcher fail with ``SystemError``. The
+        recorded signal's own handler is called after the block (raising there)."""
+        try:
+            old_fd = signal.set_wakeup_fd(self._write, warn_on_full_buffer=False)
+        except ValueError:  # not the main thread of the main interpreter
+            yield
+            return
+        pending = []
+
+        def defer(signum, frame):
+            pending.append(signum)
+            ctl[ev.CTL_STOP] = 1
+
+        saved = {}
+        for sig in (signal.SIGINT, signal.SIGTERM):
+            handler = signal.getsignal(sig)
+            if callable(handler):
+                saved[sig] = handler
+                signal.signal(sig, defer)
+        self.ctl = ctl
+        try:
+            yield
+        finally:
+            self.ctl = None
+            for sig, handler in saved.items():
+                signal.signal(sig, handler)
+            signal.set_wakeup_fd(old_fd)
+        if pending:
+            saved[pending[0]](pending[0], None)
+
+
+_WATCHER: _SignalWatcher | None = None
+
+
+def _signal_watcher() -> _SignalWatcher:
+    global _WATCHER
+    if _WATCHER is None:
+        _WATCHER = _SignalWatcher()
+    return _WATCHER
+
+
 class Integrator:
     """Base class; see the module docstring for the subclass contract.
 
@@ -196,11 +272,23 @@ class Integrator:
                    ", or a stiff integrator (solver.integrator = 'radau')"))
 
     def _run(self, system, t, y, hist, t_out, progress, log_from, n_dense):
-        """``_advance`` over ``t_out``; with a progress bar, in a worker thread while this one
-        feeds the bar from the control vector and passes Ctrl-C on as a stop request."""
+        """``_advance`` over ``t_out``. With a progress bar, in a worker thread while this one
+        feeds the bar from the control vector and passes Ctrl-C on as a stop request. Without
+        one, on this thread; on the main thread under :class:`_SignalWatcher`, so that Ctrl-C
+        and SIGTERM stop the kernel at its next step (a compiled kernel does not look at
+        Python's signals: before, it ran to its end first)."""
         ctl = np.zeros(2, dtype=np.int64)
         if progress is None:
-            return self._advance(system, t, y, hist, t_out, ctl, log_from, n_dense)
+            if threading.current_thread() is not threading.main_thread():
+                # no signal is handled on this thread: nothing to watch
+                return self._advance(system, t, y, hist, t_out, ctl, log_from, n_dense)
+            try:
+                with _signal_watcher().watching(ctl):
+                    return self._advance(system, t, y, hist, t_out, ctl, log_from, n_dense)
+            except KeyboardInterrupt as exc:  # Ctrl-C, or SIGTERM (mechrel.errors.Interrupted)
+                exc.add_note(f"{self.name}: integration stopped after "
+                             f"{int(ctl[ev.CTL_DONE])} of {t_out.size} output instants")
+                raise
         box = {}
 
         def work():

@@ -1,5 +1,5 @@
 """Tables, figures and provenance files."""
 
-from .tables import write_json, write_table
+from .tables import save_figure, write_json, write_table
 
-__all__ = ["write_table", "write_json"]
+__all__ = ["write_table", "write_json", "save_figure"]

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-from pathlib import Path
 
 import numpy as np
 
@@ -73,8 +72,7 @@ def plot_simulation(result, path=None, *, output: str | None = None):
             ax.set_xlabel("e_x (mm)")
             ax.set_ylabel("e_y (mm)")
     if path is not None:
-        path = Path(path)
-        path.parent.mkdir(parents=True, exist_ok=True)
-        fig.savefig(path, dpi=130)
+        from .tables import save_figure
+        save_figure(fig, path, dpi=130)
         plt.close(fig)
     return fig

@@ -1,14 +1,24 @@
-"""Writing result tables (CSV or Parquet, by file extension) and provenance (JSON)."""
+"""Writing result tables (CSV or Parquet, by file extension), provenance (JSON) and figures.
+
+Every file is written atomically: into a temporary file in the same folder, flushed to disk,
+then renamed over the target (``os.replace``, atomic on POSIX and Windows). A reader — or the
+next run after a crash, a full disk or Ctrl-C — sees the previous complete file or the new
+complete file, never a truncated one; a failed write removes its temporary file and raises one
+:class:`~mechrel.errors.OutputError` naming the path.
+"""
 
 from __future__ import annotations
 
+import contextlib
 import json
 import math
+import os
+import tempfile
 from pathlib import Path
 
 import numpy as np
 
-from ..errors import MechrelError
+from ..errors import OutputError
 
 TABLE_SUFFIXES = (".csv", ".parquet")
 
@@ -20,36 +30,75 @@ def check_table_path(path) -> Path:
     path = Path(path)
     suffix = path.suffix.lower()
     if suffix not in TABLE_SUFFIXES:
-        raise MechrelError(f"--out: {str(path)!r} has extension {suffix or '(none)'!r}; "
+        raise OutputError(f"--out: {str(path)!r} has extension {suffix or '(none)'!r}; "
                            f"allowed: {', '.join(TABLE_SUFFIXES)}")
     if suffix == ".parquet":
         try:
             import pyarrow  # noqa: F401
         except ImportError:
-            raise MechrelError("--out: writing Parquet needs pyarrow: pip install "
+            raise OutputError("--out: writing Parquet needs pyarrow: pip install "
                                "'mechrel[parquet]', or write .csv") from None
     if path.is_dir():
-        raise MechrelError(f"--out: {str(path)!r} is a folder; allowed: a file name ending in "
+        raise OutputError(f"--out: {str(path)!r} is a folder; allowed: a file name ending in "
                            f"{' or '.join(TABLE_SUFFIXES)}")
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
-        raise MechrelError(f"--out: cannot create the folder {str(path.parent)!r} "
+        raise OutputError(f"--out: cannot create the folder {str(path.parent)!r} "
                            f"({exc.strerror}); allowed: a path in a writable folder") from None
     return path
 
 
-def write_table(frame, path) -> Path:
-    """Write a DataFrame to ``path``: ``.csv`` or ``.parquet`` (needs pyarrow)."""
-    path = check_table_path(path)
+@contextlib.contextmanager
+def atomic_path(path, *, what: str = "--out"):
+    """Yield a temporary path beside ``path`` (same suffix, so that writers that choose the
+    format by suffix still do); on success it is flushed and renamed to ``path``, on any error
+    removed. ``OSError`` (a folder in place of the file, a read-only folder, a full disk)
+    becomes one :class:`~mechrel.errors.OutputError` naming ``path``."""
+    path = Path(path)
+    if path.is_dir():
+        raise OutputError(f"{what}: {str(path)!r} is a folder; allowed: a file name (remove or "
+                          "rename the folder)")
     try:
-        if path.suffix.lower() == ".csv":
-            frame.to_csv(path, index=False)
-        else:
-            frame.to_parquet(path, index=False)
+        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp" + path.suffix,
+                                   dir=path.parent)
+        os.close(fd)
     except OSError as exc:
-        raise MechrelError(f"--out: cannot write {str(path)!r} ({exc.strerror or exc}); "
-                           "allowed: a path in a writable folder") from None
+        raise OutputError(f"{what}: cannot write into the folder {str(path.parent)!r} "
+                          f"({exc.strerror or exc}); allowed: a writable folder") from None
+    tmp = Path(tmp)
+    try:
+        yield tmp
+        with open(tmp, "rb+") as fh:
+            os.fsync(fh.fileno())
+        os.replace(tmp, path)
+    except OSError as exc:
+        raise OutputError(f"{what}: cannot write {str(path)!r} ({exc.strerror or exc}); the "
+                          "previous file, if any, is unchanged; allowed: a path in a writable "
+                          "folder on a disk with free space") from None
+    finally:
+        with contextlib.suppress(OSError):
+            tmp.unlink()
+
+
+def write_table(frame, path) -> Path:
+    """Write a DataFrame to ``path`` atomically: ``.csv`` or ``.parquet`` (needs pyarrow)."""
+    path = check_table_path(path)
+    with atomic_path(path) as tmp:
+        if path.suffix.lower() == ".csv":
+            frame.to_csv(tmp, index=False)
+        else:
+            frame.to_parquet(tmp, index=False)
+    return path
+
+
+def save_figure(fig, path, **kwargs) -> Path:
+    """``fig.savefig(path, **kwargs)`` atomically (format from ``path``'s suffix)."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fmt = path.suffix.lstrip(".").lower() or None
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, format=fmt, **kwargs)
     return path
 
 
@@ -69,8 +118,11 @@ def _jsonable(x):
 
 
 def write_json(data: dict, path) -> Path:
-    """Write a dict (numpy values allowed; non-finite floats as strings) as indented JSON."""
+    """Write a dict (numpy values allowed; non-finite floats as strings) as indented JSON,
+    atomically."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(json.dumps(_jsonable(data), indent=2) + "\n")
+    text = json.dumps(_jsonable(data), indent=2) + "\n"
+    with atomic_path(path) as tmp:
+        tmp.write_text(text, encoding="utf-8")
     return path

@@ -480,8 +480,11 @@ class _Builder(Checker):
             field = err.path
             where = {param: join(join(p, sub), key) for sub, keys in SUBTABLE_PARAMS.items()
                      for key, param in keys.items()}
+            # a derived value (the contact stiffness) is named with what it is computed from
+            derived = (" (computed from bearing_radius, clearance and the contact's elastic "
+                       "moduli: check those for extreme values)" if field == "stiffness" else "")
             self.fail(where.get(field, join(p, field)), err.value,
-                      f"not allowed by the '{joint.model}' force law", err.allowed)
+                      f"not allowed by the '{joint.model}' force law{derived}", err.allowed)
 
     def _sub(self, path: str, v: Any, cls, specs: Mapping[str, dict]) -> dict:
         t = self.table(path, v)

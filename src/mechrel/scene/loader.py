@@ -78,10 +78,60 @@ def list_scenes() -> dict[str, str]:
 # ----------------------------------------------------------------------------- reading
 
 class _Doc:
-    """One parsed TOML document with where it came from."""
+    """One parsed TOML document with where it came from. ``root``: the folder that files it
+    names (``extends``) must stay in — the folder of the file the caller gave (``None``: only
+    embedded scenes may be named)."""
 
-    def __init__(self, raw: dict, label: str, base_dir: Path | None, key: str):
+    def __init__(self, raw: dict, label: str, base_dir: Path | None, key: str,
+                 root: Path | None = None):
         self.raw, self.label, self.base_dir, self.key = raw, label, base_dir, key
+        self.root = root
+
+
+# Deepest nesting of tables and arrays a scene or study file may have (the embedded scenes
+# use 4); deeper documents are refused before anything recurses over them.
+MAX_DEPTH = 32
+
+
+def check_depth(raw: Any, label: str, error=SceneError) -> None:
+    """Refuse a parsed document nested deeper than :data:`MAX_DEPTH` (iteratively: the check
+    itself does not recurse)."""
+    stack = [(raw, 0, "")]
+    while stack:
+        node, depth, path = stack.pop()
+        if depth > MAX_DEPTH:
+            message = (f"{path or '(top level)'}: tables and arrays nested more than "
+                       f"{MAX_DEPTH} levels deep; allowed: at most {MAX_DEPTH} levels")
+            raise (error(message, source=label) if error is SceneError
+                   else error(f"{label}: {message}"))
+        if isinstance(node, Mapping):
+            stack.extend((v, depth + 1, f"{path}.{k}" if path else str(k)) for k, v in node.items())
+        elif isinstance(node, (list, tuple)):
+            stack.extend((v, depth + 1, f"{path}[{i}]") for i, v in enumerate(node))
+
+
+def read_toml_text(data: bytes, label: str, error=SceneError) -> dict:
+    """Parse the bytes of a scene or study file: UTF-8 with or without a byte-order mark,
+    valid TOML, at most :data:`MAX_DEPTH` levels deep; one ``error`` naming ``label``
+    otherwise."""
+    def fail(message):
+        raise (error(message, source=label) if error is SceneError
+               else error(f"{label}: {message}")) from None
+    try:
+        text = data.decode("utf-8-sig")  # a byte-order mark, if any, is not part of the TOML
+    except UnicodeDecodeError as e:
+        fail(f"the file is not UTF-8 text ({e.reason} at byte {e.start}); allowed: a UTF-8 "
+             "TOML file")
+    try:
+        raw = _parse_toml(text, label)
+    except RecursionError:
+        fail(f"tables or arrays nested too deeply to parse; allowed: at most {MAX_DEPTH} levels")
+    except SceneError as e:
+        if error is SceneError:
+            raise
+        fail(str(e).removeprefix(f"{label}: "))
+    check_depth(raw, label, error)
+    return raw
 
 
 def _parse_toml(text: str, label: str) -> dict:
@@ -100,31 +150,34 @@ def _read_embedded(name: str) -> _Doc:
     entry = _data_dir().joinpath(name + ".toml")
     label = f"embedded:{name}"
     base = Path(str(_data_dir()))
-    return _Doc(_parse_toml(entry.read_text(encoding="utf-8"), label), label,
-                base if base.is_dir() else None, label)
+    return _Doc(read_toml_text(entry.read_bytes(), label), label,
+                base if base.is_dir() else None, label, root=None)
 
 
-def _read_file(path: Path, *, hint: str = "") -> _Doc:
+def _read_file(path: Path, *, hint: str = "", root: Path | None = None) -> _Doc:
+    """The document of the file ``path``; ``root``: the folder its ``extends`` must stay in
+    (default: its own folder — a file the caller named directly)."""
     label = str(path)
     if not path.is_file():
         names = embedded_names()
         raise SceneError(f"no such scene file '{path}'{hint}; allowed: an existing TOML file or "
                          f"an embedded scene name: {', '.join(names)}", source=None, path=None)
     try:
-        text = path.read_bytes().decode("utf-8")
-    except UnicodeDecodeError as e:
-        raise SceneError(f"the file is not UTF-8 text ({e.reason} at byte {e.start}); allowed: "
-                         "a UTF-8 TOML file", source=label) from None
+        data = path.read_bytes()
     except OSError as e:
         raise SceneError(f"cannot read the file: {e.strerror}; allowed: a readable TOML file",
                          source=label) from None
-    return _Doc(_parse_toml(text, label), label, path.resolve().parent, str(path.resolve()))
+    folder = path.resolve().parent
+    return _Doc(read_toml_text(data, label), label, folder, str(path.resolve()),
+                root=folder if root is None else root)
 
 
 def _read_source(source: Any) -> tuple[_Doc, str | None]:
     """The document for ``source`` and the value for :attr:`Scene.source`."""
     if isinstance(source, Mapping):
-        return _Doc(thaw(source), _MAPPING_LABEL, Path.cwd(), _MAPPING_LABEL), None
+        check_depth(source, _MAPPING_LABEL)
+        return _Doc(thaw(source), _MAPPING_LABEL, Path.cwd(), _MAPPING_LABEL,
+                    root=Path.cwd().resolve()), None
     if isinstance(source, str):
         if source in embedded_names():
             doc = _read_embedded(source)
@@ -178,7 +231,8 @@ def _resolve_extends(doc: _Doc, chain: tuple[str, ...] = ()) -> dict:
     ext = raw.pop("extends")
     names = embedded_names()
     allowed = (f"an embedded scene name ({', '.join(names)}) or a path to a TOML file "
-               "(relative to the extending file)")
+               "(relative to the extending file, in the folder of the scene file given or "
+               "below it)")
     if not isinstance(ext, str) or not ext:
         raise SceneError(f"extends = {fmt_value(ext)}: expected a non-empty string; allowed: "
                          f"{allowed}", source=doc.label, path="extends")
@@ -186,11 +240,21 @@ def _resolve_extends(doc: _Doc, chain: tuple[str, ...] = ()) -> dict:
         p = Path(ext)
         if not p.is_absolute():
             p = (doc.base_dir or Path.cwd()) / p
+        if doc.root is None or not p.resolve().is_relative_to(doc.root):
+            # a file outside the folder of the file the caller named: not read (its content
+            # could end up in an error message); a caller who means it names it directly
+            where = ("an embedded scene names only embedded scenes" if doc.root is None else
+                     f"it is outside {str(doc.root)!r}, the folder of the scene file given")
+            raise SceneError(f"extends = {fmt_value(ext)}: not read: {where}; allowed: "
+                             f"{allowed}; a file elsewhere can be given directly (as the "
+                             "SCENE argument, or to load_scene)", source=doc.label,
+                             path="extends")
         if not p.is_file():
             raise SceneError(f"extends = {fmt_value(ext)}: no such file '{p}'; allowed: {allowed}",
                              source=doc.label, path="extends")
         key = str(p.resolve())
-        reader = lambda: _read_file(p)  # noqa: E731
+        root = doc.root
+        reader = lambda: _read_file(p, root=root)  # noqa: E731
     else:
         if ext not in names:
             raise SceneError(f"extends = {fmt_value(ext)}: unknown embedded scene"

@@ -418,7 +418,8 @@ class AccuracyReport:
         ax.grid(alpha=0.3, which="both")
         ax.legend(fontsize=8)
         if path is not None:
-            fig.savefig(path, dpi=130)
+            from ..io import save_figure
+            save_figure(fig, path, dpi=130)
             plt.close(fig)
         return fig
 

@@ -3,34 +3,98 @@ the estimators of :mod:`mechrel.uq`, write tables and figures, return a printabl
 
 from __future__ import annotations
 
+import functools
+import os
+import tempfile
 import time
 from pathlib import Path
 
 import pandas as pd
 
-from ..errors import StudyError
-from ..io import write_json, write_table
+from ..errors import OutputError, StudyError
+from ..io import save_figure, write_json, write_table
+from ..io.lock import hold_folder
 from ..outputs import QUANTITY_INFO
 from ..uq._common import SampleFailuresError, check_choice, failure_message
 from .study import METHODS
 
 UNITS = {name: q.unit for name, q in QUANTITY_INFO.items()}  # SI, from the output kinds
+# What a finished run writes beside its summary; a refused run removes an earlier run's.
+RELIABILITY_RESULTS = ("reliability.csv", "whole_cycle.csv", "reliability.png")
+SENSITIVITY_RESULTS = ("sensitivity.csv", "sensitivity.png")
 
 
-def _output_folder(out):
-    """``out`` as a created folder (None: no output), checked before anything runs."""
+def _output_folder(out, names=()):
+    """``out`` as a created, writable folder (None: no output), in which none of the files
+    ``names`` is a folder; checked before anything runs."""
     if not out:
         return None
     out = Path(out)
     if out.exists() and not out.is_dir():
         raise StudyError(f"out = {str(out)!r}: an existing file, not a folder; allowed: a "
                          "folder (created if missing)")
+    for name in names:
+        if (out / name).is_dir():
+            raise OutputError(f"out = {str(out)!r}: {name} is a folder, where this run writes "
+                              f"a file; allowed: a folder without a folder named {name} "
+                              "(remove or rename it)")
     try:
         out.mkdir(parents=True, exist_ok=True)
+        fd, probe = tempfile.mkstemp(prefix=".mechrel-probe-", dir=out)
+        os.close(fd)
+        os.unlink(probe)
     except OSError as exc:
-        raise StudyError(f"out = {str(out)!r}: cannot create the folder ({exc.strerror}); "
-                         "allowed: a folder that can be created") from None
+        raise OutputError(f"out = {str(out)!r}: cannot create the folder or a file in it "
+                          f"({exc.strerror}); allowed: a writable folder (created if "
+                          "missing)") from None
     return out
+
+
+def _holds_output_folder(names):
+    """Decorator: ``run(study, out=..., ...)`` with ``out`` checked (a writable folder in which
+    none of the files ``names`` that the run writes is a folder, before anything runs) and
+    locked for the whole run (:func:`mechrel.io.lock.hold_folder`): a second run on the same
+    folder is refused at once instead of evaluating everything again."""
+    def decorate(run):
+        @functools.wraps(run)
+        def wrapper(study, *, out=None, **kwargs):
+            folder = _output_folder(out, names)
+            if folder is None:
+                return run(study, out=None, **kwargs)
+            with hold_folder(folder):
+                return run(study, out=folder, **kwargs)
+        return wrapper
+    return decorate
+
+
+def _remove_stale(out, names) -> None:
+    """Remove earlier runs' result files ``names`` from ``out``, so that no table or figure
+    of another run is left beside this run's summary."""
+    for name in names:
+        try:
+            (out / name).unlink(missing_ok=True)
+        except OSError as exc:
+            raise OutputError(f"out = {str(out)!r}: cannot remove the earlier run's {name} "
+                              f"({exc.strerror}); allowed: a writable folder") from None
+
+
+def _check_run(*, n, seed, n_jobs, backend, max_failure_fraction, model, inputs, rows_per_n):
+    """Every argument of a run, checked before anything is evaluated (a wrong seed must not
+    be found only after the first estimator has run): ``n`` (>= 2, and within the memory its
+    ``rows_per_n * n`` model runs need), ``seed``, ``n_jobs``, ``backend`` and
+    ``max_failure_fraction``."""
+    from ..uq._common import check_fraction, check_memory
+    from ..uq.executor import _check_backend
+    from ..uq.inputs import _check_n, as_seed_sequence
+    from ..uq.model import check_model
+
+    _check_n(n, "n", 2)
+    as_seed_sequence(seed)
+    _check_backend(backend, n_jobs)
+    check_fraction("max_failure_fraction", max_failure_fraction)
+    if rows_per_n:
+        names, index = check_model(model)
+        check_memory(rows_per_n * n, len(names) + len(index), "n", n)
 
 
 def _estimate(method, evaluations, estimator, **kwargs):
@@ -67,12 +131,15 @@ def _write_failures(evaluations, path) -> None:
     write_table(table.reset_index(level="method"), path)
 
 
-def _refusal(exc, evaluations, out, files, record, section):
+def _refusal(exc, evaluations, out, files, record, section, stale=()):
     """The error for an estimator's refusal (a :class:`SampleFailuresError`), after writing
-    ``files`` = (failures table, summary) to ``out``: the failed samples are never lost."""
+    ``files`` = (failures table, summary) to ``out`` and removing an earlier run's results
+    ``stale`` from it: the failed samples are never lost, and no earlier run's table or figure
+    is left beside the refusal."""
     method = next(reversed(evaluations))  # the refusing estimator recorded its evaluations last
     msg = str(exc).rstrip(".")
     if out:
+        _remove_stale(out, stale)
         _write_failures(evaluations, out / files[0])
         write_json({**record, "refused": {"method": method, "error": str(exc)},
                     "failures": _failure_counts(evaluations)}, out / files[1])
@@ -107,7 +174,7 @@ def _agg() -> None:
 def _save(fig, path) -> None:
     import matplotlib.pyplot as plt
 
-    fig.savefig(path, dpi=130)
+    save_figure(fig, path, dpi=130)  # atomically: temporary file, then rename
     plt.close(fig)
 
 
@@ -192,6 +259,8 @@ def _verdict(results, quantities, model) -> list[str]:
     return lines
 
 
+@_holds_output_folder(RELIABILITY_RESULTS + ("failures.csv", "summary.json",
+                                            "evaluations.sqlite"))
 def run_reliability(study, *, methods=None, n=None, n_jobs=1, seed=None, out=None,
                     progress=True, cache=True, backend="loky", max_failure_fraction=None):
     """Run the study's reliability methods and write their results to ``out``.
@@ -240,9 +309,11 @@ def run_reliability(study, *, methods=None, n=None, n_jobs=1, seed=None, out=Non
     max_failure_fraction = (cfg["max_failure_fraction"] if max_failure_fraction is None
                             else max_failure_fraction)
     form, rule = cfg["form"], cfg["rule"]
-    out = _output_folder(out)
     model = study.model()
     inputs = study.uncertain_inputs()
+    _check_run(n=n, seed=seed, n_jobs=n_jobs, backend=backend,
+               max_failure_fraction=max_failure_fraction, model=model, inputs=inputs,
+               rows_per_n=1 if "mc" in methods else 0)
     allow = study.allowables()
     _warm_up(model, progress)
     cache_path = (out / "evaluations.sqlite") if (out and cache) else None
@@ -279,7 +350,7 @@ def run_reliability(study, *, methods=None, n=None, n_jobs=1, seed=None, out=Non
         record.update(wall_time=time.perf_counter() - start, summary=lines,
                       provenance={k: dict(v.provenance) for k, v in results.items()})
         raise _refusal(exc, evaluations, out, ("failures.csv", "summary.json"), record,
-                       "reliability") from None
+                       "reliability", RELIABILITY_RESULTS) from None
     if "fosm" in results and "mc" in results:
         from ..uq import normality_check
         results["normality"] = normality_check(fosm=results["fosm"], monte_carlo=results["mc"])
@@ -338,6 +409,8 @@ def run_reliability(study, *, methods=None, n=None, n_jobs=1, seed=None, out=Non
         if "mc" in results:
             write_table(results["mc"].whole_cycle.reset_index(), out / "whole_cycle.csv")
             written.insert(1, "whole_cycle.csv")
+        else:
+            _remove_stale(out, ["whole_cycle.csv"])
         from ..uq.plots import plot_reliability
         _agg()
 
@@ -355,6 +428,8 @@ def run_reliability(study, *, methods=None, n=None, n_jobs=1, seed=None, out=Non
     return lines, results
 
 
+@_holds_output_folder(SENSITIVITY_RESULTS + ("sensitivity_failures.csv", "sensitivity.json",
+                                            "evaluations.sqlite"))
 def run_sensitivity(study, *, n=None, n_jobs=1, seed=None, out=None, progress=True,
                     cache=True, backend="loky", max_failure_fraction=None):
     """Sobol indices (SALib) of the peak |error| over the cycle per quantity with respect to
@@ -386,9 +461,11 @@ def run_sensitivity(study, *, n=None, n_jobs=1, seed=None, out=None, progress=Tr
     seed = cfg["seed"] if seed is None else seed
     max_failure_fraction = (cfg["max_failure_fraction"] if max_failure_fraction is None
                             else max_failure_fraction)
-    out = _output_folder(out)
     model = study.model()
     inputs = study.uncertain_inputs()
+    _check_run(n=n, seed=seed, n_jobs=n_jobs, backend=backend,
+               max_failure_fraction=max_failure_fraction, model=model, inputs=inputs,
+               rows_per_n=inputs.d + 2)
     _warm_up(model, progress)
     record = {"study": study.name, "source": study.source, "n": n, "seed": seed,
               "max_failure_fraction": max_failure_fraction}
@@ -401,7 +478,7 @@ def run_sensitivity(study, *, n=None, n_jobs=1, seed=None, out=None, progress=Tr
     except SampleFailuresError as exc:
         record["wall_time"] = time.perf_counter() - start
         raise _refusal(exc, evaluations, out, ("sensitivity_failures.csv", "sensitivity.json"),
-                       record, "sensitivity") from None
+                       record, "sensitivity", SENSITIVITY_RESULTS) from None
     table = res.to_frame().reset_index()
     table = table.sort_values([table.columns[0], "ST"], ascending=[True, False])
     lines = [f"study {study.name}: Sobol indices of the peak |error| over the cycle "

@@ -8,7 +8,6 @@ whose message reads, as the scene files' do, ``SOURCE: FIELD = VALUE: PROBLEM; a
 from __future__ import annotations
 
 import copy
-import tomllib
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from importlib import resources
@@ -18,6 +17,7 @@ from typing import Any
 from ..errors import SceneError, StudyError
 from ..scene._validate import Checker, join
 from ..outputs import QUANTITY_INFO
+from ..scene.loader import check_depth, read_toml_text
 from ..scene.model import QUANTITIES
 from ..uq.inputs import SAMPLING_RULES
 from ..uq.mechanism import REFERENCES
@@ -123,6 +123,7 @@ class _Checker(Checker):
 def _read(source) -> tuple[dict, str, Path | None]:
     """The raw mapping of ``source``, its label for messages and the folder it is in."""
     if isinstance(source, Mapping):
+        check_depth(source, "<mapping>", StudyError)
         return copy.deepcopy(dict(source)), "<mapping>", None
     src = str(source)
     if src in embedded_studies():
@@ -139,15 +140,28 @@ def _read(source) -> tuple[dict, str, Path | None]:
         except OSError as exc:
             raise StudyError(f"{label}: cannot read the file: {exc.strerror}; allowed: a "
                              "readable TOML file") from None
-    try:
-        text = data.decode("utf-8-sig")  # a byte order mark, if any, is not TOML
-    except UnicodeDecodeError as exc:
-        raise StudyError(f"{label}: the file is not UTF-8 text ({exc.reason} at byte "
-                         f"{exc.start}); allowed: a UTF-8 TOML file") from None
-    try:
-        return tomllib.loads(text), label, base_dir
-    except tomllib.TOMLDecodeError as exc:
-        raise StudyError(f"{label}: TOML syntax error: {exc}") from None
+    return read_toml_text(data, label, StudyError), label, base_dir
+
+
+def _scene_source(c: _Checker, scene: str, base_dir: Path | None, given: bool) -> str:
+    """The study's ``scene``: an embedded scene name as it is; a path relative to the study
+    file's folder (the current folder for a mapping or an embedded study), which it must not
+    leave — unless the caller gave it (``given``: an override), when it is taken as it is."""
+    from ..scene.loader import _looks_like_path, embedded_names
+
+    if scene in embedded_names() or not _looks_like_path(scene):
+        return scene
+    folder = (base_dir or Path.cwd()).resolve()
+    path = Path(scene)
+    if given:
+        return str(path)
+    path = path if path.is_absolute() else folder / path
+    if not path.resolve().is_relative_to(folder):
+        c.fail("scene", scene, f"not read: it is outside {str(folder)!r}, the folder of the "
+               "study file", "an embedded scene name or a scene file in the study file's folder "
+               "or below it; a scene file elsewhere can be given directly (--scene on the "
+               "command line, overrides={'scene': path} in load_study)")
+    return str(path)
 
 
 def _apply_overrides(raw: dict, overrides: Mapping[str, Any], label: str) -> None:
@@ -276,9 +290,8 @@ def load_study(source, *, overrides: Mapping[str, Any] | None = None,
     c.table("", raw)
     c.keys("", raw, _TOP, required=("scene", "inputs"), what="a study")
     default_name = "study" if isinstance(source, Mapping) else Path(str(source)).stem
-    scene = c.string("scene", raw["scene"], _Checker.required_hints["scene"])
-    if base_dir is not None and (base_dir / scene).is_file():
-        scene = str(base_dir / scene)
+    scene = _scene_source(c, c.string("scene", raw["scene"], _Checker.required_hints["scene"]),
+                          base_dir, "scene" in overrides)
     output = raw.get("output")
     step = raw.get("angle_step", 18.0)
     angle_step = c.number("angle_step", step, gt=0, unit="degrees")

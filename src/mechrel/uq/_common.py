@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import datetime as _dt
+import os
 import platform
 from importlib.metadata import PackageNotFoundError, version
 from typing import Any
@@ -127,6 +128,34 @@ def exclusive_source(model: Any, evaluations: Any, *, what: str) -> None:
             f"{what}: evaluations= must be an Evaluations (from mechrel.uq.evaluate or "
             f"Evaluations.from_arrays), got {type(evaluations).__name__}"
         )
+
+
+# A run holds its design and its outputs about this many times over (the executor's arrays,
+# the read-only copies in Evaluations, an estimator's working copy).
+MEMORY_COPIES = 3
+
+
+def physical_memory() -> int:
+    """Bytes of physical memory of this machine (2**40 where the OS does not say)."""
+    try:
+        return int(os.sysconf("SC_PHYS_PAGES")) * int(os.sysconf("SC_PAGE_SIZE"))
+    except (AttributeError, ValueError, OSError):  # pragma: no cover - not POSIX
+        return 2**40
+
+
+def check_memory(n_rows: int, n_cols: int, what: str, value: Any) -> None:
+    """Refuse, before anything is evaluated, a run whose design and outputs (``n_rows`` rows of
+    ``n_cols`` float64, held :data:`MEMORY_COPIES` times) need more than the machine's physical
+    memory; ``what = value`` is the argument that sets ``n_rows``."""
+    row_bytes = MEMORY_COPIES * 8 * max(int(n_cols), 1)
+    need, have = row_bytes * int(n_rows), physical_memory()
+    if need > have:
+        rows_per_unit = int(n_rows) / int(value)  # e.g. d + 2 model runs per Saltelli sample
+        raise StudyError(
+            f"{what} = {value!r}: {int(n_rows):.3g} model runs of {n_cols} inputs and outputs "
+            f"each need about {need / 2**30:.3g} GiB of memory, more than this machine's "
+            f"{have / 2**30:.3g} GiB; allowed: {what} up to about "
+            f"{have / row_bytes / rows_per_unit:.3g}")
 
 
 def run(model: Any, X: np.ndarray, executor: dict) -> Evaluations:

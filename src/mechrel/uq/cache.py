@@ -11,11 +11,22 @@ failed sample gives the same failure. If you changed something that is *not* in 
 ``retry_failed=True`` to :func:`mechrel.uq.evaluate` (cached failures are evaluated again and
 overwritten) or call :meth:`EvaluationCache.forget_failures`.
 
+Integrity: every row carries a SHA-256 checksum of its content (model key, ``x``, status,
+outputs, reason). A row whose checksum does not match — changed outside mechrel, written by a
+mechrel version without checksums, or with outputs of the wrong length or non-finite outputs
+marked ok — is never used: it is evaluated again and overwritten, and a
+:class:`~mechrel.errors.MechrelWarning` says how many rows were set aside. A file that is not a
+sqlite database, is damaged (``PRAGMA quick_check``), or holds tables of another layout is
+refused with a :class:`~mechrel.errors.CacheError` naming the file and what to do (delete it,
+or run without the cache); so is a cache that cannot be written (read-only, full disk) — the
+rows stored before stay.
+
 Concurrency: the executor writes from the parent process only, one transaction per finished
 chunk (so an interrupted run loses at most the chunks in flight). sqlite's own locking makes one
 writer plus any number of readers safe; two concurrent runs writing the same cache file are
 serialised by sqlite but not coordinated (they may both evaluate the same sample; the later write
-wins with identical content).
+wins with identical content). ``mechrel reliability`` and ``mechrel sensitivity`` lock their
+output folder (and so its cache) for the whole run.
 """
 
 from __future__ import annotations
@@ -25,12 +36,13 @@ import hashlib
 import os
 import sqlite3
 import time
+import warnings
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from mechrel.errors import StudyError
+from mechrel.errors import CacheError, MechrelWarning, StudyError
 
 __all__ = ["EvaluationCache", "as_cache"]
 
@@ -43,9 +55,16 @@ CREATE TABLE IF NOT EXISTS evaluations (
     y         BLOB,
     reason    TEXT,
     created   REAL NOT NULL,
+    checksum  TEXT,
     PRIMARY KEY (model_key, x_hash)
 );
 """
+_COLUMNS = ("model_key", "x_hash", "x", "ok", "y", "reason", "created", "checksum")
+# The layout before row checksums: opened, given the column, its rows never used (no checksum).
+_COLUMNS_V1 = _COLUMNS[:-1]
+SCHEMA_VERSION = 2  # PRAGMA user_version of a cache with row checksums
+_WHAT_TO_DO = ("delete the file (its finished evaluations are then run again) or run without "
+               "the cache (--no-cache; cache=None in Python)")
 
 
 def _x_bytes(x: np.ndarray) -> bytes:
@@ -54,6 +73,18 @@ def _x_bytes(x: np.ndarray) -> bytes:
 
 def _x_hash(b: bytes) -> str:
     return hashlib.sha256(b).hexdigest()
+
+
+def _checksum(model_key: str, x_hash: str, ok: int, yb: bytes | None, reason: str | None) -> str:
+    """SHA-256 of a row's content (what a lookup returns), fields length-prefixed so that no
+    two different rows share the text that is hashed."""
+    h = hashlib.sha256()
+    for part in (model_key.encode(), x_hash.encode(), b"1" if ok else b"0",
+                 b"\x00" if yb is None else b"\x01" + yb,
+                 b"\x00" if reason is None else b"\x01" + reason.encode("utf-8", "surrogatepass")):
+        h.update(len(part).to_bytes(8, "little"))
+        h.update(part)
+    return h.hexdigest()
 
 
 class EvaluationCache:
@@ -75,9 +106,55 @@ class EvaluationCache:
         try:
             self.directory.mkdir(parents=True, exist_ok=True)
         except OSError as e:
-            raise StudyError(f"cache: cannot create directory {str(self.directory)!r}: {e}") from None
-        with self._connect() as con:
-            con.executescript(_SCHEMA)
+            raise CacheError(f"cache: {str(self.directory)!r}: cannot create the folder "
+                             f"({e.strerror or e}); allowed: a folder that can be created, or "
+                             "no cache (--no-cache; cache=None in Python)") from None
+        if self.path.is_dir():
+            raise CacheError(f"cache: {str(self.path)!r} is a folder; allowed: a cache file "
+                             f"(or a folder without one) — {_WHAT_TO_DO}")
+        self._open()
+
+    @contextlib.contextmanager
+    def _guard(self):
+        """Sqlite and OS errors as a :class:`CacheError` naming the file."""
+        try:
+            yield
+        except (sqlite3.DatabaseError, OSError) as exc:
+            self._fail("cannot be used", exc)
+
+    def _fail(self, problem: str, exc: BaseException | None = None, todo: str = _WHAT_TO_DO):
+        why = f" ({type(exc).__name__}: {exc})" if exc is not None else ""
+        raise CacheError(f"cache: {str(self.path)!r}: {problem}{why}; allowed: {todo}") from None
+
+    def _open(self) -> None:
+        """Check the file (a sqlite database that passes ``quick_check``, holding only a table
+        of this layout, or of the layout before checksums, which gains the column), create the
+        table if missing, and prove that it can be written (a write of ``user_version``)."""
+        try:
+            with self._connect() as con:
+                check = con.execute("PRAGMA quick_check").fetchall()
+                if check != [("ok",)]:
+                    self._fail("the file is damaged (sqlite quick_check: "
+                               f"{'; '.join(str(r[0]) for r in check[:3])})")
+                tables = {r[0] for r in con.execute(
+                    "SELECT name FROM sqlite_master WHERE type = 'table'")}
+                if tables - {"evaluations"}:
+                    self._fail(f"not a mechrel cache (tables {sorted(tables)})")
+                if tables:
+                    cols = tuple(r[1] for r in con.execute("PRAGMA table_info(evaluations)"))
+                    if cols == _COLUMNS_V1:
+                        con.execute("ALTER TABLE evaluations ADD COLUMN checksum TEXT")
+                    elif cols != _COLUMNS:
+                        self._fail(f"not a mechrel cache of this version (table evaluations "
+                                   f"has columns {list(cols)}, expected {list(_COLUMNS)})")
+                con.executescript("BEGIN;" + _SCHEMA + f"PRAGMA user_version = {SCHEMA_VERSION};"
+                                  "COMMIT;")
+        except sqlite3.DatabaseError as exc:
+            if isinstance(exc, sqlite3.OperationalError) and _is_write_error(exc):
+                self._fail("cannot be written", exc, _WRITE_TODO)
+            self._fail("not a readable mechrel cache", exc)
+        except OSError as exc:
+            self._fail("cannot be opened", exc, _WRITE_TODO)
 
     def __repr__(self) -> str:
         return f"EvaluationCache({str(self.path)!r})"
@@ -108,30 +185,51 @@ class EvaluationCache:
         pos: dict[str, list[int]] = {}
         for i, h in enumerate(hashes):
             pos.setdefault(h, []).append(i)
-        with self._connect() as con:
-            uniq = list(pos)
-            for start in range(0, len(uniq), 500):
-                part = uniq[start : start + 500]
-                q = (
-                    "SELECT x_hash, x, ok, y, reason FROM evaluations WHERE model_key = ? AND x_hash IN ("
-                    + ",".join("?" * len(part))
-                    + ")"
-                )
-                for h, xb, okv, yb, reason in con.execute(q, [model_key, *part]):
-                    for i in pos[h]:
-                        if xb != _x_bytes(X[i]):  # pragma: no cover - sha256 collision
+        rejected = 0
+        try:
+            with self._connect() as con:
+                uniq = list(pos)
+                for start in range(0, len(uniq), 500):
+                    part = uniq[start : start + 500]
+                    q = ("SELECT x_hash, x, ok, y, reason, checksum FROM evaluations "
+                         "WHERE model_key = ? AND x_hash IN (" + ",".join("?" * len(part)) + ")")
+                    for h, xb, okv, yb, reason, cs in con.execute(q, [model_key, *part]):
+                        if not self._row_valid(model_key, h, xb, okv, yb, reason, cs, n_out):
+                            rejected += len(pos.get(h, ()))
                             continue
-                        found[i] = True
-                        ok[i] = bool(okv)
-                        if okv:
-                            y = np.frombuffer(yb, dtype="<f8")
-                            if y.shape[0] != n_out:
-                                found[i] = False  # stale layout; re-evaluate
+                        for i in pos[h]:
+                            if xb != _x_bytes(X[i]):  # pragma: no cover - sha256 collision
                                 continue
-                            Y[i] = y
-                        else:
-                            reasons[i] = reason
+                            found[i] = True
+                            ok[i] = bool(okv)
+                            if okv:
+                                Y[i] = np.frombuffer(yb, dtype="<f8")
+                            else:
+                                reasons[i] = reason
+        except sqlite3.DatabaseError as exc:
+            self._fail("cannot be read", exc)
+        if rejected:
+            warnings.warn(MechrelWarning(
+                f"cache: {str(self.path)!r}: {rejected} cached row(s) fail their checksum or "
+                "layout check (changed outside mechrel, or written without checksums): not "
+                "used, evaluated again and overwritten"), stacklevel=2)
         return found, Y, ok, reasons
+
+    @staticmethod
+    def _row_valid(model_key, h, xb, okv, yb, reason, cs, n_out) -> bool:
+        """A row may be used: its checksum matches its content, its ``x`` hashes to its key,
+        and an ok row holds ``n_out`` finite outputs (a failed row: a reason, no outputs)."""
+        if not isinstance(cs, str) or not isinstance(xb, bytes) or okv not in (0, 1):
+            return False
+        if yb is not None and not isinstance(yb, bytes) or reason is not None and not isinstance(reason, str):
+            return False
+        if cs != _checksum(model_key, h, okv, yb, reason) or _x_hash(xb) != h:
+            return False
+        if okv:
+            if yb is None or len(yb) != 8 * n_out:
+                return False
+            return bool(np.all(np.isfinite(np.frombuffer(yb, dtype="<f8"))))
+        return yb is None and reason is not None
 
     # ------------------------------------------------------------------ writing
     def store(self, model_key: str, X: np.ndarray, Y: np.ndarray, ok: np.ndarray, reasons) -> None:
@@ -140,21 +238,23 @@ class EvaluationCache:
         rows = []
         for x, y, o, r in zip(np.asarray(X, dtype=float), np.asarray(Y, dtype=float), ok, reasons):
             xb = _x_bytes(x)
-            rows.append(
-                (model_key, _x_hash(xb), xb, int(bool(o)),
-                 np.ascontiguousarray(y, dtype="<f8").tobytes() if o else None,
-                 None if o else str(r), now)
-            )
-        with self._connect() as con:
-            con.executemany(
-                "INSERT OR REPLACE INTO evaluations (model_key, x_hash, x, ok, y, reason, created) "
-                "VALUES (?, ?, ?, ?, ?, ?, ?)",
-                rows,
-            )
+            xh, okv = _x_hash(xb), int(bool(o))
+            yb = np.ascontiguousarray(y, dtype="<f8").tobytes() if o else None
+            reason = None if o else str(r)
+            rows.append((model_key, xh, xb, okv, yb, reason, now,
+                         _checksum(model_key, xh, okv, yb, reason)))
+        try:
+            with self._connect() as con:
+                con.executemany(
+                    "INSERT OR REPLACE INTO evaluations (model_key, x_hash, x, ok, y, reason, "
+                    "created, checksum) VALUES (?, ?, ?, ?, ?, ?, ?, ?)", rows)
+        except (sqlite3.DatabaseError, OSError) as exc:
+            self._fail(f"cannot store {len(rows)} finished evaluation(s); the rows stored before "
+                       "are kept", exc, _WRITE_TODO)
 
     def forget_failures(self, model_key: str | None = None) -> int:
         """Delete cached failures (of one model key, or all); return how many were deleted."""
-        with self._connect() as con:
+        with self._guard(), self._connect() as con:
             if model_key is None:
                 cur = con.execute("DELETE FROM evaluations WHERE ok = 0")
             else:
@@ -163,7 +263,7 @@ class EvaluationCache:
 
     def clear(self, model_key: str | None = None) -> int:
         """Delete all cached rows (of one model key, or all)."""
-        with self._connect() as con:
+        with self._guard(), self._connect() as con:
             if model_key is None:
                 cur = con.execute("DELETE FROM evaluations")
             else:
@@ -173,12 +273,22 @@ class EvaluationCache:
     def stats(self) -> dict[str, Any]:
         """Counts per model key: {key: {"ok": n, "failed": m}}."""
         out: dict[str, Any] = {}
-        with self._connect() as con:
+        with self._guard(), self._connect() as con:
             for key, okv, cnt in con.execute(
                 "SELECT model_key, ok, COUNT(*) FROM evaluations GROUP BY model_key, ok"
             ):
                 out.setdefault(key, {"ok": 0, "failed": 0})["ok" if okv else "failed"] = cnt
         return out
+
+
+_WRITE_TODO = ("a cache in a writable folder on a disk with free space — free space or fix the "
+               "permissions, or run without the cache (--no-cache; cache=None in Python)")
+
+
+def _is_write_error(exc: sqlite3.OperationalError) -> bool:
+    text = str(exc).lower()
+    return any(w in text for w in ("readonly", "read-only", "disk is full", "unable to open",
+                                   "disk i/o"))
 
 
 def as_cache(cache: Any) -> EvaluationCache | None:

@@ -35,6 +35,7 @@ import pandas as pd
 
 from mechrel.errors import MechrelError, StudyError
 
+from ._workers import register_backend, safe_path_environment, watch_parent
 from .cache import as_cache
 from .model import as_output_index, check_model, describe_model
 
@@ -263,7 +264,10 @@ def _evaluate_chunk(model: Any, X: np.ndarray, n_out: int, chunk_id: int):
 
     A model with a true ``vectorized`` attribute is called once for the whole chunk
     (``evaluate_batch``); non-finite rows are failures; if the batch call raises a per-sample
-    error, the chunk is re-evaluated row by row so that only the rows that raise fail."""
+    error, the chunk is re-evaluated row by row so that only the rows that raise fail. On an
+    interrupt the rows finished so far ride on the ``KeyboardInterrupt`` as ``.finished``
+    (``(n_finished, Y, ok, reasons)``), so that the in-process loop can cache them."""
+    watch_parent()
     if getattr(model, "vectorized", False) and X.shape[0]:
         try:
             Yb = np.asarray(model.evaluate_batch(np.array(X)), dtype=float)
@@ -286,6 +290,9 @@ def _evaluate_chunk(model: Any, X: np.ndarray, n_out: int, chunk_id: int):
     for i in range(X.shape[0]):
         try:
             y = model.evaluate(np.array(X[i]))
+        except KeyboardInterrupt as exc:
+            exc.finished = (i, Y[:i], ok[:i], reasons[:i])
+            raise
         except StudyError:
             raise
         except MechrelError as e:  # ModelFailure, SimulationError, AssemblyError, SceneError
@@ -466,7 +473,14 @@ def evaluate(
         if chunks:
             if backend == "sequential" or n_jobs == 1:
                 for cid, rows in enumerate(chunks):
-                    _collect(_evaluate_chunk(model, X[rows], n_out, cid))
+                    try:
+                        result = _evaluate_chunk(model, X[rows], n_out, cid)
+                    except KeyboardInterrupt as exc:  # keep the samples finished in this chunk
+                        k, Yk, okk, rk = getattr(exc, "finished", (0, None, None, None))
+                        if cache is not None and k:
+                            cache.store(key, X[rows[:k]], Yk, okk, rk)
+                        raise
+                    _collect(result)
             else:
                 import joblib
 
@@ -476,8 +490,10 @@ def evaluate(
                         gen = joblib.Parallel(n_jobs=n_jobs, return_as="generator_unordered")(tasks)
                         _consume(gen, _collect)
                 else:
-                    gen = joblib.Parallel(n_jobs=n_jobs, backend="loky", return_as="generator_unordered")(tasks)
-                    _consume(gen, _collect)
+                    with safe_path_environment():
+                        gen = joblib.Parallel(n_jobs=n_jobs, backend=register_backend(),
+                                              return_as="generator_unordered")(tasks)
+                        _consume(gen, _collect)
     finally:
         bar.close()
 

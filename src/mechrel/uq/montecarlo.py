@@ -62,6 +62,7 @@ from ._common import (
     check_choice,
     check_fraction,
     check_inputs,
+    check_memory,
     exclusive_source,
     executor_kwargs,
     failure_message,
@@ -258,8 +259,10 @@ def monte_carlo(
         check_choice("rule", rule, SAMPLING_RULES)
         if inputs is None:
             raise StudyError("monte_carlo: inputs= is required with model=")
-        inputs = check_inputs(inputs, check_model(model)[0])
+        names, index = check_model(model)
+        inputs = check_inputs(inputs, names)
         n = _check_n(n)
+        check_memory(n, len(names) + len(index), "n", n)
         X = inputs.sample(n, rule, ss_x)
         ev = run(model, X, executor_kwargs(n_jobs, backend, cache, progress, chunk_size))
     else:

@@ -40,6 +40,7 @@ from ._common import (
     SampleFailuresError,
     check_fraction,
     check_inputs,
+    check_memory,
     exclusive_source,
     executor_kwargs,
     failure_message,
@@ -96,6 +97,7 @@ def sobol_design(inputs: UncertainInputs, *, n: int, calc_second_order: bool = F
             "inputs (remove the correlation, or study the correlated group as one factor)"
         )
     n = _check_n(n, "n", 2)
+    check_memory(n * _block_size(inputs.d, calc_second_order), inputs.d, "n", n)
     ss = as_seed_sequence(seed)
     U = sobol_sample.sample(_problem(inputs.d, inputs.names), n, calc_second_order=calc_second_order,
                             scramble=True, seed=np.random.default_rng(child_seed(ss, 0)))
