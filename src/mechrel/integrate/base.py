@@ -139,8 +139,8 @@ class _SignalWatcher:
     this daemon thread (one per process, started on first use), which sets the kernel's
     ``ctl[CTL_STOP]``: the kernel stops at its next step, returns, and the signal's own
     handler runs right after the call (raising ``KeyboardInterrupt``). The kernel keeps the
-    main thread (no hand-over to another thread, which cost 5-15 ms per integration on a loaded machine); the caller's
-    own wakeup fd (asyncio's) is restored after the call."""
+    main thread (no hand-over to another thread, which cost 5-15 ms per integration on a
+    loaded machine); the caller's own wakeup fd (asyncio's) is restored after the call."""
 
     def __init__(self):
         self._read, self._write = os.pipe()

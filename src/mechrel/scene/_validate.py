@@ -475,14 +475,16 @@ class _Builder(Checker):
         try:
             pack_joint(joint)
         except SceneError as err:
-            if not hasattr(err, "allowed"):
-                raise
             field = err.path
+            # a derived value (the contact stiffness) is named with what it is computed from
+            derived = ("; it is computed from bearing_radius, clearance and the contact's "
+                       "elastic moduli: check those for extreme values"
+                       if field == "stiffness" else "")
+            if not hasattr(err, "allowed"):  # a derived value's own check: name the joint
+                raise SceneError(f"{p}: {err}{derived}",
+                                 path=join(p, field) if field else p) from None
             where = {param: join(join(p, sub), key) for sub, keys in SUBTABLE_PARAMS.items()
                      for key, param in keys.items()}
-            # a derived value (the contact stiffness) is named with what it is computed from
-            derived = (" (computed from bearing_radius, clearance and the contact's elastic "
-                       "moduli: check those for extreme values)" if field == "stiffness" else "")
             self.fail(where.get(field, join(p, field)), err.value,
                       f"not allowed by the '{joint.model}' force law{derived}", err.allowed)
 
