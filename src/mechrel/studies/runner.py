@@ -298,7 +298,7 @@ def run_reliability(study, *, methods=None, n=None, n_jobs=1, seed=None, out=Non
             lines.append(f"  normality check: FOSM's normal assumption flagged at "
                          f"{int(nt[flag[0]].sum())} of {len(nt)} (quantity, angle) points")
     for q in study.quantities:
-        parts = [f"  {q:13s}"]
+        parts = []
         if "fosm" in results:
             t = _angles(results["fosm"].table).xs(q, level="quantity")
             k = t["reliability"].idxmin()
@@ -316,7 +316,7 @@ def run_reliability(study, *, methods=None, n=None, n_jobs=1, seed=None, out=Non
             parts.append(f"MC min R {t['reliability'].min():.4f} "
                          f"[{t['reliability_lo'].loc[k]:.4f}, {t['reliability_hi'].loc[k]:.4f}]"
                          f" at {k:g}°")
-        lines.append("; ".join(parts))
+        lines.append(f"  {q + ':':13s} " + "; ".join(parts))
     if "mc" in results:
         mc = results["mc"]
         wc = mc.whole_cycle
