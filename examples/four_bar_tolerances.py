@@ -33,6 +33,7 @@ from mechrel.errors import EstimateWarning  # noqa: E402
 from mechrel.uq import Allowable, Normal, TruncNormal, UncertainInputs, fosm, monte_carlo  # noqa: E402
 from mechrel.uq.mechanism import MechanismModel  # noqa: E402
 from mechrel.uq.plots import plot_reliability  # noqa: E402
+from mechrel.uq.reliability import per_angle_mask  # noqa: E402
 
 INPUTS = {
     "O4_x": (["ground.points.O4[0]"], Normal(0.14, 20e-6)),          # m
@@ -64,10 +65,13 @@ def main(argv=None) -> int:
     print(f"four-bar, rocker tip x, reference = {model.reference!r} (nominal geometry), "
           f"FOSM {f.evaluations.n} runs, Monte Carlo {mc.evaluations.n} runs "
           f"({mc.n_failed} failed)")
-    share = f.importance().groupby(level="quantity").mean()
+    share = f.importance()
+    share = share[per_angle_mask(share.index)].groupby(level="quantity").mean()
+    # per-angle rows (the model appends each quantity's cycle extremes: max, min, max_abs)
+    ft, mt = (r.table[per_angle_mask(r.table.index)] for r in (f, mc))
     for q in ("displacement", "velocity", "acceleration"):
-        tf = f.table.xs(q, level="quantity")
-        tm = mc.table.xs(q, level="quantity")
+        tf = ft.xs(q, level="quantity")
+        tm = mt.xs(q, level="quantity")
         k = tm["reliability"].idxmin()
         wc = mc.whole_cycle.loc[q]
         pivot = share.loc[q, ["O4_x", "O4_y"]].sum()
