@@ -54,7 +54,8 @@ def test_reliability_and_comparison_plots(results):
     fig = plot_reliability(f)
     assert len(fig.axes) == 6  # (β, 1 − R) per quantity
     assert fig.axes[-1].get_xlabel() == "crank angle (deg)"
-    assert fig.axes[0].get_ylabel() == "β = Φ⁻¹(R), displacement (m)"
+    # β is dimensionless: no unit on its axis (the allowable's legend entry carries the unit)
+    assert fig.axes[0].get_ylabel() == "β = Φ⁻¹(R), displacement"
     fig3 = plot_reliability(f, mc)
     # a legend in every panel, naming the sample count, the allowable and its cap, and the
     # whole-cycle R of Monte Carlo

@@ -59,10 +59,6 @@ def _new_axes(n: int, axes: Any, height: float = 3.0):
     return axs[0].figure, axs
 
 
-def _title(q: str) -> str:
-    return f"{q} ({UNITS[q]})" if q in UNITS else q
-
-
 CLIP = 1e-7
 """Smallest probability of exceeding the allowable drawn on the log axis (and largest index,
 Φ⁻¹(1 − CLIP) ≈ 5.2): values beyond it, R = 1 to double precision among them, are drawn at the
@@ -241,7 +237,7 @@ def plot_reliability(*results: Any, title: str | None = None):
                 kw["whole_cycle"] = tuple(float(wc.loc[q, c]) for c in
                                           ("reliability", "reliability_lo", "reliability_hi"))
         reliability_panels(row[0], row[1], x, **kw)
-        row[0].set_ylabel(f"β = Φ⁻¹(R), {_title(q)}" if q else "β = Φ⁻¹(R)")
+        row[0].set_ylabel(f"β = Φ⁻¹(R), {q}" if q else "β = Φ⁻¹(R)")  # β has no unit
         row[1].set_ylabel(f"1 − R, {q}" if q else "1 − R")
     for ax in axes[-1]:
         ax.set_xlabel(xlabel)
