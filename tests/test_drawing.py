@@ -45,6 +45,21 @@ def test_draw_every_embedded_scene(name, tmp_path):
     assert Image.open(path).size[0] > 300
 
 
+def test_no_body_is_drawn_in_the_clearance_joints_red():
+    # the drawing marks clearance joints in red and says so in its title: a body in a red of
+    # the palette (the four-bar's rocker was) reads as a clearance joint. Hue at least 20°
+    # from tab:red's, or a grey (saturation below 0.2).
+    import colorsys
+
+    from matplotlib.colors import to_rgb
+
+    red = colorsys.rgb_to_hsv(*to_rgb("tab:red"))[0] * 360.0
+    for c in drawing._BODY_COLORS:
+        h, s_, _ = colorsys.rgb_to_hsv(*to_rgb(c))
+        gap = abs((h * 360.0 - red + 180.0) % 360.0 - 180.0)
+        assert gap >= 20.0 or s_ < 0.2, c
+
+
 def test_point_positions_agree_with_the_simulated_outputs():
     # the drawing's kinematics against the simulator's output points (slider-crank, ideal):
     # the same coordinates through two code paths, equal to round-off

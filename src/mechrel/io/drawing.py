@@ -33,8 +33,9 @@ ANIMATION_FORMATS = (".gif", ".html", ".mp4")
 """File types :func:`save_animation` writes (MP4 only where ffmpeg is installed)."""
 
 MM = 1e3  # plotted in millimetres
-_BODY_COLORS = ("#4C72B0", "#55A868", "#C44E52", "#8172B2", "#CCB974", "#64B5CD", "#DD8452",
-                "#937860", "#DA8BC3", "#8C8C8C")
+# no red: red marks the clearance joints (the drawing's title says so)
+_BODY_COLORS = ("#4C72B0", "#55A868", "#8172B2", "#CCB974", "#64B5CD", "#DD8452", "#937860",
+                "#DA8BC3", "#8C8C8C")
 
 
 def assembled_configuration(scene: Scene, t: float = 0.0) -> np.ndarray:
