@@ -136,6 +136,22 @@ def test_animation_content():
     _done(anim)
 
 
+def test_animation_names_each_joints_magnification():
+    # the four-bar's pins have clearances 0.1 mm (A) and 0.2 mm (B) drawn as circles of one
+    # radius: the legend names each joint's factor (it read "×170/85", which joint which?)
+    import re
+
+    res = simulate(load_scene("four-bar", overrides={"analysis.cycles": 0.05}))
+    anim = drawing.animate(res, frames=3)
+    labels = [t.get_text() for t in anim._fig.axes[0].get_legend().get_texts()]
+    found = [re.fullmatch(r"journal orbits, clearance circle magnified ×(\d+) \(A\), "
+                          r"×(\d+) \(B\)", t) for t in labels]
+    m = next(f for f in found if f is not None)
+    a, b = int(m[1]), int(m[2])
+    assert abs(a / b - 2.0) <= 1.0 / b  # c_B / c_A = 2, each factor rounded to an integer
+    _done(anim)
+
+
 def test_animate_errors(monkeypatch):
     res = simulate(load_scene("slider-crank"))
     with pytest.raises(MechrelError, match="output = 'rocker': not an output of scene "
