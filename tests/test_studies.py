@@ -168,6 +168,31 @@ def test_study_settings_are_filled_in_when_loaded():
     assert study.sensitivity == {"n": 256, "seed": None, "max_failure_fraction": 0.05}
 
 
+def test_a_study_without_quantities_analyses_those_of_its_output_kind():
+    # the rocker is a body output: its quantities are the angle and its rates, not a point's
+    # displacement, velocity and acceleration (which the study defaulted to, so that a study
+    # of a body output without `quantities` failed with "quantities: ['displacement', ...]
+    # must be a non-empty subset of ['angle', ...]")
+    base = {"scene": "four-bar", "output": "rocker",
+            "inputs": {"c": {"paths": ["joints.B.clearance"], "distribution": "normal",
+                             "mean": 0.2e-3, "std": 0.02e-3}}}
+    given = {"angle": {"mean": 4e-3}, "angular_velocity": {"mean": 2.0},
+             "angular_acceleration": {"mean": 3e3}}
+    study = load_study({**base, "allowable": given})
+    assert study.quantities == ("angle", "angular_velocity", "angular_acceleration")
+    assert study.model().quantities == study.quantities
+    assert study.allowables()["angle"].mean == 4e-3
+    # a quantity without a default allowable needs one: named at load, not a KeyError later
+    with pytest.raises(StudyError, match=r"^<mapping>: allowable\.angular_velocity: missing: this "
+                       r"quantity has no default allowable; allowed: \[allowable\."
+                       r"angular_velocity\] with mean > 0 \(rad/s\) and std >= 0$"):
+        load_study({**base, "allowable": {"angle": {"mean": 4e-3}}})
+    # the point output (the scene's first) keeps the three point quantities and their defaults
+    tip = load_study({**base, "output": "tip"})
+    assert tip.quantities == ("displacement", "velocity", "acceleration")
+    assert load_study("nine-bar-lubricated").quantities == tip.quantities
+
+
 def test_input_path_that_is_not_in_the_scene_is_named():
     raw = _raw(inputs={"c": {"paths": ["joints.C9.clearance"], "distribution": "normal",
                              "mean": 1e-3, "std": 1e-4}})

@@ -316,7 +316,8 @@ def run_reliability(study, *, methods=None, n=None, n_jobs=1, seed=None, out=Non
             parts.append(f"MC min R {t['reliability'].min():.4f} "
                          f"[{t['reliability_lo'].loc[k]:.4f}, {t['reliability_hi'].loc[k]:.4f}]"
                          f" at {k:g}°")
-        lines.append(f"  {q + ':':13s} " + "; ".join(parts))
+        width = max(len(name) for name in study.quantities) + 1
+        lines.append(f"  {q + ':':{width}s} " + "; ".join(parts))
     if "mc" in results:
         mc = results["mc"]
         wc = mc.whole_cycle
