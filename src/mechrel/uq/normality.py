@@ -187,19 +187,18 @@ def normality_check(
     # angles (a cycle extreme is a maximum over the cycle, not a normal first-order response,
     # and only Monte Carlo estimates the whole cycle)
     angle = per_angle_mask(ev.output_index)
-    what = "analysis angles" if not angle.all() else "outputs"
     if {"mean_lo", "mean_hi"} <= set(mt.columns):
         mean_out = ((mu_i < mt["mean_lo"].to_numpy()) | (mu_i > mt["mean_hi"].to_numpy())) & angle
         if mean_out.any():
             notes.append(f"fosm vs Monte Carlo: FOSM's mean μ_i lies outside the {level} Monte "
                          f"Carlo interval of the mean at {int(mean_out.sum())} of "
-                         f"{int(angle.sum())} {what}, e.g. {_labels(ev.output_index, mean_out)}: "
+                         f"{int(angle.sum())} outputs, e.g. {_labels(ev.output_index, mean_out)}: "
                          "the response is not linear over the inputs' spread there; trust "
                          "Monte Carlo")
     if (outside & angle).any():
         notes.append(f"fosm vs Monte Carlo: FOSM's reliability lies outside the {level} Monte "
                      f"Carlo interval at {int((outside & angle).sum())} of {int(angle.sum())} "
-                     f"{what}, e.g. {_labels(ev.output_index, outside & angle)}: FOSM's normal, "
+                     f"outputs, e.g. {_labels(ev.output_index, outside & angle)}: FOSM's normal, "
                      "first-order model of the error does not hold there; trust Monte Carlo")
     return NormalityResult(table, alpha, fosm.form, fosm, monte_carlo, prov,
                            emit_warnings(notes))
