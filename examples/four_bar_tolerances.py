@@ -65,12 +65,13 @@ def main(argv=None) -> int:
     print(f"four-bar, rocker tip x, reference = {model.reference!r} (nominal geometry), "
           f"FOSM {f.evaluations.n} runs, Monte Carlo {mc.evaluations.n} runs "
           f"({mc.n_failed} failed)")
-    share = f.importance().groupby(level="quantity").mean()
-    angles_f = per_angle_mask(f.table.index)  # the analysis angles (not the cycle extremes)
-    angles_m = per_angle_mask(mc.table.index)
+    share = f.importance()
+    share = share[per_angle_mask(share.index)].groupby(level="quantity").mean()
+    # per-angle rows (the model appends each quantity's cycle extremes: max, min, max_abs)
+    ft, mt = (r.table[per_angle_mask(r.table.index)] for r in (f, mc))
     for q in ("displacement", "velocity", "acceleration"):
-        tf = f.table[angles_f].xs(q, level="quantity")
-        tm = mc.table[angles_m].xs(q, level="quantity")
+        tf = ft.xs(q, level="quantity")
+        tm = mt.xs(q, level="quantity")
         k = tm["reliability"].idxmin()
         wc = mc.whole_cycle.loc[q]
         pivot = share.loc[q, ["O4_x", "O4_y"]].sum()

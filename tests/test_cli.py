@@ -38,6 +38,41 @@ def test_simulate_clearance_scene_with_overrides_and_parquet(tmp_path, capsys):
     assert {"C.ex", "C.ey", "C.eps"} <= set(orbits.columns)
 
 
+def test_simulate_reports_the_error_extremes_found_on_the_solution(tmp_path, capsys):
+    # the four-bar's dry pin B impacts between output instants: the summary gives the cycle's
+    # error extremes from the integrator's solution beside the output grid's range, and the
+    # JSON carries them; they are those of simulate(scene, extremes=True)
+    import re
+
+    import numpy as np
+
+    from mechrel.scene import load_scene
+    from mechrel.simulation import simulate
+
+    out = tmp_path / "fb.csv"
+    assert main(["simulate", "four-bar", "--set", "analysis.cycles=1", "--out", str(out),
+                 "--no-progress"]) == 0
+    text = capsys.readouterr().out
+    ref = simulate(load_scene("four-bar", overrides={"analysis.cycles": 1}), extremes=True)
+    assert text.count("error extremes over the last cycle, on the solution:") == 2
+    d = ref.extremes["tip"]["acceleration"]
+    line = re.search(r"^      acceleration error (\S+) … (\S+) m/s², max \|error\| (\S+) "
+                     r"m/s² at (\S+)°$", text, flags=re.M)
+    assert line is not None
+    printed = [float(v) for v in line.groups()]
+    expected = [d["min"], d["max"], d["max_abs"], d["max_abs_angle"]]
+    # printed to 4 significant digits (the angle to 0.01°)
+    assert printed[:3] == pytest.approx(expected[:3], rel=5e-4)
+    assert printed[3] == pytest.approx(expected[3], abs=0.005)
+    # the solution's extreme bounds the output grid's range (the grid's instants are on it)
+    assert d["max_abs"] >= np.abs(ref.error("tip", "acceleration")).max()
+    meta = json.loads(out.with_suffix(".json").read_text())
+    assert meta["extremes"]["tip"]["acceleration"]["max_abs"] == d["max_abs"]
+    # an ideal scene has no error to find extremes of: no such lines
+    assert main(["simulate", "slider-crank", "--no-progress"]) == 0
+    assert "error extremes" not in capsys.readouterr().out
+
+
 @pytest.mark.parametrize("argv, fragment", [
     (["simulate", "slider-crank", "--set", "bodies.crank.mass=-1"], "bodies.crank.mass"),
     (["simulate", "no-such-scene"], "no-such-scene"),

@@ -45,6 +45,21 @@ def test_draw_every_embedded_scene(name, tmp_path):
     assert Image.open(path).size[0] > 300
 
 
+def test_no_body_is_drawn_in_the_clearance_joints_red():
+    # the drawing marks clearance joints in red and says so in its title: a body in a red of
+    # the palette (the four-bar's rocker was) reads as a clearance joint. Hue at least 20°
+    # from tab:red's, or a grey (saturation below 0.2).
+    import colorsys
+
+    from matplotlib.colors import to_rgb
+
+    red = colorsys.rgb_to_hsv(*to_rgb("tab:red"))[0] * 360.0
+    for c in drawing._BODY_COLORS:
+        h, s_, _ = colorsys.rgb_to_hsv(*to_rgb(c))
+        gap = abs((h * 360.0 - red + 180.0) % 360.0 - 180.0)
+        assert gap >= 20.0 or s_ < 0.2, c
+
+
 def test_point_positions_agree_with_the_simulated_outputs():
     # the drawing's kinematics against the simulator's output points (slider-crank, ideal):
     # the same coordinates through two code paths, equal to round-off
@@ -118,6 +133,22 @@ def test_animation_content():
     labels = [t.get_text() for t in ax.get_legend().get_texts()]
     assert "journal orbits, clearance circle magnified ×50" in labels
     assert "ideal mechanism (ghost)" in labels
+    _done(anim)
+
+
+def test_animation_names_each_joints_magnification():
+    # the four-bar's pins have clearances 0.1 mm (A) and 0.2 mm (B) drawn as circles of one
+    # radius: the legend names each joint's factor (it read "×170/85", which joint which?)
+    import re
+
+    res = simulate(load_scene("four-bar", overrides={"analysis.cycles": 0.05}))
+    anim = drawing.animate(res, frames=3)
+    labels = [t.get_text() for t in anim._fig.axes[0].get_legend().get_texts()]
+    found = [re.fullmatch(r"journal orbits, clearance circle magnified ×(\d+) \(A\), "
+                          r"×(\d+) \(B\)", t) for t in labels]
+    m = next(f for f in found if f is not None)
+    a, b = int(m[1]), int(m[2])
+    assert abs(a / b - 2.0) <= 1.0 / b  # c_B / c_A = 2, each factor rounded to an integer
     _done(anim)
 
 

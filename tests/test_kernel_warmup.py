@@ -42,3 +42,24 @@ def test_a_cold_cache_is_announced_and_its_time_recorded(monkeypatch, tmp_path):
     kc.warm_up(scene, progress=False, file=out)
     assert out.getvalue().startswith(
         f"compiling simulation kernels, once — about {sum(recorded.values()):.0f} s")
+
+
+def test_a_compilation_past_its_estimate_says_so_and_keeps_counting(monkeypatch, tmp_path):
+    # the estimate is this machine's last time; under load the compilation takes longer, and
+    # the bar stood at N/N for minutes: past N it says so and its total follows the elapsed time
+    import time
+
+    import mechrel.simulation
+
+    times = tmp_path / "kernel-compile-seconds.json"
+    times.write_text(json.dumps({"kinematics": 0.6, "radau": 0.6}))
+    monkeypatch.setattr(kc, "is_compiled", lambda entry: False)
+    monkeypatch.setattr(kc, "_times_file", lambda: times)
+    monkeypatch.setattr(mechrel.simulation, "simulate", lambda scene: time.sleep(2.2))
+    out = io.StringIO()
+    spent = kc.warm_up(load_scene("slider-crank-lubricated"), file=out)
+    text = out.getvalue()
+    assert spent >= 2.2
+    assert "compiling simulation kernels, once — about 1 s, taking longer (a busy machine?)" \
+        in text
+    assert "/3 s" in text  # the total follows the elapsed time (2.2 s, rounded up)

@@ -54,7 +54,8 @@ def test_reliability_and_comparison_plots(results):
     fig = plot_reliability(f)
     assert len(fig.axes) == 6  # (β, 1 − R) per quantity
     assert fig.axes[-1].get_xlabel() == "crank angle (deg)"
-    assert fig.axes[0].get_ylabel() == "β = Φ⁻¹(R), displacement (m)"
+    # β is dimensionless: no unit on its axis (the allowable's legend entry carries the unit)
+    assert fig.axes[0].get_ylabel() == "β = Φ⁻¹(R), displacement"
     fig3 = plot_reliability(f, mc)
     # a legend in every panel, naming the sample count, the allowable and its cap, and the
     # whole-cycle R of Monte Carlo
@@ -89,6 +90,36 @@ def test_reliability_beyond_the_clip_is_drawn_as_clipped(results):
     fig = plot_reliability(f)
     texts = [t.get_text() for ax in fig.axes for t in ax.get_legend().get_texts()]
     assert any("(clipped)" in t for t in texts)
+    plt.close(fig)
+
+
+def test_monte_carlo_without_an_exceedance_is_drawn_as_a_bound_in_both_panels(results):
+    # R = 1 observed (no sample beyond the allowable): no finite β and no 1 − R to draw, only
+    # the interval's end: ▲ at β = Φ⁻¹(R_lo) on the left, ▼ at 1 − R_lo on the right (before,
+    # the β panel drew nothing for Monte Carlo at those angles)
+    import matplotlib.pyplot as plt
+    from scipy import special
+
+    from mechrel.uq import Allowable
+
+    inputs = UncertainInputs.from_specs({"joints.C1.clearance": Normal(1.0, 0.3),
+                                         "joints.C2.clearance": Normal(1.0, 0.3)})
+    mc = monte_carlo(evaluations=results[1].evaluations, inputs=inputs,
+                     allowable=Allowable(1e3, 0.0))
+    assert (mc.table["reliability"] == 1.0).all()
+    lo = mc.table.xs("velocity", level="quantity")["reliability_lo"].to_numpy()
+    fig = plot_reliability(mc)
+    ax_beta, ax_pf = fig.axes[2], fig.axes[3]  # velocity: (β, 1 − R)
+    lines = {ln.get_label(): ln for ln in ax_beta.get_lines()}
+    bound = lines["MC lower bound (no exceedance seen)"]
+    np.testing.assert_allclose(bound.get_xdata(), ANGLES)
+    np.testing.assert_allclose(bound.get_ydata(), special.ndtri(lo), rtol=1e-12)
+    # the Wilson interval's lower end at k = n: n / (n + z²), z = Φ⁻¹(0.975)
+    z = special.ndtri(0.975)
+    np.testing.assert_allclose(bound.get_ydata(), special.ndtri(1000 / (1000 + z * z)),
+                               rtol=1e-9)
+    upper = {ln.get_label(): ln for ln in ax_pf.get_lines()}["MC upper bound (no exceedance seen)"]
+    np.testing.assert_allclose(upper.get_ydata(), 1 - lo, rtol=1e-12)
     plt.close(fig)
 
 

@@ -100,6 +100,37 @@ def test_fosm_mean_and_r_outside_the_monte_carlo_interval_warn():
     assert any("mean" in w for w in nc.warnings)
 
 
+def _angle_and_extreme(x):
+    # at 0°: linear (FOSM exact); the cycle's max |error|: a² + b (FOSM's mean 0, the true 1)
+    return np.array([2.0 * x[0] + x[1], x[0] ** 2 + x[1]])
+
+
+def test_the_fosm_vs_monte_carlo_warnings_leave_out_the_cycle_extremes():
+    # a cycle extreme is a maximum over the cycle, not a first-order response, and only Monte
+    # Carlo estimates the whole cycle: the comparison (and its count) is over the analysis
+    # angles. Before, this model warned "mean ... outside ... at 1 of 2 outputs, e.g.
+    # (displacement, max_abs)".
+    import pandas as pd
+
+    index = pd.MultiIndex.from_tuples([("displacement", 0.0), ("displacement", "max_abs")],
+                                      names=["quantity", "crank_angle"])
+    model = FunctionModel(_angle_and_extreme, ["a", "b"], index)
+    f, _ = _quiet(fosm, model=model, inputs=INPUTS, allowable=ALLOW, progress=False)
+    mc, _ = _quiet(monte_carlo, model=model, inputs=INPUTS, n=256, seed=1, rule="random",
+                   progress=False, allowable=ALLOW)
+    nc, got = _quiet(normality_check, fosm=f, monte_carlo=mc)
+    assert got == [] and nc.warnings == ()
+    # the extreme's row is still compared in the table: FOSM's mean 0 against MC's ≈ 1
+    assert not nc.table["flag"].iloc[0] and nc.table["flag"].iloc[1]
+    # the same model with the extreme at an analysis angle: the warning names 1 of 2 outputs
+    plain = FunctionModel(_angle_and_extreme, ["a", "b"], ["p", "q"])
+    f2, _ = _quiet(fosm, model=plain, inputs=INPUTS, allowable=ALLOW, progress=False)
+    mc2, _ = _quiet(monte_carlo, model=plain, inputs=INPUTS, n=256, seed=1, rule="random",
+                    progress=False, allowable=ALLOW)
+    with pytest.warns(EstimateWarning, match="interval of the mean at 1 of 2 outputs"):
+        normality_check(fosm=f2, monte_carlo=mc2)
+
+
 def test_a_pce_that_does_not_fit_warns_and_passes_it_on():
     model = FunctionModel(_wiggle, ["a", "b"], ["w"])
     with pytest.warns(EstimateWarning, match=r"pce: the leave-one-out error of the order-2 "
@@ -148,6 +179,12 @@ def test_the_reliability_summary_carries_warnings_and_ends_with_a_verdict(tmp_pa
         "displacement", "velocity", "acceleration", "whole cycle"]
     assert lines[-5] == "  verdict:" and lines[-1].strip() == summary["verdict"][-1]
     assert "trust Monte Carlo (16 successful samples" in summary["verdict"][0]
+    # counts over the analysis angles (0°, 30°, ..., 360°: 13 per quantity), not the cycle
+    # extremes, which the model appends (3 per quantity)
+    normality = [line for line in lines if line.startswith("  normality check:")]
+    assert len(normality) == 1 and normality[0].endswith(" of 39 (quantity, angle) points")
+    for v in summary["verdict"][:3]:
+        assert " of 13 angles" in v or "at every angle" in v
 
 
 def test_the_verdict_on_a_dry_scene_says_fosm_does_not_apply(tmp_path):

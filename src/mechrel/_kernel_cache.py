@@ -166,8 +166,10 @@ def warm_up(scene, *, progress: bool = True, file=None) -> float:
     On a cold cache: prints "compiling simulation kernels, once — about N s" (N: this
     machine's last measured compile time, or :data:`DEFAULT_COMPILE_SECONDS`) and a bar of the
     elapsed time against N while a short run of ``scene`` compiles them (the numbers of later
-    runs do not depend on it). Returns the seconds spent (0 on a warm cache, without output).
+    runs do not depend on it); past N the bar says it is taking longer and keeps counting.
+    Returns the seconds spent (0 on a warm cache, without output).
     Worker processes then load the kernels from the on-disk cache."""
+    import math
     import sys
     import threading
     import time
@@ -205,7 +207,13 @@ def warm_up(scene, *, progress: bool = True, file=None) -> float:
                   bar_format="{desc}: {bar} {n:.0f}/{total:.0f} s") as bar:
             while worker.is_alive():
                 worker.join(0.5)
-                bar.n = min(time.perf_counter() - start, bar.total)
+                elapsed = time.perf_counter() - start
+                if elapsed > bar.total:  # past the estimate: say so and keep counting
+                    if bar.total == round(expected):
+                        bar.set_description(f"{label}, taking longer (a busy machine?)",
+                                            refresh=False)
+                    bar.total = math.ceil(elapsed)
+                bar.n = elapsed
                 bar.refresh()
             bar.n = bar.total
             bar.refresh()

@@ -50,6 +50,15 @@ def _summary_lines(result) -> list[str]:
                 unit, scale = display(qty)
                 e = result.error(name, qty) * scale
                 lines.append(f"    {qty} error {e.min():.4g} … {e.max():.4g} {unit}")
+        if result.extremes is not None and name in result.extremes:
+            # the output grid misses what happens between its instants (an impact): the
+            # extremes over the analysed cycle found on the integrator's solution
+            lines.append("    error extremes over the last cycle, on the solution:")
+            for qty, d in result.extremes[name].items():
+                unit, scale = display(qty)
+                lines.append(f"      {qty} error {d['min'] * scale:.4g} … "
+                             f"{d['max'] * scale:.4g} {unit}, max |error| "
+                             f"{d['max_abs'] * scale:.4g} {unit} at {d['max_abs_angle']:.2f}°")
     for name, orb in result.orbits.items():
         lines.append(f"  joint {name}: max eccentricity ratio {orb['eps'].max():.4f}")
     if result.energy:
@@ -79,7 +88,8 @@ def _cmd_simulate(args) -> int:
     from .._kernel_cache import warm_up
 
     warm_up(scene, progress=not args.no_progress)  # announces a cold cache's compilation
-    result = simulate(scene, integrator=args.integrator, progress=not args.no_progress)
+    result = simulate(scene, integrator=args.integrator, progress=not args.no_progress,
+                      extremes=bool(scene.clearance_joints))
     print("\n".join(_summary_lines(result)))
     if args.out:
         out = Path(args.out)
@@ -87,6 +97,9 @@ def _cmd_simulate(args) -> int:
         plot_simulation(result, out.with_suffix(".png"))
         meta = {"provenance": dict(result.provenance), "stats": dict(result.stats),
                 "overrides": list(args.overrides)}
+        if result.extremes is not None:
+            meta["extremes"] = {o: {qty: dict(d) for qty, d in qs.items()}
+                                for o, qs in result.extremes.items()}
         write_json(meta, out.with_suffix(".json"))
         if result.orbits:
             write_table(result.orbits_frame(), out.with_name(out.stem + "-orbits" + out.suffix))

@@ -33,8 +33,9 @@ ANIMATION_FORMATS = (".gif", ".html", ".mp4")
 """File types :func:`save_animation` writes (MP4 only where ffmpeg is installed)."""
 
 MM = 1e3  # plotted in millimetres
-_BODY_COLORS = ("#4C72B0", "#55A868", "#C44E52", "#8172B2", "#CCB974", "#64B5CD", "#DD8452",
-                "#937860", "#DA8BC3", "#8C8C8C")
+# no red: red marks the clearance joints (the drawing's title says so)
+_BODY_COLORS = ("#4C72B0", "#55A868", "#8172B2", "#CCB974", "#64B5CD", "#DD8452", "#937860",
+                "#DA8BC3", "#8C8C8C")
 
 
 def assembled_configuration(scene: Scene, t: float = 0.0) -> np.ndarray:
@@ -392,7 +393,7 @@ def animate(result, *, output: str | None = None, quantity: str = "displacement"
         joint = scene.joints[name]
         c = joint.clearance
         R = (magnify * c) if magnify is not None else 0.08 * extent
-        mags.append(f"{R / c:.0f}")
+        mags.append((name, f"×{R / c:.0f}"))
         theta = np.linspace(0, 2 * np.pi, 100)
         (circle,) = ax.plot([], [], color="tab:red", lw=1, zorder=7)
         (trace,) = ax.plot([], [], color="tab:red", lw=1.2, zorder=7)
@@ -400,9 +401,12 @@ def animate(result, *, output: str | None = None, quantity: str = "displacement"
         orbit_art.append((str(joint.points[0]), orb["ex"] * R / c, orb["ey"] * R / c, R, theta,
                           circle, trace, dot))
     if orbit_art:
+        # one factor for all joints, or each joint's own (their clearances differ)
+        factors = {m for _, m in mags}
+        which = (factors.pop() if len(factors) == 1 else
+                 ", ".join(f"{m} ({name})" for name, m in mags))
         ax.plot([], [], color="tab:red", lw=1,
-                label="journal orbits, clearance circle magnified "
-                      f"×{'/'.join(dict.fromkeys(mags))}")
+                label=f"journal orbits, clearance circle magnified {which}")
     if ghost is not None:
         ax.plot([], [], color="0.6", ls="--", lw=1.5, label="ideal mechanism (ghost)")
     if orbit_art or ghost is not None:

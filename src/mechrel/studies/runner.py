@@ -211,8 +211,8 @@ def _verdict(results, quantities, model) -> list[str]:
             level = f"{mc.confidence_level:.0%}"
             n_ok = mc.evaluations.n_ok
             if fosm is not None and nc is not None:
-                t = nc.table.xs(q, level="quantity")
-                m = mc.table.xs(q, level="quantity")
+                t = _angles(nc.table).xs(q, level="quantity")
+                m = _angles(mc.table).xs(q, level="quantity")
                 r_out = int(((t["R_fosm"] < t["R_mc_lo"]) | (t["R_fosm"] > t["R_mc_hi"])).sum())
                 mu_out = int(((t["mu_i"] < m["mean_lo"]) | (t["mu_i"] > m["mean_hi"])).sum())
                 if nonsmooth:
@@ -363,13 +363,13 @@ def run_reliability(study, *, methods=None, n=None, n_jobs=1, seed=None, out=Non
                          f"training runs): leave-one-out error median {float(loo.median()):.3g}, "
                          f"max {float(loo.max()):.3g} (relative to each output's variance)")
     if "normality" in results:
-        nt = results["normality"].to_frame()
+        nt = _angles(results["normality"].to_frame())
         flag = [c for c in nt.columns if "flag" in c]
         if flag:
             lines.append(f"  normality check: FOSM's normal assumption flagged at "
                          f"{int(nt[flag[0]].sum())} of {len(nt)} (quantity, angle) points")
     for q in study.quantities:
-        parts = [f"  {q:13s}"]
+        parts = []
         if "fosm" in results:
             t = _angles(results["fosm"].table).xs(q, level="quantity")
             k = t["reliability"].idxmin()
@@ -387,7 +387,8 @@ def run_reliability(study, *, methods=None, n=None, n_jobs=1, seed=None, out=Non
             parts.append(f"MC min R {t['reliability'].min():.4f} "
                          f"[{t['reliability_lo'].loc[k]:.4f}, {t['reliability_hi'].loc[k]:.4f}]"
                          f" at {k:g}°")
-        lines.append("; ".join(parts))
+        width = max(len(name) for name in study.quantities) + 1
+        lines.append(f"  {q + ':':{width}s} " + "; ".join(parts))
     if "mc" in results:
         mc = results["mc"]
         wc = mc.whole_cycle

@@ -15,7 +15,7 @@ from pathlib import Path
 from typing import Any
 
 from ..errors import SceneError, StudyError
-from ..scene._validate import Checker, join
+from ..scene._validate import _MISSING, Checker, join
 from ..outputs import QUANTITY_INFO
 from ..scene.loader import check_depth, read_toml_text
 from ..scene.model import QUANTITIES
@@ -214,6 +214,21 @@ def _correlation(c: _Checker, table: Any, names) -> dict | None:
     return dict(table)
 
 
+def _output_quantities(scene: str, output: Any, overrides: Mapping) -> tuple[str, ...]:
+    """The quantities of the study's output (the scene's first output by default): a study
+    without ``quantities`` analyses all of them. A scene that does not load, or an output it
+    does not have, keeps the point kind's three here; the model then reports the problem."""
+    from ..outputs import quantities_of
+    from ..scene import load_scene
+
+    try:
+        base = load_scene(scene, overrides=dict(overrides))
+    except (SceneError, OSError):
+        return QUANTITIES
+    name = output if isinstance(output, str) else next(iter(base.outputs), None)
+    return quantities_of(base.outputs[name]) if name in base.outputs else QUANTITIES
+
+
 def _allowables(c: _Checker, table: Any) -> dict:
     """Per quantity (mechrel.outputs.QUANTITY_INFO): the given mean and std, else the
     quantity's default allowable; a quantity without a default has none unless given."""
@@ -300,19 +315,29 @@ def load_study(source, *, overrides: Mapping[str, Any] | None = None,
                "a divisor of 360 (degrees), e.g. 18, 10 or 5")
     cycles = raw.get("cycles")
     specs, paths = _inputs(c, raw["inputs"])
+    all_overrides = {**c.table("scene_overrides", raw.get("scene_overrides", {}),
+                               "a table of dotted scene paths and values"),
+                     **dict(scene_overrides or {})}
+    if "quantities" in raw:
+        quantities = c.choices("quantities", raw["quantities"], tuple(QUANTITY_INFO))
+    else:  # the quantities of the study's output (its kind's), as MechanismModel's default
+        quantities = _output_quantities(scene, output, all_overrides)
+    allowable = _allowables(c, raw.get("allowable", {}))
+    for q in quantities:
+        if q not in allowable:
+            c.fail(join("allowable", q), _MISSING, "missing: this quantity has no default "
+                   "allowable", f"[allowable.{q}] with mean > 0 ({QUANTITY_INFO[q].unit}) "
+                   "and std >= 0")
     study = Study(
         name=c.string("name", raw.get("name", default_name)),
         description=c.string("description", raw.get("description", "")),
         scene=scene, output=None if output is None else c.string("output", output),
         angle_step=angle_step, cycles=None if cycles is None else c.integer("cycles", cycles, ge=1),
-        quantities=c.choices("quantities", raw.get("quantities", list(QUANTITIES)),
-                             tuple(QUANTITY_INFO)),
-        scene_overrides={**c.table("scene_overrides", raw.get("scene_overrides", {}),
-                                   "a table of dotted scene paths and values"),
-                         **dict(scene_overrides or {})},
+        quantities=quantities,
+        scene_overrides=all_overrides,
         inputs=specs, paths=paths,
         correlation=_correlation(c, raw.get("correlation"), tuple(specs)),
-        allowable=_allowables(c, raw.get("allowable", {})),
+        allowable=allowable,
         reliability=_reliability(c, raw.get("reliability", {})),
         sensitivity=_sensitivity(c, raw.get("sensitivity", {})),
         reference=c.choice("reference", raw.get("reference", "nominal"), REFERENCES),

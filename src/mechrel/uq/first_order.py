@@ -52,7 +52,8 @@ from ._common import (
 from .executor import Evaluations
 from .inputs import UncertainInputs
 from .model import check_model
-from .reliability import check_form, reliability_one_sided, reliability_two_sided, resolve_allowables
+from .reliability import (check_form, per_angle_mask, reliability_one_sided,
+                          reliability_two_sided, resolve_allowables)
 
 __all__ = ["fosm", "fosm_design", "fd_steps", "FOSMResult"]
 
@@ -255,18 +256,22 @@ def fosm_warnings(model, index, Y: np.ndarray, sigma_i: np.ndarray) -> list[str]
     up = Y[1::2] - Y[0]          # (d, n_out) forward changes
     down = Y[0] - Y[2::2]        # backward changes
     big = np.maximum(np.abs(up), np.abs(down))
-    unresolved = np.any((big > floor) & (np.abs(up - down) > UNRESOLVED * big), axis=0)
+    # over the analysis angles: a cycle extreme is a maximum over the cycle (its instant jumps
+    # with the inputs, a kink by construction), and only Monte Carlo estimates the whole cycle
+    angle = per_angle_mask(index)
+    n_out = int(angle.sum())
+    unresolved = np.any((big > floor) & (np.abs(up - down) > UNRESOLVED * big), axis=0) & angle
     if unresolved.any():
         out.append(f"fosm: the finite-difference step does not resolve the response at "
-                   f"{int(unresolved.sum())} of {len(index)} outputs, e.g. "
+                   f"{int(unresolved.sum())} of {n_out} outputs, e.g. "
                    f"{_labels(index, unresolved)}: the forward and backward slopes differ by "
                    f"more than {UNRESOLVED:.0%} (a kink, an impact, a chaotic response, or a "
                    "turning point where the first-order term vanishes), so σ_i there is not a "
                    "first-order standard deviation; use Monte Carlo")
-    zero = (sigma_i <= floor) & (scale > 0)
+    zero = (sigma_i <= floor) & (scale > 0) & angle
     if zero.any():
         out.append(f"fosm: the finite-difference gradient is zero at {int(zero.sum())} of "
-                   f"{len(index)} outputs, e.g. {_labels(index, zero)}: σ_i = 0 gives β = ±∞ "
+                   f"{n_out} outputs, e.g. {_labels(index, zero)}: σ_i = 0 gives β = ±∞ "
                    "and R ∈ {0, 1} there, which is not an estimate (a flat response, a kink "
                    "between the stencil points, or a step below the model's resolution); "
                    "use Monte Carlo there")

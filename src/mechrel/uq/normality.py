@@ -36,6 +36,7 @@ from mechrel.errors import StudyError
 from ._common import _labels, check_fraction, emit_warnings, make_provenance, resolve_outputs_safe
 from .first_order import FOSMResult
 from .montecarlo import MonteCarloResult, reliability_from_samples
+from .reliability import per_angle_mask
 
 __all__ = ["normality_check", "NormalityResult"]
 
@@ -62,8 +63,9 @@ def _ad_normal_pvalue(a2: float, n: int) -> float:
 class NormalityResult:
     """Per-output normality diagnostics of FOSM against Monte Carlo (frozen).
 
-    ``warnings``: outputs where FOSM's mean μ_i or its reliability lies outside the Monte Carlo
-    confidence interval (also issued as :class:`~mechrel.errors.EstimateWarning`).
+    ``warnings``: analysis angles where FOSM's mean μ_i or its reliability lies outside the
+    Monte Carlo confidence interval (also issued as :class:`~mechrel.errors.EstimateWarning`);
+    the cycle extremes' rows are in ``table`` but not in the warnings.
     """
 
     table: pd.DataFrame
@@ -181,17 +183,22 @@ def normality_check(
     notes = []
     level = f"{monte_carlo.confidence_level:.0%}"
     mt = monte_carlo.table
+    # the warnings compare FOSM with Monte Carlo where FOSM estimates something: at the analysis
+    # angles (a cycle extreme is a maximum over the cycle, not a normal first-order response,
+    # and only Monte Carlo estimates the whole cycle)
+    angle = per_angle_mask(ev.output_index)
     if {"mean_lo", "mean_hi"} <= set(mt.columns):
-        mean_out = ((mu_i < mt["mean_lo"].to_numpy()) | (mu_i > mt["mean_hi"].to_numpy()))
+        mean_out = ((mu_i < mt["mean_lo"].to_numpy()) | (mu_i > mt["mean_hi"].to_numpy())) & angle
         if mean_out.any():
             notes.append(f"fosm vs Monte Carlo: FOSM's mean μ_i lies outside the {level} Monte "
-                         f"Carlo interval of the mean at {int(mean_out.sum())} of {len(mu_i)} "
-                         f"outputs, e.g. {_labels(ev.output_index, mean_out)}: the response is "
-                         "not linear over the inputs' spread there; trust Monte Carlo")
-    if outside.any():
+                         f"Carlo interval of the mean at {int(mean_out.sum())} of "
+                         f"{int(angle.sum())} outputs, e.g. {_labels(ev.output_index, mean_out)}: "
+                         "the response is not linear over the inputs' spread there; trust "
+                         "Monte Carlo")
+    if (outside & angle).any():
         notes.append(f"fosm vs Monte Carlo: FOSM's reliability lies outside the {level} Monte "
-                     f"Carlo interval at {int(outside.sum())} of {len(r_fosm)} outputs, e.g. "
-                     f"{_labels(ev.output_index, outside)}: FOSM's normal, first-order model "
-                     "of the error does not hold there; trust Monte Carlo")
+                     f"Carlo interval at {int((outside & angle).sum())} of {int(angle.sum())} "
+                     f"outputs, e.g. {_labels(ev.output_index, outside & angle)}: FOSM's normal, "
+                     "first-order model of the error does not hold there; trust Monte Carlo")
     return NormalityResult(table, alpha, fosm.form, fosm, monte_carlo, prov,
                            emit_warnings(notes))

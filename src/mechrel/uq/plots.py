@@ -59,10 +59,6 @@ def _new_axes(n: int, axes: Any, height: float = 3.0):
     return axs[0].figure, axs
 
 
-def _title(q: str) -> str:
-    return f"{q} ({UNITS[q]})" if q in UNITS else q
-
-
 CLIP = 1e-7
 """Smallest probability of exceeding the allowable drawn on the log axis (and largest index,
 Φ⁻¹(1 − CLIP) ≈ 5.2): values beyond it, R = 1 to double precision among them, are drawn at the
@@ -136,6 +132,10 @@ def reliability_panels(ax_beta: Any, ax_pf: Any, x: np.ndarray, *, fosm: Any = N
         seen = R < 1  # an exceedance was observed; elsewhere only an upper bound on 1 − R
         label = f"Monte Carlo (n = {n})"
         beta_of(np.where(seen, R, np.nan), "C1", "s--", label, 3)
+        if ax_beta is not None and (~seen).any():
+            # R = 1 observed: β = ∞ is no estimate, the interval's lower end is (as ▼ on 1 − R)
+            ax_beta.plot(x[~seen], special.ndtri(np.clip(lo[~seen], clip, 1 - clip)), "^",
+                         ms=5, color="C1", label="MC lower bound (no exceedance seen)")
         if ax_pf is not None:
             ax_pf.fill_between(x, np.maximum(1 - hi, clip), np.maximum(1 - lo, clip),
                                color="C1", alpha=0.25, label=band)
@@ -185,8 +185,8 @@ def plot_reliability(*results: Any, title: str | None = None):
 
     One row per quantity: left the reliability index β = Φ⁻¹(R) of the form's R, right the
     probability of exceeding the allowable 1 − R on a log scale, where methods differ near
-    R = 1. Monte Carlo shows its sample count and confidence band (▼ where no exceedance was
-    seen: only an upper bound), the allowable is named with its cap Φ(μ_I/σ_I), the whole-cycle
+    R = 1. Monte Carlo shows its sample count and confidence band (where no exceedance was
+    seen, only a bound: ▲ the lower bound of β, ▼ the upper bound of 1 − R), the allowable is named with its cap Φ(μ_I/σ_I), the whole-cycle
     R of Monte Carlo is given, and values beyond :data:`CLIP` are drawn as clipped.
     """
     plt = _plt()
@@ -237,7 +237,7 @@ def plot_reliability(*results: Any, title: str | None = None):
                 kw["whole_cycle"] = tuple(float(wc.loc[q, c]) for c in
                                           ("reliability", "reliability_lo", "reliability_hi"))
         reliability_panels(row[0], row[1], x, **kw)
-        row[0].set_ylabel(f"β = Φ⁻¹(R), {_title(q)}" if q else "β = Φ⁻¹(R)")
+        row[0].set_ylabel(f"β = Φ⁻¹(R), {q}" if q else "β = Φ⁻¹(R)")  # β has no unit
         row[1].set_ylabel(f"1 − R, {q}" if q else "1 − R")
     for ax in axes[-1]:
         ax.set_xlabel(xlabel)
