@@ -226,3 +226,30 @@ def test_reliability_command_runs_form_and_subset_on_the_mechanism(tmp_path, cap
     summary = json.loads((out / "summary.json").read_text())
     assert summary["provenance"]["subset"]["method"] == "subset_simulation"
     assert summary["methods"] == ["form", "subset"]
+
+
+def test_nine_bar_script_finds_its_deepest_allowable_and_reads_the_levels():
+    # paper/rare_events_ninebar.py on the analytic extreme 6 + x1 + x2: P(Y > I) = Φ(−(I−6)/√2)
+    import importlib.util
+    import sys
+    from pathlib import Path
+
+    path = Path(__file__).resolve().parents[1] / "paper" / "rare_events_ninebar.py"
+    spec = importlib.util.spec_from_file_location("study_script_rare_events_ninebar", path)
+    script = importlib.util.module_from_spec(spec)
+    sys.modules[spec.name] = script
+    spec.loader.exec_module(script)
+    inputs = _study({"velocity": {"mean": 9.0, "std": 0.0}}).uncertain_inputs()
+    common = {"n_jobs": 1, "cache": None, "progress": False}
+    exact = lambda a: special.ndtr(-(np.asarray(a) - MU) / math.sqrt(2.0))  # noqa: E731
+    allowable, res, tries = script.find_deepest(MODEL, inputs, "velocity", MU + 3.0,
+                                                n_per_level=300, seed=11, common=common,
+                                                target=1e-4)
+    assert 1e-5 <= res.pf <= 1e-4 and tries[-1][1] == res.pf
+    assert abs(res.pf - exact(allowable)) <= 3 * res.cov * res.pf
+    # the intermediate levels: P(Y > y_i) = p0^(i+1) at y_i = I − b_i, each within 3 c.o.v.
+    # (the cumulative Au–Beck c.o.v. up to that level)
+    y, p = script.level_curve(res, allowable)
+    cov = np.sqrt(np.cumsum(res.levels["cov"].to_numpy()[:-1] ** 2))
+    assert len(y) >= 3 and np.all(np.diff(y) > 0)
+    assert np.all(np.abs(p - exact(y)) <= 3 * cov * p)
