@@ -66,8 +66,9 @@ def test_default_study_loads_and_builds_its_model():
     (_raw(allowable={"velocity": {"mean": "fast"}}),
      r"allowable\.velocity\.mean = \"fast\": expected a number, got a string; allowed: a "
      r"finite number > 0"),
-    (_raw(reliability={"methods": ["form"]}),
-     r"reliability\.methods\[0\] = \"form\": unknown value.*; allowed: one of fosm, mc, pce"),
+    (_raw(reliability={"methods": ["directional"]}),
+     r"reliability\.methods\[0\] = \"directional\": unknown value.*; allowed: one of fosm, mc, "
+     r"pce, form, sorm, is, subset"),
     (_raw(inputs={"c": {"paths": "joints.C1.clearance", "distribution": "normal", "mean": 1,
                         "std": 1}}),
      r"inputs\.c\.paths = \"joints\.C1\.clearance\": not a non-empty array; allowed: a "

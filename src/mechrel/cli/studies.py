@@ -143,16 +143,23 @@ def _study_args(p, section):
 
 
 def register_reliability(sub) -> None:
+    from ..studies.study import METHODS, RARE_EVENT_METHODS
+
+    rare = ", ".join(f"{k} ({m.name})" for k, m in RARE_EVENT_METHODS.items())
     p = sub.add_parser(
-        "reliability", help="accuracy reliability of a study (FOSM, Monte Carlo, PCE)",
+        "reliability", help="accuracy reliability of a study (FOSM, Monte Carlo, PCE, "
+                            "rare-event methods)",
         description="Reliability of the output errors staying within their allowables, per "
                     "crank angle and over the whole cycle, by FOSM (the paper's method), Monte "
-                    "Carlo and polynomial chaos. Finished model evaluations are cached in "
-                    "OUT/evaluations.sqlite, so an interrupted run resumes where it stopped. "
-                    "Failed samples are written to OUT/failures.csv.")
+                    "Carlo and polynomial chaos; the whole-cycle failure probability at rare "
+                    f"levels by {rare}, with the settings of the study's table of the method's "
+                    "name (e.g. --set subset.n_per_level=500). Finished model evaluations are "
+                    "cached in OUT/evaluations.sqlite, so an interrupted run resumes where it "
+                    "stopped. Failed samples are written to OUT/failures.csv.")
     _study_args(p, "reliability")
-    p.add_argument("--method", choices=("fosm", "mc", "pce", "all"),
-                   help="estimator (default: the study's reliability.methods)")
+    p.add_argument("--method", choices=METHODS + ("all",),
+                   help="estimator (default: the study's reliability.methods; all: every "
+                        "method; --n sets Monte Carlo's samples only)")
     p.set_defaults(func=_cmd_reliability)
 
 

@@ -16,11 +16,12 @@ from ..io import save_figure, write_json, write_table
 from ..io.lock import hold_folder
 from ..outputs import QUANTITY_INFO
 from ..uq._common import SampleFailuresError, check_choice, failure_message
-from .study import METHODS
+from .study import METHODS, RARE_EVENT_METHODS
 
 UNITS = {name: q.unit for name, q in QUANTITY_INFO.items()}  # SI, from the output kinds
 # What a finished run writes beside its summary; a refused run removes an earlier run's.
-RELIABILITY_RESULTS = ("reliability.csv", "whole_cycle.csv", "reliability.png")
+RELIABILITY_RESULTS = ("reliability.csv", "whole_cycle.csv", "reliability.png",
+                       "rare_events.csv", "design_point.csv")
 SENSITIVITY_RESULTS = ("sensitivity.csv", "sensitivity.png")
 
 
@@ -253,7 +254,14 @@ def _verdict(results, quantities, model) -> list[str]:
                          + (f"not applicable ({nonsmooth}); run Monte Carlo" if nonsmooth else
                             "a first-order, normal model of the error; run --method mc to "
                             "check it"))
-    if mc is not None:
+    rare = [k for k in results if k in RARE_EVENT_METHODS]
+    if rare:
+        who = ", ".join(rare) + (" and Monte Carlo" if mc else "")
+        verb = "estimates" if who == rare[0] else "estimate"
+        lines.append(f"    whole cycle: {who} {verb} it (FOSM and PCE give per-angle "
+                     "reliabilities); FORM and SORM are approximations, the sampling methods "
+                     "carry an interval")
+    elif mc is not None:
         lines.append("    whole cycle: only Monte Carlo estimates it (FOSM and PCE give "
                      "per-angle reliabilities)")
     return lines
@@ -269,8 +277,11 @@ def run_reliability(study, *, methods=None, n=None, n_jobs=1, seed=None, out=Non
     ----------
     study : Study
         From :func:`~mechrel.studies.study.load_study`.
-    methods : sequence of {"fosm", "mc", "pce", "all"}, optional
-        Default: the study's ``reliability.methods``.
+    methods : sequence of {"fosm", "mc", "pce", "form", "sorm", "is", "subset", "all"}, optional
+        Default: the study's ``reliability.methods``; ``"all"``: every method. The rare-event
+        methods (:data:`~mechrel.studies.study.RARE_EVENT_METHODS`, settings from the study's
+        ``[form]``, ``[sorm]``, ``[is]``, ``[subset]``) estimate the whole-cycle failure
+        probability (:mod:`mechrel.studies.rare`).
     n, seed, max_failure_fraction : optional
         Monte Carlo samples, seed, and the largest fraction of failed samples Monte Carlo and
         PCE accept; default: the study's.
@@ -278,7 +289,9 @@ def run_reliability(study, *, methods=None, n=None, n_jobs=1, seed=None, out=Non
         Passed to :func:`mechrel.uq.evaluate`.
     out : path, optional
         Folder for ``reliability.csv``, ``whole_cycle.csv``, ``reliability.png``,
-        ``failures.csv`` (every failed sample: method, inputs, reason) and ``summary.json``.
+        ``failures.csv`` (every failed sample: method, inputs, reason) and ``summary.json``;
+        with a rare-event method ``rare_events.csv`` (one row per method) and, with a design
+        point, ``design_point.csv``.
     cache : bool
         Cache the model evaluations in ``out/evaluations.sqlite``.
 
@@ -346,6 +359,14 @@ def run_reliability(study, *, methods=None, n=None, n_jobs=1, seed=None, out=Non
             results["pce_reliability"] = surrogate
             frames.append(surrogate.to_frame()[["reliability", "reliability_lo",
                                                 "reliability_hi"]].add_prefix("pce_surrogate."))
+        rare_keys = [m for m in methods if m in RARE_EVENT_METHODS]
+        rare_notes = []
+        if rare_keys:
+            from . import rare
+            rare_results, rare_notes = rare.estimate(
+                study, model, inputs, rare_keys, seed=seed, common=common,
+                max_failure_fraction=max_failure_fraction, evaluations=evaluations)
+            results.update(rare_results)
     except SampleFailuresError as exc:
         record.update(wall_time=time.perf_counter() - start, summary=lines,
                       provenance={k: dict(v.provenance) for k, v in results.items()})
@@ -355,7 +376,7 @@ def run_reliability(study, *, methods=None, n=None, n_jobs=1, seed=None, out=Non
         from ..uq import normality_check
         results["normality"] = normality_check(fosm=results["fosm"], monte_carlo=results["mc"])
         frames.append(results["normality"].to_frame().add_prefix("normality."))
-    table = pd.concat(frames, axis=1)
+    table = pd.concat(frames, axis=1) if frames else None
     if "pce" in results:
         loo = results["pce"].loo_error
         if loo is not None:
@@ -387,8 +408,9 @@ def run_reliability(study, *, methods=None, n=None, n_jobs=1, seed=None, out=Non
             parts.append(f"MC min R {t['reliability'].min():.4f} "
                          f"[{t['reliability_lo'].loc[k]:.4f}, {t['reliability_hi'].loc[k]:.4f}]"
                          f" at {k:g}°")
-        width = max(len(name) for name in study.quantities) + 1
-        lines.append(f"  {q + ':':{width}s} " + "; ".join(parts))
+        if parts:  # a run with rare-event methods only has no per-angle estimate
+            width = max(len(name) for name in study.quantities) + 1
+            lines.append(f"  {q + ':':{width}s} " + "; ".join(parts))
     if "mc" in results:
         mc = results["mc"]
         wc = mc.whole_cycle
@@ -397,28 +419,46 @@ def run_reliability(study, *, methods=None, n=None, n_jobs=1, seed=None, out=Non
                          f"[{row['reliability_lo']:.4f}, {row['reliability_hi']:.4f}] "
                          f"(from the {row['basis']})")
         lines.append(f"  Monte Carlo: {mc.evaluations.n} samples ({rule}), {mc.n_failed} failed")
+    if rare_keys:
+        lines.append("  whole cycle, any quantity beyond its allowable (rare-event methods):")
+        lines += rare.summary_lines({k: results[k] for k in rare_keys})
     lines += _failure_lines(evaluations, out / "failures.csv" if out else None)
     wall = time.perf_counter() - start
     n_calls = sum(ev.n_model_calls for ev in evaluations.values())
     lines.append(f"  {n_calls} model evaluations in {wall:.1f} s (n_jobs = {n_jobs})")
-    notes = _warnings_of(results)
+    notes = _warnings_of(results) + rare_notes
     lines += [f"  warning: {w}" for w in notes]
     verdict = _verdict(results, study.quantities, model)
     if out:
-        written = ["reliability.csv", "reliability.png", "failures.csv", "summary.json"]
-        write_table(table.reset_index(), out / "reliability.csv")
+        written = ["failures.csv", "summary.json"]
+        if table is not None:
+            write_table(table.reset_index(), out / "reliability.csv")
+            written[:0] = ["reliability.csv", "reliability.png"]
+        else:  # rare-event methods only: no per-angle table; none of an earlier run's either
+            _remove_stale(out, ["reliability.csv", "reliability.png"])
         if "mc" in results:
             write_table(results["mc"].whole_cycle.reset_index(), out / "whole_cycle.csv")
             written.insert(1, "whole_cycle.csv")
         else:
             _remove_stale(out, ["whole_cycle.csv"])
-        from ..uq.plots import plot_reliability
-        _agg()
+        if not rare_keys:
+            _remove_stale(out, ["rare_events.csv", "design_point.csv"])
+        else:
+            write_table(rare.table({k: results[k] for k in rare_keys}).reset_index(),
+                        out / "rare_events.csv")
+            written.insert(-2, "rare_events.csv")
+            dp = rare.design_points({k: results[k] for k in rare_keys})
+            if dp is not None:
+                write_table(dp.reset_index(), out / "design_point.csv")
+                written.insert(-2, "design_point.csv")
+        if table is not None:
+            from ..uq.plots import plot_reliability
+            _agg()
 
-        _save(plot_reliability(*(results[k] for k in ("fosm", "mc", "pce_reliability")
-                                 if k in results),
-                               title=f"{study.name}: reliability per crank angle ({form})"),
-              out / "reliability.png")
+            _save(plot_reliability(*(results[k] for k in ("fosm", "mc", "pce_reliability")
+                                     if k in results),
+                                   title=f"{study.name}: reliability per crank angle ({form})"),
+                  out / "reliability.png")
         _write_failures(evaluations, out / "failures.csv")
         write_json({**record, "wall_time": wall, "failures": _failure_counts(evaluations),
                     "provenance": {k: dict(v.provenance) for k, v in results.items()},

@@ -20,17 +20,22 @@ from ..outputs import QUANTITY_INFO
 from ..scene.loader import check_depth, read_toml_text
 from ..scene.model import QUANTITIES
 from ..uq.inputs import SAMPLING_RULES
+from ..uq.estimators import METHODS as REGISTRY
 from ..uq.mechanism import REFERENCES
 from ..uq.reliability import DEFAULT_ALLOWABLES, FORMS
 
-_TOP = ("allowable", "angle_step", "correlation", "cycles", "description", "inputs", "name",
-        "output", "quantities", "reference", "reliability", "scene", "scene_overrides",
-        "sensitivity")
+RARE_EVENT_METHODS = {m.key: m for m in REGISTRY.values() if m.kind == "rare_event"}
+"""The registry's rare-event methods by their study-file name (``form``, ``sorm``, ``is``,
+``subset``); each has a table of that name in a study file for its settings."""
+METHODS = ("fosm", "mc", "pce") + tuple(RARE_EVENT_METHODS)
+"""The study's reliability methods: FOSM, Monte Carlo, PCE and the rare-event methods."""
+_TOP = tuple(sorted(("allowable", "angle_step", "correlation", "cycles", "description", "inputs",
+                     "name", "output", "quantities", "reference", "reliability", "scene",
+                     "scene_overrides", "sensitivity") + tuple(RARE_EVENT_METHODS)))
 STUDY_FIELDS = _TOP
 """The top-level fields of a study file."""
 _RELIABILITY = ("form", "max_failure_fraction", "methods", "n", "pce_order", "rule", "seed")
 _SENSITIVITY = ("max_failure_fraction", "n", "seed")
-METHODS = ("fosm", "mc", "pce")
 
 
 @dataclass(frozen=True)
@@ -43,7 +48,9 @@ class Study:
     (``"nominal"`` or ``"same-geometry"``, :class:`~mechrel.uq.mechanism.MechanismModel`).
     ``reliability`` and ``sensitivity`` hold every setting of their section, defaults
     filled in (``methods``, ``form``, ``n``, ``rule``, ``seed``, ``pce_order``,
-    ``max_failure_fraction``; ``n``, ``seed``, ``max_failure_fraction``).
+    ``max_failure_fraction``; ``n``, ``seed``, ``max_failure_fraction``). ``method_settings``
+    maps each rare-event method (:data:`RARE_EVENT_METHODS`) to the settings its table in the
+    file gives, checked; the registry's defaults fill the rest when it runs.
     """
 
     name: str
@@ -61,6 +68,7 @@ class Study:
     reliability: Mapping[str, Any]
     sensitivity: Mapping[str, Any]
     reference: str = "nominal"
+    method_settings: Mapping[str, Mapping[str, Any]] = field(default_factory=dict)
     source: str | None = field(default=None, compare=False)
 
     def model(self):
@@ -265,6 +273,33 @@ def _reliability(c: _Checker, table: Any) -> dict:
                                                t.get("max_failure_fraction", 0.1))}
 
 
+def study_settings(method) -> dict:
+    """The settings of a registered rare-event ``method`` a study file may set: those the
+    registry checks (the others, e.g. a design point object, exist only in Python)."""
+    return {k: s for k, s in method.settings.items() if s.check is not None}
+
+
+def _method_settings(c: _Checker, raw: Mapping) -> dict:
+    """``[form]``, ``[sorm]``, ``[is]``, ``[subset]``: each key checked by the registry's check of
+    that setting, the message restated as ``SOURCE: TABLE.KEY = VALUE: PROBLEM; allowed: …``."""
+    out = {}
+    for key, method in RARE_EVENT_METHODS.items():
+        known = study_settings(method)
+        t = c.table(key, raw.get(key, {}), f"a table of {method.name} settings: "
+                    + ", ".join(known))
+        c.keys(key, t, tuple(known), what=f"[{key}] ({method.name})")
+        given = {}
+        for k, v in t.items():
+            try:
+                given[k] = known[k].check(join(key, k), v)
+            except StudyError as exc:
+                allowed = str(exc).partition("; allowed: ")[2] or None
+                c.fail(join(key, k), v, f"not a valid {method.name} setting"
+                       + (f" ({known[k].doc})" if known[k].doc else ""), allowed)
+        out[key] = given
+    return out
+
+
 def _sensitivity(c: _Checker, table: Any) -> dict:
     t = c.table("sensitivity", table)
     c.keys("sensitivity", t, _SENSITIVITY, what="[sensitivity]")
@@ -341,6 +376,7 @@ def load_study(source, *, overrides: Mapping[str, Any] | None = None,
         reliability=_reliability(c, raw.get("reliability", {})),
         sensitivity=_sensitivity(c, raw.get("sensitivity", {})),
         reference=c.choice("reference", raw.get("reference", "nominal"), REFERENCES),
+        method_settings=_method_settings(c, raw),
         source=label)
     try:  # the distributions, checked by chaospy/scipy with the input's name
         study.uncertain_inputs()

@@ -59,7 +59,9 @@ class Method:
 
     ``estimator`` and ``result`` are ``"module:attribute"`` paths under ``mechrel.uq``.
     ``settings`` None: read from the estimator's signature (every keyword not in
-    :data:`COMMON_ARGUMENTS`, checked by the estimator).
+    :data:`COMMON_ARGUMENTS`, checked by the estimator). ``short``: the method's name in study
+    files and on the command line (``mechrel reliability --method``), default ``name``; a study
+    file sets, in the table of that name, the settings that have a check.
     """
 
     name: str
@@ -68,6 +70,12 @@ class Method:
     kind: str
     summary: str
     declared_settings: Mapping[str, Setting] | None = field(default=None)
+    short: str | None = None
+
+    @property
+    def key(self) -> str:
+        """The name in study files and on the command line."""
+        return self.short or self.name
 
     def _load(self, path: str):
         mod, attr = path.split(":")
@@ -137,6 +145,16 @@ def _fraction(name: str, v: Any) -> float:
     return check_fraction(name, v, open_lo=True, open_hi=True)
 
 
+def _closed_fraction(name: str, v: Any) -> float:
+    from .._common import check_fraction
+    return check_fraction(name, v)
+
+
+def _correlation(name: str, v: Any) -> float:
+    from .._common import check_fraction
+    return check_fraction(name, v, open_hi=True)
+
+
 _FORM_SETTINGS = {
     "step": Setting(1e-4, _pos_float, "finite-difference step in standard normal units"),
     "scheme": Setting("central", _choice(("central", "forward")), "finite-difference scheme"),
@@ -145,7 +163,7 @@ _FORM_SETTINGS = {
 }
 _FAILURES = {
     "failures": Setting("exclude", _choice(("exclude", "as_failure")), "what a failed model sample counts as"),
-    "max_failure_fraction": Setting(0.1, None, "refuse above this fraction of failed samples"),
+    "max_failure_fraction": Setting(0.1, _closed_fraction, "refuse above this fraction of failed samples"),
     "confidence_level": Setting(0.95, _fraction, "level of the interval on P_f"),
 }
 
@@ -166,14 +184,14 @@ for _m in (
     Method("fosm", "first_order:fosm", "first_order:FOSMResult", "reliability",
            "first-order second-moment interference formula (the paper's eqs. 25-28)"),
     Method("monte_carlo", "montecarlo:monte_carlo", "montecarlo:MonteCarloResult", "reliability",
-           "crude Monte Carlo reliability and moments"),
+           "crude Monte Carlo reliability and moments", short="mc"),
     Method("polynomial_chaos", "pce:polynomial_chaos", "pce:PCEResult", "surrogate",
-           "polynomial chaos expansion (chaospy)"),
+           "polynomial chaos expansion (chaospy)", short="pce"),
     Method("sobol_indices", "sobol:sobol_indices", "sobol:SobolResult", "sensitivity",
            "Sobol' indices (SALib / Saltelli)"),
     Method("form", "estimators.form:form", "estimators.form:FORMResult", "rare_event",
            "FORM: design point by iHLRF, P_f = Φ(−β)",
-           _FORM_SETTINGS | {"start": Setting(None), "tol_direction": Setting(None)}),
+           _FORM_SETTINGS | {"start": Setting(None), "tol_direction": Setting(None, _pos_float)}),
     Method("sorm", "estimators.sorm:sorm", "estimators.sorm:SORMResult", "rare_event",
            "SORM: Hohenbichler-Rackwitz / Tvedt / Breitung from the curvatures at the design point",
            _FORM_SETTINGS | {"design_point": Setting(None),
@@ -182,14 +200,16 @@ for _m in (
     Method("importance_sampling", "estimators.importance:importance_sampling",
            "estimators.importance:ImportanceSamplingResult", "rare_event",
            "importance sampling centred on the FORM design point",
-           _FORM_SETTINGS | _FAILURES | {"n": Setting(1000, _pos_int(2)), "design_point": Setting(None)}),
+           _FORM_SETTINGS | _FAILURES | {"n": Setting(1000, _pos_int(2)), "design_point": Setting(None)},
+           short="is"),
     Method("subset_simulation", "estimators.subset:subset_simulation",
            "estimators.subset:SubsetSimulationResult", "rare_event",
            "subset simulation (Au & Beck) with conditional sampling or modified Metropolis",
            _FAILURES | {"n_per_level": Setting(1000, _pos_int(10)), "p0": Setting(0.1, _fraction),
                         "proposal": Setting("conditional", _choice(("conditional", "modified_metropolis"))),
-                        "rho": Setting(0.8, None), "spread": Setting(1.0, _pos_float),
-                        "max_levels": Setting(20, _pos_int(1))}),
+                        "rho": Setting(0.8, _correlation), "spread": Setting(1.0, _pos_float),
+                        "max_levels": Setting(20, _pos_int(1))},
+           short="subset"),
 ):
     register(_m)
 

@@ -1,0 +1,180 @@
+"""The rare-event methods of a study (``mechrel reliability --method form|sorm|is|subset``).
+
+Every registered method of kind ``"rare_event"`` (:data:`mechrel.uq.estimators.METHODS`) runs
+the same way: on the study's model and inputs, for one limit state built from the study's
+allowables, with the settings of its table in the study file (``[form]``, ``[subset]``, ...)
+over the registry's defaults. Nothing here names a method: a new one is its module and its
+registry entry.
+
+The limit state is the whole cycle: failure when any of the study's quantities leaves its
+allowable anywhere in the cycle, a series system of one component per quantity,
+``g_q = I_q − max_cycle |error_q|`` (two-sided form; ``I_q − max_cycle error_q`` one-sided),
+on the cycle extremes the model reports (found on the integrator's solution, not only at the
+analysis angles). ``I_q`` is the study's allowable: ``Normal(mean, std)``, an extra
+standard-normal coordinate of the search, or the fixed ``mean`` when ``std = 0``. This is the
+event whose probability Monte Carlo's ``whole_cycle.csv`` row ``all`` reports (1 − reliability).
+"""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+import pandas as pd
+
+from ..errors import StudyError
+from ..uq._common import SampleFailuresError
+from .study import RARE_EVENT_METHODS
+
+TABLE_COLUMNS = ("pf", "beta", "cov", "pf_lo", "pf_hi", "n_evaluations", "wall_time")
+"""The columns of ``rare_events.csv`` (NaN where a method does not estimate one: FORM and
+SORM give no sampling c.o.v. or interval)."""
+
+
+def whole_cycle_limit_state(study, model):
+    """The series system of the study's quantities at their cycle extremes (module docstring)."""
+    from ..uq.estimators import LimitState
+    from ..uq.inputs import Normal
+    from ..uq.reliability import whole_cycle_column
+
+    form = study.reliability["form"]
+    kind = "abs" if form == "two-sided" else "upper"
+    parts = []
+    for q in study.quantities:
+        col = whole_cycle_column(model.output_index, q, form)
+        if col is None:
+            raise StudyError(f"{study.source}: quantities = {q!r}: the model reports no cycle "
+                             f"extreme of it; allowed: quantities with cycle extremes")
+        mean, std = study.allowable[q]
+        allowable = Normal(mean, std) if std > 0 else mean
+        parts.append(LimitState.exceedance([model.output_index[col]], allowable, kind=kind,
+                                           name=q))
+    return parts[0] if len(parts) == 1 else LimitState.series(*parts, name="whole cycle")
+
+
+def _settings(study, key, max_failure_fraction):
+    """The method's settings: its table in the study, the CLI's --max-failure-fraction over it
+    (when the method has that setting), else the study's reliability.max_failure_fraction."""
+    method = RARE_EVENT_METHODS[key]
+    given = dict(study.method_settings.get(key, {}))
+    if "max_failure_fraction" in method.settings:
+        if max_failure_fraction is not None:
+            given["max_failure_fraction"] = max_failure_fraction
+        else:
+            given.setdefault("max_failure_fraction",
+                             study.reliability["max_failure_fraction"])
+    return method.validate(given)
+
+
+def estimate(study, model, inputs, keys, *, seed, common, max_failure_fraction=None,
+             evaluations=None):
+    """Run the rare-event methods ``keys`` (study-file names) in order.
+
+    A method with a ``design_point`` setting reuses an earlier FORM result of this run (same
+    model, inputs and limit state) instead of searching again.
+
+    Returns
+    -------
+    results : dict
+        ``{key: result}``.
+    notes : list of str
+        The warnings the estimators raised (a limit state never or always violated on the
+        samples, a c.o.v. above its target, ...), each prefixed with the method.
+    """
+    from ..uq.estimators import FORMResult
+
+    limit_state = whole_cycle_limit_state(study, model)
+    results, notes = {}, []
+    evaluations = {} if evaluations is None else evaluations
+    for key in keys:
+        method = RARE_EVENT_METHODS[key]
+        try:
+            settings = _settings(study, key, max_failure_fraction)
+        except StudyError as exc:
+            raise StudyError(f"{study.source}: [{key}] {exc}") from None
+        if "design_point" in settings and settings["design_point"] is None:
+            found = [r for r in results.values() if isinstance(r, FORMResult)]
+            if found:
+                settings["design_point"] = found[0]
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            try:
+                r = method.function(model=model, inputs=inputs, limit_state=limit_state,
+                                    seed=seed, **settings, **common)
+            except SampleFailuresError as exc:
+                evaluations[key] = exc.evaluations  # the runner writes them before it refuses
+                raise
+            except StudyError as exc:
+                raise StudyError(f"{study.source}: {key} ({method.name}): {exc}") from exc
+        results[key] = r
+        if r.evaluations is not None:
+            evaluations[key] = r.evaluations
+        for w in caught:
+            text = f"{key}: {w.message}"
+            if text not in notes:
+                notes.append(text)
+        if r.pf == 0.0 or r.pf == 1.0:
+            notes.append(f"{key}: P_f = {r.pf:g}: the limit state is "
+                         f"{'never' if r.pf == 0 else 'always'} violated on this method's "
+                         "samples; tighten or loosen the allowables, or add samples")
+    return results, notes
+
+
+def table(results) -> pd.DataFrame:
+    """``rare_events.csv``: one row per method (:data:`TABLE_COLUMNS`)."""
+    rows = []
+    for key, r in results.items():
+        t = r.to_frame().iloc[0]
+        row = {c: float(t[c]) if c in t.index else np.nan for c in TABLE_COLUMNS}
+        row["n_evaluations"] = int(t["n_evaluations"])
+        row["wall_time"] = float(r.provenance.get("wall_time", np.nan))
+        rows.append(pd.Series(row, name=key))
+    out = pd.DataFrame(rows)
+    out.index.name = "method"
+    return out
+
+
+def _form_of(result):
+    """The FORM result behind ``result`` (itself, or the one SORM/IS start from), or None."""
+    from ..uq.estimators import FORMResult
+
+    if isinstance(result, FORMResult):
+        return result
+    fr = getattr(result, "form", None)
+    return fr if isinstance(fr, FORMResult) else None
+
+
+def design_points(results) -> pd.DataFrame | None:
+    """``design_point.csv``: per method with a design point (FORM, and SORM and importance
+    sampling through theirs), per input: ``u`` (standard normal), ``x`` (physical, SI: the
+    inputs' own units; an allowable in its quantity's unit), ``alpha`` and ``importance``
+    (α², summing to 1)."""
+    frames, keys = [], []
+    for key, r in results.items():
+        fr = _form_of(r)
+        if fr is not None:
+            frames.append(fr.design_point[["u", "x", "alpha", "importance"]])
+            keys.append(key)
+    if not frames:
+        return None
+    return pd.concat(frames, keys=keys, names=["method", "input"])
+
+
+def summary_lines(results) -> list[str]:
+    """One line per method: P_f, β, the c.o.v. and interval where there is one, the cost, and
+    for a design point its two largest importance factors."""
+    lines = []
+    t = table(results)
+    for key, row in t.iterrows():
+        name = RARE_EVENT_METHODS[key].name
+        text = (f"  {key} ({name}): whole-cycle P_f = {row['pf']:.3g}, β = {row['beta']:.3f}")
+        if np.isfinite(row["cov"]):
+            text += (f", c.o.v. {row['cov']:.2f}, interval [{row['pf_lo']:.3g}, "
+                     f"{row['pf_hi']:.3g}]")
+        text += f"; {int(row['n_evaluations'])} model evaluations, {row['wall_time']:.1f} s"
+        fr = _form_of(results[key])
+        if fr is not None and fr is results[key]:
+            imp = fr.importance.sort_values(ascending=False)
+            text += "; α² " + ", ".join(f"{k} {v:.2f}" for k, v in imp.iloc[:3].items())
+        lines.append(text)
+    return lines
