@@ -173,3 +173,39 @@ def test_no_worker_outlives_its_parent(sig, tmp_path):
         for w in workers:
             if _alive(w):
                 os.kill(w, signal.SIGKILL)
+
+
+# ---------------------------------------------------------------- an interrupt inside numba
+def test_an_interrupt_raised_inside_a_numba_callback_is_an_interrupt(tmp_path):
+    """A signal handler that raises inside numba's Python callback (its constant unpickling on
+    a function's first call) reaches the caller as ``SystemError`` caused by the interrupt. The
+    evaluation loop treats it as the interrupt: the rows finished before it are cached."""
+    import numpy as np
+
+    from mechrel.errors import Interrupted, interrupt_of
+    from mechrel.uq import FunctionModel, evaluate
+
+    def callback_interrupted():
+        try:
+            raise Interrupted(signal.SIGTERM)
+        except Interrupted as exc:
+            raise SystemError("<function _numba_unpickle> returned a result with an exception "
+                              "set") from exc
+
+    try:
+        callback_interrupted()
+    except SystemError as exc:
+        assert isinstance(interrupt_of(exc), Interrupted)
+    assert interrupt_of(SystemError("another")) is None and interrupt_of(ValueError()) is None
+
+    def f(x):
+        if x[0] >= 3:
+            callback_interrupted()
+        return [2.0 * x[0]]
+
+    model = FunctionModel(f, ["a"], ["y"])
+    X = np.arange(6.0)[:, None]
+    with pytest.raises(Interrupted):
+        evaluate(model, X, cache=tmp_path, progress=False, chunk_size=6)
+    with sqlite3.connect(tmp_path / "evaluations.sqlite") as con:
+        assert con.execute("SELECT COUNT(*) FROM evaluations").fetchone() == (3,)

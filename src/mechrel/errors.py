@@ -61,3 +61,21 @@ class EstimateWarning(MechrelWarning):
     basis is degenerate, or it disagrees with an independent estimate. The result carries the
     same text in its ``warnings`` field (and the study runners in the console and
     ``summary.json``), so that a report never states such a number without its caveat."""
+
+
+def interrupt_of(exc: BaseException) -> KeyboardInterrupt | None:
+    """The :class:`KeyboardInterrupt` (Ctrl-C, or :class:`Interrupted` for SIGTERM) behind
+    ``exc``, or None.
+
+    Python runs a signal handler between bytecodes of the main thread, also inside a callback
+    that compiled numba code makes into Python (it unpickles constants on a function's first
+    call in a process); a handler that raises there reaches the caller as a ``SystemError``
+    whose cause is the interrupt. Such an error is an interrupt, not a failure: the callers
+    that handle interrupts (the evaluation loop, the command line) look through it."""
+    seen = set()
+    while exc is not None and id(exc) not in seen:
+        if isinstance(exc, KeyboardInterrupt):
+            return exc
+        seen.add(id(exc))
+        exc = exc.__cause__ or exc.__context__
+    return None

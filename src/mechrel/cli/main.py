@@ -14,7 +14,7 @@ import threading
 import warnings
 from pathlib import Path
 
-from ..errors import Interrupted, MechrelError, MechrelWarning
+from ..errors import Interrupted, MechrelError, MechrelWarning, interrupt_of
 from . import accuracy, pictures, scenes, simulate, studies
 from .simulate import EPILOG
 
@@ -94,9 +94,13 @@ def main(argv=None) -> int:
     except MechrelError as exc:
         print(f"mechrel: error: {exc}", file=sys.stderr)
         return 2
-    except KeyboardInterrupt as exc:
-        print(_interrupted_line(exc, args), file=sys.stderr)
-        return 128 + (exc.signum if isinstance(exc, Interrupted) else signal.SIGINT)
+    except (KeyboardInterrupt, SystemError) as exc:
+        # a SystemError is an interrupt raised inside a numba callback (errors.interrupt_of)
+        interrupt = interrupt_of(exc)
+        if interrupt is None:
+            raise
+        print(_interrupted_line(interrupt, args), file=sys.stderr)
+        return 128 + (interrupt.signum if isinstance(interrupt, Interrupted) else signal.SIGINT)
     except BrokenPipeError:  # e.g. `mechrel simulate ... | head`: the reader has gone
         import os
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())  # no error at exit

@@ -78,7 +78,7 @@ def transition_energy(delta, K, n, e1):
 
 @numba.njit(cache=True, fastmath=False)
 def film_shear_torques(eps, F_t, omega_S, omega_B, mu, R_S, L, c):
-    """Viscous shear torques of the film on the journal and on the bearing (N m).
+    r"""Viscous shear torques of the film on the journal and on the bearing (N m).
 
     With θ from n and h = c(1 − ε cos θ), the shear stress on the journal surface is
     μ(U_S − U_B)/h + (h/2)∂p/∂x and on the bearing surface μ(U_S − U_B)/h − (h/2)∂p/∂x
@@ -89,10 +89,10 @@ def film_shear_torques(eps, F_t, omega_S, omega_B, mu, R_S, L, c):
 
     .. math::
 
-        T_S = -\frac{2\\pi\\mu R^3 L (\\omega_S - \\omega_B)}{c\\sqrt{1-\varepsilon^2}}
+        T_S = -\frac{2\pi\mu R^3 L (\omega_S - \omega_B)}{c\sqrt{1-\varepsilon^2}}
               - \frac{e}{2} F_t,
-        \\qquad
-        T_B = +\frac{2\\pi\\mu R^3 L (\\omega_S - \\omega_B)}{c\\sqrt{1-\varepsilon^2}}
+        \qquad
+        T_B = +\frac{2\pi\mu R^3 L (\omega_S - \omega_B)}{c\sqrt{1-\varepsilon^2}}
               - \frac{e}{2} F_t,
 
     e = εc and F_t the film's tangential force on the journal. They satisfy the moment balance

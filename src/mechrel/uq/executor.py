@@ -33,7 +33,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from mechrel.errors import MechrelError, StudyError
+from mechrel.errors import MechrelError, StudyError, interrupt_of
 
 from ._workers import register_backend, safe_path_environment, watch_parent
 from .cache import as_cache
@@ -293,6 +293,12 @@ def _evaluate_chunk(model: Any, X: np.ndarray, n_out: int, chunk_id: int):
         except KeyboardInterrupt as exc:
             exc.finished = (i, Y[:i], ok[:i], reasons[:i])
             raise
+        except SystemError as exc:  # an interrupt inside a numba callback (interrupt_of)
+            interrupt = interrupt_of(exc)
+            if interrupt is None:
+                raise
+            interrupt.finished = (i, Y[:i], ok[:i], reasons[:i])
+            raise interrupt from None
         except StudyError:
             raise
         except MechrelError as e:  # ModelFailure, SimulationError, AssemblyError, SceneError
