@@ -334,7 +334,7 @@ def plot_orbits(runs, path):
     plt.close(fig)
 
 
-def plot_beta(long, path):
+def plot_beta(long, variants, path):
     plt = _plt()
     fig, axes = plt.subplots(3, 2, figsize=(11, 8.6), sharex=True, constrained_layout=True)
     ang = long["crank_angle"].map(lambda a: not isinstance(a, str))
@@ -342,7 +342,7 @@ def plot_beta(long, path):
     d["crank_angle"] = d["crank_angle"].astype(float)
     for row, q in zip(axes, QUANTITIES):
         base = d[(d["variant"] == BASE) & (d["quantity"] == q)].set_index("crank_angle")
-        for v in VARIANTS:
+        for v in variants:
             g = d[(d["variant"] == v.key) & (d["quantity"] == q)].set_index("crank_angle")
             row[0].plot(g.index, g["beta_two"], marker="o", ms=3.5, color=v.color, ls=v.style,
                         label=v.label)
@@ -363,12 +363,12 @@ def plot_beta(long, path):
     plt.close(fig)
 
 
-def plot_whole_cycle(wc, path, n):
+def plot_whole_cycle(wc, variants, path, n):
     plt = _plt()
     groups = (*QUANTITIES, "all")
     fig, axes = plt.subplots(1, len(groups), figsize=(13, 4.4), constrained_layout=True)
     for ax, g in zip(axes, groups):
-        for i, v in enumerate(VARIANTS):
+        for i, v in enumerate(variants):
             r = wc[(wc["variant"] == v.key) & (wc["group"] == g)].iloc[0]
             m = r["Pf_conditional"]
             ax.errorbar([i], [m], yerr=[[m - r["Pf_conditional_lo"]],
@@ -380,12 +380,12 @@ def plot_whole_cycle(wc, path, n):
                         fmt="s", mfc="none", color=v.color, capsize=3, alpha=0.7)
             if np.isfinite(r["Pf_cycle_fosm"]):
                 ax.plot([i - 0.22], [r["Pf_cycle_fosm"]], "x", color=v.color, ms=7)
-        ax.set_xticks(range(len(VARIANTS)))
-        ax.set_xticklabels([v.key for v in VARIANTS], rotation=25)
+        ax.set_xticks(range(len(variants)))
+        ax.set_xticklabels([v.key for v in variants], rotation=25)
         ax.set_title(g if g != "all" else "all three quantities")
         ax.set_ylim(bottom=0)
     axes[0].set_ylabel("whole-cycle P_f = 1 − P(max over the cycle |i| ≤ I)")
-    fig.legend(loc="outside lower center", ncol=len(VARIANTS))
+    fig.legend(loc="outside lower center", ncol=len(variants))
     fig.suptitle(f"Whole-cycle failure probability by bearing model, Monte Carlo n = {n} on the "
                  "cycle extremes (the same samples for every model)\n● conditional estimate, "
                  "□ binomial, both with 95 % intervals; × FOSM on max|i|", fontsize=10)
@@ -449,16 +449,14 @@ def main(argv=None) -> int:
 
 
 def run(args) -> int:
-    global VARIANTS
-    if args.quick:
-        VARIANTS = tuple(v for v in VARIANTS if v.key in (BASE, "finite"))
+    variants = tuple(v for v in VARIANTS if not args.quick or v.key in (BASE, "finite"))
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     cache = None if args.no_cache else out / "evaluations.sqlite"
     progress = not args.no_progress
     t0 = time.perf_counter()
     # the models first: a bad setting (--cycles) is reported before anything runs
-    models = {v.key: variant_model(v, args.cycles) for v in VARIANTS}
+    models = {v.key: variant_model(v, args.cycles) for v in variants}
 
     # load (or compile) the kernels first, so that the §4 wall times are warm
     from mechrel.scene import load_scene
@@ -466,7 +464,7 @@ def run(args) -> int:
 
     simulate(load_scene("nine-bar-lubricated", overrides={"analysis.cycles": 0.01}))
     runs = {}
-    for v in VARIANTS:
+    for v in variants:
         runs[v.key] = run_response(v, args.sample_deg)
         s = runs[v.key]["stats"]
         print(f"§4 {v.key:16s} {s['wall_time_s']:6.2f} s  steps {s['n_steps']:5d}  max ε C1 "
@@ -479,7 +477,7 @@ def run(args) -> int:
     plot_orbits(runs, out / "fig_orbits.png")
 
     fos, mc = {}, {}
-    for v in VARIANTS:
+    for v in variants:
         t1 = time.perf_counter()
         fos[v.key] = run_fosm(models[v.key], n_jobs=args.jobs, cache=cache, progress=progress)
         print(f"§5 {v.key:16s} FOSM in {time.perf_counter() - t1:.1f} s", flush=True)
@@ -487,9 +485,9 @@ def run(args) -> int:
     fmin = fosm_minima(long)
     long.to_csv(out / "fosm_per_angle.csv", index=False)
     fmin.to_csv(out / "fosm_minima.csv", index=False)
-    plot_beta(long, out / "fig_beta.png")
+    plot_beta(long, variants, out / "fig_beta.png")
 
-    for v in VARIANTS:
+    for v in variants:
         t1 = time.perf_counter()
         mc[v.key] = run_mc(models[v.key], n=args.n, n_jobs=args.jobs, cache=cache,
                            progress=progress)
@@ -498,7 +496,7 @@ def run(args) -> int:
     wc, diff = whole_cycle_tables(mc, fmin)
     wc.to_csv(out / "whole_cycle.csv", index=False)
     diff.to_csv(out / "whole_cycle_diff.csv", index=False)
-    plot_whole_cycle(wc, out / "fig_whole_cycle.png", args.n)
+    plot_whole_cycle(wc, variants, out / "fig_whole_cycle.png", args.n)
 
     wall = time.perf_counter() - t0
     from mechrel.uq._common import package_versions
@@ -511,7 +509,7 @@ def run(args) -> int:
                                 "failure_counts": mc[k].failure_counts}}
             for k in fos}
     (out / "summary.json").write_text(json.dumps(
-        {"argv": sys.argv, "variants": [v.key for v in VARIANTS], "wall_time": wall,
+        {"argv": sys.argv, "variants": [v.key for v in variants], "wall_time": wall,
          "versions": package_versions(), "provenance": prov}, indent=2, default=str) + "\n")
     write_summary(out, err, run_rows, fmin, wc, diff, args, wall)
     pd.set_option("display.width", 200)

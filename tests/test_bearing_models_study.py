@@ -106,7 +106,8 @@ def test_mean_ci_is_the_normal_interval():
 @pytest.mark.slow
 def test_quick_study_runs_and_the_long_variant_is_the_papers_run(tmp_path):
     subprocess.run([sys.executable, str(STUDY), "--out", str(tmp_path), "--quick",
-                    "--no-progress", "--jobs", "1", "--sample-deg", "0.05"], check=True, cwd=ROOT, capture_output=True)
+                    "--no-progress", "--jobs", "1", "--sample-deg", "0.05"], check=True, cwd=ROOT,
+                   capture_output=True)
     rows = list(csv.DictReader(open(tmp_path / "errors.csv", encoding="utf-8")))
     assert {r["variant"] for r in rows} == {"long", "finite"}
     # the long variant, set explicitly, is the default lubricated nine-bar of
