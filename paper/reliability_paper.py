@@ -146,9 +146,10 @@ PAPER_RANGES = {
 
 
 # ----------------------------------------------------------------------------- model & inputs
-def case_model(case: Case, *, cycles: float = 2.0):
+def case_model(case: Case, *, cycles: float = 2.0, overrides: dict | None = None):
     """The MechanismModel of one case: inputs clearance (both joints), viscosity (lubricated
-    only, both joints) and speed (both cranks, opposite senses)."""
+    only, both joints) and speed (both cranks, opposite senses). ``overrides``: further fixed
+    scene values (e.g. ``joints.C1.lubricant.bearing``), applied after the case's."""
     from mechrel.uq.mechanism import MechanismModel
 
     targets = {"clearance": ["joints.C1.clearance", "joints.C2.clearance"]}
@@ -158,7 +159,8 @@ def case_model(case: Case, *, cycles: float = 2.0):
     overrides = {"joints.C1.clearance": case.clearance, "joints.C2.clearance": case.clearance,
                  "joints.C1.lubricant.viscosity": case.viscosity,
                  "joints.C2.lubricant.viscosity": case.viscosity,
-                 "drivers.crank2.speed": case.speed, "drivers.crank1.speed": -case.speed}
+                 "drivers.crank2.speed": case.speed, "drivers.crank1.speed": -case.speed,
+                 **(overrides or {})}
     scene = "nine-bar-dry" if case.model == "dry" else "nine-bar-lubricated"
     return MechanismModel(scene, targets, output="slider", cycles=cycles, overrides=overrides)
 

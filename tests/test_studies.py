@@ -387,7 +387,8 @@ def _script(name):
     return module
 
 
-@pytest.mark.parametrize("name", ["fosm_vs_mc", "sensitivity", "reliability_paper"])
+@pytest.mark.parametrize("name", ["fosm_vs_mc", "sensitivity", "reliability_paper",
+                                  "bearing_models"])
 @pytest.mark.parametrize("cycles", ["0", "1.5"])
 def test_study_scripts_report_errors_in_one_line(name, cycles, tmp_path, capsys):
     argv = ["--cycles", cycles, "--quick", "--out", str(tmp_path), "--no-progress"]

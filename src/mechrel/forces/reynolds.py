@@ -35,8 +35,9 @@ finite number of steps for this M-matrix. This is the "periodic complementarity"
 Reynolds condition for a full 360° bearing; the other reading, restarting the film at the
 maximum-film line with ambient pressure, imposes a reformation line the physics does not ask for
 and depends on the choice of that line when the squeeze direction turns, so it is not
-implemented. The Reynolds condition gives a smaller positive region than half-Sommerfeld
-(the pressure must fall to zero with zero gradient), hence a smaller load capacity.
+implemented. Under the Reynolds condition the film runs past the thinnest point until the
+pressure falls to zero with zero gradient: a larger positive region than half-Sommerfeld's, a
+larger load capacity and a smaller attitude angle (tests/test_forces_short_film.py, docs/forces.md).
 
 Source: Reynolds (1886); Hamrock, Schmid & Jacobson (2004), Fundamentals of Fluid Film
 Lubrication, ch. 7 and 10 (Reynolds' equation, the Swift–Stieber condition); the
