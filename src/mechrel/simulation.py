@@ -119,10 +119,16 @@ def output_times(scene: Scene, compiled: CompiledScene | None = None) -> np.ndar
     """Output instants (s) from the scene's analysis settings."""
     compiled = compiled or compile_scene(scene)
     a = scene.analysis
-    duration = a.duration if a.duration is not None else a.cycles * compiled.period
+    if a.duration is not None:
+        duration = a.duration
+    else:
+        # validated: cycles come with a cycle driver, which gives the period
+        assert a.cycles is not None and compiled.period is not None
+        duration = a.cycles * compiled.period
     if a.sample_step is not None:
         step = a.sample_step
     else:
+        assert a.sample_step_angle is not None and a.cycle_driver is not None  # validated
         speed = abs(scene.drivers[a.cycle_driver].speed)
         step = a.sample_step_angle / speed
     n = math.floor(duration / step * (1 + 1e-12)) + 1
@@ -301,6 +307,7 @@ def _check_orbits(scene: Scene, times: np.ndarray, orbits) -> None:
         eps = d["eps"]
         i = int(np.argmax(eps))
         if joint.model == "lubricated" and eps[i] >= 1.0:
+            assert joint.lubricant is not None  # validated: a lubricated joint has one
             raise SimulationError(
                 f"joint {name}: the journal left the bearing (eccentricity ratio ε = "
                 f"{eps[i]:.4g} >= 1 at t = {times[i]:.6g} s): the film (viscosity "
@@ -540,11 +547,12 @@ def simulate(scene: Scene, *, reference: Scene | None = None, method: str = "aut
     counterpart = ideal if reference is None else _reference_outputs(reference, times, scene)
 
     if not has_clearance and driven and method != "dynamics":
+        assert ideal is not None  # driven, method "auto" or "kinematics": computed above
         ext = None
         if extremes:  # no integrator steps: a fine uniform sampling of the window
-            t_lo = analysis_window(compiled, times)
-            fine = np.linspace(t_lo, float(times[-1]), KINEMATIC_POINTS + 1)
-            T, sel, _ = _window_points(times, t_lo, fine)
+            t_win = analysis_window(compiled, times)
+            fine = np.linspace(t_win, float(times[-1]), KINEMATIC_POINTS + 1)
+            T, sel, _ = _window_points(times, t_win, fine)
             lead = times[~sel]
             Qf, Vf, Af, _ = kinematic_analysis(compiled.ideal, q0, np.concatenate([lead, T]),
                                                tol=tol, labels=compiled.labels["ideal"])
@@ -588,6 +596,7 @@ def simulate(scene: Scene, *, reference: Scene | None = None, method: str = "aut
     _check_orbits(scene, times, orbits)
     ext = None
     if extremes:
+        assert t_lo is not None  # set above when extremes
         ny = Y.shape[1]
         log = res.log
         T, sel, first = _window_points(times, t_lo, log[:, 0])

@@ -226,6 +226,7 @@ class Scene:
         a = self.analysis
         if a.duration is not None:
             return a.duration
+        assert a.cycles is not None and a.cycle_driver is not None  # validated: one is given
         return a.cycles * 2.0 * math.pi / abs(self.drivers[a.cycle_driver].speed)
 
     @property
@@ -235,4 +236,5 @@ class Scene:
         a = self.analysis
         if a.sample_step is not None:
             return a.sample_step
+        assert a.sample_step_angle is not None and a.cycle_driver is not None  # validated
         return a.sample_step_angle / abs(self.drivers[a.cycle_driver].speed)

@@ -11,7 +11,8 @@ import pandas as pd
 from ..errors import StudyError
 from ..io import write_json, write_table
 from ..outputs import QUANTITY_INFO
-from ..uq._common import SampleFailuresError, check_choice, failure_message
+from .._checks import ARGS
+from ..uq._common import SampleFailuresError, failure_message
 from .study import METHODS
 
 UNITS = {name: q.unit for name, q in QUANTITY_INFO.items()}  # SI, from the output kinds
@@ -232,7 +233,7 @@ def run_reliability(study, *, methods=None, n=None, n_jobs=1, seed=None, out=Non
     cfg = study.reliability
     methods = tuple(methods or cfg["methods"])
     for m in methods:
-        check_choice("methods", m, METHODS + ("all",))
+        ARGS.choice("methods", m, METHODS + ("all",))
     if "all" in methods:
         methods = METHODS
     n = cfg["n"] if n is None else n

@@ -171,18 +171,77 @@ def fosm(
     ``noise`` (for ``step="auto"``): the relative noise of the model outputs; None takes the
     model's optional ``output_noise`` attribute (e.g. the integrator's rtol), else machine epsilon.
     A failed stencil point makes the gradient undefined: ``StudyError`` naming the points.
+
+    Parameters
+    ----------
+    model : Model, optional
+        The model evaluated at the 2d + 1 stencil points (exclusive with ``evaluations``).
+    inputs : UncertainInputs
+        The uncertain inputs; their means and standard deviations (SI units) set the stencil.
+    evaluations : Evaluations, optional
+        Precomputed evaluations of exactly :func:`fosm_design` ``(inputs, step, noise)``.
+    allowable : Allowable or mapping, optional
+        The allowable error I ~ N(mean, std²) in the outputs' units: None (the default
+        allowables per quantity, :data:`mechrel.uq.reliability.DEFAULT_ALLOWABLES`), one
+        :class:`~mechrel.uq.reliability.Allowable` for every output, or
+        ``{quantity: Allowable}``.
+    form : {"two-sided", "one-sided"}, default "two-sided"
+        The safe event: P(|i| < I) (two-sided) or the paper's P(i < I) on the signed error.
+    step : "auto" or float or array, default "auto"
+        Central-difference steps h_j in the inputs' units; "auto" balances truncation against
+        ``noise`` (:func:`fd_steps`).
+    noise : float, optional
+        Relative noise of the outputs (dimensionless) for ``step="auto"``.
+    n_jobs : int, default 1
+        Parallel workers: an integer >= 1, or -1 for all cores (all Dask workers).
+    backend : {"loky", "dask", "sequential"}, default "loky"
+        Where the model runs (:func:`mechrel.uq.evaluate`); the numbers do not depend on it.
+    cache : path or None
+        SQLite cache of finished evaluations (an interrupted run resumes), or None.
+    progress : bool, default True
+        Show a progress bar.
+    chunk_size : int, optional
+        Samples per task (default: about 64 chunks; never depends on ``n_jobs``).
+
+    Returns
+    -------
+    FOSMResult
+        Per output: μ_i, σ_i, β, both reliabilities; ``.to_frame()``, ``.provenance``.
+
+    Raises
+    ------
+    StudyError
+        A bad argument (naming it, its value and what is allowed), or a failed stencil point.
+
+    Examples
+    --------
+    An output y = x with x ~ N(0, 0.1²) against a fixed allowable 0.2: β = 2, and the
+    two-sided reliability is P(|y| < 0.2) = 2 Φ(2) − 1:
+
+    >>> from mechrel.uq import Allowable, Normal, UncertainInputs, fosm, linear_model
+    >>> inputs = UncertainInputs.from_specs({"x": Normal(0.0, 0.1)})
+    >>> r = fosm(model=linear_model([0.0], [[1.0]], ["x"]), inputs=inputs,
+    ...          allowable=Allowable(0.2, 0.0), progress=False)
+    >>> row = r.to_frame().iloc[0]
+    >>> round(float(row["beta"]), 6), round(float(row["R_two_sided"]), 4)
+    (2.0, 0.9545)
     """
     t0 = time.perf_counter()
     exclusive_source(model, evaluations, what="fosm")
     if noise is None:
         noise = float(getattr(model, "output_noise", EPS)) if model is not None else EPS
     check_form(form)
-    names = check_model(model)[0] if model is not None else evaluations.input_names
+    if model is not None:
+        names = check_model(model)[0]
+    else:
+        assert evaluations is not None  # exclusive_source: exactly one
+        names = evaluations.input_names
     inputs = check_inputs(inputs, names)
     X = fosm_design(inputs, step=step, noise=noise)
     if model is not None:
         ev = run(model, X, executor_kwargs(n_jobs, backend, cache, progress, chunk_size))
     else:
+        assert evaluations is not None  # exclusive_source: exactly one
         ev = evaluations
         if ev.X.shape != X.shape or not np.array_equal(ev.X, X):
             raise StudyError(

@@ -41,6 +41,7 @@ import pandas as pd
 from scipy import optimize, special, stats
 from scipy.stats import qmc
 
+from mechrel._checks import ARGS
 from mechrel.errors import StudyError
 
 __all__ = [
@@ -245,11 +246,7 @@ def as_seed_sequence(seed: Any) -> np.random.SeedSequence:
         return seed
     if seed is None:
         return np.random.SeedSequence()
-    if isinstance(seed, (int, np.integer)) and not isinstance(seed, bool) and seed >= 0:
-        return np.random.SeedSequence(int(seed))
-    raise StudyError(
-        f"seed: expected a non-negative int, a numpy SeedSequence or None, got {seed!r}"
-    )
+    return np.random.SeedSequence(ARGS.seed("seed", seed))
 
 
 def child_seed(ss: np.random.SeedSequence, k: int) -> np.random.SeedSequence:
@@ -547,9 +544,9 @@ class UncertainInputs:
             raise StudyError(f"to_standard_normal: expected shape (n, {self.d}), got {x.shape}")
         z = np.empty_like(x)
         for j, m in enumerate(self.marginals):
-            if m.kind == "normal":
+            if isinstance(m, Normal):
                 z[:, j] = (x[:, j] - m.mean) / m.std
-            elif m.kind == "lognormal":
+            elif isinstance(m, LogNormal):
                 mu, s = m.log_params
                 z[:, j] = (np.log(x[:, j]) - mu) / s
             else:
@@ -561,7 +558,7 @@ class UncertainInputs:
     # ----------------------------------------------------------------- sampling
     def unit_sample(self, n: int, rule: str = "random", seed: Any = None) -> np.ndarray:
         """(n, d) points in the unit hypercube by ``rule`` (see :meth:`sample`)."""
-        n = _check_n(n)
+        n = ARGS.integer("n", n, ge=1, what="a number of draws")
         if rule not in SAMPLING_RULES:
             raise StudyError(f"rule: got {rule!r}; allowed: {list(SAMPLING_RULES)}")
         rng = as_generator(seed)
@@ -581,9 +578,3 @@ class UncertainInputs:
         when correlated). Same seed and rule → the same bytes.
         """
         return self.from_unit(self.unit_sample(n, rule, seed))
-
-
-def _check_n(n: Any, what: str = "n", minimum: int = 1) -> int:
-    if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < minimum:
-        raise StudyError(f"{what}: must be an integer >= {minimum}, got {n!r}")
-    return int(n)
