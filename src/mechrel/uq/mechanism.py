@@ -22,7 +22,7 @@ Geometric tolerances
 A point's coordinate is an input by its component path, ``bodies.rod.points.B[0]`` or
 ``ground.points.O4[1]`` (m), and a link's length by the distance between two of its points,
 ``bodies.crank.length(O,A)`` (m): setting it moves A along the line from O through A so that
-|A − O| equals the value exactly (the other points, the body's mass, inertia and frame stay).
+``|A − O|`` equals the value exactly (the other points, the body's mass, inertia and frame stay).
 Under such inputs the error is measured against the ideal motion of the *nominal* design
 (``reference="nominal"``, the default): the ideal mechanism with the scene's own point
 coordinates and every other input at the sample's value (a speed tolerance still moves the
@@ -217,7 +217,7 @@ class MechanismModel:
         A mechanism with clearance joints is integrated: the solver's rtol, or 1e-6 for a
         fixed-step method, whose error is not controlled. One without (geometric tolerances
         against the nominal design) is solved by kinematic analysis: Newton–Raphson to
-        |Φ| ≤ ``solver.assembly_tolerance`` (m), relative to the mechanism's size (its largest
+        ``|Φ|`` ≤ ``solver.assembly_tolerance`` (m), relative to the mechanism's size (its largest
         point distance from a body's frame or the ground's origin), and no less than machine
         epsilon. The error's reference (the nominal design) is the same in every sample, so its
         own noise cancels in the differences."""
