@@ -60,7 +60,35 @@ EPS = float(np.finfo(float).eps)
 
 
 def fd_steps(inputs: UncertainInputs, step: Any = "auto", noise: float = EPS) -> np.ndarray:
-    """Finite-difference steps h_j (see the module docstring)."""
+    """Finite-difference steps h_j (see the module docstring).
+
+    Parameters
+    ----------
+    inputs : UncertainInputs
+        The inputs (their means and standard deviations, SI units).
+    step : "auto", float or array, default "auto"
+        "auto": ``noise**(1/3) * max(|μ_j|, σ_j)``; a float f > 0: f σ_j; an array: the
+        steps themselves (the inputs' units).
+    noise : float in (0, 1)
+        Relative noise of the outputs, for "auto".
+
+    Returns
+    -------
+    ndarray, shape (d,)
+        h_j in the inputs' units.
+
+    Raises
+    ------
+    StudyError
+        A step or noise outside what is allowed.
+
+    Examples
+    --------
+    >>> from mechrel.uq import Normal, UncertainInputs
+    >>> u = UncertainInputs.from_specs({"a": Normal(1.0, 0.1), "b": Normal(2.0, 0.2)})
+    >>> fd_steps(u, 0.5).tolist()
+    [0.05, 0.1]
+    """
     mu, sd = inputs.mean, inputs.std
     if isinstance(step, str):
         if step != "auto":
@@ -84,7 +112,27 @@ def fd_steps(inputs: UncertainInputs, step: Any = "auto", noise: float = EPS) ->
 
 
 def fosm_design(inputs: UncertainInputs, *, step: Any = "auto", noise: float = EPS) -> np.ndarray:
-    """The (2d + 1, d) stencil: row 0 = μ_X, rows 1 + 2j / 2 + 2j = μ_X ± h_j e_j."""
+    """The (2d + 1, d) stencil: row 0 = μ_X, rows 1 + 2j / 2 + 2j = μ_X ± h_j e_j.
+
+    Parameters
+    ----------
+    inputs : UncertainInputs
+        Their means (SI units) are the stencil's centre.
+    step, noise
+        As for :func:`fosm` (:func:`fd_steps`).
+
+    Returns
+    -------
+    ndarray, shape (2d + 1, d)
+        The points :func:`fosm` evaluates, in the inputs' units.
+
+    Examples
+    --------
+    >>> from mechrel.uq import Normal, UncertainInputs
+    >>> u = UncertainInputs.from_specs({"a": Normal(1.0, 0.1), "b": Normal(2.0, 0.2)})
+    >>> fosm_design(u, step=0.5).tolist()
+    [[1.0, 2.0], [1.05, 2.0], [0.95, 2.0], [1.0, 2.1], [1.0, 1.9]]
+    """
     inputs = check_inputs(inputs, None)
     mu = inputs.mean
     h = fd_steps(inputs, step, noise)
@@ -109,6 +157,15 @@ class FOSMResult:
     :class:`~mechrel.errors.EstimateWarning`): a non-smooth model (dry contact), outputs whose
     response the step does not resolve (a kink, an impact, chaos), outputs with a zero
     gradient (σ_i = 0, so β = ±∞ and R ∈ {0, 1} there are not estimates).
+
+    Examples
+    --------
+    >>> from mechrel.uq import Allowable, Normal, UncertainInputs, linear_model
+    >>> inputs = UncertainInputs.from_specs({"x": Normal(0.0, 0.1)})
+    >>> model, allow = linear_model([0.0], [[1.0]], ["x"]), Allowable(0.2, 0.0)
+    >>> r = fosm(model=model, inputs=inputs, allowable=allow, progress=False)
+    >>> r.provenance["method"], r.provenance["n_model_evaluations"], r.warnings
+    ('fosm', 3, ())
     """
 
     table: pd.DataFrame

@@ -184,6 +184,17 @@ class MonteCarloResult:
     ``n_inside``, ``reliability`` with ``reliability_lo``/``_hi``. ``whole_cycle`` (per quantity
     and ``"all"``): the joint event over the cycle. ``failure_counts``: {reason: count}.
     ``warnings``: caveats of the estimate (for a run on a PCE surrogate, the surrogate's).
+
+    Examples
+    --------
+    >>> from mechrel.uq import Allowable, Normal, UncertainInputs, linear_model
+    >>> inputs = UncertainInputs.from_specs({"x": Normal(0.0, 0.1)})
+    >>> model, allow = linear_model([0.0], [[1.0]], ["x"]), Allowable(0.2, 0.0)
+    >>> from mechrel.uq import monte_carlo
+    >>> r = monte_carlo(model=model, inputs=inputs, n=256, seed=3, allowable=allow,
+    ...                 progress=False)
+    >>> r.provenance["seed"]["entropy"], r.evaluations.n, int(r.to_frame()["n"].iloc[0])
+    (3, 256, 256)
     """
 
     table: pd.DataFrame
@@ -371,7 +382,32 @@ def monte_carlo(
 def monte_carlo_design(inputs: Any, *, n: int, rule: str = "random", seed: Any = None) -> np.ndarray:
     """The input sample ``monte_carlo(model=..., inputs=inputs, n=n, rule=rule, seed=seed)``
     evaluates (the first child stream of ``seed``), for evaluating elsewhere and passing back
-    with ``evaluations=`` and the same ``seed``."""
+    with ``evaluations=`` and the same ``seed``.
+
+    Parameters
+    ----------
+    inputs : UncertainInputs
+        The uncertain inputs.
+    n : int
+        Number of samples, an integer >= 2.
+    rule : {"random", "latin_hypercube", "sobol"}, default "random"
+        Sampling rule.
+    seed : int >= 0, SeedSequence or None
+        The study's seed (the same one passed to :func:`monte_carlo`).
+
+    Returns
+    -------
+    ndarray, shape (n, d)
+        The samples, in the inputs' units.
+
+    Examples
+    --------
+    >>> from mechrel.uq import Normal, UncertainInputs
+    >>> u = UncertainInputs.from_specs({"a": Normal(1.0, 0.1), "b": Normal(2.0, 0.2)})
+    >>> X = monte_carlo_design(u, n=4, seed=1)
+    >>> X.shape, bool((X == monte_carlo_design(u, n=4, seed=1)).all())
+    ((4, 2), True)
+    """
     ARGS.choice("rule", rule, SAMPLING_RULES)
     inputs = check_inputs(inputs, None)
     return inputs.sample(ARGS.sample_count("n", n), rule, child_seed(as_seed_sequence(seed), 0))

@@ -65,6 +65,18 @@ class NormalityResult:
 
     ``warnings``: outputs where FOSM's mean μ_i or its reliability lies outside the Monte Carlo
     confidence interval (also issued as :class:`~mechrel.errors.EstimateWarning`).
+
+    Examples
+    --------
+    >>> from mechrel.uq import Allowable, Normal, UncertainInputs, linear_model
+    >>> inputs = UncertainInputs.from_specs({"x": Normal(0.0, 0.1)})
+    >>> model, allow = linear_model([0.0], [[1.0]], ["x"]), Allowable(0.2, 0.0)
+    >>> from mechrel.uq import fosm, monte_carlo, normality_check
+    >>> f = fosm(model=model, inputs=inputs, allowable=allow, progress=False)
+    >>> mc = monte_carlo(model=model, inputs=inputs, n=1024, seed=1, allowable=allow,
+    ...                  progress=False)
+    >>> normality_check(fosm=f, monte_carlo=mc).warnings
+    ()
     """
 
     table: pd.DataFrame

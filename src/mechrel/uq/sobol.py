@@ -86,6 +86,34 @@ def sobol_design(inputs: UncertainInputs, *, n: int, calc_second_order: bool = F
     """Saltelli design ((d + 2)·n rows, or (2d + 2)·n with second order) for ``inputs``.
 
     ``n`` is SALib's N (base samples; a power of 2 keeps the Sobol' sequence balanced).
+
+    Parameters
+    ----------
+    inputs : UncertainInputs
+        Independent uncertain inputs.
+    n : int
+        Base samples, an integer >= 2.
+    calc_second_order : bool, default False
+        Also the blocks of the second-order indices.
+    seed : int >= 0, SeedSequence or None
+        The study's seed (the same one passed to :func:`sobol_indices`).
+
+    Returns
+    -------
+    ndarray
+        The design, in the inputs' units.
+
+    Raises
+    ------
+    StudyError
+        Correlated inputs, or a bad ``n``.
+
+    Examples
+    --------
+    >>> from mechrel.uq import Normal, UncertainInputs
+    >>> u = UncertainInputs.from_specs({"a": Normal(1.0, 0.1), "b": Normal(2.0, 0.2)})
+    >>> sobol_design(u, n=8, seed=1).shape  # (d + 2) n rows
+    (32, 2)
     """
     from SALib.sample import sobol as sobol_sample
 
@@ -104,7 +132,17 @@ def sobol_design(inputs: UncertainInputs, *, n: int, calc_second_order: bool = F
 
 @dataclass(frozen=True, eq=False)
 class SobolResult:
-    """Sobol' indices (frozen). DataFrames are outputs × inputs; ``*_conf`` are CI half-widths."""
+    """Sobol' indices (frozen). DataFrames are outputs × inputs; ``*_conf`` are CI half-widths.
+
+    Examples
+    --------
+    >>> from mechrel.uq import Normal, UncertainInputs, linear_model, sobol_indices
+    >>> inputs = UncertainInputs.from_specs({"a": Normal(0.0, 1.0), "b": Normal(0.0, 1.0)})
+    >>> r = sobol_indices(model=linear_model([0.0], [[1.0, 2.0]], ["a", "b"]), inputs=inputs,
+    ...                   n=256, seed=1, progress=False)
+    >>> list(r.total.columns), r.n_base, r.evaluations.n  # n (d + 2) runs
+    (['a', 'b'], 256, 1024)
+    """
 
     first: pd.DataFrame
     first_conf: pd.DataFrame
