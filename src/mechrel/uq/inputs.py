@@ -693,8 +693,7 @@ class UncertainInputs:
     def unit_sample(self, n: int, rule: str = "random", seed: Any = None) -> np.ndarray:
         """(n, d) points in the unit hypercube by ``rule`` (see :meth:`sample`)."""
         n = ARGS.integer("n", n, ge=1, what="a number of draws")
-        if rule not in SAMPLING_RULES:
-            raise StudyError(f"rule: got {rule!r}; allowed: {list(SAMPLING_RULES)}")
+        ARGS.choice("rule", rule, SAMPLING_RULES)
         rng = as_generator(seed)
         if rule == "random":
             return rng.random((n, self.d))
