@@ -48,7 +48,7 @@ import numpy as np
 import pandas as pd
 from scipy import optimize, stats
 
-from mechrel.cli.args import positive_int, report_errors
+from mechrel.cli.args import sample_count, report_errors
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from reliability_paper import (  # noqa: E402
@@ -532,7 +532,7 @@ def _cases(text: str) -> list[str]:
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--out", default="results/fosm_vs_mc")
-    ap.add_argument("--n", type=positive_int, default=None,
+    ap.add_argument("--n", type=sample_count, default=None,
                     help="Monte Carlo samples per case (default 512; --quick 64)")
     ap.add_argument("--rule", default="sobol", choices=("sobol", "random", "latin_hypercube"))
     ap.add_argument("--seed", type=int, default=SEED)

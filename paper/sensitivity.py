@@ -51,7 +51,7 @@ import numpy as np
 import pandas as pd
 
 from mechrel.errors import StudyError
-from mechrel.cli.args import positive_int, report_errors
+from mechrel.cli.args import sample_count, report_errors
 from mechrel.uq.mechanism import MechanismModel, _lookup
 
 PI = math.pi
@@ -241,7 +241,7 @@ def _md(df):
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--out", default="results/sensitivity")
-    ap.add_argument("--n", type=positive_int, default=None,
+    ap.add_argument("--n", type=sample_count, default=None,
                     help="Saltelli base samples N (N·(d+2) = 8N runs; default 128, --quick 16)")
     ap.add_argument("--pce-order", type=int, default=2)
     ap.add_argument("--per-angle", action=argparse.BooleanOptionalAction, default=True,

@@ -239,8 +239,8 @@ def test_scheduler_runs_the_study_on_an_existing_dask_cluster(tmp_path, capsys):
 
 
 @pytest.mark.parametrize("argv, fragment", [
-    (["--jobs", "0"], "argument --jobs: '0': not a number of workers; allowed"),
-    (["--seed", "-3"], "argument --seed: '-3': not a seed; allowed: an integer >= 0"),
+    (["--jobs", "0"], "argument --jobs: 0: must be >= 1 or -1; allowed: an integer >= 1, or -1"),
+    (["--seed", "-3"], "argument --seed: -3: must be >= 0; allowed: an integer >= 0 (a seed)"),
 ])
 def test_bad_numbers_are_refused_by_the_parser(argv, fragment, capsys):
     with pytest.raises(SystemExit) as info:

@@ -52,3 +52,45 @@ def test_no_reference_outside_the_repository():
     hits = [f for f in files if (ROOT / f).is_file() and f.endswith((".py", ".md", ".toml", ".cff"))
             and needle in (ROOT / f).read_text(encoding="utf-8", errors="replace")]
     assert hits == []
+
+
+def _mypy(*files):
+    # the configuration is [tool.mypy] in pyproject.toml (the public API modules; files given
+    # here replace its list); mypy is in the test extra; its cache (.mypy_cache/, ignored by
+    # git) keeps a warm run to seconds
+    return subprocess.run([sys.executable, "-m", "mypy", *map(str, files)], cwd=ROOT,
+                          capture_output=True, text=True)
+
+
+def test_mypy_is_clean():
+    proc = _mypy()
+    assert proc.returncode == 0, proc.stdout[-4000:] + proc.stderr[-2000:]
+    assert "Success: no issues found" in proc.stdout
+
+
+def test_mypy_checks_the_public_types(tmp_path):
+    # every estimator result satisfies the Result protocol, every estimator is an Estimator ...
+    good = ("from mechrel.uq import fosm, monte_carlo, polynomial_chaos, sobol_indices\n"
+            "from mechrel.uq.first_order import FOSMResult\n"
+            "from mechrel.uq.montecarlo import MonteCarloResult\n"
+            "from mechrel.uq.normality import NormalityResult\n"
+            "from mechrel.uq.pce import PCEResult\n"
+            "from mechrel.uq.protocols import Estimator, Result\n"
+            "from mechrel.uq.sobol import SobolResult\n"
+            "def f(a: FOSMResult, b: MonteCarloResult, c: PCEResult, d: SobolResult,\n"
+            "      e: NormalityResult) -> list[Result]:\n"
+            "    return [a, b, c, d, e]\n"
+            "E: list[Estimator] = [fosm, monte_carlo, polynomial_chaos, sobol_indices]\n")
+    (tmp_path / "good.py").write_text(good, encoding="utf-8")
+    proc = _mypy(tmp_path / "good.py")
+    assert proc.returncode == 0, proc.stdout[-4000:]
+    # ... and the check is not vacuous: a wrong use of the same types is reported
+    bad = ("from mechrel.scene import load_scene\n"
+           "from mechrel.uq.protocols import Result\n"
+           "def g(r: Result) -> int:\n"
+           "    return r.warnings\n"
+           "n: int = load_scene('nine-bar-dry').name\n")
+    (tmp_path / "bad.py").write_text(bad, encoding="utf-8")
+    proc = _mypy(tmp_path / "bad.py")
+    assert proc.returncode == 1
+    assert proc.stdout.count("error: Incompatible") == 2, proc.stdout

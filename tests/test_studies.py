@@ -258,12 +258,13 @@ def test_bad_study_on_the_command_line_is_one_clear_error(tmp_path, capsys):
 
 @pytest.mark.parametrize("command", ["reliability", "sensitivity"])
 @pytest.mark.parametrize("option, value, message", [
-    ("--n", "0", r"argument --n: '0': not a positive integer"),  # was: the study's n, silently
-    ("--n", "1.5", r"argument --n: '1\.5': not a positive integer"),
-    ("--max-failure-fraction", "1.5", r"argument --max-failure-fraction: '1\.5': not a number "
-                                      r"in \[0, 1\]; allowed: a number in \[0, 1\]"),
-    ("--max-failure-fraction", "x", r"argument --max-failure-fraction: 'x': not a number "
-                                    r"in \[0, 1\]"),
+    ("--n", "0", r"argument --n: 0: must be >= 2; allowed: an integer >= 2 \(a sample count\)"),
+    ("--n", "1", r"argument --n: 1: must be >= 2"),  # was: passed here, failed late
+    ("--n", "1.5", r"argument --n: 1\.5: expected an integer, got a number"),
+    ("--max-failure-fraction", "1.5", r"argument --max-failure-fraction: 1\.5: must be <= 1; "
+                                      r"allowed: a finite number in \[0, 1\]"),
+    ("--max-failure-fraction", "x", r"argument --max-failure-fraction: \"x\": expected a "
+                                    r"number, got a string"),
 ])
 def test_command_line_values_are_checked(command, option, value, message, tmp_path, capsys):
     with pytest.raises(SystemExit) as info:

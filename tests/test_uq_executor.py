@@ -72,7 +72,7 @@ def test_backend_argument_errors():
     model = linear_model([0.0], [[1.0, 0.0]], INPUTS.names)
     with pytest.raises(StudyError, match=r"backend: got 'threads'; allowed: \['loky', 'dask', 'sequential'\]"):
         evaluate(model, np.zeros((4, 2)), backend="threads")
-    with pytest.raises(StudyError, match=r"n_jobs: got 0; allowed: a positive integer or -1"):
+    with pytest.raises(StudyError, match=r"n_jobs = 0: must be >= 1 or -1; allowed: an integer >= 1, or -1"):
         evaluate(model, np.zeros((4, 2)), n_jobs=0)
     with pytest.raises(StudyError, match=r"X: expected shape \(n, 2\) for inputs \['x0', 'x1'\], got \(4, 3\)"):
         evaluate(model, np.zeros((4, 3)))

@@ -120,11 +120,11 @@ def test_validation_messages_name_field_value_and_what_is_allowed(specs, correla
 
 def test_sampling_argument_errors():
     inp = UncertainInputs.from_specs({"a": Normal(0, 1)})
-    with pytest.raises(StudyError, match=r"rule: got 'halton'; allowed: \['random', 'latin_hypercube', 'sobol'\]"):
+    with pytest.raises(StudyError, match=r'rule = "halton": unknown value; allowed: one of random, latin_hypercube, sobol'):
         inp.sample(8, "halton", seed=1)
-    with pytest.raises(StudyError, match=r"n: must be an integer >= 1, got 0"):
+    with pytest.raises(StudyError, match=r"n = 0: must be >= 1; allowed: an integer >= 1 \(a number of draws\)"):
         inp.sample(0, seed=1)
-    with pytest.raises(StudyError, match=r"seed: expected a non-negative int"):
+    with pytest.raises(StudyError, match=r"seed = -3: must be >= 0; allowed: an integer >= 0 \(a seed\)"):
         inp.sample(4, seed=-3)
 
 

@@ -7,11 +7,18 @@ class MechrelError(Exception):
     """Base class of every error caused by user input or by a model that cannot be evaluated."""
 
 
-class SceneError(MechrelError, ValueError):
-    """A scene file or scene value is invalid.
+class InputError(MechrelError, ValueError):
+    """A value given by the user is invalid (the base of :class:`SceneError` and
+    :class:`StudyError`, the errors :class:`mechrel._checks.Checker` raises).
 
-    The message names the file (when there is one), the field path, the offending value and
-    what is allowed.
+    Parameters
+    ----------
+    message : str
+        ``PATH = VALUE: PROBLEM; allowed: WHAT``.
+    source : str, optional
+        The file (or ``"<mapping>"``) the value comes from; it prefixes the message.
+    path : str, optional
+        The dotted path of the field.
     """
 
     def __init__(self, message: str, *, source: str | None = None, path: str | None = None):
@@ -19,6 +26,14 @@ class SceneError(MechrelError, ValueError):
         self.path = path
         prefix = f"{source}: " if source else ""
         super().__init__(prefix + message)
+
+
+class SceneError(InputError):
+    """A scene file or scene value is invalid.
+
+    The message names the file (when there is one), the field path, the offending value and
+    what is allowed.
+    """
 
 
 class AssemblyError(MechrelError, RuntimeError):
@@ -29,7 +44,7 @@ class SimulationError(MechrelError, RuntimeError):
     """A simulation failed (non-finite state, step size underflow, too many steps)."""
 
 
-class StudyError(MechrelError, ValueError):
+class StudyError(InputError):
     """A study file or estimator argument is invalid."""
 
 

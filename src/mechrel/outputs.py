@@ -45,6 +45,12 @@ class Quantity:
     allowable : tuple of float or None
         Default allowable error (mean, standard deviation) in SI units, or None (a study must
         give one).
+
+    Examples
+    --------
+    >>> q = QUANTITY_INFO["min_film_thickness"]
+    >>> q.unit, q.display_unit, q.display_scale
+    ('m', 'µm', 1000000.0)
     """
 
     name: str
@@ -56,7 +62,28 @@ class Quantity:
 
 @dataclass(frozen=True)
 class OutputKind:
-    """One row of :data:`OUTPUT_KINDS` (module docstring)."""
+    """One row of :data:`OUTPUT_KINDS` (module docstring).
+
+    Attributes
+    ----------
+    name : str
+        The ``kind`` of a scene output.
+    fields : tuple of str
+        The fields of the output's table besides ``kind`` (e.g. ``point``, ``axis``).
+    quantities : tuple of Quantity
+        What it measures, with units.
+    computed, ideal : str
+        How the value and its ideal counterpart are computed (for the docs).
+    values : callable
+        ``values(scene, compiled, output, states, ideal, actual, counterpart) ->
+        {quantity: array}`` in SI units.
+
+    Examples
+    --------
+    >>> kind = OUTPUT_KINDS["point"]
+    >>> kind.fields, [q.name for q in kind.quantities]
+    (('point', 'axis'), ['displacement', 'velocity', 'acceleration'])
+    """
 
     name: str
     fields: tuple[str, ...]
@@ -70,7 +97,14 @@ class OutputKind:
 class States:
     """The mechanism's states at some instants (rows): ``T`` (s), ``Q`` (m, rad), ``V``,
     ``A``, and ``H`` the contact joints' history state (impact speeds, m/s) or None (the ideal
-    mechanism has none)."""
+    mechanism has none).
+
+    Examples
+    --------
+    >>> z = np.zeros((2, 3))
+    >>> States(np.array([0.0, 0.1]), z, z, z).H is None
+    True
+    """
 
     T: np.ndarray
     Q: np.ndarray
@@ -212,7 +246,36 @@ _PATHS: dict = {}
 
 def ideal_path(counterpart, ref) -> np.ndarray:
     """The path (PATH_POINTS + 1, 2) (m) of point ``ref`` on the ideal mechanism of
-    ``counterpart`` over one cycle of its cycle driver, from kinematic analysis (cached)."""
+    ``counterpart`` over one cycle of its cycle driver, from kinematic analysis (cached).
+
+    Parameters
+    ----------
+    counterpart : Scene
+        A fully driven scene with a cycle driver.
+    ref : PointRef
+        The point whose path is traced.
+
+    Returns
+    -------
+    ndarray, shape (PATH_POINTS + 1, 2)
+        Global coordinates (m), first and last rows the same point.
+
+    Raises
+    ------
+    SimulationError
+        A scene that is not fully driven or has no cycle driver.
+
+    Examples
+    --------
+    The slider of the slider-crank moves on a straight guide: its path is a segment of
+    twice the crank radius (0.05 m):
+
+    >>> from mechrel.scene import load_scene
+    >>> scene = load_scene("slider-crank")
+    >>> path = ideal_path(scene, scene.outputs["slider"].point)
+    >>> round(float(np.ptp(path[:, 0])), 9), round(float(np.ptp(path[:, 1])), 9)
+    (0.1, 0.0)
+    """
     from .errors import SimulationError
     from .mechanics.kinematics import assemble, kinematic_analysis
     from .mechanics.system import compile_scene
@@ -242,7 +305,26 @@ def ideal_path(counterpart, ref) -> np.ndarray:
 def distance_to_path(px, py, path) -> np.ndarray:
     """Distance (m) of the points (px, py) from the polyline ``path``: the smallest distance
     to the segments next to the 8 nearest vertices (the nearest point of a finely sampled
-    smooth curve lies on one of them)."""
+    smooth curve lies on one of them).
+
+    Parameters
+    ----------
+    px, py : array_like
+        Coordinates of the points (m).
+    path : ndarray, shape (m, 2)
+        The polyline's vertices (m), m >= 2.
+
+    Returns
+    -------
+    ndarray
+        One distance (m) per point.
+
+    Examples
+    --------
+    >>> path = np.array([[0.0, 0.0], [1.0, 0.0], [2.0, 0.0]])
+    >>> distance_to_path(np.array([0.5, 2.5]), np.array([0.3, 0.0]), path).tolist()
+    [0.3, 0.5]
+    """
     from scipy.spatial import cKDTree
 
     P = np.column_stack([px, py])
@@ -320,7 +402,23 @@ QUANTITY_INFO: Mapping[str, Quantity] = MappingProxyType(
 
 
 def quantities_of(output) -> tuple[str, ...]:
-    """The quantity names of a scene output (an :class:`~mechrel.scene.model.Output`)."""
+    """The quantity names of a scene output (an :class:`~mechrel.scene.model.Output`).
+
+    Parameters
+    ----------
+    output : Output
+        A scene output.
+
+    Returns
+    -------
+    tuple of str
+
+    Examples
+    --------
+    >>> from mechrel.scene import load_scene
+    >>> quantities_of(load_scene("slider-crank").outputs["slider"])
+    ('displacement', 'velocity', 'acceleration')
+    """
     return tuple(q.name for q in OUTPUT_KINDS[output.kind].quantities)
 
 
@@ -329,7 +427,41 @@ def values(scene, compiled, T, Q, V, A, *, H=None, ideal: bool = False, actual=N
     """``{output: {quantity: array}}`` of every output of ``scene`` at the states (rows of
     ``Q``, ``V``, ``A``); ``actual``: the simulated scene when ``scene`` is a reference
     design, ``counterpart``: the scene whose ideal mechanism is the reference (both default
-    ``scene``)."""
+    ``scene``).
+
+    Parameters
+    ----------
+    scene : Scene
+        Whose outputs are computed.
+    compiled : CompiledScene
+        ``scene`` compiled.
+    T : ndarray
+        Instants (s).
+    Q, V, A : ndarray, shape (len(T), n)
+        Coordinates (m, rad) and their derivatives.
+    H : ndarray, optional
+        The contact joints' history state (impact speeds, m/s).
+    ideal : bool
+        The states are of the ideal mechanism.
+    actual, counterpart : Scene, optional
+        See above.
+
+    Returns
+    -------
+    dict
+        ``{output: {quantity: ndarray}}`` in SI units.
+
+    Examples
+    --------
+    >>> from mechrel.mechanics.system import compile_scene
+    >>> from mechrel.scene import load_scene
+    >>> from mechrel.simulation import simulate
+    >>> scene = load_scene("slider-crank")
+    >>> r = simulate(scene)
+    >>> out = values(scene, compile_scene(scene), r.time, r.q, r.v, r.a, ideal=True)
+    >>> bool(np.array_equal(out["slider"]["displacement"], r.outputs["slider"]["displacement"]))
+    True
+    """
     actual = scene if actual is None else actual
     counterpart = scene if counterpart is None else counterpart
     st = States(np.asarray(T, dtype=float), Q, V, A, H)
@@ -339,6 +471,22 @@ def values(scene, compiled, T, Q, V, A, *, H=None, ideal: bool = False, actual=N
 
 
 def display(quantity: str) -> tuple[str, float]:
-    """(display unit, scale) of a quantity name; ("", 1.0) for an unknown one."""
+    """(display unit, scale) of a quantity name; ("", 1.0) for an unknown one.
+
+    Parameters
+    ----------
+    quantity : str
+        A name of :data:`QUANTITY_INFO`.
+
+    Returns
+    -------
+    tuple of (str, float)
+        The display unit and the factor from SI to it.
+
+    Examples
+    --------
+    >>> display("min_film_thickness"), display("unknown")
+    (('µm', 1000000.0), ('', 1.0))
+    """
     q = QUANTITY_INFO.get(quantity)
     return (q.display_unit, q.display_scale) if q is not None else ("", 1.0)

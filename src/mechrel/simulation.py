@@ -61,7 +61,40 @@ def scene_kind(scene: Scene) -> str:
 
 
 def make_integrator(scene: Scene, integrator: str | None = None, **settings):
-    """The integrator a scene asks for (``solver.integrator``; ``"auto"`` → per scene type)."""
+    """The integrator a scene asks for (``solver.integrator``; ``"auto"`` → per scene type).
+
+    Parameters
+    ----------
+    scene : Scene
+        Its ``solver`` table gives the integrator, step (s), tolerances, step budget and
+        contact-onset tolerance (m).
+    integrator : str, optional
+        Overrides ``scene.solver.integrator``: ``"auto"`` (:data:`DEFAULT_SOLVERS` of the
+        scene's kind, :func:`scene_kind`) or a name of :data:`mechrel.integrate.INTEGRATORS`.
+    **settings
+        ``step`` (s), ``rtol``, ``atol`` and the integrator's own keywords, overriding the
+        scene's (None leaves a value as it is).
+
+    Returns
+    -------
+    Integrator
+        Configured, ready for :meth:`~mechrel.integrate.base.Integrator.integrate`.
+
+    Raises
+    ------
+    SimulationError
+        An unknown integrator or setting, or a fixed-step method without a step.
+
+    Examples
+    --------
+    A dry clearance joint makes the problem non-smooth: the default is DOPRI5 at tight
+    tolerances.
+
+    >>> from mechrel.scene import load_scene
+    >>> solver = make_integrator(load_scene("slider-crank-dry"))
+    >>> solver.name, solver.rtol, solver.atol
+    ('dopri5', 1e-08, 1e-11)
+    """
     s = scene.solver
     name = s.integrator if integrator is None else integrator
     if name != "auto" and name not in INTEGRATORS:
@@ -104,13 +137,47 @@ def _physical_memory() -> int | None:
 
 
 def output_times(scene: Scene, compiled: CompiledScene | None = None) -> np.ndarray:
-    """Output instants (s) from the scene's analysis settings."""
+    """Output instants (s) from the scene's analysis settings.
+
+    Parameters
+    ----------
+    scene : Scene
+        ``analysis.duration`` (s) or ``analysis.cycles`` of the cycle driver, and
+        ``analysis.sample_step`` (s) or ``analysis.sample_step_angle`` (rad).
+    compiled : CompiledScene, optional
+        The scene compiled (:func:`mechrel.mechanics.system.compile_scene`), if at hand.
+
+    Returns
+    -------
+    ndarray
+        ``0, h, 2h, ...`` up to the duration (s), both ends included.
+
+    Raises
+    ------
+    SimulationError
+        When the instants would not fit in this machine's memory.
+
+    Examples
+    --------
+    One crank revolution at 5000 rpm (12 ms) sampled every degree:
+
+    >>> from mechrel.scene import load_scene
+    >>> t = output_times(load_scene("slider-crank"))
+    >>> t.size, round(float(t[-1]), 9)
+    (361, 0.012)
+    """
     compiled = compiled or compile_scene(scene)
     a = scene.analysis
-    duration = a.duration if a.duration is not None else a.cycles * compiled.period
+    if a.duration is not None:
+        duration = a.duration
+    else:
+        # validated: cycles come with a cycle driver, which gives the period
+        assert a.cycles is not None and compiled.period is not None
+        duration = a.cycles * compiled.period
     if a.sample_step is not None:
         step = a.sample_step
     else:
+        assert a.sample_step_angle is not None and a.cycle_driver is not None  # validated
         speed = abs(scene.drivers[a.cycle_driver].speed)
         step = a.sample_step_angle / speed
     n = math.floor(duration / step * (1 + 1e-12)) + 1
@@ -190,6 +257,15 @@ class SimulationResult:
         driver) where it occurs. Found on the integrator's solution (every accepted step's end
         and ``dense_points`` points of its continuous extension inside it, plus the output
         instants), not on the output grid (docs/mechanics.md, "Cycle extremes").
+
+    Examples
+    --------
+    >>> from mechrel.scene import load_scene
+    >>> r = simulate(load_scene("slider-crank"))
+    >>> sorted(r.outputs["slider"])
+    ['acceleration', 'displacement', 'velocity']
+    >>> r.q.shape == (r.time.size, 9)
+    True
     """
 
     scene: Scene
@@ -292,6 +368,7 @@ def _check_orbits(scene: Scene, times: np.ndarray, orbits) -> None:
         if model.film_only and eps[i] >= 1.0:
             contact = ", ".join(f"'{m.name}'" for m in MODELS.values()
                                 if m.has_film and m.has_contact)
+            assert joint.lubricant is not None  # validated: a film model has one
             raise SimulationError(
                 f"joint {name}: the journal left the bearing (eccentricity ratio ε = "
                 f"{eps[i]:.4g} >= 1 at t = {times[i]:.6g} s): the film (viscosity "
@@ -382,7 +459,29 @@ def _check_reference(scene: Scene, reference: Scene) -> None:
 
 def analysis_window(compiled: CompiledScene, times: np.ndarray) -> float:
     """Start (s) of the window the cycle extremes cover: the last cycle of the cycle driver
-    (one period before the last output instant), or the whole span without a cycle driver."""
+    (one period before the last output instant), or the whole span without a cycle driver.
+
+    Parameters
+    ----------
+    compiled : CompiledScene
+        The compiled scene (its cycle driver and period, s).
+    times : ndarray
+        The output instants (s).
+
+    Returns
+    -------
+    float
+        The window's start (s).
+
+    Examples
+    --------
+    >>> from mechrel.mechanics.system import compile_scene
+    >>> from mechrel.scene import load_scene
+    >>> scene = load_scene("slider-crank-dry")  # two revolutions of 12 ms
+    >>> compiled = compile_scene(scene)
+    >>> round(analysis_window(compiled, output_times(scene, compiled)), 9)
+    0.012
+    """
     if compiled.cycle_driver < 0 or compiled.period is None:
         return float(times[0])
     return max(float(times[0]), float(times[-1]) - compiled.period)
@@ -518,9 +617,29 @@ def simulate(scene: Scene, *, reference: Scene | None = None, method: str = "aut
 
     Raises
     ------
-    AssemblyError, SimulationError
-        A failed run; when the scene holds values of magnitude >= ``EXTREME_MAGNITUDE``
-        the message names them first (their overflow is the likely cause).
+    AssemblyError
+        The initial configuration cannot be assembled.
+    SimulationError
+        An over-constrained scene, an unknown method or setting, a reference that does not
+        match, or a failed integration (non-finite state, step-size underflow, too many
+        steps, a journal leaving its bearing). When the scene holds values of magnitude
+        >= ``EXTREME_MAGNITUDE``, the message of either error names them first (their
+        overflow is the likely cause).
+    TypeError
+        ``scene`` is not a :class:`~mechrel.scene.model.Scene`.
+
+    Examples
+    --------
+    The slider-crank with ideal joints is fully driven: kinematic analysis over one crank
+    revolution; the slider travels twice the crank radius (0.05 m):
+
+    >>> from mechrel.scene import load_scene
+    >>> r = simulate(load_scene("slider-crank"))
+    >>> r.method, r.time.size, float(r.crank_angle[-1])
+    ('kinematics', 361, 360.0)
+    >>> x = r.outputs["slider"]["displacement"]
+    >>> round(float(x.max() - x.min()), 9)
+    0.1
     """
     try:
         return _simulate(scene, reference=reference, method=method, integrator=integrator,
@@ -593,11 +712,12 @@ def _simulate(scene: Scene, *, reference: Scene | None, method: str, integrator:
     counterpart = ideal if reference is None else _reference_outputs(reference, times, scene)
 
     if not has_clearance and driven and method != "dynamics":
+        assert ideal is not None  # driven, method "auto" or "kinematics": computed above
         ext = None
         if extremes:  # no integrator steps: a fine uniform sampling of the window
-            t_lo = analysis_window(compiled, times)
-            fine = np.linspace(t_lo, float(times[-1]), KINEMATIC_POINTS + 1)
-            T, sel, _ = _window_points(times, t_lo, fine)
+            t_win = analysis_window(compiled, times)
+            fine = np.linspace(t_win, float(times[-1]), KINEMATIC_POINTS + 1)
+            T, sel, _ = _window_points(times, t_win, fine)
             lead = times[~sel]
             Qf, Vf, Af, _ = kinematic_analysis(compiled.ideal, q0, np.concatenate([lead, T]),
                                                tol=tol, labels=compiled.labels["ideal"])
@@ -641,6 +761,7 @@ def _simulate(scene: Scene, *, reference: Scene | None, method: str, integrator:
     _check_orbits(scene, times, orbits)
     ext = None
     if extremes:
+        assert t_lo is not None  # set above when extremes
         ny = Y.shape[1]
         log = res.log
         T, sel, first = _window_points(times, t_lo, log[:, 0])

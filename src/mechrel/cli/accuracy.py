@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from .args import add_set_option
+from .args import add_set_option, seed
 
 
 def _cmd_accuracy(args) -> int:
@@ -34,7 +34,7 @@ def register(sub) -> None:
     p.add_argument("--ensemble", type=int, metavar="R",
                    help="dry/transition scenes: perturbed initial states per setting, >= 2 "
                         "(default 8; the floor falls as 1/sqrt(R), the run time grows R-fold)")
-    p.add_argument("--seed", type=int, default=0,
+    p.add_argument("--seed", type=seed, default=0,
                    help="seed of the ensemble's perturbations (default 0)")
     p.add_argument("--out", default="results/accuracy", metavar="DIR")
     p.add_argument("--no-progress", action="store_true")

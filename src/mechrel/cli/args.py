@@ -4,44 +4,51 @@ scripts (``paper/*.py``)."""
 from __future__ import annotations
 
 import argparse
-import math
 import sys
 
-from ..errors import MechrelError
+from .._checks import Checker
+from ..errors import MechrelError, StudyError
 
 
-def positive_int(text: str) -> int:
-    """Argparse type: an integer >= 1."""
-    if not (text.isdigit() and int(text) >= 1):
-        raise argparse.ArgumentTypeError(f"{text!r}: not a positive integer; allowed: 1, 2, ...")
-    return int(text)
+def _rule(check, parse):
+    """An argparse type: ``parse`` the text (kept as the text when it does not parse), then
+    apply the validation toolkit's rule ``check`` (a :class:`mechrel._checks.Checker` method),
+    so that the option breaks the same rule with the same message as the study file and the
+    Python argument."""
+
+    def convert(text: str):
+        try:
+            value = parse(text)
+        except ValueError:
+            value = text
+        try:
+            return check("", value)
+        except MechrelError as exc:
+            raise argparse.ArgumentTypeError(str(exc)) from None
+
+    convert.__name__ = check.__name__  # argparse names the type in its messages
+    return convert
 
 
-def jobs(text: str) -> int:
-    """Argparse type: a number of parallel workers, an integer >= 1 or -1 (all)."""
-    if not (text.isdigit() and int(text) >= 1) and text.strip() != "-1":
-        raise argparse.ArgumentTypeError(f"{text!r}: not a number of workers; allowed: 1, 2, "
-                                         "... or -1 (all cores, or all the cluster's workers)")
-    return int(text)
+_CLI = Checker(error=StudyError)
 
-
-def seed(text: str) -> int:
-    """Argparse type: a seed, an integer >= 0."""
-    if not text.isdigit():
-        raise argparse.ArgumentTypeError(f"{text!r}: not a seed; allowed: an integer >= 0")
-    return int(text)
-
-
-def fraction(text: str) -> float:
-    """Argparse type: a number in [0, 1]."""
+def _number(text: str) -> int | float:
+    """``text`` as an int if it is one, else as a float (a non-integer count then breaks the
+    integer rule with the rule's message rather than a parse error)."""
     try:
-        value = float(text)
+        return int(text)
     except ValueError:
-        value = math.nan
-    if not 0 <= value <= 1:
-        raise argparse.ArgumentTypeError(f"{text!r}: not a number in [0, 1]; allowed: a number "
-                                         "in [0, 1]")
-    return value
+        return float(text)
+
+
+sample_count = _rule(_CLI.sample_count, _number)
+"""Argparse type: a number of samples (:meth:`mechrel._checks.Checker.sample_count`)."""
+jobs = _rule(_CLI.jobs, _number)
+"""Argparse type: a number of parallel workers (:meth:`mechrel._checks.Checker.jobs`)."""
+seed = _rule(_CLI.seed, _number)
+"""Argparse type: a random seed (:meth:`mechrel._checks.Checker.seed`)."""
+fraction = _rule(_CLI.fraction, _number)
+"""Argparse type: a number in [0, 1] (:meth:`mechrel._checks.Checker.fraction`)."""
 
 
 def report_errors(run, args, prog: str) -> int:

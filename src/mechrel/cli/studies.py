@@ -7,7 +7,7 @@ import contextlib
 import warnings
 
 from ..errors import StudyError
-from .args import add_set_option, fraction, jobs, positive_int, seed
+from .args import add_set_option, fraction, jobs, sample_count, seed
 
 SET_HELP = ("override a value (repeatable): a study field by its dotted path "
             "(reliability.n=512, inputs.clearance.std=2e-5, allowable.velocity.mean=0.2, "
@@ -123,7 +123,7 @@ def _study_args(p, section):
                    help="embedded scene name or scene file to use instead of the study's "
                         "scene (a file the study names must be in the study file's folder)")
     add_set_option(p, SET_HELP)
-    p.add_argument("--n", type=positive_int, help="number of samples (default: the study's)")
+    p.add_argument("--n", type=sample_count, help="number of samples (default: the study's)")
     p.add_argument("--jobs", type=jobs, default=None,
                    help="parallel workers (default 2; with --scheduler: all the cluster's)")
     p.add_argument("--scheduler", metavar="ADDRESS",

@@ -213,6 +213,26 @@ class Integrator:
         Upper bound on attempted steps.
     onset_tolerance : float
         Largest penetration (m) at which a contact onset counts as located.
+
+    Raises
+    ------
+    SimulationError
+        A setting that is not a number > 0, ``rtol >= 1``, a step budget outside
+        [1, 2**53], or a fixed-step method without a step.
+
+    Examples
+    --------
+    The registered subclasses are instantiated by name (:func:`mechrel.integrate.get_integrator`,
+    or from a scene by :func:`mechrel.simulation.make_integrator`):
+
+    >>> from mechrel.integrate import get_integrator
+    >>> solver = get_integrator("dopri5", rtol=1e-9, atol=1e-12)
+    >>> solver.name, solver.adaptive, solver.stiff, solver.rtol
+    ('dopri5', True, False, 1e-09)
+    >>> get_integrator("rk4")
+    Traceback (most recent call last):
+    ...
+    mechrel.errors.SimulationError: solver.step: the fixed-step integrator 'rk4' needs a step (s)
     """
 
     name: ClassVar[str] = ""

@@ -512,8 +512,24 @@ def load_scene(source: SceneSource, *, overrides: Overrides = ()) -> Scene:
     its base. ``overrides``: ``{"joints.C1.clearance": 0.3e-3}`` or ``["joints.C1.clearance=0.3e-3",
     "joints.C1.model=dry"]``; applied in order to the raw mapping before validation.
 
-    Raises :class:`~mechrel.errors.SceneError` (one, naming source, field path, value and what is
-    allowed) for any problem.
+    Parameters
+    ----------
+    source : str, Path, mapping or Scene
+        The scene: an embedded name, a TOML file, a parsed mapping or a scene.
+    overrides : mapping or sequence of str, optional
+        ``{dotted path: value}`` or ``"dotted.path=VALUE"`` strings (values in SI units, as
+        in the file), applied in order before validation.
+
+    Returns
+    -------
+    Scene
+        Frozen, validated; values in SI units.
+
+    Raises
+    ------
+    SceneError
+        One error for any problem, naming the source, the field path, the value and what is
+        allowed (and the override that set it).
 
     Examples
     --------
@@ -541,6 +557,23 @@ def load_scene(source: SceneSource, *, overrides: Overrides = ()) -> Scene:
 
 def with_overrides(scene: Scene, overrides: Overrides) -> Scene:
     """A new scene: ``scene``'s raw mapping with ``overrides`` applied, validated again.
+
+    Parameters
+    ----------
+    scene : Scene
+        The scene to start from (left unchanged).
+    overrides : mapping or sequence of str
+        As for :func:`load_scene`.
+
+    Returns
+    -------
+    Scene
+        The new scene (same source).
+
+    Raises
+    ------
+    SceneError
+        An override naming an unknown field or setting a value the scene refuses.
 
     Examples
     --------
@@ -596,6 +629,16 @@ def scene_hash(scene: Scene) -> str:
     records it in its provenance): a scene is frozen, so its hash cannot change. A scene built
     directly from mutable mappings that are changed afterwards would keep a stale hash, as it
     would keep stale validation.
+
+    Parameters
+    ----------
+    scene : Scene
+        The scene.
+
+    Returns
+    -------
+    str
+        64 hexadecimal digits.
 
     Examples
     --------

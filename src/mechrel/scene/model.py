@@ -34,7 +34,16 @@ INTEGRATOR_NAMES = ("auto", "rk4", "dopri5", "radau", "scipy-radau", "bdf", "lso
 @dataclass(frozen=True)
 class Body:
     """A rigid body. ``position``/``angle`` are the initial guess for assembly (m, rad);
-    ``points`` are named points in the body frame, whose origin is the centre of mass (m)."""
+    ``points`` are named points in the body frame, whose origin is the centre of mass (m).
+
+    Examples
+    --------
+    >>> from mechrel.scene import load_scene
+    >>> scene = load_scene("slider-crank")
+    >>> crank = scene.bodies["crank"]
+    >>> crank.mass, crank.points["A"]  # kg; m in the body frame
+    (0.3, (0.025, 0.0))
+    """
 
     name: str
     mass: float
@@ -46,7 +55,13 @@ class Body:
 
 @dataclass(frozen=True)
 class PointRef:
-    """A named point on a body (``body == "ground"`` for a ground point)."""
+    """A named point on a body (``body == "ground"`` for a ground point).
+
+    Examples
+    --------
+    >>> PointRef("slider", "B")
+    PointRef(body='slider', point='B')
+    """
 
     body: str
     point: str
@@ -147,7 +162,16 @@ class Driver:
 
     Laws: ``constant-speed`` θ0 + ω t; ``constant-acceleration`` θ0 + ω t + α t²/2;
     ``harmonic`` θ0 + A sin(Ω t + φ); ``smooth-start`` reaches ω after ``ramp_time`` with a
-    quintic blend of the speed (zero acceleration at both ends)."""
+    quintic blend of the speed (zero acceleration at both ends).
+
+    Examples
+    --------
+    >>> from mechrel.scene import load_scene
+    >>> scene = load_scene("slider-crank")
+    >>> d = scene.drivers["crank"]
+    >>> d.law, round(d.speed * 60 / (2 * math.pi), 6)  # rad/s as rpm
+    ('constant-speed', 5000.0)
+    """
 
     name: str
     body: str
@@ -167,7 +191,16 @@ class Output:
     (a body point's displacement, velocity and acceleration along the unit ``axis``),
     ``body`` (a body's angle and its rates), ``joint`` (a clearance joint's eccentricity
     ratio, minimum film thickness and penetration) or ``path`` (a point's distance from its
-    ideal path). Fields another kind uses are None."""
+    ideal path). Fields another kind uses are None.
+
+    Examples
+    --------
+    >>> from mechrel.scene import load_scene
+    >>> scene = load_scene("slider-crank")
+    >>> o = scene.outputs["slider"]
+    >>> o.kind, o.point, o.axis
+    ('point', PointRef(body='slider', point='B'), (1.0, 0.0))
+    """
 
     name: str
     point: PointRef | None = None
@@ -183,7 +216,16 @@ class Analysis:
 
     Exactly one of ``duration`` (s) or ``cycles`` (periods of ``cycle_driver``, a
     constant-speed driver). Exactly one of ``sample_step`` (s) or ``sample_step_angle``
-    (rad of the cycle driver's rotation)."""
+    (rad of the cycle driver's rotation).
+
+    Examples
+    --------
+    >>> from mechrel.scene import load_scene
+    >>> scene = load_scene("slider-crank")
+    >>> a = scene.analysis
+    >>> a.cycles, a.cycle_driver, round(math.degrees(a.sample_step_angle), 9)
+    (1.0, 'crank', 1.0)
+    """
 
     duration: float | None = None
     cycles: float | None = None
@@ -199,7 +241,15 @@ MAX_STEPS_LIMIT = 2**53  # the integrators count steps in float64, exact up to 2
 class Solver:
     """Integrator settings. ``integrator`` names an entry of
     :data:`mechrel.integrate.INTEGRATORS`; ``"auto"`` picks the scene type's default
-    (see docs/performance.md). ``step`` is the fixed step of RK4 (s)."""
+    (see docs/performance.md). ``step`` is the fixed step of RK4 (s).
+
+    Examples
+    --------
+    >>> from mechrel.scene import load_scene
+    >>> scene = load_scene("slider-crank")
+    >>> scene.solver.integrator, scene.solver.assembly_tolerance
+    ('auto', 1e-12)
+    """
 
     integrator: str = "auto"
     step: float | None = None
@@ -214,7 +264,17 @@ class Solver:
 
 @dataclass(frozen=True)
 class Scene:
-    """A complete, validated scene."""
+    """A complete, validated scene (frozen; from :func:`mechrel.scene.load_scene`).
+
+    Examples
+    --------
+    >>> from mechrel.scene import load_scene
+    >>> scene = load_scene("slider-crank")
+    >>> sorted(scene.bodies), sorted(scene.outputs)
+    (['crank', 'rod', 'slider'], ['slider'])
+    >>> round(scene.analysis_duration, 9)  # one revolution at 5000 rpm (s)
+    0.012
+    """
 
     name: str
     description: str
@@ -240,6 +300,7 @@ class Scene:
         a = self.analysis
         if a.duration is not None:
             return a.duration
+        assert a.cycles is not None and a.cycle_driver is not None  # validated: one is given
         return a.cycles * 2.0 * math.pi / abs(self.drivers[a.cycle_driver].speed)
 
     @property
@@ -249,4 +310,5 @@ class Scene:
         a = self.analysis
         if a.sample_step is not None:
             return a.sample_step
+        assert a.sample_step_angle is not None and a.cycle_driver is not None  # validated
         return a.sample_step_angle / abs(self.drivers[a.cycle_driver].speed)

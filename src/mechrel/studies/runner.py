@@ -15,7 +15,8 @@ from ..errors import OutputError, StudyError
 from ..io import save_figure, write_json, write_table
 from ..io.lock import hold_folder
 from ..outputs import QUANTITY_INFO
-from ..uq._common import SampleFailuresError, check_choice, failure_message
+from .._checks import ARGS
+from ..uq._common import SampleFailuresError, failure_message
 from .study import METHODS, RARE_EVENT_METHODS
 
 UNITS = {name: q.unit for name, q in QUANTITY_INFO.items()}  # SI, from the output kinds
@@ -84,15 +85,15 @@ def _check_run(*, n, seed, n_jobs, backend, max_failure_fraction, model, inputs,
     be found only after the first estimator has run): ``n`` (>= 2, and within the memory its
     ``rows_per_n * n`` model runs need), ``seed``, ``n_jobs``, ``backend`` and
     ``max_failure_fraction``."""
-    from ..uq._common import check_fraction, check_memory
+    from ..uq._common import check_memory
     from ..uq.executor import _check_backend
-    from ..uq.inputs import _check_n, as_seed_sequence
+    from ..uq.inputs import as_seed_sequence
     from ..uq.model import check_model
 
-    _check_n(n, "n", 2)
+    ARGS.sample_count("n", n)
     as_seed_sequence(seed)
     _check_backend(backend, n_jobs)
-    check_fraction("max_failure_fraction", max_failure_fraction)
+    ARGS.fraction("max_failure_fraction", max_failure_fraction)
     if rows_per_n:
         names, index = check_model(model)
         check_memory(rows_per_n * n, len(names) + len(index), "n", n)
@@ -314,7 +315,7 @@ def run_reliability(study, *, methods=None, n=None, n_jobs=1, seed=None, out=Non
     cfg = study.reliability
     methods = tuple(methods or cfg["methods"])
     for m in methods:
-        check_choice("methods", m, METHODS + ("all",))
+        ARGS.choice("methods", m, METHODS + ("all",))
     if "all" in methods:
         methods = METHODS
     n = cfg["n"] if n is None else n

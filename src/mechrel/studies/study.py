@@ -14,8 +14,8 @@ from importlib import resources
 from pathlib import Path
 from typing import Any
 
+from .._checks import _MISSING, Checker, join
 from ..errors import SceneError, StudyError
-from ..scene._validate import _MISSING, Checker, join
 from ..outputs import QUANTITY_INFO
 from ..scene.loader import check_depth, read_toml_text
 from ..scene.model import QUANTITIES
@@ -99,33 +99,11 @@ def embedded_studies() -> tuple[str, ...]:
 
 
 class _Checker(Checker):
-    """The scene files' checks and messages, raising :class:`StudyError`."""
+    """The validation toolkit's checks and messages, raising :class:`StudyError`."""
 
+    error = StudyError
     required_hints = {"scene": "an embedded scene name or a path to a scene file",
                       "inputs": "[inputs.NAME] tables (paths, distribution and its parameters)"}
-
-    def fail(self, path, value, problem, allowed=None):
-        try:
-            super().fail(path, value, problem, allowed)
-        except SceneError as exc:
-            raise StudyError(str(exc)) from None
-
-    def choices(self, path: str, v: Any, choices: tuple[str, ...]) -> tuple[str, ...]:
-        """A non-empty array of distinct values, each one of ``choices``."""
-        allowed = f"a non-empty array of distinct values from {', '.join(choices)}"
-        if isinstance(v, str) or not isinstance(v, (list, tuple)) or not v:
-            self.fail(path, v, "not a non-empty array", allowed)
-        for i, x in enumerate(v):
-            self.choice(f"{path}[{i}]", x, choices)
-        if len(set(v)) != len(v):
-            self.fail(path, v, "a value is repeated", allowed)
-        return tuple(v)
-
-    def seed(self, path: str, v: Any) -> int | None:
-        return None if v is None else self.integer(path, v, ge=0)
-
-    def fraction(self, path: str, v: Any) -> float:
-        return self.number(path, v, ge=0, le=1)
 
 
 def _read(source) -> tuple[dict, str, Path | None]:
@@ -265,7 +243,7 @@ def _reliability(c: _Checker, table: Any) -> dict:
     return {"methods": c.choices("reliability.methods", t.get("methods", ["fosm", "mc"]),
                                  METHODS),
             "form": c.choice("reliability.form", t.get("form", "two-sided"), FORMS),
-            "n": c.integer("reliability.n", t.get("n", 256), ge=2),
+            "n": c.sample_count("reliability.n", t.get("n", 256)),
             "rule": c.choice("reliability.rule", t.get("rule", "sobol"), SAMPLING_RULES),
             "seed": c.seed("reliability.seed", t.get("seed")),
             "pce_order": c.integer("reliability.pce_order", t.get("pce_order", 2), ge=1),
@@ -303,7 +281,7 @@ def _method_settings(c: _Checker, raw: Mapping) -> dict:
 def _sensitivity(c: _Checker, table: Any) -> dict:
     t = c.table("sensitivity", table)
     c.keys("sensitivity", t, _SENSITIVITY, what="[sensitivity]")
-    return {"n": c.integer("sensitivity.n", t.get("n", 256), ge=2),
+    return {"n": c.sample_count("sensitivity.n", t.get("n", 256)),
             "seed": c.seed("sensitivity.seed", t.get("seed")),
             "max_failure_fraction": c.fraction("sensitivity.max_failure_fraction",
                                                t.get("max_failure_fraction", 0.05))}
@@ -343,11 +321,7 @@ def load_study(source, *, overrides: Mapping[str, Any] | None = None,
     scene = _scene_source(c, c.string("scene", raw["scene"], _Checker.required_hints["scene"]),
                           base_dir, "scene" in overrides)
     output = raw.get("output")
-    step = raw.get("angle_step", 18.0)
-    angle_step = c.number("angle_step", step, gt=0, unit="degrees")
-    if 360.0 / angle_step != round(360.0 / angle_step):
-        c.fail("angle_step", step, "does not divide 360 degrees",
-               "a divisor of 360 (degrees), e.g. 18, 10 or 5")
+    angle_step = c.angle_step("angle_step", raw.get("angle_step", 18.0))
     cycles = raw.get("cycles")
     specs, paths = _inputs(c, raw["inputs"])
     all_overrides = {**c.table("scene_overrides", raw.get("scene_overrides", {}),

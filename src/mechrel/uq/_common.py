@@ -86,25 +86,6 @@ def make_provenance(
     }
 
 
-def check_choice(name: str, value: Any, allowed: tuple) -> Any:
-    if value not in allowed:
-        raise StudyError(f"{name}: got {value!r}; allowed: {list(allowed)}")
-    return value
-
-
-def check_fraction(name: str, value: Any, *, lo: float = 0.0, hi: float = 1.0, open_lo=False, open_hi=False) -> float:
-    try:
-        v = float(value)
-    except (TypeError, ValueError):
-        raise StudyError(f"{name}: must be a number, got {value!r}") from None
-    ok = (v > lo if open_lo else v >= lo) and (v < hi if open_hi else v <= hi)
-    if not ok or not np.isfinite(v):
-        lb = "(" if open_lo else "["
-        rb = ")" if open_hi else "]"
-        raise StudyError(f"{name}: got {value!r}; allowed: a number in {lb}{lo}, {hi}{rb}")
-    return v
-
-
 def check_inputs(inputs: Any, input_names: tuple[str, ...] | None) -> UncertainInputs:
     if not isinstance(inputs, UncertainInputs):
         raise StudyError(

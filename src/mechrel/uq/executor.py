@@ -33,6 +33,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from mechrel._checks import ARGS
 from mechrel.errors import MechrelError, StudyError, interrupt_of
 
 from ._workers import register_backend, safe_path_environment, watch_parent
@@ -353,8 +354,7 @@ def default_chunk_size(n: int) -> int:
 def _check_backend(backend: str, n_jobs: Any) -> int:
     if backend not in BACKENDS:
         raise StudyError(f"backend: got {backend!r}; allowed: {list(BACKENDS)}")
-    if isinstance(n_jobs, bool) or not isinstance(n_jobs, (int, np.integer)) or n_jobs == 0 or n_jobs < -1:
-        raise StudyError(f"n_jobs: got {n_jobs!r}; allowed: a positive integer or -1 (all cores/workers)")
+    n_jobs = ARGS.jobs("n_jobs", n_jobs)
     if backend == "dask":
         try:
             from distributed import get_client

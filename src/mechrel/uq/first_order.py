@@ -61,7 +61,35 @@ EPS = float(np.finfo(float).eps)
 
 
 def fd_steps(inputs: UncertainInputs, step: Any = "auto", noise: float = EPS) -> np.ndarray:
-    """Finite-difference steps h_j (see the module docstring)."""
+    """Finite-difference steps h_j (see the module docstring).
+
+    Parameters
+    ----------
+    inputs : UncertainInputs
+        The inputs (their means and standard deviations, SI units).
+    step : "auto", float or array, default "auto"
+        "auto": ``noise**(1/3) * max(|μ_j|, σ_j)``; a float f > 0: f σ_j; an array: the
+        steps themselves (the inputs' units).
+    noise : float in (0, 1)
+        Relative noise of the outputs, for "auto".
+
+    Returns
+    -------
+    ndarray, shape (d,)
+        h_j in the inputs' units.
+
+    Raises
+    ------
+    StudyError
+        A step or noise outside what is allowed.
+
+    Examples
+    --------
+    >>> from mechrel.uq import Normal, UncertainInputs
+    >>> u = UncertainInputs.from_specs({"a": Normal(1.0, 0.1), "b": Normal(2.0, 0.2)})
+    >>> fd_steps(u, 0.5).tolist()
+    [0.05, 0.1]
+    """
     mu, sd = inputs.mean, inputs.std
     if isinstance(step, str):
         if step != "auto":
@@ -85,7 +113,27 @@ def fd_steps(inputs: UncertainInputs, step: Any = "auto", noise: float = EPS) ->
 
 
 def fosm_design(inputs: UncertainInputs, *, step: Any = "auto", noise: float = EPS) -> np.ndarray:
-    """The (2d + 1, d) stencil: row 0 = μ_X, rows 1 + 2j / 2 + 2j = μ_X ± h_j e_j."""
+    """The (2d + 1, d) stencil: row 0 = μ_X, rows 1 + 2j / 2 + 2j = μ_X ± h_j e_j.
+
+    Parameters
+    ----------
+    inputs : UncertainInputs
+        Their means (SI units) are the stencil's centre.
+    step, noise
+        As for :func:`fosm` (:func:`fd_steps`).
+
+    Returns
+    -------
+    ndarray, shape (2d + 1, d)
+        The points :func:`fosm` evaluates, in the inputs' units.
+
+    Examples
+    --------
+    >>> from mechrel.uq import Normal, UncertainInputs
+    >>> u = UncertainInputs.from_specs({"a": Normal(1.0, 0.1), "b": Normal(2.0, 0.2)})
+    >>> fosm_design(u, step=0.5).tolist()
+    [[1.0, 2.0], [1.05, 2.0], [0.95, 2.0], [1.0, 2.1], [1.0, 1.9]]
+    """
     inputs = check_inputs(inputs, None)
     mu = inputs.mean
     h = fd_steps(inputs, step, noise)
@@ -110,6 +158,15 @@ class FOSMResult:
     :class:`~mechrel.errors.EstimateWarning`): a non-smooth model (dry contact), outputs whose
     response the step does not resolve (a kink, an impact, chaos), outputs with a zero
     gradient (σ_i = 0, so β = ±∞ and R ∈ {0, 1} there are not estimates).
+
+    Examples
+    --------
+    >>> from mechrel.uq import Allowable, Normal, UncertainInputs, linear_model
+    >>> inputs = UncertainInputs.from_specs({"x": Normal(0.0, 0.1)})
+    >>> model, allow = linear_model([0.0], [[1.0]], ["x"]), Allowable(0.2, 0.0)
+    >>> r = fosm(model=model, inputs=inputs, allowable=allow, progress=False)
+    >>> r.provenance["method"], r.provenance["n_model_evaluations"], r.warnings
+    ('fosm', 3, ())
     """
 
     table: pd.DataFrame
@@ -172,18 +229,77 @@ def fosm(
     ``noise`` (for ``step="auto"``): the relative noise of the model outputs; None takes the
     model's optional ``output_noise`` attribute (e.g. the integrator's rtol), else machine epsilon.
     A failed stencil point makes the gradient undefined: ``StudyError`` naming the points.
+
+    Parameters
+    ----------
+    model : Model, optional
+        The model evaluated at the 2d + 1 stencil points (exclusive with ``evaluations``).
+    inputs : UncertainInputs
+        The uncertain inputs; their means and standard deviations (SI units) set the stencil.
+    evaluations : Evaluations, optional
+        Precomputed evaluations of exactly :func:`fosm_design` ``(inputs, step, noise)``.
+    allowable : Allowable or mapping, optional
+        The allowable error I ~ N(mean, std²) in the outputs' units: None (the default
+        allowables per quantity, :data:`mechrel.uq.reliability.DEFAULT_ALLOWABLES`), one
+        :class:`~mechrel.uq.reliability.Allowable` for every output, or
+        ``{quantity: Allowable}``.
+    form : {"two-sided", "one-sided"}, default "two-sided"
+        The safe event: P(|i| < I) (two-sided) or the paper's P(i < I) on the signed error.
+    step : "auto" or float or array, default "auto"
+        Central-difference steps h_j in the inputs' units; "auto" balances truncation against
+        ``noise`` (:func:`fd_steps`).
+    noise : float, optional
+        Relative noise of the outputs (dimensionless) for ``step="auto"``.
+    n_jobs : int, default 1
+        Parallel workers: an integer >= 1, or -1 for all cores (all Dask workers).
+    backend : {"loky", "dask", "sequential"}, default "loky"
+        Where the model runs (:func:`mechrel.uq.evaluate`); the numbers do not depend on it.
+    cache : path or None
+        SQLite cache of finished evaluations (an interrupted run resumes), or None.
+    progress : bool, default True
+        Show a progress bar.
+    chunk_size : int, optional
+        Samples per task (default: about 64 chunks; never depends on ``n_jobs``).
+
+    Returns
+    -------
+    FOSMResult
+        Per output: μ_i, σ_i, β, both reliabilities; ``.to_frame()``, ``.provenance``.
+
+    Raises
+    ------
+    StudyError
+        A bad argument (naming it, its value and what is allowed), or a failed stencil point.
+
+    Examples
+    --------
+    An output y = x with x ~ N(0, 0.1²) against a fixed allowable 0.2: β = 2, and the
+    two-sided reliability is P(|y| < 0.2) = 2 Φ(2) − 1:
+
+    >>> from mechrel.uq import Allowable, Normal, UncertainInputs, fosm, linear_model
+    >>> inputs = UncertainInputs.from_specs({"x": Normal(0.0, 0.1)})
+    >>> r = fosm(model=linear_model([0.0], [[1.0]], ["x"]), inputs=inputs,
+    ...          allowable=Allowable(0.2, 0.0), progress=False)
+    >>> row = r.to_frame().iloc[0]
+    >>> round(float(row["beta"]), 6), round(float(row["R_two_sided"]), 4)
+    (2.0, 0.9545)
     """
     t0 = time.perf_counter()
     exclusive_source(model, evaluations, what="fosm")
     if noise is None:
         noise = float(getattr(model, "output_noise", EPS)) if model is not None else EPS
     check_form(form)
-    names = check_model(model)[0] if model is not None else evaluations.input_names
+    if model is not None:
+        names = check_model(model)[0]
+    else:
+        assert evaluations is not None  # exclusive_source: exactly one
+        names = evaluations.input_names
     inputs = check_inputs(inputs, names)
     X = fosm_design(inputs, step=step, noise=noise)
     if model is not None:
         ev = run(model, X, executor_kwargs(n_jobs, backend, cache, progress, chunk_size))
     else:
+        assert evaluations is not None  # exclusive_source: exactly one
         ev = evaluations
         if ev.X.shape != X.shape or not np.array_equal(ev.X, X):
             raise StudyError(

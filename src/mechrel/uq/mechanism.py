@@ -42,6 +42,7 @@ from collections.abc import Sequence
 import numpy as np
 import pandas as pd
 
+from .._checks import ARGS
 from ..errors import MechrelError, SceneError, StudyError
 from ..outputs import quantities_of
 from .model import ModelFailure
@@ -135,8 +136,7 @@ class MechanismModel:
         if base.analysis.cycle_driver is None:
             raise StudyError(f"scene {base.name!r}: analysis.cycle_driver is needed to define "
                              "the crank angles of the analysis")
-        if not (angle_step > 0 and 360.0 / angle_step == round(360.0 / angle_step)):
-            raise StudyError(f"angle_step: {angle_step!r} must be > 0 and divide 360 degrees")
+        ARGS.angle_step("angle_step", angle_step)
         self.output = output or next(iter(base.outputs))
         if self.output not in base.outputs:
             raise StudyError(f"output: {self.output!r} is not an output of scene "

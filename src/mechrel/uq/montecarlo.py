@@ -57,10 +57,9 @@ from scipy import stats
 
 from mechrel.errors import StudyError
 
+from .._checks import ARGS
 from ._common import (
     SampleFailuresError,
-    check_choice,
-    check_fraction,
     check_inputs,
     check_memory,
     exclusive_source,
@@ -70,7 +69,7 @@ from ._common import (
     run,
 )
 from .executor import Evaluations
-from .inputs import SAMPLING_RULES, _check_n, as_seed_sequence, child_seed, seed_record
+from .inputs import SAMPLING_RULES, as_seed_sequence, child_seed, seed_record
 from .model import check_model
 from .reliability import (binomial_interval, check_form, per_angle_mask, resolve_allowables,
                           whole_cycle_column)
@@ -186,6 +185,17 @@ class MonteCarloResult:
     ``n_inside``, ``reliability`` with ``reliability_lo``/``_hi``. ``whole_cycle`` (per quantity
     and ``"all"``): the joint event over the cycle. ``failure_counts``: {reason: count}.
     ``warnings``: caveats of the estimate (for a run on a PCE surrogate, the surrogate's).
+
+    Examples
+    --------
+    >>> from mechrel.uq import Allowable, Normal, UncertainInputs, linear_model
+    >>> inputs = UncertainInputs.from_specs({"x": Normal(0.0, 0.1)})
+    >>> model, allow = linear_model([0.0], [[1.0]], ["x"]), Allowable(0.2, 0.0)
+    >>> from mechrel.uq import monte_carlo
+    >>> r = monte_carlo(model=model, inputs=inputs, n=256, seed=3, allowable=allow,
+    ...                 progress=False)
+    >>> r.provenance["seed"]["entropy"], r.evaluations.n, int(r.to_frame()["n"].iloc[0])
+    (3, 256, 256)
     """
 
     table: pd.DataFrame
@@ -214,11 +224,11 @@ class MonteCarloResult:
 
 def _check_common(form, allowable_mode, confidence_level, ci_method, failures, max_failure_fraction):
     check_form(form)
-    check_choice("allowable_mode", allowable_mode, ALLOWABLE_MODES)
-    check_fraction("confidence_level", confidence_level, open_lo=True, open_hi=True)
-    check_choice("ci_method", ci_method, ("wilson", "clopper-pearson"))
-    check_choice("failures", failures, FAILURE_MODES)
-    check_fraction("max_failure_fraction", max_failure_fraction)
+    ARGS.choice("allowable_mode", allowable_mode, ALLOWABLE_MODES)
+    ARGS.fraction("confidence_level", confidence_level, open_lo=True, open_hi=True)
+    ARGS.choice("ci_method", ci_method, ("wilson", "clopper-pearson"))
+    ARGS.choice("failures", failures, FAILURE_MODES)
+    ARGS.fraction("max_failure_fraction", max_failure_fraction)
 
 
 def monte_carlo(
@@ -249,6 +259,73 @@ def monte_carlo(
     then optional). Allowable draws use ``seed``'s second child stream, so the same seed gives
     the same numbers for any ``n_jobs``/backend. ``seed=None`` draws fresh entropy and records
     it in ``provenance["seed"]``.
+
+    Parameters
+    ----------
+    model : Model, optional
+        The model evaluated at ``n`` samples (exclusive with ``evaluations``).
+    inputs : UncertainInputs
+        The uncertain inputs (required with ``model``).
+    n : int
+        Number of samples: an integer >= 2 (with ``model``).
+    rule : {"random", "latin_hypercube", "sobol"}, default "random"
+        Sampling rule (:meth:`~mechrel.uq.inputs.UncertainInputs.sample`).
+    seed : int >= 0, SeedSequence or None
+        The study's seed; its child streams draw the inputs and the allowables.
+    evaluations : Evaluations, optional
+        Precomputed evaluations to analyse.
+    allowable : Allowable or mapping, optional
+        The allowable error I ~ N(mean, std²) in the outputs' units: None (the default
+        allowables per quantity, :data:`mechrel.uq.reliability.DEFAULT_ALLOWABLES`), one
+        :class:`~mechrel.uq.reliability.Allowable` for every output, or
+        ``{quantity: Allowable}``.
+    form : {"two-sided", "one-sided"}, default "two-sided"
+        The safe event: P(|i| < I) (two-sided) or the paper's P(i < I) on the signed error.
+    allowable_mode : {"sampled", "fixed"}, default "sampled"
+        Draw one allowable per sample from N(mean, std²), or compare with the mean only.
+    confidence_level : float in (0, 1), default 0.95
+        Of the intervals on the reliability, the mean and the standard deviation.
+    ci_method : {"wilson", "clopper-pearson"}, default "wilson"
+        Binomial interval of the reliability.
+    failures : {"exclude", "as_violation"}, default "exclude"
+        Failed samples: left out (and counted) or counted as unsafe.
+    max_failure_fraction : float in [0, 1], default 0.1
+        Refuse (:class:`~mechrel.uq.SampleFailuresError`) above this fraction of failures.
+    n_jobs : int, default 1
+        Parallel workers: an integer >= 1, or -1 for all cores (all Dask workers).
+    backend : {"loky", "dask", "sequential"}, default "loky"
+        Where the model runs (:func:`mechrel.uq.evaluate`); the numbers do not depend on it.
+    cache : path or None
+        SQLite cache of finished evaluations (an interrupted run resumes), or None.
+    progress : bool, default True
+        Show a progress bar.
+    chunk_size : int, optional
+        Samples per task (default: about 64 chunks; never depends on ``n_jobs``).
+
+    Returns
+    -------
+    MonteCarloResult
+        Per output and for the whole cycle: reliability with its interval, mean, std,
+        skewness, kurtosis; ``.to_frame()``, ``.evaluations``, ``.provenance``.
+
+    Raises
+    ------
+    StudyError
+        A bad argument (naming it, its value and what is allowed).
+    SampleFailuresError
+        More failed samples than ``max_failure_fraction`` allows.
+
+    Examples
+    --------
+    y = x with x ~ N(0, 0.1²) against a fixed allowable 0.2 (exact reliability 0.9545):
+
+    >>> from mechrel.uq import Allowable, Normal, UncertainInputs, linear_model, monte_carlo
+    >>> inputs = UncertainInputs.from_specs({"x": Normal(0.0, 0.1)})
+    >>> r = monte_carlo(model=linear_model([0.0], [[1.0]], ["x"]), inputs=inputs, n=1024,
+    ...                 seed=1, allowable=Allowable(0.2, 0.0), progress=False)
+    >>> row = r.to_frame().iloc[0]
+    >>> bool(row["reliability_lo"] < 0.9545 < row["reliability_hi"])
+    True
     """
     t0 = time.perf_counter()
     exclusive_source(model, evaluations, what="monte_carlo")
@@ -256,16 +333,17 @@ def monte_carlo(
     ss = as_seed_sequence(seed)
     ss_x, ss_I = child_seed(ss, 0), child_seed(ss, 1)
     if model is not None:
-        check_choice("rule", rule, SAMPLING_RULES)
+        ARGS.choice("rule", rule, SAMPLING_RULES)
         if inputs is None:
             raise StudyError("monte_carlo: inputs= is required with model=")
         names, index = check_model(model)
         inputs = check_inputs(inputs, names)
-        n = _check_n(n)
+        n = ARGS.sample_count("n", n)
         check_memory(n, len(names) + len(index), "n", n)
         X = inputs.sample(n, rule, ss_x)
         ev = run(model, X, executor_kwargs(n_jobs, backend, cache, progress, chunk_size))
     else:
+        assert evaluations is not None  # exclusive_source: exactly one
         ev = evaluations
         rule = "user-supplied"
         if inputs is not None:
@@ -307,7 +385,32 @@ def monte_carlo(
 def monte_carlo_design(inputs: Any, *, n: int, rule: str = "random", seed: Any = None) -> np.ndarray:
     """The input sample ``monte_carlo(model=..., inputs=inputs, n=n, rule=rule, seed=seed)``
     evaluates (the first child stream of ``seed``), for evaluating elsewhere and passing back
-    with ``evaluations=`` and the same ``seed``."""
-    check_choice("rule", rule, SAMPLING_RULES)
+    with ``evaluations=`` and the same ``seed``.
+
+    Parameters
+    ----------
+    inputs : UncertainInputs
+        The uncertain inputs.
+    n : int
+        Number of samples, an integer >= 2.
+    rule : {"random", "latin_hypercube", "sobol"}, default "random"
+        Sampling rule.
+    seed : int >= 0, SeedSequence or None
+        The study's seed (the same one passed to :func:`monte_carlo`).
+
+    Returns
+    -------
+    ndarray, shape (n, d)
+        The samples, in the inputs' units.
+
+    Examples
+    --------
+    >>> from mechrel.uq import Normal, UncertainInputs
+    >>> u = UncertainInputs.from_specs({"a": Normal(1.0, 0.1), "b": Normal(2.0, 0.2)})
+    >>> X = monte_carlo_design(u, n=4, seed=1)
+    >>> X.shape, bool((X == monte_carlo_design(u, n=4, seed=1)).all())
+    ((4, 2), True)
+    """
+    ARGS.choice("rule", rule, SAMPLING_RULES)
     inputs = check_inputs(inputs, None)
-    return inputs.sample(_check_n(n), rule, child_seed(as_seed_sequence(seed), 0))
+    return inputs.sample(ARGS.sample_count("n", n), rule, child_seed(as_seed_sequence(seed), 0))

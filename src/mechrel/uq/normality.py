@@ -33,7 +33,8 @@ from scipy import stats
 
 from mechrel.errors import StudyError
 
-from ._common import _labels, check_fraction, emit_warnings, make_provenance, resolve_outputs_safe
+from .._checks import ARGS
+from ._common import _labels, emit_warnings, make_provenance, resolve_outputs_safe
 from .first_order import FOSMResult
 from .montecarlo import MonteCarloResult, reliability_from_samples
 from .reliability import per_angle_mask
@@ -66,6 +67,18 @@ class NormalityResult:
     ``warnings``: analysis angles where FOSM's mean μ_i or its reliability lies outside the
     Monte Carlo confidence interval (also issued as :class:`~mechrel.errors.EstimateWarning`);
     the cycle extremes' rows are in ``table`` but not in the warnings.
+
+    Examples
+    --------
+    >>> from mechrel.uq import Allowable, Normal, UncertainInputs, linear_model
+    >>> inputs = UncertainInputs.from_specs({"x": Normal(0.0, 0.1)})
+    >>> model, allow = linear_model([0.0], [[1.0]], ["x"]), Allowable(0.2, 0.0)
+    >>> from mechrel.uq import fosm, monte_carlo, normality_check
+    >>> f = fosm(model=model, inputs=inputs, allowable=allow, progress=False)
+    >>> mc = monte_carlo(model=model, inputs=inputs, n=1024, seed=1, allowable=allow,
+    ...                  progress=False)
+    >>> normality_check(fosm=f, monte_carlo=mc).warnings
+    ()
     """
 
     table: pd.DataFrame
@@ -110,13 +123,45 @@ def normality_check(
     recomputed with FOSM's ``form`` and allowable (``allowable_mode="sampled"``, so that both
     estimate the same probability), with the Monte Carlo result's seed, confidence level,
     interval method and failure mode.
+
+    Parameters
+    ----------
+    fosm : FOSMResult
+        The first-order result.
+    monte_carlo : MonteCarloResult
+        A Monte Carlo result of the same model.
+    alpha : float in (0, 1), default 0.01
+        Significance level of the normality tests.
+
+    Returns
+    -------
+    NormalityResult
+        Per output: test statistics and p-values, skewness, kurtosis, and the difference of
+        the two reliabilities with its interval; ``.to_frame()``.
+
+    Raises
+    ------
+    StudyError
+        Results of different models, or a bad ``alpha``.
+
+    Examples
+    --------
+    >>> from mechrel.uq import (Allowable, Normal, UncertainInputs, fosm, linear_model,
+    ...                         monte_carlo, normality_check)
+    >>> inputs = UncertainInputs.from_specs({"x": Normal(0.0, 0.1)})
+    >>> m, a = linear_model([0.0], [[1.0]], ["x"]), Allowable(0.2, 0.0)
+    >>> f = fosm(model=m, inputs=inputs, allowable=a, progress=False)
+    >>> mc = monte_carlo(model=m, inputs=inputs, n=1024, seed=1, allowable=a, progress=False)
+    >>> r = normality_check(fosm=f, monte_carlo=mc)
+    >>> len(r.to_frame())
+    1
     """
     t0 = time.perf_counter()
     if not isinstance(fosm, FOSMResult):
         raise StudyError(f"normality_check: fosm= must be a FOSMResult, got {type(fosm).__name__}")
     if not isinstance(monte_carlo, MonteCarloResult):
         raise StudyError(f"normality_check: monte_carlo= must be a MonteCarloResult, got {type(monte_carlo).__name__}")
-    alpha = check_fraction("alpha", alpha, open_lo=True, open_hi=True)
+    alpha = ARGS.fraction("alpha", alpha, open_lo=True, open_hi=True)
     ev = monte_carlo.evaluations
     if not ev.output_index.equals(fosm.table.index):
         raise StudyError("normality_check: FOSM and Monte Carlo results have different outputs")

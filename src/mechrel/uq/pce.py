@@ -38,6 +38,7 @@ from __future__ import annotations
 import itertools
 import math
 import time
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -46,11 +47,10 @@ import pandas as pd
 
 from mechrel.errors import StudyError
 
+from .._checks import ARGS
 from ._common import (
     emit_warnings,
     SampleFailuresError,
-    check_choice,
-    check_fraction,
     check_inputs,
     exclusive_source,
     executor_kwargs,
@@ -60,7 +60,7 @@ from ._common import (
     run,
 )
 from .executor import STATUS_OK, Evaluations
-from .inputs import SAMPLING_RULES, UncertainInputs, _check_n, as_seed_sequence, child_seed, seed_record
+from .inputs import SAMPLING_RULES, UncertainInputs, as_seed_sequence, child_seed, seed_record
 from .model import check_model
 
 __all__ = ["polynomial_chaos", "pce_design", "PCEResult", "multi_indices"]
@@ -69,7 +69,28 @@ METHODS = ("regression", "quadrature")
 
 
 def multi_indices(d: int, order: int, q_norm: float = 1.0) -> np.ndarray:
-    """Multi-indices α ∈ ℕ^d with (Σ α_j^q)^(1/q) ≤ order, graded by total degree (α = 0 first)."""
+    """Multi-indices α ∈ ℕ^d with (Σ α_j^q)^(1/q) ≤ order, graded by total degree (α = 0 first).
+
+    Parameters
+    ----------
+    d : int
+        Number of inputs.
+    order : int
+        Total order.
+    q_norm : float in (0, 1], default 1.0
+        Hyperbolic truncation (1: every α of total degree ≤ order).
+
+    Returns
+    -------
+    ndarray of int, shape (P, d)
+
+    Examples
+    --------
+    >>> multi_indices(2, 2).tolist()
+    [[0, 0], [1, 0], [0, 1], [2, 0], [1, 1], [0, 2]]
+    >>> multi_indices(2, 2, q_norm=0.5).tolist()  # the interaction term [1, 1] is dropped
+    [[0, 0], [1, 0], [0, 1], [2, 0], [0, 2]]
+    """
     out = []
     for total in range(order + 1):
         for combo in itertools.combinations_with_replacement(range(d), total):
@@ -116,7 +137,8 @@ def _univariate(xi: np.ndarray, A: np.ndarray, B: np.ndarray, order: int) -> np.
     return P
 
 
-def _basis(xi: np.ndarray, alphas: np.ndarray, rec, order: int) -> np.ndarray:
+def _basis(xi: np.ndarray, alphas: np.ndarray, rec: Sequence[tuple[np.ndarray, np.ndarray]],
+           order: int) -> np.ndarray:
     """(n, P) basis matrix Ψ_α(ξ)."""
     n, d = xi.shape
     uni = [_univariate(xi[:, j], *rec[j], order) for j in range(d)]
@@ -186,12 +208,41 @@ def pce_design(
     q_norm: float = 1.0,
     seed: Any = None,
 ) -> tuple[np.ndarray, np.ndarray | None]:
-    """(X, weights): the training design of :func:`polynomial_chaos` (weights None for regression)."""
+    """(X, weights): the training design of :func:`polynomial_chaos` (weights None for regression).
+
+    Parameters
+    ----------
+    inputs : UncertainInputs
+        The uncertain inputs.
+    order, method, oversampling, rule, quadrature_rule, sparse, q_norm, seed
+        As for :func:`polynomial_chaos`.
+
+    Returns
+    -------
+    X : ndarray, shape (m, d)
+        The training points, in the inputs' units.
+    weights : ndarray, shape (m,), or None
+        The quadrature weights (they sum to 1), None for regression.
+
+    Examples
+    --------
+    Regression on twice the 6 terms of order 2 in two inputs, rounded up to a power of 2
+    (a balanced Sobol' set); a 3 × 3 Gauss grid for quadrature:
+
+    >>> from mechrel.uq import Normal, UncertainInputs
+    >>> u = UncertainInputs.from_specs({"a": Normal(1.0, 0.1), "b": Normal(2.0, 0.2)})
+    >>> X, w = pce_design(u, order=2, seed=1)
+    >>> X.shape, w is None
+    ((16, 2), True)
+    >>> X, w = pce_design(u, order=2, method="quadrature")
+    >>> X.shape, round(float(w.sum()), 12)
+    ((9, 2), 1.0)
+    """
     inputs = check_inputs(inputs, None)
-    order = _check_n(order, "order", 0)
-    check_choice("method", method, METHODS)
+    order = ARGS.integer("order", order, ge=0)
+    ARGS.choice("method", method, METHODS)
     if method == "regression":
-        check_choice("rule", rule, SAMPLING_RULES)
+        ARGS.choice("rule", rule, SAMPLING_RULES)
         P = multi_indices(inputs.d, order, q_norm).shape[0]
         try:
             ov = float(oversampling)
@@ -217,6 +268,18 @@ class PCEResult:
 
     ``warnings``: outputs whose leave-one-out error exceeds :data:`LOO_THRESHOLD` (also issued
     as :class:`~mechrel.errors.EstimateWarning`, and carried by :meth:`reliability`'s result).
+
+    Examples
+    --------
+    The surrogate of y = 2 x + 1 reproduces it at any point:
+
+    >>> import numpy as np
+    >>> from mechrel.uq import Normal, UncertainInputs, linear_model, polynomial_chaos
+    >>> inputs = UncertainInputs.from_specs({"x": Normal(0.0, 0.1)})
+    >>> r = polynomial_chaos(model=linear_model([1.0], [[2.0]], ["x"]), inputs=inputs,
+    ...                      order=1, seed=1, progress=False)
+    >>> np.round(r.predict(np.array([[0.5]])), 12).tolist()
+    [[2.0]]
     """
 
     coefficients: np.ndarray
@@ -242,7 +305,7 @@ class PCEResult:
         df = pd.DataFrame({"mean": self.mean, "std": self.std})
         df["loo_error"] = self.loo_error if self.loo_error is not None else np.nan
         df["validation_error"] = self.validation_error if self.validation_error is not None else np.nan
-        if self.sobol_first is not None:
+        if self.sobol_first is not None and self.sobol_total is not None:
             for c in self.sobol_first.columns:
                 df[f"S1_{c}"] = self.sobol_first[c]
             for c in self.sobol_total.columns:
@@ -263,7 +326,7 @@ class PCEResult:
 
     def surrogate_evaluations(self, *, n: int, rule: str = "random", seed: Any = None) -> Evaluations:
         """Evaluations of the surrogate at ``n`` samples of the inputs."""
-        X = self.inputs.sample(_check_n(n), rule, child_seed(as_seed_sequence(seed), 0))
+        X = self.inputs.sample(ARGS.sample_count("n", n), rule, child_seed(as_seed_sequence(seed), 0))
         Y = self.predict(X)
         ok = np.all(np.isfinite(Y), axis=1)
         return Evaluations(X, Y, np.where(ok, STATUS_OK, "failed"), tuple(None if o else "non-finite surrogate" for o in ok),
@@ -318,22 +381,86 @@ def polynomial_chaos(
     default 0 for regression — LOO is free — and 32 for quadrature). ``evaluations=`` fits
     precomputed training evaluations (any design for regression; the exact
     :func:`pce_design` nodes for quadrature), optionally with ``validation=`` evaluations.
+
+    Parameters
+    ----------
+    model : Model, optional
+        The model evaluated at the training design (exclusive with ``evaluations``).
+    inputs : UncertainInputs
+        The uncertain inputs (independent, or correlated normals through the Nataf map).
+    order : int
+        Total polynomial order, an integer >= 0.
+    method : {"regression", "quadrature"}, default "regression"
+        Least squares on ``oversampling`` × (number of terms) samples, or Gauss quadrature.
+    oversampling : float, default 2.0
+        Training samples per polynomial term (regression).
+    rule : str, default "sobol"
+        Sampling rule of the regression design.
+    quadrature_rule : str, default "gaussian"
+        chaospy quadrature rule (quadrature).
+    sparse : bool, default False
+        Smolyak sparse grid (quadrature).
+    q_norm : float in (0, 1], default 1.0
+        Hyperbolic truncation of the multi-indices (1: total order).
+    n_validation : int >= 0, optional
+        Random validation samples (default 0 for regression, 32 for quadrature).
+    seed : int >= 0, SeedSequence or None
+        The study's seed.
+    evaluations, validation : Evaluations, optional
+        Precomputed training and validation evaluations.
+    max_failure_fraction : float in [0, 1], default 0.1
+        Refuse above this fraction of failed training samples (regression).
+    n_jobs : int, default 1
+        Parallel workers: an integer >= 1, or -1 for all cores (all Dask workers).
+    backend : {"loky", "dask", "sequential"}, default "loky"
+        Where the model runs (:func:`mechrel.uq.evaluate`); the numbers do not depend on it.
+    cache : path or None
+        SQLite cache of finished evaluations (an interrupted run resumes), or None.
+    progress : bool, default True
+        Show a progress bar.
+    chunk_size : int, optional
+        Samples per task (default: about 64 chunks; never depends on ``n_jobs``).
+
+    Returns
+    -------
+    PCEResult
+        Coefficients, mean, std, leave-one-out and validation errors, Sobol' indices;
+        ``.predict(X)``, ``.reliability(...)``, ``.to_frame()``.
+
+    Raises
+    ------
+    StudyError
+        A bad argument (naming it, its value and what is allowed).
+    SampleFailuresError
+        Too many failed samples, or any failed quadrature node.
+
+    Examples
+    --------
+    A first-order expansion reproduces a linear model exactly: its std is the input's:
+
+    >>> from mechrel.uq import Normal, UncertainInputs, linear_model, polynomial_chaos
+    >>> inputs = UncertainInputs.from_specs({"x": Normal(0.0, 0.1)})
+    >>> r = polynomial_chaos(model=linear_model([0.0], [[1.0]], ["x"]), inputs=inputs,
+    ...                      order=1, seed=1, progress=False)
+    >>> round(float(r.to_frame()["std"].iloc[0]), 12)
+    0.1
     """
     t0 = time.perf_counter()
     exclusive_source(model, evaluations, what="polynomial_chaos")
-    check_choice("method", method, METHODS)
-    check_fraction("max_failure_fraction", max_failure_fraction)
-    if isinstance(order, bool) or not isinstance(order, (int, np.integer)) or order < 0:
-        raise StudyError(f"order: must be an integer >= 0, got {order!r}")
-    order = int(order)
-    q_norm = check_fraction("q_norm", q_norm, open_lo=True)
-    names = check_model(model)[0] if model is not None else evaluations.input_names
+    ARGS.choice("method", method, METHODS)
+    ARGS.fraction("max_failure_fraction", max_failure_fraction)
+    order = ARGS.integer("order", order, ge=0)
+    q_norm = ARGS.fraction("q_norm", q_norm, open_lo=True)
+    if model is not None:
+        names = check_model(model)[0]
+    else:
+        assert evaluations is not None  # exclusive_source: exactly one
+        names = evaluations.input_names
     inputs = check_inputs(inputs, names)
     ss = as_seed_sequence(seed)
     if n_validation is None:
         n_validation = 0 if method == "regression" else 32
-    if isinstance(n_validation, bool) or not isinstance(n_validation, (int, np.integer)) or n_validation < 0:
-        raise StudyError(f"n_validation: must be an integer >= 0, got {n_validation!r}")
+    n_validation = ARGS.integer("n_validation", n_validation, ge=0)
     germ = _germ(inputs)
     alphas = multi_indices(inputs.d, order, q_norm) if method == "regression" else multi_indices(inputs.d, order, 1.0)
     P = alphas.shape[0]
@@ -343,6 +470,7 @@ def polynomial_chaos(
     if model is not None:
         ev = run(model, X_design, exe)
     else:
+        assert evaluations is not None  # exclusive_source: exactly one
         ev = evaluations
         if method == "quadrature" and (ev.X.shape != X_design.shape or not np.allclose(ev.X, X_design, rtol=1e-12, atol=0)):
             raise StudyError("polynomial_chaos: quadrature needs evaluations at exactly pce_design(...) nodes")
@@ -376,6 +504,7 @@ def polynomial_chaos(
                 "Use method='regression' (which drops failed samples) or narrow the inputs.", ev
             )
         Psi = _basis(Z, alphas, rec, order)
+        assert weights is not None  # pce_design: quadrature has weights
         coef = (Psi * weights[:, None]).T @ ev.Y
     val = None
     val_ev = validation

@@ -141,18 +141,18 @@ def _choice(allowed: tuple) -> Callable[[str, Any], Any]:
 
 
 def _fraction(name: str, v: Any) -> float:
-    from .._common import check_fraction
-    return check_fraction(name, v, open_lo=True, open_hi=True)
+    from ..._checks import ARGS
+    return ARGS.fraction(name, v, open_lo=True, open_hi=True)
 
 
 def _closed_fraction(name: str, v: Any) -> float:
-    from .._common import check_fraction
-    return check_fraction(name, v)
+    from ..._checks import ARGS
+    return ARGS.fraction(name, v)
 
 
 def _correlation(name: str, v: Any) -> float:
-    from .._common import check_fraction
-    return check_fraction(name, v, open_hi=True)
+    from ..._checks import ARGS
+    return ARGS.fraction(name, v, open_hi=True)
 
 
 _FORM_SETTINGS = {

@@ -12,7 +12,8 @@ import pandas as pd
 
 from mechrel.errors import StudyError
 
-from .._common import check_choice, check_fraction, check_inputs, make_provenance
+from ..._checks import ARGS
+from .._common import check_inputs, make_provenance
 from ..executor import Evaluations, evaluate
 from ..inputs import UncertainInputs
 from ..model import check_model
@@ -22,8 +23,8 @@ FAILURE_MODES = ("exclude", "as_failure")
 
 
 def common_settings(*, failures: str, max_failure_fraction: float) -> None:
-    check_choice("failures", failures, FAILURE_MODES)
-    check_fraction("max_failure_fraction", max_failure_fraction)
+    ARGS.choice("failures", failures, FAILURE_MODES)
+    ARGS.fraction("max_failure_fraction", max_failure_fraction)
 
 
 class Problem:

@@ -37,9 +37,9 @@ import numpy as np
 import pandas as pd
 from scipy import special
 
+from mechrel._checks import ARGS
 from mechrel.errors import StudyError
 
-from .._common import check_choice
 from ..executor import Evaluations
 from ..inputs import seed_record
 from ._problem import Problem, RareEventResult
@@ -240,7 +240,7 @@ def form(
 def _form(problem: Problem, *, seed: Any, step: float, scheme: str, tol: float, max_iter: int,
           start: Any, tol_direction: float | None = None, method: str = "form") -> FORMResult:
     step = check_positive("step", step)
-    check_choice("scheme", scheme, SCHEMES)
+    ARGS.choice("scheme", scheme, SCHEMES)
     tol = check_positive("tol", tol)
     tol_direction = tol if tol_direction is None else check_positive("tol_direction", tol_direction)
     max_iter = check_positive("max_iter", max_iter, integer=True, minimum=0)

@@ -25,7 +25,8 @@ from scipy import special, stats
 
 from mechrel.errors import StudyError
 
-from .._common import SampleFailuresError, check_fraction
+from ..._checks import ARGS
+from .._common import SampleFailuresError
 from ..executor import Evaluations
 from ..inputs import as_seed_sequence, child_seed, seed_record
 from ._problem import Problem, RareEventResult, common_settings, concat_evaluations
@@ -84,7 +85,7 @@ def importance_sampling(
     state (``"as_failure"``); more than ``max_failure_fraction`` failed samples is an error.
     """
     n = check_positive("n", n, integer=True, minimum=1)
-    check_fraction("confidence_level", confidence_level, open_lo=True, open_hi=True)
+    ARGS.fraction("confidence_level", confidence_level, open_lo=True, open_hi=True)
     common_settings(failures=failures, max_failure_fraction=max_failure_fraction)
     ss = as_seed_sequence(seed)
     problem = Problem(model=model, inputs=inputs, limit_state=limit_state, n_jobs=n_jobs, backend=backend,

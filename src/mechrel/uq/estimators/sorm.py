@@ -38,7 +38,7 @@ from scipy import special, stats
 
 from mechrel.errors import StudyError
 
-from .._common import check_choice
+from ..._checks import ARGS
 from ..executor import Evaluations
 from ..inputs import seed_record
 from ._problem import Problem, RareEventResult, concat_evaluations
@@ -160,7 +160,7 @@ def sorm(
     the fourth derivative; its round-off ≈ ε|G|/step²: enlarge it for a noisy model).
     ``seed`` is unused (shared interface).
     """
-    check_choice("formula", formula, FORMULAS)
+    ARGS.choice("formula", formula, FORMULAS)
     curvature_step = check_positive("curvature_step", curvature_step)
     problem = Problem(model=model, inputs=inputs, limit_state=limit_state, n_jobs=n_jobs, backend=backend,
                       cache=cache, progress=progress, chunk_size=chunk_size, what="sorm")

@@ -41,7 +41,8 @@ from scipy import special, stats
 
 from mechrel.errors import StudyError
 
-from .._common import SampleFailuresError, check_choice, check_fraction
+from ..._checks import ARGS
+from .._common import SampleFailuresError
 from ..executor import Evaluations
 from ..inputs import as_seed_sequence, child_seed, seed_record
 from ._problem import Problem, RareEventResult, common_settings
@@ -117,18 +118,18 @@ def subset_simulation(
     state (``"as_failure"``). Total failures above ``max_failure_fraction`` are an error.
     """
     N = check_positive("n_per_level", n_per_level, integer=True, minimum=1)
-    p0 = check_fraction("p0", p0, open_lo=True, open_hi=True)
+    p0 = ARGS.fraction("p0", p0, open_lo=True, open_hi=True)
     nc = N * p0
     ns = 1.0 / p0
     if abs(nc - round(nc)) > 1e-9 or abs(ns - round(ns)) > 1e-9 or round(nc) < 1:
         raise StudyError(f"p0: got {p0!r} with n_per_level = {N}; allowed: 1/p0 and n_per_level·p0 integers "
                          "(e.g. p0 = 0.1 with n_per_level a multiple of 10)")
     nc, ns = int(round(nc)), int(round(ns))
-    check_choice("proposal", proposal, PROPOSALS)
-    rho = check_fraction("rho", rho, open_lo=False, open_hi=True)
+    ARGS.choice("proposal", proposal, PROPOSALS)
+    rho = ARGS.fraction("rho", rho, open_lo=False, open_hi=True)
     spread = check_positive("spread", spread)
     max_levels = check_positive("max_levels", max_levels, integer=True, minimum=0)
-    check_fraction("confidence_level", confidence_level, open_lo=True, open_hi=True)
+    ARGS.fraction("confidence_level", confidence_level, open_lo=True, open_hi=True)
     common_settings(failures=failures, max_failure_fraction=max_failure_fraction)
     ss = as_seed_sequence(seed)
     problem = Problem(model=model, inputs=inputs, limit_state=limit_state, n_jobs=n_jobs, backend=backend,
