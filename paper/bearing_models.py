@@ -61,7 +61,7 @@ import numpy as np
 import pandas as pd
 from scipy import stats
 
-from mechrel.cli.args import positive_int, report_errors
+from mechrel.cli.args import jobs, positive_integer, report_errors, sample_count
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from reliability_paper import (  # noqa: E402
@@ -429,9 +429,9 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--out", default="results/bearing_models", help="output folder")
-    ap.add_argument("--n", type=positive_int, default=200,
+    ap.add_argument("--n", type=sample_count, default=200,
                     help="Monte Carlo samples per bearing model (default 200)")
-    ap.add_argument("--jobs", type=positive_int, default=2,
+    ap.add_argument("--jobs", type=jobs, default=2,
                     help="parallel worker processes (default 2)")
     ap.add_argument("--cycles", type=float, default=2.0,
                     help="simulated cycles per sample; the last is analysed (default 2)")

@@ -36,7 +36,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from mechrel.cli.args import positive_int, report_errors
+from mechrel.cli.args import jobs, positive_integer, report_errors, sample_count
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from reliability_paper import _md  # noqa: E402
@@ -249,14 +249,14 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--out", default="results/rare_events_ninebar")
     ap.add_argument("--quantity", default="velocity", choices=tuple(UNITS))
-    ap.add_argument("--n-mc", type=positive_int, default=None,
+    ap.add_argument("--n-mc", type=sample_count, default=None,
                     help="Monte Carlo samples (default 2000; --quick 200)")
-    ap.add_argument("--n-per-level", type=positive_int, default=None,
+    ap.add_argument("--n-per-level", type=sample_count, default=None,
                     help="subset simulation samples per level (default 500; --quick 100)")
-    ap.add_argument("--points", type=positive_int, default=10, help="allowables on the curve")
+    ap.add_argument("--points", type=positive_integer, default=10, help="allowables on the curve")
     ap.add_argument("--angle-pf", type=float, default=0.05,
                     help="per-angle allowables at Monte Carlo's 1 − this quantile")
-    ap.add_argument("--angle-stride", type=positive_int, default=1,
+    ap.add_argument("--angle-stride", type=positive_integer, default=1,
                     help="every k-th analysis angle for FORM/SORM (default all 20)")
     ap.add_argument("--deepest", type=float, default=None,
                     help=f"smallest P_f of the curve (default {DEEPEST:g}; --quick 1e-3)")

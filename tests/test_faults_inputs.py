@@ -142,9 +142,9 @@ def test_study_scene_is_relative_to_the_study_file_and_confined(outside, monkeyp
 
 # ---------------------------------------------------------------- the whole command first
 @pytest.mark.parametrize("option, value, message", [
-    ("--seed", "-1", r"argument --seed: '-1': not a seed; allowed: an integer >= 0"),
-    ("--jobs", "0", r"argument --jobs: '0': not a number of workers; allowed: 1, 2, \.\.\. or "
-                    r"-1 \(all cores, or all the cluster's workers\)"),
+    ("--seed", "-1", r"argument --seed: -1: must be >= 0; allowed: an integer >= 0 \(a seed\)"),
+    ("--jobs", "0", r"argument --jobs: 0: must be >= 1 or -1; allowed: an integer >= 1, or -1 "
+                    r"\(all cores or all the cluster's workers\)"),
 ])
 def test_bad_arguments_are_refused_before_anything_runs(option, value, message, tmp_path,
                                                         capsys):

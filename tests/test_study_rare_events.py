@@ -153,7 +153,7 @@ def test_settings_the_method_rejects_when_it_runs_name_the_study_and_method():
 
 @pytest.mark.parametrize("section, message", [
     ({"subset": {"p0": 1.5}}, r"subset\.p0 = 1\.5: not a valid subset_simulation setting; "
-                              r"allowed: a number in \(0\.0, 1\.0\)"),
+                              r"allowed: a finite number in \(0, 1\)"),
     ({"subset": {"n_per_level": 5}}, r"subset\.n_per_level = 5: not a valid subset_simulation "
                                      r"setting; allowed: an integer > 9"),
     ({"form": {"scheme": "backward"}}, r"form\.scheme = \"backward\": not a valid form setting "
@@ -163,7 +163,7 @@ def test_settings_the_method_rejects_when_it_runs_name_the_study_and_method():
                        r"integer > 1"),
     ({"sorm": {"formula": "exact"}}, r"sorm\.formula = \"exact\""),
     ({"sorm": {"design_point": [1, 2]}}, r"sorm\.design_point = .*unknown field 'design_point'"),
-    ({"subset": {"rho": 1.0}}, r"subset\.rho = 1\.0: .*allowed: a number in \[0\.0, 1\.0\)"),
+    ({"subset": {"rho": 1.0}}, r"subset\.rho = 1\.0: .*allowed: a finite number in \[0, 1\)"),
     ({"subset": 3}, r"subset = 3: expected a table"),
 ])
 def test_method_tables_are_checked_when_the_study_loads(section, message):

@@ -302,7 +302,7 @@ def test_form_history_and_convergence_errors():
     assert e.value.history.shape[0] == 1
     with pytest.raises(StudyError, match=r"step: got -1; allowed: a number > 0"):
         form(model=flat, inputs=inputs, step=-1)
-    with pytest.raises(StudyError, match=r"scheme: got 'backward'; allowed: \['central', 'forward'\]"):
+    with pytest.raises(StudyError, match=r'scheme = "backward": unknown value; allowed: one of central, forward'):
         form(model=flat, inputs=inputs, scheme="backward")
     with pytest.raises(StudyError, match="limit_state = 'g': not a LimitState"):
         form(model=flat, inputs=inputs, limit_state="g")
@@ -464,7 +464,8 @@ def test_subset_errors():
         subset_simulation(model=never, inputs=STD2, n_per_level=100, seed=0)
     with pytest.raises(StudyError, match=r"p0: got 0.3 with n_per_level = 100; allowed: 1/p0 and n_per_level·p0"):
         subset_simulation(model=never, inputs=STD2, n_per_level=100, p0=0.3)
-    with pytest.raises(StudyError, match=r"proposal: got 'gibbs'; allowed"):
+    with pytest.raises(StudyError, match=r'proposal = "gibbs": unknown value; allowed: one of conditional, '
+                       r"modified_metropolis"):
         subset_simulation(model=never, inputs=STD2, proposal="gibbs")
 
 

@@ -87,10 +87,11 @@ def interrupt_of(exc: BaseException) -> KeyboardInterrupt | None:
     call in a process); a handler that raises there reaches the caller as a ``SystemError``
     whose cause is the interrupt. Such an error is an interrupt, not a failure: the callers
     that handle interrupts (the evaluation loop, the command line) look through it."""
-    seen = set()
-    while exc is not None and id(exc) not in seen:
-        if isinstance(exc, KeyboardInterrupt):
-            return exc
-        seen.add(id(exc))
-        exc = exc.__cause__ or exc.__context__
+    seen: set[int] = set()
+    link: BaseException | None = exc
+    while link is not None and id(link) not in seen:
+        if isinstance(link, KeyboardInterrupt):
+            return link
+        seen.add(id(link))
+        link = link.__cause__ or link.__context__
     return None

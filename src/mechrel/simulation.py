@@ -565,7 +565,8 @@ EXTREME_MAGNITUDE = 1e15
 def extreme_values(scene: Scene) -> list[str]:
     """``PATH = VALUE`` of the scene's numbers of magnitude >= :data:`EXTREME_MAGNITUDE`."""
     from collections.abc import Mapping
-    found, stack = [], [(scene.raw or {}, "")]
+    found: list[str] = []
+    stack: list[tuple[object, str]] = [(scene.raw or {}, "")]
     while stack:
         node, path = stack.pop()
         if isinstance(node, Mapping):

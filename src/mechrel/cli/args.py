@@ -32,6 +32,7 @@ def _rule(check, parse):
 
 _CLI = Checker(error=StudyError)
 
+
 def _number(text: str) -> int | float:
     """``text`` as an int if it is one, else as a float (a non-integer count then breaks the
     integer rule with the rule's message rather than a parse error)."""
@@ -49,6 +50,15 @@ seed = _rule(_CLI.seed, _number)
 """Argparse type: a random seed (:meth:`mechrel._checks.Checker.seed`)."""
 fraction = _rule(_CLI.fraction, _number)
 """Argparse type: a number in [0, 1] (:meth:`mechrel._checks.Checker.fraction`)."""
+
+
+def _positive_integer(path, value):
+    return _CLI.integer(path, value, ge=1)
+
+
+positive_integer = _rule(_positive_integer, _number)
+"""Argparse type: an integer >= 1 (a count that is not a sample count: a stride, a number of
+points) (:meth:`mechrel._checks.Checker.integer`)."""
 
 
 def report_errors(run, args, prog: str) -> int:

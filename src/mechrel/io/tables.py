@@ -60,13 +60,13 @@ def atomic_path(path, *, what: str = "--out"):
         raise OutputError(f"{what}: {str(path)!r} is a folder; allowed: a file name (remove or "
                           "rename the folder)")
     try:
-        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp" + path.suffix,
-                                   dir=path.parent)
+        fd, tmp_name = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp" + path.suffix,
+                                        dir=path.parent)
         os.close(fd)
     except OSError as exc:
         raise OutputError(f"{what}: cannot write into the folder {str(path.parent)!r} "
                           f"({exc.strerror or exc}); allowed: a writable folder") from None
-    tmp = Path(tmp)
+    tmp = Path(tmp_name)
     try:
         yield tmp
         with open(tmp, "rb+") as fh:
