@@ -18,6 +18,8 @@ def _cmd_accuracy(args) -> int:
 
 
 def register(sub) -> None:
+    """Add the ``mechrel accuracy`` subcommand to ``sub``, the parser's subparsers action
+    (one entry of :data:`mechrel.cli.main.COMMANDS`)."""
     p = sub.add_parser(
         "accuracy", help="error against wall time of integrator settings on a scene",
         description="Runs the scene with RK4 step sizes, adaptive and stiff tolerances, "

@@ -27,6 +27,8 @@ def _rule(check, parse):
             raise argparse.ArgumentTypeError(str(exc)) from None
 
     convert.__name__ = check.__name__  # argparse names the type in its messages
+    convert.__doc__ = (f"Argparse type: the text parsed, then checked by the rule "
+                       f"``{check.__name__}`` of :class:`mechrel._checks.Checker`.")
     return convert
 
 

@@ -31,6 +31,7 @@ COMMANDS = (
 
 
 def build_parser() -> argparse.ArgumentParser:
+    """The ``mechrel`` argument parser: every subcommand of :data:`COMMANDS`, in order."""
     from .. import __version__
 
     parser = argparse.ArgumentParser(

@@ -55,6 +55,8 @@ def _cmd_animate(args) -> int:
 
 
 def register_draw(sub) -> None:
+    """Add the ``mechrel draw`` subcommand to ``sub``, the parser's subparsers action
+    (one entry of :data:`mechrel.cli.main.COMMANDS`)."""
     p = sub.add_parser(
         "draw", help="draw a scene's assembled configuration",
         description="Assemble a scene at time --time and draw it (bodies, joints, clearance "
@@ -69,6 +71,8 @@ def register_draw(sub) -> None:
 
 
 def register_animate(sub) -> None:
+    """Add the ``mechrel animate`` subcommand to ``sub``, the parser's subparsers action
+    (one entry of :data:`mechrel.cli.main.COMMANDS`)."""
     p = sub.add_parser(
         "animate", help="simulate a scene and animate it",
         description="Simulate a scene and animate it: the mechanism, its ideal counterpart as a "

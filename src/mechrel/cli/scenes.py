@@ -24,6 +24,8 @@ def _cmd_scenes(args) -> int:
 
 
 def register(sub) -> None:
+    """Add the ``mechrel scenes`` subcommand to ``sub``, the parser's subparsers action
+    (one entry of :data:`mechrel.cli.main.COMMANDS`)."""
     p = sub.add_parser("scenes", help="list the embedded scenes, or describe one",
                        description="List the embedded scenes, or describe one.")
     p.add_argument("name", nargs="?", help="scene to describe")

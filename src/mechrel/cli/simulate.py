@@ -108,6 +108,8 @@ def _cmd_simulate(args) -> int:
 
 
 def register(sub) -> None:
+    """Add the ``mechrel simulate`` subcommand to ``sub``, the parser's subparsers action
+    (one entry of :data:`mechrel.cli.main.COMMANDS`)."""
     p = sub.add_parser(
         "simulate", help="simulate a scene and print a summary",
         description="Simulate a scene over its analysis span (kinematic analysis for ideal "

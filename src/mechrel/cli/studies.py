@@ -143,6 +143,8 @@ def _study_args(p, section):
 
 
 def register_reliability(sub) -> None:
+    """Add the ``mechrel reliability`` subcommand to ``sub``, the parser's subparsers action
+    (one entry of :data:`mechrel.cli.main.COMMANDS`)."""
     from ..studies.study import METHODS, RARE_EVENT_METHODS
 
     rare = ", ".join(f"{k} ({m.name})" for k, m in RARE_EVENT_METHODS.items())
@@ -164,6 +166,8 @@ def register_reliability(sub) -> None:
 
 
 def register_sensitivity(sub) -> None:
+    """Add the ``mechrel sensitivity`` subcommand to ``sub``, the parser's subparsers action
+    (one entry of :data:`mechrel.cli.main.COMMANDS`)."""
     p = sub.add_parser(
         "sensitivity", help="Sobol sensitivity indices of a study's error measures",
         description="First- and total-order Sobol indices (SALib, Saltelli design with N base "

@@ -94,6 +94,7 @@ class Study:
 
 
 def embedded_studies() -> tuple[str, ...]:
+    """The names of the study files shipped with mechrel (``mechrel reliability NAME``)."""
     d = resources.files("mechrel.studies").joinpath("data")
     return tuple(sorted(p.name[:-5] for p in d.iterdir() if p.name.endswith(".toml")))
 
