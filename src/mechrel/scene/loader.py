@@ -356,6 +356,26 @@ def _is_number(v: Any) -> bool:
     return isinstance(v, (int, float)) and not isinstance(v, bool)
 
 
+def _length_points(raw: Mapping, m: re.Match, source: str | None):
+    """``(points table path, P, Q)`` of a matched ``OWNER.length(P,Q)`` path."""
+    table = f"{m['owner']}.points"
+    return (table, get_value(raw, f"{table}.{m['fixed']}", source=source),
+            get_value(raw, f"{table}.{m['moved']}", source=source))
+
+
+def _component(raw: Mapping, m: re.Match, where: str, path: str,
+               source: str | None) -> tuple[Any, int]:
+    """``(array, i)`` of a matched ``PATH[i]`` path; a :class:`SceneError` starting with
+    ``where`` when the value at PATH has no component i."""
+    array = get_value(raw, m["base"], source=source)
+    i = int(m["index"])
+    if isinstance(array, (str, Mapping)) or not isinstance(array, (list, tuple)) \
+            or i >= len(array):
+        raise SceneError(f"{where}: '{m['base']}' = {fmt_value(array)} has no component {i}; "
+                         "allowed: an index below the array's length", source=source, path=path)
+    return array, i
+
+
 def get_value(raw: Mapping, path: str, *, source: str | None = None) -> Any:
     """The value at the dotted ``path`` of a scene's raw mapping, including the derived paths
     that :func:`apply_override` sets: ``PATH[i]`` (component ``i`` of an array, e.g.
@@ -365,19 +385,11 @@ def get_value(raw: Mapping, path: str, *, source: str | None = None) -> Any:
     Raises :class:`~mechrel.errors.SceneError` naming the path when it is not in the scene."""
     m = _LENGTH_RE.match(path)
     if m:
-        table = f"{m['owner']}.points"
-        p = get_value(raw, f"{table}.{m['fixed']}", source=source)
-        q = get_value(raw, f"{table}.{m['moved']}", source=source)
+        _, p, q = _length_points(raw, m, source)
         return math.hypot(q[0] - p[0], q[1] - p[1])
     m = _COMPONENT_RE.match(path)
     if m:
-        array = get_value(raw, m["base"], source=source)
-        i = int(m["index"])
-        if isinstance(array, (str, Mapping)) or not isinstance(array, (list, tuple)) \
-                or i >= len(array):
-            raise SceneError(f"{path}: '{m['base']}' = {fmt_value(array)} has no component {i}; "
-                             "allowed: an index below the array's length",
-                             source=source, path=path)
+        array, i = _component(raw, m, path, path, source)
         return array[i]
     node: Any = raw
     for part in path.split("."):
@@ -399,9 +411,7 @@ def _derived_override(raw: dict, path: str, value: Any, text: str,
     Q' = P + L (Q − P)/|Q − P| (P, the direction and every other point stay)."""
     m = _LENGTH_RE.match(path)
     if m:
-        table = f"{m['owner']}.points"
-        p = get_value(raw, f"{table}.{m['fixed']}", source=source)
-        q = get_value(raw, f"{table}.{m['moved']}", source=source)
+        table, p, q = _length_points(raw, m, source)
         d = math.hypot(q[0] - p[0], q[1] - p[1])
         if not (_is_number(value) and math.isfinite(value) and value > 0):
             raise SceneError(f"override '{text}': a length must be a number > 0 (m); allowed: "
@@ -416,13 +426,7 @@ def _derived_override(raw: dict, path: str, value: Any, text: str,
                 [p[0] + s * (q[0] - p[0]), p[1] + s * (q[1] - p[1])])
     m = _COMPONENT_RE.match(path)
     if m:
-        array = get_value(raw, m["base"], source=source)
-        i = int(m["index"])
-        if isinstance(array, (str, Mapping)) or not isinstance(array, (list, tuple)) \
-                or i >= len(array):
-            raise SceneError(f"override '{text}': '{m['base']}' = {fmt_value(array)} has no "
-                             f"component {i}; allowed: an index below the array's length",
-                             source=source, path=path)
+        array, i = _component(raw, m, f"override '{text}'", path, source)
         new = list(array)
         new[i] = value
         return m["base"], new
