@@ -18,6 +18,8 @@ from typing import Any
 
 import numpy as np
 
+# one text for a range across scenes, studies and force laws (the validation toolkit's)
+from mechrel._checks import describe_number as describe_range
 from mechrel.errors import SceneError
 from mechrel.forces.models import (
     BEARING_FINITE, BEARING_LONG, BEARING_SHORT, BEARINGS, DEFAULT_BEARING, MODEL_DRY,
@@ -117,21 +119,6 @@ are checked by :func:`pack_params` and restated by the scene validation with sce
 
 FINITE_LD_RANGE = (0.25, 4.0)
 """L/D = length / (2 R_S) range of the finite-length film's table (-)."""
-
-
-def describe_range(gt=None, ge=None, lt=None, le=None, unit=None) -> str:
-    """``"a finite number in (0, 1]"``-style text of a range (the scene's message style)."""
-    lo = (gt, "(") if gt is not None else (ge, "[") if ge is not None else None
-    hi = (lt, ")") if lt is not None else (le, "]") if le is not None else None
-    if lo and hi:
-        rng = f" in {lo[1]}{lo[0]:g}, {hi[0]:g}{hi[1]}"
-    elif lo:
-        rng = f" {'>' if gt is not None else '>='} {lo[0]:g}"
-    elif hi:
-        rng = f" {'<' if lt is not None else '<='} {hi[0]:g}"
-    else:
-        rng = ""
-    return "a finite number" + rng + (f" ({unit})" if unit else "")
 
 
 def _in_range(x: float, gt=None, ge=None, lt=None, le=None, unit=None) -> bool:
