@@ -75,6 +75,7 @@ def test_sphinx_build_has_no_warnings(tmp_path):
     assert proc.stderr.strip() == ""
     html = (tmp_path / "html" / "api.html").read_text(encoding="utf-8")
     # the API page holds the rendered docstrings (autodoc ran), with their examples
-    for text in ("load_scene", "contact_stiffness", "polynomial_chaos", "9.9536e+10"):
+    for text in ("load_scene", "contact_stiffness", "polynomial_chaos", "9.9536e+10",
+                 "all_finite", "kinematic_analysis", "hold_folder"):
         assert text in html, text
     assert (tmp_path / "html" / "reference.html").exists()
