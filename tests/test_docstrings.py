@@ -10,20 +10,27 @@ A compiled function (``numba.njit``) is checked through its Python function (``p
 Each item is validated by :func:`numpydoc.validate.validate` with the checks of
 :data:`CHECKS`: GL08 (a docstring exists), SS01/SS03 (a summary, ending with a period),
 PR01/PR02 (every parameter documented, none extra), RT01 (a Returns section when the function
-returns) and EX01 (an Examples section; tests/test_docs.py runs the examples as doctests).
+returns) and EX01 (an Examples section; tests/test_docs.py runs the examples as doctests);
+and a function that raises a :class:`~mechrel.errors.MechrelError` subclass in its own body
+must have a Raises section (a check of this file: numpydoc has none).
 """
 
 from __future__ import annotations
 
+import ast
 import importlib
 import inspect
 import pkgutil
 import re
+import textwrap
 from pathlib import Path
 
 import numba.core.dispatcher
 import numpydoc.validate
 import pytest
+from numpydoc.docscrape import FunctionDoc
+
+import mechrel.errors
 
 PACKAGES = ("mechrel", "mechrel.scene", "mechrel.forces", "mechrel.integrate", "mechrel.io",
             "mechrel.mechanics", "mechrel.simulation", "mechrel.outputs", "mechrel.studies",
@@ -106,10 +113,33 @@ def public_items() -> dict[str, object]:
     return items
 
 
+MECHREL_ERRORS = frozenset(name for name, cls in vars(mechrel.errors).items()
+                           if inspect.isclass(cls) and issubclass(cls, mechrel.errors.MechrelError))
+
+
+def raised_errors(func) -> set[str]:
+    """The :class:`~mechrel.errors.MechrelError` subclasses ``func``'s own source raises."""
+    tree = ast.parse(textwrap.dedent(inspect.getsource(func)))
+    out = set()
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Raise) and node.exc is not None:
+            target = node.exc.func if isinstance(node.exc, ast.Call) else node.exc
+            name = target.id if isinstance(target, ast.Name) else getattr(target, "attr", None)
+            if name in MECHREL_ERRORS:
+                out.add(name)
+    return out
+
+
 def problems(obj) -> list[str]:
-    """The failed :data:`CHECKS` of ``obj``'s docstring, as ``"CODE: message"``."""
+    """The failed :data:`CHECKS` of ``obj``'s docstring, as ``"CODE: message"``; and for a
+    function that raises a ``MechrelError`` subclass itself, a missing Raises section
+    (``"RS: ..."``; numpydoc has no check for it)."""
     result = numpydoc.validate.validate(numpydoc.validate.get_doc_object(obj))
-    return [f"{code}: {message}" for code, message in result["errors"] if code in CHECKS]
+    out = [f"{code}: {message}" for code, message in result["errors"] if code in CHECKS]
+    if inspect.isfunction(obj) and raised_errors(obj) and not FunctionDoc(obj)["Raises"]:
+        out.append(f"RS: raises {', '.join(sorted(raised_errors(obj)))} but has no Raises "
+                   "section")
+    return out
 
 
 ITEMS = public_items()
@@ -206,3 +236,20 @@ def test_the_check_fails_on_bad_docstrings():
         return x
 
     assert [p[:4] for p in problems(extra)] == ["PR02"]
+
+    def raising(x):
+        """Check x.
+
+        Parameters
+        ----------
+        x : float
+            A length (m).
+
+        Examples
+        --------
+        >>> raising(1.0)
+        """
+        if not x > 0:
+            raise mechrel.errors.SceneError(f"x = {x}: must be > 0; allowed: > 0 (m)")
+
+    assert [p[:3] for p in problems(raising)] == ["RS:"]
