@@ -103,7 +103,7 @@ class Contact:
     youngs_modulus_bearing, youngs_modulus_journal : float
         Young's moduli of bearing and journal (Pa), > 0; default 206 GPa (steel).
     poisson_bearing, poisson_journal : float
-        Poisson's ratios (-), in (−1, 0.5]; default 0.3.
+        Poisson's ratios (-), in (−1, 0.5); default 0.3.
     restitution : float
         Coefficient of restitution c_e (-), in (0, 1]; default 0.9.
     exponent : float
