@@ -76,7 +76,8 @@ class System(NamedTuple):
     dr_i, dr_law : ndarray of int
         Driven body and driver law code (``LAW_*``) of each driver.
     dr_par : ndarray, shape (nd, N_DRIVER_PARAMS)
-        Driver parameters by the ``D_*`` columns (rad, rad/s, rad/s², Hz, s).
+        Driver parameters by the ``D_*`` columns: θ0 (rad), ω (rad/s), α (rad/s²),
+        A (rad), Ω (rad/s), φ (rad), ramp time (s).
     cl_b, cl_j : ndarray of int
         Bearing body and journal body of each clearance joint.
     cl_sb, cl_sj : ndarray, shape (nc, 2)
