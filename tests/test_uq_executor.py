@@ -45,17 +45,20 @@ def test_same_seed_same_numbers_for_any_n_jobs_and_backend():
     from dask.distributed import Client, LocalCluster
 
     model = linear_model([0.1, -0.5], [[0.5, 0.0], [0.2, 0.3]], INPUTS.names)
-    kw = dict(model=model, inputs=INPUTS, n=512, seed=77, allowable=Allowable(1.0, 0.3), chunk_size=32)
+    kw = dict(model=model, inputs=INPUTS, n=512, seed=77, allowable=Allowable(1.0, 0.3),
+              chunk_size=32)
     ref = monte_carlo(**kw, n_jobs=1)
     loky = monte_carlo(**kw, n_jobs=2, backend="loky")
-    with LocalCluster(n_workers=2, threads_per_worker=1, processes=False, dashboard_address=None) as cluster, \
+    with LocalCluster(n_workers=2, threads_per_worker=1, processes=False,
+                      dashboard_address=None) as cluster, \
             Client(cluster):
         dask = monte_carlo(**kw, n_jobs=2, backend="dask")
     for other in (loky, dask):
         assert np.array_equal(other.evaluations.Y, ref.evaluations.Y)
         pd.testing.assert_frame_equal(other.table, ref.table, check_exact=True)
         pd.testing.assert_frame_equal(other.whole_cycle, ref.whole_cycle, check_exact=True)
-    assert loky.evaluations.settings["backend"] == "loky" and dask.evaluations.settings["backend"] == "dask"
+    assert (loky.evaluations.settings["backend"] == "loky"
+            and dask.evaluations.settings["backend"] == "dask")
     # results do not depend on the chunking either
     other = monte_carlo(**{**kw, "chunk_size": 7}, n_jobs=1)
     pd.testing.assert_frame_equal(other.table, ref.table, check_exact=True)
@@ -64,17 +67,21 @@ def test_same_seed_same_numbers_for_any_n_jobs_and_backend():
 def test_dask_without_client_is_a_clear_error():
     pytest.importorskip("distributed")
     model = linear_model([0.0], [[1.0, 0.0]], INPUTS.names)
-    with pytest.raises(StudyError, match=r"backend='dask': no Dask client is active; create one first"):
+    with pytest.raises(StudyError,
+                       match=r"backend='dask': no Dask client is active; create one first"):
         evaluate(model, np.zeros((4, 2)), n_jobs=2, backend="dask", progress=False)
 
 
 def test_backend_argument_errors():
     model = linear_model([0.0], [[1.0, 0.0]], INPUTS.names)
-    with pytest.raises(StudyError, match=r"backend: got 'threads'; allowed: \['loky', 'dask', 'sequential'\]"):
+    with pytest.raises(StudyError,
+                       match=r"backend: got 'threads'; allowed: \['loky', 'dask', 'sequential'\]"):
         evaluate(model, np.zeros((4, 2)), backend="threads")
-    with pytest.raises(StudyError, match=r"n_jobs = 0: must be >= 1 or -1; allowed: an integer >= 1, or -1"):
+    with pytest.raises(StudyError,
+                       match=r"n_jobs = 0: must be >= 1 or -1; allowed: an integer >= 1, or -1"):
         evaluate(model, np.zeros((4, 2)), n_jobs=0)
-    with pytest.raises(StudyError, match=r"X: expected shape \(n, 2\) for inputs \['x0', 'x1'\], got \(4, 3\)"):
+    with pytest.raises(StudyError,
+                       match=r"X: expected shape \(n, 2\) for inputs \['x0', 'x1'\], got \(4, 3\)"):
         evaluate(model, np.zeros((4, 3)))
 
     class Unpicklable:
@@ -90,7 +97,8 @@ def test_backend_argument_errors():
         def cache_key(self):
             return "unpicklable"
 
-    with pytest.raises(StudyError, match=r"model: Unpicklable cannot be pickled for parallel workers \(TypeError"):
+    with pytest.raises(StudyError, match=r"model: Unpicklable cannot be pickled for parallel "
+                                         r"workers \(TypeError"):
         evaluate(Unpicklable(), np.zeros((4, 2)), n_jobs=2, progress=False)
     # ...but it is a valid Model and runs in-process
     assert evaluate(Unpicklable(), np.ones((4, 2)), progress=False).n_ok == 4
@@ -142,7 +150,8 @@ def test_bugs_and_set_up_errors_stop_the_run(tmp_path):
     with pytest.raises(ZeroDivisionError):
         evaluate(m, X, chunk_size=5, cache=tmp_path, progress=False)
     # the chunks finished before the bug are kept
-    assert EvaluationCache(tmp_path).stats()[next(iter(EvaluationCache(tmp_path).stats()))]["ok"] == 10
+    assert EvaluationCache(tmp_path).stats()[
+        next(iter(EvaluationCache(tmp_path).stats()))]["ok"] == 10
     with pytest.raises(StudyError, match=r"returned 2 outputs, (model\.)?output_index has 1"):
         evaluate(FunctionModel(_wrong_length, INPUTS.names, ["y"]), X, progress=False)
 
@@ -161,7 +170,8 @@ def _counted(x, counter, bomb):
 
 def test_interrupted_run_resumes_without_recomputing(tmp_path):
     counter, bomb, cache = tmp_path / "calls.txt", tmp_path / "bomb", tmp_path / "cache"
-    model = FunctionModel(functools.partial(_counted, counter=str(counter), bomb=str(bomb)), INPUTS.names, ["s", "p"])
+    model = FunctionModel(functools.partial(_counted, counter=str(counter), bomb=str(bomb)),
+                          INPUTS.names, ["s", "p"])
     X = INPUTS.sample(100, seed=4)
     bomb.write_text("35")
     with pytest.raises(KeyboardInterrupt):
@@ -220,7 +230,8 @@ def test_failures_are_cached_and_can_be_retried(tmp_path):
     assert ev1.n_failed == n_bad > 0
     flag.unlink()  # "fix" something outside the cache key
     ev2 = evaluate(model, X, cache=tmp_path / "c", progress=False)
-    assert ev2.n_model_calls == 0 and ev2.n_failed == n_bad and ev2.failure_counts() == {"solver diverged": n_bad}
+    assert (ev2.n_model_calls == 0 and ev2.n_failed == n_bad
+            and ev2.failure_counts() == {"solver diverged": n_bad})
     ev3 = evaluate(model, X, cache=tmp_path / "c", retry_failed=True, progress=False)
     assert ev3.n_model_calls == n_bad and ev3.n_failed == 0
     # or forget them explicitly
@@ -293,9 +304,11 @@ _KILL_SCRIPT = textwrap.dedent(
         cache, counter, out = sys.argv[1:4]
         inputs = UncertainInputs.from_specs({"a": Normal(0, 1), "b": Normal(0, 1)})
         X = inputs.sample(60, seed=1)
-        model = FunctionModel(functools.partial(slow, counter=counter), inputs.names, ["y"], key="kill-test")
+        model = FunctionModel(functools.partial(slow, counter=counter), inputs.names, ["y"],
+                              key="kill-test")
         ev = evaluate(model, X, cache=cache, chunk_size=5, progress=False)
-        json.dump({"calls": ev.n_model_calls, "cached": ev.n_cached, "Y": ev.Y.ravel().tolist()}, open(out, "w"))
+        json.dump({"calls": ev.n_model_calls, "cached": ev.n_cached,
+                   "Y": ev.Y.ravel().tolist()}, open(out, "w"))
     """
 )
 
@@ -329,7 +342,8 @@ def test_killed_process_resumes_from_cache(tmp_path):
     cached = _ok_rows(db)
     calls_before = _lines(counter)
     assert 10 <= cached < 60 and len(calls_before) >= cached
-    subprocess.run([sys.executable, str(script), str(cache), str(counter), str(out)], check=True, timeout=300)
+    subprocess.run([sys.executable, str(script), str(cache), str(counter), str(out)], check=True,
+                   timeout=300)
     res = json.loads(out.read_text())
     assert res["cached"] == cached and res["calls"] == 60 - cached
     calls_after = _lines(counter)[len(calls_before):]

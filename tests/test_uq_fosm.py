@@ -38,7 +38,8 @@ CORR = np.array([[1.0, 0.3, 0.0], [0.3, 1.0, -0.2], [0.0, -0.2, 1.0]])
 
 
 def _linear():
-    inputs = UncertainInputs.from_specs({f"x{j}": Normal(MU[j], SD[j]) for j in range(3)}, correlation=CORR)
+    inputs = UncertainInputs.from_specs({f"x{j}": Normal(MU[j], SD[j]) for j in range(3)},
+                                        correlation=CORR)
     model = linear_model(A0, B, inputs.names)
     cov = CORR * np.outer(SD, SD)
     mu = A0 + B @ MU
@@ -74,7 +75,8 @@ def test_linear_model_fosm_is_exact():
 def test_fd_step_choices():
     _, inputs, _, _ = _linear()
     np.testing.assert_allclose(fd_steps(inputs, 0.1), 0.1 * SD)
-    np.testing.assert_allclose(fd_steps(inputs, "auto", noise=1e-8), 1e-8 ** (1 / 3) * np.maximum(np.abs(MU), SD))
+    np.testing.assert_allclose(fd_steps(inputs, "auto", noise=1e-8),
+                               1e-8 ** (1 / 3) * np.maximum(np.abs(MU), SD))
     np.testing.assert_allclose(fd_steps(inputs, [1e-3, 2e-3, 3e-3]), [1e-3, 2e-3, 3e-3])
     with pytest.raises(StudyError, match=r"step: a fraction of the std must be > 0, got -1"):
         fd_steps(inputs, -1)
@@ -107,11 +109,14 @@ def test_quadratic_gradient_is_exact_for_any_step():
 def test_two_sided_formula_against_direct_integration():
     """R₂ = P(−I < i < I) = ∫_{t>0} φ_I(t)[Φ((t−μ_i)/σ_i) − Φ((−t−μ_i)/σ_i)] dt (independent
     1-D quadrature, error < 1e-10) equals the bivariate-normal orthant form."""
-    for mu_i, s_i, mu_I, s_I in [(0.3, 0.5, 1.0, 0.4), (-0.2, 0.1, 0.3, 0.1), (0.0, 0.2, 0.012, 0.004),
-                                 (5.0, 1.0, 18.0, 6.0), (0.0, 1e-3, 1.0, 0.5), (0.9, 0.3, 1.0, 0.05)]:
+    for mu_i, s_i, mu_I, s_I in [(0.3, 0.5, 1.0, 0.4), (-0.2, 0.1, 0.3, 0.1),
+                                 (0.0, 0.2, 0.012, 0.004),
+                                 (5.0, 1.0, 18.0,
+                                  6.0), (0.0, 1e-3, 1.0, 0.5), (0.9, 0.3, 1.0, 0.05)]:
         f = lambda t: stats.norm.pdf(t, mu_I, s_I) * (  # noqa: E731
             stats.norm.cdf((t - mu_i) / s_i) - stats.norm.cdf((-t - mu_i) / s_i))
-        ref, _ = integrate.quad(f, 0, mu_I + 12 * s_I, epsabs=1e-13, epsrel=1e-12, points=[mu_I], limit=200)
+        ref, _ = integrate.quad(f, 0, mu_I + 12 * s_I, epsabs=1e-13, epsrel=1e-12, points=[mu_I],
+                                limit=200)
         r2 = reliability_two_sided(mu_i, s_i, mu_I, s_I)[2]
         assert r2 == pytest.approx(ref, abs=1e-10)
         # two-sided never exceeds one-sided (an intersection of events)
@@ -124,9 +129,12 @@ def test_two_sided_formula_against_direct_integration():
 
 
 # (β, R) pairs printed in the paper's §5 (Chen, Wang, Gao 2022)
-PAPER_PAIRS = [(2.021, 0.9784), (2.014, 0.9780), (1.614, 0.9464), (2.013, 0.9780), (-0.1706, 0.4325),
-               (1.675, 0.9530), (2.213, 0.9865), (2.214, 0.9866), (1.710, 0.9564), (0.08237, 0.5329),
-               (-0.7213, 0.2358), (2.043, 0.9795), (2.091, 0.9817), (2.263, 0.9882), (2.539, 0.9945),
+PAPER_PAIRS = [(2.021, 0.9784), (2.014, 0.9780), (1.614, 0.9464), (2.013, 0.9780),
+               (-0.1706, 0.4325),
+               (1.675,
+                0.9530), (2.213, 0.9865), (2.214, 0.9866), (1.710, 0.9564), (0.08237, 0.5329),
+               (-0.7213,
+                0.2358), (2.043, 0.9795), (2.091, 0.9817), (2.263, 0.9882), (2.539, 0.9945),
                (2.051, 0.9798), (2.389, 0.9916), (2.187, 0.9859), (1.832, 0.9666), (2.736, 0.9969),
                (1.304, 0.9039), (2.437, 0.9927), (0.5269, 0.7009)]
 
@@ -154,7 +162,8 @@ def _mechanism_like(x):
 
 
 def _grid_index():
-    return pd.MultiIndex.from_product([["displacement", "velocity", "acceleration"], [0.0, 90.0, 180.0, 270.0]],
+    return pd.MultiIndex.from_product([["displacement", "velocity", "acceleration"],
+                                       [0.0, 90.0, 180.0, 270.0]],
                                       names=["quantity", "crank_angle"])
 
 
@@ -163,12 +172,16 @@ def test_default_allowables_are_the_papers_per_quantity():
     m = FunctionModel(_mechanism_like, inputs.names, _grid_index())
     res = fosm(model=m, inputs=inputs)
     t = res.table
-    assert (t.loc["displacement", "mu_I"] == 0.012).all() and (t.loc["displacement", "sigma_I"] == 0.004).all()
+    assert (t.loc["displacement",
+                  "mu_I"] == 0.012).all() and (t.loc["displacement", "sigma_I"] == 0.004).all()
     assert (t.loc["velocity", "mu_I"] == 0.3).all() and (t.loc["velocity", "sigma_I"] == 0.1).all()
-    assert (t.loc["acceleration", "mu_I"] == 18.0).all() and (t.loc["acceleration", "sigma_I"] == 6.0).all()
+    assert (t.loc["acceleration",
+                  "mu_I"] == 18.0).all() and (t.loc["acceleration", "sigma_I"] == 6.0).all()
     # custom mapping; missing quantity is an error naming it
-    with pytest.raises(StudyError, match=r"allowable: no allowable error for quantity \['acceleration'\]"):
-        fosm(model=m, inputs=inputs, allowable={"displacement": Allowable(0.01, 0.0), "velocity": (0.2, 0.05)})
+    with pytest.raises(StudyError,
+                       match=r"allowable: no allowable error for quantity \['acceleration'\]"):
+        fosm(model=m, inputs=inputs,
+             allowable={"displacement": Allowable(0.01, 0.0), "velocity": (0.2, 0.05)})
     # analytic outputs without a quantity level need an explicit allowable
     m2 = linear_model([0.0], [[1.0, 0.0]], inputs.names)
     with pytest.raises(StudyError, match=r"outputs have no 'quantity' level"):
@@ -191,9 +204,11 @@ def test_precomputed_evaluations_give_the_same_result():
     pd.testing.assert_frame_equal(a.to_frame(), b.to_frame())
     with pytest.raises(StudyError, match=r"evaluations\.X is not fosm_design"):
         fosm(evaluations=ev, inputs=inputs, allowable=Allowable(1.0, 0.2), step=0.1)
-    with pytest.raises(StudyError, match=r"pass exactly one of model= .* or evaluations= .*, got both"):
+    with pytest.raises(StudyError,
+                       match=r"pass exactly one of model= .* or evaluations= .*, got both"):
         fosm(model=model, evaluations=ev, inputs=inputs)
-    with pytest.raises(StudyError, match=r"form: got 'both'; allowed: \['one-sided', 'two-sided'\]"):
+    with pytest.raises(StudyError,
+                       match=r"form: got 'both'; allowed: \['one-sided', 'two-sided'\]"):
         fosm(model=model, inputs=inputs, form="both")
 
 

@@ -42,7 +42,8 @@ def test_truncnormal_moments_are_those_of_the_truncated_variable():
 
 @pytest.mark.parametrize("rule", ["random", "latin_hypercube", "sobol"])
 def test_sampling_is_seeded_and_leaves_global_state_alone(rule):
-    inp = UncertainInputs.from_specs({"a": Normal(0, 1), "b": Uniform(-1, 1), "c": LogNormal(1, 0.2)})
+    inp = UncertainInputs.from_specs({"a": Normal(0, 1), "b": Uniform(-1, 1),
+                                      "c": LogNormal(1, 0.2)})
     np.random.seed(123)  # noqa: NPY002 (the legacy global state must stay untouched)
     before = np.random.get_state()[1].copy()  # noqa: NPY002
     x1 = inp.sample(256, rule, seed=7)
@@ -63,7 +64,8 @@ def test_latin_hypercube_stratifies_every_margin():
 def test_correlated_sample_matches_the_requested_pearson_correlation():
     rho = {("a", "b"): 0.6, ("b", "c"): -0.4, ("a", "d"): 0.3}
     inp = UncertainInputs.from_specs(
-        {"a": Normal(1, 0.1), "b": Uniform(0, 2), "c": LogNormal(2, 0.6), "d": TruncNormal(0, 1, -1, 2)},
+        {"a": Normal(1, 0.1), "b": Uniform(0, 2), "c": LogNormal(2, 0.6),
+         "d": TruncNormal(0, 1, -1, 2)},
         correlation=rho,
     )
     # Nataf adjusts the Gaussian-copula correlation for non-normal margins
@@ -87,7 +89,8 @@ def test_correlated_sample_matches_the_requested_pearson_correlation():
 
 
 def test_two_normals_keep_their_correlation_exactly():
-    inp = UncertainInputs.from_specs({"a": Normal(0, 1), "b": Normal(5, 2)}, correlation=[[1, 0.7], [0.7, 1]])
+    inp = UncertainInputs.from_specs({"a": Normal(0, 1), "b": Normal(5, 2)},
+                                     correlation=[[1, 0.7], [0.7, 1]])
     assert inp.gaussian_correlation[0, 1] == 0.7
     assert inp.covariance[0, 1] == pytest.approx(0.7 * 2)
 
@@ -95,21 +98,30 @@ def test_two_normals_keep_their_correlation_exactly():
 @pytest.mark.parametrize(
     "specs, correlation, match",
     [
-        ({"a": {"distribution": "normal", "mean": 1.0, "std": -0.1}}, None, r"inputs\.a\.std: must be > 0, got -0\.1"),
+        ({"a": {"distribution": "normal", "mean": 1.0, "std": -0.1}}, None,
+         r"inputs\.a\.std: must be > 0, got -0\.1"),
         ({"a": {"distribution": "gauss", "mean": 1.0, "std": 0.1}}, None,
-         r"inputs\.a\.distribution: got 'gauss'; allowed: \['lognormal', 'normal', 'truncnormal', 'uniform'\]"),
+         r"inputs\.a\.distribution: got 'gauss'; allowed: "
+         r"\['lognormal', 'normal', 'truncnormal', 'uniform'\]"),
         ({"a": {"distribution": "uniform", "lower": 2, "upper": 1}}, None,
          r"inputs\.a\.lower/upper: need lower < upper, got lower=2\.0, upper=1\.0"),
-        ({"a": {"distribution": "normal", "mean": 1.0}}, None, r"inputs\.a: distribution 'normal' takes fields \['mean', 'std'\]; missing \['std'\]"),
-        ({"a": {"distribution": "lognormal", "mean": -1.0, "std": 0.1}}, None, r"inputs\.a\.mean: must be > 0, got -1\.0"),
-        ({"a": {"distribution": "normal", "mean": "x", "std": 0.1}}, None, r"inputs\.a\.mean: must be a number, got 'x'"),
-        ({"a": {"distribution": "truncnormal", "mean": 0, "std": 1, "lower": 50, "upper": 60}}, None,
+        ({"a": {"distribution": "normal", "mean": 1.0}}, None,
+         r"inputs\.a: distribution 'normal' takes fields \['mean', 'std'\]; missing \['std'\]"),
+        ({"a": {"distribution": "lognormal", "mean": -1.0, "std": 0.1}}, None,
+         r"inputs\.a\.mean: must be > 0, got -1\.0"),
+        ({"a": {"distribution": "normal", "mean": "x", "std": 0.1}}, None,
+         r"inputs\.a\.mean: must be a number, got 'x'"),
+        ({"a": {"distribution": "truncnormal", "mean": 0, "std": 1, "lower": 50, "upper": 60}},
+         None,
          r"inputs\.a: \[lower, upper\] = \[50\.0, 60\.0\] holds probability"),
-        ({"a": Normal(0, 1), "b": Normal(0, 1)}, [[1, 1.2], [1.2, 1]], r"inputs\.correlation\['a', 'b'\]: got 1\.2; allowed: -1 < rho < 1"),
-        ({"a": Normal(0, 1), "b": Normal(0, 1)}, {("a", "z"): 0.2}, r"inputs\.correlation: unknown input 'z'; allowed: \['a', 'b'\]"),
+        ({"a": Normal(0, 1), "b": Normal(0, 1)}, [[1, 1.2], [1.2, 1]],
+         r"inputs\.correlation\['a', 'b'\]: got 1\.2; allowed: -1 < rho < 1"),
+        ({"a": Normal(0, 1), "b": Normal(0, 1)}, {("a", "z"): 0.2},
+         r"inputs\.correlation: unknown input 'z'; allowed: \['a', 'b'\]"),
         ({"a": Normal(0, 1), "b": Normal(0, 1)}, [[1, 0.2]], r"inputs\.correlation: must be 2x2"),
         ({"a": Uniform(0, 1), "b": LogNormal(1, 2.0)}, {("a", "b"): -0.95},
-         r"inputs\.correlation\['a', 'b'\]: got -0\.95; these marginals \(uniform, lognormal\) can only reach"),
+         r"inputs\.correlation\['a', 'b'\]: got -0\.95; these marginals "
+         r"\(uniform, lognormal\) can only reach"),
     ],
 )
 def test_validation_messages_name_field_value_and_what_is_allowed(specs, correlation, match):
@@ -120,16 +132,20 @@ def test_validation_messages_name_field_value_and_what_is_allowed(specs, correla
 
 def test_sampling_argument_errors():
     inp = UncertainInputs.from_specs({"a": Normal(0, 1)})
-    with pytest.raises(StudyError, match=r'rule = "halton": unknown value; allowed: one of random, latin_hypercube, sobol'):
+    with pytest.raises(StudyError, match=r'rule = "halton": unknown value; allowed: one of '
+                                         r'random, latin_hypercube, sobol'):
         inp.sample(8, "halton", seed=1)
-    with pytest.raises(StudyError, match=r"n = 0: must be >= 1; allowed: an integer >= 1 \(a number of draws\)"):
+    with pytest.raises(StudyError, match=r"n = 0: must be >= 1; allowed: an integer >= 1 "
+                                         r"\(a number of draws\)"):
         inp.sample(0, seed=1)
-    with pytest.raises(StudyError, match=r"seed = -3: must be >= 0; allowed: an integer >= 0 \(a seed\)"):
+    with pytest.raises(StudyError,
+                       match=r"seed = -3: must be >= 0; allowed: an integer >= 0 \(a seed\)"):
         inp.sample(4, seed=-3)
 
 
 def test_reordering_to_model_names():
-    inp = UncertainInputs.from_specs({"a": Normal(0, 1), "b": Uniform(0, 1)}, correlation={("a", "b"): 0.3})
+    inp = UncertainInputs.from_specs({"a": Normal(0, 1), "b": Uniform(0, 1)},
+                                     correlation={("a", "b"): 0.3})
     r = inp.reordered(("b", "a"))
     assert r.names == ("b", "a") and r.marginals[0] == Uniform(0.0, 1.0)
     assert r.correlation[0, 1] == 0.3

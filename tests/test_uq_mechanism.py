@@ -144,7 +144,8 @@ def test_input_validation_errors(kwargs, match):
 def test_wrong_x_and_mismatched_inputs_are_study_errors(model, inputs):
     with pytest.raises(StudyError, match=r"x: expected 2 values \(clearance, viscosity\), got 1"):
         model.evaluate([0.5e-3])
-    other = UncertainInputs.from_specs({"clearance": Normal(0.5e-3, 5e-5), "speed": Normal(9.4, 0.1)})
+    other = UncertainInputs.from_specs({"clearance": Normal(0.5e-3, 5e-5),
+                                        "speed": Normal(9.4, 0.1)})
     with pytest.raises(StudyError):
         fosm(model=model, inputs=other)
 

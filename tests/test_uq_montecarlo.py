@@ -33,7 +33,8 @@ from mechrel.uq import SampleFailuresError
 # to reject the wrong form or the wrong allowable model (checked below).
 Z4 = 1 - 2 * special.ndtr(-4.0)
 
-INPUTS = UncertainInputs.from_specs({"x0": Normal(0.0, 1.0), "x1": Normal(1.0, 0.5)}, correlation={("x0", "x1"): 0.4})
+INPUTS = UncertainInputs.from_specs({"x0": Normal(0.0, 1.0), "x1": Normal(1.0, 0.5)},
+                                    correlation={("x0", "x1"): 0.4})
 A0 = np.array([0.1, -0.5])
 B = np.array([[0.5, 0.0], [0.2, 0.3]])
 ALLOW = Allowable(1.0, 0.3)
@@ -73,12 +74,14 @@ def test_linear_normal_model_within_intervals(rule):
 
 def test_fixed_allowable_mode_is_an_allowable_with_zero_std():
     n = 2000
-    a = monte_carlo(model=_model(), inputs=INPUTS, n=n, seed=5, allowable=ALLOW, allowable_mode="fixed")
+    a = monte_carlo(model=_model(), inputs=INPUTS, n=n, seed=5, allowable=ALLOW,
+                    allowable_mode="fixed")
     b = monte_carlo(model=_model(), inputs=INPUTS, n=n, seed=5, allowable=Allowable(1.0, 0.0))
     pd.testing.assert_frame_equal(a.table.drop(columns="sigma_I"), b.table.drop(columns="sigma_I"))
     mu, sd = _exact()
     exact = reliability_two_sided(mu, sd, 1.0, 0.0)[2]
-    t = monte_carlo(model=_model(), inputs=INPUTS, n=n, seed=5, allowable=ALLOW, allowable_mode="fixed",
+    t = monte_carlo(model=_model(), inputs=INPUTS, n=n, seed=5, allowable=ALLOW,
+                    allowable_mode="fixed",
                     confidence_level=Z4).table
     assert np.all((t["reliability_lo"] <= exact) & (exact <= t["reliability_hi"]))
 
@@ -86,7 +89,8 @@ def test_fixed_allowable_mode_is_an_allowable_with_zero_std():
 def test_precomputed_evaluations_reproduce_the_model_run():
     X = monte_carlo_design(INPUTS, n=500, rule="latin_hypercube", seed=9)
     ev = evaluate(_model(), X, progress=False)
-    a = monte_carlo(model=_model(), inputs=INPUTS, n=500, rule="latin_hypercube", seed=9, allowable=ALLOW)
+    a = monte_carlo(model=_model(), inputs=INPUTS, n=500, rule="latin_hypercube", seed=9,
+                    allowable=ALLOW)
     b = monte_carlo(evaluations=ev, seed=9, allowable=ALLOW)
     pd.testing.assert_frame_equal(a.table, b.table)
     pd.testing.assert_frame_equal(a.whole_cycle, b.whole_cycle)
@@ -96,12 +100,16 @@ def test_precomputed_evaluations_reproduce_the_model_run():
 def _data(draw):
     n = draw(st.integers(2, 40))
     n_ang = draw(st.integers(1, 4))
-    quantities = draw(st.lists(st.sampled_from(["displacement", "velocity", "acceleration"]), min_size=1,
+    quantities = draw(st.lists(st.sampled_from(["displacement", "velocity", "acceleration"]),
+                               min_size=1,
                                max_size=3, unique=True))
-    idx = pd.MultiIndex.from_product([quantities, np.arange(n_ang) * 90.0], names=["quantity", "crank_angle"])
-    Y = draw(st.lists(st.lists(st.floats(-3, 3, allow_nan=False), min_size=len(idx), max_size=len(idx)),
+    idx = pd.MultiIndex.from_product([quantities, np.arange(n_ang) * 90.0],
+                                     names=["quantity", "crank_angle"])
+    Y = draw(st.lists(st.lists(st.floats(-3, 3, allow_nan=False), min_size=len(idx),
+                               max_size=len(idx)),
                       min_size=n, max_size=n))
-    allow = {q: Allowable(draw(st.floats(0.05, 3.0)), draw(st.sampled_from([0.0, 0.1, 1.0]))) for q in quantities}
+    allow = {q: Allowable(draw(st.floats(0.05, 3.0)),
+                          draw(st.sampled_from([0.0, 0.1, 1.0]))) for q in quantities}
     form = draw(st.sampled_from(["one-sided", "two-sided"]))
     mode = draw(st.sampled_from(["sampled", "fixed"]))
     seed = draw(st.integers(0, 2**32 - 1))
@@ -122,7 +130,8 @@ def test_whole_cycle_never_exceeds_the_smallest_point_reliability(data):
     assert wc["all"] <= point.min() + 1e-15
     # two-sided is the stricter event, sample by sample (same allowable draws)
     if form == "one-sided":
-        two = monte_carlo(evaluations=ev, allowable=allow, form="two-sided", allowable_mode=mode, seed=seed)
+        two = monte_carlo(evaluations=ev, allowable=allow, form="two-sided", allowable_mode=mode,
+                          seed=seed)
         assert np.all(two.table["reliability"] <= point + 1e-15)
 
 
@@ -149,12 +158,16 @@ def test_failing_region_is_counted_with_reasons_and_the_run_finishes():
     assert res.table["n"].iloc[0] == 2000 - res.n_failed  # excluded, not silently counted
     assert list(ev.failures()["reason"].unique()) != []
     # conservative alternative: failures count as violations
-    cons = monte_carlo(model=m, inputs=inputs, n=2000, seed=1, allowable=Allowable(0.3, 0.0), failures="as_violation")
+    cons = monte_carlo(model=m, inputs=inputs, n=2000, seed=1, allowable=Allowable(0.3, 0.0),
+                       failures="as_violation")
     assert cons.table["n"].iloc[0] == 2000
     assert cons.table["reliability"].iloc[0] < res.table["reliability"].iloc[0]
     # refuse above the threshold, with the reasons in the message and every sample in the error
-    with pytest.raises(SampleFailuresError, match=r"monte_carlo: \d+ of 2000 samples failed \(\d+× assembly failed") as info:
-        monte_carlo(model=m, inputs=inputs, n=2000, seed=1, allowable=Allowable(0.3, 0.0), max_failure_fraction=0.01)
+    with pytest.raises(SampleFailuresError,
+                       match=r"monte_carlo: \d+ of 2000 samples failed \(\d+× assembly failed"
+                       ) as info:
+        monte_carlo(model=m, inputs=inputs, n=2000, seed=1, allowable=Allowable(0.3, 0.0),
+                    max_failure_fraction=0.01)
     assert isinstance(info.value, StudyError)
     assert np.array_equal(info.value.evaluations.X, ev.X)
     assert info.value.evaluations.failure_counts() == res.failure_counts
@@ -166,8 +179,9 @@ def _always_fails(x):
 
 def test_too_few_successful_samples_is_a_refusal_that_keeps_the_samples():
     m = FunctionModel(_always_fails, INPUTS.names, ["y"])
-    with pytest.raises(SampleFailuresError, match=r"monte_carlo: need at least 2 successful samples, got 0 "
-                                                  r"\(8 of 8 samples failed \(8× joint jams\)\)") as info:
+    with pytest.raises(SampleFailuresError,
+                       match=r"monte_carlo: need at least 2 successful samples, got 0 "
+                       r"\(8 of 8 samples failed \(8× joint jams\)\)") as info:
         monte_carlo(model=m, inputs=INPUTS, n=8, seed=1, allowable=ALLOW, max_failure_fraction=1.0)
     assert info.value.evaluations.n_failed == 8
 
@@ -186,18 +200,24 @@ def test_binomial_intervals():
 
 def test_argument_validation_messages():
     m = _model()
-    with pytest.raises(StudyError, match=r'allowable_mode = "random": unknown value; allowed: one of sampled, fixed'):
+    with pytest.raises(StudyError, match=r'allowable_mode = "random": unknown value; allowed: '
+                                         r'one of sampled, fixed'):
         monte_carlo(model=m, inputs=INPUTS, n=10, allowable=ALLOW, allowable_mode="random")
-    with pytest.raises(StudyError, match=r'rule = "lhs": unknown value; allowed: one of random, latin_hypercube, sobol'):
+    with pytest.raises(StudyError, match=r'rule = "lhs": unknown value; allowed: one of random, '
+                                         r'latin_hypercube, sobol'):
         monte_carlo(model=m, inputs=INPUTS, n=10, rule="lhs", allowable=ALLOW)
-    with pytest.raises(StudyError, match=r"confidence_level = 1\.5: must be < 1; allowed: a finite number in \(0, 1\)"):
+    with pytest.raises(StudyError, match=r"confidence_level = 1\.5: must be < 1; allowed: a "
+                                         r"finite number in \(0, 1\)"):
         monte_carlo(model=m, inputs=INPUTS, n=10, allowable=ALLOW, confidence_level=1.5)
-    with pytest.raises(StudyError, match=r"n = None: expected an integer, got None; allowed: an integer >= 2 \(a sample count\)"):
+    with pytest.raises(StudyError, match=r"n = None: expected an integer, got None; allowed: "
+                                         r"an integer >= 2 \(a sample count\)"):
         monte_carlo(model=m, inputs=INPUTS, allowable=ALLOW)
-    with pytest.raises(StudyError, match=r'failures = "ignore": unknown value; allowed: one of exclude, as_violation'):
+    with pytest.raises(StudyError, match=r'failures = "ignore": unknown value; allowed: one of '
+                                         r'exclude, as_violation'):
         monte_carlo(model=m, inputs=INPUTS, n=10, allowable=ALLOW, failures="ignore")
     bad = UncertainInputs.from_specs({"x0": Normal(0, 1), "zz": Normal(0, 1)})
-    with pytest.raises(StudyError, match=r"inputs: names must match the model's input_names; missing \['x1'\]"):
+    with pytest.raises(StudyError,
+                       match=r"inputs: names must match the model's input_names; missing \['x1'\]"):
         monte_carlo(model=m, inputs=bad, n=10, allowable=ALLOW)
 
 
@@ -206,4 +226,5 @@ def test_seed_none_is_recorded_and_replayable():
     entropy = a.provenance["seed"]["entropy"]
     b = monte_carlo(model=_model(), inputs=INPUTS, n=300, allowable=ALLOW, seed=entropy)
     pd.testing.assert_frame_equal(a.table, b.table)
-    assert set(a.provenance) >= {"seed", "n_model_evaluations", "wall_time", "versions", "model_cache_key", "settings"}
+    assert set(a.provenance) >= {"seed", "n_model_evaluations", "wall_time", "versions",
+                                 "model_cache_key", "settings"}

@@ -40,7 +40,8 @@ def _slider_errors(x):
 def results():
     idx = pd.MultiIndex.from_product([["displacement", "velocity", "acceleration"], ANGLES],
                                      names=["quantity", "crank_angle"])
-    inputs = UncertainInputs.from_specs({"joints.C1.clearance": Normal(1.0, 0.3), "joints.C2.clearance": Normal(1.0, 0.3)})
+    inputs = UncertainInputs.from_specs({"joints.C1.clearance": Normal(1.0, 0.3),
+                                         "joints.C2.clearance": Normal(1.0, 0.3)})
     model = FunctionModel(_slider_errors, inputs.names, idx)
     f = fosm(model=model, inputs=inputs)
     mc = monte_carlo(model=model, inputs=inputs, n=1000, seed=1)

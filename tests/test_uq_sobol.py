@@ -61,8 +61,9 @@ def test_failed_samples_drop_whole_blocks_and_are_reported():
     assert res.failure_counts == {"mechanism locks near the dead point": res.evaluations.n_failed}
     assert np.all(np.isfinite(res.first.to_numpy()))  # no NaN propagation
     # refuse when the dropped share exceeds the threshold; the message gives counts and reasons
-    with pytest.raises(SampleFailuresError, match=rf"{expect} of {n} Saltelli blocks contain a failed sample "
-                                                  r"\(\d+ of \d+ samples failed \(\d+× mechanism locks") as info:
+    with pytest.raises(SampleFailuresError,
+                       match=rf"{expect} of {n} Saltelli blocks contain a failed sample "
+                       r"\(\d+ of \d+ samples failed \(\d+× mechanism locks") as info:
         sobol_indices(evaluations=res.evaluations, inputs=inputs, n=n, max_failure_fraction=0.01)
     assert info.value.evaluations is res.evaluations  # the raw evaluations, every sample
 
@@ -76,15 +77,18 @@ def test_fewer_than_two_complete_blocks_is_a_refusal_even_at_threshold_one():
     # (a ValueError from numpy)
     inputs = ishigami_inputs()
     model = FunctionModel(_always_locks, inputs.names, ["y"])
-    with pytest.raises(SampleFailuresError, match=r"sobol_indices: need at least 2 complete Saltelli blocks, got 0 "
+    with pytest.raises(SampleFailuresError,
+                       match=r"sobol_indices: need at least 2 complete Saltelli blocks, got 0 "
                                                   r"\(40 of 40 samples failed") as info:
-        sobol_indices(model=model, inputs=inputs, n=8, seed=1, max_failure_fraction=1.0, progress=False)
+        sobol_indices(model=model, inputs=inputs, n=8, seed=1, max_failure_fraction=1.0,
+                      progress=False)
     assert info.value.evaluations.n == 40
 
 
 def _grid(x):
     ang = np.deg2rad([0.0, 90.0, 180.0, 270.0])
-    return np.concatenate([1e-3 * (x[0] * np.sin(ang) + 0.1 * x[1]), 0.1 * (x[1] * np.cos(ang) + 0.3 * x[2])])
+    return np.concatenate([1e-3 * (x[0] * np.sin(ang) + 0.1 * x[1]),
+                           0.1 * (x[1] * np.cos(ang) + 0.3 * x[2])])
 
 
 def test_reducer_and_output_selection():
@@ -111,7 +115,8 @@ def test_argument_errors():
     inputs = ishigami_inputs()
     corr = UncertainInputs.from_specs({"x1": Normal(0, 1), "x2": Normal(0, 1), "x3": Normal(0, 1)},
                                       correlation={("x1", "x2"): 0.5})
-    with pytest.raises(StudyError, match=r"the inputs are correlated; classical Sobol' indices need independent inputs"):
+    with pytest.raises(StudyError, match=r"the inputs are correlated; classical Sobol' indices "
+                                         r"need independent inputs"):
         sobol_indices(model=ishigami_model(), inputs=corr, n=64)
     X = inputs.sample(5 * 63, seed=1)
     ev = evaluate(ishigami_model(), X, progress=False)
@@ -119,5 +124,6 @@ def test_argument_errors():
         sobol_indices(evaluations=ev, inputs=inputs, n=63)
     with pytest.raises(StudyError, match=r"not a multiple of the Saltelli block size 8"):
         sobol_indices(evaluations=ev, inputs=inputs, n=64, calc_second_order=True)
-    with pytest.raises(StudyError, match=r"outputs: labels \['z'\] are not in the model's output_index"):
+    with pytest.raises(StudyError,
+                       match=r"outputs: labels \['z'\] are not in the model's output_index"):
         sobol_indices(model=ishigami_model(), inputs=inputs, n=64, outputs=["z"])

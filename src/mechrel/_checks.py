@@ -76,6 +76,31 @@ def _bound(x: float) -> str:
 
 def describe_number(gt=None, ge=None, lt=None, le=None, unit: str | None = None,
                     integer: bool = False) -> str:
+    """Describe the numbers a range admits, for the "allowed: WHAT" part of a message.
+
+    Parameters
+    ----------
+    gt, ge : float, optional
+        Lower bound, exclusive or inclusive (at most one of them).
+    lt, le : float, optional
+        Upper bound, exclusive or inclusive (at most one of them).
+    unit : str, optional
+        Unit appended in parentheses.
+    integer : bool, default False
+        Describe integers instead of finite numbers.
+
+    Returns
+    -------
+    str
+        The description.
+
+    Examples
+    --------
+    >>> describe_number(gt=0, le=1)
+    'a finite number in (0, 1]'
+    >>> describe_number(ge=2, integer=True), describe_number(gt=0, unit="m")
+    ('an integer >= 2', 'a finite number > 0 (m)')
+    """
     kind = "an integer" if integer else "a finite number"
     lo = (gt, "(") if gt is not None else (ge, "[") if ge is not None else None
     hi = (lt, ")") if lt is not None else (le, "]") if le is not None else None

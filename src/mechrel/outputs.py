@@ -33,9 +33,10 @@ import numpy as np
 class Quantity:
     """One quantity of an output kind.
 
-    Attributes
+    Parameters
     ----------
     name : str
+        The quantity's name (e.g. ``"displacement"``).
     unit : str
         SI unit of the values (and of the errors).
     display_unit : str
@@ -64,7 +65,7 @@ class Quantity:
 class OutputKind:
     """One row of :data:`OUTPUT_KINDS` (module docstring).
 
-    Attributes
+    Parameters
     ----------
     name : str
         The ``kind`` of a scene output.
@@ -98,6 +99,17 @@ class States:
     """The mechanism's states at some instants (rows): ``T`` (s), ``Q`` (m, rad), ``V``,
     ``A``, and ``H`` the contact joints' history state (impact speeds, m/s) or None (the ideal
     mechanism has none).
+
+    Parameters
+    ----------
+    T : numpy.ndarray
+        Instants (s).
+    Q : numpy.ndarray
+        Coordinates at each instant (m, rad), one row each.
+    V, A : numpy.ndarray
+        Their first and second time derivatives (m/s, rad/s; m/s², rad/s²).
+    H : numpy.ndarray, optional
+        History state of the contact joints (impact speeds, m/s), one row per instant.
 
     Examples
     --------

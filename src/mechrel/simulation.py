@@ -55,7 +55,26 @@ def scene_kind(scene: Scene) -> str:
 
     A film makes the problem stiff; contact makes it non-smooth; when a scene mixes models the
     one of highest ``precedence`` in the table of models wins (lubricated, then transition,
-    then dry: the stiff default wins)."""
+    then dry: the stiff default wins).
+
+    Parameters
+    ----------
+    scene : mechrel.scene.model.Scene
+        The scene.
+
+    Returns
+    -------
+    str
+        ``"ideal"``, ``"dry"``, ``"lubricated"`` or ``"transition"``.
+
+    Examples
+    --------
+    The four-bar has a lubricated and a dry joint: the stiff film sets its kind:
+
+    >>> from mechrel.scene import load_scene
+    >>> scene_kind(load_scene("slider-crank")), scene_kind(load_scene("four-bar"))
+    ('ideal', 'lubricated')
+    """
     rows = [j.clearance_model for j in scene.clearance_joints]
     return max(rows, key=lambda m: m.precedence).name if rows else "ideal"
 
@@ -220,9 +239,10 @@ def _outputs(scene: Scene, compiled: CompiledScene, T, Q, V, A, *, H=None, ideal
 class SimulationResult:
     """The outcome of :func:`simulate`.
 
-    Attributes
+    Parameters
     ----------
     scene : Scene
+        The scene simulated.
     time : ndarray
         Output instants (s).
     crank_angle : ndarray or None
@@ -248,6 +268,8 @@ class SimulationResult:
         Solver statistics (:class:`~mechrel.integrate.SolverStats` as a dict) or those of the
         kinematic analysis; always includes ``max_position_violation`` and ``wall_time``.
     provenance : dict
+        Scene name and hash, reference name and hash (if any), versions of mechrel, NumPy,
+        SciPy, Numba and Python, and the wall time (s).
     extremes : dict or None
         With ``simulate(..., extremes=True)``: ``extremes[output][quantity][field]`` for the
         fields of :data:`EXTREME_FIELDS`: the largest (``max``) and smallest (``min``) signed
@@ -257,6 +279,10 @@ class SimulationResult:
         driver) where it occurs. Found on the integrator's solution (every accepted step's end
         and ``dense_points`` points of its continuous extension inside it, plus the output
         instants), not on the output grid (docs/mechanics.md, "Cycle extremes").
+
+    See Also
+    --------
+    simulate : Makes it.
 
     Examples
     --------
@@ -286,7 +312,30 @@ class SimulationResult:
     def extremes_frame(self):
         """The cycle extremes as a :class:`pandas.DataFrame`: one row per ``(output,
         quantity)``, the columns of :data:`EXTREME_FIELDS` (values in SI units, times in s,
-        angles in degrees of the cycle driver's rotation since t = 0)."""
+        angles in degrees of the cycle driver's rotation since t = 0).
+
+        Returns
+        -------
+        pandas.DataFrame
+            The extremes, with the provenance in ``frame.attrs["provenance"]``.
+
+        Raises
+        ------
+        mechrel.errors.SimulationError
+            The result was simulated without ``extremes=True``.
+
+        Examples
+        --------
+        A crank 0.1 mm longer than the nominal one moves the slider by 0.1 mm at its dead
+        centres:
+
+        >>> from mechrel.scene import load_scene
+        >>> nominal = load_scene("slider-crank")
+        >>> longer = load_scene("slider-crank", overrides=["bodies.crank.length(O,A)=0.0501"])
+        >>> r = simulate(longer, reference=nominal, extremes=True)
+        >>> round(float(r.extremes_frame().loc[("slider", "displacement"), "max_abs"]), 9)
+        0.0001
+        """
         import pandas as pd
 
         if self.extremes is None:
@@ -299,7 +348,37 @@ class SimulationResult:
         return frame
 
     def error(self, output: str, quantity: str) -> np.ndarray:
-        """Simulated minus ideal ``quantity`` of ``output``."""
+        """Simulated minus ideal ``quantity`` of ``output``.
+
+        Parameters
+        ----------
+        output : str
+            An output name of the scene.
+        quantity : str
+            One of the output's quantities (e.g. ``"displacement"``).
+
+        Returns
+        -------
+        numpy.ndarray
+            The error at each output instant (SI units).
+
+        Raises
+        ------
+        mechrel.errors.SimulationError
+            The result has no ideal counterpart (no clearance joint and no reference).
+
+        Examples
+        --------
+        A crank 0.1 mm longer than the nominal one: at t = 0 (crank along the slider's line)
+        the slider is 0.1 mm further out:
+
+        >>> from mechrel.scene import load_scene
+        >>> nominal = load_scene("slider-crank")
+        >>> longer = load_scene("slider-crank", overrides=["bodies.crank.length(O,A)=0.0501"])
+        >>> e = simulate(longer, reference=nominal).error("slider", "displacement")
+        >>> round(float(e[0]), 9)   # m
+        0.0001
+        """
         if self.ideal is None:
             raise SimulationError("this scene has no clearance joints: there is no response "
                                   "error (the mechanism is its own ideal counterpart)")
@@ -308,7 +387,23 @@ class SimulationResult:
     def to_frame(self):
         """A :class:`pandas.DataFrame` with columns ``time``, ``crank_angle`` (when defined),
         ``<output>.<quantity>`` and, for scenes with clearance joints,
-        ``<output>.<quantity>.ideal`` and ``<output>.<quantity>.error``."""
+        ``<output>.<quantity>.ideal`` and ``<output>.<quantity>.error``.
+
+        Returns
+        -------
+        pandas.DataFrame
+            One row per output instant (SI units; ``crank_angle`` in degrees), with the
+            provenance in ``frame.attrs["provenance"]``.
+
+        Examples
+        --------
+        >>> from mechrel.scene import load_scene
+        >>> frame = simulate(load_scene("slider-crank")).to_frame()
+        >>> frame.columns.tolist()
+        ['time', 'crank_angle', 'slider.displacement', 'slider.velocity', 'slider.acceleration']
+        >>> len(frame)   # one cycle sampled every degree
+        361
+        """
         import pandas as pd
 
         cols: dict[str, np.ndarray] = {"time": self.time}
@@ -325,7 +420,19 @@ class SimulationResult:
         return frame
 
     def orbits_frame(self):
-        """Journal orbits: ``time``, ``<joint>.ex``, ``<joint>.ey`` (m), ``<joint>.eps``."""
+        """Journal orbits: ``time``, ``<joint>.ex``, ``<joint>.ey`` (m), ``<joint>.eps``.
+
+        Returns
+        -------
+        pandas.DataFrame
+            One row per output instant; only ``time`` for a scene without clearance joints.
+
+        Examples
+        --------
+        >>> from mechrel.scene import load_scene
+        >>> simulate(load_scene("slider-crank")).orbits_frame().columns.tolist()
+        ['time']
+        """
         import pandas as pd
 
         cols = {"time": self.time}
@@ -563,7 +670,29 @@ EXTREME_MAGNITUDE = 1e15
 
 
 def extreme_values(scene: Scene) -> list[str]:
-    """``PATH = VALUE`` of the scene's numbers of magnitude >= :data:`EXTREME_MAGNITUDE`."""
+    """``PATH = VALUE`` of the scene's numbers of magnitude >= :data:`EXTREME_MAGNITUDE`.
+
+    A failed run names them in its advice: such values overflow the force laws.
+
+    Parameters
+    ----------
+    scene : mechrel.scene.model.Scene
+        The scene.
+
+    Returns
+    -------
+    list of str
+        ``"PATH = VALUE"`` lines, sorted.
+
+    Examples
+    --------
+    >>> from mechrel.scene import load_scene
+    >>> extreme_values(load_scene("slider-crank-lubricated"))
+    []
+    >>> extreme_values(load_scene("slider-crank-lubricated",
+    ...                           overrides=["joints.C.lubricant.viscosity=1e200"]))
+    ['joints.C.lubricant.viscosity = 1e+200']
+    """
     from collections.abc import Mapping
     found: list[str] = []
     stack: list[tuple[object, str]] = [(scene.raw or {}, "")]

@@ -19,7 +19,21 @@ def _cmd_accuracy(args) -> int:
 
 def register(sub) -> None:
     """Add the ``mechrel accuracy`` subcommand to ``sub``, the parser's subparsers action
-    (one entry of :data:`mechrel.cli.main.COMMANDS`)."""
+    (one entry of :data:`mechrel.cli.main.COMMANDS`).
+
+    Parameters
+    ----------
+    sub : argparse._SubParsersAction
+        What ``parser.add_subparsers()`` returned.
+
+    Examples
+    --------
+    >>> import argparse
+    >>> parser = argparse.ArgumentParser(prog="mechrel")
+    >>> register(parser.add_subparsers(dest="command"))
+    >>> parser.parse_args(["accuracy", "slider-crank"]).command
+    'accuracy'
+    """
     p = sub.add_parser(
         "accuracy", help="error against wall time of integrator settings on a scene",
         description="Runs the scene with RK4 step sizes, adaptive and stiff tolerances, "

@@ -31,7 +31,19 @@ COMMANDS = (
 
 
 def build_parser() -> argparse.ArgumentParser:
-    """The ``mechrel`` argument parser: every subcommand of :data:`COMMANDS`, in order."""
+    """The ``mechrel`` argument parser: every subcommand of :data:`COMMANDS`, in order.
+
+    Returns
+    -------
+    argparse.ArgumentParser
+        The parser; each subcommand sets ``args.func``.
+
+    Examples
+    --------
+    >>> args = build_parser().parse_args(["simulate", "slider-crank", "--set", "gravity=[0, 0]"])
+    >>> args.command, args.scene, args.overrides
+    ('simulate', 'slider-crank', ['gravity=[0, 0]'])
+    """
     from .. import __version__
 
     parser = argparse.ArgumentParser(
@@ -78,7 +90,27 @@ _python_showwarning = warnings.showwarning
 def main(argv=None) -> int:
     """The command line. A :class:`~mechrel.errors.MechrelError` is one line on stderr and exit
     code 2; Ctrl-C and SIGTERM stop the run promptly (running integrations at their next step,
-    worker processes at once) with one line, exit code 128 + the signal number (130, 143)."""
+    worker processes at once) with one line, exit code 128 + the signal number (130, 143).
+
+    Parameters
+    ----------
+    argv : list of str, optional
+        The arguments (default: ``sys.argv[1:]``).
+
+    Returns
+    -------
+    int
+        The exit code: 0 on success, 2 after a ``MechrelError``, 128 + the signal number
+        after an interrupt.
+
+    Examples
+    --------
+    >>> import contextlib, io
+    >>> with contextlib.redirect_stderr(io.StringIO()) as err:
+    ...     code = main(["scenes", "no-such-scene"])
+    >>> code, err.getvalue().startswith("mechrel: error: ")
+    (2, True)
+    """
     import signal
 
     parser = build_parser()

@@ -56,7 +56,21 @@ def _cmd_animate(args) -> int:
 
 def register_draw(sub) -> None:
     """Add the ``mechrel draw`` subcommand to ``sub``, the parser's subparsers action
-    (one entry of :data:`mechrel.cli.main.COMMANDS`)."""
+    (one entry of :data:`mechrel.cli.main.COMMANDS`).
+
+    Parameters
+    ----------
+    sub : argparse._SubParsersAction
+        What ``parser.add_subparsers()`` returned.
+
+    Examples
+    --------
+    >>> import argparse
+    >>> parser = argparse.ArgumentParser(prog="mechrel")
+    >>> register_draw(parser.add_subparsers(dest="command"))
+    >>> parser.parse_args(["draw", "slider-crank", "--out", "crank.png"]).command
+    'draw'
+    """
     p = sub.add_parser(
         "draw", help="draw a scene's assembled configuration",
         description="Assemble a scene at time --time and draw it (bodies, joints, clearance "
@@ -72,7 +86,21 @@ def register_draw(sub) -> None:
 
 def register_animate(sub) -> None:
     """Add the ``mechrel animate`` subcommand to ``sub``, the parser's subparsers action
-    (one entry of :data:`mechrel.cli.main.COMMANDS`)."""
+    (one entry of :data:`mechrel.cli.main.COMMANDS`).
+
+    Parameters
+    ----------
+    sub : argparse._SubParsersAction
+        What ``parser.add_subparsers()`` returned.
+
+    Examples
+    --------
+    >>> import argparse
+    >>> parser = argparse.ArgumentParser(prog="mechrel")
+    >>> register_animate(parser.add_subparsers(dest="command"))
+    >>> parser.parse_args(["animate", "slider-crank", "--out", "crank.gif"]).command
+    'animate'
+    """
     p = sub.add_parser(
         "animate", help="simulate a scene and animate it",
         description="Simulate a scene and animate it: the mechanism, its ideal counterpart as a "

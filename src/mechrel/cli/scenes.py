@@ -25,7 +25,21 @@ def _cmd_scenes(args) -> int:
 
 def register(sub) -> None:
     """Add the ``mechrel scenes`` subcommand to ``sub``, the parser's subparsers action
-    (one entry of :data:`mechrel.cli.main.COMMANDS`)."""
+    (one entry of :data:`mechrel.cli.main.COMMANDS`).
+
+    Parameters
+    ----------
+    sub : argparse._SubParsersAction
+        What ``parser.add_subparsers()`` returned.
+
+    Examples
+    --------
+    >>> import argparse
+    >>> parser = argparse.ArgumentParser(prog="mechrel")
+    >>> register(parser.add_subparsers(dest="command"))
+    >>> parser.parse_args(["scenes"]).command
+    'scenes'
+    """
     p = sub.add_parser("scenes", help="list the embedded scenes, or describe one",
                        description="List the embedded scenes, or describe one.")
     p.add_argument("name", nargs="?", help="scene to describe")

@@ -109,7 +109,21 @@ def _cmd_simulate(args) -> int:
 
 def register(sub) -> None:
     """Add the ``mechrel simulate`` subcommand to ``sub``, the parser's subparsers action
-    (one entry of :data:`mechrel.cli.main.COMMANDS`)."""
+    (one entry of :data:`mechrel.cli.main.COMMANDS`).
+
+    Parameters
+    ----------
+    sub : argparse._SubParsersAction
+        What ``parser.add_subparsers()`` returned.
+
+    Examples
+    --------
+    >>> import argparse
+    >>> parser = argparse.ArgumentParser(prog="mechrel")
+    >>> register(parser.add_subparsers(dest="command"))
+    >>> parser.parse_args(["simulate", "slider-crank"]).command
+    'simulate'
+    """
     p = sub.add_parser(
         "simulate", help="simulate a scene and print a summary",
         description="Simulate a scene over its analysis span (kinematic analysis for ideal "

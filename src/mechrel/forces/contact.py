@@ -159,6 +159,20 @@ def contact_energy(delta, K, n):
 
     Source: the conservative part of the Lankarani–Nikravesh law, F = K δ^n (Hertz).
 
+    Parameters
+    ----------
+    delta : float
+        Penetration δ (m); no energy for δ ≤ 0.
+    K : float
+        Contact stiffness (N/m^n).
+    n : float
+        Contact force exponent (-).
+
+    Returns
+    -------
+    float
+        Stored energy (J).
+
     Examples
     --------
     >>> round(contact_energy(1e-6, 1e10, 1.5), 15)   # 1e10 · (1e-6)^2.5 / 2.5

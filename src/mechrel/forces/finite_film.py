@@ -121,6 +121,12 @@ def correction(l_over_d, eps, theta, reynolds=False):
     -------
     (float, float)
         Real and imaginary parts of q.
+
+    Examples
+    --------
+    >>> q = correction(20e-3 / 19e-3, 0.5, math.pi / 2)   # L/D of a 20 mm x 19 mm bearing
+    >>> [round(x, 4) for x in q]
+    [0.5007, -0.0878]
     """
     x = 2.0 * math.log2(l_over_d / LD_MIN)
     x = min(max(x, 0.0), _N_LD - 1.0)
@@ -165,14 +171,43 @@ def correction(l_over_d, eps, theta, reynolds=False):
 def finite_film_forces(eps, eps_dot, eps_w, mu, R_S, L, c, lam, eps0, reynolds=False):
     """Finite-length bearing film forces, half-Sommerfeld, rotation and squeeze (N).
 
-    Parameters as :func:`mechrel.forces.short_film.short_film_forces`; L/D = L/(2 R_S) must be
-    in [0.25, 4]. ``reynolds``: Swift–Stieber cavitation (its own table) instead of
-    half-Sommerfeld.
+    Parameters
+    ----------
+    eps : float
+        ε = |e|/c (-), 0 ≤ ε < 1 (the caller caps it).
+    eps_dot : float
+        ε̇ (1/s), > 0 when the journal moves away from the centre.
+    eps_w : float
+        ε·w (rad/s), w = ω_S + ω_B − 2γ̇.
+    mu : float
+        Dynamic viscosity (Pa s).
+    R_S : float
+        Journal radius (m).
+    L : float
+        Bearing length (m); L/D = L/(2 R_S) must be in [0.25, 4].
+    c : float
+        Radial clearance (m).
+    lam, eps0 : float
+        Small-eccentricity correction (see :func:`mechrel.forces.film.small_eccentricity_factor`).
+    reynolds : bool, default False
+        Swift–Stieber cavitation (its own table) instead of half-Sommerfeld.
 
     Returns
     -------
     (float, float)
-        (F_r, F_t): force on the journal along n and along t.
+        (F_r, F_t): force on the journal along n and along t (N).
+
+    Examples
+    --------
+    A finite bearing carries less than the short-bearing formula, which neglects the
+    circumferential pressure flow (L/D = 1.05 here):
+
+    >>> from mechrel.forces.short_film import short_film_forces
+    >>> args = (0.5, 0.0, 50.0, 0.01, 9.5e-3, 20e-3, 0.5e-3, 0.0, 0.1)
+    >>> [round(f, 4) for f in finite_film_forces(*args)]
+    [-0.0515, 0.1039]
+    >>> [round(f, 4) for f in short_film_forces(*args)]
+    [-0.1351, 0.1838]
     """
     Fr, Ft = short_film_forces(eps, eps_dot, eps_w, mu, R_S, L, c, lam, eps0)
     qr, qi = correction(L / (2.0 * R_S), eps, math.atan2(0.5 * eps_w, eps_dot), reynolds)

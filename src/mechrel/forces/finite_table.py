@@ -62,8 +62,36 @@ def _short_unit(eps: float, theta: float, l_over_d: float) -> complex:
 def build_table(ld_nodes=LD_NODES, eps_nodes=EPS_NODES, theta_nodes=THETA_NODES,
                 grid=GRID, progress: bool = False,
                 cavitation: str = "half-sommerfeld") -> np.ndarray:
-    """q(L/D, ε, ϑ) as an array of shape (n_LD, n_ε, n_ϑ, 2) (real and imaginary parts),
-    the 2-D force with the given cavitation condition over the half-Sommerfeld short one."""
+    """Tabulate the correction q(L/D, ε, ϑ) of the finite bearing over the short one.
+
+    q is the 2-D Reynolds force (:mod:`mechrel.forces.reynolds`) with the given cavitation
+    condition divided by the half-Sommerfeld short-bearing force, both as complex numbers
+    F_r + i F_t. ``python -m mechrel.forces.finite_table`` writes the shipped tables.
+
+    Parameters
+    ----------
+    ld_nodes, eps_nodes, theta_nodes : array_like
+        L/D (-), ε (-) and ϑ (rad) nodes of the table.
+    grid : (int, int)
+        Cells (n_theta, n_z) of the Reynolds solutions.
+    progress : bool, default False
+        Print a line per L/D node.
+    cavitation : {"half-sommerfeld", "reynolds"}
+        Cavitation condition of the 2-D solutions.
+
+    Returns
+    -------
+    numpy.ndarray
+        Shape (n_LD, n_ε, n_ϑ, 2): real and imaginary parts of q (-).
+
+    Examples
+    --------
+    One node on a coarse grid (the shipped table uses a finer one):
+
+    >>> Q = build_table([1.0], [0.5], np.array([math.pi / 2]), grid=(60, 10))
+    >>> Q.shape, [round(float(x), 2) for x in Q[0, 0, 0]]
+    ((1, 1, 1, 2), [0.53, -0.09])
+    """
     from .reynolds import half_sommerfeld_directions, reynolds_condition_directions
 
     solve = {"half-sommerfeld": half_sommerfeld_directions,

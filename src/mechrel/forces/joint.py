@@ -58,6 +58,23 @@ def transition_weight(delta, e1):
     s = clip((|e| − c)/e1, 0, 1) = clip(δ/e1, 0, 1); the force is s F_Dry + (1 − s) F_Lub, which
     is F_Lub for |e| < c, F_Dry for |e| > c + e1 and the paper's linear blend between.
     Source: Flores et al. (2009); paper eq. (19).
+
+    Parameters
+    ----------
+    delta : float
+        Penetration δ = |e| − c (m); negative inside the clearance.
+    e1 : float
+        Width of the transition band (m), > 0.
+
+    Returns
+    -------
+    float
+        s = clip(δ/e1, 0, 1) (-).
+
+    Examples
+    --------
+    >>> transition_weight(-1e-4, 1e-5), transition_weight(5e-6, 1e-5), transition_weight(1e-4, 1e-5)
+    (0.0, 0.5, 1.0)
     """
     return min(1.0, max(0.0, delta / e1))
 
@@ -68,6 +85,31 @@ def transition_energy(delta, K, n, e1):
 
     U(δ) = ∫_0^δ s(x) K x^n dx = K δ^(n+2) / ((n+2) e1) for 0 < δ ≤ e1 and
     K e1^(n+1)/(n+2) + K (δ^(n+1) − e1^(n+1))/(n+1) beyond; 0 for δ ≤ 0.
+
+    Parameters
+    ----------
+    delta : float
+        Penetration δ = |e| − c (m).
+    K : float
+        Contact stiffness (N/m^n).
+    n : float
+        Contact force exponent (-).
+    e1 : float
+        Width of the transition band (m), > 0.
+
+    Returns
+    -------
+    float
+        U(δ) (J).
+
+    Examples
+    --------
+    At the end of the band, δ = e1, U = K e1^(n+1)/(n+2):
+
+    >>> f"{transition_energy(1e-5, 1e10, 1.5, 1e-5):.6e}"
+    '9.035079e-04'
+    >>> transition_energy(-1e-5, 1e10, 1.5, 1e-5)
+    0.0
     """
     if not delta > 0.0:
         return 0.0
@@ -104,11 +146,37 @@ def film_shear_torques(eps, F_t, omega_S, omega_B, mu, R_S, L, c):
     Source: Hamrock, Schmid & Jacobson (2004), ch. 8 and 10 (friction torque of journal
     bearings); Pinkus & Sternlicht (1961), ch. 3.
 
+    Parameters
+    ----------
+    eps : float
+        ε = |e|/c (-), 0 ≤ ε < 1.
+    F_t : float
+        Tangential film force on the journal (N).
+    omega_S, omega_B : float
+        Absolute angular velocities of the journal body and of the bearing body (rad/s).
+    mu : float
+        Dynamic viscosity (Pa s).
+    R_S : float
+        Journal radius (m).
+    L : float
+        Bearing length (m).
+    c : float
+        Radial clearance (m).
+
     Returns
     -------
     (float, float)
         (T_S, T_B): torque on the journal body about its centre, on the bearing body about its
         centre (N m).
+
+    Examples
+    --------
+    A centred journal (ε = 0, F_t = 0) turning at 10 rad/s: Petroff's torque
+    2π μ R³ L ω / c, opposing the rotation:
+
+    >>> T_S, T_B = film_shear_torques(0.0, 0.0, 10.0, 0.0, 0.01, 9.5e-3, 20e-3, 0.5e-3)
+    >>> f"{T_S:.6e} N m", T_S == -T_B
+    ('-2.154818e-05 N m', True)
     """
     om = (1.0 - eps) * (1.0 + eps)
     Tc = 2.0 * math.pi * mu * R_S * R_S * R_S * L * (omega_S - omega_B) / (c * math.sqrt(om))
@@ -167,6 +235,18 @@ def clearance_force(ex, ey, vx, vy, omega_B, omega_S, impact_speed, p):
     - At e = 0 exactly, n is undefined: the code uses n = e / max(|e|, 2.2e-308) = 0, so every
       directional quantity (δ̇, γ̇|e|, F) is 0 there, which is the limit of the force for λ > 0
       (the film force vanishes like (ε/ε0)^λ at the centre; δ < 0 so no contact force).
+
+    Examples
+    --------
+    A dry joint (c = 0.5 mm) with the journal at rest 1 μm into the wall: the Hertzian force
+    K δ^1.5 pushes it back towards the centre (−x), and the spring stores K δ^2.5/2.5:
+
+    >>> from mechrel.forces.params import pack_params
+    >>> p = pack_params(model="dry", clearance=0.5e-3, bearing_radius=15e-3, length=20e-3,
+    ...                 stiffness=9.9536e10, restitution=0.9)
+    >>> Fx, Fy, M_S, M_B, E = clearance_force(0.5e-3 + 1e-6, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, p)
+    >>> round(Fx, 6), Fy, f"{E:.5e} J"
+    (-99.536, 0.0, '3.98144e-05 J')
     """
     model = int(p[P_MODEL])
     c = p[P_C]

@@ -70,7 +70,7 @@ The contact sub-table also gives the stiffness K, computed from its moduli by
 class ClearanceModel:
     """One clearance model: what it is made of, what it needs, how it is integrated.
 
-    Attributes
+    Parameters
     ----------
     name : str
         Scene name (``joints.NAME.model``).
@@ -97,6 +97,12 @@ class ClearanceModel:
     precedence : int
         When a scene mixes models, the one with the highest precedence sets the scene's kind
         (its default solver, its accuracy measure).
+
+    Examples
+    --------
+    >>> m = MODELS["transition"]
+    >>> m.code == MODEL_TRANSITION, m.has_contact, m.has_film, m.solver[0]
+    (True, True, True, 'radau')
     """
 
     name: str
@@ -113,7 +119,18 @@ class ClearanceModel:
 
     @property
     def film_only(self) -> bool:
-        """A film and no contact: only the film's divergence as ε → 1 keeps the journal in."""
+        """A film and no contact: only the film's divergence as ε → 1 keeps the journal in.
+
+        Returns
+        -------
+        bool
+            ``has_film and not has_contact``.
+
+        Examples
+        --------
+        >>> MODELS["lubricated"].film_only, MODELS["transition"].film_only
+        (True, False)
+        """
         return self.has_film and not self.has_contact
 
 
@@ -121,7 +138,7 @@ class ClearanceModel:
 class BearingModel:
     """One film model of a lubricated or transition joint (``lubricant.bearing``).
 
-    Attributes
+    Parameters
     ----------
     name : str
         Scene name (``joints.NAME.lubricant.bearing``).
@@ -131,6 +148,11 @@ class BearingModel:
         One line for messages and docs.
     source : str
         Where its equations come from.
+
+    Examples
+    --------
+    >>> sorted(BEARINGS), BEARINGS["short"].code == BEARING_SHORT
+    (['finite', 'long', 'short'], True)
     """
 
     name: str
@@ -211,7 +233,28 @@ DEFAULT_BEARING = "long"
 
 
 def model_by_code(code: int) -> ClearanceModel:
-    """The row of :data:`MODELS` with integer code ``code`` (``KeyError`` if none)."""
+    """The row of :data:`MODELS` with integer code ``code``.
+
+    Parameters
+    ----------
+    code : int
+        A clearance model code, as stored in ``p[P_MODEL]`` (a float there is accepted).
+
+    Returns
+    -------
+    ClearanceModel
+        Its row.
+
+    Raises
+    ------
+    KeyError
+        No model has that code.
+
+    Examples
+    --------
+    >>> model_by_code(float(MODEL_DRY)).name
+    'dry'
+    """
     return _BY_CODE[int(code)]
 
 
@@ -232,6 +275,22 @@ def pack_joint(joint: Any) -> Any:
     -------
     numpy.ndarray
         The parameter vector (:data:`mechrel.forces.params.N_PARAMS` floats).
+
+    Raises
+    ------
+    mechrel.errors.SceneError
+        The joint has no bearing radius or length, or a force-law value is out of range.
+
+    Examples
+    --------
+    The first clearance joint of the embedded dry slider-crank:
+
+    >>> from mechrel.forces.params import P_C, P_K, P_MODEL
+    >>> from mechrel.scene import load_scene
+    >>> joint = load_scene("slider-crank-dry").clearance_joints[0]
+    >>> p = pack_joint(joint)
+    >>> model_by_code(p[P_MODEL]).name, bool(p[P_C] == joint.clearance), bool(p[P_K] > 0)
+    ('dry', True, True)
     """
     from ..errors import SceneError
     from ..scene.model import Contact

@@ -228,6 +228,18 @@ def pack_params(
     mechrel.errors.SceneError
         A value is not a finite number or is outside its allowed range; the message names the
         field, the value and the allowed range, and ``err.path`` is the field name.
+
+    Examples
+    --------
+    >>> p = pack_params(model="dry", clearance=0.5e-3, bearing_radius=15e-3, length=20e-3,
+    ...                 stiffness=9.9536e10, restitution=0.9)
+    >>> p.shape == (N_PARAMS,), bool(p[P_RS] == 15e-3 - 0.5e-3), float(p[P_N])
+    (True, True, 1.5)
+    >>> pack_params(model="dry", clearance=0.5e-3, bearing_radius=15e-3, length=20e-3,
+    ...             stiffness=9.9536e10, restitution=1.5)
+    Traceback (most recent call last):
+    ...
+    mechrel.errors.SceneError: restitution = 1.5 is invalid: allowed a finite number in (0, 1]
     """
     if not isinstance(model, str) or model.lower() not in MODEL_NAMES:
         raise SceneError(
@@ -315,6 +327,29 @@ def unpack_params(p: np.ndarray) -> dict[str, Any]:
     """Inverse of :func:`pack_params` for reports and debugging: ``{field name: value}``.
 
     The model and the bearing are returned by name (``"dry"``, ``"long"``, ...).
+
+    Parameters
+    ----------
+    p : numpy.ndarray
+        A parameter vector of length :data:`N_PARAMS`.
+
+    Returns
+    -------
+    dict
+        ``{field name: value}``, lengths in m, stiffness in N/m^n, viscosity in Pa s.
+
+    Raises
+    ------
+    ValueError
+        ``p`` does not have shape ``(N_PARAMS,)``.
+
+    Examples
+    --------
+    >>> p = pack_params(model="dry", clearance=0.5e-3, bearing_radius=15e-3, length=20e-3,
+    ...                 stiffness=9.9536e10, restitution=0.9)
+    >>> d = unpack_params(p)
+    >>> d["model"], d["bearing"], d["restitution"], round(d["journal_radius"], 6)
+    ('dry', 'long', 0.9, 0.0145)
     """
     arr = np.asarray(p, dtype=np.float64)
     if arr.shape != (N_PARAMS,):

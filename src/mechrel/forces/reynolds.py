@@ -134,6 +134,15 @@ def reynolds_forces(eps: float, eps_dot: float, eps_w: float, mu: float, R: floa
     -------
     (F_r, F_t) : (float, float)
         Force on the journal along n and t (N), or ``(F_r, F_t, (theta, zeta, P))``.
+
+    Examples
+    --------
+    A coarse grid (60 x 10 cells) already lands within 1 % of the tabulated finite bearing of
+    :func:`mechrel.forces.finite_film.finite_film_forces` (-0.0515 N, 0.1039 N):
+
+    >>> Fr, Ft = reynolds_forces(0.5, 0.0, 50.0, 0.01, 9.5e-3, 20e-3, 0.5e-3, n_theta=60, n_z=10)
+    >>> round(Fr, 3), round(Ft, 3)
+    (-0.052, 0.104)
     """
     if cavitation not in CAVITATION:
         raise ValueError(f"cavitation = {cavitation!r}: allowed one of {', '.join(CAVITATION)}")
@@ -188,6 +197,15 @@ def half_sommerfeld_directions(eps: float, l_over_d: float, directions, *, n_the
     -------
     numpy.ndarray
         Shape (len(directions), 2): (F_r, F_t) per direction.
+
+    Examples
+    --------
+    Pure squeeze (ϑ = 0) pushes the journal back along n only: the film is symmetric about
+    the line of centres, so F_t vanishes:
+
+    >>> F = half_sommerfeld_directions(0.5, 1.0, [0.0, math.pi / 2], n_theta=60, n_z=10)
+    >>> F.shape, bool(F[0, 0] < 0), bool(abs(F[0, 1]) < 1e-9)
+    ((2, 2), True, True)
     """
     K, th, dth, dz = _operator(eps, l_over_d, n_theta, n_z)
     lu = spla.splu(K.tocsc())
@@ -206,6 +224,33 @@ def reynolds_condition_directions(eps: float, l_over_d: float, directions, *,
 
     One complementarity problem per direction; each starts from the previous direction's
     cavitated set, so that neighbouring directions take few active-set steps.
+
+    Parameters
+    ----------
+    eps : float
+        ε (-), 0 ≤ ε < 1.
+    l_over_d : float
+        L/D (-).
+    directions : array_like
+        ϑ values (rad).
+    n_theta, n_z : int
+        Grid (see :func:`reynolds_forces`).
+
+    Returns
+    -------
+    numpy.ndarray
+        Shape (len(directions), 2): (F_r, F_t) per direction, scaled as in
+        :func:`half_sommerfeld_directions`.
+
+    Examples
+    --------
+    The Reynolds condition lets the film end where its pressure gradient vanishes, beyond the
+    half-Sommerfeld cut, so it carries more load:
+
+    >>> hs = half_sommerfeld_directions(0.5, 1.0, [0.0], n_theta=60, n_z=10)
+    >>> rc = reynolds_condition_directions(0.5, 1.0, [0.0], n_theta=60, n_z=10)
+    >>> bool(rc[0, 0] < hs[0, 0] < 0)
+    True
     """
     K, th, dth, dz = _operator(eps, l_over_d, n_theta, n_z)
     gc = np.tile(12.0 * np.cos(th) * dth * dz, n_z)

@@ -134,6 +134,15 @@ def short_film_forces(eps, eps_dot, eps_w, mu, R_S, L, c, lam, eps0):
     -------
     (float, float)
         (F_r, F_t) in N: force on the journal along n and along t.
+
+    Examples
+    --------
+    Without squeeze and correction it is Ocvirk's steady force (:func:`ocvirk_steady`):
+
+    >>> F = short_film_forces(0.5, 0.0, 0.5 * 100.0, 0.01, 9.5e-3, 20e-3, 0.5e-3, 0.0, 0.1)
+    >>> S = ocvirk_steady(0.5, 100.0, 0.01, 9.5e-3, 20e-3, 0.5e-3)
+    >>> [round(f, 12) for f in F] == [round(s, 12) for s in S]
+    True
     """
     a = 0.5 * eps_w          # ε w / 2
     # start of the region θ_a = −π/2 − φ with cos φ = ε̇/A, sin φ = a/A, A = hypot(ε̇, a):
@@ -180,6 +189,28 @@ def ocvirk_steady(eps, w, mu, R_S, L, c):
 
     No small-eccentricity correction. Source: Ocvirk (1952); Hamrock, Schmid & Jacobson
     (2004), ch. 10, with the surface speed U = R w.
+
+    Parameters
+    ----------
+    eps : float
+        ε (-), 0 ≤ ε < 1.
+    w : float
+        Wedge speed ω_S + ω_B − 2γ̇ (rad/s).
+    mu, R_S, L, c : float
+        Viscosity (Pa s), journal radius, length, radial clearance (m).
+
+    Returns
+    -------
+    (float, float)
+        (F_r, F_t) in N: force on the journal along n and along t.
+
+    Examples
+    --------
+    A 1 cP film, R_S = 9.5 mm, L = 20 mm, c = 0.5 mm at ε = 0.5 and w = 100 rad/s:
+
+    >>> Fr, Ft = ocvirk_steady(0.5, 100.0, 0.01, 9.5e-3, 20e-3, 0.5e-3)
+    >>> f"{Fr:.6f} N, {Ft:.6f} N"
+    '-0.135111 N, 0.183798 N'
     """
     om = (1.0 - eps) * (1.0 + eps)
     k = mu * R_S * L * L * L / (c * c)

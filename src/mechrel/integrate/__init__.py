@@ -11,7 +11,35 @@ INTEGRATORS: dict[str, type[Integrator]] = {
 
 
 def get_integrator(name: str, **settings) -> Integrator:
-    """Instantiate the integrator registered under ``name``."""
+    """Instantiate the integrator registered under ``name``.
+
+    Parameters
+    ----------
+    name : str
+        A key of :data:`INTEGRATORS`.
+    **settings
+        Keyword arguments of its constructor (``step``, ``rtol``, ``atol``, ``max_steps``,
+        ``onset_tolerance``; see :class:`Integrator`).
+
+    Returns
+    -------
+    Integrator
+        The integrator.
+
+    Raises
+    ------
+    mechrel.errors.SimulationError
+        Unknown name, or a setting out of range.
+
+    Examples
+    --------
+    >>> get_integrator("radau", rtol=1e-7).settings
+    {'rtol': 1e-07, 'atol': 1e-09}
+    >>> get_integrator("euler")
+    Traceback (most recent call last):
+    ...
+    mechrel.errors.SimulationError: solver.integrator: unknown integrator 'euler'; allowed: bdf, ...
+    """
     from ..errors import SimulationError
     try:
         cls = INTEGRATORS[name]

@@ -43,7 +43,25 @@ H_START_FLOOR = 1e3 * H_UNDERFLOW
 
 @njit(cache=True)
 def contact_floors(sys):
-    """Impact-speed floor (m/s) of each contact joint, in ``hist`` order."""
+    """Impact-speed floor (m/s) of each contact joint, in ``hist`` order.
+
+    Parameters
+    ----------
+    sys : mechrel.mechanics.system.System
+        A compiled mechanism.
+
+    Returns
+    -------
+    numpy.ndarray
+        One floor per contact joint (m/s).
+
+    Examples
+    --------
+    >>> from mechrel.mechanics.system import compile_scene
+    >>> from mechrel.scene import load_scene
+    >>> contact_floors(compile_scene(load_scene("slider-crank-dry")).dynamic)
+    array([0.001])
+    """
     out = np.zeros(n_contacts(sys))
     for k in range(sys.cl_hist.shape[0]):
         h = sys.cl_hist[k]
@@ -55,7 +73,31 @@ def contact_floors(sys):
 @njit(cache=True)
 def onset_fraction(g0, g1, hist, onset_tol):
     """Fraction of the trial step that brings the earliest new contact to ``onset_tol / 2``
-    penetration, or 1.0 when no new contact overshoots ``onset_tol``."""
+    penetration, or 1.0 when no new contact overshoots ``onset_tol``.
+
+    Parameters
+    ----------
+    g0, g1 : numpy.ndarray
+        Penetrations δ of the contact joints at the step's start and end (m).
+    hist : numpy.ndarray
+        History state (m/s): 0 for a joint not in contact at the step's start.
+    onset_tol : float
+        Largest penetration at which an onset counts as located (m).
+
+    Returns
+    -------
+    float
+        The fraction, in [0.001, 0.999] when the step must be cut, else 1.0.
+
+    Examples
+    --------
+    The secant of the gap from −1 nm to 3 nm reaches 0.5 nm at 3/8 of the step:
+
+    >>> onset_fraction(np.array([-1e-9]), np.array([3e-9]), np.zeros(1), 1e-9)
+    0.375
+    >>> onset_fraction(np.array([-1e-9]), np.array([0.8e-9]), np.zeros(1), 1e-9)   # located
+    1.0
+    """
     theta = 1.0
     for k in range(g1.shape[0]):
         if hist[k] == 0.0 and g1[k] > onset_tol and g0[k] <= 0.0:
@@ -70,7 +112,41 @@ def onset_fraction(g0, g1, hist, onset_tol):
 
 @njit(cache=True)
 def update_history(t, y, hist, floors, sys, stats):
-    """Capture δ̇⁻ at a (located) onset and reset at separation. Returns True if hist changed."""
+    """Capture δ̇⁻ at a (located) onset and reset at separation.
+
+    Parameters
+    ----------
+    t : float
+        Time (s).
+    y : numpy.ndarray
+        State at the step's end.
+    hist : numpy.ndarray
+        History state (m/s), updated in place.
+    floors : numpy.ndarray
+        Impact-speed floors (m/s, :func:`contact_floors`).
+    sys : mechrel.mechanics.system.System
+        The compiled mechanism.
+    stats : numpy.ndarray
+        Statistics vector; ``stats[S_IMPACTS]`` counts the onsets.
+
+    Returns
+    -------
+    bool
+        True if ``hist`` changed.
+
+    Examples
+    --------
+    The slider-crank's dry joint assembled centred: no contact, nothing to capture:
+
+    >>> from mechrel.mechanics.kinematics import assemble
+    >>> from mechrel.mechanics.system import compile_scene
+    >>> from mechrel.scene import load_scene
+    >>> c = compile_scene(load_scene("slider-crank-dry"))
+    >>> q, v = assemble(c.assembly, c.q_guess)
+    >>> y = np.concatenate([q, v, np.zeros(2)])
+    >>> update_history(0.0, y, np.zeros(1), contact_floors(c.dynamic), c.dynamic, np.zeros(N_STATS))
+    False
+    """
     if hist.shape[0] == 0:
         return False
     g, gd = gaps(t, y, sys)
@@ -79,7 +155,38 @@ def update_history(t, y, hist, floors, sys, stats):
 
 @njit(cache=True)
 def update_history_from(g, gd, hist, floors, stats):
-    """:func:`update_history` with the gaps and gap rates at the step's end already known."""
+    """:func:`update_history` with the gaps and gap rates at the step's end already known.
+
+    Parameters
+    ----------
+    g, gd : numpy.ndarray
+        Penetration δ (m) and its rate δ̇ (m/s) of each contact joint.
+    hist : numpy.ndarray
+        History state (m/s), updated in place.
+    floors : numpy.ndarray
+        Impact-speed floors (m/s).
+    stats : numpy.ndarray
+        Statistics vector; ``stats[S_IMPACTS]`` counts the onsets.
+
+    Returns
+    -------
+    bool
+        True if ``hist`` changed.
+
+    Examples
+    --------
+    A joint entering contact at 0.3 m/s, then separating:
+
+    >>> hist, stats = np.zeros(1), np.zeros(N_STATS)
+    >>> update_history_from(np.array([1e-10]), np.array([0.3]), hist, np.array([1e-3]), stats)
+    True
+    >>> hist, float(stats[S_IMPACTS])
+    (array([0.3]), 1.0)
+    >>> update_history_from(np.array([-1e-10]), np.array([-0.2]), hist, np.array([1e-3]), stats)
+    True
+    >>> hist
+    array([0.])
+    """
     changed = False
     for k in range(g.shape[0]):
         if hist[k] == 0.0 and g[k] > 0.0:
@@ -94,9 +201,35 @@ def update_history_from(g, gd, hist, floors, stats):
 
 @njit(cache=True)
 def record_violation(ws, stats):
-    """Track in ``stats`` the largest position and velocity constraint violation, of the state
-    whose right-hand side (or constraint terms) was evaluated last in ``ws``. The kernels call
-    it right after an evaluation at every accepted state, so it costs nothing extra."""
+    """Track in ``stats`` the largest position and velocity constraint violation.
+
+    Of the state whose right-hand side (or constraint terms) was evaluated last in ``ws``. The
+    kernels call it right after an evaluation at every accepted state, so it costs nothing
+    extra.
+
+    Parameters
+    ----------
+    ws : mechrel.mechanics.problem.Workspace
+        The right-hand side's workspace.
+    stats : numpy.ndarray
+        Statistics vector; ``stats[S_VIOL_POS]`` (m or rad) and ``stats[S_VIOL_VEL]``
+        (m/s or rad/s) are raised to the violation found.
+
+    Examples
+    --------
+    An assembled double pendulum satisfies its constraints to rounding:
+
+    >>> from mechrel.mechanics.kinematics import assemble
+    >>> from mechrel.mechanics.system import compile_scene
+    >>> from mechrel.scene import load_scene
+    >>> c = compile_scene(load_scene("double-pendulum"))
+    >>> q, v = assemble(c.assembly, c.q_guess)
+    >>> ws, stats = make_workspace(c.dynamic), np.zeros(N_STATS)
+    >>> rhs_into(0.0, np.concatenate([q, v, np.zeros(2)]), np.zeros(0), c.dynamic, ws, np.empty(14))
+    >>> record_violation(ws, stats)
+    >>> bool(stats[S_VIOL_POS] < 1e-12 and stats[S_VIOL_VEL] < 1e-12)
+    True
+    """
     p, v = violation_from(ws)
     if p > stats[S_VIOL_POS]:
         stats[S_VIOL_POS] = p
@@ -106,6 +239,23 @@ def record_violation(ws, stats):
 
 @njit(cache=True)
 def all_finite(y):
+    """Whether every entry of a state vector is finite (no NaN, no ±inf).
+
+    Parameters
+    ----------
+    y : numpy.ndarray
+        A one-dimensional array.
+
+    Returns
+    -------
+    bool
+        True if all entries are finite.
+
+    Examples
+    --------
+    >>> all_finite(np.array([0.0, 1e300])), all_finite(np.array([0.0, np.nan]))
+    (True, False)
+    """
     for k in range(y.shape[0]):
         if not math.isfinite(y[k]):
             return False
@@ -114,10 +264,45 @@ def all_finite(y):
 
 @njit(cache=True)
 def start(sys, t0, y0, hist, t_out):
-    """What every kernel does first: allocate the outputs (NaN until written), the statistics,
-    the contact floors and the right-hand-side workspace; evaluate f(t0, y0); record the output
-    instants at t0 and the initial constraint violation. Returns
-    (Y, YD, stats, floors, y, f, k, tend, ws) with ``k`` the next output index."""
+    """What every kernel does first.
+
+    Allocate the outputs (NaN until written), the statistics, the contact floors and the
+    right-hand-side workspace; evaluate f(t0, y0); record the output instants at t0 and the
+    initial constraint violation.
+
+    Parameters
+    ----------
+    sys : mechrel.mechanics.system.System
+        The compiled mechanism.
+    t0 : float
+        Start time (s).
+    y0 : numpy.ndarray
+        Initial state ``[q, q̇, W]``.
+    hist : numpy.ndarray
+        Initial history state (m/s).
+    t_out : numpy.ndarray
+        Output instants (s), increasing.
+
+    Returns
+    -------
+    tuple
+        ``(Y, YD, stats, floors, y, f, k, tend, ws)``: outputs and their derivatives, the
+        statistics vector, the floors, the current state and derivative, ``k`` the next
+        output index, the last output instant and the workspace.
+
+    Examples
+    --------
+    >>> from mechrel.mechanics.kinematics import assemble
+    >>> from mechrel.mechanics.system import compile_scene
+    >>> from mechrel.scene import load_scene
+    >>> c = compile_scene(load_scene("double-pendulum"))
+    >>> q, v = assemble(c.assembly, c.q_guess)
+    >>> y0 = np.concatenate([q, v, np.zeros(2)])
+    >>> Y, YD, stats, floors, y, f, k, tend, ws = start(c.dynamic, 0.0, y0, np.zeros(0),
+    ...                                                 np.array([0.0, 0.1]))
+    >>> bool((Y[0] == y0).all()), bool(np.isnan(Y[1]).all()), k, tend, float(stats[S_RHS])
+    (True, True, 1, 0.1, 1.0)
+    """
     nout = t_out.shape[0]
     ny = y0.shape[0]
     Y = np.full((nout, ny), np.nan)
@@ -141,8 +326,37 @@ def start(sys, t0, y0, hist, t_out):
 
 @njit(cache=True)
 def out_of_budget(stats, h, t, max_steps, ctl):
-    """True (with the status set) when an adaptive kernel must stop: ``max_steps`` attempted
-    steps, a step below ``H_UNDERFLOW`` of the time scale, or a stop request in ``ctl``."""
+    """Whether an adaptive kernel must stop, with the status set in ``stats``.
+
+    It must stop after ``max_steps`` attempted steps, at a step below ``H_UNDERFLOW`` of the
+    time scale, or at a stop request in ``ctl``.
+
+    Parameters
+    ----------
+    stats : numpy.ndarray
+        Statistics vector; ``stats[S_STATUS]`` is set when the kernel must stop.
+    h : float
+        Next step (s).
+    t : float
+        Time (s).
+    max_steps : int
+        Attempted steps allowed.
+    ctl : numpy.ndarray
+        Control vector (``ctl[CTL_STOP]`` non-zero: stop requested).
+
+    Returns
+    -------
+    bool
+        True if the kernel must stop.
+
+    Examples
+    --------
+    >>> stats, ctl = np.zeros(N_STATS), np.zeros(2, np.int64)
+    >>> out_of_budget(stats, 1e-3, 0.5, 100, ctl), out_of_budget(stats, 1e-15, 0.5, 100, ctl)
+    (False, True)
+    >>> STATUS_TEXT[int(stats[S_STATUS])]
+    'step size underflow'
+    """
     if ctl[CTL_STOP] != 0:
         stats[S_STATUS] = STATUS_STOPPED
         return True
@@ -165,15 +379,58 @@ LOG_START_ROWS = 256
 
 @njit(cache=True)
 def new_log(log_from, ny, nh):
-    """An empty log (0 rows when ``log_from`` is inf, i.e. no log asked for)."""
+    """An empty solution log and its row count.
+
+    Parameters
+    ----------
+    log_from : float
+        Start of the log (s); inf: no log asked for (0 rows allocated).
+    ny, nh : int
+        Lengths of the state and of the history state.
+
+    Returns
+    -------
+    (numpy.ndarray, int)
+        The log, ``LOG_START_ROWS`` rows of ``1 + 2 ny + nh`` (or none), and 0 rows used.
+
+    Examples
+    --------
+    >>> new_log(math.inf, 14, 0)[0].shape, new_log(0.0, 14, 0)[0].shape
+    ((0, 29), (256, 29))
+    """
     rows = 0 if math.isinf(log_from) else LOG_START_ROWS
     return np.empty((rows, 1 + 2 * ny + nh)), 0
 
 
 @njit(cache=True)
 def log_row(log, n, t, y, yd, hist):
-    """Append (t, y, yd, hist) as row ``n`` of ``log``, doubling it when full; returns
-    ``(log, n + 1)``."""
+    """Append (t, y, yd, hist) as row ``n`` of ``log``, doubling it when full.
+
+    Parameters
+    ----------
+    log : numpy.ndarray
+        The log (:func:`new_log`).
+    n : int
+        Rows used.
+    t : float
+        Time (s).
+    y, yd : numpy.ndarray
+        State and its derivative.
+    hist : numpy.ndarray
+        History state (m/s).
+
+    Returns
+    -------
+    (numpy.ndarray, int)
+        The log (a larger copy when it was full) and ``n + 1``.
+
+    Examples
+    --------
+    >>> log, n = new_log(0.0, 2, 1)
+    >>> log, n = log_row(log, n, 0.5, np.array([1.0, 2.0]), np.array([3.0, 4.0]), np.zeros(1))
+    >>> n, log[0].tolist()
+    (1, [0.5, 1.0, 2.0, 3.0, 4.0, 0.0])
+    """
     if n == log.shape[0]:
         bigger = np.empty((max(2 * n, LOG_START_ROWS), log.shape[1]))
         bigger[:n] = log[:n]

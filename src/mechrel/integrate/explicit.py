@@ -57,19 +57,71 @@ def _rk4_step(t, y, h, hist, sys, ws, K, tmp, out):
 
 @njit(cache=True, nogil=True)
 def rk4_kernel(sys, t0, y0, hist, t_out, h, max_steps, onset_tol, ctl, log_from, n_dense):
-    """Classical RK4 with step ``h`` (s); steps are shortened to land on every output instant
-    and to locate contact onsets. Returns (Y, YD, hist, stats, t, y, log, H), H the history
-    state at each output instant. ``ctl``: the control
-    vector of :mod:`~mechrel.integrate.events` (outputs stored, for a progress display in
-    another thread; a stop request, checked once per step). ``log_from``, ``n_dense``: the
-    solution log (:func:`~mechrel.integrate.events.log_row`; inf: none); RK4 has no continuous
-    extension of its own, so the points inside a step come from the cubic Hermite interpolant
-    of the step's end values and derivatives (third order, below the method's fourth).
+    """Classical RK4 with step ``h`` (s).
+
+    Steps are shortened to land on every output instant and to locate contact onsets. RK4 has
+    no continuous extension of its own, so the points of the solution log inside a step come
+    from the cubic Hermite interpolant of the step's end values and derivatives (third order,
+    below the method's fourth).
 
     Each step ends with the right-hand side at its end state, which is the next step's first
     stage, the derivative stored at an output instant, and the source of the contact gaps
     (onset check) and of the constraint violation recorded for every accepted state: four
-    evaluations per step and nothing else, except a re-evaluation when the history changes."""
+    evaluations per step and nothing else, except a re-evaluation when the history changes.
+
+    Parameters
+    ----------
+    sys : mechrel.mechanics.system.System
+        The compiled mechanism.
+    t0 : float
+        Start time (s).
+    y0 : numpy.ndarray
+        Initial state ``[q, q̇, W]``.
+    hist : numpy.ndarray
+        Initial history state (m/s).
+    t_out : numpy.ndarray
+        Output instants (s), increasing.
+    h : float
+        Step (s).
+    max_steps : int
+        Steps allowed.
+    onset_tol : float
+        Largest penetration at which a contact onset counts as located (m).
+    ctl : numpy.ndarray
+        The control vector of :mod:`~mechrel.integrate.events` (outputs stored, for a
+        progress display in another thread; a stop request, checked once per step).
+    log_from : float
+        Start of the solution log (s; :func:`~mechrel.integrate.events.log_row`; inf: none).
+    n_dense : int
+        Points logged inside each step.
+
+    Returns
+    -------
+    tuple
+        ``(Y, YD, hist, stats, t, y, log, H)``: states and derivatives at the output instants,
+        the final history, the statistics vector, the final time and state, the log and the
+        history state at each output instant.
+
+    Examples
+    --------
+    The double pendulum released from rest, 0.1 s at a 1 ms step; the first link's centre
+    stays on its 0.25 m circle about the pivot:
+
+    >>> from mechrel.mechanics.kinematics import assemble
+    >>> from mechrel.mechanics.system import compile_scene
+    >>> from mechrel.scene import load_scene
+    >>> c = compile_scene(load_scene("double-pendulum"))
+    >>> q, v = assemble(c.assembly, c.q_guess)
+    >>> y0 = np.concatenate([q, v, np.zeros(2)])
+    >>> ctl = np.zeros(2, np.int64)
+    >>> Y, YD, hist, stats, t, y, log, H = rk4_kernel(c.dynamic, 0.0, y0, np.zeros(0),
+    ...                                               np.array([0.0, 0.1]), 1e-3, 10**6, 1e-9,
+    ...                                               ctl, math.inf, 0)
+    >>> float(stats[S_STEPS]), float(stats[S_STATUS]), int(ctl[CTL_DONE])
+    (100.0, 0.0, 2)
+    >>> round(math.hypot(*Y[1, :2]), 9)
+    0.25
+    """
     nout = t_out.shape[0]
     Y, YD, stats, floors, y, f, k, _, ws = start(sys, t0, y0, hist, t_out)
     H = np.zeros((nout, hist.shape[0]))  # the history state at each output instant
@@ -222,9 +274,55 @@ def _error_norm(err, y, ynew, rtol, atol):
 @njit(cache=True, nogil=True)
 def dopri5_kernel(sys, t0, y0, hist, t_out, h0, rtol, atol, max_steps, onset_tol, ctl,
                   log_from, n_dense):
-    """Adaptive Dormand–Prince 5(4). ``h0`` ≤ 0 picks the initial step automatically.
-    Returns (Y, YD, hist, stats, t, y, log, H); ``ctl``, ``log_from``, ``n_dense`` as in
-    :func:`rk4_kernel` (the points inside a step from the continuous extension)."""
+    """Adaptive Dormand–Prince 5(4) with PI step control and dense output.
+
+    Parameters
+    ----------
+    sys : mechrel.mechanics.system.System
+        The compiled mechanism.
+    t0 : float
+        Start time (s).
+    y0 : numpy.ndarray
+        Initial state ``[q, q̇, W]``.
+    hist : numpy.ndarray
+        Initial history state (m/s).
+    t_out : numpy.ndarray
+        Output instants (s), increasing.
+    h0 : float
+        Initial step (s); ≤ 0 picks it automatically.
+    rtol, atol : float
+        Relative and absolute tolerances.
+    max_steps : int
+        Attempted steps allowed.
+    onset_tol : float
+        Largest penetration at which a contact onset counts as located (m).
+    ctl, log_from, n_dense
+        As in :func:`rk4_kernel` (the points inside a step from the continuous extension).
+
+    Returns
+    -------
+    tuple
+        ``(Y, YD, hist, stats, t, y, log, H)`` as in :func:`rk4_kernel`.
+
+    Examples
+    --------
+    The double pendulum of :func:`rk4_kernel`'s example: the two methods agree to eight digits
+    after 0.1 s, DOPRI5 in 38 steps instead of 100:
+
+    >>> from mechrel.mechanics.kinematics import assemble
+    >>> from mechrel.mechanics.system import compile_scene
+    >>> from mechrel.scene import load_scene
+    >>> c = compile_scene(load_scene("double-pendulum"))
+    >>> q, v = assemble(c.assembly, c.q_guess)
+    >>> y0, ctl = np.concatenate([q, v, np.zeros(2)]), np.zeros(2, np.int64)
+    >>> t_out = np.array([0.0, 0.1])
+    >>> Y, *_ = rk4_kernel(c.dynamic, 0.0, y0, np.zeros(0), t_out, 1e-3, 10**6, 1e-9, ctl,
+    ...                    math.inf, 0)
+    >>> Z, _, _, stats, *_ = dopri5_kernel(c.dynamic, 0.0, y0, np.zeros(0), t_out, 0.0, 1e-10,
+    ...                                    1e-12, 10**6, 1e-9, ctl, math.inf, 0)
+    >>> float(stats[S_STEPS]), bool(np.abs(Y[1, :6] - Z[1, :6]).max() < 1e-8)
+    (38.0, True)
+    """
     nout = t_out.shape[0]
     ny = y0.shape[0]
     Y, YD, stats, floors, y, f, k, tend, ws = start(sys, t0, y0, hist, t_out)

@@ -42,7 +42,22 @@ def _event_time(event_values, sol, c, t_old, t_new):
 
 class ScipyIVP(Integrator):
     """Base of the SciPy wrappers; ``method`` is the name of the
-    :class:`scipy.integrate.OdeSolver` subclass."""
+    :class:`scipy.integrate.OdeSolver` subclass.
+
+    Parameters
+    ----------
+    step : float, optional
+        Initial step (s), default automatic.
+    rtol, atol : float, optional
+        Tolerances, default 1e-6 and 1e-9.
+    max_steps, onset_tolerance
+        As for :class:`~mechrel.integrate.base.Integrator`.
+
+    Examples
+    --------
+    >>> [cls.method for cls in ScipyIVP.__subclasses__()]
+    ['Radau', 'BDF', 'LSODA']
+    """
 
     method = ""
     stiff = True
@@ -155,21 +170,54 @@ class ScipyIVP(Integrator):
 
 
 class ScipyRadau(ScipyIVP):
-    """SciPy's Radau IIA (order 5) around the compiled right-hand side."""
+    """SciPy's Radau IIA (order 5) around the compiled right-hand side.
+
+    Parameters
+    ----------
+    step, rtol, atol, max_steps, onset_tolerance
+        As for :class:`ScipyIVP`.
+
+    Examples
+    --------
+    >>> ScipyRadau().name, ScipyRadau().settings
+    ('scipy-radau', {'rtol': 1e-06, 'atol': 1e-09})
+    """
 
     name = "scipy-radau"
     method = "Radau"
 
 
 class ScipyBDF(ScipyIVP):
-    """SciPy's variable-order BDF around the compiled right-hand side."""
+    """SciPy's variable-order BDF around the compiled right-hand side.
+
+    Parameters
+    ----------
+    step, rtol, atol, max_steps, onset_tolerance
+        As for :class:`ScipyIVP`.
+
+    Examples
+    --------
+    >>> ScipyBDF(rtol=1e-8).settings
+    {'rtol': 1e-08, 'atol': 1e-09}
+    """
 
     name = "bdf"
     method = "BDF"
 
 
 class ScipyLSODA(ScipyIVP):
-    """SciPy's LSODA (automatic stiffness switching) around the compiled right-hand side."""
+    """SciPy's LSODA (automatic stiffness switching) around the compiled right-hand side.
+
+    Parameters
+    ----------
+    step, rtol, atol, max_steps, onset_tolerance
+        As for :class:`ScipyIVP`.
+
+    Examples
+    --------
+    >>> ScipyLSODA().name
+    'lsoda'
+    """
 
     name = "lsoda"
     method = "LSODA"

@@ -91,6 +91,15 @@ def point_positions(scene: Scene, q: np.ndarray) -> dict[str, np.ndarray]:
     -------
     dict
         Also the ground points, as ``"ground.NAME"``.
+
+    Examples
+    --------
+    >>> from mechrel.mechanics.system import compile_scene
+    >>> from mechrel.scene import load_scene
+    >>> scene = load_scene("slider-crank")
+    >>> points = point_positions(scene, compile_scene(scene).q_guess)
+    >>> points["crank.A"].tolist(), points["slider.B"].tolist()   # m
+    ([0.05, 0.0], [0.17, 0.0])
     """
     q = np.asarray(q, dtype=float)
     out = {f"{GROUND}.{name}": np.broadcast_to(np.asarray(p, dtype=float), q.shape[:-1] + (2,))
@@ -358,6 +367,14 @@ def animate(result, *, output: str | None = None, quantity: str = "displacement"
     ------
     mechrel.errors.MechrelError
         An unknown output or quantity, or fewer than 2 frames.
+
+    Examples
+    --------
+    >>> from mechrel.scene import load_scene
+    >>> from mechrel.simulation import simulate
+    >>> anim = animate(simulate(load_scene("slider-crank")), frames=2)
+    >>> type(anim).__name__, anim.to_jshtml().count("<script") > 0
+    ('FuncAnimation', True)
     """
     import matplotlib.pyplot as plt
     from matplotlib.animation import FuncAnimation
@@ -495,6 +512,17 @@ def save_animation(anim, path: Any, *, fps: int = 20) -> Path:
     ------
     mechrel.errors.MechrelError
         See :func:`check_animation_path`.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from mechrel.scene import load_scene
+    >>> from mechrel.simulation import simulate
+    >>> anim = animate(simulate(load_scene("slider-crank")), frames=2)
+    >>> with tempfile.TemporaryDirectory() as folder:
+    ...     path = save_animation(anim, Path(folder) / "crank.html", fps=5)
+    ...     print(path.suffix, path.stat().st_size > 0)
+    .html True
     """
     import matplotlib.pyplot as plt
     from matplotlib import animation

@@ -16,7 +16,30 @@ def plot_simulation(result, path=None, *, output: str | None = None):
     """Every quantity of every output (or of ``output`` only) over the analysis span, in the
     display units of the output kinds' table (:data:`mechrel.outputs.OUTPUT_KINDS`); with an
     ideal counterpart, the ideal curves and the errors; and the journal orbits inside their
-    clearance circles. Returns the matplotlib Figure (saved when ``path``)."""
+    clearance circles.
+
+    Parameters
+    ----------
+    result : mechrel.simulation.SimulationResult
+        The simulation.
+    path : str or os.PathLike, optional
+        Save the figure there (format from the suffix).
+    output : str, optional
+        Plot this output only.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        The figure, one row per (output, quantity).
+
+    Examples
+    --------
+    >>> from mechrel.scene import load_scene
+    >>> from mechrel.simulation import simulate
+    >>> fig = plot_simulation(simulate(load_scene("slider-crank")))
+    >>> len(fig.axes), fig.axes[0].get_ylabel()   # displacement, velocity, acceleration
+    (3, 'displacement (mm)')
+    """
     import matplotlib
 
     matplotlib.use("Agg", force=False)

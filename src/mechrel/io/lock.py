@@ -56,11 +56,31 @@ def _holder(fd: int) -> str:
 def hold_folder(folder, *, what: str = "out"):
     """Hold the lock on ``folder`` (which exists) for the ``with`` block.
 
+    Parameters
+    ----------
+    folder : str or os.PathLike
+        An existing folder.
+    what : str, default "out"
+        What named the folder (the option or field), for messages.
+
+    Yields
+    ------
+    pathlib.Path
+        The folder, locked by this process until the block ends.
+
     Raises
     ------
     OutputError
         ``another run (pid N) holds FOLDER``, when another process holds it; or when the lock
         file cannot be created (a read-only folder).
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> with tempfile.TemporaryDirectory() as folder:
+    ...     with hold_folder(folder) as held:
+    ...         print((Path(held) / LOCK_NAME).read_text().strip() == str(os.getpid()))
+    True
     """
     folder = Path(folder)
     path = folder / LOCK_NAME

@@ -24,6 +24,9 @@ from numba import njit
 from ..errors import AssemblyError
 from .problem import constraints, gamma
 
+# the public API; LUFactors and the _lu_* functions are the sparse solver behind it
+__all__ = ["assemble", "kinematic_analysis"]
+
 
 @njit(cache=True)
 def _newton(q0, t, sys, tol, max_iter):
@@ -54,12 +57,16 @@ def assemble(system, q_guess, t=0.0, *, tol=1e-12, max_iter=50, labels=None):
     Parameters
     ----------
     system : System
+        A compiled mechanism (:class:`mechrel.mechanics.system.System`) whose constraints
+        fix every coordinate.
     q_guess : ndarray, shape (n,)
         Initial guess (m, rad).
     t : float
         Time (s).
     tol : float
         Max |Φ| accepted (m, rad).
+    max_iter : int
+        Newton iterations allowed.
     labels : sequence of str, optional
         One label per constraint row, used in the error message.
 
@@ -72,6 +79,18 @@ def assemble(system, q_guess, t=0.0, *, tol=1e-12, max_iter=50, labels=None):
     ------
     AssemblyError
         Naming the constraints that stay violated and by how much.
+
+    Examples
+    --------
+    The slider-crank (crank 0.05 m, rod 0.12 m, 5000 rpm) at t = 0, crank along +x: the
+    slider centre is at 0.17 m and the crank turns at 523.6 rad/s:
+
+    >>> from mechrel.mechanics.system import compile_scene
+    >>> from mechrel.scene import load_scene
+    >>> c = compile_scene(load_scene("slider-crank"))
+    >>> q, v = assemble(c.ideal, c.q_guess, 0.0, labels=c.labels["ideal"])
+    >>> round(float(q[6]), 9), round(float(v[2]), 4)
+    (0.17, 523.5988)
     """
     q0 = np.asarray(q_guess, dtype=float)
     try:
@@ -381,6 +400,22 @@ def _kinematics(q0, times, sys, tol, max_iter):
 def kinematic_analysis(system, q_guess, times, *, tol=1e-12, max_iter=50, labels=None):
     """Positions, velocities and accelerations of a fully driven mechanism at ``times``.
 
+    Parameters
+    ----------
+    system : System
+        A compiled mechanism (:class:`mechrel.mechanics.system.System`) with as many
+        constraints (drivers included) as coordinates.
+    q_guess : ndarray, shape (n,)
+        Guess for the first instant (m, rad); each later instant starts from the previous one.
+    times : ndarray
+        Instants (s), increasing.
+    tol : float
+        Max |Φ| accepted (m, rad).
+    max_iter : int
+        Newton iterations allowed per instant.
+    labels : sequence of str, optional
+        One label per constraint row, used in the error message.
+
     Returns
     -------
     Q, V, A : ndarray, shape (len(times), n)
@@ -392,6 +427,18 @@ def kinematic_analysis(system, q_guess, times, *, tol=1e-12, max_iter=50, labels
     AssemblyError
         If the mechanism is not fully driven or Newton fails at some instant (a toggle or a
         branch that stops existing).
+
+    Examples
+    --------
+    A quarter turn of the slider-crank's crank later (3 ms at 5000 rpm) the slider is at
+    sqrt(0.12² − 0.05²) = 0.109087 m:
+
+    >>> from mechrel.mechanics.system import compile_scene
+    >>> from mechrel.scene import load_scene
+    >>> c = compile_scene(load_scene("slider-crank"))
+    >>> Q, V, A, worst = kinematic_analysis(c.ideal, c.q_guess, np.array([0.0, 0.003]))
+    >>> Q[:, 6].round(6).tolist(), bool(worst < 1e-12)
+    ([0.17, 0.109087], True)
     """
     n = system.mass.shape[0]
     if system.n_constraints != n:

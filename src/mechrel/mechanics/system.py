@@ -48,8 +48,57 @@ class System(NamedTuple):
     ``θ_i − f(t) = 0``).
     Clearance joints (force elements): bearing body ``cl_b`` with point ``cl_sb``, journal body
     ``cl_j`` with point ``cl_sj``, packed force-law parameters ``cl_p``
-    (:mod:`mechrel.forces.params`). ``cl_contact`` lists the clearance joints that can touch
-    (dry, transition): their index into ``hist``.
+    (:mod:`mechrel.forces.params`). ``cl_hist`` gives the clearance joints that can touch
+    (dry, transition) their index into ``hist``.
+
+    Parameters
+    ----------
+    mass : ndarray, shape (n,)
+        Diagonal of the mass matrix: m, m, J per body (kg, kg, kg m²).
+    gravity : ndarray, shape (2,)
+        Gravitational acceleration (m/s²).
+    rev_i, rev_j : ndarray of int
+        Bodies of each revolute joint (−1: ground).
+    rev_si, rev_sj : ndarray, shape (nr, 2)
+        Joint points in the body frames (m); a ground point's global position.
+    rev_off, rev_offdot : ndarray, shape (nr, 2)
+        Prescribed offset (m) and its rate (m/s) of each revolute equation.
+    tr_i : ndarray of int
+        Body of each translational joint.
+    tr_si, tr_p0, tr_n : ndarray, shape (nt, 2)
+        Sliding point in the body frame (m), a point of the line (m), the line's unit normal.
+    tr_angle : ndarray
+        Body angle held by each translational joint (rad).
+    fa_i : ndarray of int
+        Body of each fixed-angle constraint.
+    fa_angle : ndarray
+        The angle it holds (rad).
+    dr_i, dr_law : ndarray of int
+        Driven body and driver law code (``LAW_*``) of each driver.
+    dr_par : ndarray, shape (nd, N_DRIVER_PARAMS)
+        Driver parameters by the ``D_*`` columns: θ0 (rad), ω (rad/s), α (rad/s²),
+        A (rad), Ω (rad/s), φ (rad), ramp time (s).
+    cl_b, cl_j : ndarray of int
+        Bearing body and journal body of each clearance joint.
+    cl_sb, cl_sj : ndarray, shape (nc, 2)
+        Bearing and journal points in their body frames (m).
+    cl_p : ndarray, shape (nc, N_PARAMS)
+        Packed force-law parameters of each clearance joint.
+    cl_hist : ndarray of int
+        Index into ``hist`` of each clearance joint, −1 for joints that cannot touch.
+    baumgarte : ndarray, shape (2,)
+        Baumgarte stabilisation α, β (1/s).
+    row_body : ndarray of int, shape (m, 2)
+        The (at most two) bodies each constraint row acts on, −1: none.
+    ch_perm, sc_idx, ch_ent, ch_ptr, ch_kk, ch_row_ptr, ch_row_idx : ndarray of int
+        Symbolic Cholesky factorisation of S = Φ_q M⁻¹ Φ_qᵀ (:func:`schur_structure`).
+
+    Examples
+    --------
+    >>> from mechrel.scene import load_scene
+    >>> system = compile_scene(load_scene("slider-crank-dry")).dynamic
+    >>> system.n_coordinates, system.n_constraints, system.n_contacts
+    (9, 7, 1)
     """
 
     mass: np.ndarray  # (n,) diagonal of M: m, m, J per body
@@ -92,15 +141,60 @@ class System(NamedTuple):
 
     @property
     def n_coordinates(self) -> int:
+        """Number of coordinates, three per body.
+
+        Returns
+        -------
+        int
+            n = 3 × bodies.
+
+        Examples
+        --------
+        >>> from mechrel.scene import load_scene
+        >>> compile_scene(load_scene("slider-crank")).dynamic.n_coordinates   # three bodies
+        9
+        """
         return self.mass.shape[0]
 
     @property
     def n_constraints(self) -> int:
+        """Number of constraint equations (rows of Φ), drivers included.
+
+        Returns
+        -------
+        int
+            2 per revolute and translational joint, 1 per fixed angle and driver.
+
+        Examples
+        --------
+        The slider-crank: three revolutes, a translational joint and a driver; its dry
+        clearance joint C is a force element in the dynamic system, a constraint in the ideal:
+
+        >>> from mechrel.scene import load_scene
+        >>> compiled = compile_scene(load_scene("slider-crank-dry"))
+        >>> compiled.dynamic.n_constraints, compiled.ideal.n_constraints
+        (7, 9)
+        """
         return (2 * self.rev_i.shape[0] + 2 * self.tr_i.shape[0] + self.fa_i.shape[0]
                 + self.dr_i.shape[0])
 
     @property
     def n_contacts(self) -> int:
+        """Number of clearance joints that can touch (the length of ``hist``).
+
+        Returns
+        -------
+        int
+            Dry and transition joints; a lubricated joint has no contact.
+
+        Examples
+        --------
+        >>> from mechrel.scene import load_scene
+        >>> compile_scene(load_scene("slider-crank-dry")).dynamic.n_contacts
+        1
+        >>> compile_scene(load_scene("slider-crank-lubricated")).dynamic.n_contacts
+        0
+        """
         return int((self.cl_hist >= 0).sum())
 
 
@@ -110,6 +204,38 @@ class CompiledScene(NamedTuple):
     ``dynamic`` treats clearance joints as force elements; ``assembly`` replaces each of them by
     a revolute constraint held at the joint's initial eccentricity; ``ideal`` replaces them by
     ideal revolutes (the ideal counterpart of the mechanism).
+
+    Parameters
+    ----------
+    dynamic, assembly, ideal : System
+        The three systems described above.
+    labels : dict
+        ``{"dynamic" | "assembly" | "ideal": one label per constraint row}``.
+    body_names : tuple of str
+        Bodies in coordinate order.
+    body_index : dict
+        ``{body name: index}``.
+    q_guess : ndarray, shape (n,)
+        The scene's body positions and angles, the assembly's first guess (m, rad).
+    clearance_names, contact_names, driver_names, output_names : tuple of str
+        Clearance joints, those of them that can touch, drivers and outputs, in order.
+    out_body : ndarray of int
+        Body index of each point output (kind "point", in order).
+    out_s : ndarray, shape (no, 2)
+        Point of each point output in its body frame (m).
+    out_axis : ndarray, shape (no, 2)
+        Unit axis of each point output.
+    cycle_driver : int
+        Index of the cycle driver into the drivers, −1 if none.
+    period : float or None
+        Cycle period of the cycle driver (s).
+
+    Examples
+    --------
+    >>> from mechrel.scene import load_scene
+    >>> compiled = compile_scene(load_scene("slider-crank-dry"))
+    >>> compiled.body_names, compiled.clearance_names, compiled.period   # 5000 rpm
+    (('crank', 'rod', 'slider'), ('C',), 0.012)
     """
 
     dynamic: System
@@ -151,7 +277,25 @@ def _driver_row(d) -> np.ndarray:
 
 def clearance_parameters(joint: Joint) -> np.ndarray:
     """Pack a clearance joint's force-law parameters by its model's row of the table of
-    models (:func:`mechrel.forces.models.pack_joint`)."""
+    models (:func:`mechrel.forces.models.pack_joint`).
+
+    Parameters
+    ----------
+    joint : mechrel.scene.model.Joint
+        A clearance joint.
+
+    Returns
+    -------
+    numpy.ndarray
+        Its parameter vector (:data:`mechrel.forces.params.N_PARAMS` floats).
+
+    Examples
+    --------
+    >>> from mechrel.forces.params import P_C
+    >>> from mechrel.scene import load_scene
+    >>> float(clearance_parameters(load_scene("slider-crank-dry").joints["C"])[P_C])   # m
+    0.0005
+    """
     from ..forces.models import pack_joint
 
     return pack_joint(joint)
@@ -256,7 +400,27 @@ def _system(scene: Scene, index, clearance_as: str) -> tuple[System, tuple[str, 
 def without_clearance_forces(system: System) -> System:
     """The same mechanism with every clearance-joint force switched off (film viscosity and
     contact stiffness zero: both force laws are proportional to them), for the smooth part of
-    the stiff integrator's Jacobian (:mod:`mechrel.integrate.radau`)."""
+    the stiff integrator's Jacobian (:mod:`mechrel.integrate.radau`).
+
+    Parameters
+    ----------
+    system : System
+        A compiled mechanism.
+
+    Returns
+    -------
+    System
+        A copy with ``cl_p[:, P_MU]`` and ``cl_p[:, P_K]`` zero (the same object when it has
+        no clearance joint).
+
+    Examples
+    --------
+    >>> from mechrel.forces.params import P_K
+    >>> from mechrel.scene import load_scene
+    >>> system = compile_scene(load_scene("slider-crank-dry")).dynamic
+    >>> bool(system.cl_p[0, P_K] > 0), float(without_clearance_forces(system).cl_p[0, P_K])
+    (True, 0.0)
+    """
     from ..forces.params import P_K, P_MU
 
     if system.cl_p.shape[0] == 0:
@@ -287,6 +451,15 @@ def schur_structure(row_body: np.ndarray) -> dict:
     -------
     dict
         The ``ch_*`` and ``sc_*`` fields of :class:`System`.
+
+    Examples
+    --------
+    Three rows on a chain of two bodies (row 1 couples body 0 and body 1): S is tridiagonal,
+    its factor has no fill-in, two entries below the diagonal:
+
+    >>> s = schur_structure(np.array([[0, -1], [0, 1], [1, -1]]))
+    >>> s["ch_perm"].tolist(), s["ch_row_idx"].tolist()
+    ([0, 1, 2], [0, 1])
     """
     return dict(_schur_structure(row_body.shape[0], row_body.tobytes()))
 
@@ -349,7 +522,30 @@ def _schur_structure(m: int, key: bytes) -> tuple:
 
 
 def compile_scene(scene: Scene) -> CompiledScene:
-    """Resolve names to indices and build the dynamic, assembly and ideal systems."""
+    """Resolve names to indices and build the dynamic, assembly and ideal systems.
+
+    Parameters
+    ----------
+    scene : mechrel.scene.model.Scene
+        A validated scene.
+
+    Returns
+    -------
+    CompiledScene
+        The scene as arrays.
+
+    Raises
+    ------
+    mechrel.errors.SceneError
+        A point output sits on the ground.
+
+    Examples
+    --------
+    >>> from mechrel.scene import load_scene
+    >>> compiled = compile_scene(load_scene("slider-crank-dry"))
+    >>> compiled.labels["ideal"][-3:]
+    ('joints.G (on line)', 'joints.G (angle)', 'drivers.crank')
+    """
     names = tuple(scene.bodies)
     index = {name: k for k, name in enumerate(names)}
     q_guess = np.empty(3 * len(names))

@@ -11,7 +11,7 @@ import math
 from collections.abc import Mapping, Sequence
 from dataclasses import fields
 from types import MappingProxyType
-from typing import Any
+from typing import Any, cast
 
 from .._checks import _MISSING, _one_of, _typename, describe_number, fmt_value, join, suggest
 from .._checks import Checker as _Checker
@@ -187,7 +187,8 @@ class _Builder(Checker):
             required = ("type", "connects") + (("direction", "angle") if jtype == "translational"
                                                else ("angle",) if jtype == "fixed-angle" else ())
             hints = {k: f" ('{k}' belongs to "
-                        f"{' or '.join(t for t, ks in JOINT_KEYS_BY_TYPE.items() if k in ks)} joints)"
+                        f"{' or '.join(t for t, ks in JOINT_KEYS_BY_TYPE.items() if k in ks)} "
+                        "joints)"
                      for k in JOINT_KEYS if k not in JOINT_KEYS_BY_TYPE[jtype]}
             self.keys(p, j, JOINT_KEYS_BY_TYPE[jtype], required=required, what=what, hints=hints)
             if jtype == "revolute":
@@ -250,7 +251,7 @@ class _Builder(Checker):
         # which sub-tables a model needs comes from its row in the table of models; a sub-table
         # given but not needed is validated too (and ignored by the force law)
         needs = () if ideal else MODELS[model].requires
-        subs = {}
+        subs: dict[str, Any] = {}
         for k, check in (("contact", self._contact), ("friction", self._friction),
                          ("lubricant", self._lubricant), ("transition", self._transition)):
             subs[k] = (check(join(p, k), j.get(k, {}), model) if k in j or k in needs
@@ -269,7 +270,7 @@ class _Builder(Checker):
         try:
             pack_joint(joint)
         except SceneError as err:
-            field = err.path
+            field = cast(str, err.path)  # pack_params names the parameter of every error
             # a derived value (the contact stiffness) is named with what it is computed from
             derived = ("; it is computed from bearing_radius, clearance and the contact's "
                        "elastic moduli: check those for extreme values"
@@ -286,7 +287,7 @@ class _Builder(Checker):
         t = self.table(path, v)
         keys = tuple(f.name for f in fields(cls))
         self.keys(path, t, keys, what=f"[{path.rsplit('.', 1)[-1]}]")
-        out = {}
+        out: dict[str, Any] = {}
         for f in fields(cls):
             spec = specs[f.name]
             val = t.get(f.name, f.default)
@@ -332,8 +333,8 @@ class _Builder(Checker):
                                            "shear_torque": dict(boolean=True)})
         row = MODELS.get(model)
         if row is not None and row.has_film and not d["viscosity"] > 0:
-            films = [f"'{m.name}'" for m in MODELS.values() if m.has_film]
-            films = " and ".join([", ".join(films[:-1]), films[-1]] if len(films) > 1 else films)
+            names = [f"'{m.name}'" for m in MODELS.values() if m.has_film]
+            films = " and ".join([", ".join(names[:-1]), names[-1]] if len(names) > 1 else names)
             self.fail(path + ".viscosity", d["viscosity"],
                       f"a '{model}' joint needs a film, and a film of zero viscosity carries no "
                       "load", f"> 0 (Pa s) for models {films}")
@@ -400,7 +401,8 @@ class _Builder(Checker):
                         kw[k] = self.number(f"{p}.{k}", d[k], gt=0, unit=unit)
                     else:
                         kw[k] = self.number(f"{p}.{k}", d[k], ge=ge, unit=unit)
-            out[name] = Driver(name=name, body=body, law=law, **kw)
+            # law is one of DRIVER_LAWS (checked above), the Literal the field declares
+            out[name] = Driver(name=name, body=body, law=cast(Any, law), **kw)
         return out
 
     def _outputs(self, v: Any, bodies, ground, joints) -> dict[str, Output]:
@@ -476,7 +478,8 @@ class _Builder(Checker):
         if "duration" in a:
             duration = self.number("analysis.duration", a["duration"], gt=0, unit="s")
         else:
-            cycles = self.number("analysis.cycles", a["cycles"], gt=0, unit="periods of the cycle driver")
+            cycles = self.number("analysis.cycles", a["cycles"], gt=0,
+                                 unit="periods of the cycle driver")
         if "sample_step" in a:
             sample_step = self.number("analysis.sample_step", a["sample_step"], gt=0, unit="s")
         else:
@@ -486,8 +489,9 @@ class _Builder(Checker):
         cycle_driver = None
         constant = [n for n, d in drivers.items() if d.law == "constant-speed" and d.speed != 0]
         if "cycle_driver" in a:
-            cycle_driver = self.string("analysis.cycle_driver", a["cycle_driver"],
-                                       "a constant-speed driver with speed != 0: " + _one_of(constant))
+            cycle_driver = self.string(
+                "analysis.cycle_driver", a["cycle_driver"],
+                "a constant-speed driver with speed != 0: " + _one_of(constant))
             if cycle_driver not in drivers:
                 self.fail("analysis.cycle_driver", cycle_driver,
                           f"unknown driver '{cycle_driver}'{suggest(cycle_driver, drivers)}",
@@ -504,18 +508,25 @@ class _Builder(Checker):
             speed = abs(d.speed)
         elif cycles is not None or sample_step_angle is not None:
             why = "analysis.cycles" if cycles is not None else "analysis.sample_step_angle"
-            self.fail("analysis.cycle_driver", _MISSING, f"missing required field (needed by {why})",
+            self.fail("analysis.cycle_driver", _MISSING,
+                      f"missing required field (needed by {why})",
                       "a constant-speed driver with speed != 0: " + _one_of(constant))
-        span = duration if duration is not None else cycles * 2 * math.pi / speed
+        if duration is not None:
+            span = duration
+        else:
+            assert cycles is not None and speed is not None  # cycles need the driver (above)
+            span = cycles * 2 * math.pi / speed
         if sample_step is not None and sample_step > span:
             self.fail("analysis.sample_step", a["sample_step"],
                       f"larger than the analysis span of {span:g} s",
                       f"0 < sample_step <= {span:g} s")
-        if sample_step_angle is not None and sample_step_angle / speed > span:
-            self.fail("analysis.sample_step_angle", a["sample_step_angle"],
-                      f"larger than the analysis span of {span * speed:g} rad of "
-                      f"'{cycle_driver}' rotation",
-                      f"0 < sample_step_angle <= {span * speed:g} rad")
+        if sample_step_angle is not None:
+            assert speed is not None  # a sample_step_angle needs the cycle driver (above)
+            if sample_step_angle / speed > span:
+                self.fail("analysis.sample_step_angle", a["sample_step_angle"],
+                          f"larger than the analysis span of {span * speed:g} rad of "
+                          f"'{cycle_driver}' rotation",
+                          f"0 < sample_step_angle <= {span * speed:g} rad")
         return Analysis(duration=duration, cycles=cycles, cycle_driver=cycle_driver,
                         sample_step=sample_step, sample_step_angle=sample_step_angle)
 
@@ -580,7 +591,7 @@ def scene_to_raw(scene: Scene) -> dict:
         else:
             if j.direction is not None:
                 d["direction"] = _pair(j.direction)
-            d["angle"] = float(j.angle)
+            d["angle"] = float(cast(float, j.angle))  # every non-revolute joint holds an angle
         joints[n] = d
     drivers = {}
     for n, dr in scene.drivers.items():
@@ -609,7 +620,7 @@ def _output_raw(o: Output) -> dict:
     not the default ``point`` (so the scenes written before output kinds keep their hash)."""
     from ..outputs import OUTPUT_KINDS
 
-    raw = {} if o.kind == "point" else {"kind": o.kind}
+    raw: dict[str, Any] = {} if o.kind == "point" else {"kind": o.kind}
     for f in OUTPUT_KINDS[o.kind].fields:
         v = getattr(o, f)
         raw[f] = _pair(v) if f == "axis" else str(v)

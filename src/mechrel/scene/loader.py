@@ -30,7 +30,28 @@ _MAPPING_LABEL = "<mapping>"
 # ----------------------------------------------------------------------------- freezing
 
 def freeze(v: Any) -> Any:
-    """Read-only deep copy: tables → ``MappingProxyType``, arrays → tuples."""
+    """Read-only deep copy: tables → ``MappingProxyType``, arrays → tuples.
+
+    Parameters
+    ----------
+    v : object
+        A parsed TOML value (tables, arrays, scalars).
+
+    Returns
+    -------
+    object
+        The frozen copy (scalars as they are).
+
+    Examples
+    --------
+    >>> frozen = freeze({"points": {"A": [0.05, 0.0]}})
+    >>> frozen["points"]["A"]
+    (0.05, 0.0)
+    >>> frozen["points"]["B"] = (0.0, 0.0)
+    Traceback (most recent call last):
+    ...
+    TypeError: 'mappingproxy' object does not support item assignment
+    """
     if isinstance(v, Mapping):
         return MappingProxyType({k: freeze(x) for k, x in v.items()})
     if isinstance(v, (list, tuple)):
@@ -39,7 +60,23 @@ def freeze(v: Any) -> Any:
 
 
 def thaw(v: Any) -> Any:
-    """Mutable deep copy of a (possibly frozen) raw mapping: tables → dict, arrays → list."""
+    """Mutable deep copy of a (possibly frozen) raw mapping: tables → dict, arrays → list.
+
+    Parameters
+    ----------
+    v : object
+        A raw value, frozen (:func:`freeze`) or not.
+
+    Returns
+    -------
+    object
+        The mutable copy (scalars as they are).
+
+    Examples
+    --------
+    >>> thaw(freeze({"points": {"A": [0.05, 0.0]}}))
+    {'points': {'A': [0.05, 0.0]}}
+    """
     if isinstance(v, Mapping):
         return {k: thaw(x) for k, x in v.items()}
     if isinstance(v, (list, tuple)):
@@ -56,6 +93,11 @@ def _data_dir():
 def embedded_names() -> tuple[str, ...]:
     """Names of the scenes shipped in ``mechrel/scene/data``.
 
+    Returns
+    -------
+    tuple of str
+        The names, sorted.
+
     Examples
     --------
     >>> "nine-bar-lubricated" in embedded_names()
@@ -66,6 +108,11 @@ def embedded_names() -> tuple[str, ...]:
 
 def list_scenes() -> dict[str, str]:
     """``{name: description}`` of every embedded scene (each one is loaded and validated).
+
+    Returns
+    -------
+    dict
+        ``{name: description}``.
 
     Examples
     --------
@@ -95,7 +142,33 @@ MAX_DEPTH = 32
 
 def check_depth(raw: Any, label: str, error=SceneError) -> None:
     """Refuse a parsed document nested deeper than :data:`MAX_DEPTH` (iteratively: the check
-    itself does not recurse)."""
+    itself does not recurse).
+
+    Parameters
+    ----------
+    raw : object
+        The parsed document.
+    label : str
+        The file's name for the message.
+    error : type, default SceneError
+        The error class raised (``StudyError`` for study files).
+
+    Raises
+    ------
+    mechrel.errors.SceneError
+        (or ``error``) The document is nested too deeply.
+
+    Examples
+    --------
+    >>> check_depth({"a": {"b": [1, 2]}}, "scene.toml")   # fine: returns None
+    >>> deep = [0]
+    >>> for _ in range(MAX_DEPTH):
+    ...     deep = [deep]
+    >>> check_depth(deep, "scene.toml")
+    Traceback (most recent call last):
+    ...
+    mechrel.errors.SceneError: scene.toml: [0]...[0]: tables and arrays nested more than 32 ...
+    """
     stack = [(raw, 0, "")]
     while stack:
         node, depth, path = stack.pop()
@@ -113,7 +186,36 @@ def check_depth(raw: Any, label: str, error=SceneError) -> None:
 def read_toml_text(data: bytes, label: str, error=SceneError) -> dict:
     """Parse the bytes of a scene or study file: UTF-8 with or without a byte-order mark,
     valid TOML, at most :data:`MAX_DEPTH` levels deep; one ``error`` naming ``label``
-    otherwise."""
+    otherwise.
+
+    Parameters
+    ----------
+    data : bytes
+        The file's content.
+    label : str
+        The file's name for messages.
+    error : type, default SceneError
+        The error class raised (``StudyError`` for study files).
+
+    Returns
+    -------
+    dict
+        The parsed TOML.
+
+    Raises
+    ------
+    mechrel.errors.SceneError
+        (or ``error``) Not UTF-8, not TOML, or nested too deeply.
+
+    Examples
+    --------
+    >>> read_toml_text(b'\\xef\\xbb\\xbfname = "demo"', "demo.toml")   # with a byte-order mark
+    {'name': 'demo'}
+    >>> read_toml_text(b"name = ", "demo.toml")
+    Traceback (most recent call last):
+    ...
+    mechrel.errors.SceneError: demo.toml: TOML syntax error: ...
+    """
     def fail(message):
         raise (error(message, source=label) if error is SceneError
                else error(f"{label}: {message}")) from None
@@ -203,7 +305,26 @@ def _read_source(source: Any) -> tuple[_Doc, str | None]:
 def deep_merge(base: Mapping, over: Mapping, path: str = "") -> dict:
     """``over`` on top of ``base``: tables merge recursively, any other value replaces. In a
     table listed in ``EXCLUSIVE`` (``analysis``), setting one key of a mutually exclusive pair
-    drops the other inherited key (so a variant may switch ``cycles`` to ``duration``)."""
+    drops the other inherited key (so a variant may switch ``cycles`` to ``duration``).
+
+    Parameters
+    ----------
+    base, over : mapping
+        Raw scene tables; ``over`` wins.
+    path : str, default ""
+        Dotted path of these tables in the scene (selects the ``EXCLUSIVE`` pairs).
+
+    Returns
+    -------
+    dict
+        The merged copy (neither argument is changed).
+
+    Examples
+    --------
+    >>> deep_merge({"analysis": {"cycles": 1, "sample_step": 1e-4}},
+    ...            {"analysis": {"duration": 0.5}})
+    {'analysis': {'sample_step': 0.0001, 'duration': 0.5}}
+    """
     out = thaw(base)
     for a, b in EXCLUSIVE.get(path, ()):
         if a in over and b not in over:
@@ -282,6 +403,16 @@ def parse_value(text: str) -> Any:
     ``{viscosity = 0.2}``); a plain number TOML rejects (``.5``, ``5.``); otherwise the text
     itself as a string (so ``dry`` means ``"dry"``).
 
+    Parameters
+    ----------
+    text : str
+        The text after ``=``.
+
+    Returns
+    -------
+    object
+        The value.
+
     Examples
     --------
     >>> parse_value("0.3e-3"), parse_value(".5"), parse_value("dry"), parse_value("[1.0, 2.0]")
@@ -301,6 +432,21 @@ def parse_value(text: str) -> Any:
 
 def parse_override(text: str) -> tuple[str, Any]:
     """``"PATH=VALUE"`` → ``(PATH, value)`` (see :func:`parse_value`).
+
+    Parameters
+    ----------
+    text : str
+        ``PATH=VALUE``, spaces around ``=`` allowed.
+
+    Returns
+    -------
+    (str, object)
+        The path and the parsed value.
+
+    Raises
+    ------
+    mechrel.errors.SceneError
+        The text has no ``=`` or no path.
 
     Examples
     --------
@@ -382,7 +528,33 @@ def get_value(raw: Mapping, path: str, *, source: str | None = None) -> Any:
     ``ground.points.O4[0]``) and ``OWNER.length(P,Q)`` (the distance |Q − P| in m between
     points P and Q of a body, e.g. ``bodies.crank.length(O,A)``, or of the ground).
 
-    Raises :class:`~mechrel.errors.SceneError` naming the path when it is not in the scene."""
+    Parameters
+    ----------
+    raw : mapping
+        A scene's raw mapping (``Scene.raw``).
+    path : str
+        The dotted path.
+    source : str, optional
+        The scene's file, for the message.
+
+    Returns
+    -------
+    object
+        The value (a length in m for ``length(P,Q)``).
+
+    Raises
+    ------
+    mechrel.errors.SceneError
+        The path is not in the scene (the message names it).
+
+    Examples
+    --------
+    >>> raw = load_scene("slider-crank").raw
+    >>> get_value(raw, "drivers.crank.law"), get_value(raw, "bodies.crank.length(O,A)")
+    ('constant-speed', 0.05)
+    >>> get_value(raw, "bodies.crank.points.A[0]")
+    0.025
+    """
     m = _LENGTH_RE.match(path)
     if m:
         _, p, q = _length_points(raw, m, source)
@@ -446,7 +618,39 @@ def apply_override(raw: dict, path: str, value: Any, *, text: str | None = None,
 
     Two derived paths set part of a value (see :func:`get_value`): ``PATH[i]`` one component
     of an array (``ground.points.O4[0]``), and ``OWNER.length(P,Q)`` the distance between two
-    points of a body or of the ground, by moving Q along the line from P through Q."""
+    points of a body or of the ground, by moving Q along the line from P through Q.
+
+    Parameters
+    ----------
+    raw : dict
+        A mutable raw scene mapping (:func:`thaw` of ``Scene.raw``), changed in place.
+    path : str
+        The dotted path.
+    value : object
+        The new value (SI units).
+    text : str, optional
+        The override as the user wrote it, for messages.
+    source : str, optional
+        The scene's file, for messages.
+
+    Raises
+    ------
+    mechrel.errors.SceneError
+        Unknown or malformed path, or a value that cannot go there.
+
+    Examples
+    --------
+    >>> raw = thaw(load_scene("slider-crank").raw)
+    >>> apply_override(raw, "bodies.crank.length(O,A)", 0.06)
+    >>> get_value(raw, "bodies.crank.length(O,A)")
+    0.06
+    >>> try:
+    ...     apply_override(raw, "joints.C.clearence", 1e-4)
+    ... except SceneError as err:
+    ...     print(err)
+    override 'joints.C.clearence=0.0001': unknown field 'clearence' at 'joints.C.clearence'
+    (did you mean 'clearance'?); allowed: fields type, connects, model, clearance, ...
+    """
     text = text or f"{path}={fmt_value(value)}"
     derived = _derived_override(raw, path, value, text, source)
     if derived is not None:
@@ -614,6 +818,16 @@ _CANONICAL_ENCODER = json.JSONEncoder(sort_keys=True, separators=(",", ":"),
 
 def canonical_json(scene: Scene) -> str:
     """Canonical JSON of the scene's raw mapping (sorted keys, no spaces, exact floats).
+
+    Parameters
+    ----------
+    scene : mechrel.scene.model.Scene
+        The scene.
+
+    Returns
+    -------
+    str
+        The JSON text (what :func:`scene_hash` hashes).
 
     Examples
     --------

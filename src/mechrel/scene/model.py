@@ -36,6 +36,21 @@ class Body:
     """A rigid body. ``position``/``angle`` are the initial guess for assembly (m, rad);
     ``points`` are named points in the body frame, whose origin is the centre of mass (m).
 
+    Parameters
+    ----------
+    name : str
+        The body's name (``bodies.NAME``).
+    mass : float
+        Mass (kg), > 0.
+    inertia : float
+        Moment of inertia about the centre of mass (kg m²), > 0.
+    position : (float, float)
+        Initial guess of the centre of mass (m, global frame).
+    angle : float
+        Initial guess of the body angle (rad).
+    points : mapping of str to (float, float)
+        Named points in the body frame (m).
+
     Examples
     --------
     >>> from mechrel.scene import load_scene
@@ -57,6 +72,13 @@ class Body:
 class PointRef:
     """A named point on a body (``body == "ground"`` for a ground point).
 
+    Parameters
+    ----------
+    body : str
+        A body name, or ``"ground"``.
+    point : str
+        A point of that body (or of the scene's ``ground`` table).
+
     Examples
     --------
     >>> PointRef("slider", "B")
@@ -72,7 +94,33 @@ class PointRef:
 
 @dataclass(frozen=True)
 class Contact:
-    """Dry-contact parameters (Lankarani–Nikravesh). Moduli in Pa, speeds in m/s."""
+    """Dry-contact parameters (Lankarani–Nikravesh). Moduli in Pa, speeds in m/s.
+
+    The equations are those of :mod:`mechrel.forces.contact` (sources there).
+
+    Parameters
+    ----------
+    youngs_modulus_bearing, youngs_modulus_journal : float
+        Young's moduli of bearing and journal (Pa), > 0; default 206 GPa (steel).
+    poisson_bearing, poisson_journal : float
+        Poisson's ratios (-), in (−1, 0.5); default 0.3.
+    restitution : float
+        Coefficient of restitution c_e (-), in (0, 1]; default 0.9.
+    exponent : float
+        Contact force exponent n (-), in [1, 3]; default 1.5 (Hertz).
+    stiffness : {"conformal", "paper"}
+        Radius combination of the stiffness: the journal inside its bearing (default) or the
+        sum of radii as printed in the paper (:func:`mechrel.forces.contact.contact_stiffness`).
+    impact_speed_floor : float
+        Floor of the impact speed in the damping term (m/s), > 0; default 1e-3.
+
+    Examples
+    --------
+    >>> from mechrel.scene import load_scene
+    >>> contact = load_scene("slider-crank-dry").joints["C"].contact
+    >>> contact.restitution, contact.youngs_modulus_bearing, contact.stiffness
+    (0.9, 206000000000.0, 'conformal')
+    """
 
     youngs_modulus_bearing: float = 206e9
     youngs_modulus_journal: float = 206e9
@@ -86,7 +134,23 @@ class Contact:
 
 @dataclass(frozen=True)
 class Friction:
-    """Modified Coulomb friction with the dynamic correction c_d (v0 < v1, m/s)."""
+    """Modified Coulomb friction with the dynamic correction c_d (v0 < v1, m/s).
+
+    The law is :func:`mechrel.forces.friction.friction_force` (source there).
+
+    Parameters
+    ----------
+    coefficient : float
+        Coulomb coefficient c_f (-), ≥ 0 (0: no friction); default 0.05.
+    v0, v1 : float
+        Slip speeds of the dynamic correction (m/s), 0 ≤ v0 < v1; defaults 1e-4 and 1e-2.
+
+    Examples
+    --------
+    >>> from mechrel.scene import load_scene
+    >>> load_scene("slider-crank-dry").joints["C"].friction
+    Friction(coefficient=0.01, v0=0.0001, v1=0.01)
+    """
 
     coefficient: float = 0.05
     v0: float = _FORCE_DEFAULTS["v0"]
@@ -97,7 +161,34 @@ class Friction:
 class Lubricant:
     """The lubricant film. ``viscosity`` in Pa s (100 cP = 0.1 Pa s); ``bearing`` the film
     model, a key of :data:`mechrel.forces.models.BEARINGS` (``"long"``: Pinkus–Sternlicht,
-    the paper's; ``"short"``: Ocvirk; ``"finite"``: finite length, 0.25 <= L/D <= 4)."""
+    the paper's; ``"short"``: Ocvirk; ``"finite"``: finite length, 0.25 <= L/D <= 4).
+
+    The film laws and their sources are in :mod:`mechrel.forces.film`,
+    :mod:`mechrel.forces.short_film` and :mod:`mechrel.forces.finite_film`.
+
+    Parameters
+    ----------
+    viscosity : float
+        Dynamic viscosity μ (Pa s), > 0; default 0.1.
+    lam : float
+        Exponent λ of the small-eccentricity correction (-), ≥ 0; default 1.
+    eps0 : float
+        Threshold ε0 of that correction (-), in (0, 1]; default 0.1.
+    bearing : {"long", "short", "finite"}
+        The film model; default ``"long"``.
+    cavitation : {"half-sommerfeld", "reynolds"}
+        Cavitation condition; ``"reynolds"`` (Swift–Stieber) with the finite bearing only.
+    shear_torque : bool
+        Apply the film's shear torques to journal and bearing (not in the paper); default
+        False.
+
+    Examples
+    --------
+    >>> from mechrel.scene import load_scene
+    >>> film = load_scene("slider-crank-lubricated").joints["C"].lubricant
+    >>> film.viscosity, film.bearing   # 400 cP
+    (0.4, 'long')
+    """
 
     viscosity: float = 0.1
     lam: float = _FORCE_DEFAULTS["lam"]
@@ -109,7 +200,24 @@ class Lubricant:
 
 @dataclass(frozen=True)
 class Transition:
-    """Dry/lubricated blend over c <= |e| <= c + e1 (m); film evaluated at eps <= eps_max."""
+    """Dry/lubricated blend over c <= |e| <= c + e1 (m); film evaluated at eps <= eps_max.
+
+    The blend is :func:`mechrel.forces.joint.transition_weight` (paper eq. 19, source there).
+
+    Parameters
+    ----------
+    e1 : float
+        Width of the blend band (m), > 0; default 1e-5.
+    eps_max : float
+        Eccentricity ratio at which the film is clamped (-), in (0, 1); default 0.99.
+
+    Examples
+    --------
+    >>> from mechrel.scene import load_scene
+    >>> scene = load_scene("slider-crank", overrides=["joints.C.model=transition"])
+    >>> scene.joints["C"].transition
+    Transition(e1=1e-05, eps_max=0.99)
+    """
 
     e1: float = _FORCE_DEFAULTS["e1"]
     eps_max: float = _FORCE_DEFAULTS["eps_max"]
@@ -128,6 +236,41 @@ class Joint:
     ``points[1]`` on the journal (pin) body; ``clearance`` is the radial clearance c = R_B − R_S,
     ``bearing_radius`` is R_B and ``length`` the bearing length (m). ``initial_eccentricity``
     (m, global frame) and ``initial_eccentricity_rate`` (m/s) set the journal's initial offset.
+
+    Parameters
+    ----------
+    name : str
+        The joint's name (``joints.NAME``).
+    type : {"revolute", "translational", "fixed-angle"}
+        The joint type (above).
+    points : tuple of PointRef
+        Two points (revolute, translational) or one (fixed-angle).
+    direction : (float, float), optional
+        Unit direction of a translational joint's line.
+    angle : float, optional
+        Body angle held by a translational or fixed-angle joint (rad).
+    model : str
+        ``"ideal"`` or a clearance model (:data:`CLEARANCE_MODELS`).
+    clearance : float
+        Radial clearance c (m), > 0 for a clearance joint.
+    bearing_radius : float, optional
+        Bearing radius R_B (m).
+    length : float, optional
+        Bearing length L (m).
+    contact, friction, lubricant, transition : optional
+        The clearance model's sub-tables (:class:`Contact`, :class:`Friction`,
+        :class:`Lubricant`, :class:`Transition`).
+    initial_eccentricity : (float, float)
+        Initial journal offset e (m, global frame).
+    initial_eccentricity_rate : (float, float)
+        Its rate (m/s).
+
+    Examples
+    --------
+    >>> from mechrel.scene import load_scene
+    >>> joint = load_scene("slider-crank-dry").joints["C"]
+    >>> joint.type, joint.model, joint.clearance, joint.bearing_radius   # m
+    ('revolute', 'dry', 0.0005, 0.01)
     """
 
     name: str
@@ -148,11 +291,38 @@ class Joint:
 
     @property
     def is_clearance(self) -> bool:
+        """Whether this is a revolute joint with clearance (a model other than ``"ideal"``).
+
+        Returns
+        -------
+        bool
+            True for a clearance joint.
+
+        Examples
+        --------
+        >>> from mechrel.scene import load_scene
+        >>> joints = load_scene("slider-crank-dry").joints
+        >>> joints["C"].is_clearance, joints["A"].is_clearance
+        (True, False)
+        """
         return self.type == "revolute" and self.model != "ideal"
 
     @property
     def clearance_model(self):
-        """The row of :data:`mechrel.forces.models.MODELS` of a clearance joint (else None)."""
+        """The row of :data:`mechrel.forces.models.MODELS` of a clearance joint (else None).
+
+        Returns
+        -------
+        mechrel.forces.models.ClearanceModel or None
+            The model's row.
+
+        Examples
+        --------
+        >>> from mechrel.scene import load_scene
+        >>> joints = load_scene("slider-crank-dry").joints
+        >>> joints["C"].clearance_model.has_contact, joints["A"].clearance_model
+        (True, None)
+        """
         return _MODELS.get(self.model) if self.is_clearance else None
 
 
@@ -163,6 +333,29 @@ class Driver:
     Laws: ``constant-speed`` θ0 + ω t; ``constant-acceleration`` θ0 + ω t + α t²/2;
     ``harmonic`` θ0 + A sin(Ω t + φ); ``smooth-start`` reaches ω after ``ramp_time`` with a
     quintic blend of the speed (zero acceleration at both ends).
+
+    Parameters
+    ----------
+    name : str
+        The driver's name (``drivers.NAME``).
+    body : str
+        The driven body.
+    law : {"constant-speed", "constant-acceleration", "harmonic", "smooth-start"}
+        The law (above).
+    angle0 : float
+        θ0 (rad).
+    speed : float
+        ω (rad/s).
+    acceleration : float
+        α (rad/s²).
+    amplitude : float
+        A (rad).
+    frequency : float
+        Ω (rad/s).
+    phase : float
+        φ (rad).
+    ramp_time : float
+        Ramp of the smooth start (s).
 
     Examples
     --------
@@ -193,6 +386,21 @@ class Output:
     ratio, minimum film thickness and penetration) or ``path`` (a point's distance from its
     ideal path). Fields another kind uses are None.
 
+    Parameters
+    ----------
+    name : str
+        The output's name (``outputs.NAME``).
+    point : PointRef, optional
+        The point (kinds ``point`` and ``path``).
+    axis : (float, float), optional
+        The direction measured (kind ``point``; unit vector).
+    kind : str
+        A key of :data:`mechrel.outputs.OUTPUT_KINDS`; default ``"point"``.
+    body : str, optional
+        The body (kind ``body``).
+    joint : str, optional
+        The clearance joint (kind ``joint``).
+
     Examples
     --------
     >>> from mechrel.scene import load_scene
@@ -217,6 +425,19 @@ class Analysis:
     Exactly one of ``duration`` (s) or ``cycles`` (periods of ``cycle_driver``, a
     constant-speed driver). Exactly one of ``sample_step`` (s) or ``sample_step_angle``
     (rad of the cycle driver's rotation).
+
+    Parameters
+    ----------
+    duration : float, optional
+        Simulated time (s).
+    cycles : float, optional
+        Simulated periods of the cycle driver.
+    cycle_driver : str, optional
+        A constant-speed driver whose period sets the cycle.
+    sample_step : float, optional
+        Output interval (s).
+    sample_step_angle : float, optional
+        Output interval as the cycle driver's rotation (rad).
 
     Examples
     --------
@@ -243,6 +464,23 @@ class Solver:
     :data:`mechrel.integrate.INTEGRATORS`; ``"auto"`` picks the scene type's default
     (see docs/performance.md). ``step`` is the fixed step of RK4 (s).
 
+    Parameters
+    ----------
+    integrator : str
+        One of :data:`INTEGRATOR_NAMES`; default ``"auto"``.
+    step : float, optional
+        Fixed step of RK4, or the first step of an adaptive method (s).
+    rtol, atol : float, optional
+        Tolerances of an adaptive method (default: the integrator's or the model's).
+    max_steps : int
+        Attempted steps allowed, in [1, 2**53].
+    baumgarte_alpha, baumgarte_beta : float
+        Baumgarte stabilisation of the constraints (1/s); default 5.
+    assembly_tolerance : float
+        Largest constraint violation accepted at assembly (m, rad); default 1e-12.
+    onset_tolerance : float
+        Largest penetration at which a contact onset counts as located (m); default 1e-9.
+
     Examples
     --------
     >>> from mechrel.scene import load_scene
@@ -265,6 +503,33 @@ class Solver:
 @dataclass(frozen=True)
 class Scene:
     """A complete, validated scene (frozen; from :func:`mechrel.scene.load_scene`).
+
+    Parameters
+    ----------
+    name : str
+        The scene's name.
+    description : str
+        One paragraph about it.
+    bodies : mapping of str to Body
+        The moving bodies.
+    ground : mapping of str to (float, float)
+        Named ground points (m, global frame).
+    joints : mapping of str to Joint
+        The joints.
+    drivers : mapping of str to Driver
+        The drivers.
+    outputs : mapping of str to Output
+        The outputs.
+    analysis : Analysis
+        What to simulate and where to sample.
+    solver : Solver
+        Integrator settings.
+    gravity : (float, float)
+        Gravitational acceleration (m/s²); default (0, −9.81).
+    source : str, optional
+        The file or embedded name it was loaded from.
+    raw : mapping
+        The validated TOML data, with defaults (for the scene hash and overrides).
 
     Examples
     --------
@@ -291,12 +556,37 @@ class Scene:
 
     @property
     def clearance_joints(self) -> tuple[Joint, ...]:
+        """The joints with clearance, in scene order.
+
+        Returns
+        -------
+        tuple of Joint
+            The joints whose :attr:`Joint.is_clearance` is true.
+
+        Examples
+        --------
+        >>> from mechrel.scene import load_scene
+        >>> [j.name for j in load_scene("nine-bar-dry").clearance_joints]
+        ['C1', 'C2']
+        """
         return tuple(j for j in self.joints.values() if j.is_clearance)
 
     @property
     def analysis_duration(self) -> float:
         """The simulated time span (s): ``analysis.duration``, or ``analysis.cycles`` periods
-        2π/|ω| of the cycle driver."""
+        2π/|ω| of the cycle driver.
+
+        Returns
+        -------
+        float
+            Duration (s).
+
+        Examples
+        --------
+        >>> from mechrel.scene import load_scene
+        >>> round(load_scene("slider-crank-dry").analysis_duration, 9)   # two turns at 5000 rpm
+        0.024
+        """
         a = self.analysis
         if a.duration is not None:
             return a.duration
@@ -306,7 +596,21 @@ class Scene:
     @property
     def analysis_sample_step(self) -> float:
         """The output sampling interval (s): ``analysis.sample_step``, or
-        ``analysis.sample_step_angle`` (rad) divided by the cycle driver's |ω|."""
+        ``analysis.sample_step_angle`` (rad) divided by the cycle driver's |ω|.
+
+        Returns
+        -------
+        float
+            Interval (s).
+
+        Examples
+        --------
+        One degree of the crank at 5000 rpm:
+
+        >>> from mechrel.scene import load_scene
+        >>> f"{load_scene('slider-crank').analysis_sample_step:.6e}"
+        '3.333333e-05'
+        """
         a = self.analysis
         if a.sample_step is not None:
             return a.sample_step

@@ -97,7 +97,25 @@ def _check_ensemble(ensemble) -> int:
 
 
 def student_t(confidence: float, ensemble: int) -> float:
-    """One-sided Student-t quantile for ``ensemble − 1`` degrees of freedom."""
+    """One-sided Student-t quantile for ``ensemble − 1`` degrees of freedom.
+
+    Parameters
+    ----------
+    confidence : float
+        One-sided confidence level, in (0, 1).
+    ensemble : int
+        Members R (>= 2).
+
+    Returns
+    -------
+    float
+        t such that P(T_{R−1} <= t) = ``confidence``.
+
+    Examples
+    --------
+    >>> round(student_t(0.95, 8), 4)   # 7 degrees of freedom
+    1.8946
+    """
     from scipy.stats import t
 
     return float(t.ppf(confidence, ensemble - 1))
@@ -130,6 +148,21 @@ def perturbed_scenes(scene, ensemble: int, seed: int = 0,
     -------
     list of Scene
         Validated scenes (through :func:`mechrel.scene.load_scene` overrides).
+
+    Raises
+    ------
+    mechrel.errors.StudyError
+        A bad ``ensemble``, ``seed`` or ``perturbation``, or a scene without clearance joints
+        (or with one too small to perturb).
+
+    Examples
+    --------
+    Offsets of 1e-6 × 0.5 mm = 0.5 nm, in random directions:
+
+    >>> from mechrel.scene import load_scene
+    >>> members = perturbed_scenes(load_scene("slider-crank-dry"), 2, seed=1)
+    >>> [round(math.hypot(*m.joints["C"].initial_eccentricity), 15) for m in members]
+    [5e-10, 5e-10]
     """
     from ..scene import load_scene
 
@@ -169,8 +202,12 @@ def perturbed_scenes(scene, ensemble: int, seed: int = 0,
 class EnsembleRun:
     """One integrator setting run on every member of an ensemble.
 
-    Attributes
+    Parameters
     ----------
+    integrator : str
+        The integrator's name.
+    settings : dict
+        Its settings (``step``, ``rtol``, ``atol``).
     statistics : ndarray, shape (R, n_quantities, 3)
         Per member, per quantity (:data:`~mechrel.scene.model.QUANTITIES`), the statistics
         :data:`STATISTICS` of the error curve (m, m/s, m/s²).
@@ -179,7 +216,17 @@ class EnsembleRun:
     n_steps, n_rhs : ndarray, shape (R,)
         Accepted steps and right-hand-side evaluations per member.
     max_violation : float
-        Largest position-constraint violation over the members.
+        Largest position-constraint violation over the members (m or rad).
+
+    Examples
+    --------
+    :func:`run_ensemble` makes one (a short run of the dry slider-crank, two members):
+
+    >>> from mechrel.scene import load_scene
+    >>> scene = load_scene("slider-crank-dry", overrides=["analysis.cycles=0.05"])
+    >>> run = run_ensemble(perturbed_scenes(scene, 2), "dopri5", {"rtol": 1e-6, "atol": 1e-9})
+    >>> run.statistics.shape, run.wall_times.shape   # (R, quantities, statistics)
+    ((2, 3, 3), (2,))
     """
 
     integrator: str
@@ -204,16 +251,31 @@ def run_ensemble(members, integrator: str, settings: dict | None = None,
     Parameters
     ----------
     members : list of Scene
+        The ensemble.
     integrator : str
+        The integrator's name.
     settings : dict, optional
         ``step``, ``rtol``, ``atol``.
     output : str, optional
         The scene output whose error curves are measured (default: the first).
 
+    Returns
+    -------
+    EnsembleRun
+        The members' error statistics and costs.
+
     Raises
     ------
     SimulationError
         If a member fails; the message names the member.
+
+    Examples
+    --------
+    >>> from mechrel.scene import load_scene
+    >>> scene = load_scene("slider-crank-dry", overrides=["analysis.cycles=0.05"])
+    >>> run = run_ensemble(perturbed_scenes(scene, 2), "dopri5", {"rtol": 1e-6, "atol": 1e-9})
+    >>> run.integrator, run.n_steps.shape, bool(run.max_violation < 1e-6)
+    ('dopri5', (2,), True)
     """
     from ..simulation import simulate
 
@@ -242,7 +304,39 @@ def ensemble_statistics(scene, integrator: str, settings: dict | None = None, *,
                         ensemble: int = DEFAULT_ENSEMBLE, seed: int = 0,
                         perturbation: float = DEFAULT_PERTURBATION) -> EnsembleRun:
     """:func:`run_ensemble` on :func:`perturbed_scenes` ``(scene, ensemble, seed,
-    perturbation)``."""
+    perturbation)``.
+
+    Parameters
+    ----------
+    scene : Scene
+        A scene with clearance joints.
+    integrator : str
+        The integrator's name.
+    settings : dict, optional
+        ``step``, ``rtol``, ``atol``.
+    ensemble : int
+        Members R (>= 2).
+    seed : int
+        Root seed of the perturbations.
+    perturbation : float
+        Initial-eccentricity offset relative to the clearance.
+
+    Returns
+    -------
+    EnsembleRun
+        The members' error statistics and costs.
+
+    Examples
+    --------
+    Same seed, same members, same result:
+
+    >>> from mechrel.scene import load_scene
+    >>> scene = load_scene("slider-crank-dry", overrides=["analysis.cycles=0.05"])
+    >>> a = ensemble_statistics(scene, "dopri5", {"rtol": 1e-6, "atol": 1e-9}, ensemble=2)
+    >>> b = run_ensemble(perturbed_scenes(scene, 2), "dopri5", {"rtol": 1e-6, "atol": 1e-9})
+    >>> bool((a.statistics == b.statistics).all())
+    True
+    """
     return run_ensemble(perturbed_scenes(scene, ensemble, seed, perturbation), integrator,
                         settings)
 
@@ -258,10 +352,31 @@ def compare_ensembles(run: EnsembleRun, reference: EnsembleRun) -> tuple[np.ndar
     common part and resolves smaller errors; once they have separated (the chaotic regime),
     it equals the unpaired √(s_a²/R + s_b²/R). Both are divided by |reference mean|.
 
+    Parameters
+    ----------
+    run, reference : EnsembleRun
+        Two runs of the same members.
+
     Returns
     -------
     difference, standard_error : ndarray, shape (n_quantities, 3)
         Signed (run − reference) / |reference| and its standard error.
+
+    Raises
+    ------
+    mechrel.errors.StudyError
+        The ensembles have different shapes, or fewer than 2 members.
+
+    Examples
+    --------
+    A run compared with itself differs by nothing:
+
+    >>> from mechrel.scene import load_scene
+    >>> scene = load_scene("slider-crank-dry", overrides=["analysis.cycles=0.05"])
+    >>> run = run_ensemble(perturbed_scenes(scene, 2), "dopri5", {"rtol": 1e-6, "atol": 1e-9})
+    >>> d, se = compare_ensembles(run, run)
+    >>> d.shape, float(abs(d).max()), float(se.max())
+    ((3, 3), 0.0, 0.0)
     """
     a, b = run.statistics, reference.statistics
     if a.shape != b.shape:
@@ -280,7 +395,31 @@ def ensemble_needed(floor: float, target: float, ensemble: int,
     and no error could meet ``target``: t(R'−1) · floor · √(R/R') <= target.
 
     The floor is a standard error, so it falls as 1/√R; R' ≈ R (t · floor / target)², with
-    t tending to the normal quantile (1.645 at 95 %) as R' grows."""
+    t tending to the normal quantile (1.645 at 95 %) as R' grows.
+
+    Parameters
+    ----------
+    floor : float
+        Relative standard error at R = ``ensemble``.
+    target : float
+        Relative error to be resolved.
+    ensemble : int
+        Members R the floor was measured with.
+    confidence : float
+        One-sided confidence, in (0.5, 1).
+
+    Returns
+    -------
+    int
+        R' (``ensemble`` itself when the floor already resolves the target).
+
+    Examples
+    --------
+    A floor as large as the target at R = 8 needs R' ≈ 8 · 1.7² ≈ 24 members:
+
+    >>> ensemble_needed(0.01, 0.01, 8), ensemble_needed(0.001, 0.01, 8)
+    (24, 8)
+    """
     def ok(r):
         return student_t(confidence, r) * floor * math.sqrt(ensemble / r) <= target
 
@@ -300,7 +439,29 @@ def default_candidates(scene, kind: str, quick: bool = False) -> list[tuple[str,
     """Integrator settings to try for a scene type.
 
     Chaotic (dry, transition) scenes run every setting on an ensemble of R members, so their
-    lists are shorter: 8 settings (dry) and 10 (transition), 4 and 6 with ``quick``."""
+    lists are shorter: 8 settings (dry) and 10 (transition), 4 and 6 with ``quick``.
+
+    Parameters
+    ----------
+    scene : Scene
+        The scene (its cycle period scales the RK4 steps).
+    kind : str
+        The scene's kind (:func:`mechrel.simulation.scene_kind`).
+    quick : bool
+        A shorter list.
+
+    Returns
+    -------
+    list of (str, dict)
+        ``(integrator, settings)`` pairs.
+
+    Examples
+    --------
+    >>> from mechrel.scene import load_scene
+    >>> cands = default_candidates(load_scene("slider-crank-dry"), "dry", quick=True)
+    >>> len(cands), cands[0][0], cands[0][1]["rtol"], cands[-1][0]
+    (4, 'dopri5', 0.0001, 'rk4')
+    """
     from ..integrate import INTEGRATORS
     from ..simulation import compile_scene
 
@@ -345,6 +506,50 @@ class AccuracyReport:
     set when no setting met the target and some were unresolved (the R at which their median
     floor would resolve it); ``conclusion`` says in words
     what can be recommended.
+
+    Parameters
+    ----------
+    scene : str
+        The scene's name.
+    kind : str
+        Its kind (:func:`mechrel.simulation.scene_kind`).
+    measure : str
+        What the errors measure, in words.
+    target : float
+        Relative error the recommendation must meet.
+    reference : dict
+        The reference run's integrator and settings.
+    table : pandas.DataFrame
+        One row per setting (above).
+    recommended : dict or None
+        The table row of the fastest setting that meets the target.
+    provenance : dict
+        Versions, scene hash, wall time.
+    ensemble : int
+        Members R (1: pointwise).
+    seed : int or None
+        Root seed of the ensemble.
+    perturbation : float or None
+        Initial-eccentricity offset relative to the clearance.
+    confidence : float
+        One-sided confidence of the verdicts.
+    floor : float
+        The reference ensemble against itself (relative standard error).
+    ensemble_needed : int or None
+        R that would resolve the target (above).
+    conclusion : str
+        The recommendation in words.
+
+    Examples
+    --------
+    :func:`accuracy_report` makes one; a tenth of a crank turn of the ideal slider-crank:
+
+    >>> from mechrel.scene import load_scene
+    >>> scene = load_scene("slider-crank", overrides=["analysis.cycles=0.1"])
+    >>> rep = accuracy_report(scene, candidates=[("rk4", {"step": 1e-5})],
+    ...                       reference=("dopri5", {"rtol": 1e-10, "atol": 1e-13}), repeats=1)
+    >>> rep.kind, rep.recommended["integrator"], rep.table["verdict"].tolist()
+    ('ideal', 'rk4', ['meets'])
     """
 
     scene: str
@@ -364,11 +569,47 @@ class AccuracyReport:
     conclusion: str = ""
 
     def to_frame(self) -> pd.DataFrame:
+        """The table (a copy), one row per integrator setting.
+
+        Returns
+        -------
+        pandas.DataFrame
+            The columns described in the class docstring.
+
+        Examples
+        --------
+        >>> from mechrel.scene import load_scene
+        >>> scene = load_scene("slider-crank", overrides=["analysis.cycles=0.1"])
+        >>> rep = accuracy_report(scene, candidates=[("rk4", {"step": 1e-5})],
+        ...                       reference=("dopri5", {"rtol": 1e-10, "atol": 1e-13}), repeats=1)
+        >>> rep.to_frame()[["integrator", "setting", "verdict"]].values.tolist()
+        [['rk4', 'step=1e-05', 'meets']]
+        """
         return self.table.copy()
 
     def plot(self, path=None):
         """Error against wall time per run; for ensembles, each point's upper confidence
-        bound as a bar and the reference-ensemble floor t · floor as a grey band."""
+        bound as a bar and the reference-ensemble floor t · floor as a grey band.
+
+        Parameters
+        ----------
+        path : str or os.PathLike, optional
+            Save the figure there (and close it).
+
+        Returns
+        -------
+        matplotlib.figure.Figure
+            The figure.
+
+        Examples
+        --------
+        >>> from mechrel.scene import load_scene
+        >>> scene = load_scene("slider-crank", overrides=["analysis.cycles=0.1"])
+        >>> rep = accuracy_report(scene, candidates=[("rk4", {"step": 1e-5})],
+        ...                       reference=("dopri5", {"rtol": 1e-10, "atol": 1e-13}), repeats=1)
+        >>> rep.plot().axes[0].get_xlabel()
+        'wall time per run (s)'
+        """
         import matplotlib
         matplotlib.use("Agg", force=False)
         import matplotlib.pyplot as plt
@@ -442,6 +683,7 @@ def accuracy_report(scene, *, candidates=None, reference=None, target: float = 0
     Parameters
     ----------
     scene : Scene
+        The scene.
     candidates : list of (integrator, settings), optional
         Default: :func:`default_candidates` for the scene type.
     reference : (integrator, settings), optional
@@ -451,6 +693,10 @@ def accuracy_report(scene, *, candidates=None, reference=None, target: float = 0
     repeats : int
         Warm runs per setting in pointwise mode; the minimum wall time is reported.
         (Ensemble members run once each; their median is reported.)
+    quick : bool
+        The shorter default candidate list.
+    progress : bool
+        Print a line per setting.
     ensemble : int, optional
         Members R per setting for chaotic (dry, transition) scenes, >= 2; default
         :data:`DEFAULT_ENSEMBLE`. Not allowed for other scenes, whose errors converge and are
@@ -465,11 +711,25 @@ def accuracy_report(scene, *, candidates=None, reference=None, target: float = 0
     Returns
     -------
     AccuracyReport
+        The table of settings and the recommendation.
 
     Raises
     ------
     StudyError
         For invalid arguments (target <= 0, ensemble < 2, ensemble on a non-chaotic scene).
+
+    Examples
+    --------
+    >>> from mechrel.scene import load_scene
+    >>> scene = load_scene("slider-crank", overrides=["analysis.cycles=0.1"])
+    >>> rep = accuracy_report(scene, candidates=[("rk4", {"step": 1e-5})],
+    ...                       reference=("dopri5", {"rtol": 1e-10, "atol": 1e-13}), repeats=1)
+    >>> rep.measure, bool(rep.table["measure"].iloc[0] < 0.01)
+    ('max pointwise error / range', True)
+    >>> accuracy_report(scene, ensemble=4)
+    Traceback (most recent call last):
+    ...
+    mechrel.errors.StudyError: ...
     """
     from ..integrate import INTEGRATORS
     from ..simulation import scene_kind, simulate
@@ -627,7 +887,48 @@ def accuracy_report(scene, *, candidates=None, reference=None, target: float = 0
 
 def run_accuracy(scene, *, target=0.01, quick=False, out=None, progress=True, ensemble=None,
                  seed=0):
-    """CLI runner: table printed, ``accuracy.csv`` and ``accuracy.png`` in ``out``."""
+    """CLI runner: table printed, ``accuracy.csv`` and ``accuracy.png`` in ``out``.
+
+    Parameters
+    ----------
+    scene : Scene
+        The scene.
+    target : float
+        Relative error the recommendation must meet.
+    quick : bool
+        The shorter candidate list.
+    out : str or os.PathLike, optional
+        Folder for ``accuracy.csv`` and ``accuracy.png``.
+    progress : bool
+        Print a line per setting.
+    ensemble : int, optional
+        Members R for chaotic scenes.
+    seed : int
+        Root seed of the ensemble.
+
+    Returns
+    -------
+    lines : list of str
+        The report's text.
+    report : AccuracyReport
+        The report.
+
+    Raises
+    ------
+    mechrel.errors.StudyError
+        Invalid arguments (before anything runs).
+
+    Examples
+    --------
+    A full run takes minutes (every candidate setting, against a tight reference); a wrong
+    argument fails at once:
+
+    >>> from mechrel.scene import load_scene
+    >>> run_accuracy(load_scene("slider-crank"), target=0.0)
+    Traceback (most recent call last):
+    ...
+    mechrel.errors.StudyError: target: 0.0 is not a positive relative error
+    """
     rep = accuracy_report(scene, target=target, quick=quick, progress=progress,
                           ensemble=ensemble, seed=seed)
     cols = ["integrator", "setting", "wall_time", "n_steps", "n_rhs", "measure"]

@@ -31,8 +31,55 @@ TABLE_COLUMNS = ("pf", "beta", "cov", "pf_lo", "pf_hi", "n_evaluations", "wall_t
 SORM give no sampling c.o.v. or interval)."""
 
 
+def _demo(allowable: float = 10.0):
+    """The analytic study of the examples: a velocity cycle extreme 6 + x1 + x2 (m/s) of two
+    standard-normal inputs against a fixed allowable, so that β = (allowable − 6)/√2
+    exactly. Returns ``(study, model)``."""
+    from ..uq import FunctionModel
+    from .study import load_study
+
+    labels = pd.MultiIndex.from_tuples(
+        [("velocity", 0.0), ("velocity", "max_abs"), ("velocity", "max")],
+        names=["quantity", "crank_angle"])
+
+    def extremes(X):
+        v = 6.0 + X[:, 0] + X[:, 1]
+        return np.column_stack([v, v, v])
+
+    model = FunctionModel(extremes, ["x1", "x2"], labels, key="rare-demo", vectorized=True)
+    study = load_study({
+        "scene": "nine-bar-lubricated", "quantities": ["velocity"],
+        "inputs": {k: {"distribution": "normal", "mean": 0.0, "std": 1.0} for k in ("x1", "x2")},
+        "allowable": {"velocity": {"mean": allowable, "std": 0.0}}, "reliability": {"seed": 7}})
+    return study, model
+
+
 def whole_cycle_limit_state(study, model):
-    """The series system of the study's quantities at their cycle extremes (module docstring)."""
+    """The series system of the study's quantities at their cycle extremes (module docstring).
+
+    Parameters
+    ----------
+    study : mechrel.studies.study.Study
+        The study (its quantities, allowables and ``reliability.form``).
+    model : mechrel.uq.model.Model
+        The model; its outputs must include the cycle extremes of the study's quantities.
+
+    Returns
+    -------
+    mechrel.uq.estimators.LimitState
+        One component per quantity, or their series system.
+
+    Raises
+    ------
+    mechrel.errors.StudyError
+        The model reports no cycle extreme of a quantity.
+
+    Examples
+    --------
+    >>> study, model = _demo()   # velocity extreme 6 + x1 + x2 against 10 m/s
+    >>> whole_cycle_limit_state(study, model).name
+    'velocity'
+    """
     from ..uq.estimators import LimitState
     from ..uq.inputs import Normal
     from ..uq.reliability import whole_cycle_column
@@ -73,6 +120,25 @@ def estimate(study, model, inputs, keys, *, seed, common, max_failure_fraction=N
     A method with a ``design_point`` setting reuses an earlier FORM result of this run (same
     model, inputs and limit state) instead of searching again.
 
+    Parameters
+    ----------
+    study : mechrel.studies.study.Study
+        The study: allowables, quantities, the methods' settings tables.
+    model : mechrel.uq.model.Model
+        The model.
+    inputs : mapping
+        The uncertain inputs (``study.uncertain_inputs()``).
+    keys : sequence of str
+        Study-file names of the methods (``"form"``, ``"sorm"``, ``"is"``, ``"subset"``).
+    seed : int
+        The study's seed.
+    common : dict
+        Arguments every estimator takes (``n_jobs``, ``backend``, ``cache``, ``progress``).
+    max_failure_fraction : float, optional
+        The command line's ``--max-failure-fraction``, over the study's.
+    evaluations : dict, optional
+        Filled with ``{key: evaluations}`` as the methods finish (also when one refuses).
+
     Returns
     -------
     results : dict
@@ -80,6 +146,22 @@ def estimate(study, model, inputs, keys, *, seed, common, max_failure_fraction=N
     notes : list of str
         The warnings the estimators raised (a limit state never or always violated on the
         samples, a c.o.v. above its target, ...), each prefixed with the method.
+
+    Raises
+    ------
+    mechrel.errors.StudyError
+        A method's settings are invalid, or it refuses its arguments.
+
+    Examples
+    --------
+    The margin 10 − 6 − x1 − x2 is linear in standard normal inputs: FORM is exact,
+    β = 4/√2:
+
+    >>> study, model = _demo()
+    >>> results, notes = estimate(study, model, study.uncertain_inputs(), ["form"], seed=7,
+    ...                           common={"n_jobs": 1, "cache": None, "progress": False})
+    >>> round(results["form"].beta, 6), notes
+    (2.828427, [])
     """
     from ..uq.estimators import FORMResult
 
@@ -121,7 +203,27 @@ def estimate(study, model, inputs, keys, *, seed, common, max_failure_fraction=N
 
 
 def table(results) -> pd.DataFrame:
-    """``rare_events.csv``: one row per method (:data:`TABLE_COLUMNS`)."""
+    """``rare_events.csv``: one row per method (:data:`TABLE_COLUMNS`).
+
+    Parameters
+    ----------
+    results : dict
+        ``{key: result}`` from :func:`estimate`.
+
+    Returns
+    -------
+    pandas.DataFrame
+        Indexed by method key.
+
+    Examples
+    --------
+    >>> study, model = _demo()
+    >>> results, _ = estimate(study, model, study.uncertain_inputs(), ["form"], seed=7,
+    ...                       common={"n_jobs": 1, "cache": None, "progress": False})
+    >>> t = table(results)
+    >>> round(float(t.loc["form", "pf"]), 6), bool(np.isnan(t.loc["form", "cov"]))   # Φ(−2√2)
+    (0.002339, True)
+    """
     rows = []
     for key, r in results.items():
         t = r.to_frame().iloc[0]
@@ -148,7 +250,28 @@ def design_points(results) -> pd.DataFrame | None:
     """``design_point.csv``: per method with a design point (FORM, and SORM and importance
     sampling through theirs), per input: ``u`` (standard normal), ``x`` (physical, SI: the
     inputs' own units; an allowable in its quantity's unit), ``alpha`` and ``importance``
-    (α², summing to 1)."""
+    (α², summing to 1).
+
+    Parameters
+    ----------
+    results : dict
+        ``{key: result}`` from :func:`estimate`.
+
+    Returns
+    -------
+    pandas.DataFrame or None
+        Indexed by (method, input); None when no method has a design point.
+
+    Examples
+    --------
+    Both inputs count equally: the design point is x1 = x2 = 2, α² = ½ each:
+
+    >>> study, model = _demo()
+    >>> results, _ = estimate(study, model, study.uncertain_inputs(), ["form"], seed=7,
+    ...                       common={"n_jobs": 1, "cache": None, "progress": False})
+    >>> design_points(results).loc["form"].round(6)[["x", "importance"]].values.tolist()
+    [[2.0, 0.5], [2.0, 0.5]]
+    """
     frames, keys = [], []
     for key, r in results.items():
         fr = _form_of(r)
@@ -162,7 +285,26 @@ def design_points(results) -> pd.DataFrame | None:
 
 def summary_lines(results) -> list[str]:
     """One line per method: P_f, β, the c.o.v. and interval where there is one, the cost, and
-    for a design point its two largest importance factors."""
+    for a design point its largest importance factors.
+
+    Parameters
+    ----------
+    results : dict
+        ``{key: result}`` from :func:`estimate`.
+
+    Returns
+    -------
+    list of str
+        The lines of the console summary.
+
+    Examples
+    --------
+    >>> study, model = _demo()
+    >>> results, _ = estimate(study, model, study.uncertain_inputs(), ["form"], seed=7,
+    ...                       common={"n_jobs": 1, "cache": None, "progress": False})
+    >>> summary_lines(results)[0][:51]
+    '  form (form): whole-cycle P_f = 0.00234, β = 2.828'
+    """
     lines = []
     t = table(results)
     for key, row in t.iterrows():
