@@ -40,6 +40,7 @@ def test_conformal_vs_paper_stiffness_ratio():
         ((0.015, 0.0145, -1.0, NU, E, NU), "E_B"),
         ((0.015, 0.0145, E, NU, 0.0, NU), "E_S"),
         ((0.015, 0.0145, E, 0.7, E, NU), "nu_B"),
+        ((0.015, 0.0145, E, 0.5, E, NU), "nu_B"),  # the scene's rule: (-1, 0.5), open at 0.5
         ((0.015, 0.0145, E, NU, E, float("nan")), "nu_S"),
     ],
 )

@@ -48,7 +48,8 @@ def contact_stiffness(R_B, R_S, E_B, nu_B, E_S, nu_S, conformal=True):
     E_B, E_S : float
         Young's moduli (Pa), > 0.
     nu_B, nu_S : float
-        Poisson's ratios (-), in (-1, 0.5].
+        Poisson's ratios (-), in (-1, 0.5) (the scene's rule for ``poisson_bearing`` and
+        ``poisson_journal``).
     conformal : bool, default True
         Conformal (difference of radii, default) or the paper's literal sum of radii.
 
@@ -87,8 +88,8 @@ def contact_stiffness(R_B, R_S, E_B, nu_B, E_S, nu_S, conformal=True):
         if not E > 0.0:
             raise SceneError(f"{name} = {E!r} is invalid: allowed > 0 (Pa)", path=name)
     for name, nu in (("nu_B", nu_B), ("nu_S", nu_S)):
-        if not -1.0 < nu <= 0.5:
-            raise SceneError(f"{name} = {nu!r} is invalid: allowed in (-1, 0.5]", path=name)
+        if not -1.0 < nu < 0.5:
+            raise SceneError(f"{name} = {nu!r} is invalid: allowed in (-1, 0.5)", path=name)
     sigma = (1.0 - nu_B * nu_B) / E_B + (1.0 - nu_S * nu_S) / E_S
     if conformal:
         r_star = R_B * R_S / (R_B - R_S)
