@@ -173,7 +173,7 @@ def run_mc(model, *, n, n_jobs, cache, progress):
 
 
 def _angles(index) -> np.ndarray:
-    from mechrel.uq.reliability import per_angle_mask
+    from mechrel.uq.problem.allowables import per_angle_mask
 
     return per_angle_mask(index)
 

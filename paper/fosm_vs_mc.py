@@ -133,9 +133,9 @@ def inside(Y, I, form):
 
 def allowable_draws(index, allowable, seed, n):
     """The allowable values monte_carlo draws for these outputs (same seed stream)."""
-    from mechrel.uq.inputs import as_seed_sequence, child_seed
-    from mechrel.uq.montecarlo import _draw_allowables
-    from mechrel.uq.reliability import resolve_allowables
+    from mechrel.uq.problem.inputs import as_seed_sequence, child_seed
+    from mechrel.uq.estimators.monte_carlo import _draw_allowables
+    from mechrel.uq.problem.allowables import resolve_allowables
 
     mu, sd, groups = resolve_allowables(index, allowable)
     return _draw_allowables(n, mu, sd, groups, "sampled", child_seed(as_seed_sequence(seed), 1))

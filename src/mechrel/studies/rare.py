@@ -33,9 +33,9 @@ SORM give no sampling c.o.v. or interval)."""
 
 def whole_cycle_limit_state(study, model):
     """The series system of the study's quantities at their cycle extremes (module docstring)."""
-    from ..uq.estimators import LimitState
-    from ..uq.inputs import Normal
-    from ..uq.reliability import whole_cycle_column
+    from ..uq import LimitState
+    from ..uq.problem.inputs import Normal
+    from ..uq.problem.allowables import whole_cycle_column
 
     form = study.reliability["form"]
     kind = "abs" if form == "two-sided" else "upper"
@@ -81,7 +81,7 @@ def estimate(study, model, inputs, keys, *, seed, common, max_failure_fraction=N
         The warnings the estimators raised (a limit state never or always violated on the
         samples, a c.o.v. above its target, ...), each prefixed with the method.
     """
-    from ..uq.estimators import FORMResult
+    from ..uq import FORMResult
 
     limit_state = whole_cycle_limit_state(study, model)
     results, notes = {}, []
@@ -136,7 +136,7 @@ def table(results) -> pd.DataFrame:
 
 def _form_of(result):
     """The FORM result behind ``result`` (itself, or the one SORM/IS start from), or None."""
-    from ..uq.estimators import FORMResult
+    from ..uq import FORMResult
 
     if isinstance(result, FORMResult):
         return result

@@ -86,9 +86,9 @@ def _check_run(*, n, seed, n_jobs, backend, max_failure_fraction, model, inputs,
     ``rows_per_n * n`` model runs need), ``seed``, ``n_jobs``, ``backend`` and
     ``max_failure_fraction``."""
     from ..uq._common import check_memory
-    from ..uq.executor import _check_backend
-    from ..uq.inputs import as_seed_sequence
-    from ..uq.model import check_model
+    from ..uq.execution.executor import _check_backend
+    from ..uq.problem.inputs import as_seed_sequence
+    from ..uq.problem.model import check_model
 
     ARGS.sample_count("n", n)
     as_seed_sequence(seed)
@@ -157,7 +157,7 @@ def _refusal(exc, evaluations, out, files, record, section, stale=()):
 def _angles(table):
     """The rows of a per-output table at the analysis angles (without the cycle extremes),
     with the crank angles as floats."""
-    from ..uq.reliability import per_angle_mask
+    from ..uq.problem.allowables import per_angle_mask
     t = table[per_angle_mask(table.index)].copy()
     names = list(t.index.names)
     k = names.index("crank_angle")
@@ -201,7 +201,7 @@ def _warnings_of(results) -> list[str]:
 
 def _verdict(results, quantities, model) -> list[str]:
     """Which estimate to trust for each quantity, and why (the summary's last lines)."""
-    from ..uq.pce import LOO_THRESHOLD
+    from ..uq.surrogates.pce import LOO_THRESHOLD
 
     lines = ["  verdict:"]
     fosm, mc, pce = results.get("fosm"), results.get("mc"), results.get("pce")

@@ -19,10 +19,10 @@ from ..errors import SceneError, StudyError
 from ..outputs import QUANTITY_INFO
 from ..scene.loader import check_depth, read_toml_text
 from ..scene.model import QUANTITIES
-from ..uq.inputs import SAMPLING_RULES
+from ..uq.problem.inputs import SAMPLING_RULES
 from ..uq.estimators import METHODS as REGISTRY
-from ..uq.mechanism import REFERENCES
-from ..uq.reliability import DEFAULT_ALLOWABLES, FORMS
+from ..uq.problem.mechanism import REFERENCES
+from ..uq.problem.allowables import DEFAULT_ALLOWABLES, FORMS
 
 RARE_EVENT_METHODS = {m.key: m for m in REGISTRY.values() if m.kind == "rare_event"}
 """The registry's rare-event methods by their study-file name (``form``, ``sorm``, ``is``,
@@ -43,9 +43,9 @@ class Study:
     """A validated study.
 
     ``inputs`` maps an input name to its distribution spec (a mapping understood by
-    :meth:`mechrel.uq.inputs.UncertainInputs.from_specs`) and ``paths`` to the scene paths it
-    sets. ``reference`` is what the error is measured against under geometric inputs
-    (``"nominal"`` or ``"same-geometry"``, :class:`~mechrel.uq.mechanism.MechanismModel`).
+    :meth:`mechrel.uq.UncertainInputs.from_specs`) and ``paths`` to the scene paths it sets.
+    ``reference`` is what the error is measured against under geometric inputs (``"nominal"``
+    or ``"same-geometry"``, :class:`~mechrel.uq.MechanismModel`).
     ``reliability`` and ``sensitivity`` hold every setting of their section, defaults
     filled in (``methods``, ``form``, ``n``, ``rule``, ``seed``, ``pce_order``,
     ``max_failure_fraction``; ``n``, ``seed``, ``max_failure_fraction``). ``method_settings``
@@ -72,15 +72,15 @@ class Study:
     source: str | None = field(default=None, compare=False)
 
     def model(self):
-        """The :class:`~mechrel.uq.mechanism.MechanismModel` of this study."""
-        from ..uq.mechanism import MechanismModel
+        """The :class:`~mechrel.uq.problem.mechanism.MechanismModel` of this study."""
+        from ..uq.problem.mechanism import MechanismModel
         return MechanismModel(self.scene, dict(self.paths), output=self.output,
                               quantities=self.quantities, angle_step=self.angle_step,
                               cycles=self.cycles, overrides=dict(self.scene_overrides),
                               reference=self.reference)
 
     def uncertain_inputs(self):
-        """The :class:`~mechrel.uq.inputs.UncertainInputs` of this study."""
+        """The :class:`~mechrel.uq.problem.inputs.UncertainInputs` of this study."""
         from ..uq import UncertainInputs
         corr = self.correlation
         if isinstance(corr, Mapping):

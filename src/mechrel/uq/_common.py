@@ -13,9 +13,9 @@ import pandas as pd
 
 from mechrel.errors import StudyError
 
-from .executor import Evaluations, evaluate
-from .inputs import UncertainInputs
-from .model import check_model
+from .execution.executor import Evaluations, evaluate
+from .problem.inputs import UncertainInputs
+from .problem.model import check_model
 
 _PACKAGES = ("mechrel", "numpy", "scipy", "pandas", "chaospy", "numpoly", "SALib", "joblib")
 

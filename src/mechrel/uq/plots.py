@@ -29,7 +29,7 @@ def _plt():
 def _panels(index: pd.Index) -> list[tuple[str, np.ndarray]]:
     """[(quantity label, positions)] — one panel per quantity, or one for everything; the
     positions of the analysis angles only (not the cycle extremes)."""
-    from .reliability import per_angle_mask
+    from .problem.allowables import per_angle_mask
 
     angle = per_angle_mask(index)
     if isinstance(index, pd.MultiIndex) and "quantity" in index.names:
@@ -66,8 +66,8 @@ edge with an open marker and labelled as clipped, not as data."""
 
 
 def _kind(result: Any) -> str:
-    from .first_order import FOSMResult
-    from .montecarlo import MonteCarloResult
+    from .estimators.fosm import FOSMResult
+    from .estimators.monte_carlo import MonteCarloResult
 
     if isinstance(result, FOSMResult):
         return "fosm"
@@ -296,8 +296,8 @@ def plot_sobol(result: Any, output: Any = None, *, title: str | None = None):
     output; ``output``: one label or position), from a SobolResult (with confidence intervals)
     or a PCEResult."""
     plt = _plt()
-    from .pce import PCEResult
-    from .sobol import SobolResult
+    from .surrogates.pce import PCEResult
+    from .estimators.sobol import SobolResult
 
     if isinstance(result, SobolResult):
         s1, st, c1, ct = result.first, result.total, result.first_conf, result.total_conf

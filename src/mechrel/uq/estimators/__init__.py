@@ -30,11 +30,7 @@ from typing import Any
 
 from mechrel.errors import StudyError
 
-__all__ = [
-    "METHODS", "Method", "Setting", "register", "get_method", "COMMON_ARGUMENTS",
-    "LimitState", "form", "FORMResult", "FORMConvergenceError", "sorm", "SORMResult",
-    "importance_sampling", "ImportanceSamplingResult", "subset_simulation", "SubsetSimulationResult",
-]
+__all__ = ["METHODS", "Method", "Setting", "register", "get_method", "COMMON_ARGUMENTS"]
 
 #: Arguments every estimator takes that are not method settings (the shared interface; the
 #: older estimators take ``allowable``/``form`` in place of ``limit_state``).
@@ -181,13 +177,13 @@ def register(method: Method) -> Method:
 
 
 for _m in (
-    Method("fosm", "first_order:fosm", "first_order:FOSMResult", "reliability",
+    Method("fosm", "estimators.fosm:fosm", "estimators.fosm:FOSMResult", "reliability",
            "first-order second-moment interference formula (the paper's eqs. 25-28)"),
-    Method("monte_carlo", "montecarlo:monte_carlo", "montecarlo:MonteCarloResult", "reliability",
+    Method("monte_carlo", "estimators.monte_carlo:monte_carlo", "estimators.monte_carlo:MonteCarloResult", "reliability",
            "crude Monte Carlo reliability and moments", short="mc"),
-    Method("polynomial_chaos", "pce:polynomial_chaos", "pce:PCEResult", "surrogate",
+    Method("polynomial_chaos", "surrogates.pce:polynomial_chaos", "surrogates.pce:PCEResult", "surrogate",
            "polynomial chaos expansion (chaospy)", short="pce"),
-    Method("sobol_indices", "sobol:sobol_indices", "sobol:SobolResult", "sensitivity",
+    Method("sobol_indices", "estimators.sobol:sobol_indices", "estimators.sobol:SobolResult", "sensitivity",
            "Sobol' indices (SALib / Saltelli)"),
     Method("form", "estimators.form:form", "estimators.form:FORMResult", "rare_event",
            "FORM: design point by iHLRF, P_f = Φ(−β)",
@@ -223,12 +219,3 @@ def get_method(name: str) -> Method:
         return METHODS[name]
     except (KeyError, TypeError):
         raise StudyError(f"method: got {name!r}; allowed: {sorted(METHODS)}") from None
-
-
-# The estimators themselves (eager: each module shares its name with its function, and the
-# function must win; they import only numpy/scipy/pandas).
-from .limit_state import LimitState  # noqa: E402
-from .form import FORMConvergenceError, FORMResult, form  # noqa: E402
-from .sorm import SORMResult, sorm  # noqa: E402
-from .importance import ImportanceSamplingResult, importance_sampling  # noqa: E402
-from .subset import SubsetSimulationResult, subset_simulation  # noqa: E402

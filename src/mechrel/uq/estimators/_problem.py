@@ -14,10 +14,10 @@ from mechrel.errors import StudyError
 
 from ..._checks import ARGS
 from .._common import check_inputs, make_provenance
-from ..executor import Evaluations, evaluate
-from ..inputs import UncertainInputs
-from ..model import check_model
-from .limit_state import LimitState
+from ..execution.executor import Evaluations, evaluate
+from ..problem.inputs import UncertainInputs
+from ..problem.model import check_model
+from ..problem.limit_state import LimitState
 
 FAILURE_MODES = ("exclude", "as_failure")
 

@@ -40,8 +40,8 @@ from scipy import special
 from mechrel._checks import ARGS
 from mechrel.errors import StudyError
 
-from ..executor import Evaluations
-from ..inputs import seed_record
+from ..execution.executor import Evaluations
+from ..problem.inputs import seed_record
 from ._problem import Problem, RareEventResult
 
 __all__ = ["form", "FORMResult", "FORMConvergenceError", "design_point_search"]

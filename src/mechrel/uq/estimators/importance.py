@@ -27,8 +27,8 @@ from mechrel.errors import StudyError
 
 from ..._checks import ARGS
 from .._common import SampleFailuresError
-from ..executor import Evaluations
-from ..inputs import as_seed_sequence, child_seed, seed_record
+from ..execution.executor import Evaluations
+from ..problem.inputs import as_seed_sequence, child_seed, seed_record
 from ._problem import Problem, RareEventResult, common_settings, concat_evaluations
 from .form import FORMResult, _form, check_positive
 

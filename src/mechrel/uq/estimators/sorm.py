@@ -39,8 +39,8 @@ from scipy import special, stats
 from mechrel.errors import StudyError
 
 from ..._checks import ARGS
-from ..executor import Evaluations
-from ..inputs import seed_record
+from ..execution.executor import Evaluations
+from ..problem.inputs import seed_record
 from ._problem import Problem, RareEventResult, concat_evaluations
 from .form import FORMResult, _form, check_positive
 

@@ -37,7 +37,7 @@ import pandas as pd
 
 from mechrel.errors import StudyError
 
-from ._common import (
+from .._common import (
     _labels,
     check_inputs,
     emit_warnings,
@@ -49,10 +49,10 @@ from ._common import (
     readonly,
     run,
 )
-from .executor import Evaluations
-from .inputs import UncertainInputs
-from .model import check_model
-from .reliability import (check_form, per_angle_mask, reliability_one_sided,
+from ..execution.executor import Evaluations
+from ..problem.inputs import UncertainInputs
+from ..problem.model import check_model
+from ..problem.allowables import (check_form, per_angle_mask, reliability_one_sided,
                           reliability_two_sided, resolve_allowables)
 
 __all__ = ["fosm", "fosm_design", "fd_steps", "FOSMResult"]
@@ -224,7 +224,7 @@ def fosm(
     Pass ``model=`` (2d + 1 evaluations are run here) or ``evaluations=`` of
     ``fosm_design(inputs, step=step, noise=noise)``. ``form="one-sided"`` is the paper's
     R = Φ(β) = P(I − i > 0) on the signed error; ``form="two-sided"`` (default) is
-    P(|i| < I), see :mod:`mechrel.uq.reliability`. Both are always in the table.
+    P(|i| < I), see :mod:`mechrel.uq.problem.allowables`. Both are always in the table.
     ``allowable``: None (paper defaults per ``quantity``), an ``Allowable`` or {quantity: Allowable}.
     ``noise`` (for ``step="auto"``): the relative noise of the model outputs; None takes the
     model's optional ``output_noise`` attribute (e.g. the integrator's rtol), else machine epsilon.
@@ -240,8 +240,8 @@ def fosm(
         Precomputed evaluations of exactly :func:`fosm_design` ``(inputs, step, noise)``.
     allowable : Allowable or mapping, optional
         The allowable error I ~ N(mean, std²) in the outputs' units: None (the default
-        allowables per quantity, :data:`mechrel.uq.reliability.DEFAULT_ALLOWABLES`), one
-        :class:`~mechrel.uq.reliability.Allowable` for every output, or
+        allowables per quantity, :data:`mechrel.uq.problem.allowables.DEFAULT_ALLOWABLES`), one
+        :class:`~mechrel.uq.problem.allowables.Allowable` for every output, or
         ``{quantity: Allowable}``.
     form : {"two-sided", "one-sided"}, default "two-sided"
         The safe event: P(|i| < I) (two-sided) or the paper's P(i < I) on the signed error.

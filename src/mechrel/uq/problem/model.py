@@ -54,7 +54,7 @@ class Model(Protocol):
     input_names
         One name per entry of ``x``. For the mechanism model these are dotted scene paths
         (e.g. ``"joints.C1.clearance"``); they must match the names of the
-        :class:`~mechrel.uq.inputs.UncertainInputs` used with the model.
+        :class:`~mechrel.uq.problem.inputs.UncertainInputs` used with the model.
     output_index
         A :class:`pandas.Index` labelling the outputs, usually a ``MultiIndex`` with levels
         ``quantity`` (``displacement``, ``velocity``, ``acceleration``) and ``crank_angle``

@@ -26,7 +26,7 @@ Building blocks
 Allowables
 ----------
 A number is a fixed allowable. A marginal (``Normal``, ``LogNormal``, ``Uniform``,
-``TruncNormal`` of :mod:`mechrel.uq.inputs`) is a random allowable: an extra uncertain input,
+``TruncNormal`` of :mod:`mechrel.uq.problem.inputs`) is a random allowable: an extra uncertain input,
 independent of the model's inputs (the paper's interference model), named
 ``"allowable[<component name>]"``. The reliability estimators append it to the inputs; it never
 reaches the model, so the model is not re-run for a change of the allowable alone.
@@ -43,7 +43,7 @@ import pandas as pd
 
 from mechrel.errors import StudyError
 
-from ..inputs import LogNormal, Normal, TruncNormal, Uniform
+from .inputs import LogNormal, Normal, TruncNormal, Uniform
 
 __all__ = ["LimitState", "Component", "KINDS", "SYSTEMS", "BoundLimitState"]
 

@@ -38,7 +38,7 @@ from mechrel.errors import MechrelError, StudyError, interrupt_of
 
 from ._workers import register_backend, safe_path_environment, watch_parent
 from .cache import as_cache
-from .model import as_output_index, check_model, describe_model
+from ..problem.model import as_output_index, check_model, describe_model
 
 __all__ = ["Evaluations", "evaluate", "BACKENDS", "combined_cache_key"]
 

@@ -42,11 +42,11 @@ from collections.abc import Sequence
 import numpy as np
 import pandas as pd
 
-from .._checks import ARGS
-from ..errors import MechrelError, SceneError, StudyError
-from ..outputs import quantities_of
+from ..._checks import ARGS
+from ...errors import MechrelError, SceneError, StudyError
+from ...outputs import quantities_of
 from .model import ModelFailure
-from .reliability import EXTREME_STATS
+from .allowables import EXTREME_STATS
 
 REFERENCES = ("nominal", "same-geometry")
 """What the error is measured against: the ideal motion of the nominal geometry, or of the
@@ -102,8 +102,8 @@ class MechanismModel:
                  quantities: Sequence[str] | None = None, angle_step: float = 18.0,
                  cycles: float | None = None, overrides=None, reference: str = "nominal",
                  extremes: bool = True):
-        from ..scene import load_scene, scene_hash
-        from ..scene.loader import thaw
+        from ...scene import load_scene, scene_hash
+        from ...scene.loader import thaw
 
         base = load_scene(scene, overrides=overrides or {})
         # provenance of the scene as given (the one rebuilt below has another analysis grid
@@ -206,7 +206,7 @@ class MechanismModel:
     @property
     def scene(self):
         if self._scene is None:
-            from ..scene import load_scene
+            from ...scene import load_scene
             self._scene = load_scene(self._raw)
         return self._scene
 
@@ -221,7 +221,7 @@ class MechanismModel:
         point distance from a body's frame or the ground's origin), and no less than machine
         epsilon. The error's reference (the nominal design) is the same in every sample, so its
         own noise cancels in the differences."""
-        from ..simulation import make_integrator
+        from ...simulation import make_integrator
         scene = self.scene
         if not scene.clearance_joints:
             pts = [abs(c) for b in scene.bodies.values() for p in b.points.values() for c in p]
@@ -252,10 +252,10 @@ class MechanismModel:
                 "reference": self.reference, "extremes": self.with_extremes}
 
     def cache_key(self) -> str:
-        from .. import __version__
-        from .._kernel_cache import simulator_digest
-        from ..scene import scene_hash
-        from ..simulation import DENSE_POINTS
+        from ... import __version__
+        from ..._kernel_cache import simulator_digest
+        from ...scene import scene_hash
+        from ...simulation import DENSE_POINTS
 
         payload = json.dumps({"kind": "MechanismModel", "scene": scene_hash(self.scene),
                               "inputs": self.targets, "output": self.output,
@@ -286,8 +286,8 @@ class MechanismModel:
     def simulate(self, x):
         """The full :class:`~mechrel.simulation.SimulationResult` at input vector ``x``, its
         errors measured against the model's ``reference``."""
-        from ..scene import with_overrides
-        from ..simulation import simulate
+        from ...scene import with_overrides
+        from ...simulation import simulate
 
         values = self.scene_values(x)
         scene = with_overrides(self.scene, values)
@@ -356,7 +356,7 @@ def _stable_reason(exc: Exception) -> str:
 
 
 def _lookup(raw, path: str):
-    from ..scene.loader import get_value
+    from ...scene.loader import get_value
 
     try:
         return get_value(raw, path)

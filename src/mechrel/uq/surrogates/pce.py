@@ -5,7 +5,7 @@ Basis
 Orthonormal polynomials of the *germ*: the input marginals themselves when the inputs are
 independent (Hermite for normal, Legendre for uniform, ...; recurrence coefficients from
 ``chaospy.stieltjes``), or iid standard normals z with x = T(z) (the Nataf map of
-:class:`~mechrel.uq.inputs.UncertainInputs`) when they are correlated. Multivariate terms are
+:class:`~mechrel.uq.problem.inputs.UncertainInputs`) when they are correlated. Multivariate terms are
 products Ψ_α(ξ) = Π_j p_{α_j}(ξ_j) over the multi-indices with hyperbolic norm
 (Σ α_j^q)^(1/q) ≤ order (q = 1: total degree). Evaluation uses the three-term recurrence directly
 (chaospy's symbolic ``numpoly`` evaluation is orders of magnitude slower for 10⁵ points).
@@ -47,8 +47,8 @@ import pandas as pd
 
 from mechrel.errors import StudyError
 
-from .._checks import ARGS
-from ._common import (
+from ..._checks import ARGS
+from .._common import (
     emit_warnings,
     SampleFailuresError,
     check_inputs,
@@ -59,9 +59,9 @@ from ._common import (
     readonly,
     run,
 )
-from .executor import STATUS_OK, Evaluations
-from .inputs import SAMPLING_RULES, UncertainInputs, as_seed_sequence, child_seed, seed_record
-from .model import check_model
+from ..execution.executor import STATUS_OK, Evaluations
+from ..problem.inputs import SAMPLING_RULES, UncertainInputs, as_seed_sequence, child_seed, seed_record
+from ..problem.model import check_model
 
 __all__ = ["polynomial_chaos", "pce_design", "PCEResult", "multi_indices"]
 
@@ -337,7 +337,7 @@ class PCEResult:
         """Monte Carlo on the surrogate (``n`` cheap samples); returns a MonteCarloResult whose
         intervals cover the sampling error only, not the surrogate error. Keyword arguments are
         those of :func:`mechrel.uq.monte_carlo` (allowable, form, allowable_mode, ...)."""
-        from .montecarlo import monte_carlo
+        from ..estimators.monte_carlo import monte_carlo
 
         ss = as_seed_sequence(seed)
         ev = self.surrogate_evaluations(n=n, rule=rule, seed=ss)
@@ -563,7 +563,7 @@ def pce_warnings(loo, index, order: int) -> list[str]:
     bad = np.isfinite(values) & (values > LOO_THRESHOLD)
     if not bad.any():
         return []
-    from ._common import _labels
+    from .._common import _labels
 
     return [f"pce: the leave-one-out error of the order-{order} expansion exceeds "
             f"{LOO_THRESHOLD:g} at {int(bad.sum())} of {len(values)} outputs (max "

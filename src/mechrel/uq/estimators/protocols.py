@@ -1,9 +1,9 @@
 """The typing contracts of estimators and their results (structural: nothing to inherit).
 
-:class:`~mechrel.uq.model.Model` is what an estimator evaluates; :class:`Result` is what every
-estimator returns (:class:`~mechrel.uq.first_order.FOSMResult`,
-:class:`~mechrel.uq.montecarlo.MonteCarloResult`, :class:`~mechrel.uq.pce.PCEResult`,
-:class:`~mechrel.uq.sobol.SobolResult`, :class:`~mechrel.uq.normality.NormalityResult`), and
+:class:`~mechrel.uq.problem.model.Model` is what an estimator evaluates; :class:`Result` is what every
+estimator returns (:class:`~mechrel.uq.estimators.fosm.FOSMResult`,
+:class:`~mechrel.uq.estimators.monte_carlo.MonteCarloResult`, :class:`~mechrel.uq.surrogates.pce.PCEResult`,
+:class:`~mechrel.uq.estimators.sobol.SobolResult`, :class:`~mechrel.uq.estimators.normality.NormalityResult`), and
 :class:`Estimator` is the call itself. A new method's result satisfies :class:`Result` when it
 is a frozen dataclass with these fields and method; ``docs/contributing.md`` has the recipe.
 """

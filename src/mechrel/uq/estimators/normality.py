@@ -33,11 +33,11 @@ from scipy import stats
 
 from mechrel.errors import StudyError
 
-from .._checks import ARGS
-from ._common import _labels, emit_warnings, make_provenance, resolve_outputs_safe
-from .first_order import FOSMResult
-from .montecarlo import MonteCarloResult, reliability_from_samples
-from .reliability import per_angle_mask
+from ..._checks import ARGS
+from .._common import _labels, emit_warnings, make_provenance, resolve_outputs_safe
+from .fosm import FOSMResult
+from .monte_carlo import MonteCarloResult, reliability_from_samples
+from ..problem.allowables import per_angle_mask
 
 __all__ = ["normality_check", "NormalityResult"]
 
@@ -169,7 +169,7 @@ def normality_check(
         warnings.warn("normality_check: FOSM and Monte Carlo come from models with different cache keys",
                       stacklevel=2)
     ss = monte_carlo.seed
-    from .inputs import child_seed
+    from ..problem.inputs import child_seed
 
     point, _ = reliability_from_samples(
         ev, allowable=fosm.allowable, form=fosm.form, allowable_mode="sampled", seed=child_seed(ss, 1),

@@ -57,8 +57,8 @@ from scipy import stats
 
 from mechrel.errors import StudyError
 
-from .._checks import ARGS
-from ._common import (
+from ..._checks import ARGS
+from .._common import (
     SampleFailuresError,
     check_inputs,
     check_memory,
@@ -68,10 +68,10 @@ from ._common import (
     make_provenance,
     run,
 )
-from .executor import Evaluations
-from .inputs import SAMPLING_RULES, as_seed_sequence, child_seed, seed_record
-from .model import check_model
-from .reliability import (binomial_interval, check_form, per_angle_mask, resolve_allowables,
+from ..execution.executor import Evaluations
+from ..problem.inputs import SAMPLING_RULES, as_seed_sequence, child_seed, seed_record
+from ..problem.model import check_model
+from ..problem.allowables import (binomial_interval, check_form, per_angle_mask, resolve_allowables,
                           whole_cycle_column)
 
 __all__ = ["monte_carlo", "monte_carlo_design", "MonteCarloResult", "reliability_from_samples", "ALLOWABLE_MODES", "FAILURE_MODES"]
@@ -269,15 +269,15 @@ def monte_carlo(
     n : int
         Number of samples: an integer >= 2 (with ``model``).
     rule : {"random", "latin_hypercube", "sobol"}, default "random"
-        Sampling rule (:meth:`~mechrel.uq.inputs.UncertainInputs.sample`).
+        Sampling rule (:meth:`~mechrel.uq.problem.inputs.UncertainInputs.sample`).
     seed : int >= 0, SeedSequence or None
         The study's seed; its child streams draw the inputs and the allowables.
     evaluations : Evaluations, optional
         Precomputed evaluations to analyse.
     allowable : Allowable or mapping, optional
         The allowable error I ~ N(mean, std²) in the outputs' units: None (the default
-        allowables per quantity, :data:`mechrel.uq.reliability.DEFAULT_ALLOWABLES`), one
-        :class:`~mechrel.uq.reliability.Allowable` for every output, or
+        allowables per quantity, :data:`mechrel.uq.problem.allowables.DEFAULT_ALLOWABLES`), one
+        :class:`~mechrel.uq.problem.allowables.Allowable` for every output, or
         ``{quantity: Allowable}``.
     form : {"two-sided", "one-sided"}, default "two-sided"
         The safe event: P(|i| < I) (two-sided) or the paper's P(i < I) on the signed error.

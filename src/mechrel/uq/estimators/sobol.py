@@ -2,7 +2,7 @@
 
 Design: ``SALib.sample.sobol.sample`` on the unit hypercube (scrambled Sobol' sequence, seeded),
 mapped column-wise through the marginal inverse CDFs, so any marginal of
-:class:`~mechrel.uq.inputs.UncertainInputs` works. The inputs must be independent: Sobol'
+:class:`~mechrel.uq.problem.inputs.UncertainInputs` works. The inputs must be independent: Sobol'
 indices of correlated inputs are not the classical decomposition (``StudyError`` otherwise).
 Rows come in blocks, one per base sample: ``A, AB_1 … AB_d, [BA_1 … BA_d,] B`` (``d + 2`` rows,
 ``2d + 2`` with second order); ``N`` blocks in total.
@@ -35,8 +35,8 @@ import pandas as pd
 
 from mechrel.errors import StudyError
 
-from .._checks import ARGS
-from ._common import (
+from ..._checks import ARGS
+from .._common import (
     emit_warnings,
     SampleFailuresError,
     check_inputs,
@@ -47,9 +47,9 @@ from ._common import (
     make_provenance,
     run,
 )
-from .executor import Evaluations
-from .inputs import UncertainInputs, as_seed_sequence, child_seed, seed_record
-from .model import check_model
+from ..execution.executor import Evaluations
+from ..problem.inputs import UncertainInputs, as_seed_sequence, child_seed, seed_record
+from ..problem.model import check_model
 
 __all__ = ["sobol_design", "sobol_indices", "SobolResult", "peak_abs"]
 
@@ -60,7 +60,7 @@ def peak_abs(Y: np.ndarray, index: pd.Index, level: str = "quantity"):
     ``Evaluations.reduce(peak_abs)``. When the outputs include the cycle extremes
     (``max_abs`` in the ``crank_angle`` level, found on the integrator's solution), that is the
     peak; otherwise the largest |error| at the analysis angles."""
-    from .reliability import per_angle_mask, whole_cycle_column
+    from ..problem.allowables import per_angle_mask, whole_cycle_column
 
     if isinstance(index, pd.MultiIndex) and level in index.names:
         labels = np.asarray(index.get_level_values(level))
