@@ -241,7 +241,7 @@ def run_cases(keys, *, n_jobs: int, cycles: float, cache, progress: bool):
         case = CASES[key]
         t0 = time.perf_counter()
         model, inputs = case_model(case, cycles=cycles), case_inputs(case)
-        r = fosm(model=model, inputs=inputs, form="two-sided", n_jobs=n_jobs, cache=cache,
+        r = fosm(model=model, inputs=inputs, event="two-sided", n_jobs=n_jobs, cache=cache,
                  progress=progress, **fosm_settings(case))
         results[key] = r
         ft = forms_table(r.table)

@@ -55,7 +55,7 @@ def test_linear_model_fosm_is_exact():
     slopes of size 0.1–0.5. (A step of 1e-10 would make it ~1e-6: the step matters.)
     """
     model, inputs, mu, sd = _linear()
-    res = fosm(model=model, inputs=inputs, allowable=Allowable(1.0, 0.2), form="one-sided")
+    res = fosm(model=model, inputs=inputs, allowable=Allowable(1.0, 0.2), event="one-sided")
     t = res.table
     np.testing.assert_allclose(t["mu_i"], mu, rtol=1e-12)
     np.testing.assert_allclose(t["sigma_i"], sd, rtol=1e-10)
@@ -63,7 +63,7 @@ def test_linear_model_fosm_is_exact():
     np.testing.assert_allclose(t["beta"], beta, rtol=1e-10)
     np.testing.assert_allclose(t["R_one_sided"], special.ndtr(beta), rtol=1e-10)
     np.testing.assert_allclose(res.gradient.to_numpy(), B, rtol=1e-9, atol=1e-10)
-    # the paper's form: R = Φ(β) exactly and "reliability" follows the form
+    # the paper's form: R = Φ(β) exactly and "reliability" follows the event
     assert np.array_equal(t["reliability"], t["R_one_sided"])
     assert res.evaluations.n == 2 * 3 + 1
     assert res.provenance["n_model_evaluations"] == 7
@@ -193,8 +193,8 @@ def test_precomputed_evaluations_give_the_same_result():
         fosm(evaluations=ev, inputs=inputs, allowable=Allowable(1.0, 0.2), step=0.1)
     with pytest.raises(StudyError, match=r"pass exactly one of model= .* or evaluations= .*, got both"):
         fosm(model=model, evaluations=ev, inputs=inputs)
-    with pytest.raises(StudyError, match=r"form: got 'both'; allowed: \['one-sided', 'two-sided'\]"):
-        fosm(model=model, inputs=inputs, form="both")
+    with pytest.raises(StudyError, match=r"event: got 'both'; allowed: \['one-sided', 'two-sided'\]"):
+        fosm(model=model, inputs=inputs, event="both")
 
 
 def _fails_above(x):
@@ -214,7 +214,7 @@ def test_results_are_frozen():
     model, inputs, _, _ = _linear()
     res = fosm(model=model, inputs=inputs, allowable=Allowable(1.0, 0.2))
     with pytest.raises(dataclasses.FrozenInstanceError):
-        res.form = "one-sided"
+        res.event = "one-sided"
     with pytest.raises(ValueError):
         res.evaluations.Y[0, 0] = 1.0
     assert isinstance(res.evaluations, Evaluations)

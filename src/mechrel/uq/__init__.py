@@ -36,7 +36,7 @@ _EXPORTS = {
     "problem.mechanism": ["MechanismModel"],
     "problem.inputs": ["UncertainInputs", "Normal", "TruncNormal", "Uniform", "LogNormal",
                        "SAMPLING_RULES", "child_seed"],
-    "problem.allowables": ["Allowable", "DEFAULT_ALLOWABLES", "FORMS", "reliability_one_sided",
+    "problem.allowables": ["Allowable", "DEFAULT_ALLOWABLES", "EVENTS", "reliability_one_sided",
                            "reliability_two_sided", "bivariate_normal_cdf", "binomial_interval"],
     "problem.limit_state": ["LimitState"],
     "problem.analytic": ["linear_model", "ishigami", "ishigami_model", "ishigami_inputs",

@@ -32,10 +32,10 @@ from mechrel.errors import StudyError
 
 __all__ = ["METHODS", "Method", "Setting", "register", "get_method", "COMMON_ARGUMENTS"]
 
-#: Arguments every estimator takes that are not method settings (the shared interface; the
-#: older estimators take ``allowable``/``form`` in place of ``limit_state``).
-COMMON_ARGUMENTS = ("model", "inputs", "limit_state", "evaluations", "seed", "n_jobs", "backend",
-                    "cache", "progress", "chunk_size")
+#: Arguments every estimator takes that are not method settings (the shared interface): the
+#: failure definition is ``limit_state=`` or ``allowable=`` with ``event=``.
+COMMON_ARGUMENTS = ("model", "inputs", "limit_state", "allowable", "event", "evaluations", "seed",
+                    "n_jobs", "backend", "cache", "progress", "chunk_size")
 
 
 @dataclass(frozen=True)
@@ -53,7 +53,9 @@ class Setting:
 class Method:
     """One row of the registry.
 
-    ``estimator`` and ``result`` are ``"module:attribute"`` paths under ``mechrel.uq``.
+    ``estimator`` and ``result`` are ``"module:attribute"`` paths under ``mechrel.uq``
+    (imported when first used), or the function and the class themselves (a method defined
+    outside mechrel).
     ``settings`` None: read from the estimator's signature (every keyword not in
     :data:`COMMON_ARGUMENTS`, checked by the estimator). ``short``: the method's name in study
     files and on the command line (``mechrel reliability --method``), default ``name``; a study
@@ -61,8 +63,8 @@ class Method:
     """
 
     name: str
-    estimator: str
-    result: str
+    estimator: str | Callable
+    result: str | type
     kind: str
     summary: str
     declared_settings: Mapping[str, Setting] | None = field(default=None)
@@ -73,7 +75,9 @@ class Method:
         """The name in study files and on the command line."""
         return self.short or self.name
 
-    def _load(self, path: str):
+    def _load(self, path):
+        if not isinstance(path, str):  # the function or class itself
+            return path
         mod, attr = path.split(":")
         return getattr(importlib.import_module(f"mechrel.uq.{mod}"), attr)
 

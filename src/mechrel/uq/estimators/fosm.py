@@ -52,7 +52,7 @@ from .._common import (
 from ..execution.executor import Evaluations
 from ..problem.inputs import UncertainInputs
 from ..problem.model import check_model
-from ..problem.allowables import (check_form, per_angle_mask, reliability_one_sided,
+from ..problem.allowables import (check_event, per_angle_mask, reliability_one_sided,
                           reliability_two_sided, resolve_allowables)
 
 __all__ = ["fosm", "fosm_design", "fd_steps", "FOSMResult"]
@@ -151,7 +151,7 @@ class FOSMResult:
     ``table`` columns: ``mu_i``, ``sigma_i`` (first-order mean and std of the error), ``mu_I``,
     ``sigma_I`` (allowable), ``beta`` (the paper's index (μ_I − μ_i)/sqrt(σ_I² + σ_i²)),
     ``R_one_sided`` (= Φ(beta), the paper's R), ``beta_minus`` ((μ_I + μ_i)/s),
-    ``R_two_sided`` (P(−I < i < I)), ``reliability`` (the one selected by ``form``) and
+    ``R_two_sided`` (P(−I < i < I)), ``reliability`` (the one selected by ``event``) and
     ``beta_generalized`` (Φ⁻¹(reliability)).
 
     ``warnings``: why the numbers may not be trustworthy (each also issued as an
@@ -171,7 +171,7 @@ class FOSMResult:
 
     table: pd.DataFrame
     gradient: pd.DataFrame
-    form: str
+    event: str
     steps: np.ndarray
     input_std: np.ndarray
     input_correlation: np.ndarray
@@ -179,6 +179,12 @@ class FOSMResult:
     evaluations: Evaluations
     provenance: dict = field(repr=False)
     warnings: tuple[str, ...] = ()
+
+    @property
+    def n_evaluations(self) -> int:
+        """Model evaluations behind the estimate (rows sent to the executor, cache hits
+        included; ``provenance["n_model_evaluations"]``)."""
+        return int(self.provenance["n_model_evaluations"])
 
     def to_frame(self) -> pd.DataFrame:
         return self.table.copy()
@@ -210,7 +216,7 @@ def fosm(
     inputs: UncertainInputs,
     evaluations: Evaluations | None = None,
     allowable: Any = None,
-    form: str = "two-sided",
+    event: str = "two-sided",
     step: Any = "auto",
     noise: float | None = None,
     n_jobs: int = 1,
@@ -222,8 +228,8 @@ def fosm(
     """FOSM reliability (paper eqs. 25–28) with first-order propagation of ``inputs``.
 
     Pass ``model=`` (2d + 1 evaluations are run here) or ``evaluations=`` of
-    ``fosm_design(inputs, step=step, noise=noise)``. ``form="one-sided"`` is the paper's
-    R = Φ(β) = P(I − i > 0) on the signed error; ``form="two-sided"`` (default) is
+    ``fosm_design(inputs, step=step, noise=noise)``. ``event="one-sided"`` is the paper's
+    R = Φ(β) = P(I − i > 0) on the signed error; ``event="two-sided"`` (default) is
     P(|i| < I), see :mod:`mechrel.uq.problem.allowables`. Both are always in the table.
     ``allowable``: None (paper defaults per ``quantity``), an ``Allowable`` or {quantity: Allowable}.
     ``noise`` (for ``step="auto"``): the relative noise of the model outputs; None takes the
@@ -243,7 +249,7 @@ def fosm(
         allowables per quantity, :data:`mechrel.uq.problem.allowables.DEFAULT_ALLOWABLES`), one
         :class:`~mechrel.uq.problem.allowables.Allowable` for every output, or
         ``{quantity: Allowable}``.
-    form : {"two-sided", "one-sided"}, default "two-sided"
+    event : {"two-sided", "one-sided"}, default "two-sided"
         The safe event: P(|i| < I) (two-sided) or the paper's P(i < I) on the signed error.
     step : "auto" or float or array, default "auto"
         Central-difference steps h_j in the inputs' units; "auto" balances truncation against
@@ -288,7 +294,7 @@ def fosm(
     exclusive_source(model, evaluations, what="fosm")
     if noise is None:
         noise = float(getattr(model, "output_noise", EPS)) if model is not None else EPS
-    check_form(form)
+    check_event(event)
     if model is not None:
         names = check_model(model)[0]
     else:
@@ -323,7 +329,7 @@ def fosm(
     mu_I, sd_I, _ = resolve_allowables(ev.output_index, allowable)
     beta, r1 = reliability_one_sided(mu_i, sigma_i, mu_I, sd_I)
     _, bm, r2, _ = reliability_two_sided(mu_i, sigma_i, mu_I, sd_I)
-    rel = r1 if form == "one-sided" else r2
+    rel = r1 if event == "one-sided" else r2
     from scipy import special
 
     table = pd.DataFrame(
@@ -338,12 +344,12 @@ def fosm(
     h = fd_steps(inputs, step, noise)
     prov = make_provenance(
         method="fosm", seed=None, evaluations=[ev], wall_time=time.perf_counter() - t0, inputs=inputs,
-        settings={"form": form, "step": step if isinstance(step, str) or np.ndim(step) == 0 else list(map(float, step)),
+        settings={"event": event, "step": step if isinstance(step, str) or np.ndim(step) == 0 else list(map(float, step)),
                   "noise": noise, "steps": h.tolist(), "allowable": repr(allowable) if allowable is not None else "paper defaults",
                   "gradient": "central differences, 2d+1 evaluations"},
     )
     notes = emit_warnings(fosm_warnings(model, ev.output_index, Y, sigma_i))
-    return FOSMResult(table, grad, form, readonly(h), readonly(inputs.std), readonly(inputs.pearson_correlation),
+    return FOSMResult(table, grad, event, readonly(h), readonly(inputs.std), readonly(inputs.pearson_correlation),
                       allowable, ev, prov, notes)
 
 

@@ -2,8 +2,8 @@
 
 Events (per sample, error i, allowable I)
 -----------------------------------------
-``form="two-sided"``  |i| ≤ I  (the tolerance is on the magnitude of the error);
-``form="one-sided"``  i ≤ I    (the paper's P(I − i > 0) on the signed error).
+``event="two-sided"``  |i| ≤ I  (the tolerance is on the magnitude of the error);
+``event="one-sided"``  i ≤ I    (the paper's P(I − i > 0) on the signed error).
 
 The allowable I
 ---------------
@@ -71,7 +71,7 @@ from .._common import (
 from ..execution.executor import Evaluations
 from ..problem.inputs import SAMPLING_RULES, as_seed_sequence, child_seed, seed_record
 from ..problem.model import check_model
-from ..problem.allowables import (binomial_interval, check_form, per_angle_mask, resolve_allowables,
+from ..problem.allowables import (binomial_interval, check_event, per_angle_mask, resolve_allowables,
                           whole_cycle_column)
 
 __all__ = ["monte_carlo", "monte_carlo_design", "MonteCarloResult", "reliability_from_samples", "ALLOWABLE_MODES", "FAILURE_MODES"]
@@ -95,7 +95,7 @@ def reliability_from_samples(
     ev: Evaluations,
     *,
     allowable: Any,
-    form: str,
+    event: str,
     allowable_mode: str,
     seed: np.random.SeedSequence,
     confidence_level: float,
@@ -108,7 +108,7 @@ def reliability_from_samples(
     Y = ev.Y
     ok = ev.ok
     with np.errstate(invalid="ignore"):
-        inside = (np.abs(Y) <= I) if form == "two-sided" else (Y <= I)
+        inside = (np.abs(Y) <= I) if event == "two-sided" else (Y <= I)
     if failures == "exclude":
         rows = ok
         inside = inside[rows]
@@ -131,7 +131,7 @@ def reliability_from_samples(
     joint = np.ones(inside.shape[0], dtype=bool)
     bases = set()
     for g in labels:
-        col = whole_cycle_column(ev.output_index, g, form)
+        col = whole_cycle_column(ev.output_index, g, event)
         if col is not None:
             ok_g, basis = inside[:, col], "cycle extreme"
         else:
@@ -200,7 +200,7 @@ class MonteCarloResult:
 
     table: pd.DataFrame
     whole_cycle: pd.DataFrame
-    form: str
+    event: str
     allowable: Any
     allowable_mode: str
     rule: str
@@ -214,6 +214,12 @@ class MonteCarloResult:
     provenance: dict = field(repr=False)
     warnings: tuple[str, ...] = ()
 
+    @property
+    def n_evaluations(self) -> int:
+        """Model evaluations behind the estimate (rows sent to the executor, cache hits
+        included; ``provenance["n_model_evaluations"]``)."""
+        return int(self.provenance["n_model_evaluations"])
+
     def to_frame(self) -> pd.DataFrame:
         return self.table.copy()
 
@@ -222,8 +228,8 @@ class MonteCarloResult:
         return self.table["reliability"]
 
 
-def _check_common(form, allowable_mode, confidence_level, ci_method, failures, max_failure_fraction):
-    check_form(form)
+def _check_common(event, allowable_mode, confidence_level, ci_method, failures, max_failure_fraction):
+    check_event(event)
     ARGS.choice("allowable_mode", allowable_mode, ALLOWABLE_MODES)
     ARGS.fraction("confidence_level", confidence_level, open_lo=True, open_hi=True)
     ARGS.choice("ci_method", ci_method, ("wilson", "clopper-pearson"))
@@ -240,7 +246,7 @@ def monte_carlo(
     seed: Any = None,
     evaluations: Evaluations | None = None,
     allowable: Any = None,
-    form: str = "two-sided",
+    event: str = "two-sided",
     allowable_mode: str = "sampled",
     confidence_level: float = 0.95,
     ci_method: str = "wilson",
@@ -279,7 +285,7 @@ def monte_carlo(
         allowables per quantity, :data:`mechrel.uq.problem.allowables.DEFAULT_ALLOWABLES`), one
         :class:`~mechrel.uq.problem.allowables.Allowable` for every output, or
         ``{quantity: Allowable}``.
-    form : {"two-sided", "one-sided"}, default "two-sided"
+    event : {"two-sided", "one-sided"}, default "two-sided"
         The safe event: P(|i| < I) (two-sided) or the paper's P(i < I) on the signed error.
     allowable_mode : {"sampled", "fixed"}, default "sampled"
         Draw one allowable per sample from N(mean, std²), or compare with the mean only.
@@ -329,7 +335,7 @@ def monte_carlo(
     """
     t0 = time.perf_counter()
     exclusive_source(model, evaluations, what="monte_carlo")
-    _check_common(form, allowable_mode, confidence_level, ci_method, failures, max_failure_fraction)
+    _check_common(event, allowable_mode, confidence_level, ci_method, failures, max_failure_fraction)
     ss = as_seed_sequence(seed)
     ss_x, ss_I = child_seed(ss, 0), child_seed(ss, 1)
     if model is not None:
@@ -360,7 +366,7 @@ def monte_carlo(
         raise SampleFailuresError(f"monte_carlo: need at least 2 successful samples, got {ev.n_ok}"
                                   + (f" ({failure_message(ev)})" if ev.n_failed else ""), ev)
     point, whole = reliability_from_samples(
-        ev, allowable=allowable, form=form, allowable_mode=allowable_mode, seed=ss_I,
+        ev, allowable=allowable, event=event, allowable_mode=allowable_mode, seed=ss_I,
         confidence_level=confidence_level, ci_method=ci_method, failures=failures,
     )
     mom = sample_moments(ev.Y[ev.ok], confidence_level=confidence_level)
@@ -369,7 +375,7 @@ def monte_carlo(
     prov = make_provenance(
         method="monte_carlo", seed=seed_record(ss), evaluations=[ev], inputs=inputs,
         wall_time=time.perf_counter() - t0,
-        settings={"n": ev.n, "rule": rule, "form": form, "allowable_mode": allowable_mode,
+        settings={"n": ev.n, "rule": rule, "event": event, "allowable_mode": allowable_mode,
                   "allowable": repr(allowable) if allowable is not None else "paper defaults",
                   "confidence_level": confidence_level, "ci_method": ci_method,
                   "failures": failures, "max_failure_fraction": max_failure_fraction,
@@ -377,7 +383,7 @@ def monte_carlo(
                               if rule in ("latin_hypercube", "sobol") else "binomial intervals")},
     )
     return MonteCarloResult(
-        table, whole, form, allowable, allowable_mode, rule, confidence_level, ci_method, failures,
+        table, whole, event, allowable, allowable_mode, rule, confidence_level, ci_method, failures,
         ev.n_failed, ev.failure_counts(), ev, ss, prov,
     )
 

@@ -9,7 +9,7 @@ For each output, using the successful Monte Carlo samples y of the error i:
   (shape only; statistic from ``scipy.stats.anderson``, p-value from D'Agostino & Stephens'
   (1986) formula, not clipped like scipy's interpolated table);
 * ``skewness``, ``excess_kurtosis`` of y;
-* ``R_fosm`` (FOSM's reliability, same ``form`` and allowable) and ``R_mc`` with its interval,
+* ``R_fosm`` (FOSM's reliability, same ``event`` and allowable) and ``R_mc`` with its interval,
   ``diff = R_fosm − R_mc`` with ``diff_lo``/``diff_hi`` = R_fosm − (R_mc interval);
 * ``flag``: True when either test rejects at ``alpha`` or R_fosm lies outside the Monte Carlo
   interval; ``flag_reason`` says which.
@@ -83,11 +83,17 @@ class NormalityResult:
 
     table: pd.DataFrame
     alpha: float
-    form: str
+    event: str
     fosm: FOSMResult
     monte_carlo: MonteCarloResult
     provenance: dict = field(repr=False)
     warnings: tuple[str, ...] = ()
+
+    @property
+    def n_evaluations(self) -> int:
+        """Model evaluations behind the estimate (rows sent to the executor, cache hits
+        included; ``provenance["n_model_evaluations"]``)."""
+        return int(self.provenance["n_model_evaluations"])
 
     def to_frame(self) -> pd.DataFrame:
         return self.table.copy()
@@ -120,7 +126,7 @@ def normality_check(
     """Compare FOSM's N(μ_i, σ_i²) with the Monte Carlo error distribution, output by output.
 
     ``monte_carlo`` must be of the same model (same output index). Its reliability is
-    recomputed with FOSM's ``form`` and allowable (``allowable_mode="sampled"``, so that both
+    recomputed with FOSM's ``event`` and allowable (``allowable_mode="sampled"``, so that both
     estimate the same probability), with the Monte Carlo result's seed, confidence level,
     interval method and failure mode.
 
@@ -172,7 +178,7 @@ def normality_check(
     from ..problem.inputs import child_seed
 
     point, _ = reliability_from_samples(
-        ev, allowable=fosm.allowable, form=fosm.form, allowable_mode="sampled", seed=child_seed(ss, 1),
+        ev, allowable=fosm.allowable, event=fosm.event, allowable_mode="sampled", seed=child_seed(ss, 1),
         confidence_level=monte_carlo.confidence_level, ci_method=monte_carlo.ci_method, failures=monte_carlo.failures,
     )
     Y = ev.Y[ev.ok]
@@ -222,7 +228,7 @@ def normality_check(
     prov = make_provenance(
         method="normality_check", seed=monte_carlo.provenance.get("seed"), evaluations=[fosm.evaluations, ev],
         wall_time=time.perf_counter() - t0,
-        settings={"alpha": alpha, "form": fosm.form, "tests": "KS vs FOSM normal; Anderson-Darling (interpolated p)",
+        settings={"alpha": alpha, "event": fosm.event, "tests": "KS vs FOSM normal; Anderson-Darling (interpolated p)",
                   "monte_carlo_rule": monte_carlo.rule},
     )
     notes = []
@@ -245,5 +251,5 @@ def normality_check(
                      f"Carlo interval at {int((outside & angle).sum())} of {int(angle.sum())} "
                      f"outputs, e.g. {_labels(ev.output_index, outside & angle)}: FOSM's normal, "
                      "first-order model of the error does not hold there; trust Monte Carlo")
-    return NormalityResult(table, alpha, fosm.form, fosm, monte_carlo, prov,
+    return NormalityResult(table, alpha, fosm.event, fosm, monte_carlo, prov,
                            emit_warnings(notes))

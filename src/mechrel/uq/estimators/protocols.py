@@ -30,6 +30,9 @@ class Result(Protocol):
     warnings : tuple of str
         The caveats of the estimate (also issued as
         :class:`~mechrel.errors.EstimateWarning`); empty when there are none.
+    n_evaluations : int
+        Model evaluations behind the estimate (rows sent to the executor, cache hits
+        included).
 
     Examples
     --------
@@ -49,6 +52,11 @@ class Result(Protocol):
     @property
     def warnings(self) -> tuple[str, ...]:
         """The caveats of the estimate."""
+        ...
+
+    @property
+    def n_evaluations(self) -> int:
+        """Model evaluations behind the estimate."""
         ...
 
     def to_frame(self) -> pd.DataFrame:

@@ -159,6 +159,12 @@ class SobolResult:
     provenance: dict = field(repr=False)
     warnings: tuple[str, ...] = ()
 
+    @property
+    def n_evaluations(self) -> int:
+        """Model evaluations behind the estimate (rows sent to the executor, cache hits
+        included; ``provenance["n_model_evaluations"]``)."""
+        return int(self.provenance["n_model_evaluations"])
+
     def to_frame(self) -> pd.DataFrame:
         """Long table indexed by (output…, input) with S1, S1_conf, ST, ST_conf."""
         parts = {}

@@ -34,7 +34,7 @@ from mechrel.outputs import QUANTITY_INFO
 __all__ = [
     "Allowable",
     "DEFAULT_ALLOWABLES",
-    "FORMS",
+    "EVENTS",
     "resolve_allowables",
     "output_groups",
     "EXTREME_STATS",
@@ -46,7 +46,7 @@ __all__ = [
     "binomial_interval",
 ]
 
-FORMS = ("one-sided", "two-sided")
+EVENTS = ("one-sided", "two-sided")
 
 
 @dataclass(frozen=True)
@@ -102,16 +102,16 @@ def per_angle_mask(index: pd.Index) -> np.ndarray:
     return np.ones(len(index), dtype=bool)
 
 
-def whole_cycle_column(index: pd.Index, group: str, form: str) -> int | None:
+def whole_cycle_column(index: pd.Index, group: str, event: str) -> int | None:
     """Position of the output whose event is the whole-cycle event of ``group`` (a quantity):
-    the cycle's largest |error| (``max_abs``) for the two-sided form, its largest signed error
+    the cycle's largest |error| (``max_abs``) for the two-sided event, its largest signed error
     (``max``) for the one-sided one, |i| ≤ I (i ≤ I) at every instant being max |i| ≤ I
     (max i ≤ I). ``None`` when the index has no cycle extremes (the analysis angles then stand
     in for the cycle)."""
     if not (isinstance(index, pd.MultiIndex) and "crank_angle" in index.names
             and "quantity" in index.names):
         return None
-    stat = "max_abs" if form == "two-sided" else "max"
+    stat = "max_abs" if event == "two-sided" else "max"
     q = index.get_level_values("quantity").astype(str)
     a = index.get_level_values("crank_angle")
     hits = [i for i in range(len(index)) if q[i] == group and isinstance(a[i], str) and a[i] == stat]
@@ -156,10 +156,10 @@ def resolve_allowables(index: pd.Index, allowable: Any) -> tuple[np.ndarray, np.
     return mu, sd, groups
 
 
-def check_form(form: str) -> str:
-    if form not in FORMS:
-        raise StudyError(f"form: got {form!r}; allowed: {list(FORMS)}")
-    return form
+def check_event(event: str) -> str:
+    if event not in EVENTS:
+        raise StudyError(f"event: got {event!r}; allowed: {list(EVENTS)}")
+    return event
 
 
 def reliability_one_sided(mu_i, sigma_i, mu_I, sigma_I) -> tuple[np.ndarray, np.ndarray]:

@@ -300,6 +300,12 @@ class PCEResult:
     _recurrence: tuple = field(repr=False, default=())
     warnings: tuple[str, ...] = ()
 
+    @property
+    def n_evaluations(self) -> int:
+        """Model evaluations behind the estimate (rows sent to the executor, cache hits
+        included; ``provenance["n_model_evaluations"]``)."""
+        return int(self.provenance["n_model_evaluations"])
+
     def to_frame(self) -> pd.DataFrame:
         """Per output: mean, std, loo_error, validation_error, S1_<input>, ST_<input>."""
         df = pd.DataFrame({"mean": self.mean, "std": self.std})
@@ -336,7 +342,7 @@ class PCEResult:
     def reliability(self, *, n: int = 100_000, rule: str = "random", seed: Any = None, **monte_carlo_kwargs):
         """Monte Carlo on the surrogate (``n`` cheap samples); returns a MonteCarloResult whose
         intervals cover the sampling error only, not the surrogate error. Keyword arguments are
-        those of :func:`mechrel.uq.monte_carlo` (allowable, form, allowable_mode, ...)."""
+        those of :func:`mechrel.uq.monte_carlo` (allowable, event, allowable_mode, ...)."""
         from ..estimators.monte_carlo import monte_carlo
 
         ss = as_seed_sequence(seed)
