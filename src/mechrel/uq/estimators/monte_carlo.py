@@ -47,13 +47,14 @@ refuses if more than ``max_failure_fraction`` of the samples failed (or fewer th
 
 from __future__ import annotations
 
+import math
 import time
 from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 import pandas as pd
-from scipy import stats
+from scipy import special, stats
 
 from mechrel.errors import StudyError
 
@@ -73,8 +74,10 @@ from ..problem.inputs import SAMPLING_RULES, as_seed_sequence, child_seed, seed_
 from ..problem.model import check_model
 from ..problem.allowables import (binomial_interval, check_event, per_angle_mask, resolve_allowables,
                           whole_cycle_column)
+from ._problem import Problem, RareEventResult
 
-__all__ = ["monte_carlo", "monte_carlo_design", "MonteCarloResult", "reliability_from_samples", "ALLOWABLE_MODES", "FAILURE_MODES"]
+__all__ = ["monte_carlo", "monte_carlo_design", "MonteCarloResult", "MonteCarloPfResult", "reliability_from_samples",
+           "ALLOWABLE_MODES", "FAILURE_MODES"]
 
 ALLOWABLE_MODES = ("sampled", "fixed")
 FAILURE_MODES = ("exclude", "as_violation")
@@ -247,6 +250,7 @@ def monte_carlo(
     evaluations: Evaluations | None = None,
     allowable: Any = None,
     event: str = "two-sided",
+    limit_state: Any = None,
     allowable_mode: str = "sampled",
     confidence_level: float = 0.95,
     ci_method: str = "wilson",
@@ -257,7 +261,7 @@ def monte_carlo(
     cache: Any = None,
     progress: bool = True,
     chunk_size: int | None = None,
-) -> MonteCarloResult:
+) -> MonteCarloResult | MonteCarloPfResult:
     """Monte Carlo reliability of every output and of the whole cycle.
 
     Either ``model=`` + ``inputs=`` + ``n=`` (samples drawn by ``rule`` from ``seed``'s first
@@ -287,6 +291,10 @@ def monte_carlo(
         ``{quantity: Allowable}``.
     event : {"two-sided", "one-sided"}, default "two-sided"
         The safe event: P(|i| < I) (two-sided) or the paper's P(i < I) on the signed error.
+    limit_state : LimitState, optional
+        In place of ``allowable``/``event``: the probability of failure P(g ≤ 0) of this limit
+        state (its random allowables sampled with the inputs by ``rule``), with its binomial
+        interval; returns a :class:`MonteCarloPfResult`. Needs ``model=`` and ``inputs=``.
     allowable_mode : {"sampled", "fixed"}, default "sampled"
         Draw one allowable per sample from N(mean, std²), or compare with the mean only.
     confidence_level : float in (0, 1), default 0.95
@@ -336,6 +344,18 @@ def monte_carlo(
     t0 = time.perf_counter()
     exclusive_source(model, evaluations, what="monte_carlo")
     _check_common(event, allowable_mode, confidence_level, ci_method, failures, max_failure_fraction)
+    if limit_state is not None:
+        if allowable is not None:
+            raise StudyError("monte_carlo: allowable= and limit_state= are both given; allowed: one of them "
+                             "(a limit state carries its own allowables)")
+        if model is None:
+            raise StudyError("monte_carlo: limit_state= with evaluations=: the limit state's random allowables "
+                             "and inputs are sampled with the model's; allowed: model= and inputs= with limit_state=")
+        return _limit_state_monte_carlo(
+            model=model, inputs=inputs, limit_state=limit_state, n=n, rule=rule, seed=seed,
+            confidence_level=confidence_level, ci_method=ci_method, failures=failures,
+            max_failure_fraction=max_failure_fraction,
+            executor=executor_kwargs(n_jobs, backend, cache, progress, chunk_size))
     ss = as_seed_sequence(seed)
     ss_x, ss_I = child_seed(ss, 0), child_seed(ss, 1)
     if model is not None:
@@ -420,3 +440,62 @@ def monte_carlo_design(inputs: Any, *, n: int, rule: str = "random", seed: Any =
     ARGS.choice("rule", rule, SAMPLING_RULES)
     inputs = check_inputs(inputs, None)
     return inputs.sample(ARGS.sample_count("n", n), rule, child_seed(as_seed_sequence(seed), 0))
+
+
+@dataclass(frozen=True, eq=False)
+class MonteCarloPfResult(RareEventResult):
+    """Crude Monte Carlo on a limit state (frozen): ``table`` (one row, index the limit
+    state's name) with ``pf`` = k/n, ``beta`` = −Φ⁻¹(pf), ``cov`` = sqrt((1 − pf)/(n pf)),
+    ``pf_lo``/``pf_hi`` (the binomial interval of ``ci_method``), ``n_samples``,
+    ``n_failed_domain`` (k, samples with g ≤ 0), ``n_failed_model`` and ``n_evaluations``.
+    """
+
+    table: pd.DataFrame
+    evaluations: Evaluations | None
+    provenance: dict = field(repr=False)
+    warnings: tuple[str, ...] = ()
+
+    @property
+    def cov(self) -> float:
+        """Coefficient of variation of ``pf``."""
+        return float(self.table["cov"].iloc[0])
+
+
+def _limit_state_monte_carlo(*, model, inputs, limit_state, n, rule, seed, confidence_level, ci_method,
+                             failures, max_failure_fraction, executor) -> MonteCarloPfResult:
+    """P(g ≤ 0) by crude Monte Carlo: x (and the random allowables) drawn by ``rule`` from
+    ``seed``'s first child stream, g through the model; binomial interval."""
+    ARGS.choice("rule", rule, SAMPLING_RULES)
+    n = ARGS.sample_count("n", n)
+    ss = as_seed_sequence(seed)
+    problem = Problem(model=model, inputs=inputs, limit_state=limit_state, what="monte_carlo",
+                      **executor)
+    X = problem.inputs.sample(n, rule, child_seed(ss, 0))
+    G, ok, reasons = problem.g(problem.inputs.to_standard_normal(X))
+    evaluations = problem.all_evaluations()
+    assert evaluations is not None  # one executor call
+    n_bad = int((~ok).sum())
+    if n_bad > max_failure_fraction * n:
+        counts = pd.Series([r for r in reasons if r is not None], dtype=object).value_counts().to_dict()
+        raise SampleFailuresError(
+            f"monte_carlo: {n_bad} of {n} samples failed ({counts}), more than max_failure_fraction="
+            f"{max_failure_fraction}; allowed: fix the model or raise max_failure_fraction", evaluations)
+    inside = np.where(ok, G <= 0, failures == "as_violation")
+    rows = ok if failures == "exclude" else np.ones(n, dtype=bool)
+    m = int(rows.sum())
+    if m < 2:
+        raise SampleFailuresError(f"monte_carlo: {m} usable samples; allowed: at least 2", evaluations)
+    k = int(inside[rows].sum())
+    pf = k / m
+    lo, hi = binomial_interval(np.array([k]), np.array([m]), confidence_level=confidence_level, method=ci_method)
+    table = pd.DataFrame({"pf": [pf], "beta": [float(-special.ndtri(pf))],
+                          "cov": [math.sqrt((1 - pf) / (m * pf)) if pf > 0 else np.inf],
+                          "pf_lo": [float(lo[0])], "pf_hi": [float(hi[0])], "n_samples": [n],
+                          "n_failed_domain": [k], "n_failed_model": [n_bad],
+                          "n_evaluations": [problem.n_evaluations]},
+                         index=pd.Index([problem.limit_state.name], name="limit_state"))
+    prov = problem.provenance(method="monte_carlo", seed=seed_record(ss),
+                              settings={"n": n, "rule": rule, "confidence_level": confidence_level,
+                                        "ci_method": ci_method, "failures": failures,
+                                        "max_failure_fraction": max_failure_fraction})
+    return MonteCarloPfResult(table, evaluations, prov)

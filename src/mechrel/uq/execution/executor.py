@@ -63,7 +63,7 @@ class Evaluations:
     status : (n,) array of ``"ok"`` / ``"failed"``. reasons : per row, None when ok.
     n_model_calls : calls actually made in this run (cache hits excluded). n_cached : cache hits.
     wall_time : seconds spent in :func:`evaluate`.
-    model : what the model is (:func:`mechrel.uq.model.describe_model`; for the mechanism model
+    model : what the model is (:func:`mechrel.uq.problem.model.describe_model`; for the mechanism model
     the scene's name, hash and source); empty for precomputed evaluations.
     """
 

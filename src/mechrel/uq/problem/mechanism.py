@@ -1,13 +1,13 @@
 """The mechanism as a black-box model for the estimators: parameters → error curves.
 
-:class:`MechanismModel` implements the :class:`mechrel.uq.model.Model` protocol. Its inputs
+:class:`MechanismModel` implements the :class:`mechrel.uq.Model` protocol. Its inputs
 are dotted scene paths (``joints.C1.clearance``, ``joints.C1.lubricant.viscosity``,
 ``drivers.crank1.speed``, ``bodies.rod3.points.P``… any numeric scene value); its outputs are
 the signed errors (with clearance − ideal) of one output point's displacement (m), velocity
 (m/s) and acceleration (m/s²) at the analysis crank angles (every 18° by default, as in the
 paper's §5), labelled by a ``(quantity, crank_angle)`` MultiIndex, followed by each quantity's
 cycle extremes over the analysed cycle, labelled ``(quantity, "max")``, ``(quantity, "min")``
-and ``(quantity, "max_abs")`` (:data:`~mechrel.uq.reliability.EXTREME_STATS`): the largest and
+and ``(quantity, "max_abs")`` (:data:`~mechrel.uq.problem.allowables.EXTREME_STATS`): the largest and
 smallest signed error and the largest |error|, found on the integrator's solution (every step
 and points inside it), not on the analysis angles (docs/uq.md, "Outputs of the mechanism
 model"). :meth:`MechanismModel.extremes` says where in the cycle they occur.
@@ -300,7 +300,7 @@ class MechanismModel:
 
     def extremes(self, x) -> pd.DataFrame:
         """Where the cycle extremes occur at input vector ``x``: one row per quantity and
-        statistic (:data:`~mechrel.uq.reliability.EXTREME_STATS`), columns ``value``,
+        statistic (:data:`~mechrel.uq.problem.allowables.EXTREME_STATS`), columns ``value``,
         ``time`` (s since the start of the run) and ``crank_angle`` (degrees, from the start
         of the analysed cycle, as the analysis angles)."""
         res = self.simulate(x)

@@ -343,11 +343,12 @@ class PCEResult:
         """Monte Carlo on the surrogate (``n`` cheap samples); returns a MonteCarloResult whose
         intervals cover the sampling error only, not the surrogate error. Keyword arguments are
         those of :func:`mechrel.uq.monte_carlo` (allowable, event, allowable_mode, ...)."""
-        from ..estimators.monte_carlo import monte_carlo
+        from ..estimators.monte_carlo import MonteCarloResult, monte_carlo
 
         ss = as_seed_sequence(seed)
         ev = self.surrogate_evaluations(n=n, rule=rule, seed=ss)
         res = monte_carlo(evaluations=ev, seed=ss, **monte_carlo_kwargs)
+        assert isinstance(res, MonteCarloResult)  # evaluations= never takes a limit state
         res.provenance["surrogate"] = {"method": "pce", "order": self.order, "pce_method": self.method,
                                        "pce_provenance": self.provenance, "rule": rule}
         if self.warnings:  # the surrogate's caveats belong to every number computed from it
