@@ -148,16 +148,33 @@ def fosm_design(inputs: UncertainInputs, *, step: Any = "auto", noise: float = E
 class FOSMResult:
     """FOSM reliability per output (frozen).
 
-    ``table`` columns: ``mu_i``, ``sigma_i`` (first-order mean and std of the error), ``mu_I``,
-    ``sigma_I`` (allowable), ``beta`` (the paper's index (μ_I − μ_i)/sqrt(σ_I² + σ_i²)),
-    ``R_one_sided`` (= Φ(beta), the paper's R), ``beta_minus`` ((μ_I + μ_i)/s),
-    ``R_two_sided`` (P(−I < i < I)), ``reliability`` (the one selected by ``event``) and
-    ``beta_generalized`` (Φ⁻¹(reliability)).
-
-    ``warnings``: why the numbers may not be trustworthy (each also issued as an
-    :class:`~mechrel.errors.EstimateWarning`): a non-smooth model (dry contact), outputs whose
-    response the step does not resolve (a kink, an impact, chaos), outputs with a zero
-    gradient (σ_i = 0, so β = ±∞ and R ∈ {0, 1} there are not estimates).
+    Parameters
+    ----------
+    table : DataFrame
+        Per output: ``mu_i``, ``sigma_i`` (first-order mean and std of the error), ``mu_I``,
+        ``sigma_I`` (allowable), ``beta`` (the paper's index (μ_I − μ_i)/sqrt(σ_I² + σ_i²)),
+        ``R_one_sided`` (= Φ(beta), the paper's R), ``beta_minus`` ((μ_I + μ_i)/s),
+        ``R_two_sided`` (P(−I < i < I)), ``reliability`` (the one selected by ``event``) and
+        ``beta_generalized`` (Φ⁻¹(reliability)).
+    gradient : DataFrame
+        ∂output/∂input (outputs × inputs), by central differences.
+    event : {"two-sided", "one-sided"}
+        The event whose probability is ``reliability``.
+    steps : ndarray
+        The finite-difference step of each input (its unit).
+    input_std, input_correlation : ndarray
+        The inputs' standard deviations and Pearson correlation matrix used.
+    allowable
+        The allowables as given.
+    evaluations : Evaluations
+        The 2d + 1 model runs.
+    provenance : dict
+        How the result was made (method, settings, counts, versions, time).
+    warnings : tuple of str
+        Why the numbers may not be trustworthy (each also issued as an
+        :class:`~mechrel.errors.EstimateWarning`): a non-smooth model (dry contact), outputs whose
+        response the step does not resolve (a kink, an impact, chaos), outputs with a zero
+        gradient (σ_i = 0, so β = ±∞ and R ∈ {0, 1} there are not estimates).
 
     Examples
     --------
@@ -165,7 +182,7 @@ class FOSMResult:
     >>> inputs = UncertainInputs.from_specs({"x": Normal(0.0, 0.1)})
     >>> model, allow = linear_model([0.0], [[1.0]], ["x"]), Allowable(0.2, 0.0)
     >>> r = fosm(model=model, inputs=inputs, allowable=allow, progress=False)
-    >>> r.provenance["method"], r.provenance["n_model_evaluations"], r.warnings
+    >>> r.provenance["method"], r.n_evaluations, r.warnings
     ('fosm', 3, ())
     """
 

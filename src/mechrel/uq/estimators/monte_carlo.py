@@ -184,10 +184,35 @@ def sample_moments(Y: np.ndarray, *, confidence_level: float) -> pd.DataFrame:
 class MonteCarloResult:
     """Monte Carlo reliability and moments (frozen).
 
-    ``table`` (per output): moments with intervals, ``mu_I``, ``sigma_I``, ``n``,
-    ``n_inside``, ``reliability`` with ``reliability_lo``/``_hi``. ``whole_cycle`` (per quantity
-    and ``"all"``): the joint event over the cycle. ``failure_counts``: {reason: count}.
-    ``warnings``: caveats of the estimate (for a run on a PCE surrogate, the surrogate's).
+    Parameters
+    ----------
+    table : DataFrame
+        Per output: moments with intervals, ``mu_I``, ``sigma_I``, ``n``, ``n_inside``,
+        ``reliability`` with ``reliability_lo``/``_hi``.
+    whole_cycle : DataFrame
+        Per quantity and ``"all"``: the joint event over the cycle.
+    event : {"two-sided", "one-sided"}
+        The event counted as inside.
+    allowable, allowable_mode
+        The allowables as given, and whether they were ``"sampled"`` or ``"fixed"`` at their mean.
+    rule : str
+        The sampling rule (``"user-supplied"`` for precomputed evaluations).
+    confidence_level, ci_method
+        Level and method of the binomial intervals.
+    failures : {"exclude", "as_violation"}
+        What a failed sample counted as.
+    n_failed : int
+        Failed samples.
+    failure_counts : dict
+        ``{reason: count}`` of the failed samples.
+    evaluations : Evaluations
+        The model runs.
+    seed
+        The seed record.
+    provenance : dict
+        How the result was made.
+    warnings : tuple of str
+        Caveats of the estimate (for a run on a PCE surrogate, the surrogate's).
 
     Examples
     --------
@@ -197,7 +222,7 @@ class MonteCarloResult:
     >>> from mechrel.uq import monte_carlo
     >>> r = monte_carlo(model=model, inputs=inputs, n=256, seed=3, allowable=allow,
     ...                 progress=False)
-    >>> r.provenance["seed"]["entropy"], r.evaluations.n, int(r.to_frame()["n"].iloc[0])
+    >>> r.provenance["seed"]["entropy"], r.n_evaluations, int(r.to_frame()["n"].iloc[0])
     (3, 256, 256)
     """
 
@@ -444,10 +469,34 @@ def monte_carlo_design(inputs: Any, *, n: int, rule: str = "random", seed: Any =
 
 @dataclass(frozen=True, eq=False)
 class MonteCarloPfResult(RareEventResult):
-    """Crude Monte Carlo on a limit state (frozen): ``table`` (one row, index the limit
-    state's name) with ``pf`` = k/n, ``beta`` = −Φ⁻¹(pf), ``cov`` = sqrt((1 − pf)/(n pf)),
-    ``pf_lo``/``pf_hi`` (the binomial interval of ``ci_method``), ``n_samples``,
-    ``n_failed_domain`` (k, samples with g ≤ 0), ``n_failed_model`` and ``n_evaluations``.
+    """Crude Monte Carlo on a limit state (frozen): what ``monte_carlo(limit_state=...)`` returns.
+
+    Parameters
+    ----------
+    table : DataFrame
+        One row (index: the limit state's name): ``pf`` = k/n, ``beta`` = −Φ⁻¹(pf), ``cov`` =
+        sqrt((1 − pf)/(n pf)), ``pf_lo``/``pf_hi`` (the binomial interval of the run's
+        ``ci_method``), ``n_samples``, ``n_failed_domain`` (k, samples with g ≤ 0),
+        ``n_failed_model`` and ``n_evaluations``.
+    evaluations : Evaluations or None
+        The model runs.
+    provenance : dict
+        How the result was made (with the limit state's description).
+    warnings : tuple of str, default ()
+        Caveats of the estimate.
+
+    Examples
+    --------
+    P(x > 2) for x ~ N(0, 1) is Φ(−2) = 0.0228:
+
+    >>> from mechrel.uq import FunctionModel, LimitState, Normal, UncertainInputs, monte_carlo
+    >>> inputs = UncertainInputs.from_specs({"x": Normal(0.0, 1.0)})
+    >>> model = FunctionModel(lambda X: X[:, 0], ["x"], ["y"], vectorized=True)
+    >>> r = monte_carlo(model=model, inputs=inputs, n=4096, seed=2, progress=False,
+    ...                 limit_state=LimitState.exceedance(["y"], 2.0, kind="upper"))
+    >>> row = r.to_frame().iloc[0]
+    >>> bool(row["pf_lo"] < 0.0228 < row["pf_hi"]), r.n_evaluations
+    (True, 4096)
     """
 
     table: pd.DataFrame

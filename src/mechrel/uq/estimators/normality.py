@@ -64,9 +64,27 @@ def _ad_normal_pvalue(a2: float, n: int) -> float:
 class NormalityResult:
     """Per-output normality diagnostics of FOSM against Monte Carlo (frozen).
 
-    ``warnings``: analysis angles where FOSM's mean μ_i or its reliability lies outside the
-    Monte Carlo confidence interval (also issued as :class:`~mechrel.errors.EstimateWarning`);
-    the cycle extremes' rows are in ``table`` but not in the warnings.
+    Parameters
+    ----------
+    table : DataFrame
+        Per output: FOSM's ``mu_i``, ``sigma_i`` against Monte Carlo's ``mc_mean``, ``mc_std``,
+        ``skewness``, ``excess_kurtosis``; the Kolmogorov–Smirnov and Anderson–Darling
+        statistics and p-values (``ks_*``, ``ad_*``); ``R_fosm``, ``R_mc`` with its interval,
+        their difference ``diff`` with its interval, and ``flag``/``flag_reason``.
+    alpha : float
+        The tests' significance level.
+    event : {"two-sided", "one-sided"}
+        FOSM's event (Monte Carlo's reliability is recomputed with it).
+    fosm : FOSMResult
+        The FOSM result checked.
+    monte_carlo : MonteCarloResult
+        The Monte Carlo result it is checked against.
+    provenance : dict
+        How the result was made.
+    warnings : tuple of str
+        Analysis angles where FOSM's mean μ_i or its reliability lies outside the Monte Carlo
+        confidence interval (also issued as :class:`~mechrel.errors.EstimateWarning`); the cycle
+        extremes' rows are in ``table`` but not in the warnings.
 
     Examples
     --------

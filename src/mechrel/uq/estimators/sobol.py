@@ -55,11 +55,40 @@ __all__ = ["sobol_design", "sobol_indices", "SobolResult", "peak_abs"]
 
 
 def peak_abs(Y: np.ndarray, index: pd.Index, level: str = "quantity"):
-    """Reducer: peak |error| over the cycle, one scalar per ``quantity`` (or over all outputs
-    when the index has no such level). Use with ``sobol_indices(reducer=peak_abs)`` or
-    ``Evaluations.reduce(peak_abs)``. When the outputs include the cycle extremes
-    (``max_abs`` in the ``crank_angle`` level, found on the integrator's solution), that is the
-    peak; otherwise the largest |error| at the analysis angles."""
+    """Reducer: peak |error| over the cycle, one scalar per ``quantity``.
+
+    Use with ``sobol_indices(reducer=peak_abs)`` or ``Evaluations.reduce(peak_abs)``. When the
+    outputs include the cycle extremes (``max_abs`` in the ``crank_angle`` level, found on the
+    integrator's solution), that is the peak; otherwise the largest |error| at the analysis
+    angles. Without a ``level`` level in the index: the peak over all outputs.
+
+    Parameters
+    ----------
+    Y : ndarray, shape (n, n_out)
+        Outputs, one row per sample.
+    index : pandas.Index
+        The outputs' labels.
+    level : str, default "quantity"
+        The index level grouping the outputs.
+
+    Returns
+    -------
+    Y_reduced : ndarray, shape (n, n_groups)
+        The peak |error| per group.
+    index : pandas.Index
+        Its labels, ``peak_abs_QUANTITY`` (``peak_abs`` without groups).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import pandas as pd
+    >>> from mechrel.uq import peak_abs
+    >>> idx = pd.MultiIndex.from_tuples([("velocity", 0.0), ("velocity", 90.0)],
+    ...                                 names=["quantity", "crank_angle"])
+    >>> Y, labels = peak_abs(np.array([[0.1, -0.3], [0.2, 0.1]]), idx)
+    >>> Y.tolist(), list(labels)
+    ([[0.3], [0.2]], ['peak_abs_velocity'])
+    """
     from ..problem.allowables import per_angle_mask, whole_cycle_column
 
     if isinstance(index, pd.MultiIndex) and level in index.names:
@@ -135,6 +164,27 @@ def sobol_design(inputs: UncertainInputs, *, n: int, calc_second_order: bool = F
 @dataclass(frozen=True, eq=False)
 class SobolResult:
     """Sobol' indices (frozen). DataFrames are outputs × inputs; ``*_conf`` are CI half-widths.
+
+    Parameters
+    ----------
+    first, first_conf : DataFrame
+        First-order indices S1 and their confidence half-widths.
+    total, total_conf : DataFrame
+        Total-order indices ST and their confidence half-widths.
+    second : dict or None
+        Second-order indices per output (when computed).
+    n_base : int
+        Saltelli base samples N (N (d + 2) model runs, N (2d + 2) with second order).
+    n_blocks_used, n_blocks_dropped : int
+        Saltelli blocks analysed, and dropped because a sample of theirs failed.
+    failure_counts : dict
+        ``{reason: count}`` of the failed samples.
+    evaluations : Evaluations
+        The model runs.
+    provenance : dict
+        How the result was made.
+    warnings : tuple of str
+        Caveats of the estimate.
 
     Examples
     --------

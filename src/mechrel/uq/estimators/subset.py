@@ -57,10 +57,29 @@ PROPOSALS = ("conditional", "modified_metropolis")
 class SubsetSimulationResult(RareEventResult):
     """Subset-simulation result (frozen).
 
-    ``table`` (one row): ``pf``, ``beta`` (−Φ⁻¹(pf)), ``cov`` (Au–Beck δ), ``pf_lo``,
-    ``pf_hi``, ``n_levels``, ``n_failed_model``, ``n_evaluations``. ``levels`` (one row per
-    level): ``threshold`` b_i, ``p`` (conditional probability), ``gamma``, ``cov``,
-    ``acceptance`` (of the chains grown at that level), ``n_evaluations``.
+    Parameters
+    ----------
+    table : DataFrame
+        One row: ``pf``, ``beta`` (−Φ⁻¹(pf)), ``cov`` (Au–Beck δ), ``pf_lo``, ``pf_hi``,
+        ``n_levels``, ``n_failed_model``, ``n_evaluations``.
+    levels : DataFrame
+        One row per level: ``threshold`` b_i, ``p`` (conditional probability), ``gamma``, ``cov``,
+        ``acceptance`` (of the chains grown at that level), ``n_evaluations``.
+    evaluations : Evaluations or None
+        Every model row.
+    provenance : dict
+        How the result was made.
+
+    Examples
+    --------
+    >>> from mechrel.uq import FunctionModel, Normal, UncertainInputs
+    >>> inputs = UncertainInputs.from_specs({"x1": Normal(0.0, 1.0), "x2": Normal(0.0, 1.0)})
+    >>> margin = FunctionModel(lambda X: 3.0 * 2**0.5 - X[:, 0] - X[:, 1], ["x1", "x2"], ["g"],
+    ...                        vectorized=True)
+    >>> from mechrel.uq import subset_simulation
+    >>> r = subset_simulation(model=margin, inputs=inputs, n_per_level=200, seed=2)
+    >>> list(r.levels.columns)[:3], r.n_evaluations == int(r.levels["n_evaluations"].sum())
+    (['threshold', 'p', 'gamma'], True)
     """
 
     table: pd.DataFrame
@@ -110,12 +129,51 @@ def subset_simulation(
 ) -> SubsetSimulationResult:
     """P_f by subset simulation (module docstring).
 
-    ``n_per_level`` N (N·p₀ and 1/p₀ must be integers), ``p0`` the level probability,
-    ``proposal`` ``"conditional"`` (correlation ``rho``) or ``"modified_metropolis"``
-    (proposal std ``spread``), ``max_levels`` (P_f ≥ p₀^max_levels is resolvable).
-    ``failures``: a sample the model cannot evaluate is dropped at level 0 and rejected in a
-    chain (``"exclude"``: the chain stays where it is), or counted as a failure of the limit
-    state (``"as_failure"``). Total failures above ``max_failure_fraction`` are an error.
+    Parameters
+    ----------
+    model, inputs, limit_state
+        The model, its uncertain inputs and the limit state (default: the model's only output is
+        the margin g; failure g ≤ 0).
+    seed
+        Seed of the samples (each level draws from its own child stream).
+    n_per_level : int, default 1000
+        Samples per level N (N·p₀ and 1/p₀ must be integers).
+    p0 : float, default 0.1
+        The conditional probability of each level.
+    proposal : {"conditional", "modified_metropolis"}, default "conditional"
+        Conditional sampling (correlation ``rho``) or the modified Metropolis algorithm
+        (proposal standard deviation ``spread``).
+    rho : float, default 0.8
+        Correlation of the conditional sampler, in [0, 1).
+    spread : float, default 1.0
+        Proposal standard deviation of the modified Metropolis algorithm.
+    max_levels : int, default 20
+        Level limit (P_f ≥ p₀^max_levels is resolvable).
+    confidence_level : float, default 0.95
+        Level of the interval on P_f (from the Au–Beck c.o.v.).
+    failures : {"exclude", "as_failure"}, default "exclude"
+        A sample the model cannot evaluate is dropped at level 0 and rejected in a chain (the chain
+        stays where it is), or counted as a failure of the limit state.
+    max_failure_fraction : float, default 0.1
+        More failed samples in total than this fraction is an error.
+    n_jobs, backend, cache, progress, chunk_size
+        Passed to :func:`mechrel.uq.evaluate`.
+
+    Returns
+    -------
+    SubsetSimulationResult
+
+    Examples
+    --------
+    >>> from mechrel.uq import FunctionModel, Normal, UncertainInputs
+    >>> inputs = UncertainInputs.from_specs({"x1": Normal(0.0, 1.0), "x2": Normal(0.0, 1.0)})
+    >>> margin = FunctionModel(lambda X: 3.0 * 2**0.5 - X[:, 0] - X[:, 1], ["x1", "x2"], ["g"],
+    ...                        vectorized=True)
+    >>> from scipy.special import ndtr
+    >>> from mechrel.uq import subset_simulation
+    >>> r = subset_simulation(model=margin, inputs=inputs, n_per_level=500, seed=1)
+    >>> bool(abs(r.pf - ndtr(-3.0)) <= 3 * r.cov * r.pf), len(r.levels)
+    (True, 3)
     """
     N = check_positive("n_per_level", n_per_level, integer=True, minimum=1)
     p0 = ARGS.fraction("p0", p0, open_lo=True, open_hi=True)

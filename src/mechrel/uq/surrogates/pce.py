@@ -264,10 +264,41 @@ def pce_design(
 
 @dataclass(frozen=True, eq=False)
 class PCEResult:
-    """A fitted polynomial chaos expansion (frozen). ``coefficients`` is (P, n_out).
+    """A fitted polynomial chaos expansion (frozen).
 
-    ``warnings``: outputs whose leave-one-out error exceeds :data:`LOO_THRESHOLD` (also issued
-    as :class:`~mechrel.errors.EstimateWarning`, and carried by :meth:`reliability`'s result).
+    Parameters
+    ----------
+    coefficients : ndarray, shape (P, n_out)
+        The expansion's coefficients.
+    multi_indices : ndarray, shape (P, d)
+        The polynomial degrees of each term.
+    order : int
+        Total order of the expansion.
+    method : str
+        How the coefficients were fitted (``"regression"``).
+    germ : str
+        The germ the polynomials are orthogonal for (``"inputs"``: the inputs' own marginals;
+        or the standard normal space of correlated inputs).
+    inputs : UncertainInputs
+        The inputs the expansion is of.
+    output_index : pandas.Index
+        The outputs' labels.
+    mean, std : Series
+        Mean and standard deviation of each output, from the coefficients.
+    sobol_first, sobol_total : DataFrame or None
+        First- and total-order Sobol' indices from the coefficients (independent inputs only).
+    loo_error, validation_error : Series or None
+        Leave-one-out error and the error on a validation sample, relative to each output's
+        variance.
+    evaluations : Evaluations
+        The training runs.
+    provenance : dict
+        How the result was made.
+    _recurrence : tuple, default ()
+        Internal: the orthogonal polynomials' recurrence coefficients (for :meth:`predict`).
+    warnings : tuple of str, default ()
+        Outputs whose leave-one-out error exceeds :data:`LOO_THRESHOLD` (also issued as
+        :class:`~mechrel.errors.EstimateWarning`, and carried by :meth:`reliability`'s result).
 
     Examples
     --------
