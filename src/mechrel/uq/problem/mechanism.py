@@ -96,6 +96,16 @@ class MechanismModel:
     extremes : bool
         Append the cycle extremes of each quantity to the outputs (default). Without them
         the outputs are the analysis angles only and whole-cycle estimates fall back on them.
+
+    Examples
+    --------
+    Building the model loads the scene; nothing is simulated until it is evaluated:
+
+    >>> from mechrel.uq import MechanismModel
+    >>> m = MechanismModel("slider-crank-lubricated", {"clearance": ["joints.C.clearance"]},
+    ...                    quantities=["velocity"], angle_step=90.0)
+    >>> m.input_names, list(m.output_index)[:3]
+    (('clearance',), [('velocity', 0.0), ('velocity', 90.0), ('velocity', 180.0)])
     """
 
     def __init__(self, scene, inputs: Sequence[str], *, output: str | None = None,
