@@ -165,3 +165,29 @@ def test_a_registered_methods_settings_are_checked_in_the_study_file(crude):
     raw["crude"] = {"m": 3}
     with pytest.raises(StudyError, match=r"crude"):
         load_study(raw)
+
+
+def test_every_registered_estimator_returns_a_result_with_its_evaluation_count():
+    # one interface: keyword-only calls, and a result with .to_frame(), .provenance,
+    # .warnings and .n_evaluations (the rows its model evaluations sent to the executor)
+    from mechrel.uq import METHODS, Allowable, FunctionModel, LimitState, Normal, UncertainInputs
+    from mechrel.uq.estimators.protocols import Result
+
+    inputs = UncertainInputs.from_specs({"x1": Normal(0.0, 1.0), "x2": Normal(0.0, 1.0)})
+    model = FunctionModel(lambda X: 2.0 - X[:, 0] - 0.5 * X[:, 1], ["x1", "x2"], ["g"],
+                          vectorized=True)
+    calls = {"fosm": {"allowable": Allowable(1.0, 0.0)},
+             "monte_carlo": {"n": 64, "allowable": Allowable(1.0, 0.0)},
+             "polynomial_chaos": {"order": 1},
+             "sobol_indices": {"n": 64},
+             "form": {}, "sorm": {}, "importance_sampling": {"n": 100},
+             "subset_simulation": {"n_per_level": 100}}
+    assert set(calls) <= set(METHODS)
+    for name, settings in calls.items():
+        r = METHODS[name](model=model, inputs=inputs, seed=1, progress=False, **settings)
+        assert isinstance(r, Result), name
+        assert r.n_evaluations == r.evaluations.n, name
+        assert isinstance(r.to_frame(), pd.DataFrame) and isinstance(r.warnings, tuple), name
+    r = METHODS["monte_carlo"](model=model, inputs=inputs, seed=1, progress=False, n=64,
+                               limit_state=LimitState.margin())
+    assert isinstance(r, Result) and r.n_evaluations == 64

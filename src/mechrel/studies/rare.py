@@ -81,9 +81,9 @@ def estimate_one(ctx, method):
             if isinstance(exc, SampleFailuresError):
                 raise
             raise StudyError(f"{ctx.study.source}: {key} ({method.name}): {exc}") from exc
-    for w in caught:
+    for w in caught:  # those the result carries are in the summary through its .warnings
         text = f"{key}: {w.message}"
-        if text not in ctx.notes:
+        if str(w.message) not in r.warnings and text not in ctx.notes:
             ctx.notes.append(text)
     if r.pf == 0.0 or r.pf == 1.0:
         ctx.notes.append(f"{key}: P_f = {r.pf:g}: the limit state is "
@@ -101,7 +101,8 @@ def estimate(study, model, inputs, keys, *, seed, common, max_failure_fraction=N
     results : dict
         ``{key: result}``.
     notes : list of str
-        The warnings the estimators raised, each prefixed with the method.
+        The warnings of the estimates (their ``.warnings`` and any other the estimators
+        raised), each prefixed with the method.
     """
     from .presenters import Context
 
@@ -115,7 +116,8 @@ def estimate(study, model, inputs, keys, *, seed, common, max_failure_fraction=N
     methods = rare_event_methods()
     for key in keys:
         estimate_one(ctx, methods[key])
-    return ctx.results, ctx.notes
+    carried = [f"{k}: {w}" for k, r in ctx.results.items() for w in r.warnings]
+    return ctx.results, carried + ctx.notes
 
 
 def table(results) -> pd.DataFrame:

@@ -1,22 +1,30 @@
-"""Reliability estimators for rare events, and the one table of every ``mechrel.uq`` method.
+"""The estimators of ``mechrel.uq``, one module each, and the one table of them (:data:`METHODS`).
 
-Methods (one module each): :func:`form` (``form.py``), :func:`sorm` (``sorm.py``),
-:func:`importance_sampling` (``importance.py``), :func:`subset_simulation` (``subset.py``);
-limit states in ``limit_state.py``. They share one keyword-only interface::
+Methods: :func:`~mechrel.uq.fosm` (``fosm.py``), :func:`~mechrel.uq.monte_carlo`
+(``monte_carlo.py``), :func:`~mechrel.uq.sobol_indices` (``sobol.py``),
+:func:`~mechrel.uq.normality_check` (``normality.py``), :func:`~mechrel.uq.form` (``form.py``),
+:func:`~mechrel.uq.sorm` (``sorm.py``), :func:`~mechrel.uq.importance_sampling`
+(``importance.py``), :func:`~mechrel.uq.subset_simulation` (``subset.py``); the polynomial
+chaos is in ``mechrel.uq.surrogates``, the limit states in ``mechrel.uq.problem``. They share
+one keyword-only interface::
 
-    method(model=, inputs=, limit_state=, seed=, <settings>, n_jobs=, backend=, cache=, progress=)
+    method(model=, inputs=, allowable=, event= | limit_state=, seed=, <settings>,
+           n_jobs=, backend=, cache=, progress=, chunk_size=)
 
-and return frozen results with ``.table``/``.to_frame()``, ``.pf``, ``.beta``,
-``.n_evaluations``, ``.evaluations`` and ``.provenance``.
+and return frozen results with ``.to_frame()``, ``.provenance``, ``.warnings`` and
+``.n_evaluations`` (:class:`~mechrel.uq.estimators.protocols.Result`). The public names are
+imported from :mod:`mechrel.uq`.
 
 The registry
 ------------
 :data:`METHODS` maps a method's name to a :class:`Method`: the estimator and its result type
-(imported lazily, as ``"module:attribute"`` under ``mechrel.uq``), its settings with defaults and
-checks, and its kind. The older estimators (``fosm``, ``monte_carlo``, ``polynomial_chaos``,
-``sobol_indices``) are listed by reference, their settings read from their signatures (their
-own argument checks apply). Adding a method is one module plus one :func:`register` call (or
-one entry below); ``docs/uq.md`` ("How to add a method") shows it.
+(imported lazily, as ``"module:attribute"`` under ``mechrel.uq``, or the objects themselves),
+its settings with defaults and checks, and its kind. The older estimators (``fosm``,
+``monte_carlo``, ``polynomial_chaos``, ``sobol_indices``) are listed by reference, their
+settings read from their signatures (their own argument checks apply). Adding a method is one
+module plus one :func:`register` call (or one entry below); the study runner and the command
+line then offer it (:mod:`mechrel.studies.presenters`); ``docs/uq.md`` ("How to add a method")
+shows it.
 """
 
 from __future__ import annotations

@@ -103,6 +103,8 @@ class FORMResult(RareEventResult):
         Every model row of the search.
     provenance : dict
         How the result was made (with the limit state's description).
+    warnings : tuple of str, default ()
+        Caveats of the estimate (FORM issues none: a search that fails raises :class:`FORMConvergenceError`).
 
     Examples
     --------
@@ -124,6 +126,7 @@ class FORMResult(RareEventResult):
     g_star: float
     evaluations: Evaluations | None
     provenance: dict = field(repr=False)
+    warnings: tuple[str, ...] = ()
 
     @property
     def alpha(self) -> pd.Series:

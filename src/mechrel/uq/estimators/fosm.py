@@ -234,6 +234,7 @@ def fosm(
     evaluations: Evaluations | None = None,
     allowable: Any = None,
     event: str = "two-sided",
+    seed: Any = None,
     step: Any = "auto",
     noise: float | None = None,
     n_jobs: int = 1,
@@ -268,6 +269,8 @@ def fosm(
         ``{quantity: Allowable}``.
     event : {"two-sided", "one-sided"}, default "two-sided"
         The safe event: P(|i| < I) (two-sided) or the paper's P(i < I) on the signed error.
+    seed : optional
+        Unused (FOSM draws nothing); accepted so that every estimator shares one interface.
     step : "auto" or float or array, default "auto"
         Central-difference steps h_j in the inputs' units; "auto" balances truncation against
         ``noise`` (:func:`fd_steps`).

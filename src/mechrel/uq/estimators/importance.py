@@ -53,6 +53,8 @@ class ImportanceSamplingResult(RareEventResult):
         Every model row (FORM's included).
     provenance : dict
         How the result was made.
+    warnings : tuple of str, default ()
+        Caveats of the estimate (none are issued today; a run without a failing sample raises).
 
     Examples
     --------
@@ -71,6 +73,7 @@ class ImportanceSamplingResult(RareEventResult):
     failure_counts: dict
     evaluations: Evaluations | None
     provenance: dict = field(repr=False)
+    warnings: tuple[str, ...] = ()
 
     @property
     def cov(self) -> float:

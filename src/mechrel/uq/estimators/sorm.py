@@ -68,6 +68,8 @@ class SORMResult(RareEventResult):
         Every model row (FORM's included).
     provenance : dict
         How the result was made.
+    warnings : tuple of str, default ()
+        Caveats of the estimate (none are issued today).
 
     Examples
     --------
@@ -87,6 +89,7 @@ class SORMResult(RareEventResult):
     formula: str
     evaluations: Evaluations | None
     provenance: dict = field(repr=False)
+    warnings: tuple[str, ...] = ()
 
 
 def sorm_probabilities(beta: float, kappa: Any) -> dict:

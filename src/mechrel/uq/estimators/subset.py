@@ -31,7 +31,6 @@ the executor only evaluates rows, so the result is identical for any ``n_jobs``.
 from __future__ import annotations
 
 import math
-import warnings
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -42,7 +41,7 @@ from scipy import special, stats
 from mechrel.errors import StudyError
 
 from ..._checks import ARGS
-from .._common import SampleFailuresError
+from .._common import SampleFailuresError, emit_warnings
 from ..execution.executor import Evaluations
 from ..problem.inputs import as_seed_sequence, child_seed, seed_record
 from ._problem import Problem, RareEventResult, common_settings
@@ -69,6 +68,8 @@ class SubsetSimulationResult(RareEventResult):
         Every model row.
     provenance : dict
         How the result was made.
+    warnings : tuple of str, default ()
+        Caveats of the estimate, also issued as :class:`~mechrel.errors.EstimateWarning`: a level-0 fraction of failures ≥ p0 (not a rare event), no failing sample at the last level (P_f = 0).
 
     Examples
     --------
@@ -86,6 +87,7 @@ class SubsetSimulationResult(RareEventResult):
     levels: pd.DataFrame
     evaluations: Evaluations | None
     provenance: dict = field(repr=False)
+    warnings: tuple[str, ...] = ()
 
     @property
     def cov(self) -> float:
@@ -287,12 +289,14 @@ def subset_simulation(
         gamma = _gamma((CG <= max(b2, 0.0)).astype(float), p_next)
     tab = pd.DataFrame(levels, columns=["level", "threshold", "p", "gamma", "cov", "acceptance", "n_evaluations"]
                        ).set_index("level")
+    notes = []
     if len(levels) == 1:
-        warnings.warn(f"subset_simulation: {pf:.3g} of the level-0 samples fail (≥ p0 = {p0}): not a rare event, "
-                      "the result is crude Monte Carlo on n_per_level samples", stacklevel=2)
+        notes.append(f"subset_simulation: {pf:.3g} of the level-0 samples fail (≥ p0 = {p0}): not a rare event, "
+                     "the result is crude Monte Carlo on n_per_level samples")
     if pf == 0:
-        warnings.warn("subset_simulation: no sample of the last level failed; P_f is estimated as 0 "
-                      "(below the resolution of this run): increase n_per_level", stacklevel=2)
+        notes.append("subset_simulation: no sample of the last level failed; P_f is estimated as 0 "
+                     "(below the resolution of this run): increase n_per_level")
+    caveats = emit_warnings(notes, stacklevel=3)
     delta = math.sqrt(delta2)
     z = float(stats.norm.ppf(0.5 + confidence_level / 2))
     table = pd.DataFrame({"pf": [pf], "beta": [float(-special.ndtri(pf)) if pf > 0 else np.inf], "cov": [delta],
@@ -306,4 +310,4 @@ def subset_simulation(
                                         "confidence_level": confidence_level, "failures": failures,
                                         "max_failure_fraction": max_failure_fraction,
                                         "cov": "Au & Beck (2001), levels treated as uncorrelated"})
-    return SubsetSimulationResult(table, tab, problem.all_evaluations(), prov)
+    return SubsetSimulationResult(table, tab, problem.all_evaluations(), prov, caveats)
