@@ -191,3 +191,18 @@ def test_every_registered_estimator_returns_a_result_with_its_evaluation_count()
     r = METHODS["monte_carlo"](model=model, inputs=inputs, seed=1, progress=False, n=64,
                                limit_state=LimitState.margin())
     assert isinstance(r, Result) and r.n_evaluations == 64
+
+
+@pytest.mark.parametrize("name", ["form", "sorm", "importance_sampling", "subset_simulation"])
+def test_the_rare_event_methods_refuse_precomputed_evaluations(name):
+    # the shared interface has evaluations=; a method that chooses its points as it goes says
+    # why it cannot use them instead of a TypeError
+    from mechrel.uq import METHODS, Normal, UncertainInputs, evaluate, linear_model
+
+    inputs = UncertainInputs.from_specs({"x": Normal(0.0, 1.0)})
+    model = linear_model([3.0], [[-1.0]], ["x"])
+    ev = evaluate(model, np.zeros((2, 1)), progress=False)
+    with pytest.raises(StudyError, match=rf"^{name}: evaluations = Evaluations: precomputed "
+                                         r"evaluations cannot be used, the method chooses its "
+                                         r"points as it goes; allowed: model= and inputs="):
+        METHODS[name](model=model, inputs=inputs, evaluations=ev)

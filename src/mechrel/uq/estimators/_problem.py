@@ -22,6 +22,15 @@ from ..problem.limit_state import LimitState
 FAILURE_MODES = ("exclude", "as_failure")
 
 
+def refuse_evaluations(evaluations: Any, what: str) -> None:
+    """The rare-event methods choose their points as they go (FORM's search, the samples
+    around the design point, the subset levels): precomputed ``evaluations=`` are an error."""
+    if evaluations is not None:
+        raise StudyError(f"{what}: evaluations = {type(evaluations).__name__}: precomputed evaluations "
+                         "cannot be used, the method chooses its points as it goes; allowed: model= and "
+                         "inputs= (with cache=, a rerun evaluates nothing)")
+
+
 def common_settings(*, failures: str, max_failure_fraction: float) -> None:
     ARGS.choice("failures", failures, FAILURE_MODES)
     ARGS.fraction("max_failure_fraction", max_failure_fraction)

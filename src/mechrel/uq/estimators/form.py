@@ -42,7 +42,7 @@ from mechrel.errors import StudyError
 
 from ..execution.executor import Evaluations
 from ..problem.inputs import seed_record
-from ._problem import Problem, RareEventResult
+from ._problem import Problem, RareEventResult, refuse_evaluations
 
 __all__ = ["form", "FORMResult", "FORMConvergenceError", "design_point_search"]
 
@@ -238,6 +238,7 @@ def form(
     *,
     model: Any,
     inputs: Any,
+    evaluations: Any = None,
     limit_state: Any = None,
     seed: Any = None,
     step: float = 1e-4,
@@ -259,6 +260,9 @@ def form(
     model, inputs, limit_state
         The model, its uncertain inputs and the limit state (default: the model's only output is
         the margin g; failure g ≤ 0).
+    evaluations : None
+        Precomputed evaluations cannot be used (the method chooses its points as it goes);
+        anything but None is an error. Accepted so that every estimator shares one interface.
     seed
         Unused (FORM draws nothing); accepted so that every estimator shares one interface.
     step, scheme
@@ -295,6 +299,7 @@ def form(
     >>> round(r.beta, 8), r.design_point["importance"].round(6).tolist()
     (3.0, [0.5, 0.5])
     """
+    refuse_evaluations(evaluations, "form")
     problem = Problem(model=model, inputs=inputs, limit_state=limit_state, n_jobs=n_jobs, backend=backend,
                       cache=cache, progress=progress, chunk_size=chunk_size, what="form")
     return _form(problem, seed=seed, step=step, scheme=scheme, tol=tol, tol_direction=tol_direction,

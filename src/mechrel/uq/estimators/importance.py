@@ -29,7 +29,7 @@ from ..._checks import ARGS
 from .._common import SampleFailuresError
 from ..execution.executor import Evaluations
 from ..problem.inputs import as_seed_sequence, child_seed, seed_record
-from ._problem import Problem, RareEventResult, common_settings, concat_evaluations
+from ._problem import Problem, RareEventResult, common_settings, concat_evaluations, refuse_evaluations
 from .form import FORMResult, _form, check_positive
 
 __all__ = ["importance_sampling", "ImportanceSamplingResult"]
@@ -84,6 +84,7 @@ def importance_sampling(
     *,
     model: Any,
     inputs: Any,
+    evaluations: Any = None,
     limit_state: Any = None,
     seed: Any = None,
     n: int = 1000,
@@ -108,6 +109,9 @@ def importance_sampling(
     model, inputs, limit_state
         The model, its uncertain inputs and the limit state (default: the model's only output is
         the margin g; failure g ≤ 0).
+    evaluations : None
+        Precomputed evaluations cannot be used (the method chooses its points as it goes);
+        anything but None is an error. Accepted so that every estimator shares one interface.
     seed
         Seed of the samples (drawn from its first child stream).
     n : int, default 1000
@@ -143,6 +147,7 @@ def importance_sampling(
     >>> bool(abs(r.pf - ndtr(-3.0)) <= 3 * r.cov * r.pf)   # within 3 of its c.o.v.
     True
     """
+    refuse_evaluations(evaluations, "importance_sampling")
     n = check_positive("n", n, integer=True, minimum=1)
     ARGS.fraction("confidence_level", confidence_level, open_lo=True, open_hi=True)
     common_settings(failures=failures, max_failure_fraction=max_failure_fraction)

@@ -41,7 +41,7 @@ from mechrel.errors import StudyError
 from ..._checks import ARGS
 from ..execution.executor import Evaluations
 from ..problem.inputs import seed_record
-from ._problem import Problem, RareEventResult, concat_evaluations
+from ._problem import Problem, RareEventResult, concat_evaluations, refuse_evaluations
 from .form import FORMResult, _form, check_positive
 
 __all__ = ["sorm", "SORMResult", "sorm_probabilities", "FORMULAS"]
@@ -160,6 +160,7 @@ def sorm(
     *,
     model: Any,
     inputs: Any,
+    evaluations: Any = None,
     limit_state: Any = None,
     seed: Any = None,
     design_point: FORMResult | None = None,
@@ -182,6 +183,9 @@ def sorm(
     model, inputs, limit_state
         The model, its uncertain inputs and the limit state (default: the model's only output is
         the margin g; failure g ≤ 0).
+    evaluations : None
+        Precomputed evaluations cannot be used (the method chooses its points as it goes);
+        anything but None is an error. Accepted so that every estimator shares one interface.
     seed
         Unused (SORM draws nothing); accepted so that every estimator shares one interface.
     design_point : FORMResult, optional
@@ -217,6 +221,7 @@ def sorm(
     >>> round(float(r.pf / (ndtr(-3.0) / (1 + 3 * 0.2) ** 0.5)), 4)
     1.0
     """
+    refuse_evaluations(evaluations, "sorm")
     ARGS.choice("formula", formula, FORMULAS)
     curvature_step = check_positive("curvature_step", curvature_step)
     problem = Problem(model=model, inputs=inputs, limit_state=limit_state, n_jobs=n_jobs, backend=backend,

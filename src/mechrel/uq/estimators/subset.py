@@ -44,7 +44,7 @@ from ..._checks import ARGS
 from .._common import SampleFailuresError, emit_warnings
 from ..execution.executor import Evaluations
 from ..problem.inputs import as_seed_sequence, child_seed, seed_record
-from ._problem import Problem, RareEventResult, common_settings
+from ._problem import Problem, RareEventResult, common_settings, refuse_evaluations
 from .form import check_positive
 
 __all__ = ["subset_simulation", "SubsetSimulationResult", "PROPOSALS"]
@@ -112,6 +112,7 @@ def subset_simulation(
     *,
     model: Any,
     inputs: Any,
+    evaluations: Any = None,
     limit_state: Any = None,
     seed: Any = None,
     n_per_level: int = 1000,
@@ -136,6 +137,9 @@ def subset_simulation(
     model, inputs, limit_state
         The model, its uncertain inputs and the limit state (default: the model's only output is
         the margin g; failure g ≤ 0).
+    evaluations : None
+        Precomputed evaluations cannot be used (the method chooses its points as it goes);
+        anything but None is an error. Accepted so that every estimator shares one interface.
     seed
         Seed of the samples (each level draws from its own child stream).
     n_per_level : int, default 1000
@@ -177,6 +181,7 @@ def subset_simulation(
     >>> bool(abs(r.pf - ndtr(-3.0)) <= 3 * r.cov * r.pf), len(r.levels)
     (True, 3)
     """
+    refuse_evaluations(evaluations, "subset_simulation")
     N = check_positive("n_per_level", n_per_level, integer=True, minimum=1)
     p0 = ARGS.fraction("p0", p0, open_lo=True, open_hi=True)
     nc = N * p0
