@@ -155,6 +155,28 @@ def test_a_method_of_a_new_kind_gets_its_table_written(study_file, tmp_path):
     assert "  crude_table: 64 model evaluations, table in crude_table.csv" in lines
 
 
+def test_a_per_angle_method_joins_the_reliability_table(study_file, tmp_path):
+    # Monte Carlo's function registered once more as a "reliability" method with its own n:
+    # called with the study's allowables and event, its table joins reliability.csv under its
+    # key, and it equals Monte Carlo's own columns (same function, seed and samples)
+    from mechrel.uq import MonteCarloResult, monte_carlo
+
+    register(Method("mc_copy", monte_carlo, MonteCarloResult, "reliability", "a copy",
+                    {"n": Setting(16, _count), "rule": Setting("sobol")}))
+    try:
+        study = load_study(str(study_file), overrides={"reliability.methods": ["mc", "mc_copy"],
+                                                       "reliability.n": 16})
+        lines, results = run_reliability(study, n_jobs=1, out=tmp_path / "o", progress=False)
+    finally:
+        _METHODS.pop("mc_copy")
+    table = pd.read_csv(tmp_path / "o" / "reliability.csv")
+    mine = table[[c for c in table.columns if c.startswith("mc_copy.")]]
+    theirs = table[[c for c in table.columns if c.startswith("mc.")]]
+    assert mine.shape[1] > 0
+    assert np.array_equal(mine.to_numpy(), theirs.to_numpy(), equal_nan=True)
+    assert any("mc_copy min R" in line for line in lines)
+
+
 def test_a_registered_methods_settings_are_checked_in_the_study_file(crude):
     raw = {"scene": "slider-crank-lubricated", "inputs": {"clearance": {
         "paths": ["joints.C.clearance"], "distribution": "normal", "mean": 0.5e-3,

@@ -14,8 +14,8 @@ A new method needs no presenter when the one of its kind fits:
     Called with ``limit_state=`` (the study's whole-cycle limit state, :mod:`.rare`): one row
     of ``rare_events.csv`` and of the summary.
 ``"reliability"`` (:class:`PerAngle`)
-    Called with ``allowable=`` and ``event=``: its ``.to_frame()`` joins ``reliability.csv``
-    with the method's key as column prefix.
+    Called with ``allowable=`` and ``event=`` (the study's allowables and event): its
+    ``.to_frame()`` joins ``reliability.csv`` with the method's key as column prefix.
 any other kind (:class:`Generic`)
     Called with whichever of ``limit_state=`` / ``allowable=`` its signature takes; its
     ``.to_frame()`` is written to ``KEY.csv``.
@@ -410,18 +410,26 @@ class RareEvents(Presenter):
         return written
 
 
-def _failure_definition(ctx, method) -> dict:
-    """``limit_state=`` (the study's whole cycle) or ``allowable=``/``event=``, by what the
-    estimator's signature takes."""
+def _run_on_study(ctx, method, prefer):
+    """Run ``method`` on the study: its failure definition by what its signature takes
+    (``prefer`` = ``"limit_state"``: the study's whole-cycle limit state before
+    ``allowable=``/``event=``; ``"allowable"``: the other way round), ``seed=`` when it takes
+    one, and its settings from the study file."""
     params = inspect.signature(method.function).parameters
-    if "limit_state" in params:
+    order = ("limit_state", "allowable")[:: 1 if prefer == "limit_state" else -1]
+    takes = [arg for arg in order if arg in params]
+    failure: dict = {}
+    if takes and takes[0] == "limit_state":
         from .rare import whole_cycle_limit_state
+
         if "limit_state" not in ctx.shared:
             ctx.shared["limit_state"] = whole_cycle_limit_state(ctx.study, ctx.model)
-        return {"limit_state": ctx.shared["limit_state"]}
-    if "allowable" in params:
-        return {"allowable": ctx.allowables, "event": ctx.event}
-    return {}
+        failure = {"limit_state": ctx.shared["limit_state"]}
+    elif takes:
+        failure = {"allowable": ctx.allowables, "event": ctx.event}
+    seed = {"seed": ctx.seed} if "seed" in params else {}
+    ctx.estimate(method.key, method.function, model=ctx.model, inputs=ctx.inputs, **failure,
+                 **seed, **ctx.settings(method), **ctx.common)
 
 
 class PerAngle(Presenter):
@@ -430,11 +438,7 @@ class PerAngle(Presenter):
 
     def run(self, ctx, method):
         self.keys.append(method.key)
-        params = inspect.signature(method.function).parameters
-        seed = {"seed": ctx.seed} if "seed" in params else {}
-        ctx.estimate(method.key, method.function, model=ctx.model, inputs=ctx.inputs,
-                     **_failure_definition(ctx, method), **seed, **ctx.settings(method),
-                     **ctx.common)
+        _run_on_study(ctx, method, prefer="allowable")
 
     def frames(self, ctx):
         return [ctx.results[k].to_frame().add_prefix(f"{k}.") for k in self.keys]
@@ -452,7 +456,8 @@ class Generic(Presenter):
     its ``.to_frame()`` written to ``KEY.csv``, its cost in the summary."""
 
     def run(self, ctx, method):
-        PerAngle.run(self, ctx, method)
+        self.keys.append(method.key)
+        _run_on_study(ctx, method, prefer="limit_state")
 
     def tail_lines(self, ctx):
         return [f"  {k}: {ctx.results[k].n_evaluations} model evaluations, table in {k}.csv"

@@ -310,14 +310,16 @@ def run_reliability(study, *, methods=None, n=None, n_jobs=1, seed=None, out=Non
         written = []
         if table is not None:
             write_table(table.reset_index(), out / "reliability.csv")
+            written.append("reliability.csv")
+        plotted = [r for p in ctx.presenters for r in p.plotted(ctx)]
+        if plotted:
             from ..uq.plots import plot_reliability
             _agg()
 
-            plotted = [r for p in ctx.presenters for r in p.plotted(ctx)]
             _save(plot_reliability(*plotted, title=f"{study.name}: reliability per crank "
                                                    f"angle ({event})"),
                   out / "reliability.png")
-            written += ["reliability.csv", "reliability.png"]
+            written.append("reliability.png")
         for p in ctx.presenters:
             written += p.write(ctx, out)
         _remove_stale(out, [f for f in reliability_results() if f not in written])
