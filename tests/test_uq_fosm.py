@@ -218,3 +218,39 @@ def test_results_are_frozen():
     with pytest.raises(ValueError):
         res.evaluations.Y[0, 0] = 1.0
     assert isinstance(res.evaluations, Evaluations)
+
+
+def test_fosm_on_a_limit_state_is_exact_for_a_linear_margin_of_normals():
+    # the exceedance y > I of y = a·x + c, x correlated normal, I ~ N(μ_I, σ_I²) a random
+    # allowable (an input of g too): g = I − y, so β = (μ_I − c − a·μ)/sqrt(aᵀΣa + σ_I²)
+    # exactly; central differences of a linear g are exact to round-off (asserted to 1e-9).
+    from mechrel.uq import FOSMPfResult, LimitState
+
+    inputs = UncertainInputs.from_specs({"x1": Normal(1.0, 0.3), "x2": Normal(-0.5, 0.2)},
+                                        correlation={("x1", "x2"): 0.4})
+    a, c = np.array([2.0, -1.0]), 0.25
+    model = FunctionModel(lambda X: X @ a + c, ["x1", "x2"], ["y"], vectorized=True)
+    ls = LimitState.exceedance(["y"], Normal(4.0, 0.5), kind="upper", name="y > I")
+    r = fosm(model=model, inputs=inputs, limit_state=ls, progress=False)
+    var = a @ inputs.covariance @ a + 0.5**2
+    beta = (4.0 - c - a @ inputs.mean) / math.sqrt(var)
+    assert isinstance(r, FOSMPfResult)
+    assert r.beta == pytest.approx(beta, rel=1e-9)
+    assert r.pf == pytest.approx(special.ndtr(-beta), rel=1e-8)
+    assert r.n_evaluations == 2 * 3 + 1  # the allowable is a point of the stencil too
+    assert r.gradient.to_numpy() == pytest.approx([-2.0, 1.0, 1.0], rel=1e-9)
+
+
+def test_fosm_refuses_a_limit_state_with_allowables_or_evaluations():
+    from mechrel.uq import LimitState
+
+    inputs = UncertainInputs.from_specs({"x": Normal(0.0, 1.0)})
+    model = linear_model([0.0], [[1.0]], ["x"])
+    with pytest.raises(StudyError, match=r"^fosm: allowable= and limit_state= are both given; "
+                                         r"allowed: one of them"):
+        fosm(model=model, inputs=inputs, limit_state=LimitState.margin(),
+             allowable=Allowable(1.0, 0.0), progress=False)
+    ev = evaluate(model, fosm_design(inputs), progress=False)
+    with pytest.raises(StudyError, match=r"^fosm: limit_state= with evaluations=.*allowed: "
+                                         r"model= and inputs= with limit_state="):
+        fosm(evaluations=ev, inputs=inputs, limit_state=LimitState.margin())

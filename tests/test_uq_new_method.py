@@ -213,6 +213,9 @@ def test_every_registered_estimator_returns_a_result_with_its_evaluation_count()
     r = METHODS["monte_carlo"](model=model, inputs=inputs, seed=1, progress=False, n=64,
                                limit_state=LimitState.margin())
     assert isinstance(r, Result) and r.n_evaluations == 64
+    r = METHODS["fosm"](model=model, inputs=inputs, progress=False,
+                        limit_state=LimitState.margin())
+    assert isinstance(r, Result) and r.n_evaluations == 5
 
 
 @pytest.mark.parametrize("name", ["form", "sorm", "importance_sampling", "subset_simulation"])

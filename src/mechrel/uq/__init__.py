@@ -45,7 +45,7 @@ _EXPORTS = {
     "execution.cache": ["EvaluationCache"],
     "_common": ["SampleFailuresError"],
     "estimators": ["METHODS"],
-    "estimators.fosm": ["fosm", "FOSMResult", "fosm_design", "fd_steps"],
+    "estimators.fosm": ["fosm", "FOSMResult", "FOSMPfResult", "fosm_design", "fd_steps"],
     "estimators.monte_carlo": ["monte_carlo", "MonteCarloResult", "MonteCarloPfResult",
                                "monte_carlo_design"],
     "estimators.sobol": ["sobol_indices", "SobolResult", "sobol_design", "peak_abs"],

@@ -91,12 +91,15 @@ class Problem:
 
     def g(self, U: np.ndarray) -> tuple[np.ndarray, np.ndarray, tuple]:
         """(g (n,), ok (n,), reasons) at the rows of U (n, d); failed rows have g = NaN."""
-        U = np.atleast_2d(np.asarray(U, dtype=float))
-        X = self.to_x(U)
+        return self.g_at_x(self.to_x(np.atleast_2d(np.asarray(U, dtype=float))))
+
+    def g_at_x(self, X: np.ndarray) -> tuple[np.ndarray, np.ndarray, tuple]:
+        """As :meth:`g`, at physical points X (n, d): the model's inputs, then the random
+        allowables."""
         ev = evaluate(self.model, X[:, : self.d_model], **self.executor)
         self.evaluations.append(ev)
         A = X[:, self.d_model:] if X.shape[1] > self.d_model else None
-        G = np.full(U.shape[0], np.nan)
+        G = np.full(X.shape[0], np.nan)
         ok = ev.ok.copy()
         reasons = list(ev.reasons)
         if ok.any():

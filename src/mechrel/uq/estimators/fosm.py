@@ -28,6 +28,7 @@ does not enter the slope.
 
 from __future__ import annotations
 
+import math
 import time
 from dataclasses import dataclass, field
 from typing import Any
@@ -54,8 +55,9 @@ from ..problem.inputs import UncertainInputs
 from ..problem.model import check_model
 from ..problem.allowables import (check_event, per_angle_mask, reliability_one_sided,
                           reliability_two_sided, resolve_allowables)
+from ._problem import Problem, RareEventResult
 
-__all__ = ["fosm", "fosm_design", "fd_steps", "FOSMResult"]
+__all__ = ["fosm", "fosm_design", "fd_steps", "FOSMResult", "FOSMPfResult"]
 
 EPS = float(np.finfo(float).eps)
 
@@ -234,6 +236,7 @@ def fosm(
     evaluations: Evaluations | None = None,
     allowable: Any = None,
     event: str = "two-sided",
+    limit_state: Any = None,
     seed: Any = None,
     step: Any = "auto",
     noise: float | None = None,
@@ -242,7 +245,7 @@ def fosm(
     cache: Any = None,
     progress: bool = True,
     chunk_size: int | None = None,
-) -> FOSMResult:
+) -> FOSMResult | FOSMPfResult:
     """FOSM reliability (paper eqs. 25–28) with first-order propagation of ``inputs``.
 
     Pass ``model=`` (2d + 1 evaluations are run here) or ``evaluations=`` of
@@ -269,6 +272,10 @@ def fosm(
         ``{quantity: Allowable}``.
     event : {"two-sided", "one-sided"}, default "two-sided"
         The safe event: P(|i| < I) (two-sided) or the paper's P(i < I) on the signed error.
+    limit_state : LimitState, optional
+        In place of ``allowable``/``event``: mean-value FOSM on the limit state g (its random
+        allowables are inputs too): μ_g = g(μ_X), σ_g² = ∇gᵀ Σ ∇g by central differences,
+        β = μ_g/σ_g, P_f = Φ(−β); returns a :class:`FOSMPfResult`. Needs ``model=``.
     seed : optional
         Unused (FOSM draws nothing); accepted so that every estimator shares one interface.
     step : "auto" or float or array, default "auto"
@@ -315,6 +322,15 @@ def fosm(
     if noise is None:
         noise = float(getattr(model, "output_noise", EPS)) if model is not None else EPS
     check_event(event)
+    if limit_state is not None:
+        if allowable is not None:
+            raise StudyError("fosm: allowable= and limit_state= are both given; allowed: one of them "
+                             "(a limit state carries its own allowables)")
+        if model is None:
+            raise StudyError("fosm: limit_state= with evaluations=: the limit state's random allowables "
+                             "are points of the stencil too; allowed: model= and inputs= with limit_state=")
+        return _limit_state_fosm(model=model, inputs=inputs, limit_state=limit_state, step=step, noise=noise,
+                                 executor=executor_kwargs(n_jobs, backend, cache, progress, chunk_size))
     if model is not None:
         names = check_model(model)[0]
     else:
@@ -418,3 +434,73 @@ def fosm_warnings(model, index, Y: np.ndarray, sigma_i: np.ndarray) -> list[str]
                    "between the stencil points, or a step below the model's resolution); "
                    "use Monte Carlo there")
     return out
+
+
+@dataclass(frozen=True, eq=False)
+class FOSMPfResult(RareEventResult):
+    """Mean-value FOSM on a limit state (frozen): what ``fosm(limit_state=...)`` returns.
+
+    Exact for a limit state linear in normal inputs (and allowables); otherwise a first-order
+    approximation about the means, which is not invariant to how g is written (FORM is).
+
+    Parameters
+    ----------
+    table : DataFrame
+        One row (index: the limit state's name): ``pf`` = Φ(−β), ``beta`` = μ_g/σ_g, ``mu_g``,
+        ``sigma_g`` and ``n_evaluations`` (2d + 1).
+    gradient : Series
+        ∂g/∂x at the means, per input (random allowables included), in g's unit per input unit.
+    evaluations : Evaluations or None
+        The stencil's model runs.
+    provenance : dict
+        How the result was made (with the limit state's description).
+    warnings : tuple of str, default ()
+        Caveats of the estimate (none are issued today).
+
+    Examples
+    --------
+    g = 3 − x1 − x2 of standard normals: β = 3/√2 exactly.
+
+    >>> from mechrel.uq import FunctionModel, LimitState, Normal, UncertainInputs, fosm
+    >>> inputs = UncertainInputs.from_specs({"x1": Normal(0.0, 1.0), "x2": Normal(0.0, 1.0)})
+    >>> g = FunctionModel(lambda X: 3.0 - X[:, 0] - X[:, 1], ["x1", "x2"], ["g"], vectorized=True)
+    >>> r = fosm(model=g, inputs=inputs, limit_state=LimitState.margin(), progress=False)
+    >>> round(r.beta * 2**0.5, 9), r.n_evaluations
+    (3.0, 5)
+    """
+
+    table: pd.DataFrame
+    gradient: pd.Series
+    evaluations: Evaluations | None
+    provenance: dict = field(repr=False)
+    warnings: tuple[str, ...] = ()
+
+
+def _limit_state_fosm(*, model, inputs, limit_state, step, noise, executor) -> FOSMPfResult:
+    """Mean-value FOSM on ``limit_state``: the (2d + 1)-point stencil of :func:`fosm_design`
+    over the inputs and the random allowables, g through the model."""
+    from scipy import special
+
+    problem = Problem(model=model, inputs=inputs, limit_state=limit_state, what="fosm", **executor)
+    X = fosm_design(problem.inputs, step=step, noise=noise)
+    G, ok, reasons = problem.g_at_x(X)
+    if not ok.all():
+        labels = ["mean"] + [f"{n} {s} h" for n in problem.names for s in ("+", "-")]
+        bad = [f"{labels[i]}: {reasons[i]}" for i in np.flatnonzero(~ok)]
+        raise StudyError(f"fosm: the finite-difference stencil needs every point; failed points: {bad[:6]}; "
+                         "allowed: a smaller step, or Monte Carlo")
+    dx = X[1::2, :].diagonal() - X[2::2, :].diagonal()
+    grad = (G[1::2] - G[2::2]) / dx
+    sigma_g = float(np.sqrt(max(float(grad @ problem.inputs.covariance @ grad), 0.0)))
+    mu_g = float(G[0])
+    with np.errstate(divide="ignore"):
+        beta = mu_g / sigma_g if sigma_g > 0 else math.copysign(math.inf, mu_g)
+    table = pd.DataFrame({"pf": [float(special.ndtr(-beta))], "beta": [beta], "mu_g": [mu_g],
+                          "sigma_g": [sigma_g], "n_evaluations": [problem.n_evaluations]},
+                         index=pd.Index([problem.limit_state.name], name="limit_state"))
+    prov = problem.provenance(method="fosm", seed=None,
+                              settings={"step": step if isinstance(step, str) or np.ndim(step) == 0
+                                        else list(map(float, step)), "noise": noise,
+                                        "gradient": "central differences, 2d+1 evaluations, at the means"})
+    return FOSMPfResult(table, pd.Series(grad, index=list(problem.names), name="dg_dx"),
+                        problem.all_evaluations(), prov)
