@@ -61,7 +61,7 @@ def study_evaluation(repeats: int) -> None:
     import numpy as np
 
     from mechrel.studies.study import load_study
-    from mechrel.uq.mechanism import MechanismModel
+    from mechrel.uq.problem.mechanism import MechanismModel
 
     study = load_study("nine-bar-lubricated")
     model = study.model()

@@ -5,7 +5,7 @@ What is measured
 ----------------
 * ``model = load_study("nine-bar-lubricated").model()`` (two cycles per sample, the second
   analysed), ``X = study.uncertain_inputs().sample(n, "sobol", seed)``, evaluated with
-  :func:`mechrel.uq.executor.evaluate` (``n_jobs=1``: in-process; ``n_jobs=2``: loky workers);
+  :func:`mechrel.uq.execution.executor.evaluate` (``n_jobs=1``: in-process; ``n_jobs=2``: loky workers);
 * 1 worker: warm process (numba's cache already loaded by one untimed evaluation);
 * 2 workers, "cold": the first ``evaluate`` call of the process, which starts the loky workers
   (spawn, imports, numba cache load in each) — includes start-up;
@@ -53,7 +53,7 @@ from pathlib import Path  # noqa: E402
 import psutil  # noqa: E402
 
 from mechrel.studies.study import load_study  # noqa: E402
-from mechrel.uq.executor import default_chunk_size, evaluate  # noqa: E402
+from mechrel.uq.execution.executor import default_chunk_size, evaluate  # noqa: E402
 
 STUDY = "nine-bar-lubricated"
 

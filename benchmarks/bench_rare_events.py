@@ -41,13 +41,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _common import git_state  # noqa: E402
 
 from mechrel.uq import FunctionModel, LogNormal, Normal, UncertainInputs, evaluate  # noqa: E402
-from mechrel.uq.estimators import (
-    LimitState,
-    form,
-    importance_sampling,
-    sorm,  # noqa: E402
-    subset_simulation,
-)
+from mechrel.uq import LimitState, form, importance_sampling, sorm, subset_simulation  # noqa: E402
 
 SQ2 = math.sqrt(2.0)
 

@@ -31,9 +31,9 @@ import matplotlib.pyplot as plt  # noqa: E402
 
 from mechrel.errors import EstimateWarning  # noqa: E402
 from mechrel.uq import Allowable, Normal, TruncNormal, UncertainInputs, fosm, monte_carlo  # noqa: E402
-from mechrel.uq.mechanism import MechanismModel  # noqa: E402
+from mechrel.uq.problem.mechanism import MechanismModel  # noqa: E402
 from mechrel.uq.plots import plot_reliability  # noqa: E402
-from mechrel.uq.reliability import per_angle_mask  # noqa: E402
+from mechrel.uq.problem.allowables import per_angle_mask  # noqa: E402
 
 INPUTS = {
     "O4_x": (["ground.points.O4[0]"], Normal(0.14, 20e-6)),          # m

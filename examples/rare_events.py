@@ -23,7 +23,7 @@ import numpy as np
 import pandas as pd
 
 from mechrel.uq import FunctionModel, LogNormal, UncertainInputs, child_seed
-from mechrel.uq.estimators import LimitState, sorm, subset_simulation
+from mechrel.uq import LimitState, sorm, subset_simulation
 
 ANGLES = np.arange(0.0, 360.0, 10.0)
 

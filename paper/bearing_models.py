@@ -160,7 +160,7 @@ def variant_model(v: Variant, cycles: float):
 def run_fosm(model, *, n_jobs, cache, progress):
     from mechrel.uq import fosm
 
-    return fosm(model=model, inputs=case_inputs(CASE), form="two-sided",
+    return fosm(model=model, inputs=case_inputs(CASE), event="two-sided",
                 step="auto", noise=RTOL, n_jobs=n_jobs, cache=cache, progress=progress)
 
 
@@ -168,12 +168,12 @@ def run_mc(model, *, n, n_jobs, cache, progress):
     from mechrel.uq import monte_carlo
 
     return monte_carlo(model=model, inputs=case_inputs(CASE), n=n,
-                       rule="random", seed=SEED, form="two-sided", n_jobs=n_jobs, cache=cache,
+                       rule="random", seed=SEED, event="two-sided", n_jobs=n_jobs, cache=cache,
                        progress=progress)
 
 
 def _angles(index) -> np.ndarray:
-    from mechrel.uq.reliability import per_angle_mask
+    from mechrel.uq.problem.allowables import per_angle_mask
 
     return per_angle_mask(index)
 

@@ -93,10 +93,10 @@ def paired_diff(a: np.ndarray, b: np.ndarray):
     return m, m - Z95 * se, m + Z95 * se
 
 
-def conditional_terms(Y, mu_I, sd_I, form):
+def conditional_terms(Y, mu_I, sd_I, event):
     """Per sample and output, P(event | i = y) for I ~ N(μ_I, σ_I²) independent of i:
     two-sided P(I ≥ |y|), one-sided P(I ≥ y)."""
-    v = np.abs(Y) if form == "two-sided" else Y
+    v = np.abs(Y) if event == "two-sided" else Y
     return stats.norm.cdf((mu_I[None, :] - v) / sd_I[None, :])
 
 
@@ -127,15 +127,15 @@ def whole_cycle_conditional(Y, index, mu_I, sd_I):
                         index=["reliability", "reliability_lo", "reliability_hi"]).T
 
 
-def inside(Y, I, form):
-    return (np.abs(Y) <= I) if form == "two-sided" else (Y <= I)
+def inside(Y, I, event):
+    return (np.abs(Y) <= I) if event == "two-sided" else (Y <= I)
 
 
 def allowable_draws(index, allowable, seed, n):
     """The allowable values monte_carlo draws for these outputs (same seed stream)."""
-    from mechrel.uq.inputs import as_seed_sequence, child_seed
-    from mechrel.uq.montecarlo import _draw_allowables
-    from mechrel.uq.reliability import resolve_allowables
+    from mechrel.uq.problem.inputs import as_seed_sequence, child_seed
+    from mechrel.uq.estimators.monte_carlo import _draw_allowables
+    from mechrel.uq.problem.allowables import resolve_allowables
 
     mu, sd, groups = resolve_allowables(index, allowable)
     return _draw_allowables(n, mu, sd, groups, "sampled", child_seed(as_seed_sequence(seed), 1))
@@ -150,8 +150,8 @@ def analyse_case(key, *, n, rule, seed, n_jobs, cache, progress, cycles, dry_ste
     common = dict(n_jobs=n_jobs, cache=cache, progress=progress)
     t0 = time.perf_counter()
     settings = fosm_settings(case)
-    f_paper = fosm(model=model, inputs=inputs, form="two-sided", **settings, **common)
-    mc = monte_carlo(model=model, inputs=inputs, n=n, rule=rule, seed=seed, form="two-sided", **common)
+    f_paper = fosm(model=model, inputs=inputs, event="two-sided", **settings, **common)
+    mc = monte_carlo(model=model, inputs=inputs, n=n, rule=rule, seed=seed, event="two-sided", **common)
     ev = mc.evaluations
     t_sim = time.perf_counter() - t0
     print(f"  {key}: FOSM {f_paper.evaluations.n} + MC {ev.n} points "
@@ -172,12 +172,12 @@ def analyse_case(key, *, n, rule, seed, n_jobs, cache, progress, cycles, dry_ste
     per_angle = {}
     for name, allow in allowables.items():
         f = f_paper if allow is None else fosm(evaluations=f_paper.evaluations, inputs=inputs,
-                                                allowable=allow, form="two-sided", **settings)
+                                                allowable=allow, event="two-sided", **settings)
         m2 = mc if allow is None else monte_carlo(evaluations=ev, seed=seed, allowable=allow,
-                                                  form="two-sided", allowable_mode="sampled")
-        m1 = monte_carlo(evaluations=ev, seed=seed, allowable=allow, form="one-sided",
+                                                  event="two-sided", allowable_mode="sampled")
+        m1 = monte_carlo(evaluations=ev, seed=seed, allowable=allow, event="one-sided",
                          allowable_mode="sampled")
-        lin = monte_carlo(evaluations=lin_ev, seed=seed, allowable=allow, form="two-sided",
+        lin = monte_carlo(evaluations=lin_ev, seed=seed, allowable=allow, event="two-sided",
                           allowable_mode="sampled")
         nc = normality_check(fosm=f, monte_carlo=m2)
         # paired indicator differences on the same samples and the same allowable draws
@@ -234,7 +234,7 @@ def analyse_case(key, *, n, rule, seed, n_jobs, cache, progress, cycles, dry_ste
     steps = []
     for step in dry_steps if case.model == "dry" else ():
         kw = {"step": step} if step != "auto" else {"step": "auto", "noise": RTOL}
-        fs = fosm(model=model, inputs=inputs, form="two-sided", **kw, **common)
+        fs = fosm(model=model, inputs=inputs, event="two-sided", **kw, **common)
         steps.append((str(step), fs.table["sigma_i"], fs.table["mu_i"]))
     res["steps"] = steps
     res["inputs"] = inputs.describe()
@@ -410,7 +410,7 @@ def plot_forms(res, path):
     axes[0].legend(fontsize=7, loc="lower left")
     axes[-1].set_xlabel("crank angle (deg)")
     fig.suptitle(f"{CASES[res['case']].label}: the signed error vs its magnitude (probe allowable)\n"
-                 "the one-sided form counts every negative error as safe, however large", fontsize=10)
+                 "the one-sided event counts every negative error as safe, however large", fontsize=10)
     fig.savefig(path, dpi=115)
     plt.close(fig)
 

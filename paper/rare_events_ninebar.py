@@ -71,7 +71,7 @@ def monte_carlo(model, inputs, n, *, seed, common):
 
 
 def subset_at(model, inputs, quantity, allowable, *, n_per_level, seed, common, max_levels=10):
-    from mechrel.uq.estimators import LimitState, subset_simulation
+    from mechrel.uq import LimitState, subset_simulation
 
     ls = LimitState.exceedance([(quantity, "max_abs")], float(allowable), kind="abs")
     return subset_simulation(model=model, inputs=inputs, limit_state=ls, seed=seed,
@@ -128,7 +128,7 @@ def find_deepest(model, inputs, quantity, start, *, n_per_level, seed, common, t
 
 
 def wilson(k, n):
-    from mechrel.uq.reliability import binomial_interval
+    from mechrel.uq.problem.allowables import binomial_interval
 
     lo, hi = binomial_interval(np.asarray(k), n, confidence_level=0.95, method="wilson")
     return np.asarray(lo), np.asarray(hi)
@@ -175,7 +175,7 @@ def _new(result):
 def per_angle(model, inputs, quantity, Y_mc, *, angle_pf, angles, common):
     """FORM and SORM per crank angle against Monte Carlo at I_θ = MC (1 − angle_pf) quantile."""
     from mechrel.errors import StudyError
-    from mechrel.uq.estimators import LimitState, form, sorm
+    from mechrel.uq import LimitState, form, sorm
 
     rows = []
     for angle in angles:

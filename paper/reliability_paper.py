@@ -150,7 +150,7 @@ def case_model(case: Case, *, cycles: float = 2.0, overrides: dict | None = None
     """The MechanismModel of one case: inputs clearance (both joints), viscosity (lubricated
     only, both joints) and speed (both cranks, opposite senses). ``overrides``: further fixed
     scene values (e.g. ``joints.C1.lubricant.bearing``), applied after the case's."""
-    from mechrel.uq.mechanism import MechanismModel
+    from mechrel.uq.problem.mechanism import MechanismModel
 
     targets = {"clearance": ["joints.C1.clearance", "joints.C2.clearance"]}
     if case.model == "lubricated":
@@ -241,7 +241,7 @@ def run_cases(keys, *, n_jobs: int, cycles: float, cache, progress: bool):
         case = CASES[key]
         t0 = time.perf_counter()
         model, inputs = case_model(case, cycles=cycles), case_inputs(case)
-        r = fosm(model=model, inputs=inputs, form="two-sided", n_jobs=n_jobs, cache=cache,
+        r = fosm(model=model, inputs=inputs, event="two-sided", n_jobs=n_jobs, cache=cache,
                  progress=progress, **fosm_settings(case))
         results[key] = r
         ft = forms_table(r.table)

@@ -52,7 +52,7 @@ import pandas as pd
 
 from mechrel.errors import StudyError
 from mechrel.cli.args import sample_count, report_errors
-from mechrel.uq.mechanism import MechanismModel, _lookup
+from mechrel.uq.problem.mechanism import MechanismModel, _lookup
 
 PI = math.pi
 QUANTITIES = ("displacement", "velocity", "acceleration")

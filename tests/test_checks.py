@@ -100,7 +100,7 @@ def test_jobs_rule_is_shared_by_the_command_line_and_the_executor(capsys):
 
 
 def test_angle_step_rule_is_shared_by_the_study_and_the_model():
-    from mechrel.uq.mechanism import MechanismModel
+    from mechrel.uq.problem.mechanism import MechanismModel
 
     tail = "7: does not divide 360 degrees; allowed: a divisor of 360 (degrees), e.g. 18, 10 or 5"
     assert _study_message("angle_step", 7) == f"<mapping>: angle_step = {tail}"

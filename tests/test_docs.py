@@ -50,11 +50,11 @@ def test_doctests_are_found():
     # the modules whose examples the project promises: a finder that misses the compiled
     # functions (or a module that lost its examples) would make the doctests vacuous
     found = {t.name for m in ("mechrel.forces.contact", "mechrel.forces.friction",
-                              "mechrel.uq.analytic", "mechrel.scene.loader",
+                              "mechrel.uq.problem.analytic", "mechrel.scene.loader",
                               "mechrel.integrate.explicit", "mechrel.cli.args")
              for t in _doctests(importlib.import_module(m))}
     for name in ("mechrel.forces.contact.ln_normal_force", "mechrel.forces.friction.friction_force",
-                 "mechrel.forces.contact.contact_stiffness", "mechrel.uq.analytic.ishigami",
+                 "mechrel.forces.contact.contact_stiffness", "mechrel.uq.problem.analytic.ishigami",
                  "mechrel.scene.loader.load_scene", "mechrel.integrate.explicit.rk4_kernel",
                  "mechrel.cli.args.sample_count"):
         assert name in found

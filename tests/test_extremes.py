@@ -150,7 +150,7 @@ def test_the_grid_misses_the_spike_that_the_solution_shows():
     runs = {}
     for key, model in (("solution", with_ext), ("grid", grid_only)):
         runs[key] = monte_carlo(model=model, inputs=inputs, n=8, seed=3, allowable=allow,
-                                allowable_mode="fixed", form="two-sided", progress=False)
+                                allowable_mode="fixed", event="two-sided", progress=False)
     wc = runs["solution"].whole_cycle
     assert wc.loc["acceleration", "basis"] == "cycle extreme"
     assert wc.loc["acceleration", "reliability"] == 0.0

@@ -11,7 +11,7 @@ import pytest
 
 from mechrel.errors import CacheError, MechrelWarning, StudyError
 from mechrel.uq import EvaluationCache, evaluate, linear_model
-from mechrel.uq import cache as cache_mod
+from mechrel.uq.execution import cache as cache_mod
 
 NAMES = ("a", "b")
 MODEL = linear_model([0.5, -1.0], [[1.0, 2.0], [0.0, -3.0]], NAMES)  # y = c + A x, exact

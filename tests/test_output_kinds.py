@@ -85,7 +85,7 @@ def test_bad_output_tables_are_one_clear_scene_error(table, match):
 
 def test_the_table_feeds_the_allowables_and_the_model():
     from mechrel.uq import DEFAULT_ALLOWABLES, MechanismModel
-    from mechrel.uq.reliability import resolve_allowables
+    from mechrel.uq.problem.allowables import resolve_allowables
 
     # the paper's allowables are the point kind's; the other kinds have none by default
     assert {k: (a.mean, a.std) for k, a in DEFAULT_ALLOWABLES.items()} == {

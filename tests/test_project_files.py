@@ -71,12 +71,12 @@ def test_mypy_is_clean():
 def test_mypy_checks_the_public_types(tmp_path):
     # every estimator result satisfies the Result protocol, every estimator is an Estimator ...
     good = ("from mechrel.uq import fosm, monte_carlo, polynomial_chaos, sobol_indices\n"
-            "from mechrel.uq.first_order import FOSMResult\n"
-            "from mechrel.uq.montecarlo import MonteCarloResult\n"
-            "from mechrel.uq.normality import NormalityResult\n"
-            "from mechrel.uq.pce import PCEResult\n"
-            "from mechrel.uq.protocols import Estimator, Result\n"
-            "from mechrel.uq.sobol import SobolResult\n"
+            "from mechrel.uq.estimators.fosm import FOSMResult\n"
+            "from mechrel.uq.estimators.monte_carlo import MonteCarloResult\n"
+            "from mechrel.uq.estimators.normality import NormalityResult\n"
+            "from mechrel.uq.surrogates.pce import PCEResult\n"
+            "from mechrel.uq.estimators.protocols import Estimator, Result\n"
+            "from mechrel.uq.estimators.sobol import SobolResult\n"
             "def f(a: FOSMResult, b: MonteCarloResult, c: PCEResult, d: SobolResult,\n"
             "      e: NormalityResult) -> list[Result]:\n"
             "    return [a, b, c, d, e]\n"
@@ -86,7 +86,7 @@ def test_mypy_checks_the_public_types(tmp_path):
     assert proc.returncode == 0, proc.stdout[-4000:]
     # ... and the check is not vacuous: a wrong use of the same types is reported
     bad = ("from mechrel.scene import load_scene\n"
-           "from mechrel.uq.protocols import Result\n"
+           "from mechrel.uq.estimators.protocols import Result\n"
            "def g(r: Result) -> int:\n"
            "    return r.warnings\n"
            "n: int = load_scene('nine-bar-dry').name\n")

@@ -114,9 +114,14 @@ def test_invalid_study_fields_are_named(raw, message):
     ({"reliability": {"n": 0.5}}, r"reliability\.n = 0\.5: expected an integer"),
     ({"sensitivity": {"n": "x"}}, r"sensitivity\.n = \"x\": expected an integer, got a string; "
                                   r"allowed: an integer >= 2"),
-    ({"reliability": {"form": "both-sided"}},
-     r"reliability\.form = \"both-sided\": unknown value \(did you mean 'two-sided'\?\); "
+    ({"reliability": {"event": "both-sided"}},
+     r"reliability\.event = \"both-sided\": unknown value \(did you mean 'two-sided'\?\); "
      r"allowed: one of one-sided, two-sided"),
+    # the key's old name (it clashed with the method FORM): one error naming the new key
+    ({"reliability": {"form": "one-sided"}},
+     r"reliability\.form = \"one-sided\": renamed: the key is now event \(the name form "
+     r"clashed with the method FORM\); allowed: reliability\.event = one of 'one-sided', "
+     r"'two-sided'"),
     ({"reliability": {"rule": "halton"}}, r"reliability\.rule = \"halton\": unknown value; "
                                           r"allowed: one of random, latin_hypercube, sobol"),
     ({"reliability": {"seed": -1}}, r"reliability\.seed = -1: must be >= 0; allowed: an "
@@ -163,7 +168,7 @@ def test_study_file_errors_name_the_file(tmp_path):
 
 def test_study_settings_are_filled_in_when_loaded():
     study = load_study(_raw(reliability={"methods": ["mc"], "max_failure_fraction": 0.25}))
-    assert study.reliability == {"methods": ("mc",), "form": "two-sided", "n": 256,
+    assert study.reliability == {"methods": ("mc",), "event": "two-sided", "n": 256,
                                  "rule": "sobol", "seed": None, "pce_order": 2,
                                  "max_failure_fraction": 0.25}
     assert study.sensitivity == {"n": 256, "seed": None, "max_failure_fraction": 0.05}

@@ -56,7 +56,7 @@ def test_linear_model_fosm_is_exact():
     slopes of size 0.1–0.5. (A step of 1e-10 would make it ~1e-6: the step matters.)
     """
     model, inputs, mu, sd = _linear()
-    res = fosm(model=model, inputs=inputs, allowable=Allowable(1.0, 0.2), form="one-sided")
+    res = fosm(model=model, inputs=inputs, allowable=Allowable(1.0, 0.2), event="one-sided")
     t = res.table
     np.testing.assert_allclose(t["mu_i"], mu, rtol=1e-12)
     np.testing.assert_allclose(t["sigma_i"], sd, rtol=1e-10)
@@ -64,7 +64,7 @@ def test_linear_model_fosm_is_exact():
     np.testing.assert_allclose(t["beta"], beta, rtol=1e-10)
     np.testing.assert_allclose(t["R_one_sided"], special.ndtr(beta), rtol=1e-10)
     np.testing.assert_allclose(res.gradient.to_numpy(), B, rtol=1e-9, atol=1e-10)
-    # the paper's form: R = Φ(β) exactly and "reliability" follows the form
+    # the paper's form: R = Φ(β) exactly and "reliability" follows the event
     assert np.array_equal(t["reliability"], t["R_one_sided"])
     assert res.evaluations.n == 2 * 3 + 1
     assert res.provenance["n_model_evaluations"] == 7
@@ -208,8 +208,8 @@ def test_precomputed_evaluations_give_the_same_result():
                        match=r"pass exactly one of model= .* or evaluations= .*, got both"):
         fosm(model=model, evaluations=ev, inputs=inputs)
     with pytest.raises(StudyError,
-                       match=r"form: got 'both'; allowed: \['one-sided', 'two-sided'\]"):
-        fosm(model=model, inputs=inputs, form="both")
+                       match=r"event: got 'both'; allowed: \['one-sided', 'two-sided'\]"):
+        fosm(model=model, inputs=inputs, event="both")
 
 
 def _fails_above(x):
@@ -229,7 +229,43 @@ def test_results_are_frozen():
     model, inputs, _, _ = _linear()
     res = fosm(model=model, inputs=inputs, allowable=Allowable(1.0, 0.2))
     with pytest.raises(dataclasses.FrozenInstanceError):
-        res.form = "one-sided"
+        res.event = "one-sided"
     with pytest.raises(ValueError):
         res.evaluations.Y[0, 0] = 1.0
     assert isinstance(res.evaluations, Evaluations)
+
+
+def test_fosm_on_a_limit_state_is_exact_for_a_linear_margin_of_normals():
+    # the exceedance y > I of y = a·x + c, x correlated normal, I ~ N(μ_I, σ_I²) a random
+    # allowable (an input of g too): g = I − y, so β = (μ_I − c − a·μ)/sqrt(aᵀΣa + σ_I²)
+    # exactly; central differences of a linear g are exact to round-off (asserted to 1e-9).
+    from mechrel.uq import FOSMPfResult, LimitState
+
+    inputs = UncertainInputs.from_specs({"x1": Normal(1.0, 0.3), "x2": Normal(-0.5, 0.2)},
+                                        correlation={("x1", "x2"): 0.4})
+    a, c = np.array([2.0, -1.0]), 0.25
+    model = FunctionModel(lambda X: X @ a + c, ["x1", "x2"], ["y"], vectorized=True)
+    ls = LimitState.exceedance(["y"], Normal(4.0, 0.5), kind="upper", name="y > I")
+    r = fosm(model=model, inputs=inputs, limit_state=ls, progress=False)
+    var = a @ inputs.covariance @ a + 0.5**2
+    beta = (4.0 - c - a @ inputs.mean) / math.sqrt(var)
+    assert isinstance(r, FOSMPfResult)
+    assert r.beta == pytest.approx(beta, rel=1e-9)
+    assert r.pf == pytest.approx(special.ndtr(-beta), rel=1e-8)
+    assert r.n_evaluations == 2 * 3 + 1  # the allowable is a point of the stencil too
+    assert r.gradient.to_numpy() == pytest.approx([-2.0, 1.0, 1.0], rel=1e-9)
+
+
+def test_fosm_refuses_a_limit_state_with_allowables_or_evaluations():
+    from mechrel.uq import LimitState
+
+    inputs = UncertainInputs.from_specs({"x": Normal(0.0, 1.0)})
+    model = linear_model([0.0], [[1.0]], ["x"])
+    with pytest.raises(StudyError, match=r"^fosm: allowable= and limit_state= are both given; "
+                                         r"allowed: one of them"):
+        fosm(model=model, inputs=inputs, limit_state=LimitState.margin(),
+             allowable=Allowable(1.0, 0.0), progress=False)
+    ev = evaluate(model, fosm_design(inputs), progress=False)
+    with pytest.raises(StudyError, match=r"^fosm: limit_state= with evaluations=.*allowed: "
+                                         r"model= and inputs= with limit_state="):
+        fosm(evaluations=ev, inputs=inputs, limit_state=LimitState.margin())

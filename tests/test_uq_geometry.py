@@ -12,7 +12,7 @@ from mechrel.errors import EstimateWarning, SceneError, StudyError
 from mechrel.scene import load_scene
 from mechrel.scene.loader import get_value
 from mechrel.uq import Normal, UncertainInputs, fosm
-from mechrel.uq.mechanism import MechanismModel, is_geometric
+from mechrel.uq.problem.mechanism import MechanismModel, is_geometric
 
 
 # --------------------------------------------------------------------------- scene paths
@@ -125,7 +125,7 @@ def test_fosm_sigma_of_length_tolerances_is_the_closed_form_sensitivity():
     dr = [np.imag(v) / h for v in _slider(0.05 + 1j * h, 0.12, theta, w)]
     dl = [np.imag(v) / h for v in _slider(0.05, 0.12 + 1j * h, theta, w)]
     # the rows at the analysis angles (the model appends each quantity's cycle extremes)
-    from mechrel.uq.reliability import per_angle_mask
+    from mechrel.uq.problem.allowables import per_angle_mask
     table = res.table[per_angle_mask(res.table.index)]
     for k, q in enumerate(("displacement", "velocity", "acceleration")):
         expected = np.hypot(dr[k] * 20e-6, dl[k] * 30e-6)

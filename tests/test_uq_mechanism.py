@@ -26,8 +26,8 @@ from mechrel.uq import (
     normality_check,
     reliability_two_sided,
 )
-from mechrel.uq.mechanism import MechanismModel
-from mechrel.uq.reliability import per_angle_mask
+from mechrel.uq.problem.mechanism import MechanismModel
+from mechrel.uq.problem.allowables import per_angle_mask
 
 CLEARANCE = ["joints.C1.clearance", "joints.C2.clearance"]
 VISCOSITY = ["joints.C1.lubricant.viscosity", "joints.C2.lubricant.viscosity"]

@@ -30,7 +30,7 @@ from mechrel.uq import SampleFailuresError
 
 # z = 4: a correct estimator falls outside its interval with probability 6e-5 per quantity, so
 # the test is not flaky, yet the intervals (half-width ≈ 4·sqrt(R(1−R)/n)) stay narrow enough
-# to reject the wrong form or the wrong allowable model (checked below).
+# to reject the wrong event or the wrong allowable model (checked below).
 Z4 = 1 - 2 * special.ndtr(-4.0)
 
 INPUTS = UncertainInputs.from_specs({"x0": Normal(0.0, 1.0), "x1": Normal(1.0, 0.5)},
@@ -59,15 +59,15 @@ def test_linear_normal_model_within_intervals(rule):
     mu, sd = _exact()
     r1 = reliability_one_sided(mu, sd, ALLOW.mean, ALLOW.std)[1]
     r2 = reliability_two_sided(mu, sd, ALLOW.mean, ALLOW.std)[2]
-    for form, exact, other in (("two-sided", r2, r1), ("one-sided", r1, r2)):
+    for event, exact, other in (("two-sided", r2, r1), ("one-sided", r1, r2)):
         res = monte_carlo(model=_model(), inputs=INPUTS, n=n, rule=rule, seed=2024, allowable=ALLOW,
-                          form=form, confidence_level=Z4)
+                          event=event, confidence_level=Z4)
         t = res.table
         assert np.all((t["reliability_lo"] <= exact) & (exact <= t["reliability_hi"])), (t, exact)
         assert np.all((t["mean_lo"] <= mu) & (mu <= t["mean_hi"]))
         assert np.all((t["std_lo"] <= sd) & (sd <= t["std_hi"]))
         # discrimination: output 0 has μ_i ≈ 0, so the two forms differ by P(i < −I) ≈ 0.03,
-        # more than the interval half-width (≈ 0.015): a wrong form would fail this test
+        # more than the interval half-width (≈ 0.015): a wrong event would fail this test
         assert not (t["reliability_lo"].iloc[0] <= other[0] <= t["reliability_hi"].iloc[0])
         assert res.provenance["settings"]["rule"] == rule
 
@@ -110,18 +110,18 @@ def _data(draw):
                       min_size=n, max_size=n))
     allow = {q: Allowable(draw(st.floats(0.05, 3.0)),
                           draw(st.sampled_from([0.0, 0.1, 1.0]))) for q in quantities}
-    form = draw(st.sampled_from(["one-sided", "two-sided"]))
+    event = draw(st.sampled_from(["one-sided", "two-sided"]))
     mode = draw(st.sampled_from(["sampled", "fixed"]))
     seed = draw(st.integers(0, 2**32 - 1))
-    return np.array(Y), idx, allow, form, mode, seed
+    return np.array(Y), idx, allow, event, mode, seed
 
 
 @settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(_data())
 def test_whole_cycle_never_exceeds_the_smallest_point_reliability(data):
-    Y, idx, allow, form, mode, seed = data
+    Y, idx, allow, event, mode, seed = data
     ev = Evaluations.from_arrays(np.zeros((Y.shape[0], 1)), Y, output_index=idx)
-    res = monte_carlo(evaluations=ev, allowable=allow, form=form, allowable_mode=mode, seed=seed)
+    res = monte_carlo(evaluations=ev, allowable=allow, event=event, allowable_mode=mode, seed=seed)
     point = res.table["reliability"]
     wc = res.whole_cycle["reliability"]
     for q in idx.get_level_values("quantity").unique():
@@ -129,9 +129,9 @@ def test_whole_cycle_never_exceeds_the_smallest_point_reliability(data):
         assert wc["all"] <= wc[q] + 1e-15
     assert wc["all"] <= point.min() + 1e-15
     # two-sided is the stricter event, sample by sample (same allowable draws)
-    if form == "one-sided":
-        two = monte_carlo(evaluations=ev, allowable=allow, form="two-sided", allowable_mode=mode,
-                          seed=seed)
+    if event == "one-sided":
+        two = monte_carlo(evaluations=ev, allowable=allow, event="two-sided",
+                          allowable_mode=mode, seed=seed)
         assert np.all(two.table["reliability"] <= point + 1e-15)
 
 
@@ -228,3 +228,41 @@ def test_seed_none_is_recorded_and_replayable():
     pd.testing.assert_frame_equal(a.table, b.table)
     assert set(a.provenance) >= {"seed", "n_model_evaluations", "wall_time", "versions",
                                  "model_cache_key", "settings"}
+
+
+def test_monte_carlo_on_a_limit_state_with_a_random_allowable():
+    # y = x, x ~ N(0, 1), against a random allowable I ~ N(2, 0.5²): P(y > I) = Φ(−2/√1.25)
+    # exactly; the estimate is within 4 binomial standard deviations of it, its Wilson interval
+    # covers it, and the sample is the same for any number of workers.
+    from mechrel.uq import FunctionModel, LimitState, MonteCarloPfResult
+
+    inputs = UncertainInputs.from_specs({"x": Normal(0.0, 1.0)})
+    model = FunctionModel(lambda X: X[:, 0], ["x"], ["y"], vectorized=True)
+    ls = LimitState.exceedance(["y"], Normal(2.0, 0.5), kind="upper", name="y > I")
+    n = 4000
+    r = monte_carlo(model=model, inputs=inputs, limit_state=ls, n=n, seed=3, progress=False)
+    exact = float(special.ndtr(-2.0 / np.sqrt(1.25)))
+    assert isinstance(r, MonteCarloPfResult) and r.n_evaluations == n
+    assert abs(r.pf - exact) <= 4 * np.sqrt(exact * (1 - exact) / n)
+    row = r.to_frame().iloc[0]
+    assert row["pf_lo"] < exact < row["pf_hi"]
+    assert r.provenance["limit_state"] == ls.describe()
+    again = monte_carlo(model=model, inputs=inputs, limit_state=ls, n=n, seed=3, progress=False,
+                        n_jobs=2)
+    assert again.to_frame().equals(r.to_frame())
+
+
+def test_monte_carlo_refuses_a_limit_state_with_allowables_or_evaluations():
+    from mechrel.uq import LimitState, evaluate
+
+    inputs = UncertainInputs.from_specs({"x": Normal(0.0, 1.0)})
+    model = linear_model([0.0], [[1.0]], ["x"])
+
+    with pytest.raises(StudyError, match=r"^monte_carlo: allowable= and limit_state= are both "
+                                         r"given; allowed: one of them"):
+        monte_carlo(model=model, inputs=inputs, n=8, limit_state=LimitState.margin(),
+                    allowable=Allowable(1.0, 0.0), progress=False)
+    ev = evaluate(model, np.zeros((4, 1)), progress=False)
+    with pytest.raises(StudyError, match=r"^monte_carlo: limit_state= with evaluations=.*allowed: "
+                                         r"model= and inputs= with limit_state="):
+        monte_carlo(evaluations=ev, limit_state=LimitState.margin())

@@ -27,9 +27,9 @@ def _square_and_line(x):
     return np.array([x[0] ** 2, 0.4 * x[0] + x[1]])
 
 
-def _run(form="two-sided"):
+def _run(event="two-sided"):
     model = FunctionModel(_square_and_line, INPUTS.names, ["square", "line"])
-    f = fosm(model=model, inputs=INPUTS, allowable=ALLOW, form=form)
+    f = fosm(model=model, inputs=INPUTS, allowable=ALLOW, event=event)
     mc = monte_carlo(model=model, inputs=INPUTS, n=4000, seed=17, allowable=ALLOW,
                      confidence_level=Z4)
     return f, mc, normality_check(fosm=f, monte_carlo=mc)
@@ -54,11 +54,11 @@ def test_non_normal_output_is_flagged_and_fosm_misses_the_interval():
     assert list(res.flagged.index) == ["square"]
 
 
-def test_the_comparison_uses_fosms_form():
-    f, mc, res = _run(form="one-sided")
-    assert res.form == "one-sided"
-    again = monte_carlo(evaluations=mc.evaluations, seed=mc.seed, allowable=ALLOW, form="one-sided",
-                        confidence_level=Z4)
+def test_the_comparison_uses_fosms_event():
+    f, mc, res = _run(event="one-sided")
+    assert res.event == "one-sided"
+    again = monte_carlo(evaluations=mc.evaluations, seed=mc.seed, allowable=ALLOW,
+                        event="one-sided", confidence_level=Z4)
     np.testing.assert_array_equal(res.table["R_mc"], again.table["reliability"])
     np.testing.assert_array_equal(res.table["R_fosm"], f.table["R_one_sided"])
 

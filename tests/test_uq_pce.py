@@ -28,7 +28,7 @@ from mechrel.uq import (
     reliability_one_sided,
 )
 from mechrel.uq import SampleFailuresError
-from mechrel.uq.pce import _basis, _recurrences
+from mechrel.uq.surrogates.pce import _basis, _recurrences
 
 A0 = np.array([0.3, -1.0])
 B = np.array([[0.5, -2.0, 0.1], [1.5, 0.25, -0.7]])

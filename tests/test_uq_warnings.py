@@ -81,7 +81,7 @@ def test_fosm_on_a_model_with_dry_contact_warns():
 
 
 def test_the_mechanism_model_says_when_it_is_not_smooth():
-    from mechrel.uq.mechanism import MechanismModel
+    from mechrel.uq.problem.mechanism import MechanismModel
 
     assert MechanismModel("slider-crank-lubricated", ["joints.C.clearance"]).nonsmooth is None
     dry = MechanismModel("slider-crank-dry", ["joints.C.clearance"]).nonsmooth
@@ -214,7 +214,7 @@ def test_sobol_indices_outside_the_unit_interval_beyond_their_interval_warn():
     # outside [0, 1] beyond its interval (warned), −0.05 ± 0.1 and 1.04 ± 0.05 do not
     import pandas as pd
 
-    from mechrel.uq.sobol import sobol_warnings
+    from mechrel.uq.estimators.sobol import sobol_warnings
 
     idx = pd.Index(["y"])
     cols = pd.Index(["a", "b", "c"], name="input")

@@ -73,7 +73,7 @@ def simulator_digest() -> str:
     simulation driver and the mechanism model): part of the UQ evaluation-cache key, so that
     cached evaluations are never reused across a change of the simulator's code."""
     h = hashlib.sha256(_sources_digest(_PACKAGE).encode())
-    for rel in ("simulation.py", "uq/mechanism.py"):
+    for rel in ("simulation.py", "uq/problem/mechanism.py"):
         h.update((_PACKAGE / rel).read_bytes())
     return h.hexdigest()
 

@@ -6,7 +6,7 @@ any), how they are computed from the mechanism's state, and what the ideal mecha
 is. :data:`OUTPUT_KINDS` is that table; :data:`QUANTITY_INFO` indexes its quantities by name.
 The simulation (:func:`values`), the scene validation, the command line's summary and figures,
 the uncertainty model (:class:`~mechrel.uq.MechanismModel`) and the default allowables
-(:data:`mechrel.uq.reliability.DEFAULT_ALLOWABLES`) all read it, so a new kind is one entry
+(:data:`mechrel.uq.problem.allowables.DEFAULT_ALLOWABLES`) all read it, so a new kind is one entry
 here, its scene fields in ``scene/_schema.py`` and ``scene/_validate.py`` (docs/scenes.md,
 "How to add an output kind").
 

@@ -22,16 +22,17 @@ def split_overrides(texts) -> tuple[dict, dict]:
     ``allowable``, ``angle_step``, ...; docs/studies.md) sets that field; any other path is a
     scene path, checked against the scene when the study's model is built."""
     from ..scene.loader import parse_override
-    from ..studies.study import STUDY_FIELDS
+    from ..studies.study import study_fields
 
     study, scene = {}, {}
+    fields = study_fields()
     for text in texts:
         path, value = parse_override(text)
         head = path.split(".", 1)[0]
         if head == "scene_overrides":
             raise StudyError(f"--set {text}: 'scene_overrides' is set by giving the scene path "
                              "itself; allowed: e.g. --set joints.C1.model=dry")
-        (study if head in STUDY_FIELDS else scene)[path] = value
+        (study if head in fields else scene)[path] = value
     return study, scene
 
 
@@ -145,9 +146,9 @@ def _study_args(p, section):
 def register_reliability(sub) -> None:
     """Add the ``mechrel reliability`` subcommand to ``sub``, the parser's subparsers action
     (one entry of :data:`mechrel.cli.main.COMMANDS`)."""
-    from ..studies.study import METHODS, RARE_EVENT_METHODS
+    from ..studies.study import rare_event_methods, study_methods
 
-    rare = ", ".join(f"{k} ({m.name})" for k, m in RARE_EVENT_METHODS.items())
+    rare = ", ".join(f"{k} ({m.name})" for k, m in rare_event_methods().items())
     p = sub.add_parser(
         "reliability", help="accuracy reliability of a study (FOSM, Monte Carlo, PCE, "
                             "rare-event methods)",
@@ -159,7 +160,7 @@ def register_reliability(sub) -> None:
                     "cached in OUT/evaluations.sqlite, so an interrupted run resumes where it "
                     "stopped. Failed samples are written to OUT/failures.csv.")
     _study_args(p, "reliability")
-    p.add_argument("--method", choices=METHODS + ("all",),
+    p.add_argument("--method", choices=tuple(study_methods()) + ("all",),
                    help="estimator (default: the study's reliability.methods; all: every "
                         "method; --n sets Monte Carlo's samples only)")
     p.set_defaults(func=_cmd_reliability)

@@ -8,7 +8,7 @@ registry entry.
 
 The limit state is the whole cycle: failure when any of the study's quantities leaves its
 allowable anywhere in the cycle, a series system of one component per quantity,
-``g_q = I_q − max_cycle |error_q|`` (two-sided form; ``I_q − max_cycle error_q`` one-sided),
+``g_q = I_q − max_cycle |error_q|`` (two-sided event; ``I_q − max_cycle error_q`` one-sided),
 on the cycle extremes the model reports (found on the integrator's solution, not only at the
 analysis angles). ``I_q`` is the study's allowable: ``Normal(mean, std)``, an extra
 standard-normal coordinate of the search, or the fixed ``mean`` when ``std = 0``. This is the
@@ -24,7 +24,7 @@ import pandas as pd
 
 from ..errors import StudyError
 from ..uq._common import SampleFailuresError
-from .study import RARE_EVENT_METHODS
+from .study import rare_event_methods
 
 TABLE_COLUMNS = ("pf", "beta", "cov", "pf_lo", "pf_hi", "n_evaluations", "wall_time")
 """The columns of ``rare_events.csv`` (NaN where a method does not estimate one: FORM and
@@ -60,8 +60,8 @@ def whole_cycle_limit_state(study, model):
     Parameters
     ----------
     study : mechrel.studies.study.Study
-        The study (its quantities, allowables and ``reliability.form``).
-    model : mechrel.uq.model.Model
+        The study (its quantities, allowables and ``reliability.event``).
+    model : mechrel.uq.Model
         The model; its outputs must include the cycle extremes of the study's quantities.
 
     Returns
@@ -80,15 +80,15 @@ def whole_cycle_limit_state(study, model):
     >>> whole_cycle_limit_state(study, model).name
     'velocity'
     """
-    from ..uq.estimators import LimitState
-    from ..uq.inputs import Normal
-    from ..uq.reliability import whole_cycle_column
+    from ..uq import LimitState
+    from ..uq.problem.inputs import Normal
+    from ..uq.problem.allowables import whole_cycle_column
 
-    form = study.reliability["form"]
-    kind = "abs" if form == "two-sided" else "upper"
+    event = study.reliability["event"]
+    kind = "abs" if event == "two-sided" else "upper"
     parts = []
     for q in study.quantities:
-        col = whole_cycle_column(model.output_index, q, form)
+        col = whole_cycle_column(model.output_index, q, event)
         if col is None:
             raise StudyError(f"{study.source}: quantities = {q!r}: the model reports no cycle "
                              f"extreme of it; allowed: quantities with cycle extremes")
@@ -99,34 +99,87 @@ def whole_cycle_limit_state(study, model):
     return parts[0] if len(parts) == 1 else LimitState.series(*parts, name="whole cycle")
 
 
-def _settings(study, key, max_failure_fraction):
-    """The method's settings: its table in the study, the CLI's --max-failure-fraction over it
-    (when the method has that setting), else the study's reliability.max_failure_fraction."""
-    method = RARE_EVENT_METHODS[key]
-    given = dict(study.method_settings.get(key, {}))
-    if "max_failure_fraction" in method.settings:
-        if max_failure_fraction is not None:
-            given["max_failure_fraction"] = max_failure_fraction
-        else:
-            given.setdefault("max_failure_fraction",
-                             study.reliability["max_failure_fraction"])
-    return method.validate(given)
+def estimate_one(ctx, method):
+    """Run the rare-event ``method`` (a registry entry) on the study of ``ctx`` (a
+    :class:`~mechrel.studies.presenters.Context`): its settings from the study file's table
+    (:meth:`~mechrel.studies.presenters.Context.settings`), the whole-cycle limit state, and,
+    for a method with a ``design_point`` setting, an earlier FORM result of this run (same
+    model, inputs and limit state) instead of a new search. The result goes to
+    ``ctx.results[method.key]``; the warnings the estimator raised (a limit state never or
+    always violated on the samples, a c.o.v. above its target, ...) to ``ctx.notes``, each
+    prefixed with the method's key.
+
+    Parameters
+    ----------
+    ctx : mechrel.studies.presenters.Context
+        The run: study, model, inputs, seed, the estimators' common arguments, the results
+        so far (``ctx.results``) and the notes (``ctx.notes``).
+    method : mechrel.uq.estimators.Method
+        The registry entry of a method of kind ``"rare_event"``.
+
+    Returns
+    -------
+    result
+        The method's frozen result (also stored in ``ctx.results[method.key]``).
+
+    Raises
+    ------
+    mechrel.errors.StudyError
+        The method refuses its settings or arguments (the message names the method).
+
+    Examples
+    --------
+    :func:`estimate` is this function on a fresh context; the whole-cycle FORM index of the
+    linear demo study is exact:
+
+    >>> study, model = _demo()
+    >>> results, _ = estimate(study, model, study.uncertain_inputs(), ["form"], seed=7,
+    ...                       common={"n_jobs": 1, "cache": None, "progress": False})
+    >>> round(results["form"].beta, 6)
+    2.828427
+    """
+    from ..uq import FORMResult
+
+    key = method.key
+    if "limit_state" not in ctx.shared:
+        ctx.shared["limit_state"] = whole_cycle_limit_state(ctx.study, ctx.model)
+    settings = ctx.settings(method)
+    if "design_point" in settings and settings["design_point"] is None:
+        found = [r for r in ctx.results.values() if isinstance(r, FORMResult)]
+        if found:
+            settings["design_point"] = found[0]
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        try:
+            r = ctx.estimate(key, method.function, model=ctx.model, inputs=ctx.inputs,
+                             limit_state=ctx.shared["limit_state"], seed=ctx.seed, **settings,
+                             **ctx.common)
+        except StudyError as exc:
+            if isinstance(exc, SampleFailuresError):
+                raise
+            raise StudyError(f"{ctx.study.source}: {key} ({method.name}): {exc}") from exc
+    for w in caught:  # those the result carries are in the summary through its .warnings
+        text = f"{key}: {w.message}"
+        if str(w.message) not in r.warnings and text not in ctx.notes:
+            ctx.notes.append(text)
+    if r.pf == 0.0 or r.pf == 1.0:
+        ctx.notes.append(f"{key}: P_f = {r.pf:g}: the limit state is "
+                         f"{'never' if r.pf == 0 else 'always'} violated on this method's "
+                         "samples; tighten or loosen the allowables, or add samples")
+    return r
 
 
-def estimate(study, model, inputs, keys, *, seed, common, max_failure_fraction=None,
-             evaluations=None):
-    """Run the rare-event methods ``keys`` (study-file names) in order.
-
-    A method with a ``design_point`` setting reuses an earlier FORM result of this run (same
-    model, inputs and limit state) instead of searching again.
+def estimate(study, model, inputs, keys, *, seed, common, max_failure_fraction=None):
+    """Run the rare-event methods ``keys`` (study-file names) in order, outside the runner
+    (:func:`estimate_one` each, sharing one limit state and the FORM design point).
 
     Parameters
     ----------
     study : mechrel.studies.study.Study
         The study: allowables, quantities, the methods' settings tables.
-    model : mechrel.uq.model.Model
-        The model.
-    inputs : mapping
+    model : mechrel.uq.Model
+        The model; its outputs must include the cycle extremes of the study's quantities.
+    inputs : mechrel.uq.UncertainInputs
         The uncertain inputs (``study.uncertain_inputs()``).
     keys : sequence of str
         Study-file names of the methods (``"form"``, ``"sorm"``, ``"is"``, ``"subset"``).
@@ -136,16 +189,14 @@ def estimate(study, model, inputs, keys, *, seed, common, max_failure_fraction=N
         Arguments every estimator takes (``n_jobs``, ``backend``, ``cache``, ``progress``).
     max_failure_fraction : float, optional
         The command line's ``--max-failure-fraction``, over the study's.
-    evaluations : dict, optional
-        Filled with ``{key: evaluations}`` as the methods finish (also when one refuses).
 
     Returns
     -------
     results : dict
         ``{key: result}``.
     notes : list of str
-        The warnings the estimators raised (a limit state never or always violated on the
-        samples, a c.o.v. above its target, ...), each prefixed with the method.
+        The warnings of the estimates (their ``.warnings`` and any other the estimators
+        raised), each prefixed with the method.
 
     Raises
     ------
@@ -163,43 +214,20 @@ def estimate(study, model, inputs, keys, *, seed, common, max_failure_fraction=N
     >>> round(results["form"].beta, 6), notes
     (2.828427, [])
     """
-    from ..uq.estimators import FORMResult
+    from .presenters import Context
 
-    limit_state = whole_cycle_limit_state(study, model)
-    results, notes = {}, []
-    evaluations = {} if evaluations is None else evaluations
+    ctx = Context(study=study, model=model, inputs=inputs, allowables=study.allowables(),
+                  event=study.reliability["event"], seed=seed, n=study.reliability["n"],
+                  max_failure_fraction=(study.reliability["max_failure_fraction"]
+                                        if max_failure_fraction is None
+                                        else max_failure_fraction),
+                  max_failure_fraction_given=max_failure_fraction is not None,
+                  common=dict(common))
+    methods = rare_event_methods()
     for key in keys:
-        method = RARE_EVENT_METHODS[key]
-        try:
-            settings = _settings(study, key, max_failure_fraction)
-        except StudyError as exc:
-            raise StudyError(f"{study.source}: [{key}] {exc}") from None
-        if "design_point" in settings and settings["design_point"] is None:
-            found = [r for r in results.values() if isinstance(r, FORMResult)]
-            if found:
-                settings["design_point"] = found[0]
-        with warnings.catch_warnings(record=True) as caught:
-            warnings.simplefilter("always")
-            try:
-                r = method.function(model=model, inputs=inputs, limit_state=limit_state,
-                                    seed=seed, **settings, **common)
-            except SampleFailuresError as exc:
-                evaluations[key] = exc.evaluations  # the runner writes them before it refuses
-                raise
-            except StudyError as exc:
-                raise StudyError(f"{study.source}: {key} ({method.name}): {exc}") from exc
-        results[key] = r
-        if r.evaluations is not None:
-            evaluations[key] = r.evaluations
-        for w in caught:
-            text = f"{key}: {w.message}"
-            if text not in notes:
-                notes.append(text)
-        if r.pf == 0.0 or r.pf == 1.0:
-            notes.append(f"{key}: P_f = {r.pf:g}: the limit state is "
-                         f"{'never' if r.pf == 0 else 'always'} violated on this method's "
-                         "samples; tighten or loosen the allowables, or add samples")
-    return results, notes
+        estimate_one(ctx, methods[key])
+    carried = [f"{k}: {w}" for k, r in ctx.results.items() for w in r.warnings]
+    return ctx.results, carried + ctx.notes
 
 
 def table(results) -> pd.DataFrame:
@@ -238,7 +266,7 @@ def table(results) -> pd.DataFrame:
 
 def _form_of(result):
     """The FORM result behind ``result`` (itself, or the one SORM/IS start from), or None."""
-    from ..uq.estimators import FORMResult
+    from ..uq import FORMResult
 
     if isinstance(result, FORMResult):
         return result
@@ -308,7 +336,7 @@ def summary_lines(results) -> list[str]:
     lines = []
     t = table(results)
     for key, row in t.iterrows():
-        name = RARE_EVENT_METHODS[key].name
+        name = rare_event_methods()[key].name
         text = (f"  {key} ({name}): whole-cycle P_f = {row['pf']:.3g}, β = {row['beta']:.3f}")
         if np.isfinite(row["cov"]):
             text += (f", c.o.v. {row['cov']:.2f}, interval [{row['pf_lo']:.3g}, "

@@ -19,22 +19,48 @@ from ..errors import SceneError, StudyError
 from ..outputs import QUANTITY_INFO
 from ..scene.loader import check_depth, read_toml_text
 from ..scene.model import QUANTITIES
-from ..uq.inputs import SAMPLING_RULES
 from ..uq.estimators import METHODS as REGISTRY
-from ..uq.mechanism import REFERENCES
-from ..uq.reliability import DEFAULT_ALLOWABLES, FORMS
+from ..uq.problem.allowables import DEFAULT_ALLOWABLES, EVENTS
+from ..uq.problem.inputs import SAMPLING_RULES
+from ..uq.problem.mechanism import REFERENCES
 
-RARE_EVENT_METHODS = {m.key: m for m in REGISTRY.values() if m.kind == "rare_event"}
-"""The registry's rare-event methods by their study-file name (``form``, ``sorm``, ``is``,
-``subset``); each has a table of that name in a study file for its settings."""
-METHODS = ("fosm", "mc", "pce") + tuple(RARE_EVENT_METHODS)
-"""The study's reliability methods: FOSM, Monte Carlo, PCE and the rare-event methods."""
-_TOP = tuple(sorted(("allowable", "angle_step", "correlation", "cycles", "description", "inputs",
-                     "name", "output", "quantities", "reference", "reliability", "scene",
-                     "scene_overrides", "sensitivity") + tuple(RARE_EVENT_METHODS)))
-STUDY_FIELDS = _TOP
-"""The top-level fields of a study file."""
-_RELIABILITY = ("form", "max_failure_fraction", "methods", "n", "pce_order", "rule", "seed")
+
+def study_methods() -> dict:
+    """The registered methods a study runs (``mechrel reliability --method KEY``), by their
+    study-file name (``fosm``, ``mc``, ``pce``, ``form``, ``sorm``, ``is``, ``subset``, and any
+    method registered since): every method of :data:`mechrel.uq.estimators.METHODS` except the
+    sensitivity methods (``mechrel sensitivity``). Read from the registry at each call."""
+    return {m.key: m for m in REGISTRY.values() if m.kind != "sensitivity"}
+
+
+def rare_event_methods() -> dict:
+    """The registry's rare-event methods by their study-file name (``form``, ``sorm``, ``is``,
+    ``subset``, ...)."""
+    return {k: m for k, m in study_methods().items() if m.kind == "rare_event"}
+
+
+def study_settings(method) -> dict:
+    """The settings of a registered ``method`` a study file may set in the table of the
+    method's key: those the registry checks (the others, e.g. a design point object, exist
+    only in Python)."""
+    return {k: s for k, s in method.settings.items() if s.check is not None}
+
+
+def _method_tables() -> dict:
+    """The methods with a table of settings in a study file, by key."""
+    return {k: m for k, m in study_methods().items() if study_settings(m)}
+
+
+def study_fields() -> tuple[str, ...]:
+    """The top-level fields of a study file (with one table per method that has settings)."""
+    return tuple(sorted(("allowable", "angle_step", "correlation", "cycles", "description",
+                         "inputs", "name", "output", "quantities", "reference", "reliability",
+                         "scene", "scene_overrides", "sensitivity") + tuple(_method_tables())))
+
+
+_RELIABILITY = ("event", "max_failure_fraction", "methods", "n", "pce_order", "rule", "seed")
+_RENAMED = {"form": "event"}
+"""Keys of ``[reliability]`` renamed: old -> new (an old key is an error naming the new)."""
 _SENSITIVITY = ("max_failure_fraction", "n", "seed")
 
 
@@ -43,14 +69,14 @@ class Study:
     """A validated study.
 
     ``inputs`` maps an input name to its distribution spec (a mapping understood by
-    :meth:`mechrel.uq.inputs.UncertainInputs.from_specs`) and ``paths`` to the scene paths it
-    sets. ``reference`` is what the error is measured against under geometric inputs
-    (``"nominal"`` or ``"same-geometry"``, :class:`~mechrel.uq.mechanism.MechanismModel`).
+    :meth:`mechrel.uq.UncertainInputs.from_specs`) and ``paths`` to the scene paths it sets.
+    ``reference`` is what the error is measured against under geometric inputs (``"nominal"``
+    or ``"same-geometry"``, :class:`~mechrel.uq.MechanismModel`).
     ``reliability`` and ``sensitivity`` hold every setting of their section, defaults
-    filled in (``methods``, ``form``, ``n``, ``rule``, ``seed``, ``pce_order``,
+    filled in (``methods``, ``event``, ``n``, ``rule``, ``seed``, ``pce_order``,
     ``max_failure_fraction``; ``n``, ``seed``, ``max_failure_fraction``). ``method_settings``
-    maps each rare-event method (:data:`RARE_EVENT_METHODS`) to the settings its table in the
-    file gives, checked; the registry's defaults fill the rest when it runs.
+    maps each method with settings (:func:`study_settings`) to those its table in the file
+    gives, checked; the registry's defaults fill the rest when it runs.
     """
 
     name: str
@@ -72,15 +98,15 @@ class Study:
     source: str | None = field(default=None, compare=False)
 
     def model(self):
-        """The :class:`~mechrel.uq.mechanism.MechanismModel` of this study."""
-        from ..uq.mechanism import MechanismModel
+        """The :class:`~mechrel.uq.problem.mechanism.MechanismModel` of this study."""
+        from ..uq.problem.mechanism import MechanismModel
         return MechanismModel(self.scene, dict(self.paths), output=self.output,
                               quantities=self.quantities, angle_step=self.angle_step,
                               cycles=self.cycles, overrides=dict(self.scene_overrides),
                               reference=self.reference)
 
     def uncertain_inputs(self):
-        """The :class:`~mechrel.uq.inputs.UncertainInputs` of this study."""
+        """The :class:`~mechrel.uq.problem.inputs.UncertainInputs` of this study."""
         from ..uq import UncertainInputs
         corr = self.correlation
         if isinstance(corr, Mapping):
@@ -240,10 +266,15 @@ def _allowables(c: _Checker, table: Any) -> dict:
 
 def _reliability(c: _Checker, table: Any) -> dict:
     t = c.table("reliability", table)
+    for old, new in _RENAMED.items():
+        if old in t:
+            c.fail(join("reliability", old), t[old], f"renamed: the key is now {new} (the "
+                   "name form clashed with the method FORM)",
+                   f"reliability.{new} = one of {', '.join(map(repr, EVENTS))}")
     c.keys("reliability", t, _RELIABILITY, what="[reliability]")
     return {"methods": c.choices("reliability.methods", t.get("methods", ["fosm", "mc"]),
-                                 METHODS),
-            "form": c.choice("reliability.form", t.get("form", "two-sided"), FORMS),
+                                 tuple(study_methods())),
+            "event": c.choice("reliability.event", t.get("event", "two-sided"), EVENTS),
             "n": c.sample_count("reliability.n", t.get("n", 256)),
             "rule": c.choice("reliability.rule", t.get("rule", "sobol"), SAMPLING_RULES),
             "seed": c.seed("reliability.seed", t.get("seed")),
@@ -252,17 +283,12 @@ def _reliability(c: _Checker, table: Any) -> dict:
                                                t.get("max_failure_fraction", 0.1))}
 
 
-def study_settings(method) -> dict:
-    """The settings of a registered rare-event ``method`` a study file may set: those the
-    registry checks (the others, e.g. a design point object, exist only in Python)."""
-    return {k: s for k, s in method.settings.items() if s.check is not None}
-
-
 def _method_settings(c: _Checker, raw: Mapping) -> dict:
-    """``[form]``, ``[sorm]``, ``[is]``, ``[subset]``: each key checked by the registry's check of
-    that setting, the message restated as ``SOURCE: TABLE.KEY = VALUE: PROBLEM; allowed: …``."""
+    """``[form]``, ``[sorm]``, ``[is]``, ``[subset]`` (every method with settings): each key
+    checked by the registry's check of that setting, the message restated as
+    ``SOURCE: TABLE.KEY = VALUE: PROBLEM; allowed: …``."""
     out = {}
-    for key, method in RARE_EVENT_METHODS.items():
+    for key, method in _method_tables().items():
         known = study_settings(method)
         t = c.table(key, raw.get(key, {}), f"a table of {method.name} settings: "
                     + ", ".join(known))
@@ -317,7 +343,7 @@ def load_study(source, *, overrides: Mapping[str, Any] | None = None,
     _apply_overrides(raw, overrides, label)
     c = _Checker(label, [(k, f"{k}={v!r}") for k, v in overrides.items()])
     c.table("", raw)
-    c.keys("", raw, _TOP, required=("scene", "inputs"), what="a study")
+    c.keys("", raw, study_fields(), required=("scene", "inputs"), what="a study")
     default_name = "study" if isinstance(source, Mapping) else Path(str(source)).stem
     scene = _scene_source(c, c.string("scene", raw["scene"], _Checker.required_hints["scene"]),
                           base_dir, "scene" in overrides)

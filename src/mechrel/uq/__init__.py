@@ -1,38 +1,63 @@
 """mechrel.uq — uncertainty quantification of output errors.
 
-Problem (:class:`UncertainInputs`, a :class:`Model`) → sample/design (``*_design`` functions,
-:meth:`UncertainInputs.sample`) → evaluate (:func:`evaluate`: joblib/Dask, cache, failures) →
-analyse (:func:`fosm`, :func:`monte_carlo`, :func:`polynomial_chaos`, :func:`sobol_indices`,
-:func:`normality_check`). Every estimator takes keyword arguments only, accepts either
-``model=`` (it evaluates its own design through :func:`evaluate`) or precomputed
-``evaluations=``, and returns a frozen result with ``.to_frame()`` and ``.provenance``.
-See ``docs/uq.md``.
+The package has four parts, one folder each:
+
+``problem/``
+    What is uncertain and what is computed: the inputs (:class:`UncertainInputs`, the marginals,
+    seeds), the :class:`Model` protocol with :class:`FunctionModel` and :class:`MechanismModel`,
+    the analytic test models, and the failure event (:class:`Allowable` with its one- and
+    two-sided reliability formulas, :class:`LimitState`).
+``execution/``
+    How a design is evaluated: :func:`evaluate` (joblib/Dask workers, failure capture) and the
+    :class:`EvaluationCache`.
+``estimators/``
+    One module per method (:func:`fosm`, :func:`monte_carlo`, :func:`sobol_indices`,
+    :func:`normality_check`, :func:`form`, :func:`sorm`, :func:`importance_sampling`,
+    :func:`subset_simulation`) and :data:`METHODS`, the registry the study runner and the
+    command line loop over.
+``surrogates/``
+    :func:`polynomial_chaos`.
+
+Every estimator takes keyword arguments only, accepts either ``model=`` (it evaluates its own
+design through :func:`evaluate`) or precomputed ``evaluations=``, and returns a frozen result
+with ``.to_frame()``, ``.provenance`` and ``.n_evaluations``. See ``docs/uq.md``.
+
+Every public name is imported from here (``from mechrel.uq import fosm``); the table below is
+the one list of them.
 """
 
 import importlib
-from typing import TYPE_CHECKING
 
-# Public name -> submodule. Imports are lazy (PEP 562) so that a worker process unpickling a
-# model (which imports ``mechrel.uq.model``) does not pay for scipy.stats, chaospy and SALib.
+# Public name -> submodule, the one list of the public API. Imports are lazy (PEP 562) so that a
+# worker process unpickling a model (which imports ``mechrel.uq.problem.model``) does not pay for
+# scipy.stats, chaospy and SALib.
 _EXPORTS = {
+    "problem.model": ["Model", "ModelFailure", "FunctionModel"],
+    "problem.mechanism": ["MechanismModel"],
+    "problem.inputs": ["UncertainInputs", "Normal", "TruncNormal", "Uniform", "LogNormal",
+                       "SAMPLING_RULES", "child_seed"],
+    "problem.allowables": ["Allowable", "DEFAULT_ALLOWABLES", "EVENTS", "reliability_one_sided",
+                           "reliability_two_sided", "bivariate_normal_cdf", "binomial_interval"],
+    "problem.limit_state": ["LimitState"],
+    "problem.analytic": ["linear_model", "ishigami", "ishigami_model", "ishigami_inputs",
+                         "ishigami_indices"],
+    "execution.executor": ["evaluate", "Evaluations", "BACKENDS"],
+    "execution.cache": ["EvaluationCache"],
     "_common": ["SampleFailuresError"],
-    "analytic": ["ishigami", "ishigami_indices", "ishigami_inputs", "ishigami_model", "linear_model"],
-    "cache": ["EvaluationCache"],
-    "executor": ["BACKENDS", "Evaluations", "evaluate"],
-    "estimators": ["METHODS", "LimitState", "form", "FORMResult", "FORMConvergenceError", "sorm", "SORMResult",
-                   "importance_sampling", "ImportanceSamplingResult", "subset_simulation", "SubsetSimulationResult"],
-    "first_order": ["FOSMResult", "fd_steps", "fosm", "fosm_design"],
-    "inputs": ["SAMPLING_RULES", "LogNormal", "Normal", "TruncNormal", "UncertainInputs", "Uniform", "child_seed"],
-    "model": ["FunctionModel", "Model", "ModelFailure"],
-    "mechanism": ["MechanismModel"],
-    "montecarlo": ["MonteCarloResult", "monte_carlo", "monte_carlo_design"],
-    "normality": ["NormalityResult", "normality_check"],
-    "pce": ["PCEResult", "multi_indices", "pce_design", "polynomial_chaos"],
-    "reliability": ["DEFAULT_ALLOWABLES", "FORMS", "Allowable", "binomial_interval", "bivariate_normal_cdf",
-                    "reliability_one_sided", "reliability_two_sided"],
-    "sobol": ["SobolResult", "peak_abs", "sobol_design", "sobol_indices"],
+    "estimators": ["METHODS"],
+    "estimators.fosm": ["fosm", "FOSMResult", "FOSMPfResult", "fosm_design", "fd_steps"],
+    "estimators.monte_carlo": ["monte_carlo", "MonteCarloResult", "MonteCarloPfResult",
+                               "monte_carlo_design"],
+    "estimators.sobol": ["sobol_indices", "SobolResult", "sobol_design", "peak_abs"],
+    "estimators.normality": ["normality_check", "NormalityResult"],
+    "estimators.form": ["form", "FORMResult", "FORMConvergenceError"],
+    "estimators.sorm": ["sorm", "SORMResult"],
+    "estimators.importance": ["importance_sampling", "ImportanceSamplingResult"],
+    "estimators.subset": ["subset_simulation", "SubsetSimulationResult"],
+    "surrogates.pce": ["polynomial_chaos", "PCEResult", "pce_design", "multi_indices"],
 }
 _WHERE = {name: mod for mod, names in _EXPORTS.items() for name in names}
+__all__ = list(_WHERE)
 
 
 def __getattr__(name: str):
@@ -46,42 +71,3 @@ def __getattr__(name: str):
 
 def __dir__():
     return sorted(set(globals()) | set(_WHERE))
-
-
-if TYPE_CHECKING:  # pragma: no cover
-    from ._common import SampleFailuresError
-    from .analytic import ishigami, ishigami_indices, ishigami_inputs, ishigami_model, linear_model
-    from .cache import EvaluationCache
-    from .estimators import (METHODS, FORMConvergenceError, FORMResult, ImportanceSamplingResult, LimitState,
-                             SORMResult, SubsetSimulationResult, form, importance_sampling, sorm, subset_simulation)
-    from .executor import BACKENDS, Evaluations, evaluate
-    from .first_order import FOSMResult, fd_steps, fosm, fosm_design
-    from .inputs import SAMPLING_RULES, LogNormal, Normal, TruncNormal, UncertainInputs, Uniform, child_seed
-    from .mechanism import MechanismModel
-    from .model import FunctionModel, Model, ModelFailure
-    from .montecarlo import MonteCarloResult, monte_carlo, monte_carlo_design
-    from .normality import NormalityResult, normality_check
-    from .pce import PCEResult, multi_indices, pce_design, polynomial_chaos
-    from .reliability import (DEFAULT_ALLOWABLES, FORMS, Allowable, binomial_interval, bivariate_normal_cdf,
-                              reliability_one_sided, reliability_two_sided)
-    from .sobol import SobolResult, peak_abs, sobol_design, sobol_indices
-
-__all__ = [
-    # problem
-    "Model", "ModelFailure", "FunctionModel", "MechanismModel",
-    "UncertainInputs", "Normal", "TruncNormal", "Uniform", "LogNormal", "SAMPLING_RULES", "child_seed",
-    "Allowable", "DEFAULT_ALLOWABLES", "FORMS", "LimitState",
-    # evaluation
-    "evaluate", "Evaluations", "EvaluationCache", "BACKENDS", "SampleFailuresError",
-    # designs
-    "fosm_design", "fd_steps", "monte_carlo_design", "pce_design", "multi_indices", "sobol_design",
-    # estimators and results
-    "fosm", "FOSMResult", "monte_carlo", "MonteCarloResult", "polynomial_chaos", "PCEResult",
-    "sobol_indices", "SobolResult", "peak_abs", "normality_check", "NormalityResult",
-    "form", "FORMResult", "FORMConvergenceError", "sorm", "SORMResult", "importance_sampling",
-    "ImportanceSamplingResult", "subset_simulation", "SubsetSimulationResult", "METHODS",
-    # formulas
-    "reliability_one_sided", "reliability_two_sided", "bivariate_normal_cdf", "binomial_interval",
-    # analytic models
-    "linear_model", "ishigami", "ishigami_model", "ishigami_inputs", "ishigami_indices",
-]

@@ -13,9 +13,9 @@ import pandas as pd
 
 from mechrel.errors import StudyError
 
-from .executor import Evaluations, evaluate
-from .inputs import UncertainInputs
-from .model import check_model
+from .execution.executor import Evaluations, evaluate
+from .problem.inputs import UncertainInputs
+from .problem.model import check_model
 
 _PACKAGES = ("mechrel", "numpy", "scipy", "pandas", "chaospy", "numpoly", "SALib", "joblib")
 
@@ -35,6 +35,19 @@ class SampleFailuresError(StudyError):
         What was refused and why.
     evaluations : Evaluations
         The evaluations the estimator refused to analyse.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from mechrel.uq import Normal, SampleFailuresError, UncertainInputs, evaluate, monte_carlo
+    >>> from mechrel.uq import FunctionModel
+    >>> model = FunctionModel(lambda X: np.log(X[:, 0]), ["x"], ["y"], vectorized=True)
+    >>> ev = evaluate(model, np.array([[1.0], [-1.0], [-2.0]]), progress=False)
+    >>> try:
+    ...     monte_carlo(evaluations=ev, allowable={"y": (1.0, 0.0)})
+    ... except SampleFailuresError as exc:
+    ...     print(exc.evaluations.n_failed, "of", exc.evaluations.n)
+    2 of 3
     """
 
     def __init__(self, message: str, evaluations: Evaluations):

@@ -29,7 +29,7 @@ def _plt():
 def _panels(index: pd.Index) -> list[tuple[str, np.ndarray]]:
     """[(quantity label, positions)] — one panel per quantity, or one for everything; the
     positions of the analysis angles only (not the cycle extremes)."""
-    from .reliability import per_angle_mask
+    from .problem.allowables import per_angle_mask
 
     angle = per_angle_mask(index)
     if isinstance(index, pd.MultiIndex) and "quantity" in index.names:
@@ -66,8 +66,8 @@ edge with an open marker and labelled as clipped, not as data."""
 
 
 def _kind(result: Any) -> str:
-    from .first_order import FOSMResult
-    from .montecarlo import MonteCarloResult
+    from .estimators.fosm import FOSMResult
+    from .estimators.monte_carlo import MonteCarloResult
 
     if isinstance(result, FOSMResult):
         return "fosm"
@@ -181,9 +181,9 @@ def reliability_panels(ax_beta: Any, ax_pf: Any, x: np.ndarray, *, fosm: Any = N
 
 def plot_reliability(*results: Any, title: str | None = None):
     """The reliability of every quantity over the crank angle from any of a FOSM result, a
-    Monte Carlo result and a Monte Carlo result on a PCE surrogate (same ``form``).
+    Monte Carlo result and a Monte Carlo result on a PCE surrogate (same ``event``).
 
-    One row per quantity: left the reliability index β = Φ⁻¹(R) of the form's R, right the
+    One row per quantity: left the reliability index β = Φ⁻¹(R) of the event's R, right the
     probability of exceeding the allowable 1 − R on a log scale, where methods differ near
     R = 1. Monte Carlo shows its sample count and confidence band (where no exceedance was
     seen, only a bound: ▲ the lower bound of β, ▼ the upper bound of 1 − R), the allowable is named with its cap Φ(μ_I/σ_I), the whole-cycle
@@ -198,11 +198,11 @@ def plot_reliability(*results: Any, title: str | None = None):
         by[k] = r
     if not by:
         raise StudyError("plot_reliability: pass at least one FOSMResult or MonteCarloResult")
-    forms = {r.form for r in by.values()}
-    if len(forms) > 1:
-        raise StudyError(f"plot_reliability: the results have different forms {sorted(forms)}; "
-                         "compute them with the same form")
-    form = forms.pop()
+    events = {r.event for r in by.values()}
+    if len(events) > 1:
+        raise StudyError(f"plot_reliability: the results have different events {sorted(events)}; "
+                         "compute them with the same event")
+    event = events.pop()
     first = next(iter(by.values()))
     index = first.table.index
     for r in by.values():
@@ -222,7 +222,7 @@ def plot_reliability(*results: Any, title: str | None = None):
                 allowable = (float(mu_I[0]), float(sd_I[0]), UNITS.get(q, ""))
         kw = {"allowable": allowable}
         if "fosm" in by:
-            kw["fosm"] = (by["fosm"].table["reliability"].to_numpy()[pos], f"FOSM ({form})")
+            kw["fosm"] = (by["fosm"].table["reliability"].to_numpy()[pos], f"FOSM ({event})")
         if "surrogate" in by:
             kw["surrogate"] = (by["surrogate"].table["reliability"].to_numpy()[pos],
                                "PCE surrogate")
@@ -243,7 +243,7 @@ def plot_reliability(*results: Any, title: str | None = None):
         ax.set_xlabel(xlabel)
         if xlabel.startswith("crank angle"):
             ax.set_xticks(np.arange(0, 361, 36))
-    axes[0][0].set_title(f"reliability index Φ⁻¹(R) ({form})")
+    axes[0][0].set_title(f"reliability index Φ⁻¹(R) ({event})")
     axes[0][1].set_title("probability of exceeding the allowable")
     if title:
         fig.suptitle(title)
@@ -296,8 +296,8 @@ def plot_sobol(result: Any, output: Any = None, *, title: str | None = None):
     output; ``output``: one label or position), from a SobolResult (with confidence intervals)
     or a PCEResult."""
     plt = _plt()
-    from .pce import PCEResult
-    from .sobol import SobolResult
+    from .surrogates.pce import PCEResult
+    from .estimators.sobol import SobolResult
 
     if isinstance(result, SobolResult):
         s1, st, c1, ct = result.first, result.total, result.first_conf, result.total_conf

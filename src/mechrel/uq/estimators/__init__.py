@@ -1,22 +1,30 @@
-"""Reliability estimators for rare events, and the one table of every ``mechrel.uq`` method.
+"""The estimators of ``mechrel.uq``, one module each, and the one table of them (:data:`METHODS`).
 
-Methods (one module each): :func:`form` (``form.py``), :func:`sorm` (``sorm.py``),
-:func:`importance_sampling` (``importance.py``), :func:`subset_simulation` (``subset.py``);
-limit states in ``limit_state.py``. They share one keyword-only interface::
+Methods: :func:`~mechrel.uq.fosm` (``fosm.py``), :func:`~mechrel.uq.monte_carlo`
+(``monte_carlo.py``), :func:`~mechrel.uq.sobol_indices` (``sobol.py``),
+:func:`~mechrel.uq.normality_check` (``normality.py``), :func:`~mechrel.uq.form` (``form.py``),
+:func:`~mechrel.uq.sorm` (``sorm.py``), :func:`~mechrel.uq.importance_sampling`
+(``importance.py``), :func:`~mechrel.uq.subset_simulation` (``subset.py``); the polynomial
+chaos is in ``mechrel.uq.surrogates``, the limit states in ``mechrel.uq.problem``. They share
+one keyword-only interface::
 
-    method(model=, inputs=, limit_state=, seed=, <settings>, n_jobs=, backend=, cache=, progress=)
+    method(model=, inputs=, allowable=, event= | limit_state=, seed=, <settings>,
+           n_jobs=, backend=, cache=, progress=, chunk_size=)
 
-and return frozen results with ``.table``/``.to_frame()``, ``.pf``, ``.beta``,
-``.n_evaluations``, ``.evaluations`` and ``.provenance``.
+and return frozen results with ``.to_frame()``, ``.provenance``, ``.warnings`` and
+``.n_evaluations`` (:class:`~mechrel.uq.estimators.protocols.Result`). The public names are
+imported from :mod:`mechrel.uq`.
 
 The registry
 ------------
 :data:`METHODS` maps a method's name to a :class:`Method`: the estimator and its result type
-(imported lazily, as ``"module:attribute"`` under ``mechrel.uq``), its settings with defaults and
-checks, and its kind. The older estimators (``fosm``, ``monte_carlo``, ``polynomial_chaos``,
-``sobol_indices``) are listed by reference, their settings read from their signatures (their
-own argument checks apply). Adding a method is one module plus one :func:`register` call (or
-one entry below); ``docs/uq.md`` ("How to add a method") shows it.
+(imported lazily, as ``"module:attribute"`` under ``mechrel.uq``, or the objects themselves),
+its settings with defaults and checks, and its kind. The older estimators (``fosm``,
+``monte_carlo``, ``polynomial_chaos``, ``sobol_indices``) are listed by reference, their
+settings read from their signatures (their own argument checks apply). Adding a method is one
+module plus one :func:`register` call (or one entry below); the study runner and the command
+line then offer it (:mod:`mechrel.studies.presenters`); ``docs/uq.md`` ("How to add a method")
+shows it.
 """
 
 from __future__ import annotations
@@ -30,16 +38,12 @@ from typing import Any
 
 from mechrel.errors import StudyError
 
-__all__ = [
-    "METHODS", "Method", "Setting", "register", "get_method", "COMMON_ARGUMENTS",
-    "LimitState", "form", "FORMResult", "FORMConvergenceError", "sorm", "SORMResult",
-    "importance_sampling", "ImportanceSamplingResult", "subset_simulation", "SubsetSimulationResult",
-]
+__all__ = ["METHODS", "Method", "Setting", "register", "get_method", "COMMON_ARGUMENTS"]
 
-#: Arguments every estimator takes that are not method settings (the shared interface; the
-#: older estimators take ``allowable``/``form`` in place of ``limit_state``).
-COMMON_ARGUMENTS = ("model", "inputs", "limit_state", "evaluations", "seed", "n_jobs", "backend",
-                    "cache", "progress", "chunk_size")
+#: Arguments every estimator takes that are not method settings (the shared interface): the
+#: failure definition is ``limit_state=`` or ``allowable=`` with ``event=``.
+COMMON_ARGUMENTS = ("model", "inputs", "limit_state", "allowable", "event", "evaluations", "seed",
+                    "n_jobs", "backend", "cache", "progress", "chunk_size")
 
 
 @dataclass(frozen=True)
@@ -57,7 +61,9 @@ class Setting:
 class Method:
     """One row of the registry.
 
-    ``estimator`` and ``result`` are ``"module:attribute"`` paths under ``mechrel.uq``.
+    ``estimator`` and ``result`` are ``"module:attribute"`` paths under ``mechrel.uq``
+    (imported when first used), or the function and the class themselves (a method defined
+    outside mechrel).
     ``settings`` None: read from the estimator's signature (every keyword not in
     :data:`COMMON_ARGUMENTS`, checked by the estimator). ``short``: the method's name in study
     files and on the command line (``mechrel reliability --method``), default ``name``; a study
@@ -65,8 +71,8 @@ class Method:
     """
 
     name: str
-    estimator: str
-    result: str
+    estimator: str | Callable
+    result: str | type
     kind: str
     summary: str
     declared_settings: Mapping[str, Setting] | None = field(default=None)
@@ -77,7 +83,9 @@ class Method:
         """The name in study files and on the command line."""
         return self.short or self.name
 
-    def _load(self, path: str):
+    def _load(self, path):
+        if not isinstance(path, str):  # the function or class itself
+            return path
         mod, attr = path.split(":")
         return getattr(importlib.import_module(f"mechrel.uq.{mod}"), attr)
 
@@ -181,13 +189,13 @@ def register(method: Method) -> Method:
 
 
 for _m in (
-    Method("fosm", "first_order:fosm", "first_order:FOSMResult", "reliability",
+    Method("fosm", "estimators.fosm:fosm", "estimators.fosm:FOSMResult", "reliability",
            "first-order second-moment interference formula (the paper's eqs. 25-28)"),
-    Method("monte_carlo", "montecarlo:monte_carlo", "montecarlo:MonteCarloResult", "reliability",
+    Method("monte_carlo", "estimators.monte_carlo:monte_carlo", "estimators.monte_carlo:MonteCarloResult", "reliability",
            "crude Monte Carlo reliability and moments", short="mc"),
-    Method("polynomial_chaos", "pce:polynomial_chaos", "pce:PCEResult", "surrogate",
+    Method("polynomial_chaos", "surrogates.pce:polynomial_chaos", "surrogates.pce:PCEResult", "surrogate",
            "polynomial chaos expansion (chaospy)", short="pce"),
-    Method("sobol_indices", "sobol:sobol_indices", "sobol:SobolResult", "sensitivity",
+    Method("sobol_indices", "estimators.sobol:sobol_indices", "estimators.sobol:SobolResult", "sensitivity",
            "Sobol' indices (SALib / Saltelli)"),
     Method("form", "estimators.form:form", "estimators.form:FORMResult", "rare_event",
            "FORM: design point by iHLRF, P_f = Φ(−β)",
@@ -223,12 +231,3 @@ def get_method(name: str) -> Method:
         return METHODS[name]
     except (KeyError, TypeError):
         raise StudyError(f"method: got {name!r}; allowed: {sorted(METHODS)}") from None
-
-
-# The estimators themselves (eager: each module shares its name with its function, and the
-# function must win; they import only numpy/scipy/pandas).
-from .limit_state import LimitState  # noqa: E402
-from .form import FORMConvergenceError, FORMResult, form  # noqa: E402
-from .sorm import SORMResult, sorm  # noqa: E402
-from .importance import ImportanceSamplingResult, importance_sampling  # noqa: E402
-from .subset import SubsetSimulationResult, subset_simulation  # noqa: E402

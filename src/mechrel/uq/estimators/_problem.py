@@ -14,12 +14,21 @@ from mechrel.errors import StudyError
 
 from ..._checks import ARGS
 from .._common import check_inputs, make_provenance
-from ..executor import Evaluations, evaluate
-from ..inputs import UncertainInputs
-from ..model import check_model
-from .limit_state import LimitState
+from ..execution.executor import Evaluations, evaluate
+from ..problem.inputs import UncertainInputs
+from ..problem.model import check_model
+from ..problem.limit_state import LimitState
 
 FAILURE_MODES = ("exclude", "as_failure")
+
+
+def refuse_evaluations(evaluations: Any, what: str) -> None:
+    """The rare-event methods choose their points as they go (FORM's search, the samples
+    around the design point, the subset levels): precomputed ``evaluations=`` are an error."""
+    if evaluations is not None:
+        raise StudyError(f"{what}: evaluations = {type(evaluations).__name__}: precomputed evaluations "
+                         "cannot be used, the method chooses its points as it goes; allowed: model= and "
+                         "inputs= (with cache=, a rerun evaluates nothing)")
 
 
 def common_settings(*, failures: str, max_failure_fraction: float) -> None:
@@ -82,12 +91,15 @@ class Problem:
 
     def g(self, U: np.ndarray) -> tuple[np.ndarray, np.ndarray, tuple]:
         """(g (n,), ok (n,), reasons) at the rows of U (n, d); failed rows have g = NaN."""
-        U = np.atleast_2d(np.asarray(U, dtype=float))
-        X = self.to_x(U)
+        return self.g_at_x(self.to_x(np.atleast_2d(np.asarray(U, dtype=float))))
+
+    def g_at_x(self, X: np.ndarray) -> tuple[np.ndarray, np.ndarray, tuple]:
+        """As :meth:`g`, at physical points X (n, d): the model's inputs, then the random
+        allowables."""
         ev = evaluate(self.model, X[:, : self.d_model], **self.executor)
         self.evaluations.append(ev)
         A = X[:, self.d_model:] if X.shape[1] > self.d_model else None
-        G = np.full(U.shape[0], np.nan)
+        G = np.full(X.shape[0], np.nan)
         ok = ev.ok.copy()
         reasons = list(ev.reasons)
         if ok.any():

@@ -40,9 +40,9 @@ from scipy import special
 from mechrel._checks import ARGS
 from mechrel.errors import StudyError
 
-from ..executor import Evaluations
-from ..inputs import seed_record
-from ._problem import Problem, RareEventResult
+from ..execution.executor import Evaluations
+from ..problem.inputs import seed_record
+from ._problem import Problem, RareEventResult, refuse_evaluations
 
 __all__ = ["form", "FORMResult", "FORMConvergenceError", "design_point_search"]
 
@@ -51,7 +51,28 @@ EPS = float(np.finfo(float).eps)
 
 
 class FORMConvergenceError(StudyError):
-    """The design-point search did not converge; ``history`` holds every iterate."""
+    """The design-point search did not converge.
+
+    Parameters
+    ----------
+    message : str
+        What did not converge, and what to try.
+    history : DataFrame
+        Every iterate of the search (also ``.history``).
+
+    Examples
+    --------
+    >>> from mechrel.uq import FORMConvergenceError, form
+    >>> from mechrel.uq import FunctionModel, Normal, UncertainInputs
+    >>> inputs = UncertainInputs.from_specs({"x": Normal(0.0, 1.0)})
+    >>> wavy = FunctionModel(lambda X: 3.0 - X[:, 0] ** 3 + 5 * X[:, 0], ["x"], ["g"],
+    ...                      vectorized=True)
+    >>> try:
+    ...     form(model=wavy, inputs=inputs, max_iter=2)
+    ... except FORMConvergenceError as exc:
+    ...     print(len(exc.history) <= 3)
+    True
+    """
 
     def __init__(self, message: str, history: pd.DataFrame):
         super().__init__(message)
@@ -62,10 +83,39 @@ class FORMConvergenceError(StudyError):
 class FORMResult(RareEventResult):
     """FORM result (frozen).
 
-    ``table`` (one row): ``pf`` = Φ(−β), ``beta``, ``n_evaluations``, ``n_iterations``,
-    ``g_origin`` (G at u = 0). ``design_point`` (one row per input, allowables included):
-    ``u`` (standard normal), ``x`` (physical, SI), ``alpha`` (−∇G/‖∇G‖), ``importance``
-    (α²), ``dg_du``. ``history``: one row per iteration.
+    Parameters
+    ----------
+    table : DataFrame
+        One row: ``pf`` = Φ(−β), ``beta``, ``n_evaluations``, ``n_iterations``, ``g_origin``
+        (G at u = 0).
+    design_point : DataFrame
+        One row per input, allowables included: ``u`` (standard normal), ``x`` (physical, SI),
+        ``alpha`` (−∇G/‖∇G‖), ``importance`` (α²), ``dg_du``.
+    history : DataFrame
+        One row per iteration.
+    u_star : ndarray
+        The design point in standard normal space.
+    grad_u : ndarray
+        ∇G at the design point.
+    g_star : float
+        G at the design point.
+    evaluations : Evaluations or None
+        Every model row of the search.
+    provenance : dict
+        How the result was made (with the limit state's description).
+    warnings : tuple of str, default ()
+        Caveats of the estimate (FORM issues none: a search that fails raises :class:`FORMConvergenceError`).
+
+    Examples
+    --------
+    >>> from mechrel.uq import FunctionModel, Normal, UncertainInputs
+    >>> inputs = UncertainInputs.from_specs({"x1": Normal(0.0, 1.0), "x2": Normal(0.0, 1.0)})
+    >>> margin = FunctionModel(lambda X: 3.0 * 2**0.5 - X[:, 0] - X[:, 1], ["x1", "x2"], ["g"],
+    ...                        vectorized=True)
+    >>> from mechrel.uq import form
+    >>> r = form(model=margin, inputs=inputs)
+    >>> round(r.pf / 1.3498980316e-3, 6), int(r.to_frame()["n_iterations"].iloc[0]) >= 1
+    (1.0, True)
     """
 
     table: pd.DataFrame
@@ -76,6 +126,7 @@ class FORMResult(RareEventResult):
     g_star: float
     evaluations: Evaluations | None
     provenance: dict = field(repr=False)
+    warnings: tuple[str, ...] = ()
 
     @property
     def alpha(self) -> pd.Series:
@@ -187,6 +238,7 @@ def form(
     *,
     model: Any,
     inputs: Any,
+    evaluations: Any = None,
     limit_state: Any = None,
     seed: Any = None,
     step: float = 1e-4,
@@ -208,6 +260,9 @@ def form(
     model, inputs, limit_state
         The model, its uncertain inputs and the limit state (default: the model's only output is
         the margin g; failure g ≤ 0).
+    evaluations : None
+        Precomputed evaluations cannot be used (the method chooses its points as it goes);
+        anything but None is an error. Accepted so that every estimator shares one interface.
     seed
         Unused (FORM draws nothing); accepted so that every estimator shares one interface.
     step, scheme
@@ -230,7 +285,21 @@ def form(
     ------
     FORMConvergenceError
         No convergence (its ``history`` holds the iterates).
+
+    Examples
+    --------
+    A linear margin g = 3√2 − x1 − x2 of standard normals: β = 3 exactly.
+
+    >>> from mechrel.uq import FunctionModel, Normal, UncertainInputs
+    >>> inputs = UncertainInputs.from_specs({"x1": Normal(0.0, 1.0), "x2": Normal(0.0, 1.0)})
+    >>> margin = FunctionModel(lambda X: 3.0 * 2**0.5 - X[:, 0] - X[:, 1], ["x1", "x2"], ["g"],
+    ...                        vectorized=True)
+    >>> from mechrel.uq import form
+    >>> r = form(model=margin, inputs=inputs)
+    >>> round(r.beta, 8), r.design_point["importance"].round(6).tolist()
+    (3.0, [0.5, 0.5])
     """
+    refuse_evaluations(evaluations, "form")
     problem = Problem(model=model, inputs=inputs, limit_state=limit_state, n_jobs=n_jobs, backend=backend,
                       cache=cache, progress=progress, chunk_size=chunk_size, what="form")
     return _form(problem, seed=seed, step=step, scheme=scheme, tol=tol, tol_direction=tol_direction,

@@ -27,9 +27,9 @@ from mechrel.errors import StudyError
 
 from ..._checks import ARGS
 from .._common import SampleFailuresError
-from ..executor import Evaluations
-from ..inputs import as_seed_sequence, child_seed, seed_record
-from ._problem import Problem, RareEventResult, common_settings, concat_evaluations
+from ..execution.executor import Evaluations
+from ..problem.inputs import as_seed_sequence, child_seed, seed_record
+from ._problem import Problem, RareEventResult, common_settings, concat_evaluations, refuse_evaluations
 from .form import FORMResult, _form, check_positive
 
 __all__ = ["importance_sampling", "ImportanceSamplingResult"]
@@ -39,9 +39,33 @@ __all__ = ["importance_sampling", "ImportanceSamplingResult"]
 class ImportanceSamplingResult(RareEventResult):
     """Importance-sampling result (frozen).
 
-    ``table`` (one row): ``pf``, ``beta`` (−Φ⁻¹(pf)), ``cov``, ``pf_lo``, ``pf_hi``,
-    ``n_samples``, ``n_failed_domain`` (samples with g ≤ 0), ``n_failed_model``,
-    ``n_evaluations`` (FORM's included). ``form``: the FORM result giving the centre.
+    Parameters
+    ----------
+    table : DataFrame
+        One row: ``pf``, ``beta`` (−Φ⁻¹(pf)), ``cov``, ``pf_lo``, ``pf_hi``, ``n_samples``,
+        ``n_failed_domain`` (samples with g ≤ 0), ``n_failed_model``, ``n_evaluations`` (FORM's
+        included).
+    form : FORMResult
+        The FORM result giving the centre.
+    failure_counts : dict
+        ``{reason: count}`` of the samples the model could not evaluate.
+    evaluations : Evaluations or None
+        Every model row (FORM's included).
+    provenance : dict
+        How the result was made.
+    warnings : tuple of str, default ()
+        Caveats of the estimate (none are issued today; a run without a failing sample raises).
+
+    Examples
+    --------
+    >>> from mechrel.uq import FunctionModel, Normal, UncertainInputs
+    >>> inputs = UncertainInputs.from_specs({"x1": Normal(0.0, 1.0), "x2": Normal(0.0, 1.0)})
+    >>> margin = FunctionModel(lambda X: 3.0 * 2**0.5 - X[:, 0] - X[:, 1], ["x1", "x2"], ["g"],
+    ...                        vectorized=True)
+    >>> from mechrel.uq import importance_sampling
+    >>> r = importance_sampling(model=margin, inputs=inputs, n=200, seed=1, progress=False)
+    >>> int(r.to_frame()["n_samples"].iloc[0]), r.n_evaluations > 200
+    (200, True)
     """
 
     table: pd.DataFrame
@@ -49,6 +73,7 @@ class ImportanceSamplingResult(RareEventResult):
     failure_counts: dict
     evaluations: Evaluations | None
     provenance: dict = field(repr=False)
+    warnings: tuple[str, ...] = ()
 
     @property
     def cov(self) -> float:
@@ -59,6 +84,7 @@ def importance_sampling(
     *,
     model: Any,
     inputs: Any,
+    evaluations: Any = None,
     limit_state: Any = None,
     seed: Any = None,
     n: int = 1000,
@@ -78,12 +104,50 @@ def importance_sampling(
 ) -> ImportanceSamplingResult:
     """P_f by importance sampling around the design point (module docstring).
 
-    ``n`` samples from ``seed``'s first child stream; ``design_point`` a :class:`FORMResult`
-    of the same problem (else FORM runs first with ``step``/``scheme``/``tol``/``max_iter``).
-    ``failures``: a sample the model cannot evaluate is left out (``"exclude"``, the estimate
-    is then conditional on the model being evaluable) or counted as a failure of the limit
-    state (``"as_failure"``); more than ``max_failure_fraction`` failed samples is an error.
+    Parameters
+    ----------
+    model, inputs, limit_state
+        The model, its uncertain inputs and the limit state (default: the model's only output is
+        the margin g; failure g ≤ 0).
+    evaluations : None
+        Precomputed evaluations cannot be used (the method chooses its points as it goes);
+        anything but None is an error. Accepted so that every estimator shares one interface.
+    seed
+        Seed of the samples (drawn from its first child stream).
+    n : int, default 1000
+        Samples around the design point.
+    design_point : FORMResult, optional
+        FORM's result for the same problem (else FORM runs first with ``step``, ``scheme``,
+        ``tol``, ``max_iter``).
+    confidence_level : float, default 0.95
+        Level of the interval on P_f (normal approximation).
+    failures : {"exclude", "as_failure"}, default "exclude"
+        A sample the model cannot evaluate is left out (the estimate is then conditional on the
+        model being evaluable) or counted as a failure of the limit state.
+    max_failure_fraction : float, default 0.1
+        More failed samples than this fraction is an error (:class:`~mechrel.uq.SampleFailuresError`).
+    step, scheme, tol, max_iter
+        FORM's settings, when FORM runs here (:func:`form`).
+    n_jobs, backend, cache, progress, chunk_size
+        Passed to :func:`mechrel.uq.evaluate`.
+
+    Returns
+    -------
+    ImportanceSamplingResult
+
+    Examples
+    --------
+    >>> from mechrel.uq import FunctionModel, Normal, UncertainInputs
+    >>> inputs = UncertainInputs.from_specs({"x1": Normal(0.0, 1.0), "x2": Normal(0.0, 1.0)})
+    >>> margin = FunctionModel(lambda X: 3.0 * 2**0.5 - X[:, 0] - X[:, 1], ["x1", "x2"], ["g"],
+    ...                        vectorized=True)
+    >>> from scipy.special import ndtr
+    >>> from mechrel.uq import importance_sampling
+    >>> r = importance_sampling(model=margin, inputs=inputs, n=500, seed=1, progress=False)
+    >>> bool(abs(r.pf - ndtr(-3.0)) <= 3 * r.cov * r.pf)   # within 3 of its c.o.v.
+    True
     """
+    refuse_evaluations(evaluations, "importance_sampling")
     n = check_positive("n", n, integer=True, minimum=1)
     ARGS.fraction("confidence_level", confidence_level, open_lo=True, open_hi=True)
     common_settings(failures=failures, max_failure_fraction=max_failure_fraction)

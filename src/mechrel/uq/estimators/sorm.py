@@ -39,9 +39,9 @@ from scipy import special, stats
 from mechrel.errors import StudyError
 
 from ..._checks import ARGS
-from ..executor import Evaluations
-from ..inputs import seed_record
-from ._problem import Problem, RareEventResult, concat_evaluations
+from ..execution.executor import Evaluations
+from ..problem.inputs import seed_record
+from ._problem import Problem, RareEventResult, concat_evaluations, refuse_evaluations
 from .form import FORMResult, _form, check_positive
 
 __all__ = ["sorm", "SORMResult", "sorm_probabilities", "FORMULAS"]
@@ -53,9 +53,34 @@ FORMULAS = ("hohenbichler", "tvedt", "breitung")
 class SORMResult(RareEventResult):
     """SORM result (frozen).
 
-    ``table`` (one row): ``pf`` (by ``formula``), ``beta`` (= −Φ⁻¹(pf)), ``beta_form``,
-    ``pf_form``, ``pf_breitung``, ``pf_hohenbichler``, ``pf_tvedt``, ``n_evaluations``
-    (FORM's included). ``curvatures``: the principal curvatures κ_i. ``form``: the FORM result.
+    Parameters
+    ----------
+    table : DataFrame
+        One row: ``pf`` (by ``formula``), ``beta`` (= −Φ⁻¹(pf)), ``beta_form``, ``pf_form``,
+        ``pf_breitung``, ``pf_hohenbichler``, ``pf_tvedt``, ``n_evaluations`` (FORM's included).
+    curvatures : ndarray
+        The principal curvatures κ_i at the design point.
+    form : FORMResult
+        The FORM result the curvatures are taken at.
+    formula : str
+        The formula of ``pf``.
+    evaluations : Evaluations or None
+        Every model row (FORM's included).
+    provenance : dict
+        How the result was made.
+    warnings : tuple of str, default ()
+        Caveats of the estimate (none are issued today).
+
+    Examples
+    --------
+    On a linear margin every curvature is zero and SORM is FORM:
+
+    >>> from mechrel.uq import FunctionModel, Normal, UncertainInputs, sorm
+    >>> inputs = UncertainInputs.from_specs({"x1": Normal(0.0, 1.0), "x2": Normal(0.0, 1.0)})
+    >>> margin = FunctionModel(lambda X: 3.0 - X[:, 0], ["x1", "x2"], ["g"], vectorized=True)
+    >>> r = sorm(model=margin, inputs=inputs)
+    >>> bool(abs(r.curvatures).max() < 1e-6), round(r.pf / r.form.pf, 6)
+    (True, 1.0)
     """
 
     table: pd.DataFrame
@@ -64,6 +89,7 @@ class SORMResult(RareEventResult):
     formula: str
     evaluations: Evaluations | None
     provenance: dict = field(repr=False)
+    warnings: tuple[str, ...] = ()
 
 
 def sorm_probabilities(beta: float, kappa: Any) -> dict:
@@ -134,6 +160,7 @@ def sorm(
     *,
     model: Any,
     inputs: Any,
+    evaluations: Any = None,
     limit_state: Any = None,
     seed: Any = None,
     design_point: FORMResult | None = None,
@@ -151,15 +178,50 @@ def sorm(
 ) -> SORMResult:
     """Second-order reliability from the curvatures at FORM's design point.
 
-    ``design_point``: a :class:`FORMResult` of the same model, inputs and limit state (else FORM
-    runs here with ``step``, ``scheme``, ``tol``, ``max_iter``). ``formula``: which estimate is
-    ``pf``: ``"hohenbichler"`` (default: defined for the widest range of negative curvatures,
-    κ > −1/ψ, ψ ≈ β + 1/β), ``"tvedt"`` (the most accurate for a true paraboloid, needs
-    κ > −1/(β + 1)) or ``"breitung"`` (the asymptotic form). ``curvature_step``: the
-    second-difference step in standard normal units (its truncation error is O(step²) times
-    the fourth derivative; its round-off ≈ ε|G|/step²: enlarge it for a noisy model).
-    ``seed`` is unused (shared interface).
+    Parameters
+    ----------
+    model, inputs, limit_state
+        The model, its uncertain inputs and the limit state (default: the model's only output is
+        the margin g; failure g ≤ 0).
+    evaluations : None
+        Precomputed evaluations cannot be used (the method chooses its points as it goes);
+        anything but None is an error. Accepted so that every estimator shares one interface.
+    seed
+        Unused (SORM draws nothing); accepted so that every estimator shares one interface.
+    design_point : FORMResult, optional
+        FORM's result for the same model, inputs and limit state (else FORM runs here with
+        ``step``, ``scheme``, ``tol``, ``max_iter``).
+    formula : {"hohenbichler", "tvedt", "breitung"}, default "hohenbichler"
+        Which estimate is ``pf``: Hohenbichler–Rackwitz (defined for the widest range of negative
+        curvatures, κ > −1/ψ, ψ ≈ β + 1/β), Tvedt (the most accurate for a true paraboloid, needs
+        κ > −1/(β + 1)) or Breitung (the asymptotic form).
+    curvature_step : float, default 1e-2
+        Second-difference step in standard normal units (its truncation error is O(step²) times
+        the fourth derivative; its round-off ≈ ε|G|/step²: enlarge it for a noisy model).
+    step, scheme, tol, max_iter
+        FORM's settings, when FORM runs here (:func:`form`).
+    n_jobs, backend, cache, progress, chunk_size
+        Passed to :func:`mechrel.uq.evaluate`.
+
+    Returns
+    -------
+    SORMResult
+
+    Examples
+    --------
+    A parabola g = 3 − u2 + 0.1 u1²: β = 3 and the surface's curvature κ = 0.2 (it bends away
+    from the failure domain), so Breitung's formula is Φ(−β)/sqrt(1 + βκ):
+
+    >>> from mechrel.uq import FunctionModel, Normal, UncertainInputs, sorm
+    >>> inputs = UncertainInputs.from_specs({"u1": Normal(0.0, 1.0), "u2": Normal(0.0, 1.0)})
+    >>> parabola = FunctionModel(lambda X: 3.0 - X[:, 1] + 0.1 * X[:, 0] ** 2, ["u1", "u2"],
+    ...                          ["g"], vectorized=True)
+    >>> r = sorm(model=parabola, inputs=inputs, formula="breitung")
+    >>> from scipy.special import ndtr
+    >>> round(float(r.pf / (ndtr(-3.0) / (1 + 3 * 0.2) ** 0.5)), 4)
+    1.0
     """
+    refuse_evaluations(evaluations, "sorm")
     ARGS.choice("formula", formula, FORMULAS)
     curvature_step = check_positive("curvature_step", curvature_step)
     problem = Problem(model=model, inputs=inputs, limit_state=limit_state, n_jobs=n_jobs, backend=backend,

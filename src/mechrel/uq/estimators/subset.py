@@ -31,7 +31,6 @@ the executor only evaluates rows, so the result is identical for any ``n_jobs``.
 from __future__ import annotations
 
 import math
-import warnings
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -42,10 +41,10 @@ from scipy import special, stats
 from mechrel.errors import StudyError
 
 from ..._checks import ARGS
-from .._common import SampleFailuresError
-from ..executor import Evaluations
-from ..inputs import as_seed_sequence, child_seed, seed_record
-from ._problem import Problem, RareEventResult, common_settings
+from .._common import SampleFailuresError, emit_warnings
+from ..execution.executor import Evaluations
+from ..problem.inputs import as_seed_sequence, child_seed, seed_record
+from ._problem import Problem, RareEventResult, common_settings, refuse_evaluations
 from .form import check_positive
 
 __all__ = ["subset_simulation", "SubsetSimulationResult", "PROPOSALS"]
@@ -57,16 +56,38 @@ PROPOSALS = ("conditional", "modified_metropolis")
 class SubsetSimulationResult(RareEventResult):
     """Subset-simulation result (frozen).
 
-    ``table`` (one row): ``pf``, ``beta`` (−Φ⁻¹(pf)), ``cov`` (Au–Beck δ), ``pf_lo``,
-    ``pf_hi``, ``n_levels``, ``n_failed_model``, ``n_evaluations``. ``levels`` (one row per
-    level): ``threshold`` b_i, ``p`` (conditional probability), ``gamma``, ``cov``,
-    ``acceptance`` (of the chains grown at that level), ``n_evaluations``.
+    Parameters
+    ----------
+    table : DataFrame
+        One row: ``pf``, ``beta`` (−Φ⁻¹(pf)), ``cov`` (Au–Beck δ), ``pf_lo``, ``pf_hi``,
+        ``n_levels``, ``n_failed_model``, ``n_evaluations``.
+    levels : DataFrame
+        One row per level: ``threshold`` b_i, ``p`` (conditional probability), ``gamma``, ``cov``,
+        ``acceptance`` (of the chains grown at that level), ``n_evaluations``.
+    evaluations : Evaluations or None
+        Every model row.
+    provenance : dict
+        How the result was made.
+    warnings : tuple of str, default ()
+        Caveats of the estimate, also issued as :class:`~mechrel.errors.EstimateWarning`: a level-0 fraction of failures ≥ p0 (not a rare event), no failing sample at the last level (P_f = 0).
+
+    Examples
+    --------
+    >>> from mechrel.uq import FunctionModel, Normal, UncertainInputs
+    >>> inputs = UncertainInputs.from_specs({"x1": Normal(0.0, 1.0), "x2": Normal(0.0, 1.0)})
+    >>> margin = FunctionModel(lambda X: 3.0 * 2**0.5 - X[:, 0] - X[:, 1], ["x1", "x2"], ["g"],
+    ...                        vectorized=True)
+    >>> from mechrel.uq import subset_simulation
+    >>> r = subset_simulation(model=margin, inputs=inputs, n_per_level=200, seed=2)
+    >>> list(r.levels.columns)[:3], r.n_evaluations == int(r.levels["n_evaluations"].sum())
+    (['threshold', 'p', 'gamma'], True)
     """
 
     table: pd.DataFrame
     levels: pd.DataFrame
     evaluations: Evaluations | None
     provenance: dict = field(repr=False)
+    warnings: tuple[str, ...] = ()
 
     @property
     def cov(self) -> float:
@@ -91,6 +112,7 @@ def subset_simulation(
     *,
     model: Any,
     inputs: Any,
+    evaluations: Any = None,
     limit_state: Any = None,
     seed: Any = None,
     n_per_level: int = 1000,
@@ -110,13 +132,56 @@ def subset_simulation(
 ) -> SubsetSimulationResult:
     """P_f by subset simulation (module docstring).
 
-    ``n_per_level`` N (N·p₀ and 1/p₀ must be integers), ``p0`` the level probability,
-    ``proposal`` ``"conditional"`` (correlation ``rho``) or ``"modified_metropolis"``
-    (proposal std ``spread``), ``max_levels`` (P_f ≥ p₀^max_levels is resolvable).
-    ``failures``: a sample the model cannot evaluate is dropped at level 0 and rejected in a
-    chain (``"exclude"``: the chain stays where it is), or counted as a failure of the limit
-    state (``"as_failure"``). Total failures above ``max_failure_fraction`` are an error.
+    Parameters
+    ----------
+    model, inputs, limit_state
+        The model, its uncertain inputs and the limit state (default: the model's only output is
+        the margin g; failure g ≤ 0).
+    evaluations : None
+        Precomputed evaluations cannot be used (the method chooses its points as it goes);
+        anything but None is an error. Accepted so that every estimator shares one interface.
+    seed
+        Seed of the samples (each level draws from its own child stream).
+    n_per_level : int, default 1000
+        Samples per level N (N·p₀ and 1/p₀ must be integers).
+    p0 : float, default 0.1
+        The conditional probability of each level.
+    proposal : {"conditional", "modified_metropolis"}, default "conditional"
+        Conditional sampling (correlation ``rho``) or the modified Metropolis algorithm
+        (proposal standard deviation ``spread``).
+    rho : float, default 0.8
+        Correlation of the conditional sampler, in [0, 1).
+    spread : float, default 1.0
+        Proposal standard deviation of the modified Metropolis algorithm.
+    max_levels : int, default 20
+        Level limit (P_f ≥ p₀^max_levels is resolvable).
+    confidence_level : float, default 0.95
+        Level of the interval on P_f (from the Au–Beck c.o.v.).
+    failures : {"exclude", "as_failure"}, default "exclude"
+        A sample the model cannot evaluate is dropped at level 0 and rejected in a chain (the chain
+        stays where it is), or counted as a failure of the limit state.
+    max_failure_fraction : float, default 0.1
+        More failed samples in total than this fraction is an error.
+    n_jobs, backend, cache, progress, chunk_size
+        Passed to :func:`mechrel.uq.evaluate`.
+
+    Returns
+    -------
+    SubsetSimulationResult
+
+    Examples
+    --------
+    >>> from mechrel.uq import FunctionModel, Normal, UncertainInputs
+    >>> inputs = UncertainInputs.from_specs({"x1": Normal(0.0, 1.0), "x2": Normal(0.0, 1.0)})
+    >>> margin = FunctionModel(lambda X: 3.0 * 2**0.5 - X[:, 0] - X[:, 1], ["x1", "x2"], ["g"],
+    ...                        vectorized=True)
+    >>> from scipy.special import ndtr
+    >>> from mechrel.uq import subset_simulation
+    >>> r = subset_simulation(model=margin, inputs=inputs, n_per_level=500, seed=1)
+    >>> bool(abs(r.pf - ndtr(-3.0)) <= 3 * r.cov * r.pf), len(r.levels)
+    (True, 3)
     """
+    refuse_evaluations(evaluations, "subset_simulation")
     N = check_positive("n_per_level", n_per_level, integer=True, minimum=1)
     p0 = ARGS.fraction("p0", p0, open_lo=True, open_hi=True)
     nc = N * p0
@@ -229,12 +294,14 @@ def subset_simulation(
         gamma = _gamma((CG <= max(b2, 0.0)).astype(float), p_next)
     tab = pd.DataFrame(levels, columns=["level", "threshold", "p", "gamma", "cov", "acceptance", "n_evaluations"]
                        ).set_index("level")
+    notes = []
     if len(levels) == 1:
-        warnings.warn(f"subset_simulation: {pf:.3g} of the level-0 samples fail (≥ p0 = {p0}): not a rare event, "
-                      "the result is crude Monte Carlo on n_per_level samples", stacklevel=2)
+        notes.append(f"subset_simulation: {pf:.3g} of the level-0 samples fail (≥ p0 = {p0}): not a rare event, "
+                     "the result is crude Monte Carlo on n_per_level samples")
     if pf == 0:
-        warnings.warn("subset_simulation: no sample of the last level failed; P_f is estimated as 0 "
-                      "(below the resolution of this run): increase n_per_level", stacklevel=2)
+        notes.append("subset_simulation: no sample of the last level failed; P_f is estimated as 0 "
+                     "(below the resolution of this run): increase n_per_level")
+    caveats = emit_warnings(notes, stacklevel=3)
     delta = math.sqrt(delta2)
     z = float(stats.norm.ppf(0.5 + confidence_level / 2))
     table = pd.DataFrame({"pf": [pf], "beta": [float(-special.ndtri(pf)) if pf > 0 else np.inf], "cov": [delta],
@@ -248,4 +315,4 @@ def subset_simulation(
                                         "confidence_level": confidence_level, "failures": failures,
                                         "max_failure_fraction": max_failure_fraction,
                                         "cov": "Au & Beck (2001), levels treated as uncorrelated"})
-    return SubsetSimulationResult(table, tab, problem.all_evaluations(), prov)
+    return SubsetSimulationResult(table, tab, problem.all_evaluations(), prov, caveats)

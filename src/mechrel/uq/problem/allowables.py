@@ -34,7 +34,7 @@ from mechrel.outputs import QUANTITY_INFO
 __all__ = [
     "Allowable",
     "DEFAULT_ALLOWABLES",
-    "FORMS",
+    "EVENTS",
     "resolve_allowables",
     "output_groups",
     "EXTREME_STATS",
@@ -46,12 +46,26 @@ __all__ = [
     "binomial_interval",
 ]
 
-FORMS = ("one-sided", "two-sided")
+EVENTS = ("one-sided", "two-sided")
 
 
 @dataclass(frozen=True)
 class Allowable:
-    """Allowable output error I ~ N(mean, std²) (std = 0: a fixed tolerance)."""
+    """Allowable output error I ~ N(mean, std²) (std = 0: a fixed tolerance).
+
+    Parameters
+    ----------
+    mean : float
+        Mean allowable error, in the unit of its quantity (SI: m, m/s, m/s²), > 0.
+    std : float, default 0.0
+        Its standard deviation (≥ 0): the paper's "strength" scatter.
+
+    Examples
+    --------
+    >>> from mechrel.uq import Allowable
+    >>> Allowable(0.2, 0.01)
+    Allowable(mean=0.2, std=0.01)
+    """
 
     mean: float
     std: float = 0.0
@@ -102,16 +116,16 @@ def per_angle_mask(index: pd.Index) -> np.ndarray:
     return np.ones(len(index), dtype=bool)
 
 
-def whole_cycle_column(index: pd.Index, group: str, form: str) -> int | None:
+def whole_cycle_column(index: pd.Index, group: str, event: str) -> int | None:
     """Position of the output whose event is the whole-cycle event of ``group`` (a quantity):
-    the cycle's largest |error| (``max_abs``) for the two-sided form, its largest signed error
+    the cycle's largest |error| (``max_abs``) for the two-sided event, its largest signed error
     (``max``) for the one-sided one, |i| ≤ I (i ≤ I) at every instant being max |i| ≤ I
     (max i ≤ I). ``None`` when the index has no cycle extremes (the analysis angles then stand
     in for the cycle)."""
     if not (isinstance(index, pd.MultiIndex) and "crank_angle" in index.names
             and "quantity" in index.names):
         return None
-    stat = "max_abs" if form == "two-sided" else "max"
+    stat = "max_abs" if event == "two-sided" else "max"
     q = index.get_level_values("quantity").astype(str)
     a = index.get_level_values("crank_angle")
     hits = [i for i in range(len(index)) if q[i] == group and isinstance(a[i], str) and a[i] == stat]
@@ -156,16 +170,37 @@ def resolve_allowables(index: pd.Index, allowable: Any) -> tuple[np.ndarray, np.
     return mu, sd, groups
 
 
-def check_form(form: str) -> str:
-    if form not in FORMS:
-        raise StudyError(f"form: got {form!r}; allowed: {list(FORMS)}")
-    return form
+def check_event(event: str) -> str:
+    if event not in EVENTS:
+        raise StudyError(f"event: got {event!r}; allowed: {list(EVENTS)}")
+    return event
 
 
 def reliability_one_sided(mu_i, sigma_i, mu_I, sigma_I) -> tuple[np.ndarray, np.ndarray]:
     """The paper's eqs. (25)–(28): β = (μ_I − μ_i)/sqrt(σ_I² + σ_i²), R = Φ(β).
 
     With s = 0 (both deterministic) β = ±inf and R ∈ {0, 1} (R = 0.5 when μ_i = μ_I).
+
+    Parameters
+    ----------
+    mu_i, sigma_i : array_like
+        Mean and standard deviation of the signed error i.
+    mu_I, sigma_I : array_like
+        Mean and standard deviation of the allowable I (same unit), broadcast against them.
+
+    Returns
+    -------
+    beta : ndarray
+        The reliability index.
+    R : ndarray
+        The reliability P(I − i > 0) = Φ(β).
+
+    Examples
+    --------
+    >>> from mechrel.uq import reliability_one_sided
+    >>> beta, R = reliability_one_sided(0.0, 0.3, 1.2, 0.4)   # β = 1.2 / 0.5
+    >>> round(float(beta), 12), round(float(R), 6)
+    (2.4, 0.991802)
     """
     mu_i, sigma_i, mu_I, sigma_I = np.broadcast_arrays(*(np.asarray(a, dtype=float) for a in (mu_i, sigma_i, mu_I, sigma_I)))
     s = np.hypot(sigma_I, sigma_i)
@@ -183,6 +218,26 @@ def bivariate_normal_cdf(h, k, rho) -> np.ndarray:
     Φ₂ = ½Φ(h) + ½Φ(k) − T(h, a_h) − T(k, a_k) − δ, a_h = (k − ρh)/(h√(1−ρ²)),
     a_k = (h − ρk)/(k√(1−ρ²)), δ = ½ if hk < 0 or (hk = 0 and h + k < 0), else 0;
     with the limits ρ → ±1 and h or k = 0 handled explicitly.
+
+    Parameters
+    ----------
+    h, k : array_like
+        Upper limits of Z₁ and Z₂.
+    rho : array_like
+        Their correlation, in [−1, 1]; all three are broadcast together.
+
+    Returns
+    -------
+    ndarray
+        Φ₂(h, k; ρ), of the broadcast shape.
+
+    Examples
+    --------
+    Sheppard's formula at the origin, Φ₂(0, 0; ρ) = 1/4 + arcsin(ρ)/(2π):
+
+    >>> from mechrel.uq import bivariate_normal_cdf
+    >>> round(float(bivariate_normal_cdf(0.0, 0.0, 0.5)), 12)   # 1/4 + 1/12
+    0.333333333333
     """
     h, k, rho = np.broadcast_arrays(*(np.asarray(a, dtype=float) for a in (h, k, rho)))
     out = np.empty(h.shape, dtype=float)
@@ -234,7 +289,33 @@ def _owens_t(h: np.ndarray, a: np.ndarray) -> np.ndarray:
 
 
 def reliability_two_sided(mu_i, sigma_i, mu_I, sigma_I) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """P(−I < i < I) under the normal assumptions; returns (β₊, β₋, R₂, generalised index)."""
+    """P(−I < i < I) under the normal assumptions (module docstring: the bivariate orthant form).
+
+    Parameters
+    ----------
+    mu_i, sigma_i : array_like
+        Mean and standard deviation of the signed error i.
+    mu_I, sigma_I : array_like
+        Mean and standard deviation of the allowable I (same unit), broadcast against them.
+
+    Returns
+    -------
+    beta_plus, beta_minus : ndarray
+        (μ_I − μ_i)/s and (μ_I + μ_i)/s, s = sqrt(σ_I² + σ_i²).
+    R : ndarray
+        The reliability P(−I < i < I).
+    beta_generalized : ndarray
+        Φ⁻¹(R).
+
+    Examples
+    --------
+    A fixed allowable of two standard deviations around a centred error: R = 2Φ(2) − 1.
+
+    >>> from mechrel.uq import reliability_two_sided
+    >>> bp, bm, R, bg = reliability_two_sided(0.0, 1.0, 2.0, 0.0)
+    >>> round(float(R), 6)
+    0.9545
+    """
     mu_i, sigma_i, mu_I, sigma_I = np.broadcast_arrays(*(np.asarray(a, dtype=float) for a in (mu_i, sigma_i, mu_I, sigma_I)))
     s2 = sigma_I**2 + sigma_i**2
     s = np.sqrt(s2)
@@ -250,10 +331,31 @@ def reliability_two_sided(mu_i, sigma_i, mu_I, sigma_I) -> tuple[np.ndarray, np.
 def binomial_interval(k, n, *, confidence_level: float = 0.95, method: str = "wilson") -> tuple[np.ndarray, np.ndarray]:
     """Two-sided confidence interval for a binomial proportion k/n (vectorised).
 
-    ``method``: ``"wilson"`` (score interval; good coverage down to small n and extreme p) or
-    ``"clopper-pearson"`` (exact, conservative). For Latin hypercube or Sobol designs the
-    samples are not independent and the true sampling variance is smaller: these intervals are
-    then conservative (too wide), never too narrow for a bounded indicator.
+    For Latin hypercube or Sobol designs the samples are not independent and the true sampling
+    variance is smaller: these intervals are then conservative (too wide), never too narrow for
+    a bounded indicator.
+
+    Parameters
+    ----------
+    k, n : array_like of int
+        Successes and trials.
+    confidence_level : float, default 0.95
+        Coverage of the interval, in (0, 1).
+    method : {"wilson", "clopper-pearson"}, default "wilson"
+        ``"wilson"``: the score interval (good coverage down to small n and extreme p);
+        ``"clopper-pearson"``: exact and conservative.
+
+    Returns
+    -------
+    lo, hi : ndarray
+        The interval's bounds.
+
+    Examples
+    --------
+    >>> from mechrel.uq import binomial_interval
+    >>> lo, hi = binomial_interval(50, 100)
+    >>> round(float(lo), 4), round(float(hi), 4)
+    (0.4038, 0.5962)
     """
     k = np.asarray(k, dtype=float)
     n = np.asarray(n, dtype=float)

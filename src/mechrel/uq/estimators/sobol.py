@@ -2,7 +2,7 @@
 
 Design: ``SALib.sample.sobol.sample`` on the unit hypercube (scrambled Sobol' sequence, seeded),
 mapped column-wise through the marginal inverse CDFs, so any marginal of
-:class:`~mechrel.uq.inputs.UncertainInputs` works. The inputs must be independent: Sobol'
+:class:`~mechrel.uq.problem.inputs.UncertainInputs` works. The inputs must be independent: Sobol'
 indices of correlated inputs are not the classical decomposition (``StudyError`` otherwise).
 Rows come in blocks, one per base sample: ``A, AB_1 … AB_d, [BA_1 … BA_d,] B`` (``d + 2`` rows,
 ``2d + 2`` with second order); ``N`` blocks in total.
@@ -35,8 +35,8 @@ import pandas as pd
 
 from mechrel.errors import StudyError
 
-from .._checks import ARGS
-from ._common import (
+from ..._checks import ARGS
+from .._common import (
     emit_warnings,
     SampleFailuresError,
     check_inputs,
@@ -47,20 +47,49 @@ from ._common import (
     make_provenance,
     run,
 )
-from .executor import Evaluations
-from .inputs import UncertainInputs, as_seed_sequence, child_seed, seed_record
-from .model import check_model
+from ..execution.executor import Evaluations
+from ..problem.inputs import UncertainInputs, as_seed_sequence, child_seed, seed_record
+from ..problem.model import check_model
 
 __all__ = ["sobol_design", "sobol_indices", "SobolResult", "peak_abs"]
 
 
 def peak_abs(Y: np.ndarray, index: pd.Index, level: str = "quantity"):
-    """Reducer: peak |error| over the cycle, one scalar per ``quantity`` (or over all outputs
-    when the index has no such level). Use with ``sobol_indices(reducer=peak_abs)`` or
-    ``Evaluations.reduce(peak_abs)``. When the outputs include the cycle extremes
-    (``max_abs`` in the ``crank_angle`` level, found on the integrator's solution), that is the
-    peak; otherwise the largest |error| at the analysis angles."""
-    from .reliability import per_angle_mask, whole_cycle_column
+    """Reducer: peak |error| over the cycle, one scalar per ``quantity``.
+
+    Use with ``sobol_indices(reducer=peak_abs)`` or ``Evaluations.reduce(peak_abs)``. When the
+    outputs include the cycle extremes (``max_abs`` in the ``crank_angle`` level, found on the
+    integrator's solution), that is the peak; otherwise the largest |error| at the analysis
+    angles. Without a ``level`` level in the index: the peak over all outputs.
+
+    Parameters
+    ----------
+    Y : ndarray, shape (n, n_out)
+        Outputs, one row per sample.
+    index : pandas.Index
+        The outputs' labels.
+    level : str, default "quantity"
+        The index level grouping the outputs.
+
+    Returns
+    -------
+    Y_reduced : ndarray, shape (n, n_groups)
+        The peak |error| per group.
+    index : pandas.Index
+        Its labels, ``peak_abs_QUANTITY`` (``peak_abs`` without groups).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import pandas as pd
+    >>> from mechrel.uq import peak_abs
+    >>> idx = pd.MultiIndex.from_tuples([("velocity", 0.0), ("velocity", 90.0)],
+    ...                                 names=["quantity", "crank_angle"])
+    >>> Y, labels = peak_abs(np.array([[0.1, -0.3], [0.2, 0.1]]), idx)
+    >>> Y.tolist(), list(labels)
+    ([[0.3], [0.2]], ['peak_abs_velocity'])
+    """
+    from ..problem.allowables import per_angle_mask, whole_cycle_column
 
     if isinstance(index, pd.MultiIndex) and level in index.names:
         labels = np.asarray(index.get_level_values(level))
@@ -136,6 +165,27 @@ def sobol_design(inputs: UncertainInputs, *, n: int, calc_second_order: bool = F
 class SobolResult:
     """Sobol' indices (frozen). DataFrames are outputs × inputs; ``*_conf`` are CI half-widths.
 
+    Parameters
+    ----------
+    first, first_conf : DataFrame
+        First-order indices S1 and their confidence half-widths.
+    total, total_conf : DataFrame
+        Total-order indices ST and their confidence half-widths.
+    second : dict or None
+        Second-order indices per output (when computed).
+    n_base : int
+        Saltelli base samples N (N (d + 2) model runs, N (2d + 2) with second order).
+    n_blocks_used, n_blocks_dropped : int
+        Saltelli blocks analysed, and dropped because a sample of theirs failed.
+    failure_counts : dict
+        ``{reason: count}`` of the failed samples.
+    evaluations : Evaluations
+        The model runs.
+    provenance : dict
+        How the result was made.
+    warnings : tuple of str
+        Caveats of the estimate.
+
     Examples
     --------
     >>> from mechrel.uq import Normal, UncertainInputs, linear_model, sobol_indices
@@ -158,6 +208,12 @@ class SobolResult:
     evaluations: Evaluations
     provenance: dict = field(repr=False)
     warnings: tuple[str, ...] = ()
+
+    @property
+    def n_evaluations(self) -> int:
+        """Model evaluations behind the estimate (rows sent to the executor, cache hits
+        included; ``provenance["n_model_evaluations"]``)."""
+        return int(self.provenance["n_model_evaluations"])
 
     def to_frame(self) -> pd.DataFrame:
         """Long table indexed by (output…, input) with S1, S1_conf, ST, ST_conf."""

@@ -9,7 +9,7 @@ For each output, using the successful Monte Carlo samples y of the error i:
   (shape only; statistic from ``scipy.stats.anderson``, p-value from D'Agostino & Stephens'
   (1986) formula, not clipped like scipy's interpolated table);
 * ``skewness``, ``excess_kurtosis`` of y;
-* ``R_fosm`` (FOSM's reliability, same ``form`` and allowable) and ``R_mc`` with its interval,
+* ``R_fosm`` (FOSM's reliability, same ``event`` and allowable) and ``R_mc`` with its interval,
   ``diff = R_fosm − R_mc`` with ``diff_lo``/``diff_hi`` = R_fosm − (R_mc interval);
 * ``flag``: True when either test rejects at ``alpha`` or R_fosm lies outside the Monte Carlo
   interval; ``flag_reason`` says which.
@@ -33,11 +33,11 @@ from scipy import stats
 
 from mechrel.errors import StudyError
 
-from .._checks import ARGS
-from ._common import _labels, emit_warnings, make_provenance, resolve_outputs_safe
-from .first_order import FOSMResult
-from .montecarlo import MonteCarloResult, reliability_from_samples
-from .reliability import per_angle_mask
+from ..._checks import ARGS
+from .._common import _labels, emit_warnings, make_provenance, resolve_outputs_safe
+from .fosm import FOSMResult
+from .monte_carlo import MonteCarloResult, reliability_from_samples
+from ..problem.allowables import per_angle_mask
 
 __all__ = ["normality_check", "NormalityResult"]
 
@@ -64,9 +64,27 @@ def _ad_normal_pvalue(a2: float, n: int) -> float:
 class NormalityResult:
     """Per-output normality diagnostics of FOSM against Monte Carlo (frozen).
 
-    ``warnings``: analysis angles where FOSM's mean μ_i or its reliability lies outside the
-    Monte Carlo confidence interval (also issued as :class:`~mechrel.errors.EstimateWarning`);
-    the cycle extremes' rows are in ``table`` but not in the warnings.
+    Parameters
+    ----------
+    table : DataFrame
+        Per output: FOSM's ``mu_i``, ``sigma_i`` against Monte Carlo's ``mc_mean``, ``mc_std``,
+        ``skewness``, ``excess_kurtosis``; the Kolmogorov–Smirnov and Anderson–Darling
+        statistics and p-values (``ks_*``, ``ad_*``); ``R_fosm``, ``R_mc`` with its interval,
+        their difference ``diff`` with its interval, and ``flag``/``flag_reason``.
+    alpha : float
+        The tests' significance level.
+    event : {"two-sided", "one-sided"}
+        FOSM's event (Monte Carlo's reliability is recomputed with it).
+    fosm : FOSMResult
+        The FOSM result checked.
+    monte_carlo : MonteCarloResult
+        The Monte Carlo result it is checked against.
+    provenance : dict
+        How the result was made.
+    warnings : tuple of str
+        Analysis angles where FOSM's mean μ_i or its reliability lies outside the Monte Carlo
+        confidence interval (also issued as :class:`~mechrel.errors.EstimateWarning`); the cycle
+        extremes' rows are in ``table`` but not in the warnings.
 
     Examples
     --------
@@ -83,11 +101,17 @@ class NormalityResult:
 
     table: pd.DataFrame
     alpha: float
-    form: str
+    event: str
     fosm: FOSMResult
     monte_carlo: MonteCarloResult
     provenance: dict = field(repr=False)
     warnings: tuple[str, ...] = ()
+
+    @property
+    def n_evaluations(self) -> int:
+        """Model evaluations behind the estimate (rows sent to the executor, cache hits
+        included; ``provenance["n_model_evaluations"]``)."""
+        return int(self.provenance["n_model_evaluations"])
 
     def to_frame(self) -> pd.DataFrame:
         return self.table.copy()
@@ -120,7 +144,7 @@ def normality_check(
     """Compare FOSM's N(μ_i, σ_i²) with the Monte Carlo error distribution, output by output.
 
     ``monte_carlo`` must be of the same model (same output index). Its reliability is
-    recomputed with FOSM's ``form`` and allowable (``allowable_mode="sampled"``, so that both
+    recomputed with FOSM's ``event`` and allowable (``allowable_mode="sampled"``, so that both
     estimate the same probability), with the Monte Carlo result's seed, confidence level,
     interval method and failure mode.
 
@@ -169,10 +193,10 @@ def normality_check(
         warnings.warn("normality_check: FOSM and Monte Carlo come from models with different cache keys",
                       stacklevel=2)
     ss = monte_carlo.seed
-    from .inputs import child_seed
+    from ..problem.inputs import child_seed
 
     point, _ = reliability_from_samples(
-        ev, allowable=fosm.allowable, form=fosm.form, allowable_mode="sampled", seed=child_seed(ss, 1),
+        ev, allowable=fosm.allowable, event=fosm.event, allowable_mode="sampled", seed=child_seed(ss, 1),
         confidence_level=monte_carlo.confidence_level, ci_method=monte_carlo.ci_method, failures=monte_carlo.failures,
     )
     Y = ev.Y[ev.ok]
@@ -222,7 +246,7 @@ def normality_check(
     prov = make_provenance(
         method="normality_check", seed=monte_carlo.provenance.get("seed"), evaluations=[fosm.evaluations, ev],
         wall_time=time.perf_counter() - t0,
-        settings={"alpha": alpha, "form": fosm.form, "tests": "KS vs FOSM normal; Anderson-Darling (interpolated p)",
+        settings={"alpha": alpha, "event": fosm.event, "tests": "KS vs FOSM normal; Anderson-Darling (interpolated p)",
                   "monte_carlo_rule": monte_carlo.rule},
     )
     notes = []
@@ -245,5 +269,5 @@ def normality_check(
                      f"Carlo interval at {int((outside & angle).sum())} of {int(angle.sum())} "
                      f"outputs, e.g. {_labels(ev.output_index, outside & angle)}: FOSM's normal, "
                      "first-order model of the error does not hold there; trust Monte Carlo")
-    return NormalityResult(table, alpha, fosm.form, fosm, monte_carlo, prov,
+    return NormalityResult(table, alpha, fosm.event, fosm, monte_carlo, prov,
                            emit_warnings(notes))

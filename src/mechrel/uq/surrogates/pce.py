@@ -5,7 +5,7 @@ Basis
 Orthonormal polynomials of the *germ*: the input marginals themselves when the inputs are
 independent (Hermite for normal, Legendre for uniform, ...; recurrence coefficients from
 ``chaospy.stieltjes``), or iid standard normals z with x = T(z) (the Nataf map of
-:class:`~mechrel.uq.inputs.UncertainInputs`) when they are correlated. Multivariate terms are
+:class:`~mechrel.uq.problem.inputs.UncertainInputs`) when they are correlated. Multivariate terms are
 products Ψ_α(ξ) = Π_j p_{α_j}(ξ_j) over the multi-indices with hyperbolic norm
 (Σ α_j^q)^(1/q) ≤ order (q = 1: total degree). Evaluation uses the three-term recurrence directly
 (chaospy's symbolic ``numpoly`` evaluation is orders of magnitude slower for 10⁵ points).
@@ -47,8 +47,8 @@ import pandas as pd
 
 from mechrel.errors import StudyError
 
-from .._checks import ARGS
-from ._common import (
+from ..._checks import ARGS
+from .._common import (
     emit_warnings,
     SampleFailuresError,
     check_inputs,
@@ -59,9 +59,9 @@ from ._common import (
     readonly,
     run,
 )
-from .executor import STATUS_OK, Evaluations
-from .inputs import SAMPLING_RULES, UncertainInputs, as_seed_sequence, child_seed, seed_record
-from .model import check_model
+from ..execution.executor import STATUS_OK, Evaluations
+from ..problem.inputs import SAMPLING_RULES, UncertainInputs, as_seed_sequence, child_seed, seed_record
+from ..problem.model import check_model
 
 __all__ = ["polynomial_chaos", "pce_design", "PCEResult", "multi_indices"]
 
@@ -264,10 +264,41 @@ def pce_design(
 
 @dataclass(frozen=True, eq=False)
 class PCEResult:
-    """A fitted polynomial chaos expansion (frozen). ``coefficients`` is (P, n_out).
+    """A fitted polynomial chaos expansion (frozen).
 
-    ``warnings``: outputs whose leave-one-out error exceeds :data:`LOO_THRESHOLD` (also issued
-    as :class:`~mechrel.errors.EstimateWarning`, and carried by :meth:`reliability`'s result).
+    Parameters
+    ----------
+    coefficients : ndarray, shape (P, n_out)
+        The expansion's coefficients.
+    multi_indices : ndarray, shape (P, d)
+        The polynomial degrees of each term.
+    order : int
+        Total order of the expansion.
+    method : str
+        How the coefficients were fitted (``"regression"``).
+    germ : str
+        The germ the polynomials are orthogonal for (``"inputs"``: the inputs' own marginals;
+        or the standard normal space of correlated inputs).
+    inputs : UncertainInputs
+        The inputs the expansion is of.
+    output_index : pandas.Index
+        The outputs' labels.
+    mean, std : Series
+        Mean and standard deviation of each output, from the coefficients.
+    sobol_first, sobol_total : DataFrame or None
+        First- and total-order Sobol' indices from the coefficients (independent inputs only).
+    loo_error, validation_error : Series or None
+        Leave-one-out error and the error on a validation sample, relative to each output's
+        variance.
+    evaluations : Evaluations
+        The training runs.
+    provenance : dict
+        How the result was made.
+    _recurrence : tuple, default ()
+        Internal: the orthogonal polynomials' recurrence coefficients (for :meth:`predict`).
+    warnings : tuple of str, default ()
+        Outputs whose leave-one-out error exceeds :data:`LOO_THRESHOLD` (also issued as
+        :class:`~mechrel.errors.EstimateWarning`, and carried by :meth:`reliability`'s result).
 
     Examples
     --------
@@ -299,6 +330,12 @@ class PCEResult:
     provenance: dict = field(repr=False)
     _recurrence: tuple = field(repr=False, default=())
     warnings: tuple[str, ...] = ()
+
+    @property
+    def n_evaluations(self) -> int:
+        """Model evaluations behind the estimate (rows sent to the executor, cache hits
+        included; ``provenance["n_model_evaluations"]``)."""
+        return int(self.provenance["n_model_evaluations"])
 
     def to_frame(self) -> pd.DataFrame:
         """Per output: mean, std, loo_error, validation_error, S1_<input>, ST_<input>."""
@@ -336,12 +373,13 @@ class PCEResult:
     def reliability(self, *, n: int = 100_000, rule: str = "random", seed: Any = None, **monte_carlo_kwargs):
         """Monte Carlo on the surrogate (``n`` cheap samples); returns a MonteCarloResult whose
         intervals cover the sampling error only, not the surrogate error. Keyword arguments are
-        those of :func:`mechrel.uq.monte_carlo` (allowable, form, allowable_mode, ...)."""
-        from .montecarlo import monte_carlo
+        those of :func:`mechrel.uq.monte_carlo` (allowable, event, allowable_mode, ...)."""
+        from ..estimators.monte_carlo import MonteCarloResult, monte_carlo
 
         ss = as_seed_sequence(seed)
         ev = self.surrogate_evaluations(n=n, rule=rule, seed=ss)
         res = monte_carlo(evaluations=ev, seed=ss, **monte_carlo_kwargs)
+        assert isinstance(res, MonteCarloResult)  # evaluations= never takes a limit state
         res.provenance["surrogate"] = {"method": "pce", "order": self.order, "pce_method": self.method,
                                        "pce_provenance": self.provenance, "rule": rule}
         if self.warnings:  # the surrogate's caveats belong to every number computed from it
@@ -563,7 +601,7 @@ def pce_warnings(loo, index, order: int) -> list[str]:
     bad = np.isfinite(values) & (values > LOO_THRESHOLD)
     if not bad.any():
         return []
-    from ._common import _labels
+    from .._common import _labels
 
     return [f"pce: the leave-one-out error of the order-{order} expansion exceeds "
             f"{LOO_THRESHOLD:g} at {int(bad.sum())} of {len(values)} outputs (max "

@@ -88,10 +88,30 @@ def _checksum(model_key: str, x_hash: str, ok: int, yb: bytes | None, reason: st
 
 
 class EvaluationCache:
-    """A directory holding ``evaluations.sqlite`` — or, when the path ends in ``.sqlite``,
-    ``.sqlite3`` or ``.db`` and is not an existing directory, that database file itself.
+    """The SQLite store of finished model evaluations, keyed by the model's cache key and the input
+    row.
 
-    Use it through ``evaluate(..., cache=EvaluationCache(path))`` or ``cache=path``.
+    Use it through ``evaluate(..., cache=EvaluationCache(path))`` or ``cache=path``: cached rows
+    are not evaluated again, and each finished chunk is stored at once (an interrupted run
+    resumes).
+
+    Parameters
+    ----------
+    directory : str or path-like
+        A directory holding ``evaluations.sqlite`` — or, when the path ends in ``.sqlite``,
+        ``.sqlite3`` or ``.db`` and is not an existing directory, that database file itself.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> import numpy as np
+    >>> from mechrel.uq import EvaluationCache, evaluate, linear_model
+    >>> model = linear_model([0.0], [[2.0]], ["x"])
+    >>> with tempfile.TemporaryDirectory() as d:
+    ...     first = evaluate(model, np.array([[1.0], [2.0]]), cache=EvaluationCache(d), progress=False)
+    ...     again = evaluate(model, np.array([[1.0], [2.0]]), cache=EvaluationCache(d), progress=False)
+    >>> first.n_model_calls, again.n_model_calls, again.n_cached
+    (2, 0, 2)
     """
 
     FILENAME = "evaluations.sqlite"

@@ -28,6 +28,7 @@ does not enter the slope.
 
 from __future__ import annotations
 
+import math
 import time
 from dataclasses import dataclass, field
 from typing import Any
@@ -37,7 +38,7 @@ import pandas as pd
 
 from mechrel.errors import StudyError
 
-from ._common import (
+from .._common import (
     _labels,
     check_inputs,
     emit_warnings,
@@ -49,13 +50,14 @@ from ._common import (
     readonly,
     run,
 )
-from .executor import Evaluations
-from .inputs import UncertainInputs
-from .model import check_model
-from .reliability import (check_form, per_angle_mask, reliability_one_sided,
+from ..execution.executor import Evaluations
+from ..problem.inputs import UncertainInputs
+from ..problem.model import check_model
+from ..problem.allowables import (check_event, per_angle_mask, reliability_one_sided,
                           reliability_two_sided, resolve_allowables)
+from ._problem import Problem, RareEventResult
 
-__all__ = ["fosm", "fosm_design", "fd_steps", "FOSMResult"]
+__all__ = ["fosm", "fosm_design", "fd_steps", "FOSMResult", "FOSMPfResult"]
 
 EPS = float(np.finfo(float).eps)
 
@@ -148,16 +150,33 @@ def fosm_design(inputs: UncertainInputs, *, step: Any = "auto", noise: float = E
 class FOSMResult:
     """FOSM reliability per output (frozen).
 
-    ``table`` columns: ``mu_i``, ``sigma_i`` (first-order mean and std of the error), ``mu_I``,
-    ``sigma_I`` (allowable), ``beta`` (the paper's index (μ_I − μ_i)/sqrt(σ_I² + σ_i²)),
-    ``R_one_sided`` (= Φ(beta), the paper's R), ``beta_minus`` ((μ_I + μ_i)/s),
-    ``R_two_sided`` (P(−I < i < I)), ``reliability`` (the one selected by ``form``) and
-    ``beta_generalized`` (Φ⁻¹(reliability)).
-
-    ``warnings``: why the numbers may not be trustworthy (each also issued as an
-    :class:`~mechrel.errors.EstimateWarning`): a non-smooth model (dry contact), outputs whose
-    response the step does not resolve (a kink, an impact, chaos), outputs with a zero
-    gradient (σ_i = 0, so β = ±∞ and R ∈ {0, 1} there are not estimates).
+    Parameters
+    ----------
+    table : DataFrame
+        Per output: ``mu_i``, ``sigma_i`` (first-order mean and std of the error), ``mu_I``,
+        ``sigma_I`` (allowable), ``beta`` (the paper's index (μ_I − μ_i)/sqrt(σ_I² + σ_i²)),
+        ``R_one_sided`` (= Φ(beta), the paper's R), ``beta_minus`` ((μ_I + μ_i)/s),
+        ``R_two_sided`` (P(−I < i < I)), ``reliability`` (the one selected by ``event``) and
+        ``beta_generalized`` (Φ⁻¹(reliability)).
+    gradient : DataFrame
+        ∂output/∂input (outputs × inputs), by central differences.
+    event : {"two-sided", "one-sided"}
+        The event whose probability is ``reliability``.
+    steps : ndarray
+        The finite-difference step of each input (its unit).
+    input_std, input_correlation : ndarray
+        The inputs' standard deviations and Pearson correlation matrix used.
+    allowable
+        The allowables as given.
+    evaluations : Evaluations
+        The 2d + 1 model runs.
+    provenance : dict
+        How the result was made (method, settings, counts, versions, time).
+    warnings : tuple of str
+        Why the numbers may not be trustworthy (each also issued as an
+        :class:`~mechrel.errors.EstimateWarning`): a non-smooth model (dry contact), outputs whose
+        response the step does not resolve (a kink, an impact, chaos), outputs with a zero
+        gradient (σ_i = 0, so β = ±∞ and R ∈ {0, 1} there are not estimates).
 
     Examples
     --------
@@ -165,13 +184,13 @@ class FOSMResult:
     >>> inputs = UncertainInputs.from_specs({"x": Normal(0.0, 0.1)})
     >>> model, allow = linear_model([0.0], [[1.0]], ["x"]), Allowable(0.2, 0.0)
     >>> r = fosm(model=model, inputs=inputs, allowable=allow, progress=False)
-    >>> r.provenance["method"], r.provenance["n_model_evaluations"], r.warnings
+    >>> r.provenance["method"], r.n_evaluations, r.warnings
     ('fosm', 3, ())
     """
 
     table: pd.DataFrame
     gradient: pd.DataFrame
-    form: str
+    event: str
     steps: np.ndarray
     input_std: np.ndarray
     input_correlation: np.ndarray
@@ -179,6 +198,12 @@ class FOSMResult:
     evaluations: Evaluations
     provenance: dict = field(repr=False)
     warnings: tuple[str, ...] = ()
+
+    @property
+    def n_evaluations(self) -> int:
+        """Model evaluations behind the estimate (rows sent to the executor, cache hits
+        included; ``provenance["n_model_evaluations"]``)."""
+        return int(self.provenance["n_model_evaluations"])
 
     def to_frame(self) -> pd.DataFrame:
         return self.table.copy()
@@ -210,7 +235,9 @@ def fosm(
     inputs: UncertainInputs,
     evaluations: Evaluations | None = None,
     allowable: Any = None,
-    form: str = "two-sided",
+    event: str = "two-sided",
+    limit_state: Any = None,
+    seed: Any = None,
     step: Any = "auto",
     noise: float | None = None,
     n_jobs: int = 1,
@@ -218,13 +245,13 @@ def fosm(
     cache: Any = None,
     progress: bool = True,
     chunk_size: int | None = None,
-) -> FOSMResult:
+) -> FOSMResult | FOSMPfResult:
     """FOSM reliability (paper eqs. 25–28) with first-order propagation of ``inputs``.
 
     Pass ``model=`` (2d + 1 evaluations are run here) or ``evaluations=`` of
-    ``fosm_design(inputs, step=step, noise=noise)``. ``form="one-sided"`` is the paper's
-    R = Φ(β) = P(I − i > 0) on the signed error; ``form="two-sided"`` (default) is
-    P(|i| < I), see :mod:`mechrel.uq.reliability`. Both are always in the table.
+    ``fosm_design(inputs, step=step, noise=noise)``. ``event="one-sided"`` is the paper's
+    R = Φ(β) = P(I − i > 0) on the signed error; ``event="two-sided"`` (default) is
+    P(|i| < I), see :mod:`mechrel.uq.problem.allowables`. Both are always in the table.
     ``allowable``: None (paper defaults per ``quantity``), an ``Allowable`` or {quantity: Allowable}.
     ``noise`` (for ``step="auto"``): the relative noise of the model outputs; None takes the
     model's optional ``output_noise`` attribute (e.g. the integrator's rtol), else machine epsilon.
@@ -240,11 +267,17 @@ def fosm(
         Precomputed evaluations of exactly :func:`fosm_design` ``(inputs, step, noise)``.
     allowable : Allowable or mapping, optional
         The allowable error I ~ N(mean, std²) in the outputs' units: None (the default
-        allowables per quantity, :data:`mechrel.uq.reliability.DEFAULT_ALLOWABLES`), one
-        :class:`~mechrel.uq.reliability.Allowable` for every output, or
+        allowables per quantity, :data:`mechrel.uq.problem.allowables.DEFAULT_ALLOWABLES`), one
+        :class:`~mechrel.uq.problem.allowables.Allowable` for every output, or
         ``{quantity: Allowable}``.
-    form : {"two-sided", "one-sided"}, default "two-sided"
+    event : {"two-sided", "one-sided"}, default "two-sided"
         The safe event: P(|i| < I) (two-sided) or the paper's P(i < I) on the signed error.
+    limit_state : LimitState, optional
+        In place of ``allowable``/``event``: mean-value FOSM on the limit state g (its random
+        allowables are inputs too): μ_g = g(μ_X), σ_g² = ∇gᵀ Σ ∇g by central differences,
+        β = μ_g/σ_g, P_f = Φ(−β); returns a :class:`FOSMPfResult`. Needs ``model=``.
+    seed : optional
+        Unused (FOSM draws nothing); accepted so that every estimator shares one interface.
     step : "auto" or float or array, default "auto"
         Central-difference steps h_j in the inputs' units; "auto" balances truncation against
         ``noise`` (:func:`fd_steps`).
@@ -288,7 +321,16 @@ def fosm(
     exclusive_source(model, evaluations, what="fosm")
     if noise is None:
         noise = float(getattr(model, "output_noise", EPS)) if model is not None else EPS
-    check_form(form)
+    check_event(event)
+    if limit_state is not None:
+        if allowable is not None:
+            raise StudyError("fosm: allowable= and limit_state= are both given; allowed: one of them "
+                             "(a limit state carries its own allowables)")
+        if model is None:
+            raise StudyError("fosm: limit_state= with evaluations=: the limit state's random allowables "
+                             "are points of the stencil too; allowed: model= and inputs= with limit_state=")
+        return _limit_state_fosm(model=model, inputs=inputs, limit_state=limit_state, step=step, noise=noise,
+                                 executor=executor_kwargs(n_jobs, backend, cache, progress, chunk_size))
     if model is not None:
         names = check_model(model)[0]
     else:
@@ -323,7 +365,7 @@ def fosm(
     mu_I, sd_I, _ = resolve_allowables(ev.output_index, allowable)
     beta, r1 = reliability_one_sided(mu_i, sigma_i, mu_I, sd_I)
     _, bm, r2, _ = reliability_two_sided(mu_i, sigma_i, mu_I, sd_I)
-    rel = r1 if form == "one-sided" else r2
+    rel = r1 if event == "one-sided" else r2
     from scipy import special
 
     table = pd.DataFrame(
@@ -338,12 +380,12 @@ def fosm(
     h = fd_steps(inputs, step, noise)
     prov = make_provenance(
         method="fosm", seed=None, evaluations=[ev], wall_time=time.perf_counter() - t0, inputs=inputs,
-        settings={"form": form, "step": step if isinstance(step, str) or np.ndim(step) == 0 else list(map(float, step)),
+        settings={"event": event, "step": step if isinstance(step, str) or np.ndim(step) == 0 else list(map(float, step)),
                   "noise": noise, "steps": h.tolist(), "allowable": repr(allowable) if allowable is not None else "paper defaults",
                   "gradient": "central differences, 2d+1 evaluations"},
     )
     notes = emit_warnings(fosm_warnings(model, ev.output_index, Y, sigma_i))
-    return FOSMResult(table, grad, form, readonly(h), readonly(inputs.std), readonly(inputs.pearson_correlation),
+    return FOSMResult(table, grad, event, readonly(h), readonly(inputs.std), readonly(inputs.pearson_correlation),
                       allowable, ev, prov, notes)
 
 
@@ -392,3 +434,73 @@ def fosm_warnings(model, index, Y: np.ndarray, sigma_i: np.ndarray) -> list[str]
                    "between the stencil points, or a step below the model's resolution); "
                    "use Monte Carlo there")
     return out
+
+
+@dataclass(frozen=True, eq=False)
+class FOSMPfResult(RareEventResult):
+    """Mean-value FOSM on a limit state (frozen): what ``fosm(limit_state=...)`` returns.
+
+    Exact for a limit state linear in normal inputs (and allowables); otherwise a first-order
+    approximation about the means, which is not invariant to how g is written (FORM is).
+
+    Parameters
+    ----------
+    table : DataFrame
+        One row (index: the limit state's name): ``pf`` = Φ(−β), ``beta`` = μ_g/σ_g, ``mu_g``,
+        ``sigma_g`` and ``n_evaluations`` (2d + 1).
+    gradient : Series
+        ∂g/∂x at the means, per input (random allowables included), in g's unit per input unit.
+    evaluations : Evaluations or None
+        The stencil's model runs.
+    provenance : dict
+        How the result was made (with the limit state's description).
+    warnings : tuple of str, default ()
+        Caveats of the estimate (none are issued today).
+
+    Examples
+    --------
+    g = 3 − x1 − x2 of standard normals: β = 3/√2 exactly.
+
+    >>> from mechrel.uq import FunctionModel, LimitState, Normal, UncertainInputs, fosm
+    >>> inputs = UncertainInputs.from_specs({"x1": Normal(0.0, 1.0), "x2": Normal(0.0, 1.0)})
+    >>> g = FunctionModel(lambda X: 3.0 - X[:, 0] - X[:, 1], ["x1", "x2"], ["g"], vectorized=True)
+    >>> r = fosm(model=g, inputs=inputs, limit_state=LimitState.margin(), progress=False)
+    >>> round(r.beta * 2**0.5, 9), r.n_evaluations
+    (3.0, 5)
+    """
+
+    table: pd.DataFrame
+    gradient: pd.Series
+    evaluations: Evaluations | None
+    provenance: dict = field(repr=False)
+    warnings: tuple[str, ...] = ()
+
+
+def _limit_state_fosm(*, model, inputs, limit_state, step, noise, executor) -> FOSMPfResult:
+    """Mean-value FOSM on ``limit_state``: the (2d + 1)-point stencil of :func:`fosm_design`
+    over the inputs and the random allowables, g through the model."""
+    from scipy import special
+
+    problem = Problem(model=model, inputs=inputs, limit_state=limit_state, what="fosm", **executor)
+    X = fosm_design(problem.inputs, step=step, noise=noise)
+    G, ok, reasons = problem.g_at_x(X)
+    if not ok.all():
+        labels = ["mean"] + [f"{n} {s} h" for n in problem.names for s in ("+", "-")]
+        bad = [f"{labels[i]}: {reasons[i]}" for i in np.flatnonzero(~ok)]
+        raise StudyError(f"fosm: the finite-difference stencil needs every point; failed points: {bad[:6]}; "
+                         "allowed: a smaller step, or Monte Carlo")
+    dx = X[1::2, :].diagonal() - X[2::2, :].diagonal()
+    grad = (G[1::2] - G[2::2]) / dx
+    sigma_g = float(np.sqrt(max(float(grad @ problem.inputs.covariance @ grad), 0.0)))
+    mu_g = float(G[0])
+    with np.errstate(divide="ignore"):
+        beta = mu_g / sigma_g if sigma_g > 0 else math.copysign(math.inf, mu_g)
+    table = pd.DataFrame({"pf": [float(special.ndtr(-beta))], "beta": [beta], "mu_g": [mu_g],
+                          "sigma_g": [sigma_g], "n_evaluations": [problem.n_evaluations]},
+                         index=pd.Index([problem.limit_state.name], name="limit_state"))
+    prov = problem.provenance(method="fosm", seed=None,
+                              settings={"step": step if isinstance(step, str) or np.ndim(step) == 0
+                                        else list(map(float, step)), "noise": noise,
+                                        "gradient": "central differences, 2d+1 evaluations, at the means"})
+    return FOSMPfResult(table, pd.Series(grad, index=list(problem.names), name="dg_dx"),
+                        problem.all_evaluations(), prov)

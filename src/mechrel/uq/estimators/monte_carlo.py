@@ -2,8 +2,8 @@
 
 Events (per sample, error i, allowable I)
 -----------------------------------------
-``form="two-sided"``  |i| ≤ I  (the tolerance is on the magnitude of the error);
-``form="one-sided"``  i ≤ I    (the paper's P(I − i > 0) on the signed error).
+``event="two-sided"``  |i| ≤ I  (the tolerance is on the magnitude of the error);
+``event="one-sided"``  i ≤ I    (the paper's P(I − i > 0) on the signed error).
 
 The allowable I
 ---------------
@@ -47,18 +47,19 @@ refuses if more than ``max_failure_fraction`` of the samples failed (or fewer th
 
 from __future__ import annotations
 
+import math
 import time
 from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 import pandas as pd
-from scipy import stats
+from scipy import special, stats
 
 from mechrel.errors import StudyError
 
-from .._checks import ARGS
-from ._common import (
+from ..._checks import ARGS
+from .._common import (
     SampleFailuresError,
     check_inputs,
     check_memory,
@@ -68,13 +69,15 @@ from ._common import (
     make_provenance,
     run,
 )
-from .executor import Evaluations
-from .inputs import SAMPLING_RULES, as_seed_sequence, child_seed, seed_record
-from .model import check_model
-from .reliability import (binomial_interval, check_form, per_angle_mask, resolve_allowables,
+from ..execution.executor import Evaluations
+from ..problem.inputs import SAMPLING_RULES, as_seed_sequence, child_seed, seed_record
+from ..problem.model import check_model
+from ..problem.allowables import (binomial_interval, check_event, per_angle_mask, resolve_allowables,
                           whole_cycle_column)
+from ._problem import Problem, RareEventResult
 
-__all__ = ["monte_carlo", "monte_carlo_design", "MonteCarloResult", "reliability_from_samples", "ALLOWABLE_MODES", "FAILURE_MODES"]
+__all__ = ["monte_carlo", "monte_carlo_design", "MonteCarloResult", "MonteCarloPfResult", "reliability_from_samples",
+           "ALLOWABLE_MODES", "FAILURE_MODES"]
 
 ALLOWABLE_MODES = ("sampled", "fixed")
 FAILURE_MODES = ("exclude", "as_violation")
@@ -95,7 +98,7 @@ def reliability_from_samples(
     ev: Evaluations,
     *,
     allowable: Any,
-    form: str,
+    event: str,
     allowable_mode: str,
     seed: np.random.SeedSequence,
     confidence_level: float,
@@ -108,7 +111,7 @@ def reliability_from_samples(
     Y = ev.Y
     ok = ev.ok
     with np.errstate(invalid="ignore"):
-        inside = (np.abs(Y) <= I) if form == "two-sided" else (Y <= I)
+        inside = (np.abs(Y) <= I) if event == "two-sided" else (Y <= I)
     if failures == "exclude":
         rows = ok
         inside = inside[rows]
@@ -131,7 +134,7 @@ def reliability_from_samples(
     joint = np.ones(inside.shape[0], dtype=bool)
     bases = set()
     for g in labels:
-        col = whole_cycle_column(ev.output_index, g, form)
+        col = whole_cycle_column(ev.output_index, g, event)
         if col is not None:
             ok_g, basis = inside[:, col], "cycle extreme"
         else:
@@ -181,10 +184,35 @@ def sample_moments(Y: np.ndarray, *, confidence_level: float) -> pd.DataFrame:
 class MonteCarloResult:
     """Monte Carlo reliability and moments (frozen).
 
-    ``table`` (per output): moments with intervals, ``mu_I``, ``sigma_I``, ``n``,
-    ``n_inside``, ``reliability`` with ``reliability_lo``/``_hi``. ``whole_cycle`` (per quantity
-    and ``"all"``): the joint event over the cycle. ``failure_counts``: {reason: count}.
-    ``warnings``: caveats of the estimate (for a run on a PCE surrogate, the surrogate's).
+    Parameters
+    ----------
+    table : DataFrame
+        Per output: moments with intervals, ``mu_I``, ``sigma_I``, ``n``, ``n_inside``,
+        ``reliability`` with ``reliability_lo``/``_hi``.
+    whole_cycle : DataFrame
+        Per quantity and ``"all"``: the joint event over the cycle.
+    event : {"two-sided", "one-sided"}
+        The event counted as inside.
+    allowable, allowable_mode
+        The allowables as given, and whether they were ``"sampled"`` or ``"fixed"`` at their mean.
+    rule : str
+        The sampling rule (``"user-supplied"`` for precomputed evaluations).
+    confidence_level, ci_method
+        Level and method of the binomial intervals.
+    failures : {"exclude", "as_violation"}
+        What a failed sample counted as.
+    n_failed : int
+        Failed samples.
+    failure_counts : dict
+        ``{reason: count}`` of the failed samples.
+    evaluations : Evaluations
+        The model runs.
+    seed
+        The seed record.
+    provenance : dict
+        How the result was made.
+    warnings : tuple of str
+        Caveats of the estimate (for a run on a PCE surrogate, the surrogate's).
 
     Examples
     --------
@@ -194,13 +222,13 @@ class MonteCarloResult:
     >>> from mechrel.uq import monte_carlo
     >>> r = monte_carlo(model=model, inputs=inputs, n=256, seed=3, allowable=allow,
     ...                 progress=False)
-    >>> r.provenance["seed"]["entropy"], r.evaluations.n, int(r.to_frame()["n"].iloc[0])
+    >>> r.provenance["seed"]["entropy"], r.n_evaluations, int(r.to_frame()["n"].iloc[0])
     (3, 256, 256)
     """
 
     table: pd.DataFrame
     whole_cycle: pd.DataFrame
-    form: str
+    event: str
     allowable: Any
     allowable_mode: str
     rule: str
@@ -214,6 +242,12 @@ class MonteCarloResult:
     provenance: dict = field(repr=False)
     warnings: tuple[str, ...] = ()
 
+    @property
+    def n_evaluations(self) -> int:
+        """Model evaluations behind the estimate (rows sent to the executor, cache hits
+        included; ``provenance["n_model_evaluations"]``)."""
+        return int(self.provenance["n_model_evaluations"])
+
     def to_frame(self) -> pd.DataFrame:
         return self.table.copy()
 
@@ -222,8 +256,8 @@ class MonteCarloResult:
         return self.table["reliability"]
 
 
-def _check_common(form, allowable_mode, confidence_level, ci_method, failures, max_failure_fraction):
-    check_form(form)
+def _check_common(event, allowable_mode, confidence_level, ci_method, failures, max_failure_fraction):
+    check_event(event)
     ARGS.choice("allowable_mode", allowable_mode, ALLOWABLE_MODES)
     ARGS.fraction("confidence_level", confidence_level, open_lo=True, open_hi=True)
     ARGS.choice("ci_method", ci_method, ("wilson", "clopper-pearson"))
@@ -240,7 +274,8 @@ def monte_carlo(
     seed: Any = None,
     evaluations: Evaluations | None = None,
     allowable: Any = None,
-    form: str = "two-sided",
+    event: str = "two-sided",
+    limit_state: Any = None,
     allowable_mode: str = "sampled",
     confidence_level: float = 0.95,
     ci_method: str = "wilson",
@@ -251,7 +286,7 @@ def monte_carlo(
     cache: Any = None,
     progress: bool = True,
     chunk_size: int | None = None,
-) -> MonteCarloResult:
+) -> MonteCarloResult | MonteCarloPfResult:
     """Monte Carlo reliability of every output and of the whole cycle.
 
     Either ``model=`` + ``inputs=`` + ``n=`` (samples drawn by ``rule`` from ``seed``'s first
@@ -269,18 +304,22 @@ def monte_carlo(
     n : int
         Number of samples: an integer >= 2 (with ``model``).
     rule : {"random", "latin_hypercube", "sobol"}, default "random"
-        Sampling rule (:meth:`~mechrel.uq.inputs.UncertainInputs.sample`).
+        Sampling rule (:meth:`~mechrel.uq.problem.inputs.UncertainInputs.sample`).
     seed : int >= 0, SeedSequence or None
         The study's seed; its child streams draw the inputs and the allowables.
     evaluations : Evaluations, optional
         Precomputed evaluations to analyse.
     allowable : Allowable or mapping, optional
         The allowable error I ~ N(mean, std²) in the outputs' units: None (the default
-        allowables per quantity, :data:`mechrel.uq.reliability.DEFAULT_ALLOWABLES`), one
-        :class:`~mechrel.uq.reliability.Allowable` for every output, or
+        allowables per quantity, :data:`mechrel.uq.problem.allowables.DEFAULT_ALLOWABLES`), one
+        :class:`~mechrel.uq.problem.allowables.Allowable` for every output, or
         ``{quantity: Allowable}``.
-    form : {"two-sided", "one-sided"}, default "two-sided"
+    event : {"two-sided", "one-sided"}, default "two-sided"
         The safe event: P(|i| < I) (two-sided) or the paper's P(i < I) on the signed error.
+    limit_state : LimitState, optional
+        In place of ``allowable``/``event``: the probability of failure P(g ≤ 0) of this limit
+        state (its random allowables sampled with the inputs by ``rule``), with its binomial
+        interval; returns a :class:`MonteCarloPfResult`. Needs ``model=`` and ``inputs=``.
     allowable_mode : {"sampled", "fixed"}, default "sampled"
         Draw one allowable per sample from N(mean, std²), or compare with the mean only.
     confidence_level : float in (0, 1), default 0.95
@@ -329,7 +368,19 @@ def monte_carlo(
     """
     t0 = time.perf_counter()
     exclusive_source(model, evaluations, what="monte_carlo")
-    _check_common(form, allowable_mode, confidence_level, ci_method, failures, max_failure_fraction)
+    _check_common(event, allowable_mode, confidence_level, ci_method, failures, max_failure_fraction)
+    if limit_state is not None:
+        if allowable is not None:
+            raise StudyError("monte_carlo: allowable= and limit_state= are both given; allowed: one of them "
+                             "(a limit state carries its own allowables)")
+        if model is None:
+            raise StudyError("monte_carlo: limit_state= with evaluations=: the limit state's random allowables "
+                             "and inputs are sampled with the model's; allowed: model= and inputs= with limit_state=")
+        return _limit_state_monte_carlo(
+            model=model, inputs=inputs, limit_state=limit_state, n=n, rule=rule, seed=seed,
+            confidence_level=confidence_level, ci_method=ci_method, failures=failures,
+            max_failure_fraction=max_failure_fraction,
+            executor=executor_kwargs(n_jobs, backend, cache, progress, chunk_size))
     ss = as_seed_sequence(seed)
     ss_x, ss_I = child_seed(ss, 0), child_seed(ss, 1)
     if model is not None:
@@ -360,7 +411,7 @@ def monte_carlo(
         raise SampleFailuresError(f"monte_carlo: need at least 2 successful samples, got {ev.n_ok}"
                                   + (f" ({failure_message(ev)})" if ev.n_failed else ""), ev)
     point, whole = reliability_from_samples(
-        ev, allowable=allowable, form=form, allowable_mode=allowable_mode, seed=ss_I,
+        ev, allowable=allowable, event=event, allowable_mode=allowable_mode, seed=ss_I,
         confidence_level=confidence_level, ci_method=ci_method, failures=failures,
     )
     mom = sample_moments(ev.Y[ev.ok], confidence_level=confidence_level)
@@ -369,7 +420,7 @@ def monte_carlo(
     prov = make_provenance(
         method="monte_carlo", seed=seed_record(ss), evaluations=[ev], inputs=inputs,
         wall_time=time.perf_counter() - t0,
-        settings={"n": ev.n, "rule": rule, "form": form, "allowable_mode": allowable_mode,
+        settings={"n": ev.n, "rule": rule, "event": event, "allowable_mode": allowable_mode,
                   "allowable": repr(allowable) if allowable is not None else "paper defaults",
                   "confidence_level": confidence_level, "ci_method": ci_method,
                   "failures": failures, "max_failure_fraction": max_failure_fraction,
@@ -377,7 +428,7 @@ def monte_carlo(
                               if rule in ("latin_hypercube", "sobol") else "binomial intervals")},
     )
     return MonteCarloResult(
-        table, whole, form, allowable, allowable_mode, rule, confidence_level, ci_method, failures,
+        table, whole, event, allowable, allowable_mode, rule, confidence_level, ci_method, failures,
         ev.n_failed, ev.failure_counts(), ev, ss, prov,
     )
 
@@ -414,3 +465,86 @@ def monte_carlo_design(inputs: Any, *, n: int, rule: str = "random", seed: Any =
     ARGS.choice("rule", rule, SAMPLING_RULES)
     inputs = check_inputs(inputs, None)
     return inputs.sample(ARGS.sample_count("n", n), rule, child_seed(as_seed_sequence(seed), 0))
+
+
+@dataclass(frozen=True, eq=False)
+class MonteCarloPfResult(RareEventResult):
+    """Crude Monte Carlo on a limit state (frozen): what ``monte_carlo(limit_state=...)`` returns.
+
+    Parameters
+    ----------
+    table : DataFrame
+        One row (index: the limit state's name): ``pf`` = k/n, ``beta`` = −Φ⁻¹(pf), ``cov`` =
+        sqrt((1 − pf)/(n pf)), ``pf_lo``/``pf_hi`` (the binomial interval of the run's
+        ``ci_method``), ``n_samples``, ``n_failed_domain`` (k, samples with g ≤ 0),
+        ``n_failed_model`` and ``n_evaluations``.
+    evaluations : Evaluations or None
+        The model runs.
+    provenance : dict
+        How the result was made (with the limit state's description).
+    warnings : tuple of str, default ()
+        Caveats of the estimate.
+
+    Examples
+    --------
+    P(x > 2) for x ~ N(0, 1) is Φ(−2) = 0.0228:
+
+    >>> from mechrel.uq import FunctionModel, LimitState, Normal, UncertainInputs, monte_carlo
+    >>> inputs = UncertainInputs.from_specs({"x": Normal(0.0, 1.0)})
+    >>> model = FunctionModel(lambda X: X[:, 0], ["x"], ["y"], vectorized=True)
+    >>> r = monte_carlo(model=model, inputs=inputs, n=4096, seed=2, progress=False,
+    ...                 limit_state=LimitState.exceedance(["y"], 2.0, kind="upper"))
+    >>> row = r.to_frame().iloc[0]
+    >>> bool(row["pf_lo"] < 0.0228 < row["pf_hi"]), r.n_evaluations
+    (True, 4096)
+    """
+
+    table: pd.DataFrame
+    evaluations: Evaluations | None
+    provenance: dict = field(repr=False)
+    warnings: tuple[str, ...] = ()
+
+    @property
+    def cov(self) -> float:
+        """Coefficient of variation of ``pf``."""
+        return float(self.table["cov"].iloc[0])
+
+
+def _limit_state_monte_carlo(*, model, inputs, limit_state, n, rule, seed, confidence_level, ci_method,
+                             failures, max_failure_fraction, executor) -> MonteCarloPfResult:
+    """P(g ≤ 0) by crude Monte Carlo: x (and the random allowables) drawn by ``rule`` from
+    ``seed``'s first child stream, g through the model; binomial interval."""
+    ARGS.choice("rule", rule, SAMPLING_RULES)
+    n = ARGS.sample_count("n", n)
+    ss = as_seed_sequence(seed)
+    problem = Problem(model=model, inputs=inputs, limit_state=limit_state, what="monte_carlo",
+                      **executor)
+    X = problem.inputs.sample(n, rule, child_seed(ss, 0))
+    G, ok, reasons = problem.g(problem.inputs.to_standard_normal(X))
+    evaluations = problem.all_evaluations()
+    assert evaluations is not None  # one executor call
+    n_bad = int((~ok).sum())
+    if n_bad > max_failure_fraction * n:
+        counts = pd.Series([r for r in reasons if r is not None], dtype=object).value_counts().to_dict()
+        raise SampleFailuresError(
+            f"monte_carlo: {n_bad} of {n} samples failed ({counts}), more than max_failure_fraction="
+            f"{max_failure_fraction}; allowed: fix the model or raise max_failure_fraction", evaluations)
+    inside = np.where(ok, G <= 0, failures == "as_violation")
+    rows = ok if failures == "exclude" else np.ones(n, dtype=bool)
+    m = int(rows.sum())
+    if m < 2:
+        raise SampleFailuresError(f"monte_carlo: {m} usable samples; allowed: at least 2", evaluations)
+    k = int(inside[rows].sum())
+    pf = k / m
+    lo, hi = binomial_interval(np.array([k]), np.array([m]), confidence_level=confidence_level, method=ci_method)
+    table = pd.DataFrame({"pf": [pf], "beta": [float(-special.ndtri(pf))],
+                          "cov": [math.sqrt((1 - pf) / (m * pf)) if pf > 0 else np.inf],
+                          "pf_lo": [float(lo[0])], "pf_hi": [float(hi[0])], "n_samples": [n],
+                          "n_failed_domain": [k], "n_failed_model": [n_bad],
+                          "n_evaluations": [problem.n_evaluations]},
+                         index=pd.Index([problem.limit_state.name], name="limit_state"))
+    prov = problem.provenance(method="monte_carlo", seed=seed_record(ss),
+                              settings={"n": n, "rule": rule, "confidence_level": confidence_level,
+                                        "ci_method": ci_method, "failures": failures,
+                                        "max_failure_fraction": max_failure_fraction})
+    return MonteCarloPfResult(table, evaluations, prov)

@@ -1,13 +1,13 @@
 """The mechanism as a black-box model for the estimators: parameters → error curves.
 
-:class:`MechanismModel` implements the :class:`mechrel.uq.model.Model` protocol. Its inputs
+:class:`MechanismModel` implements the :class:`mechrel.uq.Model` protocol. Its inputs
 are dotted scene paths (``joints.C1.clearance``, ``joints.C1.lubricant.viscosity``,
 ``drivers.crank1.speed``, ``bodies.rod3.points.P``… any numeric scene value); its outputs are
 the signed errors (with clearance − ideal) of one output point's displacement (m), velocity
 (m/s) and acceleration (m/s²) at the analysis crank angles (every 18° by default, as in the
 paper's §5), labelled by a ``(quantity, crank_angle)`` MultiIndex, followed by each quantity's
 cycle extremes over the analysed cycle, labelled ``(quantity, "max")``, ``(quantity, "min")``
-and ``(quantity, "max_abs")`` (:data:`~mechrel.uq.reliability.EXTREME_STATS`): the largest and
+and ``(quantity, "max_abs")`` (:data:`~mechrel.uq.problem.allowables.EXTREME_STATS`): the largest and
 smallest signed error and the largest |error|, found on the integrator's solution (every step
 and points inside it), not on the analysis angles (docs/uq.md, "Outputs of the mechanism
 model"). :meth:`MechanismModel.extremes` says where in the cycle they occur.
@@ -42,11 +42,11 @@ from collections.abc import Sequence
 import numpy as np
 import pandas as pd
 
-from .._checks import ARGS
-from ..errors import MechrelError, SceneError, StudyError
-from ..outputs import quantities_of
+from ..._checks import ARGS
+from ...errors import MechrelError, SceneError, StudyError
+from ...outputs import quantities_of
 from .model import ModelFailure
-from .reliability import EXTREME_STATS
+from .allowables import EXTREME_STATS
 
 REFERENCES = ("nominal", "same-geometry")
 """What the error is measured against: the ideal motion of the nominal geometry, or of the
@@ -96,14 +96,24 @@ class MechanismModel:
     extremes : bool
         Append the cycle extremes of each quantity to the outputs (default). Without them
         the outputs are the analysis angles only and whole-cycle estimates fall back on them.
+
+    Examples
+    --------
+    Building the model loads the scene; nothing is simulated until it is evaluated:
+
+    >>> from mechrel.uq import MechanismModel
+    >>> m = MechanismModel("slider-crank-lubricated", {"clearance": ["joints.C.clearance"]},
+    ...                    quantities=["velocity"], angle_step=90.0)
+    >>> m.input_names, list(m.output_index)[:3]
+    (('clearance',), [('velocity', 0.0), ('velocity', 90.0), ('velocity', 180.0)])
     """
 
     def __init__(self, scene, inputs: Sequence[str], *, output: str | None = None,
                  quantities: Sequence[str] | None = None, angle_step: float = 18.0,
                  cycles: float | None = None, overrides=None, reference: str = "nominal",
                  extremes: bool = True):
-        from ..scene import load_scene, scene_hash
-        from ..scene.loader import thaw
+        from ...scene import load_scene, scene_hash
+        from ...scene.loader import thaw
 
         base = load_scene(scene, overrides=overrides or {})
         # provenance of the scene as given (the one rebuilt below has another analysis grid
@@ -206,7 +216,7 @@ class MechanismModel:
     @property
     def scene(self):
         if self._scene is None:
-            from ..scene import load_scene
+            from ...scene import load_scene
             self._scene = load_scene(self._raw)
         return self._scene
 
@@ -221,7 +231,7 @@ class MechanismModel:
         point distance from a body's frame or the ground's origin), and no less than machine
         epsilon. The error's reference (the nominal design) is the same in every sample, so its
         own noise cancels in the differences."""
-        from ..simulation import make_integrator
+        from ...simulation import make_integrator
         scene = self.scene
         if not scene.clearance_joints:
             pts = [abs(c) for b in scene.bodies.values() for p in b.points.values() for c in p]
@@ -252,10 +262,10 @@ class MechanismModel:
                 "reference": self.reference, "extremes": self.with_extremes}
 
     def cache_key(self) -> str:
-        from .. import __version__
-        from .._kernel_cache import simulator_digest
-        from ..scene import scene_hash
-        from ..simulation import DENSE_POINTS
+        from ... import __version__
+        from ..._kernel_cache import simulator_digest
+        from ...scene import scene_hash
+        from ...simulation import DENSE_POINTS
 
         payload = json.dumps({"kind": "MechanismModel", "scene": scene_hash(self.scene),
                               "inputs": self.targets, "output": self.output,
@@ -286,8 +296,8 @@ class MechanismModel:
     def simulate(self, x):
         """The full :class:`~mechrel.simulation.SimulationResult` at input vector ``x``, its
         errors measured against the model's ``reference``."""
-        from ..scene import with_overrides
-        from ..simulation import simulate
+        from ...scene import with_overrides
+        from ...simulation import simulate
 
         values = self.scene_values(x)
         scene = with_overrides(self.scene, values)
@@ -300,7 +310,7 @@ class MechanismModel:
 
     def extremes(self, x) -> pd.DataFrame:
         """Where the cycle extremes occur at input vector ``x``: one row per quantity and
-        statistic (:data:`~mechrel.uq.reliability.EXTREME_STATS`), columns ``value``,
+        statistic (:data:`~mechrel.uq.problem.allowables.EXTREME_STATS`), columns ``value``,
         ``time`` (s since the start of the run) and ``crank_angle`` (degrees, from the start
         of the analysed cycle, as the analysis angles)."""
         res = self.simulate(x)
@@ -356,7 +366,7 @@ def _stable_reason(exc: Exception) -> str:
 
 
 def _lookup(raw, path: str):
-    from ..scene.loader import get_value
+    from ...scene.loader import get_value
 
     try:
         return get_value(raw, path)

@@ -35,6 +35,24 @@ class ModelFailure(MechrelError, RuntimeError):
 
     Raise it from ``Model.evaluate`` with a short, *stable* reason (the executor counts failures
     by their reason string, so put the sample-specific numbers at the end or leave them out).
+
+    Parameters
+    ----------
+    reason : str
+        Why the sample failed, e.g. ``"integrator step too small"``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from mechrel.uq import FunctionModel, ModelFailure, evaluate
+    >>> def sqrt_model(x):
+    ...     if x[0] < 0:
+    ...         raise ModelFailure("negative input")
+    ...     return np.sqrt(x)
+    >>> ev = evaluate(FunctionModel(sqrt_model, ["x"], ["y"]), np.array([[4.0], [-1.0]]),
+    ...               progress=False)
+    >>> float(ev.Y[0, 0]), ev.reasons
+    (2.0, (None, 'negative input'))
     """
 
     def __init__(self, reason: str):
@@ -47,18 +65,32 @@ class ModelFailure(MechrelError, RuntimeError):
 
 @runtime_checkable
 class Model(Protocol):
-    """What every estimator evaluates.
+    """What every estimator evaluates (a structural protocol: nothing to inherit).
+
+    A model has ``input_names``, ``output_index`` and ``evaluate(x)``; ``cache_key()`` and
+    ``describe()`` are optional (the cache and the provenance use them when present).
+
+    Parameters
+    ----------
+    *args, **kwargs
+        Not used: a protocol is not instantiated; a class satisfies it by its attributes.
 
     Attributes
     ----------
     input_names
         One name per entry of ``x``. For the mechanism model these are dotted scene paths
         (e.g. ``"joints.C1.clearance"``); they must match the names of the
-        :class:`~mechrel.uq.inputs.UncertainInputs` used with the model.
+        :class:`~mechrel.uq.UncertainInputs` used with the model.
     output_index
         A :class:`pandas.Index` labelling the outputs, usually a ``MultiIndex`` with levels
         ``quantity`` (``displacement``, ``velocity``, ``acceleration``) and ``crank_angle``
         (degrees). Reliability estimators look up default allowables by the ``quantity`` level.
+
+    Examples
+    --------
+    >>> from mechrel.uq import Model, linear_model
+    >>> isinstance(linear_model([0.0], [[1.0]], ["x"]), Model)
+    True
     """
 
     input_names: tuple[str, ...]
@@ -148,6 +180,14 @@ class FunctionModel:
         per-sample ``MechrelError``), the executor re-evaluates that chunk row by row so that only
         the rows that raise are failures. Not part of the cache key: a vectorised and a row-wise
         function computing the same numbers share cached results.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from mechrel.uq import FunctionModel
+    >>> model = FunctionModel(lambda X: X[:, 0] * X[:, 1], ["a", "b"], ["ab"], vectorized=True)
+    >>> model.evaluate(np.array([2.0, 3.0]))
+    array([6.])
     """
 
     def __init__(

@@ -38,7 +38,7 @@ from mechrel.errors import MechrelError, StudyError, interrupt_of
 
 from ._workers import register_backend, safe_path_environment, watch_parent
 from .cache import as_cache
-from .model import as_output_index, check_model, describe_model
+from ..problem.model import as_output_index, check_model, describe_model
 
 __all__ = ["Evaluations", "evaluate", "BACKENDS", "combined_cache_key"]
 
@@ -55,16 +55,44 @@ def _readonly(a: np.ndarray) -> np.ndarray:
 
 @dataclass(frozen=True, eq=False)
 class Evaluations:
-    """Model evaluations at a design ``X`` (frozen).
+    """Model evaluations at a design ``X`` (frozen); what :func:`evaluate` returns.
 
-    Attributes
+    Parameters
     ----------
-    X : (n, d) inputs. Y : (n, n_out) outputs, NaN rows for failed samples.
-    status : (n,) array of ``"ok"`` / ``"failed"``. reasons : per row, None when ok.
-    n_model_calls : calls actually made in this run (cache hits excluded). n_cached : cache hits.
-    wall_time : seconds spent in :func:`evaluate`.
-    model : what the model is (:func:`mechrel.uq.model.describe_model`; for the mechanism model
-    the scene's name, hash and source); empty for precomputed evaluations.
+    X : ndarray, shape (n, d)
+        The inputs, one row per sample.
+    Y : ndarray, shape (n, n_out)
+        The outputs, NaN rows for failed samples.
+    status : ndarray, shape (n,)
+        ``"ok"`` or ``"failed"`` per row.
+    reasons : tuple
+        Per row, the failure's reason (None when ok).
+    input_names : tuple of str
+        The model's input names.
+    output_index : pandas.Index
+        The model's output labels.
+    cache_key : str, optional
+        The model's cache key (None for precomputed evaluations).
+    n_model_calls : int, default 0
+        Calls actually made in this run (cache hits excluded).
+    n_cached : int, default 0
+        Cache hits.
+    wall_time : float, default 0.0
+        Seconds spent in :func:`evaluate`.
+    settings : dict
+        The executor's settings.
+    model : dict
+        What the model is (:func:`mechrel.uq.problem.model.describe_model`; for the mechanism
+        model the scene's name, hash and source); empty for precomputed evaluations.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from mechrel.uq import evaluate, linear_model
+    >>> ev = evaluate(linear_model([1.0], [[2.0]], ["x"]), np.array([[0.0], [1.0]]),
+    ...               progress=False)
+    >>> ev.Y.tolist(), ev.n_ok, ev.n_failed
+    ([[1.0], [3.0]], 2, 0)
     """
 
     X: np.ndarray
@@ -389,6 +417,11 @@ def evaluate(
 
     Parameters
     ----------
+    model : Model
+        What to evaluate (:class:`~mechrel.uq.Model`: e.g. a :class:`~mechrel.uq.FunctionModel`
+        or a :class:`~mechrel.uq.MechanismModel`).
+    X : array_like, shape (n, d)
+        The design, one row per sample, columns in the order of ``model.input_names``.
     n_jobs
         Parallel workers (-1: all cores / all Dask workers). ``n_jobs=1`` runs in-process.
     backend
@@ -410,6 +443,15 @@ def evaluate(
     Returns
     -------
     Evaluations
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from mechrel.uq import evaluate, linear_model
+    >>> ev = evaluate(linear_model([0.0], [[2.0]], ["x"]), np.array([[1.0], [2.0]]),
+    ...               progress=False)
+    >>> ev.Y.ravel().tolist(), ev.n_model_calls
+    ([2.0, 4.0], 2)
     """
     t0 = time.perf_counter()
     input_names, output_index = check_model(model)

@@ -26,7 +26,7 @@ Building blocks
 Allowables
 ----------
 A number is a fixed allowable. A marginal (``Normal``, ``LogNormal``, ``Uniform``,
-``TruncNormal`` of :mod:`mechrel.uq.inputs`) is a random allowable: an extra uncertain input,
+``TruncNormal`` of :mod:`mechrel.uq.problem.inputs`) is a random allowable: an extra uncertain input,
 independent of the model's inputs (the paper's interference model), named
 ``"allowable[<component name>]"``. The reliability estimators append it to the inputs; it never
 reaches the model, so the model is not re-run for a change of the allowable alone.
@@ -43,7 +43,7 @@ import pandas as pd
 
 from mechrel.errors import StudyError
 
-from ..inputs import LogNormal, Normal, TruncNormal, Uniform
+from .inputs import LogNormal, Normal, TruncNormal, Uniform
 
 __all__ = ["LimitState", "Component", "KINDS", "SYSTEMS", "BoundLimitState"]
 
@@ -83,10 +83,32 @@ class Component:
 
 @dataclass(frozen=True)
 class LimitState:
-    """A limit state g(x) (failure: g ≤ 0), a series or parallel system of :class:`Component`.
+    """A limit state g(x) (failure: g ≤ 0), a series or parallel system of components.
 
     Build it with :meth:`margin`, :meth:`exceedance`, :meth:`from_function`, :meth:`series`
-    or :meth:`parallel`.
+    or :meth:`parallel` rather than from its fields.
+
+    Parameters
+    ----------
+    components : tuple of Component
+        The component limit states (each a margin, an exceedance of an allowable, or a function
+        of the outputs).
+    system : {"series", "parallel"}, default "series"
+        Failure when any component fails (g = min) or when all do (g = max).
+    name : str, default "g"
+        Its name in tables (the index of a rare-event result).
+
+    Examples
+    --------
+    Failure when the output ``y`` exceeds a fixed allowable 3:
+
+    >>> import numpy as np
+    >>> from mechrel.uq import FunctionModel, LimitState, Normal, UncertainInputs, form
+    >>> inputs = UncertainInputs.from_specs({"x": Normal(0.0, 1.0)})
+    >>> model = FunctionModel(lambda X: X[:, 0], ["x"], ["y"], vectorized=True)
+    >>> ls = LimitState.exceedance(["y"], 3.0, kind="upper", name="y > 3")
+    >>> round(form(model=model, inputs=inputs, limit_state=ls).beta, 6)
+    3.0
     """
 
     components: tuple[Component, ...]

@@ -1,9 +1,9 @@
 """The typing contracts of estimators and their results (structural: nothing to inherit).
 
-:class:`~mechrel.uq.model.Model` is what an estimator evaluates; :class:`Result` is what every
-estimator returns (:class:`~mechrel.uq.first_order.FOSMResult`,
-:class:`~mechrel.uq.montecarlo.MonteCarloResult`, :class:`~mechrel.uq.pce.PCEResult`,
-:class:`~mechrel.uq.sobol.SobolResult`, :class:`~mechrel.uq.normality.NormalityResult`), and
+:class:`~mechrel.uq.problem.model.Model` is what an estimator evaluates; :class:`Result` is what every
+estimator returns (:class:`~mechrel.uq.estimators.fosm.FOSMResult`,
+:class:`~mechrel.uq.estimators.monte_carlo.MonteCarloResult`, :class:`~mechrel.uq.surrogates.pce.PCEResult`,
+:class:`~mechrel.uq.estimators.sobol.SobolResult`, :class:`~mechrel.uq.estimators.normality.NormalityResult`), and
 :class:`Estimator` is the call itself. A new method's result satisfies :class:`Result` when it
 is a frozen dataclass with these fields and method; ``docs/contributing.md`` has the recipe.
 """
@@ -30,6 +30,9 @@ class Result(Protocol):
     warnings : tuple of str
         The caveats of the estimate (also issued as
         :class:`~mechrel.errors.EstimateWarning`); empty when there are none.
+    n_evaluations : int
+        Model evaluations behind the estimate (rows sent to the executor, cache hits
+        included).
 
     Examples
     --------
@@ -49,6 +52,11 @@ class Result(Protocol):
     @property
     def warnings(self) -> tuple[str, ...]:
         """The caveats of the estimate."""
+        ...
+
+    @property
+    def n_evaluations(self) -> int:
+        """Model evaluations behind the estimate."""
         ...
 
     def to_frame(self) -> pd.DataFrame:

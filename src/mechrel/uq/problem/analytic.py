@@ -92,6 +92,11 @@ def ishigami(x: np.ndarray, a: float = 7.0, b: float = 0.1) -> np.ndarray:
 def ishigami_model() -> FunctionModel:
     """The Ishigami function (a = 7, b = 0.1) as a :class:`FunctionModel` with output ``y``.
 
+    Returns
+    -------
+    FunctionModel
+        Inputs ``x1``, ``x2``, ``x3``; one output ``y``.
+
     Examples
     --------
     >>> ishigami_model().evaluate(np.array([np.pi / 2, 0.0, 1.0]))   # 1 + 0.1
@@ -102,6 +107,11 @@ def ishigami_model() -> FunctionModel:
 
 def ishigami_inputs() -> UncertainInputs:
     """Independent inputs x1, x2, x3 ~ U(−π, π) of the Ishigami function.
+
+    Returns
+    -------
+    UncertainInputs
+        The three independent uniform inputs.
 
     Examples
     --------
