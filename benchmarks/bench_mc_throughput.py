@@ -29,7 +29,7 @@ What is measured
   interleaved over ``--rounds`` rounds on the same ``--n`` samples: "row by row" is what
   ``MechanismModel.evaluate`` did before (``simulate`` per sample: an integrator made and a
   provenance recorded per sample), "batch" is ``MechanismModel.evaluate_batch`` on all of them;
-  the batch's time is split into the Radau kernel, the kinematic analysis (the ideal reference
+  each one's time is split into the Radau kernel, the kinematic analysis (the ideal reference
   on the output grid and on the solution log) and the rest (Python around the kernels);
   medians.
 
@@ -268,28 +268,31 @@ def per_sample_split(model, X, rounds):
                 spent[key] += time.perf_counter() - t0
         return run
 
-    out = {"row_by_row": [], "batch": [], "batch_radau_kernel": [],
-           "batch_kinematic_analysis": [], "batch_rest": []}
+    out = {f"{how}_{part}": [] for how in ("row_by_row", "batch")
+           for part in ("total", "radau_kernel", "kinematic_analysis", "rest")}
     n = X.shape[0]
-    for _ in range(rounds):
-        t0 = time.perf_counter()
-        old = np.array([row_by_row(x) for x in X])
-        out["row_by_row"].append((time.perf_counter() - t0) / n)
-        advance, kin = radau.Radau._advance, kinematics._kinematics
-        radau.Radau._advance = timed(advance, "radau")
-        kinematics._kinematics = timed(kin, "kinematics")
-        spent.update(radau=0.0, kinematics=0.0)
-        try:
-            t0 = time.perf_counter()
-            new = model.evaluate_batch(X)
-            wall = time.perf_counter() - t0
-        finally:
-            radau.Radau._advance, kinematics._kinematics = advance, kin
-        assert np.array_equal(old, new)  # the batch changes no number
-        out["batch"].append(wall / n)
-        out["batch_radau_kernel"].append(spent["radau"] / n)
-        out["batch_kinematic_analysis"].append(spent["kinematics"] / n)
-        out["batch_rest"].append((wall - spent["radau"] - spent["kinematics"]) / n)
+    advance, kin = radau.Radau._advance, kinematics._kinematics
+    radau.Radau._advance = timed(advance, "radau")
+    kinematics._kinematics = timed(kin, "kinematics")
+    try:
+        for _ in range(rounds):
+            for how in ("row_by_row", "batch"):
+                spent.update(radau=0.0, kinematics=0.0)
+                t0 = time.perf_counter()
+                if how == "row_by_row":
+                    old = np.array([row_by_row(x) for x in X])
+                else:
+                    new = model.evaluate_batch(X)
+                wall = time.perf_counter() - t0
+                out[f"{how}_total"].append(wall / n)
+                out[f"{how}_radau_kernel"].append(spent["radau"] / n)
+                out[f"{how}_kinematic_analysis"].append(spent["kinematics"] / n)
+                out[f"{how}_rest"].append((wall - spent["radau"] - spent["kinematics"]) / n)
+            assert np.array_equal(old, new)  # the batch changes no number
+    finally:
+        radau.Radau._advance, kinematics._kinematics = advance, kin
+    rounds_ms = {k: [round(1e3 * x, 2) for x in v] for k, v in out.items()}
+    print("per sample (ms), each round: " + json.dumps(rounds_ms), flush=True)
     return {k: statistics_median(v) for k, v in out.items()}
 
 

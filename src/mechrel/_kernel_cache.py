@@ -91,13 +91,15 @@ _ENTRY_POINTS = {
     "kinematics": ("mechrel.mechanics.kinematics", "_kinematics"),
 }
 _TIMES = "kernel-compile-seconds.json"
-DEFAULT_COMPILE_SECONDS = {"rk4": 40.0, "dopri5": 40.0, "radau": 110.0, "kinematics": 40.0}
-"""First-compilation times (s) on two cores shared with other work, used until this machine has
-measured its own (stored beside the cache). Measured in a fresh checkout: the dry slider-crank's
-first run (DOPRI5 and the kinematic analysis) 65 s, then the lubricated one's (Radau) 109 s, and
-the kinematic analysis alone 87 s under a heavier load (an empty ``NUMBA_CACHE_DIR``); the 65 s
-are shared out between DOPRI5 and the kinematics here, and RK4 is taken as DOPRI5 (the same
-inlined right-hand side). The load moves these numbers by a factor of two either way."""
+DEFAULT_COMPILE_SECONDS = {"rk4": 55.0, "dopri5": 55.0, "radau": 50.0, "kinematics": 10.0}
+"""First-compilation times (s) on two idle cores, used until this machine has measured its own
+(stored beside the cache). The kinematic analysis takes about 10 s of CPU (numba's compile events,
+benchmarks/bench_cold_start.py); the dry slider-crank's first run (DOPRI5 and the kinematic
+analysis, one process) took 65 s in a fresh checkout. A cold Radau warm-up runs in two processes
+(:func:`split_compile`): 55 s of CPU in this one and 35 s in the helper on the default study,
+against 94 s in one process, so about 60 s on two free cores (as measured on the loaded VM:
+115 s against 225 s, load average 4.6). The load moves these numbers by a factor of two or
+more either way."""
 
 
 def is_compiled(entry: str) -> bool:
