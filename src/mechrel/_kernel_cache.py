@@ -309,10 +309,13 @@ def split_compile(scene) -> set[str]:
     env = dict(os.environ)
     env["PYTHONPATH"] = os.pathsep.join([str(_PACKAGE.parent)]
                                         + ([env["PYTHONPATH"]] if env.get("PYTHONPATH") else []))
-    proc = subprocess.Popen(
-        [sys.executable, "-c", "from mechrel._kernel_cache import _helper; _helper()",
-         *_HELPER_JOBS], stdin=subprocess.PIPE, stdout=subprocess.PIPE,
-        stderr=subprocess.DEVNULL, env=env, text=True)
+    try:
+        proc = subprocess.Popen(
+            [sys.executable, "-c", "from mechrel._kernel_cache import _helper; _helper()",
+             *_HELPER_JOBS], stdin=subprocess.PIPE, stdout=subprocess.PIPE,
+            stderr=subprocess.DEVNULL, env=env, text=True)
+    except OSError:  # no interpreter to start (an embedded Python): one process, as before
+        return set()
     done = set()
     finished = threading.Event()
 
@@ -323,8 +326,11 @@ def split_compile(scene) -> set[str]:
 
     threading.Thread(target=read, name="mechrel-compile-helper", daemon=True).start()
     try:
-        proc.stdin.write(json.dumps(thaw(scene.raw)))
-        proc.stdin.close()
+        try:
+            proc.stdin.write(json.dumps(thaw(scene.raw)))
+            proc.stdin.close()
+        except OSError:  # the helper died at start: its jobs compile here, in the kernel
+            pass
         for name in _OWN_JOBS:
             _compile_job(name, scene)
         while not finished.is_set() and not all(n in done for n in _WAIT_FOR):
