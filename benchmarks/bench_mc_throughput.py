@@ -25,6 +25,14 @@ What is measured
   of 10⁴ samples (``default_chunk_size``: 157 samples per chunk, 64 chunks) adding at most
   about half a chunk of tail imbalance, also reported.
 
+* per-sample cost, before and after batched evaluation (issue 14 §2), in this process,
+  interleaved over ``--rounds`` rounds on the same ``--n`` samples: "row by row" is what
+  ``MechanismModel.evaluate`` did before (``simulate`` per sample: an integrator made and a
+  provenance recorded per sample), "batch" is ``MechanismModel.evaluate_batch`` on all of them;
+  each one's time is split into the Radau kernel, the kinematic analysis (the ideal reference
+  on the output grid and on the solution log) and the rest (Python around the kernels);
+  medians.
+
 ``--solver`` selects the integrator settings of the study's scene (the study's own default, or
 the fastest setting of bench_lubricated_ninebar.py that meets the 1 % criterion).
 
@@ -144,6 +152,8 @@ def main(argv=None):
                     help="'study': the study's own solver settings; 'fast': radau rtol 3e-5, "
                          "atol 3e-8 (the fastest setting meeting the 1 %% criterion of "
                          "bench_lubricated_ninebar.py)")
+    ap.add_argument("--rounds", type=int, default=5,
+                    help="interleaved rounds of the per-sample comparison")
     ap.add_argument("--json", default=None)
     args = ap.parse_args(argv)
     solver_over = {} if args.solver == "study" else {"solver.integrator": "radau",
@@ -163,6 +173,9 @@ def main(argv=None):
     t0 = time.perf_counter()
     model.evaluate(Xall[-1])  # warm this process (numba cache load)
     print(f"warm-up evaluation in this process: {time.perf_counter() - t0:.2f} s", flush=True)
+    split = per_sample_split(model, X, args.rounds)
+    print(f"per sample (ms), medians of {args.rounds} interleaved rounds: "
+          + json.dumps({k: round(1e3 * v, 2) for k, v in split.items()}), flush=True)
 
     runs = {}
     order = ["1 worker", "2 workers, cold", "1 worker (2)", "2 workers, warm", "1 worker (3)",
@@ -197,8 +210,8 @@ def main(argv=None):
                "cpu_seconds_per_sample_1worker": cpu1, "cpu_seconds_per_sample_2workers": cpu2,
                "ratio_if_two_free_cores": 2.0 * cpu1 / cpu2,
                "per_sample_s_1worker": per_sample_1, **est}
-    print("\n| run | samples | wall (s) | samples/s | our CPU s | utilisation (CPU / wall / workers) "
-          "| other jobs (cores) | steal (cores) | load (1 min) before → after |")
+    print("\n| run | samples | wall (s) | samples/s | our CPU s | utilisation (CPU / wall / "
+          "workers) | other jobs (cores) | steal (cores) | load (1 min) before → after |")
     print("|---|---|---|---|---|---|---|---|---|")
     for k, r in runs.items():
         print(f"| {k} | {r['n']} | {r['wall']:.1f} | {r['throughput']:.2f} | "
@@ -222,7 +235,65 @@ def main(argv=None):
     print(f"{meta['date']}; {meta['machine']}; {meta['git']}")
     if args.json:
         Path(args.json).write_text(json.dumps({"meta": meta, "probes": probes, "runs": runs,
-                                               "summary": summary}, indent=1, default=float))
+                                               "summary": summary, "per_sample": split},
+                                              indent=1, default=float))
+
+
+def per_sample_split(model, X, rounds):
+    """Seconds per sample: row by row through ``simulate`` (as ``evaluate`` was) and in one
+    ``evaluate_batch``, interleaved; the batch split into the Radau kernel, the kinematic
+    analysis and the rest. Medians over ``rounds``."""
+    import numpy as np
+
+    import mechrel.integrate.radau as radau
+    from mechrel.mechanics import kinematics
+    from mechrel.uq.problem.allowables import EXTREME_STATS
+
+    def row_by_row(x):
+        res = model.simulate(x)
+        k = model.crank_angles.size
+        parts = [res.error(model.output, q)[-k:] for q in model.quantities]
+        parts.append(np.array([res.extremes[model.output][q][st] for q in model.quantities
+                               for st in EXTREME_STATS]))
+        return np.concatenate(parts)
+
+    spent = {"radau": 0.0, "kinematics": 0.0}
+
+    def timed(fn, key):
+        def run(*a, **kw):
+            t0 = time.perf_counter()
+            try:
+                return fn(*a, **kw)
+            finally:
+                spent[key] += time.perf_counter() - t0
+        return run
+
+    out = {f"{how}_{part}": [] for how in ("row_by_row", "batch")
+           for part in ("total", "radau_kernel", "kinematic_analysis", "rest")}
+    n = X.shape[0]
+    advance, kin = radau.Radau._advance, kinematics._kinematics
+    radau.Radau._advance = timed(advance, "radau")
+    kinematics._kinematics = timed(kin, "kinematics")
+    try:
+        for _ in range(rounds):
+            for how in ("row_by_row", "batch"):
+                spent.update(radau=0.0, kinematics=0.0)
+                t0 = time.perf_counter()
+                if how == "row_by_row":
+                    old = np.array([row_by_row(x) for x in X])
+                else:
+                    new = model.evaluate_batch(X)
+                wall = time.perf_counter() - t0
+                out[f"{how}_total"].append(wall / n)
+                out[f"{how}_radau_kernel"].append(spent["radau"] / n)
+                out[f"{how}_kinematic_analysis"].append(spent["kinematics"] / n)
+                out[f"{how}_rest"].append((wall - spent["radau"] - spent["kinematics"]) / n)
+            assert np.array_equal(old, new)  # the batch changes no number
+    finally:
+        radau.Radau._advance, kinematics._kinematics = advance, kin
+    rounds_ms = {k: [round(1e3 * x, 2) for x in v] for k, v in out.items()}
+    print("per sample (ms), each round: " + json.dumps(rounds_ms), flush=True)
+    return {k: statistics_median(v) for k, v in out.items()}
 
 
 def statistics_median(v):

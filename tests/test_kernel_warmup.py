@@ -5,6 +5,8 @@ from __future__ import annotations
 import io
 import json
 
+import pytest
+
 import mechrel._kernel_cache as kc
 from mechrel.scene import load_scene
 
@@ -56,6 +58,7 @@ def test_a_compilation_past_its_estimate_says_so_and_keeps_counting(monkeypatch,
     monkeypatch.setattr(kc, "is_compiled", lambda entry: False)
     monkeypatch.setattr(kc, "_times_file", lambda: times)
     monkeypatch.setattr(mechrel.simulation, "simulate", lambda scene: time.sleep(2.2))
+    monkeypatch.setattr(kc, "split_compile", lambda scene: set())  # the rest of the work
     out = io.StringIO()
     spent = kc.warm_up(load_scene("slider-crank-lubricated"), file=out)
     text = out.getvalue()
@@ -63,3 +66,14 @@ def test_a_compilation_past_its_estimate_says_so_and_keeps_counting(monkeypatch,
     assert "compiling simulation kernels, once — about 1 s, taking longer (a busy machine?)" \
         in text
     assert "/3 s" in text  # the total follows the elapsed time (2.2 s, rounded up)
+
+
+def test_the_stiff_kernels_callees_compile_in_a_helper_process():
+    # on a warm cache the helper loads each job's kernel from the cache and reports it; on a
+    # cold one it compiles them while this process compiles its own share (the time it saves
+    # is measured in benchmarks/bench_cold_start.py, not here)
+    scene = load_scene("slider-crank-lubricated", overrides={"analysis.cycles": 0.01})
+    done = kc.split_compile(scene)
+    assert set(kc._WAIT_FOR) <= done <= set(kc._HELPER_JOBS)
+    with pytest.raises(ValueError, match="unknown compile job 'nope'"):
+        kc._compile_job("nope", scene)

@@ -91,13 +91,15 @@ _ENTRY_POINTS = {
     "kinematics": ("mechrel.mechanics.kinematics", "_kinematics"),
 }
 _TIMES = "kernel-compile-seconds.json"
-DEFAULT_COMPILE_SECONDS = {"rk4": 40.0, "dopri5": 40.0, "radau": 110.0, "kinematics": 40.0}
-"""First-compilation times (s) on two cores shared with other work, used until this machine has
-measured its own (stored beside the cache). Measured in a fresh checkout: the dry slider-crank's
-first run (DOPRI5 and the kinematic analysis) 65 s, then the lubricated one's (Radau) 109 s, and
-the kinematic analysis alone 87 s under a heavier load (an empty ``NUMBA_CACHE_DIR``); the 65 s
-are shared out between DOPRI5 and the kinematics here, and RK4 is taken as DOPRI5 (the same
-inlined right-hand side). The load moves these numbers by a factor of two either way."""
+DEFAULT_COMPILE_SECONDS = {"rk4": 55.0, "dopri5": 55.0, "radau": 50.0, "kinematics": 10.0}
+"""First-compilation times (s) on two idle cores, used until this machine has measured its own
+(stored beside the cache). The kinematic analysis takes about 10 s of CPU (numba's compile events,
+benchmarks/bench_cold_start.py); the dry slider-crank's first run (DOPRI5 and the kinematic
+analysis, one process) took 65 s in a fresh checkout. A cold Radau warm-up runs in two processes
+(:func:`split_compile`): 55 s of CPU in this one and 35 s in the helper on the default study,
+against 94 s in one process, so about 60 s on two free cores (as measured on the loaded VM:
+115 s against 225 s, load average 4.6). The load moves these numbers by a factor of two or
+more either way."""
 
 
 def is_compiled(entry: str) -> bool:
@@ -192,6 +194,8 @@ def warm_up(scene, *, progress: bool = True, file=None) -> float:
 
     def work():
         try:
+            if "radau" in cold:
+                split_compile(short)
             simulate(short)
         except BaseException as exc:  # a scene that fails to run fails in its real run too
             box["exc"] = exc
@@ -224,3 +228,137 @@ def warm_up(scene, *, progress: bool = True, file=None) -> float:
     if "exc" not in box:
         _record_seconds(cold, spent)
     return spent
+
+
+# ----------------------------------------------------------------------------- two processes
+
+# The stiff integrator's kernel calls compiled functions that numba compiles (and caches) each
+# on its own: the right-hand side inside ``events.start`` (inlined there, in the Radau kernel's
+# stages and in the finite-difference Jacobian: three copies), the clearance Jacobian, the
+# finite-difference Jacobian; the simulation also needs the kinematic analysis and the
+# post-processing. A cold compilation did them one after another on one core. numba loads a
+# callee from the on-disk cache when another process has put it there first, so a second
+# process compiles part of them while this one compiles the rest: ``_HELPER_JOBS`` in a helper
+# process, in this order; ``_OWN_JOBS`` here; then this process waits for the helper's jobs
+# that the kernel and the kinematic analysis need, and compiles the kernel itself, loading
+# them. On two idle cores the critical path is the own jobs plus the kernel's own body.
+_HELPER_JOBS = ("rhs", "kinematics", "post_process")
+_OWN_JOBS = ("fd_jacobian", "clearance_jacobian")  # the latter calls rhs_into: the helper's first
+_WAIT_FOR = ("rhs", "kinematics")  # post_process is needed only after the integration
+
+
+def _compile_job(name: str, scene) -> None:
+    """Compile (or load from the cache) the dispatcher of job ``name`` for the argument types
+    a simulation of ``scene`` passes it (numba types of arrays made as the kernels make them:
+    C-contiguous float64, the scene's System and Workspace), without running it; the
+    kinematic analysis is run on the scene's first two output instants, as ``simulate`` runs
+    it."""
+    import numba
+    import numpy as np
+
+    from .mechanics import problem
+    from .mechanics.kinematics import assemble, kinematic_analysis
+    from .mechanics.system import compile_scene
+
+    compiled = compile_scene(scene)
+    if name == "kinematics":
+        from .simulation import output_times
+
+        tol = scene.solver.assembly_tolerance
+        q0, _ = assemble(compiled.ideal, compiled.q_guess, 0.0, tol=tol)
+        kinematic_analysis(compiled.ideal, q0, output_times(scene, compiled)[:2], tol=tol)
+        return
+    sys_ = compiled.dynamic
+    ny = 2 * compiled.q_guess.size + problem.N_WORK
+    vec = numba.typeof(np.zeros(ny))
+    mat = numba.typeof(np.zeros((ny, ny)))
+    hist = numba.typeof(np.zeros(sys_.n_contacts))
+    sys_t = numba.typeof(sys_)
+    f64 = numba.float64
+    if name == "post_process":
+        problem.post_process.compile((vec, mat, sys_t))
+        return
+    ws = numba.typeof(problem.make_workspace(sys_))
+    if name == "rhs":
+        from .integrate.events import start
+
+        start.compile((sys_t, f64, vec, hist, vec))
+    elif name == "clearance_jacobian":
+        problem.clearance_jacobian.compile((f64, vec, hist, sys_t, ws, vec, mat))
+    elif name == "fd_jacobian":
+        from .integrate.radau import fd_jacobian
+
+        fd_jacobian.compile((f64, vec, vec, hist, sys_t, ws, mat, f64, vec, vec))
+    else:
+        raise ValueError(f"unknown compile job {name!r}")
+
+
+def split_compile(scene) -> set[str]:
+    """Compile the stiff integrator's callees for ``scene`` in this process and a helper
+    process at once (see ``_HELPER_JOBS``), leaving the kernel to the caller: on return the
+    helper's jobs the kernel needs are in the on-disk cache (or the helper failed, and the
+    kernel compiles them itself, as before). Results do not depend on it: the same functions
+    compiled for the same types. Returns the helper's jobs done by then."""
+    import json
+    import subprocess
+    import sys
+    import threading
+
+    from .scene.loader import thaw
+
+    env = dict(os.environ)
+    env["PYTHONPATH"] = os.pathsep.join([str(_PACKAGE.parent)]
+                                        + ([env["PYTHONPATH"]] if env.get("PYTHONPATH") else []))
+    try:
+        proc = subprocess.Popen(
+            [sys.executable, "-c", "from mechrel._kernel_cache import _helper; _helper()",
+             *_HELPER_JOBS], stdin=subprocess.PIPE, stdout=subprocess.PIPE,
+            stderr=subprocess.DEVNULL, env=env, text=True)
+    except OSError:  # no interpreter to start (an embedded Python): one process, as before
+        return set()
+    done = set()
+    finished = threading.Event()
+
+    def read():
+        for line in proc.stdout:
+            done.add(line.strip())
+        finished.set()
+
+    threading.Thread(target=read, name="mechrel-compile-helper", daemon=True).start()
+    try:
+        try:
+            proc.stdin.write(json.dumps(thaw(scene.raw)))
+            proc.stdin.close()
+        except OSError:  # the helper died at start: its jobs compile here, in the kernel
+            pass
+        for name in _OWN_JOBS:
+            _compile_job(name, scene)
+        while not finished.is_set() and not all(n in done for n in _WAIT_FOR):
+            finished.wait(0.05)
+    finally:
+        if not finished.is_set():  # the rest (post-processing) it may finish on its own
+            threading.Thread(target=_reap, args=(proc,), daemon=True).start()
+        else:
+            proc.wait()
+    return set(done)
+
+
+def _reap(proc) -> None:
+    try:
+        proc.wait(timeout=600)
+    except Exception:  # noqa: BLE001 - a stuck helper: stop it (it only fills the cache)
+        proc.kill()
+
+
+def _helper() -> None:
+    """The helper process of :func:`split_compile`: the scene's raw mapping (JSON) on stdin,
+    the job names as arguments; prints each job's name when it is done."""
+    import json
+    import sys
+
+    from .scene import load_scene
+
+    scene = load_scene(json.loads(sys.stdin.read()))
+    for name in sys.argv[1:]:
+        _compile_job(name, scene)
+        print(name, flush=True)

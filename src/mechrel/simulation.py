@@ -771,10 +771,41 @@ def simulate(scene: Scene, *, reference: Scene | None = None, method: str = "aut
     >>> round(float(x.max() - x.min()), 9)
     0.1
     """
+    return _explained(scene, reference=reference, method=method, integrator=integrator,
+                      progress=progress, extremes=extremes, dense_points=dense_points,
+                      **solver_settings)
+
+
+def simulate_sample(scene: Scene, solver, *, reference: Scene | None = None,
+                    extremes: bool = False) -> SimulationResult:
+    """:func:`simulate` (``reference``, ``extremes``) with an integrator made beforehand and
+    without the provenance record: the inner call of a batch of samples
+    (:meth:`mechrel.uq.problem.mechanism.MechanismModel.evaluate_batch`), where the integrator is made
+    once per batch and the provenance is the model's.
+
+    Parameters
+    ----------
+    scene, reference, extremes
+        As for :func:`simulate`.
+    solver : Integrator
+        ``make_integrator(scene)`` or an equal one (made from a scene with the same ``solver``
+        table and :func:`scene_kind`): the numbers are then those of ``simulate``, bitwise.
+
+    Returns
+    -------
+    SimulationResult
+        As :func:`simulate`'s, with an empty ``provenance``.
+    """
+    return _explained(scene, reference=reference, method="auto", integrator=None,
+                      progress=False, extremes=extremes, dense_points=DENSE_POINTS,
+                      solver=solver, provenance=False)
+
+
+def _explained(scene, **kwargs) -> SimulationResult:
+    """``_simulate(scene, **kwargs)``, a failure of a scene with values of extreme magnitude
+    explained by them."""
     try:
-        return _simulate(scene, reference=reference, method=method, integrator=integrator,
-                         progress=progress, extremes=extremes, dense_points=dense_points,
-                         **solver_settings)
+        return _simulate(scene, **kwargs)
     except (AssemblyError, SimulationError) as exc:
         extreme = extreme_values(scene) if isinstance(scene, Scene) else []
         if not extreme:
@@ -788,8 +819,8 @@ def simulate(scene: Scene, *, reference: Scene | None = None, method: str = "aut
 
 
 def _simulate(scene: Scene, *, reference: Scene | None, method: str, integrator: str | None,
-              progress: bool, extremes: bool, dense_points: int,
-              **solver_settings) -> SimulationResult:
+              progress: bool, extremes: bool, dense_points: int, solver=None,
+              provenance: bool = True, **solver_settings) -> SimulationResult:
     start = time.perf_counter()
     if not isinstance(scene, Scene):
         raise TypeError(f"simulate: scene must be a Scene, got {type(scene).__name__} "
@@ -797,7 +828,8 @@ def _simulate(scene: Scene, *, reference: Scene | None, method: str, integrator:
     if reference is not None:
         _check_reference(scene, reference)
     # made (and so checked) even when kinematic analysis needs no integrator
-    solver = make_integrator(scene, integrator, **solver_settings)
+    if solver is None:
+        solver = make_integrator(scene, integrator, **solver_settings)
     compiled = compile_scene(scene)
     n = compiled.q_guess.size
     if compiled.ideal.n_constraints > n:
@@ -863,7 +895,8 @@ def _simulate(scene: Scene, *, reference: Scene | None, method: str, integrator:
                                 crank_angle=_crank_angle(scene, compiled, times),
                                 outputs=ideal, ideal=None if reference is None else counterpart,
                                 q=Qi, v=Vi, a=Ai, method="kinematics", stats=stats,
-                                provenance=_provenance(scene, wall, reference), extremes=ext)
+                                provenance=_provenance(scene, wall, reference)
+                                if provenance else {}, extremes=ext)
 
     sys = compiled.dynamic
     qa, va = assemble(compiled.assembly, q0, 0.0, tol=tol,
@@ -913,5 +946,6 @@ def _simulate(scene: Scene, *, reference: Scene | None, method: str, integrator:
                             ideal=counterpart if has_clearance or reference is not None
                             else None,
                             q=Q, v=V, a=A, method="dynamics", stats=stats,
-                            provenance=_provenance(scene, wall, reference),
+                            provenance=_provenance(scene, wall, reference)
+                            if provenance else {},
                             orbits=orbits, energy=energy, extremes=ext)

@@ -38,9 +38,9 @@ from mechrel.errors import MechrelError, StudyError, interrupt_of
 
 from ._workers import register_backend, safe_path_environment, watch_parent
 from .cache import as_cache
-from ..problem.model import as_output_index, check_model, describe_model
+from ..problem.model import RowFailures, as_output_index, check_model, describe_model
 
-__all__ = ["Evaluations", "evaluate", "BACKENDS", "combined_cache_key"]
+__all__ = ["Evaluations", "evaluate", "evaluate_rows", "BACKENDS", "combined_cache_key"]
 
 BACKENDS = ("loky", "dask", "sequential")
 STATUS_OK = "ok"
@@ -292,16 +292,24 @@ def _evaluate_chunk(model: Any, X: np.ndarray, n_out: int, chunk_id: int):
     """Worker: evaluate rows of X; per-sample failures are recorded, not raised.
 
     A model with a true ``vectorized`` attribute is called once for the whole chunk
-    (``evaluate_batch``); non-finite rows are failures; if the batch call raises a per-sample
-    error, the chunk is re-evaluated row by row so that only the rows that raise fail. On an
-    interrupt the rows finished so far ride on the ``KeyboardInterrupt`` as ``.finished``
+    (``evaluate_batch``); non-finite rows are failures; a batch that isolates its failing rows
+    itself raises :class:`~mechrel.uq.problem.model.RowFailures` with every row's outputs and reasons,
+    which are recorded as they are; if the batch call raises another per-sample error, the
+    chunk is re-evaluated row by row so that only the rows that raise fail. On an interrupt the
+    rows finished so far ride on the ``KeyboardInterrupt`` as ``.finished``
     (``(n_finished, Y, ok, reasons)``), so that the in-process loop can cache them."""
     watch_parent()
     if getattr(model, "vectorized", False) and X.shape[0]:
         try:
             Yb = np.asarray(model.evaluate_batch(np.array(X)), dtype=float)
+            reasons_b = None
         except StudyError:
             raise
+        except RowFailures as exc:  # the batch recorded its failing rows with their reasons
+            Yb, reasons_b = np.asarray(exc.Y, dtype=float), list(exc.reasons)
+            if len(reasons_b) != X.shape[0]:
+                raise StudyError(f"model.evaluate_batch: RowFailures carries {len(reasons_b)} "
+                                 f"reasons for {X.shape[0]} rows; allowed: one per row") from None
         except MechrelError:
             Yb = None  # isolate the failing rows below
         if Yb is not None:
@@ -311,14 +319,29 @@ def _evaluate_chunk(model: Any, X: np.ndarray, n_out: int, chunk_id: int):
                 )
             fin = np.isfinite(Yb)
             okb = fin.all(axis=1)
-            reasons_b = [None if o else f"non-finite output ({int((~f).sum())} of {n_out} entries)" for o, f in zip(okb, fin)]
+            if reasons_b is not None:
+                okb &= np.array([r is None for r in reasons_b], dtype=bool)
+            reasons_b = [None if o else ((reasons_b[i] if reasons_b is not None else None)
+                                         or f"non-finite output ({int((~f).sum())} of {n_out} entries)")
+                         for i, (o, f) in enumerate(zip(okb, fin))]
             return chunk_id, np.where(okb[:, None], Yb, np.nan), okb, reasons_b, X.shape[0]
+    Y, ok, reasons = evaluate_rows(model.evaluate, X, n_out)
+    return chunk_id, Y, ok, reasons, X.shape[0]
+
+
+def evaluate_rows(evaluate_one: Callable[[np.ndarray], Any], X: np.ndarray, n_out: int):
+    """``evaluate_one`` at each row of ``X`` with the executor's per-sample failure capture:
+    returns ``(Y, ok, reasons)``, a failed row (a :class:`~mechrel.errors.MechrelError` other
+    than ``StudyError``, or a non-finite output) NaN with its reason. ``StudyError`` and any
+    other exception (a bug) propagate; an interrupt carries the rows finished so far as
+    ``.finished = (n_finished, Y, ok, reasons)``. A model's ``evaluate_batch`` that loops over
+    its rows uses it too, so that its failures read exactly as row-by-row evaluation's."""
     Y = np.full((X.shape[0], n_out), np.nan)
     ok = np.zeros(X.shape[0], dtype=bool)
     reasons: list[str | None] = [None] * X.shape[0]
     for i in range(X.shape[0]):
         try:
-            y = model.evaluate(np.array(X[i]))
+            y = evaluate_one(np.array(X[i]))
         except KeyboardInterrupt as exc:
             exc.finished = (i, Y[:i], ok[:i], reasons[:i])
             raise
@@ -344,7 +367,7 @@ def _evaluate_chunk(model: Any, X: np.ndarray, n_out: int, chunk_id: int):
             continue
         Y[i] = y
         ok[i] = True
-    return chunk_id, Y, ok, reasons, X.shape[0]
+    return Y, ok, reasons
 
 
 def _check_picklable(model: Any) -> None:

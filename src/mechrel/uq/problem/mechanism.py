@@ -45,7 +45,7 @@ import pandas as pd
 from ..._checks import ARGS
 from ...errors import MechrelError, SceneError, StudyError
 from ...outputs import quantities_of
-from .model import ModelFailure
+from .model import ModelFailure, RowFailures
 from .allowables import EXTREME_STATS
 
 REFERENCES = ("nominal", "same-geometry")
@@ -296,17 +296,30 @@ class MechanismModel:
     def simulate(self, x):
         """The full :class:`~mechrel.simulation.SimulationResult` at input vector ``x``, its
         errors measured against the model's ``reference``."""
+        return self._simulate(x)
+
+    def _simulate(self, x, solvers: dict | None = None):
+        """:meth:`simulate`; with ``solvers`` (a dict shared by the samples of a batch), the
+        integrator made for a sample's solver table and scene kind is kept there and reused by
+        the batch's other samples with the same ones, and the result has no provenance
+        (:func:`~mechrel.simulation.simulate_sample`): the same numbers, bitwise."""
         from ...scene import with_overrides
-        from ...simulation import simulate
+        from ...simulation import make_integrator, scene_kind, simulate, simulate_sample
 
         values = self.scene_values(x)
         scene = with_overrides(self.scene, values)
-        if not self.nominal_reference:
-            return simulate(scene, extremes=self.with_extremes)
-        # the nominal geometry with the sample's other values (a speed, a clearance)
-        other = {p: v for p, v in values.items() if not is_geometric(p)}
-        reference = with_overrides(self.scene, other) if other else self.scene
-        return simulate(scene, reference=reference, extremes=self.with_extremes)
+        reference = None
+        if self.nominal_reference:
+            # the nominal geometry with the sample's other values (a speed, a clearance)
+            other = {p: v for p, v in values.items() if not is_geometric(p)}
+            reference = with_overrides(self.scene, other) if other else self.scene
+        if solvers is None:
+            return simulate(scene, reference=reference, extremes=self.with_extremes)
+        key = (scene.solver, scene_kind(scene))
+        solver = solvers.get(key)
+        if solver is None:
+            solver = solvers[key] = make_integrator(scene)
+        return simulate_sample(scene, solver, reference=reference, extremes=self.with_extremes)
 
     def extremes(self, x) -> pd.DataFrame:
         """Where the cycle extremes occur at input vector ``x``: one row per quantity and
@@ -327,14 +340,41 @@ class MechanismModel:
                                             "crank_angle"])
         return frame.set_index(["quantity", "statistic"])
 
+    vectorized = True
+    """The executor hands a chunk of samples to one :meth:`evaluate_batch` call."""
+
     def evaluate(self, x) -> np.ndarray:
         """Errors at the analysis crank angles of the last cycle, quantity-major (m, m/s, m/s²),
         then (with ``extremes``) each quantity's cycle extremes (module docstring).
 
         Raises :class:`~mechrel.uq.ModelFailure` with the reason when the scene is invalid at
         ``x`` (e.g. a clearance ≤ 0), cannot assemble, or the integrator fails."""
+        return self._evaluate(x, {})
+
+    def evaluate_batch(self, X) -> np.ndarray:
+        """:meth:`evaluate` at each row of ``X`` (m, d) in one call: what does not depend on
+        the sample (the integrator) is made once for the batch, and no provenance is recorded
+        per sample; the rows' numbers are those of :meth:`evaluate`, bitwise, for any batch.
+
+        Raises :class:`~mechrel.uq.problem.model.RowFailures` when rows failed: every row's outputs
+        and, per failed row, the reason :meth:`evaluate` raises with (the executor records
+        them as they are; :func:`mechrel.uq.execution.executor.evaluate_rows`)."""
+        from ..execution.executor import evaluate_rows
+
+        X = np.asarray(X, dtype=float)
+        if X.ndim != 2 or X.shape[1] != len(self.input_names):
+            raise StudyError(f"X: expected shape (m, {len(self.input_names)}) for inputs "
+                             f"{list(self.input_names)}, got {X.shape}")
+        solvers: dict = {}
+        Y, ok, reasons = evaluate_rows(lambda x: self._evaluate(x, solvers), X,
+                                       len(self.output_index))
+        if not ok.all():
+            raise RowFailures(Y, reasons)
+        return Y
+
+    def _evaluate(self, x, solvers: dict) -> np.ndarray:
         try:
-            res = self.simulate(x)
+            res = self._simulate(x, solvers)
         except StudyError:
             raise
         except MechrelError as exc:

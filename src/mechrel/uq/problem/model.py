@@ -27,7 +27,7 @@ import pandas as pd
 
 from mechrel.errors import MechrelError, StudyError
 
-__all__ = ["Model", "ModelFailure", "FunctionModel", "check_model", "describe_model", "as_output_index"]
+__all__ = ["Model", "ModelFailure", "RowFailures", "FunctionModel", "check_model", "describe_model", "as_output_index"]
 
 
 class ModelFailure(MechrelError, RuntimeError):
@@ -61,6 +61,29 @@ class ModelFailure(MechrelError, RuntimeError):
 
     def __reduce__(self):  # picklable across process boundaries with its reason
         return (type(self), (self.reason,))
+
+
+class RowFailures(ModelFailure):
+    """Some rows of a batch failed: raised by a model's ``evaluate_batch`` that records its
+    rows' failures itself (instead of letting the executor re-run the batch row by row).
+
+    Parameters
+    ----------
+    Y : array (m, n_out)
+        Every row's outputs; the failed rows' are ignored (NaN).
+    reasons : sequence of (str or None)
+        Per row: None when it succeeded, else its stable reason (as ``ModelFailure.reason``).
+    """
+
+    def __init__(self, Y, reasons):
+        self.Y = np.asarray(Y, dtype=float)
+        self.reasons = [None if r is None else str(r) for r in reasons]
+        failed = [r for r in self.reasons if r is not None]
+        super().__init__(f"{len(failed)} of {len(self.reasons)} rows failed"
+                         + (f", the first: {failed[0]}" if failed else ""))
+
+    def __reduce__(self):  # picklable across process boundaries with its rows
+        return (type(self), (self.Y, self.reasons))
 
 
 @runtime_checkable
@@ -106,7 +129,11 @@ class Model(Protocol):
 
     # Optional (not part of the runtime check): ``vectorized: bool`` and
     # ``evaluate_batch(X (m, d)) -> (m, n_out)``; when ``vectorized`` is true the executor calls
-    # ``evaluate_batch`` once per chunk (see :class:`FunctionModel`).
+    # ``evaluate_batch`` once per chunk (see :class:`FunctionModel`); a batch that isolates its
+    # failing rows raises :class:`RowFailures` with all rows' outputs and reasons (see
+    # :class:`mechrel.uq.problem.mechanism.MechanismModel`), and it attaches the rows finished before an
+    # interrupt as ``KeyboardInterrupt.finished`` (:func:`mechrel.uq.execution.executor.evaluate_rows`
+    # does both).
 
     def cache_key(self) -> str:
         """Stable hash of everything that determines the outputs except ``x``."""
