@@ -20,7 +20,7 @@ from mechrel.uq import FunctionModel, ModelFailure
 from mechrel.uq.execution.executor import evaluate, evaluate_rows
 from mechrel.uq.problem.mechanism import MechanismModel
 from mechrel.uq.problem.model import RowFailures
-from mechrel.uq.reliability import EXTREME_STATS
+from mechrel.uq.problem.allowables import EXTREME_STATS
 
 BAD_CLEARANCE = -1e-4  # refused by the scene's validation: a recorded failure, not an error
 

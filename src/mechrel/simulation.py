@@ -780,8 +780,8 @@ def simulate_sample(scene: Scene, solver, *, reference: Scene | None = None,
                     extremes: bool = False) -> SimulationResult:
     """:func:`simulate` (``reference``, ``extremes``) with an integrator made beforehand and
     without the provenance record: the inner call of a batch of samples
-    (:meth:`mechrel.uq.problem.mechanism.MechanismModel.evaluate_batch`), where the integrator is made
-    once per batch and the provenance is the model's.
+    (:meth:`mechrel.uq.problem.mechanism.MechanismModel.evaluate_batch`), where the integrator
+    is made once per batch and the provenance is the model's.
 
     Parameters
     ----------
