@@ -135,6 +135,14 @@ def importance_sampling(
     -------
     ImportanceSamplingResult
 
+    Raises
+    ------
+    StudyError
+        If ``design_point`` is not a FORMResult of the same inputs, or no sample fails (P_f not
+        estimable).
+    SampleFailuresError
+        If more than ``max_failure_fraction`` of the samples fail, or fewer than 2 are usable.
+
     Examples
     --------
     >>> from mechrel.uq import FunctionModel, Normal, UncertainInputs

@@ -207,6 +207,13 @@ def sorm(
     -------
     SORMResult
 
+    Raises
+    ------
+    StudyError
+        If ``design_point`` is not a FORMResult of the same inputs, or the formula is undefined
+        for the curvatures at the design point (a factor 1 + cκ <= 0); the errors of
+        :func:`~mechrel.uq.form` when the design point is searched here.
+
     Examples
     --------
     A parabola g = 3 − u2 + 0.1 u1²: β = 3 and the surface's curvature κ = 0.2 (it bends away

@@ -169,6 +169,14 @@ def subset_simulation(
     -------
     SubsetSimulationResult
 
+    Raises
+    ------
+    StudyError
+        If ``p0`` and ``n_per_level`` are inconsistent, a level has too few usable samples,
+        ``max_levels`` is reached with the threshold above 0, or the threshold stops decreasing.
+    SampleFailuresError
+        If more than ``max_failure_fraction`` of the samples fail.
+
     Examples
     --------
     >>> from mechrel.uq import FunctionModel, Normal, UncertainInputs

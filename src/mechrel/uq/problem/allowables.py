@@ -350,6 +350,11 @@ def binomial_interval(k, n, *, confidence_level: float = 0.95, method: str = "wi
     lo, hi : ndarray
         The interval's bounds.
 
+    Raises
+    ------
+    StudyError
+        If ``confidence_level`` is not in (0, 1) or ``method`` is unknown.
+
     Examples
     --------
     >>> from mechrel.uq import binomial_interval

@@ -224,6 +224,11 @@ def pce_design(
     weights : ndarray, shape (m,), or None
         The quadrature weights (they sum to 1), None for regression.
 
+    Raises
+    ------
+    StudyError
+        If ``oversampling`` is < 1, or an argument is invalid.
+
     Examples
     --------
     Regression on twice the 6 terms of order 2 in two inputs, rounded up to a power of 2
