@@ -76,7 +76,7 @@ from ..problem.allowables import (binomial_interval, check_event, per_angle_mask
                           whole_cycle_column)
 from ._problem import Problem, RareEventResult
 
-__all__ = ["monte_carlo", "monte_carlo_design", "MonteCarloResult", "MonteCarloPfResult", "reliability_from_samples",
+__all__ = ["monte_carlo", "monte_carlo_design", "MonteCarloResult", "MonteCarloPfResult",
            "ALLOWABLE_MODES", "FAILURE_MODES"]
 
 ALLOWABLE_MODES = ("sampled", "fixed")

@@ -91,6 +91,23 @@ class SubsetSimulationResult(RareEventResult):
 
     @property
     def cov(self) -> float:
+        """The approximate coefficient of variation of the estimate ``pf``.
+
+        Returns
+        -------
+        float
+            From the levels' c.o.v.s with the Markov-chain correlation factors (dimensionless).
+
+        Examples
+        --------
+        >>> from mechrel.uq import FunctionModel, Normal, UncertainInputs
+        >>> inputs = UncertainInputs.from_specs({"x1": Normal(0.0, 1.0), "x2": Normal(0.0, 1.0)})
+        >>> margin = FunctionModel(lambda X: 3.0 * 2**0.5 - X[:, 0] - X[:, 1], ["x1", "x2"], ["g"],
+        ...                        vectorized=True)
+        >>> r = subset_simulation(model=margin, inputs=inputs, n_per_level=200, seed=2)
+        >>> 0 < r.cov < 1
+        True
+        """
         return float(self.table["cov"].iloc[0])
 
 
