@@ -41,7 +41,7 @@ __all__ = ["Context", "Presenter", "PRESENTERS", "KIND_PRESENTERS", "presenter_c
 
 @dataclass
 class Context:
-    """Everything one run of :func:`~mechrel.studies.runner.run_reliability` shares between the presenters.
+    """What one run of :func:`~mechrel.studies.runner.run_reliability` shares between presenters.
 
     Parameters
     ----------

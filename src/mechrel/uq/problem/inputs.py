@@ -95,7 +95,7 @@ class Normal:
     kind = "normal"
 
     def validated(self, name: str) -> Normal:
-        """This marginal with its parameters checked and converted to float.
+        """The marginal with its parameters checked and converted to float.
 
         Parameters
         ----------
@@ -200,7 +200,7 @@ class TruncNormal:
     kind = "truncnormal"
 
     def validated(self, name: str) -> TruncNormal:
-        """This marginal with its parameters checked and converted to float.
+        """The marginal with its parameters checked and converted to float.
 
         Parameters
         ----------
@@ -321,7 +321,7 @@ class Uniform:
     kind = "uniform"
 
     def validated(self, name: str) -> Uniform:
-        """This marginal with its bounds checked and converted to float.
+        """The marginal with its bounds checked and converted to float.
 
         Parameters
         ----------
@@ -427,7 +427,7 @@ class LogNormal:
     kind = "lognormal"
 
     def validated(self, name: str) -> LogNormal:
-        """This marginal with its parameters checked and converted to float.
+        """The marginal with its parameters checked and converted to float.
 
         Parameters
         ----------
