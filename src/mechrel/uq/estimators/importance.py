@@ -82,7 +82,7 @@ class ImportanceSamplingResult(RareEventResult):
         Returns
         -------
         float
-            The sample c.o.v. of the weighted estimator (dimensionless).
+            The standard error of the weighted mean over ``pf`` (dimensionless).
 
         Examples
         --------

@@ -96,7 +96,9 @@ class SubsetSimulationResult(RareEventResult):
         Returns
         -------
         float
-            From the levels' c.o.v.s with the Markov-chain correlation factors (dimensionless).
+            √(Σ δ_i²), δ_i² = (1 − p_i)/(N p_i) (1 + γ_i) with γ_i the correlation factor of
+            level i's Markov chains (Au & Beck 2001; the levels treated as uncorrelated;
+            dimensionless).
 
         Examples
         --------
