@@ -51,12 +51,19 @@ def test_doctests_are_found():
     # functions (or a module that lost its examples) would make the doctests vacuous
     found = {t.name for m in ("mechrel.forces.contact", "mechrel.forces.friction",
                               "mechrel.uq.problem.analytic", "mechrel.scene.loader",
-                              "mechrel.integrate.explicit", "mechrel.cli.args")
+                              "mechrel.integrate.explicit", "mechrel.cli.args",
+                              "mechrel.uq.problem.inputs", "mechrel.uq.execution.executor",
+                              "mechrel.studies.presenters", "mechrel.studies.runner",
+                              "mechrel.cli.studies")
              for t in _doctests(importlib.import_module(m))}
     for name in ("mechrel.forces.contact.ln_normal_force", "mechrel.forces.friction.friction_force",
                  "mechrel.forces.contact.contact_stiffness", "mechrel.uq.problem.analytic.ishigami",
                  "mechrel.scene.loader.load_scene", "mechrel.integrate.explicit.rk4_kernel",
-                 "mechrel.cli.args.sample_count"):
+                 "mechrel.cli.args.sample_count",
+                 "mechrel.uq.problem.inputs.UncertainInputs.sample",
+                 "mechrel.uq.execution.executor.Evaluations.reduce",
+                 "mechrel.studies.presenters.Presenter.run",
+                 "mechrel.studies.runner.run_sensitivity", "mechrel.cli.studies.split_overrides"):
         assert name in found
 
 

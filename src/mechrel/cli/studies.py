@@ -16,11 +16,36 @@ SET_HELP = ("override a value (repeatable): a study field by its dotted path "
 
 
 def split_overrides(texts) -> tuple[dict, dict]:
-    """``PATH=VALUE`` strings → (study-field overrides, scene overrides), each ``{path: value}``.
+    """Split ``PATH=VALUE`` strings into study-field overrides and scene overrides.
 
     A path whose first part is a field of a study file (``reliability``, ``inputs``,
     ``allowable``, ``angle_step``, ...; docs/studies.md) sets that field; any other path is a
-    scene path, checked against the scene when the study's model is built."""
+    scene path, checked against the scene when the study's model is built.
+
+    Parameters
+    ----------
+    texts : iterable of str
+        The ``--set`` values, ``PATH=VALUE`` each (values in SI units).
+
+    Returns
+    -------
+    study : dict
+        ``{path: value}`` of the study fields.
+    scene : dict
+        ``{path: value}`` of the scene values.
+
+    Raises
+    ------
+    StudyError
+        If a path starts with ``scene_overrides`` (a scene value is set by its own path).
+    SceneError
+        If a text is not ``PATH=VALUE``.
+
+    Examples
+    --------
+    >>> split_overrides(["reliability.n=512", "joints.C1.model=dry"])
+    ({'reliability.n': 512}, {'joints.C1.model': 'dry'})
+    """
     from ..scene.loader import parse_override
     from ..studies.study import study_fields
 
@@ -38,8 +63,30 @@ def split_overrides(texts) -> tuple[dict, dict]:
 
 @contextlib.contextmanager
 def dask_backend(address: str | None):
-    """``"loky"`` without an address; with one, a :class:`distributed.Client` connected to the
-    scheduler at ``address`` for the duration, and ``"dask"``."""
+    """The executor backend for ``--scheduler``, as a context manager.
+
+    Parameters
+    ----------
+    address : str or None
+        The address of a running Dask scheduler (e.g. ``tcp://10.0.0.5:8786``), or None.
+
+    Yields
+    ------
+    str
+        ``"loky"`` without an address; with one, ``"dask"``, a :class:`distributed.Client`
+        connected to the scheduler for the duration.
+
+    Raises
+    ------
+    StudyError
+        If dask.distributed is not installed, or no scheduler answers at ``address``.
+
+    Examples
+    --------
+    >>> with dask_backend(None) as backend:
+    ...     backend
+    'loky'
+    """
     if address is None:
         yield "loky"
         return
@@ -144,8 +191,22 @@ def _study_args(p, section):
 
 
 def register_reliability(sub) -> None:
-    """Add the ``mechrel reliability`` subcommand to ``sub``, the parser's subparsers action
-    (one entry of :data:`mechrel.cli.main.COMMANDS`)."""
+    """Add the ``mechrel reliability`` subcommand (one entry of :data:`mechrel.cli.main.COMMANDS`).
+
+    Parameters
+    ----------
+    sub : argparse._SubParsersAction
+        What ``parser.add_subparsers()`` returned.
+
+    Examples
+    --------
+    >>> import argparse
+    >>> parser = argparse.ArgumentParser(prog="mechrel")
+    >>> register_reliability(parser.add_subparsers(dest="command"))
+    >>> args = parser.parse_args(["reliability", "slider-crank-lubricated", "--method", "fosm"])
+    >>> args.command, args.method, args.n
+    ('reliability', 'fosm', None)
+    """
     from ..studies.study import rare_event_methods, study_methods
 
     rare = ", ".join(f"{k} ({m.name})" for k, m in rare_event_methods().items())
@@ -167,8 +228,21 @@ def register_reliability(sub) -> None:
 
 
 def register_sensitivity(sub) -> None:
-    """Add the ``mechrel sensitivity`` subcommand to ``sub``, the parser's subparsers action
-    (one entry of :data:`mechrel.cli.main.COMMANDS`)."""
+    """Add the ``mechrel sensitivity`` subcommand (one entry of :data:`mechrel.cli.main.COMMANDS`).
+
+    Parameters
+    ----------
+    sub : argparse._SubParsersAction
+        What ``parser.add_subparsers()`` returned.
+
+    Examples
+    --------
+    >>> import argparse
+    >>> parser = argparse.ArgumentParser(prog="mechrel")
+    >>> register_sensitivity(parser.add_subparsers(dest="command"))
+    >>> parser.parse_args(["sensitivity", "--n", "64"]).n
+    64
+    """
     p = sub.add_parser(
         "sensitivity", help="Sobol sensitivity indices of a study's error measures",
         description="First- and total-order Sobol indices (SALib, Saltelli design with N base "

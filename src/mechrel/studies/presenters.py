@@ -41,12 +41,51 @@ __all__ = ["Context", "Presenter", "PRESENTERS", "KIND_PRESENTERS", "presenter_c
 
 @dataclass
 class Context:
-    """Everything one run of :func:`~mechrel.studies.runner.run_reliability` shares between
-    the presenters: the study, its model, inputs, allowables and event, the run's settings
-    (``max_failure_fraction_given``: the caller set it, over the methods' own tables), what
-    the methods produced so far (``results`` and ``evaluations`` by name, ``notes``: warning
-    lines), the presenters of the run, and ``shared`` objects built once per run (the
-    whole-cycle limit state)."""
+    """What one run of :func:`~mechrel.studies.runner.run_reliability` shares between presenters.
+
+    Parameters
+    ----------
+    study : Study
+        The study.
+    model : Model
+        Its model.
+    inputs : UncertainInputs
+        Its uncertain inputs.
+    allowables : dict
+        ``{quantity: Allowable}`` (m, m/s, m/s²).
+    event : {"one-sided", "two-sided"}
+        The study's event.
+    seed : int or SeedSequence
+        The run's seed.
+    n : int
+        Monte Carlo's sample count.
+    max_failure_fraction : float
+        The largest fraction of failed samples the sampling methods accept.
+    common : dict
+        The estimators' common arguments (``n_jobs``, ``backend``, ``cache``, ``progress``).
+    max_failure_fraction_given : bool, default False
+        The caller set ``max_failure_fraction`` (it then overrides the methods' own tables).
+    results : dict, optional
+        The results so far, by name.
+    evaluations : dict, optional
+        The evaluations so far, by name.
+    notes : list, optional
+        Warning lines for the summary.
+    presenters : list, optional
+        The presenters of the run.
+    shared : dict, optional
+        Objects built once per run (the whole-cycle limit state).
+
+    Examples
+    --------
+    >>> from mechrel.studies.rare import _demo
+    >>> from mechrel.uq.estimators import METHODS
+    >>> study, model = _demo()   # analytic: a velocity extreme 6 + x1 + x2 (m/s)
+    >>> ctx = Context(study, model, study.uncertain_inputs(), study.allowables(), "two-sided",
+    ...               seed=7, n=64, max_failure_fraction=0.1, common={"progress": False})
+    >>> ctx.event, ctx.results
+    ('two-sided', {})
+    """
 
     study: Any
     model: Any
@@ -65,9 +104,44 @@ class Context:
     shared: dict = field(default_factory=dict)
 
     def estimate(self, name, estimator, *, result_name=None, **kwargs):
-        """``estimator(**kwargs)``, its evaluations recorded as ``evaluations[name]`` (also when
-        it refuses with :class:`~mechrel.uq.SampleFailuresError`) and its result as
-        ``results[result_name or name]``."""
+        """Run an estimator and record its evaluations and result.
+
+        The evaluations are recorded as ``evaluations[name]`` (also when the estimator refuses with
+        :class:`~mechrel.uq.SampleFailuresError`), the result as ``results[result_name or name]``.
+
+        Parameters
+        ----------
+        name : str
+            The name of the evaluations.
+        estimator : callable
+            The estimator (or a result's method, such as ``PCEResult.reliability``).
+        result_name : str, optional
+            The name of the result (default ``name``).
+        **kwargs
+            The estimator's arguments.
+
+        Returns
+        -------
+        Result
+            The estimator's result.
+
+        Raises
+        ------
+        SampleFailuresError
+            When the estimator refuses because of failed samples (re-raised).
+
+        Examples
+        --------
+        >>> from mechrel.studies.rare import _demo
+        >>> from mechrel.uq.estimators import METHODS
+        >>> study, model = _demo()   # analytic: a velocity extreme 6 + x1 + x2 (m/s)
+        >>> ctx = Context(study, model, study.uncertain_inputs(), study.allowables(), "two-sided",
+        ...               seed=7, n=64, max_failure_fraction=0.1, common={"progress": False})
+        >>> r = ctx.estimate("fosm", METHODS["fosm"].function, model=model, inputs=ctx.inputs,
+        ...                  allowable=ctx.allowables, event=ctx.event, progress=False)
+        >>> ctx.evaluations["fosm"].n, ctx.results["fosm"] is r
+        (5, True)
+        """
         try:
             result = estimator(**kwargs)
         except SampleFailuresError as exc:
@@ -79,10 +153,39 @@ class Context:
         return result
 
     def settings(self, method) -> dict:
-        """The settings of ``method``: the study file's table of its key over the registry's
-        defaults; ``max_failure_fraction``, when the method has that setting, the caller's
+        """The settings of a method in this run.
+
+        The study file's table of the method's key over the registry's defaults;
+        ``max_failure_fraction``, when the method has that setting, the caller's
         (``--max-failure-fraction``) over the table's over the study's
-        ``reliability.max_failure_fraction``."""
+        ``reliability.max_failure_fraction``.
+
+        Parameters
+        ----------
+        method : mechrel.uq.estimators.Method
+            A registry entry.
+
+        Returns
+        -------
+        dict
+            Every setting of the method with its value.
+
+        Raises
+        ------
+        StudyError
+            If the study's table of the method holds an invalid setting (naming the study file).
+
+        Examples
+        --------
+        >>> from mechrel.studies.rare import _demo
+        >>> from mechrel.uq.estimators import METHODS
+        >>> study, model = _demo()   # analytic: a velocity extreme 6 + x1 + x2 (m/s)
+        >>> ctx = Context(study, model, study.uncertain_inputs(), study.allowables(), "two-sided",
+        ...               seed=7, n=64, max_failure_fraction=0.1, common={"progress": False})
+        >>> s = ctx.settings(METHODS["subset_simulation"])
+        >>> s["max_failure_fraction"], s["n_per_level"]
+        (0.1, 1000)
+        """
         given = dict(self.study.method_settings.get(method.key, {}))
         if "max_failure_fraction" in method.settings:
             if self.max_failure_fraction_given:
@@ -95,8 +198,30 @@ class Context:
             raise StudyError(f"{self.study.source}: [{method.key}] {exc}") from None
 
     def angles(self, table):
-        """The rows of a per-output table at the analysis angles (without the cycle extremes),
-        with the crank angles as floats."""
+        """The rows of a per-output table at the analysis angles, without the cycle extremes.
+
+        Parameters
+        ----------
+        table : pandas.DataFrame
+            Indexed by ``(quantity, crank_angle)``.
+
+        Returns
+        -------
+        pandas.DataFrame
+            The rows at the analysis angles, the crank angles as floats (degrees).
+
+        Examples
+        --------
+        >>> from mechrel.studies.rare import _demo
+        >>> from mechrel.uq.estimators import METHODS
+        >>> study, model = _demo()   # analytic: a velocity extreme 6 + x1 + x2 (m/s)
+        >>> ctx = Context(study, model, study.uncertain_inputs(), study.allowables(), "two-sided",
+        ...               seed=7, n=64, max_failure_fraction=0.1, common={"progress": False})
+        >>> p = FOSM()
+        >>> p.run(ctx, METHODS["fosm"])
+        >>> ctx.angles(ctx.results["fosm"].table).index.tolist()
+        [('velocity', 0.0)]
+        """
         from ..uq.problem.allowables import per_angle_mask
 
         t = table[per_angle_mask(table.index)].copy()
@@ -116,6 +241,12 @@ class Presenter:
     estimate the verdict trusts (the highest rank that gives a verdict); ``rows_per_n`` is the
     number of model runs per Monte Carlo sample ``n`` it needs in memory (checked before the
     run); ``files`` are the files it may write, removed when a run does not write them.
+
+    Examples
+    --------
+    >>> from mechrel.uq.estimators import METHODS
+    >>> presenter_class(METHODS["fosm"]).rank, Presenter.rank
+    (1, 0)
     """
 
     rank = 0
@@ -126,47 +257,275 @@ class Presenter:
         self.keys: list[str] = []
 
     def run(self, ctx: Context, method) -> None:
-        """Run ``method`` (a registry :class:`~mechrel.uq.estimators.Method`), recording its
-        result(s) in ``ctx.results``."""
+        """Run a method, recording its result(s) in ``ctx.results``.
+
+        Parameters
+        ----------
+        ctx : Context
+            The run.
+        method : mechrel.uq.estimators.Method
+            The registry entry of the method.
+
+        Raises
+        ------
+        NotImplementedError
+            In the base class: every presenter runs its methods.
+
+        Examples
+        --------
+        >>> from mechrel.studies.rare import _demo
+        >>> from mechrel.uq.estimators import METHODS
+        >>> study, model = _demo()   # analytic: a velocity extreme 6 + x1 + x2 (m/s)
+        >>> ctx = Context(study, model, study.uncertain_inputs(), study.allowables(), "two-sided",
+        ...               seed=7, n=64, max_failure_fraction=0.1, common={"progress": False})
+        >>> p = FOSM()
+        >>> p.run(ctx, METHODS["fosm"])
+        >>> p.keys, list(ctx.results)
+        (['fosm'], ['fosm'])
+        """
         raise NotImplementedError
 
     def finish(self, ctx: Context) -> None:
-        """After every method of the run: estimates that combine methods."""
+        """After every method of the run: compute the estimates that combine methods.
+
+        Parameters
+        ----------
+        ctx : Context
+            The run.
+
+        Examples
+        --------
+        The default does nothing:
+
+        >>> Presenter().finish(None) is None
+        True
+        """
 
     def frames(self, ctx: Context) -> list[pd.DataFrame]:
-        """Column blocks of ``reliability.csv`` (per output and crank angle)."""
+        """The column blocks of ``reliability.csv`` (per output and crank angle).
+
+        Parameters
+        ----------
+        ctx : Context
+            The run.
+
+        Returns
+        -------
+        list of pandas.DataFrame
+            The blocks, their columns prefixed with the method's key (default: none).
+
+        Examples
+        --------
+        >>> from mechrel.studies.rare import _demo
+        >>> from mechrel.uq.estimators import METHODS
+        >>> study, model = _demo()   # analytic: a velocity extreme 6 + x1 + x2 (m/s)
+        >>> ctx = Context(study, model, study.uncertain_inputs(), study.allowables(), "two-sided",
+        ...               seed=7, n=64, max_failure_fraction=0.1, common={"progress": False})
+        >>> p = FOSM()
+        >>> p.run(ctx, METHODS["fosm"])
+        >>> p.frames(ctx)[0].columns[:2].tolist()
+        ['fosm.mu_i', 'fosm.sigma_i']
+        """
         return []
 
     def plotted(self, ctx: Context) -> list:
-        """Per-angle reliability results drawn in ``reliability.png``."""
+        """The per-angle reliability results drawn in ``reliability.png``.
+
+        Parameters
+        ----------
+        ctx : Context
+            The run.
+
+        Returns
+        -------
+        list
+            The results (default: none).
+
+        Examples
+        --------
+        >>> from mechrel.studies.rare import _demo
+        >>> from mechrel.uq.estimators import METHODS
+        >>> study, model = _demo()   # analytic: a velocity extreme 6 + x1 + x2 (m/s)
+        >>> ctx = Context(study, model, study.uncertain_inputs(), study.allowables(), "two-sided",
+        ...               seed=7, n=64, max_failure_fraction=0.1, common={"progress": False})
+        >>> p = FOSM()
+        >>> p.run(ctx, METHODS["fosm"])
+        >>> p.plotted(ctx)[0] is ctx.results["fosm"]
+        True
+        """
         return []
 
     def head_lines(self, ctx: Context) -> list[str]:
-        """Summary lines before the per-quantity lines."""
+        """The summary lines before the per-quantity lines.
+
+        Parameters
+        ----------
+        ctx : Context
+            The run.
+
+        Returns
+        -------
+        list of str
+            The lines (default: none).
+
+        Examples
+        --------
+        >>> Presenter().head_lines(None)
+        []
+        """
         return []
 
     def quantity_part(self, ctx: Context, quantity: str) -> str | None:
-        """The method's part of the per-quantity summary line."""
+        """The method's part of the per-quantity summary line.
+
+        Parameters
+        ----------
+        ctx : Context
+            The run.
+        quantity : str
+            The quantity.
+
+        Returns
+        -------
+        str or None
+            The part (default None: nothing to say).
+
+        Examples
+        --------
+        >>> from mechrel.studies.rare import _demo
+        >>> from mechrel.uq.estimators import METHODS
+        >>> study, model = _demo()   # analytic: a velocity extreme 6 + x1 + x2 (m/s)
+        >>> ctx = Context(study, model, study.uncertain_inputs(), study.allowables(), "two-sided",
+        ...               seed=7, n=64, max_failure_fraction=0.1, common={"progress": False})
+        >>> p = FOSM()
+        >>> p.run(ctx, METHODS["fosm"])
+        >>> p.quantity_part(ctx, "velocity").split(" (")[0]   # Φ(4/√2) = 0.99766
+        'FOSM min R 0.9977 at 0°'
+        """
         return None
 
     def tail_lines(self, ctx: Context) -> list[str]:
-        """Summary lines after the per-quantity lines."""
+        """The summary lines after the per-quantity lines.
+
+        Parameters
+        ----------
+        ctx : Context
+            The run.
+
+        Returns
+        -------
+        list of str
+            The lines (default: none).
+
+        Examples
+        --------
+        >>> Presenter().tail_lines(None)
+        []
+        """
         return []
 
     def verdict_reason(self, ctx: Context, quantity: str) -> str | None:
-        """What this estimate says about the trusted one's (a reason in its verdict line)."""
+        """What this estimate says about the trusted one's (a reason in its verdict line).
+
+        Parameters
+        ----------
+        ctx : Context
+            The run.
+        quantity : str
+            The quantity.
+
+        Returns
+        -------
+        str or None
+            The reason (default None).
+
+        Examples
+        --------
+        FOSM gives a reason only beside a Monte Carlo run:
+
+        >>> from mechrel.studies.rare import _demo
+        >>> from mechrel.uq.estimators import METHODS
+        >>> study, model = _demo()   # analytic: a velocity extreme 6 + x1 + x2 (m/s)
+        >>> ctx = Context(study, model, study.uncertain_inputs(), study.allowables(), "two-sided",
+        ...               seed=7, n=64, max_failure_fraction=0.1, common={"progress": False})
+        >>> p = FOSM()
+        >>> p.run(ctx, METHODS["fosm"])
+        >>> p.verdict_reason(ctx, "velocity") is None
+        True
+        """
         return None
 
     def verdict(self, ctx: Context, quantity: str, reasons: list[str]) -> str | None:
-        """The verdict line for ``quantity`` when this estimate is the most trusted one."""
+        """The verdict line for a quantity when this estimate is the most trusted one.
+
+        Parameters
+        ----------
+        ctx : Context
+            The run.
+        quantity : str
+            The quantity.
+        reasons : list of str
+            The other estimates' reasons (:meth:`verdict_reason`).
+
+        Returns
+        -------
+        str or None
+            The line (default None: no verdict from this estimate).
+
+        Examples
+        --------
+        >>> from mechrel.studies.rare import _demo
+        >>> from mechrel.uq.estimators import METHODS
+        >>> study, model = _demo()   # analytic: a velocity extreme 6 + x1 + x2 (m/s)
+        >>> ctx = Context(study, model, study.uncertain_inputs(), study.allowables(), "two-sided",
+        ...               seed=7, n=64, max_failure_fraction=0.1, common={"progress": False})
+        >>> p = FOSM()
+        >>> p.run(ctx, METHODS["fosm"])
+        >>> p.verdict(ctx, "velocity", []).split(":")[0].strip()
+        'velocity'
+        """
         return None
 
     def whole_cycle_verdict(self, ctx: Context) -> str | None:
-        """The verdict's whole-cycle line, when this presenter gives it."""
+        """The verdict's whole-cycle line, when this presenter gives it.
+
+        Parameters
+        ----------
+        ctx : Context
+            The run.
+
+        Returns
+        -------
+        str or None
+            The line (default None).
+
+        Examples
+        --------
+        >>> Presenter().whole_cycle_verdict(None) is None
+        True
+        """
         return None
 
     def write(self, ctx: Context, out) -> list[str]:
-        """Write this presenter's files into ``out``; the names written."""
+        """Write this presenter's files into a folder.
+
+        Parameters
+        ----------
+        ctx : Context
+            The run.
+        out : pathlib.Path
+            The output folder.
+
+        Returns
+        -------
+        list of str
+            The names of the files written (default: none).
+
+        Examples
+        --------
+        >>> Presenter().write(None, None)
+        []
+        """
         return []
 
 
@@ -485,7 +844,27 @@ COMBINED: tuple[type[Presenter], ...] = (Normality,)
 
 
 def presenter_class(method) -> type[Presenter]:
-    """The presenter class of a registry :class:`~mechrel.uq.estimators.Method`."""
+    """The presenter class of a registered method.
+
+    The method's own entry in :data:`PRESENTERS`, else the one of its kind in
+    :data:`KIND_PRESENTERS`, else :class:`Generic`.
+
+    Parameters
+    ----------
+    method : mechrel.uq.estimators.Method
+        A registry entry.
+
+    Returns
+    -------
+    type
+        A :class:`Presenter` subclass.
+
+    Examples
+    --------
+    >>> from mechrel.uq.estimators import METHODS
+    >>> presenter_class(METHODS["fosm"]).__name__, presenter_class(METHODS["sorm"]).__name__
+    ('FOSM', 'RareEvents')
+    """
     return PRESENTERS.get(method.name) or KIND_PRESENTERS.get(method.kind, Generic)
 
 

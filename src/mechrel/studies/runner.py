@@ -27,8 +27,21 @@ SENSITIVITY_RESULTS = ("sensitivity.csv", "sensitivity.png")
 
 
 def reliability_results() -> tuple[str, ...]:
-    """Every result file a reliability run may write beside its summary: the per-angle table
-    and figure, and the files of every registered method's presenter."""
+    """Every result file a reliability run may write beside its summary.
+
+    The per-angle table and figure, and the files of every registered method's presenter (a run
+    removes those it does not write, so that no earlier run's file is left beside its summary).
+
+    Returns
+    -------
+    tuple of str
+        The file names.
+
+    Examples
+    --------
+    >>> {"reliability.csv", "whole_cycle.csv", "rare_events.csv"} <= set(reliability_results())
+    True
+    """
     from .presenters import files_of
     from .study import study_methods
 
@@ -236,6 +249,20 @@ def run_reliability(study, *, methods=None, n=None, n_jobs=1, seed=None, out=Non
     SampleFailuresError
         An estimator refused because of failed samples; ``failures.csv`` and ``summary.json``
         (with the counts and the reason) are written first.
+
+    Examples
+    --------
+    FOSM (three simulations) on a one-cycle slider-crank with an uncertain clearance:
+
+    >>> from mechrel.studies.study import load_study
+    >>> study = load_study({"scene": "slider-crank-lubricated", "quantities": ["velocity"],
+    ...                     "angle_step": 90.0, "cycles": 1,
+    ...                     "inputs": {"c": {"paths": ["joints.C.clearance"],
+    ...                                      "distribution": "normal", "mean": 0.5e-3,
+    ...                                      "std": 2e-5}}})
+    >>> lines, results = run_reliability(study, methods=["fosm"], progress=False)
+    >>> list(results), results["fosm"].n_evaluations
+    (['fosm'], 3)
     """
     from .presenters import COMBINED, Context, presenter_class, warnings_of
     from .study import study_methods
@@ -347,17 +374,59 @@ def run_sensitivity(study, *, n=None, n_jobs=1, seed=None, out=None, progress=Tr
     receives ``sensitivity.csv`` (ranked), ``sensitivity.png``, ``sensitivity_failures.csv``
     and ``sensitivity.json``.
 
+    Parameters
+    ----------
+    study : Study
+        From :func:`~mechrel.studies.study.load_study`.
+    n : int, optional
+        Saltelli base samples (N (d + 2) model runs); default: the study's
+        ``sensitivity.n``.
+    n_jobs : int, default 1
+        Parallel workers (:func:`mechrel.uq.evaluate`).
+    seed : int, optional
+        The seed; default: the study's ``sensitivity.seed``.
+    out : path, optional
+        Folder for ``sensitivity.csv`` (ranked), ``sensitivity.png``,
+        ``sensitivity_failures.csv`` and ``sensitivity.json``.
+    progress : bool, default True
+        Show a progress bar.
+    cache : bool, default True
+        Cache the model evaluations in ``out/evaluations.sqlite``.
+    backend : str, default "loky"
+        The executor's backend (:func:`mechrel.uq.evaluate`).
+    max_failure_fraction : float, optional
+        The largest fraction of Saltelli blocks with a failed sample that may be dropped;
+        default: the study's.
+
     Returns
     -------
     lines : list of str
         The printable summary.
     result : SobolResult
+        The indices of the peak |error| of each quantity.
 
     Raises
     ------
     SampleFailuresError
         Too many Saltelli blocks failed; ``sensitivity_failures.csv`` and
         ``sensitivity.json`` (with the counts and the reason) are written first.
+    StudyError
+        An argument is invalid (naming it, its value and what is allowed).
+
+    Examples
+    --------
+    N = 8 base samples of one input: 8 (1 + 2) = 24 simulations of a one-cycle slider-crank
+    (far too few to rank inputs: the result warns so):
+
+    >>> from mechrel.studies.study import load_study
+    >>> study = load_study({"scene": "slider-crank-lubricated", "quantities": ["velocity"],
+    ...                     "angle_step": 90.0, "cycles": 1,
+    ...                     "inputs": {"c": {"paths": ["joints.C.clearance"],
+    ...                                      "distribution": "normal", "mean": 0.5e-3,
+    ...                                      "std": 2e-5}}})
+    >>> lines, result = run_sensitivity(study, n=8, progress=False)
+    >>> result.evaluations.n, list(result.total.columns)
+    (24, ['c'])
     """
     from ..uq import peak_abs, sobol_indices
 

@@ -26,23 +26,62 @@ from ..uq.problem.mechanism import REFERENCES
 
 
 def study_methods() -> dict:
-    """The registered methods a study runs (``mechrel reliability --method KEY``), by their
-    study-file name (``fosm``, ``mc``, ``pce``, ``form``, ``sorm``, ``is``, ``subset``, and any
-    method registered since): every method of :data:`mechrel.uq.estimators.METHODS` except the
-    sensitivity methods (``mechrel sensitivity``). Read from the registry at each call."""
+    """The registered methods a study runs, by their study-file name.
+
+    ``fosm``, ``mc``, ``pce``, ``form``, ``sorm``, ``is``, ``subset``, and any method registered
+    since (``mechrel reliability --method KEY``): every method of
+    :data:`mechrel.uq.estimators.METHODS` except the sensitivity methods (``mechrel
+    sensitivity``). Read from the registry at each call.
+
+    Returns
+    -------
+    dict
+        ``{key: Method}``, in the registry's order.
+
+    Examples
+    --------
+    >>> list(study_methods())[:7]   # the built-in ones, then any registered since
+    ['fosm', 'mc', 'pce', 'form', 'sorm', 'is', 'subset']
+    """
     return {m.key: m for m in REGISTRY.values() if m.kind != "sensitivity"}
 
 
 def rare_event_methods() -> dict:
-    """The registry's rare-event methods by their study-file name (``form``, ``sorm``, ``is``,
-    ``subset``, ...)."""
+    """The registry's rare-event methods by their study-file name.
+
+    Returns
+    -------
+    dict
+        ``{key: Method}`` of the methods of kind ``"rare_event"``.
+
+    Examples
+    --------
+    >>> list(rare_event_methods())[:4]
+    ['form', 'sorm', 'is', 'subset']
+    """
     return {k: m for k, m in study_methods().items() if m.kind == "rare_event"}
 
 
 def study_settings(method) -> dict:
-    """The settings of a registered ``method`` a study file may set in the table of the
-    method's key: those the registry checks (the others, e.g. a design point object, exist
-    only in Python)."""
+    """The settings of a registered method that a study file may set in the table of its key.
+
+    Those the registry checks; the others (e.g. a design point object) exist only in Python.
+
+    Parameters
+    ----------
+    method : mechrel.uq.estimators.Method
+        A registry entry.
+
+    Returns
+    -------
+    dict
+        ``{name: Setting}``.
+
+    Examples
+    --------
+    >>> sorted(study_settings(study_methods()["sorm"]))
+    ['curvature_step', 'formula', 'max_iter', 'scheme', 'step', 'tol']
+    """
     return {k: s for k, s in method.settings.items() if s.check is not None}
 
 
@@ -52,7 +91,18 @@ def _method_tables() -> dict:
 
 
 def study_fields() -> tuple[str, ...]:
-    """The top-level fields of a study file (with one table per method that has settings)."""
+    """The top-level fields of a study file, with one table per method that has settings.
+
+    Returns
+    -------
+    tuple of str
+        The field names, sorted.
+
+    Examples
+    --------
+    >>> {"inputs", "allowable", "form", "subset"} <= set(study_fields())
+    True
+    """
     return tuple(sorted(("allowable", "angle_step", "correlation", "cycles", "description",
                          "inputs", "name", "output", "quantities", "reference", "reliability",
                          "scene", "scene_overrides", "sensitivity") + tuple(_method_tables())))
@@ -66,17 +116,52 @@ _SENSITIVITY = ("max_failure_fraction", "n", "seed")
 
 @dataclass(frozen=True)
 class Study:
-    """A validated study.
+    """A validated study (made by :func:`load_study`).
 
-    ``inputs`` maps an input name to its distribution spec (a mapping understood by
-    :meth:`mechrel.uq.UncertainInputs.from_specs`) and ``paths`` to the scene paths it sets.
-    ``reference`` is what the error is measured against under geometric inputs (``"nominal"``
-    or ``"same-geometry"``, :class:`~mechrel.uq.MechanismModel`).
-    ``reliability`` and ``sensitivity`` hold every setting of their section, defaults
-    filled in (``methods``, ``event``, ``n``, ``rule``, ``seed``, ``pce_order``,
-    ``max_failure_fraction``; ``n``, ``seed``, ``max_failure_fraction``). ``method_settings``
-    maps each method with settings (:func:`study_settings`) to those its table in the file
-    gives, checked; the registry's defaults fill the rest when it runs.
+    Parameters
+    ----------
+    name, description : str
+        The study's name and description.
+    scene : str
+        The scene: an embedded name or a file path.
+    output : str or None
+        The scene output analysed (None: the scene's first).
+    angle_step : float
+        The crank-angle step of the analysis points (degrees).
+    cycles : int or None
+        The number of cycles simulated (None: the scene's).
+    quantities : tuple of str
+        The output's quantities analysed.
+    scene_overrides : mapping
+        ``{dotted scene path: value}`` applied to the scene (SI units).
+    inputs : mapping
+        Input name → its distribution spec (a mapping understood by
+        :meth:`mechrel.uq.UncertainInputs.from_specs`; SI units).
+    paths : mapping
+        Input name → the scene paths it sets.
+    correlation : mapping or None
+        The Pearson correlation of the inputs (``{"a,b": rho}``) or None.
+    allowable : mapping
+        Quantity → ``(mean, std)`` of its allowable error (m, m/s, m/s²).
+    reliability : mapping
+        Every setting of ``[reliability]``, defaults filled in (``methods``, ``event``, ``n``,
+        ``rule``, ``seed``, ``pce_order``, ``max_failure_fraction``).
+    sensitivity : mapping
+        Every setting of ``[sensitivity]`` (``n``, ``seed``, ``max_failure_fraction``).
+    reference : {"nominal", "same-geometry"}, default "nominal"
+        What the error is measured against under geometric inputs
+        (:class:`~mechrel.uq.MechanismModel`).
+    method_settings : mapping, optional
+        Each method with settings (:func:`study_settings`) → those its table in the file gives,
+        checked; the registry's defaults fill the rest when it runs.
+    source : str, optional
+        Where the study was read from.
+
+    Examples
+    --------
+    >>> s = load_study("nine-bar-lubricated")
+    >>> s.scene, s.reliability["event"]
+    ('nine-bar-lubricated', 'two-sided')
     """
 
     name: str
@@ -98,7 +183,26 @@ class Study:
     source: str | None = field(default=None, compare=False)
 
     def model(self):
-        """The :class:`~mechrel.uq.problem.mechanism.MechanismModel` of this study."""
+        """The mechanism model of this study.
+
+        Returns
+        -------
+        mechrel.uq.problem.mechanism.MechanismModel
+            The model of the study's scene, inputs, quantities and analysis grid.
+
+        Raises
+        ------
+        StudyError
+            If a scene path or an override does not fit the scene.
+
+        Examples
+        --------
+        >>> s = load_study({"scene": "slider-crank-lubricated", "quantities": ["velocity"],
+        ...                 "angle_step": 90.0, "inputs": {"c": {"paths": ["joints.C.clearance"],
+        ...                 "distribution": "normal", "mean": 0.5e-3, "std": 2e-5}}})
+        >>> s.model().input_names
+        ('c',)
+        """
         from ..uq.problem.mechanism import MechanismModel
         return MechanismModel(self.scene, dict(self.paths), output=self.output,
                               quantities=self.quantities, angle_step=self.angle_step,
@@ -106,7 +210,21 @@ class Study:
                               reference=self.reference)
 
     def uncertain_inputs(self):
-        """The :class:`~mechrel.uq.problem.inputs.UncertainInputs` of this study."""
+        """The uncertain inputs of this study.
+
+        Returns
+        -------
+        mechrel.uq.problem.inputs.UncertainInputs
+            The inputs with their distributions and correlation (SI units).
+
+        Examples
+        --------
+        >>> s = load_study({"scene": "slider-crank-lubricated", "quantities": ["velocity"],
+        ...                 "inputs": {"c": {"paths": ["joints.C.clearance"],
+        ...                 "distribution": "normal", "mean": 0.5e-3, "std": 2e-5}}})
+        >>> s.uncertain_inputs().std.tolist()
+        [2e-05]
+        """
         from ..uq import UncertainInputs
         corr = self.correlation
         if isinstance(corr, Mapping):
@@ -114,13 +232,38 @@ class Study:
         return UncertainInputs.from_specs(dict(self.inputs), correlation=corr)
 
     def allowables(self):
-        """``{quantity: Allowable}`` for the study's quantities."""
+        """The allowable errors of the study's quantities.
+
+        Returns
+        -------
+        dict
+            ``{quantity: Allowable}`` (m, m/s, m/s²).
+
+        Examples
+        --------
+        >>> s = load_study({"scene": "slider-crank-lubricated", "quantities": ["velocity"],
+        ...                 "inputs": {"c": {"paths": ["joints.C.clearance"],
+        ...                 "distribution": "normal", "mean": 0.5e-3, "std": 2e-5}}})
+        >>> s.allowables()
+        {'velocity': Allowable(mean=0.3, std=0.1)}
+        """
         from ..uq import Allowable
         return {q: Allowable(*self.allowable[q]) for q in self.quantities}
 
 
 def embedded_studies() -> tuple[str, ...]:
-    """The names of the study files shipped with mechrel (``mechrel reliability NAME``)."""
+    """The names of the study files shipped with mechrel (``mechrel reliability NAME``).
+
+    Returns
+    -------
+    tuple of str
+        The names, sorted.
+
+    Examples
+    --------
+    >>> "nine-bar-lubricated" in embedded_studies()
+    True
+    """
     d = resources.files("mechrel.studies").joinpath("data")
     return tuple(sorted(p.name[:-5] for p in d.iterdir() if p.name.endswith(".toml")))
 
@@ -332,11 +475,22 @@ def load_study(source, *, overrides: Mapping[str, Any] | None = None,
     Returns
     -------
     Study
+        The validated study.
 
     Raises
     ------
     StudyError
         Naming the file, the field, the value and what is allowed.
+
+    Examples
+    --------
+    >>> s = load_study("nine-bar-lubricated", overrides={"reliability.n": 64})
+    >>> s.reliability["n"]
+    64
+    >>> load_study({"scene": "slider-crank-lubricated", "inputs": {}})
+    Traceback (most recent call last):
+    ...
+    mechrel.errors.StudyError: ...inputs...
     """
     raw, label, base_dir = _read(source)
     overrides = dict(overrides or {})

@@ -80,15 +80,40 @@ def _kind(result: Any) -> str:
 def reliability_panels(ax_beta: Any, ax_pf: Any, x: np.ndarray, *, fosm: Any = None,
                        mc: Any = None, surrogate: Any = None, allowable: Any = None,
                        whole_cycle: Any = None, clip: float = CLIP) -> None:
-    """One quantity's reliability on two axes: the index β = Φ⁻¹(R) (``ax_beta``) and the
-    probability of exceeding the allowable 1 − R on a log scale (``ax_pf``); either may be
-    None to skip it.
+    """Draw one quantity's reliability on two axes.
 
-    ``fosm``, ``surrogate``: (R array, label); ``mc``: (R, R_lo, R_hi, n, confidence level);
-    ``allowable``: (μ_I, σ_I) drawn as the cap Φ(μ_I/σ_I) that no design reaches (R of a zero
-    error, σ_I > 0), and named in the legend; ``whole_cycle``: (R, lo, hi) of the whole cycle.
-    Values beyond ``clip`` are drawn at the edge with open markers and say so; both axes get a
-    legend.
+    The index β = Φ⁻¹(R) on ``ax_beta`` and the probability of exceeding the allowable 1 − R on a
+    log scale on ``ax_pf``. Values beyond ``clip`` are drawn at the edge with open markers and
+    say so; both axes get a legend.
+
+    Parameters
+    ----------
+    ax_beta, ax_pf : matplotlib.axes.Axes or None
+        The axes of β and of 1 − R; either may be None to skip it.
+    x : ndarray
+        The abscissae (crank angles in degrees, or output positions).
+    fosm : tuple, optional
+        ``(R, label)`` of FOSM.
+    mc : tuple, optional
+        ``(R, R_lo, R_hi, n, confidence_level)`` of Monte Carlo.
+    surrogate : tuple, optional
+        ``(R, label)`` of Monte Carlo on a surrogate.
+    allowable : tuple, optional
+        ``(mu_I, sigma_I)``, drawn as the cap Φ(μ_I/σ_I) that no design reaches (R of a zero
+        error, σ_I > 0) and named in the legend (the quantity's unit).
+    whole_cycle : tuple, optional
+        ``(R, lo, hi)`` of the whole cycle.
+    clip : float, default CLIP
+        The smallest probability drawn on the log axis.
+
+    Examples
+    --------
+    >>> import matplotlib.pyplot as plt
+    >>> fig, (a, b) = plt.subplots(1, 2)
+    >>> reliability_panels(a, b, np.array([0.0, 90.0]), fosm=(np.array([0.9, 0.99]), "FOSM"))
+    >>> b.get_yscale()
+    'log'
+    >>> plt.close(fig)
     """
     from scipy import special
 
@@ -180,14 +205,45 @@ def reliability_panels(ax_beta: Any, ax_pf: Any, x: np.ndarray, *, fosm: Any = N
 
 
 def plot_reliability(*results: Any, title: str | None = None):
-    """The reliability of every quantity over the crank angle from any of a FOSM result, a
-    Monte Carlo result and a Monte Carlo result on a PCE surrogate (same ``event``).
+    """Plot the reliability of every quantity over the crank angle.
 
-    One row per quantity: left the reliability index β = Φ⁻¹(R) of the event's R, right the
-    probability of exceeding the allowable 1 − R on a log scale, where methods differ near
-    R = 1. Monte Carlo shows its sample count and confidence band (where no exceedance was
-    seen, only a bound: ▲ the lower bound of β, ▼ the upper bound of 1 − R), the allowable is named with its cap Φ(μ_I/σ_I), the whole-cycle
-    R of Monte Carlo is given, and values beyond :data:`CLIP` are drawn as clipped.
+    From any of a FOSM result, a Monte Carlo result and a Monte Carlo result on a PCE surrogate
+    (same ``event``). One row per quantity: left the reliability index β = Φ⁻¹(R) of the
+    event's R, right the probability of exceeding the allowable 1 − R on a log scale, where
+    methods differ near R = 1. Monte Carlo shows its sample count and confidence band (where no
+    exceedance was seen, only a bound: ▲ the lower bound of β, ▼ the upper bound of 1 − R), the
+    allowable is named with its cap Φ(μ_I/σ_I), the whole-cycle R of Monte Carlo is given, and
+    values beyond :data:`CLIP` are drawn as clipped.
+
+    Parameters
+    ----------
+    *results : FOSMResult or MonteCarloResult
+        At most one of each kind (FOSM, Monte Carlo, Monte Carlo on a surrogate).
+    title : str, optional
+        The figure's title.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        The figure.
+
+    Raises
+    ------
+    StudyError
+        If no result, two of a kind, a result of another type, or results of different events
+        are given.
+
+    Examples
+    --------
+    >>> import matplotlib.pyplot as plt
+    >>> from mechrel.uq import Allowable, Normal, UncertainInputs, fosm, linear_model
+    >>> inputs = UncertainInputs.from_specs({"x": Normal(0.0, 0.1)})
+    >>> r = fosm(model=linear_model([0.0, 0.0], [[1.0], [2.0]], ["x"]), inputs=inputs,
+    ...          allowable=Allowable(0.4, 0.0), progress=False)
+    >>> fig = plot_reliability(r, title="y = x, 2x")
+    >>> len(fig.axes) >= 2
+    True
+    >>> plt.close(fig)
     """
     plt = _plt()
     by = {}
@@ -251,7 +307,37 @@ def plot_reliability(*results: Any, title: str | None = None):
 
 
 def plot_qq(normality: Any, output: Any, *, ax: Any = None):
-    """QQ plot of the Monte Carlo errors of one output against FOSM's normal N(μ_i, σ_i²)."""
+    """QQ plot of the Monte Carlo errors of one output against FOSM's normal N(μ_i, σ_i²).
+
+    Parameters
+    ----------
+    normality : NormalityResult
+        The comparison of FOSM and Monte Carlo.
+    output : hashable or int
+        An output label or position.
+    ax : matplotlib.axes.Axes, optional
+        The axes to draw on (default: a new figure).
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        The figure (the output's unit on both axes).
+
+    Examples
+    --------
+    >>> import matplotlib.pyplot as plt
+    >>> from mechrel.uq import (Allowable, Normal, UncertainInputs, fosm, linear_model,
+    ...                         monte_carlo, normality_check)
+    >>> inputs = UncertainInputs.from_specs({"x": Normal(0.0, 0.1)})
+    >>> model, allow = linear_model([0.0], [[1.0]], ["x"]), Allowable(0.2, 0.0)
+    >>> nc = normality_check(fosm=fosm(model=model, inputs=inputs, allowable=allow, progress=False),
+    ...                      monte_carlo=monte_carlo(model=model, inputs=inputs, n=256, seed=1,
+    ...                                              allowable=allow, progress=False))
+    >>> fig = plot_qq(nc, 0)
+    >>> fig.axes[0].get_xlabel()
+    'FOSM normal quantile'
+    >>> plt.close(fig)
+    """
     plt = _plt()
     q = normality.qq(output)
     if ax is None:
@@ -292,9 +378,39 @@ def _pos(index: pd.Index, output: Any) -> int:
 
 
 def plot_sobol(result: Any, output: Any = None, *, title: str | None = None):
-    """Bar charts of first- and total-order Sobol' indices, one panel per output (default: every
-    output; ``output``: one label or position), from a SobolResult (with confidence intervals)
-    or a PCEResult."""
+    """Bar charts of first- and total-order Sobol' indices, one panel per output.
+
+    Parameters
+    ----------
+    result : SobolResult or PCEResult
+        The indices (a SobolResult's with confidence intervals).
+    output : hashable or int, optional
+        One output label or position (default: every output).
+    title : str, optional
+        The figure's title.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        The figure.
+
+    Raises
+    ------
+    StudyError
+        If ``result`` is of another type, or a PCE has no Sobol' indices (correlated inputs).
+
+    Examples
+    --------
+    >>> import matplotlib.pyplot as plt
+    >>> from mechrel.uq import Normal, UncertainInputs, linear_model, polynomial_chaos
+    >>> inputs = UncertainInputs.from_specs({"a": Normal(0.0, 1.0), "b": Normal(0.0, 1.0)})
+    >>> r = polynomial_chaos(model=linear_model([0.0], [[1.0, 2.0]], ["a", "b"]), inputs=inputs,
+    ...                      order=1, seed=1, progress=False)
+    >>> fig = plot_sobol(r)
+    >>> len(fig.axes)
+    1
+    >>> plt.close(fig)
+    """
     plt = _plt()
     from .surrogates.pce import PCEResult
     from .estimators.sobol import SobolResult

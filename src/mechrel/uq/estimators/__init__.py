@@ -48,9 +48,24 @@ COMMON_ARGUMENTS = ("model", "inputs", "limit_state", "allowable", "event", "eva
 
 @dataclass(frozen=True)
 class Setting:
-    """One method setting: its default and an optional check ``check(name, value) -> value``
-    that raises :class:`~mechrel.errors.StudyError` naming the setting, the value and what is
-    allowed (None: the estimator checks it itself)."""
+    """One method setting: its default and an optional check.
+
+    Parameters
+    ----------
+    default : object
+        The value used when a study or call does not set it.
+    check : callable, optional
+        ``check(name, value) -> value``, raising :class:`~mechrel.errors.StudyError` naming the
+        setting, the value and what is allowed (None: the estimator checks it itself).
+    doc : str, default ""
+        A one-line description (shown by the command line).
+
+    Examples
+    --------
+    >>> s = METHODS["form"].settings["max_iter"]
+    >>> s.default, s.check("form.max_iter", 10)
+    (100, 10)
+    """
 
     default: Any
     check: Callable[[str, Any], Any] | None = None
@@ -59,15 +74,34 @@ class Setting:
 
 @dataclass(frozen=True)
 class Method:
-    """One row of the registry.
+    """One row of the registry of methods.
 
-    ``estimator`` and ``result`` are ``"module:attribute"`` paths under ``mechrel.uq``
-    (imported when first used), or the function and the class themselves (a method defined
-    outside mechrel).
-    ``settings`` None: read from the estimator's signature (every keyword not in
-    :data:`COMMON_ARGUMENTS`, checked by the estimator). ``short``: the method's name in study
-    files and on the command line (``mechrel reliability --method``), default ``name``; a study
-    file sets, in the table of that name, the settings that have a check.
+    Parameters
+    ----------
+    name : str
+        The estimator's name (the key of :data:`METHODS`).
+    estimator : str or callable
+        ``"module:attribute"`` under ``mechrel.uq`` (imported when first used), or the function
+        itself (a method defined outside mechrel).
+    result : str or type
+        The result class, given the same way.
+    kind : str
+        ``"reliability"``, ``"sensitivity"``, ``"surrogate"`` or ``"rare_event"``.
+    summary : str
+        A one-line description.
+    declared_settings : mapping of str to Setting, optional
+        The settings with defaults and checks; None: read from the estimator's signature (every
+        keyword not in :data:`COMMON_ARGUMENTS`, checked by the estimator).
+    short : str, optional
+        The method's name in study files and on the command line (``mechrel reliability
+        --method``), default ``name``; a study file sets, in the table of that name, the
+        settings that have a check.
+
+    Examples
+    --------
+    >>> m = METHODS["importance_sampling"]
+    >>> m.key, m.kind, m.function.__name__
+    ('is', 'rare_event', 'importance_sampling')
     """
 
     name: str
@@ -80,7 +114,18 @@ class Method:
 
     @property
     def key(self) -> str:
-        """The name in study files and on the command line."""
+        """The method's name in study files and on the command line.
+
+        Returns
+        -------
+        str
+            ``short``, or ``name`` without one.
+
+        Examples
+        --------
+        >>> METHODS["monte_carlo"].key, METHODS["form"].key
+        ('mc', 'form')
+        """
         return self.short or self.name
 
     def _load(self, path):
@@ -91,14 +136,50 @@ class Method:
 
     @property
     def function(self) -> Callable:
+        """The estimator function (imported on first use).
+
+        Returns
+        -------
+        callable
+            The estimator.
+
+        Examples
+        --------
+        >>> METHODS["form"].function.__name__
+        'form'
+        """
         return self._load(self.estimator)
 
     @property
     def result_type(self) -> type:
+        """The result class of the estimator (imported on first use).
+
+        Returns
+        -------
+        type
+            The result class.
+
+        Examples
+        --------
+        >>> METHODS["form"].result_type.__name__
+        'FORMResult'
+        """
         return self._load(self.result)
 
     @property
     def settings(self) -> Mapping[str, Setting]:
+        """The method's settings, read-only.
+
+        Returns
+        -------
+        mapping of str to Setting
+            The declared settings, or those read from the estimator's signature.
+
+        Examples
+        --------
+        >>> sorted(METHODS["form"].settings)
+        ['max_iter', 'scheme', 'start', 'step', 'tol', 'tol_direction']
+        """
         if self.declared_settings is not None:
             return MappingProxyType(dict(self.declared_settings))
         sig = inspect.signature(self.function)
@@ -108,8 +189,32 @@ class Method:
         })
 
     def validate(self, settings: Mapping[str, Any] | None = None) -> dict:
-        """The full settings: defaults overridden by ``settings``, each checked; an unknown key is
-        an error listing the allowed ones."""
+        """The full settings: the defaults overridden by ``settings``, each given value checked.
+
+        Parameters
+        ----------
+        settings : mapping, optional
+            The settings given.
+
+        Returns
+        -------
+        dict
+            Every setting of the method with its value.
+
+        Raises
+        ------
+        StudyError
+            If a key is unknown (the message lists the allowed ones), or a check fails.
+
+        Examples
+        --------
+        >>> METHODS["form"].validate({"max_iter": 5})["max_iter"]
+        5
+        >>> METHODS["form"].validate({"iterations": 5})
+        Traceback (most recent call last):
+        ...
+        mechrel.errors.StudyError: form: settings ['iterations']: unknown; allowed: ['max_iter', 'scheme', 'start', 'step', 'tol', 'tol_direction']
+        """
         given = dict(settings or {})
         known = self.settings
         unknown = sorted(set(given) - set(known))
@@ -179,7 +284,30 @@ _METHODS: dict[str, Method] = {}
 
 
 def register(method: Method) -> Method:
-    """Add ``method`` to :data:`METHODS` (its name must be new)."""
+    """Add a method to :data:`METHODS`.
+
+    Parameters
+    ----------
+    method : Method
+        The method; its name must be new.
+
+    Returns
+    -------
+    Method
+        ``method``.
+
+    Raises
+    ------
+    StudyError
+        If ``method`` is not a :class:`Method` or its name is already registered.
+
+    Examples
+    --------
+    >>> register(METHODS["fosm"])
+    Traceback (most recent call last):
+    ...
+    mechrel.errors.StudyError: register: method 'fosm' is already registered; allowed: a new name
+    """
     if not isinstance(method, Method):
         raise StudyError(f"register: got {type(method).__name__}; allowed: a Method")
     if method.name in _METHODS:
@@ -226,7 +354,28 @@ METHODS: Mapping[str, Method] = MappingProxyType(_METHODS)
 
 
 def get_method(name: str) -> Method:
-    """The registered method ``name``; an unknown name is an error listing the known ones."""
+    """The registered method ``name``.
+
+    Parameters
+    ----------
+    name : str
+        The method's name (a key of :data:`METHODS`).
+
+    Returns
+    -------
+    Method
+        Its registry row.
+
+    Raises
+    ------
+    StudyError
+        If the name is unknown (the message lists the known ones).
+
+    Examples
+    --------
+    >>> get_method("sorm").kind
+    'rare_event'
+    """
     try:
         return METHODS[name]
     except (KeyError, TypeError):

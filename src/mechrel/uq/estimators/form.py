@@ -44,7 +44,7 @@ from ..execution.executor import Evaluations
 from ..problem.inputs import seed_record
 from ._problem import Problem, RareEventResult, refuse_evaluations
 
-__all__ = ["form", "FORMResult", "FORMConvergenceError", "design_point_search"]
+__all__ = ["form", "FORMResult", "FORMConvergenceError"]
 
 SCHEMES = ("central", "forward")
 EPS = float(np.finfo(float).eps)
@@ -130,14 +130,61 @@ class FORMResult(RareEventResult):
 
     @property
     def alpha(self) -> pd.Series:
+        """The unit vector α toward the design point in the standard-normal space, per input.
+
+        Returns
+        -------
+        pandas.Series
+            The ``alpha`` column of ``design_point`` (dimensionless).
+
+        Examples
+        --------
+        >>> from mechrel.uq import FunctionModel, Normal, UncertainInputs
+        >>> inputs = UncertainInputs.from_specs({"x1": Normal(0.0, 1.0), "x2": Normal(0.0, 1.0)})
+        >>> margin = FunctionModel(lambda X: 3.0 - X[:, 0] - X[:, 1], ["x1", "x2"], ["g"],
+        ...                        vectorized=True)
+        >>> form(model=margin, inputs=inputs).alpha.round(6).tolist()   # (1, 1)/√2
+        [0.707107, 0.707107]
+        """
         return self.design_point["alpha"]
 
     @property
     def importance(self) -> pd.Series:
+        """The importance of each input, α_j², the share of β² it accounts for.
+
+        Returns
+        -------
+        pandas.Series
+            The ``importance`` column of ``design_point`` (dimensionless, sums to 1).
+
+        Examples
+        --------
+        >>> from mechrel.uq import FunctionModel, Normal, UncertainInputs
+        >>> inputs = UncertainInputs.from_specs({"x1": Normal(0.0, 1.0), "x2": Normal(0.0, 1.0)})
+        >>> margin = FunctionModel(lambda X: 3.0 - X[:, 0] - X[:, 1], ["x1", "x2"], ["g"],
+        ...                        vectorized=True)
+        >>> form(model=margin, inputs=inputs).importance.round(6).tolist()
+        [0.5, 0.5]
+        """
         return self.design_point["importance"]
 
     @property
     def x_star(self) -> pd.Series:
+        """The design point (the most probable failure point) in the physical inputs.
+
+        Returns
+        -------
+        pandas.Series
+            The ``x`` column of ``design_point``, in the inputs' units.
+
+        Examples
+        --------
+        >>> from mechrel.uq import FunctionModel, Normal, UncertainInputs
+        >>> inputs = UncertainInputs.from_specs({"x1": Normal(1.0, 2.0), "x2": Normal(0.0, 1.0)})
+        >>> margin = FunctionModel(lambda X: 5.0 - X[:, 0], ["x1", "x2"], ["g"], vectorized=True)
+        >>> form(model=margin, inputs=inputs).x_star.round(6).tolist()
+        [5.0, 0.0]
+        """
         return self.design_point["x"]
 
 

@@ -201,26 +201,103 @@ class FOSMResult:
 
     @property
     def n_evaluations(self) -> int:
-        """Model evaluations behind the estimate (rows sent to the executor, cache hits
-        included; ``provenance["n_model_evaluations"]``)."""
+        """The model evaluations behind the estimate.
+
+        Rows sent to the executor, cache hits included (``provenance["n_model_evaluations"]``).
+
+        Returns
+        -------
+        int
+            2d + 1 for d inputs (the central-difference stencil).
+
+        Examples
+        --------
+        >>> from mechrel.uq import Allowable, Normal, UncertainInputs, linear_model
+        >>> inputs = UncertainInputs.from_specs({"a": Normal(0.0, 0.1), "b": Normal(0.0, 0.1)})
+        >>> fosm(model=linear_model([0.0], [[1.0, 1.0]], ["a", "b"]), inputs=inputs,
+        ...      allowable=Allowable(0.2, 0.0), progress=False).n_evaluations
+        5
+        """
         return int(self.provenance["n_model_evaluations"])
 
     def to_frame(self) -> pd.DataFrame:
+        """The per-output table (a copy of ``table``).
+
+        Returns
+        -------
+        pandas.DataFrame
+            One row per output; the columns listed under ``table``.
+
+        Examples
+        --------
+        >>> from mechrel.uq import Allowable, Normal, UncertainInputs, linear_model
+        >>> inputs = UncertainInputs.from_specs({"x": Normal(0.0, 0.1)})
+        >>> r = fosm(model=linear_model([0.0], [[1.0]], ["x"]), inputs=inputs,
+        ...          allowable=Allowable(0.2, 0.0), progress=False)
+        >>> round(float(r.to_frame()["sigma_i"].iloc[0]), 12)
+        0.1
+        """
         return self.table.copy()
 
     @property
     def beta(self) -> pd.Series:
+        """The reliability index β = (μ_I − μ_i)/√(σ_I² + σ_i²) per output.
+
+        Returns
+        -------
+        pandas.Series
+            The ``beta`` column of ``table`` (dimensionless).
+
+        Examples
+        --------
+        >>> from mechrel.uq import Allowable, Normal, UncertainInputs, linear_model
+        >>> inputs = UncertainInputs.from_specs({"x": Normal(0.0, 0.1)})
+        >>> r = fosm(model=linear_model([0.0], [[1.0]], ["x"]), inputs=inputs,
+        ...          allowable=Allowable(0.3, 0.04), progress=False)
+        >>> round(float(r.beta.iloc[0]), 6)   # 0.3 / √(0.04² + 0.1²)
+        2.78543
+        """
         return self.table["beta"]
 
     @property
     def reliability(self) -> pd.Series:
+        """The reliability of the selected ``event`` per output.
+
+        Returns
+        -------
+        pandas.Series
+            The ``reliability`` column of ``table`` (a probability).
+
+        Examples
+        --------
+        >>> from mechrel.uq import Allowable, Normal, UncertainInputs, linear_model
+        >>> inputs = UncertainInputs.from_specs({"x": Normal(0.0, 0.1)})
+        >>> r = fosm(model=linear_model([0.0], [[1.0]], ["x"]), inputs=inputs,
+        ...          allowable=Allowable(0.2, 0.0), progress=False, event="one-sided")
+        >>> round(float(r.reliability.iloc[0]), 4)   # Φ(2)
+        0.9772
+        """
         return self.table["reliability"]
 
     def importance(self) -> pd.DataFrame:
-        """Share of σ_i² from each input, (∂f/∂x_j σ_j)² / σ_i² (outputs × inputs).
+        """The share of σ_i² from each input, (∂f/∂x_j σ_j)² / σ_i².
 
-        Exact decomposition for independent inputs; with correlated inputs the shares do not
+        An exact decomposition for independent inputs; with correlated inputs the shares do not
         include the cross terms and need not sum to 1.
+
+        Returns
+        -------
+        pandas.DataFrame
+            Outputs × inputs, dimensionless.
+
+        Examples
+        --------
+        >>> from mechrel.uq import Allowable, Normal, UncertainInputs, linear_model
+        >>> inputs = UncertainInputs.from_specs({"a": Normal(0.0, 1.0), "b": Normal(0.0, 1.0)})
+        >>> r = fosm(model=linear_model([0.0], [[1.0, 2.0]], ["a", "b"]), inputs=inputs,
+        ...          allowable=Allowable(10.0, 0.0), progress=False)
+        >>> r.importance().round(12).iloc[0].tolist()   # 1/5 and 4/5
+        [0.2, 0.8]
         """
         g = self.gradient.to_numpy() * self.input_std[None, :]
         var = self.table["sigma_i"].to_numpy() ** 2

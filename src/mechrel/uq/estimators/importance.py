@@ -77,6 +77,23 @@ class ImportanceSamplingResult(RareEventResult):
 
     @property
     def cov(self) -> float:
+        """The coefficient of variation of the estimate ``pf``.
+
+        Returns
+        -------
+        float
+            The standard error of the weighted mean over ``pf`` (dimensionless).
+
+        Examples
+        --------
+        >>> from mechrel.uq import FunctionModel, Normal, UncertainInputs
+        >>> inputs = UncertainInputs.from_specs({"x1": Normal(0.0, 1.0), "x2": Normal(0.0, 1.0)})
+        >>> margin = FunctionModel(lambda X: 3.0 * 2**0.5 - X[:, 0] - X[:, 1], ["x1", "x2"], ["g"],
+        ...                        vectorized=True)
+        >>> r = importance_sampling(model=margin, inputs=inputs, n=200, seed=1, progress=False)
+        >>> 0 < r.cov < 0.5
+        True
+        """
         return float(self.table["cov"].iloc[0])
 
 
@@ -134,6 +151,14 @@ def importance_sampling(
     Returns
     -------
     ImportanceSamplingResult
+
+    Raises
+    ------
+    StudyError
+        If ``design_point`` is not a FORMResult of the same inputs, or no sample fails (P_f not
+        estimable).
+    SampleFailuresError
+        If more than ``max_failure_fraction`` of the samples fail, or fewer than 2 are usable.
 
     Examples
     --------

@@ -76,7 +76,7 @@ from ..problem.allowables import (binomial_interval, check_event, per_angle_mask
                           whole_cycle_column)
 from ._problem import Problem, RareEventResult
 
-__all__ = ["monte_carlo", "monte_carlo_design", "MonteCarloResult", "MonteCarloPfResult", "reliability_from_samples",
+__all__ = ["monte_carlo", "monte_carlo_design", "MonteCarloResult", "MonteCarloPfResult",
            "ALLOWABLE_MODES", "FAILURE_MODES"]
 
 ALLOWABLE_MODES = ("sampled", "fixed")
@@ -244,15 +244,62 @@ class MonteCarloResult:
 
     @property
     def n_evaluations(self) -> int:
-        """Model evaluations behind the estimate (rows sent to the executor, cache hits
-        included; ``provenance["n_model_evaluations"]``)."""
+        """The model evaluations behind the estimate.
+
+        Rows sent to the executor, cache hits included (``provenance["n_model_evaluations"]``).
+
+        Returns
+        -------
+        int
+            The number of samples ``n``.
+
+        Examples
+        --------
+        >>> from mechrel.uq import Allowable, Normal, UncertainInputs, linear_model
+        >>> inputs = UncertainInputs.from_specs({"x": Normal(0.0, 0.1)})
+        >>> monte_carlo(model=linear_model([0.0], [[1.0]], ["x"]), inputs=inputs, n=64, seed=1,
+        ...             allowable=Allowable(0.2, 0.0), progress=False).n_evaluations
+        64
+        """
         return int(self.provenance["n_model_evaluations"])
 
     def to_frame(self) -> pd.DataFrame:
+        """The per-output table (a copy of ``table``).
+
+        Returns
+        -------
+        pandas.DataFrame
+            One row per output: the sample statistics, the reliability and its confidence interval.
+
+        Examples
+        --------
+        >>> from mechrel.uq import Allowable, Normal, UncertainInputs, linear_model
+        >>> inputs = UncertainInputs.from_specs({"x": Normal(0.0, 0.1)})
+        >>> r = monte_carlo(model=linear_model([0.0], [[1.0]], ["x"]), inputs=inputs, n=64, seed=1,
+        ...                 allowable=Allowable(10.0, 0.0), progress=False)
+        >>> float(r.to_frame()["reliability"].iloc[0])
+        1.0
+        """
         return self.table.copy()
 
     @property
     def reliability(self) -> pd.Series:
+        """The estimated reliability of the selected event per output.
+
+        Returns
+        -------
+        pandas.Series
+            The ``reliability`` column of ``table`` (a probability).
+
+        Examples
+        --------
+        >>> from mechrel.uq import Allowable, Normal, UncertainInputs, linear_model
+        >>> inputs = UncertainInputs.from_specs({"x": Normal(0.0, 0.1)})
+        >>> r = monte_carlo(model=linear_model([0.0], [[1.0]], ["x"]), inputs=inputs, n=4096,
+        ...                 seed=1, allowable=Allowable(0.2, 0.0), progress=False)
+        >>> bool(abs(float(r.reliability.iloc[0]) - 0.9545) < 0.01)   # 2 Φ(2) − 1, 3 s.e. ≈ 0.01
+        True
+        """
         return self.table["reliability"]
 
 
@@ -506,7 +553,23 @@ class MonteCarloPfResult(RareEventResult):
 
     @property
     def cov(self) -> float:
-        """Coefficient of variation of ``pf``."""
+        """The coefficient of variation of the estimate ``pf``.
+
+        Returns
+        -------
+        float
+            √((1 − p)/(n p)) for the plain estimator (dimensionless).
+
+        Examples
+        --------
+        >>> from mechrel.uq import FunctionModel, LimitState, Normal, UncertainInputs
+        >>> inputs = UncertainInputs.from_specs({"x": Normal(0.0, 1.0)})
+        >>> model = FunctionModel(lambda X: X[:, 0], ["x"], ["y"], vectorized=True)
+        >>> r = monte_carlo(model=model, inputs=inputs, n=1024, seed=2, progress=False,
+        ...                 limit_state=LimitState.exceedance(["y"], 1.0, kind="upper"))
+        >>> bool(np.isclose(r.cov, ((1 - r.pf) / (1024 * r.pf)) ** 0.5))
+        True
+        """
         return float(self.table["cov"].iloc[0])
 
 

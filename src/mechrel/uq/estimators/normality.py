@@ -109,21 +109,101 @@ class NormalityResult:
 
     @property
     def n_evaluations(self) -> int:
-        """Model evaluations behind the estimate (rows sent to the executor, cache hits
-        included; ``provenance["n_model_evaluations"]``)."""
+        """The model evaluations behind the estimate.
+
+        Rows sent to the executor, cache hits included (``provenance["n_model_evaluations"]``):
+        those of the Monte Carlo and the FOSM results compared.
+
+        Returns
+        -------
+        int
+            The number of model evaluations.
+
+        Examples
+        --------
+        >>> from mechrel.uq import Allowable, Normal, UncertainInputs, fosm, linear_model, monte_carlo
+        >>> inputs = UncertainInputs.from_specs({"x": Normal(0.0, 0.1)})
+        >>> model, allow = linear_model([0.0], [[1.0]], ["x"]), Allowable(0.2, 0.0)
+        >>> f = fosm(model=model, inputs=inputs, allowable=allow, progress=False)
+        >>> mc = monte_carlo(model=model, inputs=inputs, n=256, seed=1, allowable=allow,
+        ...                  progress=False)
+        >>> normality_check(fosm=f, monte_carlo=mc).n_evaluations >= 256
+        True
+        """
         return int(self.provenance["n_model_evaluations"])
 
     def to_frame(self) -> pd.DataFrame:
+        """The per-output table (a copy of ``table``).
+
+        Returns
+        -------
+        pandas.DataFrame
+            One row per output: the moments, the test statistics and ``flag``.
+
+        Examples
+        --------
+        >>> from mechrel.uq import Allowable, Normal, UncertainInputs, fosm, linear_model, monte_carlo
+        >>> inputs = UncertainInputs.from_specs({"x": Normal(0.0, 0.1)})
+        >>> model, allow = linear_model([0.0], [[1.0]], ["x"]), Allowable(0.2, 0.0)
+        >>> f = fosm(model=model, inputs=inputs, allowable=allow, progress=False)
+        >>> mc = monte_carlo(model=model, inputs=inputs, n=256, seed=1, allowable=allow,
+        ...                  progress=False)
+        >>> "flag" in normality_check(fosm=f, monte_carlo=mc).to_frame().columns
+        True
+        """
         return self.table.copy()
 
     @property
     def flagged(self) -> pd.DataFrame:
+        """The rows of ``table`` whose output is flagged as not normal.
+
+        Returns
+        -------
+        pandas.DataFrame
+            The flagged outputs (empty when FOSM's normality assumption holds).
+
+        Examples
+        --------
+        >>> from mechrel.uq import Allowable, Normal, UncertainInputs, fosm, linear_model, monte_carlo
+        >>> inputs = UncertainInputs.from_specs({"x": Normal(0.0, 0.1)})
+        >>> model, allow = linear_model([0.0], [[1.0]], ["x"]), Allowable(0.2, 0.0)
+        >>> f = fosm(model=model, inputs=inputs, allowable=allow, progress=False)
+        >>> mc = monte_carlo(model=model, inputs=inputs, n=1024, seed=1, allowable=allow,
+        ...                  progress=False)
+        >>> len(normality_check(fosm=f, monte_carlo=mc).flagged)
+        0
+        """
         return self.table[self.table["flag"]]
 
     def qq(self, output: Any) -> pd.DataFrame:
-        """QQ data for one output (label or position): sorted MC errors vs the quantiles of
-        FOSM's N(μ_i, σ_i²) at plotting positions (k − 0.5)/n, plus the standard-normal
-        quantile (for a shape-only plot)."""
+        """The QQ data of one output.
+
+        The sorted Monte Carlo errors against the quantiles of FOSM's N(μ_i, σ_i²) at the plotting
+        positions (k − 0.5)/n, and the standard-normal quantile (for a shape-only plot).
+
+        Parameters
+        ----------
+        output : hashable or int
+            An output label or position.
+
+        Returns
+        -------
+        pandas.DataFrame
+            Columns ``probability``, ``standard_normal``, ``fosm_quantile`` and ``mc_quantile`` (the
+            last two in the output's unit).
+
+        Examples
+        --------
+        >>> from mechrel.uq import Allowable, Normal, UncertainInputs, fosm, linear_model, monte_carlo
+        >>> inputs = UncertainInputs.from_specs({"x": Normal(0.0, 0.1)})
+        >>> model, allow = linear_model([0.0], [[1.0]], ["x"]), Allowable(0.2, 0.0)
+        >>> f = fosm(model=model, inputs=inputs, allowable=allow, progress=False)
+        >>> mc = monte_carlo(model=model, inputs=inputs, n=256, seed=1, allowable=allow,
+        ...                  progress=False)
+        >>> qq = normality_check(fosm=f, monte_carlo=mc).qq(0)
+        >>> len(qq), float(qq["probability"].iloc[0]) == 0.5 / 256
+        (256, True)
+        """
         idx = self.table.index
         pos = resolve_outputs_safe(idx, output)
         ev = self.monte_carlo.evaluations

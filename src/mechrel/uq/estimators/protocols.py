@@ -20,7 +20,12 @@ __all__ = ["Estimator", "Result"]
 
 @runtime_checkable
 class Result(Protocol):
-    """What every estimator returns.
+    """What every estimator returns (a structural protocol: nothing to inherit).
+
+    Parameters
+    ----------
+    *args, **kwargs
+        Not used: a protocol is not instantiated; a class satisfies it by its attributes.
 
     Attributes
     ----------
@@ -46,21 +51,77 @@ class Result(Protocol):
 
     @property
     def provenance(self) -> Mapping[str, Any]:
-        """How the result was made."""
+        """How the result was made.
+
+        Returns
+        -------
+        mapping
+            Method, seed, settings, model evaluations, versions, time.
+
+        Examples
+        --------
+        >>> from mechrel.uq import Allowable, Normal, UncertainInputs, linear_model, fosm
+        >>> inputs = UncertainInputs.from_specs({"x": Normal(0.0, 1.0)})
+        >>> fosm(model=linear_model([0.0], [[2.0]], ["x"]), inputs=inputs,
+        ...      allowable=Allowable(1.0, 0.1), progress=False).provenance["method"]
+        'fosm'
+        """
         ...
 
     @property
     def warnings(self) -> tuple[str, ...]:
-        """The caveats of the estimate."""
+        """The caveats of the estimate.
+
+        Returns
+        -------
+        tuple of str
+            Empty when there are none.
+
+        Examples
+        --------
+        >>> from mechrel.uq import Allowable, Normal, UncertainInputs, linear_model, fosm
+        >>> inputs = UncertainInputs.from_specs({"x": Normal(0.0, 1.0)})
+        >>> fosm(model=linear_model([0.0], [[2.0]], ["x"]), inputs=inputs,
+        ...      allowable=Allowable(1.0, 0.1), progress=False).warnings
+        ()
+        """
         ...
 
     @property
     def n_evaluations(self) -> int:
-        """Model evaluations behind the estimate."""
+        """The model evaluations behind the estimate.
+
+        Returns
+        -------
+        int
+            Rows sent to the executor, cache hits included.
+
+        Examples
+        --------
+        >>> from mechrel.uq import Allowable, Normal, UncertainInputs, linear_model, fosm
+        >>> inputs = UncertainInputs.from_specs({"x": Normal(0.0, 1.0)})
+        >>> fosm(model=linear_model([0.0], [[2.0]], ["x"]), inputs=inputs,
+        ...      allowable=Allowable(1.0, 0.1), progress=False).n_evaluations
+        3
+        """
         ...
 
     def to_frame(self) -> pd.DataFrame:
-        """The result as a table, one row per output."""
+        """The result as a table, one row per output.
+
+        Returns
+        -------
+        pandas.DataFrame
+            The result's table.
+
+        Examples
+        --------
+        >>> from mechrel.uq import Allowable, Normal, UncertainInputs, linear_model, fosm
+        >>> inputs = UncertainInputs.from_specs({"x": Normal(0.0, 1.0)})
+        >>> len(fosm(model=linear_model([0.0], [[2.0]], ["x"]), inputs=inputs,
+        ...          allowable=Allowable(1.0, 0.1), progress=False).to_frame())
+        1
+        """
         ...
 
 

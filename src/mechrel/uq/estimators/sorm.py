@@ -93,12 +93,39 @@ class SORMResult(RareEventResult):
 
 
 def sorm_probabilities(beta: float, kappa: Any) -> dict:
-    """{breitung, hohenbichler, tvedt}: P_f of the paraboloid with curvatures ``kappa`` at
-    distance ``beta`` (module docstring).
+    """The second-order failure probabilities of a paraboloid.
 
-    Breitung needs 1 + βκ_i > 0 (else StudyError: no second-order estimate exists),
-    Hohenbichler–Rackwitz 1 + ψκ_i > 0 and Tvedt 1 + (β + 1)κ_i > 0; a formula whose condition
-    fails (only possible for negative curvatures) is ``None``.
+    P_f of the paraboloid with main curvatures ``kappa`` at distance ``beta`` from the origin of
+    the standard-normal space, by the three formulas of the module docstring. Breitung needs
+    1 + βκ_i > 0 (else no second-order estimate exists), Hohenbichler–Rackwitz 1 + ψκ_i > 0
+    and Tvedt 1 + (β + 1)κ_i > 0; a formula whose condition fails (only possible for negative
+    curvatures) is None.
+
+    Parameters
+    ----------
+    beta : float
+        The reliability index of the design point (dimensionless).
+    kappa : array_like
+        The main curvatures at the design point (1/standard-normal unit; positive: the failure
+        domain curves away from the origin).
+
+    Returns
+    -------
+    dict
+        ``{"breitung": p, "hohenbichler": p, "tvedt": p}``, each a float or None.
+
+    Raises
+    ------
+    StudyError
+        If 1 + βκ_i <= 0 for a curvature (Breitung's condition).
+
+    Examples
+    --------
+    With zero curvatures every formula gives FORM's Φ(−β):
+
+    >>> p = sorm_probabilities(3.0, [0.0, 0.0])
+    >>> [round(p[k] / 1.3498980316e-3, 9) for k in ("breitung", "hohenbichler", "tvedt")]
+    [1.0, 1.0, 1.0]
     """
     k = np.asarray(kappa, dtype=float).reshape(-1)
     if np.any(1.0 + beta * k <= 0):
@@ -206,6 +233,13 @@ def sorm(
     Returns
     -------
     SORMResult
+
+    Raises
+    ------
+    StudyError
+        If ``design_point`` is not a FORMResult of the same inputs, or the formula is undefined
+        for the curvatures at the design point (a factor 1 + cκ <= 0); the errors of
+        :func:`~mechrel.uq.form` when the design point is searched here.
 
     Examples
     --------

@@ -91,6 +91,25 @@ class SubsetSimulationResult(RareEventResult):
 
     @property
     def cov(self) -> float:
+        """The approximate coefficient of variation of the estimate ``pf``.
+
+        Returns
+        -------
+        float
+            √(Σ δ_i²), δ_i² = (1 − p_i)/(N p_i) (1 + γ_i) with γ_i the correlation factor of
+            level i's Markov chains (Au & Beck 2001; the levels treated as uncorrelated;
+            dimensionless).
+
+        Examples
+        --------
+        >>> from mechrel.uq import FunctionModel, Normal, UncertainInputs
+        >>> inputs = UncertainInputs.from_specs({"x1": Normal(0.0, 1.0), "x2": Normal(0.0, 1.0)})
+        >>> margin = FunctionModel(lambda X: 3.0 * 2**0.5 - X[:, 0] - X[:, 1], ["x1", "x2"], ["g"],
+        ...                        vectorized=True)
+        >>> r = subset_simulation(model=margin, inputs=inputs, n_per_level=200, seed=2)
+        >>> 0 < r.cov < 1
+        True
+        """
         return float(self.table["cov"].iloc[0])
 
 
@@ -168,6 +187,14 @@ def subset_simulation(
     Returns
     -------
     SubsetSimulationResult
+
+    Raises
+    ------
+    StudyError
+        If ``p0`` and ``n_per_level`` are inconsistent, a level has too few usable samples,
+        ``max_levels`` is reached with the threshold above 0, or the threshold stops decreasing.
+    SampleFailuresError
+        If more than ``max_failure_fraction`` of the samples fail.
 
     Examples
     --------

@@ -194,7 +194,43 @@ class EvaluationCache:
 
     # ------------------------------------------------------------------ reading
     def lookup(self, model_key: str, X: np.ndarray, n_out: int):
-        """Return (found, Y, ok, reasons) for the rows of X (found: bool mask)."""
+        """Look up the rows of ``X`` for one model key.
+
+        Parameters
+        ----------
+        model_key : str
+            The combined cache key (:func:`~mechrel.uq.execution.executor.combined_cache_key`).
+        X : ndarray, shape (n, d)
+            The input rows.
+        n_out : int
+            The number of outputs a cached ok row must hold.
+
+        Returns
+        -------
+        found : ndarray of bool, shape (n,)
+            Which rows are cached (a corrupted row counts as not cached).
+        Y : ndarray, shape (n, n_out)
+            Their outputs (NaN where not found or failed).
+        ok : ndarray of bool, shape (n,)
+            Which found rows were successful.
+        reasons : list
+            Per row, the cached failure's reason or None.
+
+        Raises
+        ------
+        CacheError
+            If the database cannot be read.
+
+        Examples
+        --------
+        >>> import tempfile
+        >>> with tempfile.TemporaryDirectory() as d:
+        ...     c = EvaluationCache(d)
+        ...     c.store("k", np.array([[1.0]]), np.array([[2.0]]), np.array([True]), [None])
+        ...     found, Y, ok, reasons = c.lookup("k", np.array([[1.0], [5.0]]), 1)
+        >>> found.tolist(), Y[0].tolist()
+        ([True, False], [2.0])
+        """
         X = np.asarray(X, dtype=float)
         n = X.shape[0]
         found = np.zeros(n, dtype=bool)
@@ -253,7 +289,36 @@ class EvaluationCache:
 
     # ------------------------------------------------------------------ writing
     def store(self, model_key: str, X: np.ndarray, Y: np.ndarray, ok: np.ndarray, reasons) -> None:
-        """Insert or replace rows (one transaction)."""
+        """Insert or replace rows, in one transaction.
+
+        Parameters
+        ----------
+        model_key : str
+            The combined cache key.
+        X : ndarray, shape (n, d)
+            The input rows.
+        Y : ndarray, shape (n, n_out)
+            Their outputs.
+        ok : ndarray of bool, shape (n,)
+            Which rows were successful.
+        reasons : sequence
+            Per row, the failure's reason or None.
+
+        Raises
+        ------
+        CacheError
+            If the database cannot be written (read-only, disk full).
+
+        Examples
+        --------
+        >>> import tempfile
+        >>> with tempfile.TemporaryDirectory() as d:
+        ...     c = EvaluationCache(d)
+        ...     c.store("k", np.array([[1.0], [2.0]]), np.array([[2.0], [np.nan]]),
+        ...             np.array([True, False]), [None, "diverged"])
+        ...     c.stats()
+        {'k': {'ok': 1, 'failed': 1}}
+        """
         now = time.time()
         rows = []
         for x, y, o, r in zip(np.asarray(X, dtype=float), np.asarray(Y, dtype=float), ok, reasons):
@@ -273,7 +338,33 @@ class EvaluationCache:
                        "are kept", exc, _WRITE_TODO)
 
     def forget_failures(self, model_key: str | None = None) -> int:
-        """Delete cached failures (of one model key, or all); return how many were deleted."""
+        """Delete the cached failures, of one model key or of all.
+
+        Parameters
+        ----------
+        model_key : str, optional
+            The key whose failures to delete (default: all keys).
+
+        Returns
+        -------
+        int
+            How many rows were deleted.
+
+        Raises
+        ------
+        CacheError
+            If the database cannot be written.
+
+        Examples
+        --------
+        >>> import tempfile
+        >>> with tempfile.TemporaryDirectory() as d:
+        ...     c = EvaluationCache(d)
+        ...     c.store("k", np.array([[1.0], [2.0]]), np.array([[2.0], [np.nan]]),
+        ...             np.array([True, False]), [None, "diverged"])
+        ...     c.forget_failures(), c.stats()
+        (1, {'k': {'ok': 1, 'failed': 0}})
+        """
         with self._guard(), self._connect() as con:
             if model_key is None:
                 cur = con.execute("DELETE FROM evaluations WHERE ok = 0")
@@ -282,7 +373,32 @@ class EvaluationCache:
             return cur.rowcount
 
     def clear(self, model_key: str | None = None) -> int:
-        """Delete all cached rows (of one model key, or all)."""
+        """Delete all cached rows, of one model key or of all.
+
+        Parameters
+        ----------
+        model_key : str, optional
+            The key whose rows to delete (default: all keys).
+
+        Returns
+        -------
+        int
+            How many rows were deleted.
+
+        Raises
+        ------
+        CacheError
+            If the database cannot be written.
+
+        Examples
+        --------
+        >>> import tempfile
+        >>> with tempfile.TemporaryDirectory() as d:
+        ...     c = EvaluationCache(d)
+        ...     c.store("k", np.array([[1.0]]), np.array([[2.0]]), np.array([True]), [None])
+        ...     c.clear("k"), c.stats()
+        (1, {})
+        """
         with self._guard(), self._connect() as con:
             if model_key is None:
                 cur = con.execute("DELETE FROM evaluations")
@@ -291,7 +407,25 @@ class EvaluationCache:
             return cur.rowcount
 
     def stats(self) -> dict[str, Any]:
-        """Counts per model key: {key: {"ok": n, "failed": m}}."""
+        """Count the cached rows per model key.
+
+        Returns
+        -------
+        dict
+            ``{key: {"ok": n, "failed": m}}``.
+
+        Raises
+        ------
+        CacheError
+            If the database cannot be read.
+
+        Examples
+        --------
+        >>> import tempfile
+        >>> with tempfile.TemporaryDirectory() as d:
+        ...     EvaluationCache(d).stats()
+        {}
+        """
         out: dict[str, Any] = {}
         with self._guard(), self._connect() as con:
             for key, okv, cnt in con.execute(
@@ -312,7 +446,28 @@ def _is_write_error(exc: sqlite3.OperationalError) -> bool:
 
 
 def as_cache(cache: Any) -> EvaluationCache | None:
-    """None / EvaluationCache / path → EvaluationCache or None."""
+    """Turn what ``evaluate(cache=...)`` accepts into a cache.
+
+    Parameters
+    ----------
+    cache : None, EvaluationCache, str or path-like
+        No cache, a cache, or the directory (or database file) of one.
+
+    Returns
+    -------
+    EvaluationCache or None
+        The cache (None for None).
+
+    Raises
+    ------
+    StudyError
+        If ``cache`` is of another type.
+
+    Examples
+    --------
+    >>> as_cache(None) is None
+    True
+    """
     if cache is None or isinstance(cache, EvaluationCache):
         return cache
     if isinstance(cache, (str, os.PathLike)):

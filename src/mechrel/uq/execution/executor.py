@@ -153,8 +153,44 @@ class Evaluations:
         reasons: Any = None,
         cache_key: str | None = None,
     ) -> Evaluations:
-        """Wrap precomputed arrays. Rows of Y with non-finite values are marked failed
-        (reason ``"non-finite output"``) unless ``status`` is given."""
+        """Wrap precomputed arrays as evaluations.
+
+        Rows of ``Y`` with a non-finite value are marked failed (reason ``"non-finite output"``)
+        unless ``status`` is given.
+
+        Parameters
+        ----------
+        X : array_like, shape (n, d)
+            The inputs, one row per sample.
+        Y : array_like, shape (n,) or (n, n_out)
+            The outputs.
+        input_names : sequence of str, optional
+            The input names (default ``x0, x1, ...``).
+        output_index : pandas.Index, optional
+            The output labels (default ``RangeIndex(n_out, name="output")``).
+        status : array_like of str, optional
+            ``"ok"`` or ``"failed"`` per row (default: from the finiteness of ``Y``).
+        reasons : sequence, optional
+            Per row, the failure's reason or None.
+        cache_key : str, optional
+            The model's cache key, if known.
+
+        Returns
+        -------
+        Evaluations
+            The wrapped evaluations.
+
+        Raises
+        ------
+        StudyError
+            If the shapes of ``X``, ``Y``, the names or the index do not agree.
+
+        Examples
+        --------
+        >>> ev = Evaluations.from_arrays([[0.0], [1.0]], [1.0, float("nan")], input_names=["x"])
+        >>> ev.status.tolist(), ev.reasons
+        (['ok', 'failed'], (None, 'non-finite output'))
+        """
         X = np.atleast_2d(np.asarray(X, dtype=float))
         Y = np.asarray(Y, dtype=float)
         if Y.ndim == 1:
@@ -175,26 +211,97 @@ class Evaluations:
     # ------------------------------------------------------------------ views
     @property
     def n(self) -> int:
+        """The number of samples (rows).
+
+        Returns
+        -------
+        int
+            ``X.shape[0]``.
+
+        Examples
+        --------
+        >>> Evaluations.from_arrays([[0.0], [1.0]], [1.0, 2.0]).n
+        2
+        """
         return self.X.shape[0]
 
     @property
     def ok(self) -> np.ndarray:
+        """Which rows were evaluated successfully.
+
+        Returns
+        -------
+        ndarray of bool, shape (n,)
+            True where ``status == "ok"``.
+
+        Examples
+        --------
+        >>> Evaluations.from_arrays([[0.0], [1.0]], [1.0, float("inf")]).ok.tolist()
+        [True, False]
+        """
         return self.status == STATUS_OK
 
     @property
     def n_ok(self) -> int:
+        """The number of successful rows.
+
+        Returns
+        -------
+        int
+            ``ok.sum()``.
+
+        Examples
+        --------
+        >>> Evaluations.from_arrays([[0.0], [1.0]], [1.0, float("inf")]).n_ok
+        1
+        """
         return int(self.ok.sum())
 
     @property
     def n_failed(self) -> int:
+        """The number of failed rows.
+
+        Returns
+        -------
+        int
+            ``n - n_ok``.
+
+        Examples
+        --------
+        >>> Evaluations.from_arrays([[0.0], [1.0]], [1.0, float("inf")]).n_failed
+        1
+        """
         return self.n - self.n_ok
 
     def failure_counts(self) -> dict[str, int]:
-        """{reason: count} of the failed rows, most frequent first."""
+        """Count the failed rows by reason, most frequent first.
+
+        Returns
+        -------
+        dict of str to int
+            ``{reason: count}``.
+
+        Examples
+        --------
+        >>> Evaluations.from_arrays([[0.0], [1.0]], [float("nan"), float("inf")]).failure_counts()
+        {'non-finite output': 2}
+        """
         return dict(Counter(r for r in self.reasons if r is not None).most_common())
 
     def failures(self) -> pd.DataFrame:
-        """The failed rows: inputs and reason."""
+        """The failed rows: their inputs and reason.
+
+        Returns
+        -------
+        pandas.DataFrame
+            Indexed by the sample's position; the input columns and ``reason``.
+
+        Examples
+        --------
+        >>> Evaluations.from_arrays([[0.0], [1.0]], [1.0, float("nan")],
+        ...                         input_names=["x"]).failures().to_dict("list")
+        {'x': [1.0], 'reason': ['non-finite output']}
+        """
         bad = ~self.ok
         df = pd.DataFrame(self.X[bad], columns=list(self.input_names), index=np.flatnonzero(bad))
         df.index.name = "sample"
@@ -202,7 +309,20 @@ class Evaluations:
         return df
 
     def to_frame(self) -> pd.DataFrame:
-        """One row per sample: input columns, ``status``, ``reason`` and the outputs."""
+        """One row per sample: the inputs, ``status``, ``reason`` and the outputs.
+
+        Returns
+        -------
+        pandas.DataFrame
+            Two-level columns: ``("input", name)``, ``("status", "")``, ``("reason", "")`` and
+            ``("output", label)``.
+
+        Examples
+        --------
+        >>> df = Evaluations.from_arrays([[0.5]], [2.0], input_names=["x"]).to_frame()
+        >>> df.columns.tolist()
+        [('input', 'x'), ('status', ''), ('reason', ''), ('output', '0')]
+        """
         cols_in = pd.MultiIndex.from_tuples([("input", n) for n in self.input_names])
         df_in = pd.DataFrame(self.X, columns=cols_in)
         out_labels = [("output", str(lbl)) for lbl in self.output_index.tolist()]
@@ -213,7 +333,24 @@ class Evaluations:
         return df
 
     def subset(self, rows: Any) -> Evaluations:
-        """Rows selected by a boolean mask or integer positions."""
+        """The evaluations of some rows.
+
+        Parameters
+        ----------
+        rows : array_like of bool or int
+            A boolean mask of length n or integer positions.
+
+        Returns
+        -------
+        Evaluations
+            The selected rows (the counters and settings are kept).
+
+        Examples
+        --------
+        >>> ev = Evaluations.from_arrays([[0.0], [1.0], [2.0]], [0.0, 1.0, 4.0])
+        >>> ev.subset([True, False, True]).Y.ravel().tolist()
+        [0.0, 4.0]
+        """
         rows = np.asarray(rows)
         if rows.dtype == bool:
             rows = np.flatnonzero(rows)
@@ -224,7 +361,29 @@ class Evaluations:
         )
 
     def select_outputs(self, outputs: Any) -> Evaluations:
-        """Keep some outputs: labels of ``output_index``, a boolean mask, or integer positions."""
+        """Keep some outputs.
+
+        Parameters
+        ----------
+        outputs : sequence
+            Labels of ``output_index``, a boolean mask, or integer positions.
+
+        Returns
+        -------
+        Evaluations
+            The same rows with the selected output columns.
+
+        Raises
+        ------
+        StudyError
+            If a label is unknown, a position out of range or a mask of the wrong length.
+
+        Examples
+        --------
+        >>> ev = Evaluations.from_arrays([[0.0]], [[1.0, 2.0, 3.0]])
+        >>> ev.select_outputs([2, 0]).Y.tolist()
+        [[3.0, 1.0]]
+        """
         pos = resolve_outputs(self.output_index, outputs)
         return Evaluations(
             self.X, self.Y[:, pos], self.status, self.reasons, self.input_names,
@@ -233,8 +392,30 @@ class Evaluations:
         )
 
     def reduce(self, reducer: Callable) -> Evaluations:
-        """Apply ``reducer(Y, output_index) -> (Z (n, k), new_index)`` to the outputs
-        (e.g. :func:`mechrel.uq.peak_abs`). Failed rows stay failed."""
+        """Apply a reducer to the outputs (e.g. :func:`mechrel.uq.peak_abs`); failed rows stay failed.
+
+        Parameters
+        ----------
+        reducer : callable
+            ``reducer(Y, output_index) -> (Z, new_index)`` with ``Z`` of shape (n, k) or (n,); rows
+            with a non-finite reduced value become failures (``"non-finite reduced output"``).
+
+        Returns
+        -------
+        Evaluations
+            The reduced evaluations (the reducer's name is added to ``settings``).
+
+        Raises
+        ------
+        StudyError
+            If the reducer does not return one row per sample.
+
+        Examples
+        --------
+        >>> ev = Evaluations.from_arrays([[0.0]], [[1.0, -3.0]])
+        >>> ev.reduce(lambda Y, idx: (np.abs(Y).max(axis=1), pd.Index(["peak"]))).Y.tolist()
+        [[3.0]]
+        """
         Z, idx = reducer(np.array(self.Y), self.output_index)
         Z = np.asarray(Z, dtype=float)
         if Z.ndim == 1:
@@ -281,7 +462,30 @@ def resolve_outputs(index: pd.Index, outputs: Any) -> np.ndarray:
 
 
 def combined_cache_key(model: Any, input_names: tuple[str, ...], n_out: int) -> str:
-    """``model.cache_key()`` bound to the input order and output count."""
+    """The model's cache key bound to the input order and the output count.
+
+    Parameters
+    ----------
+    model : Model
+        A model with a ``cache_key()`` method.
+    input_names : tuple of str
+        The input names, in the order of the design's columns.
+    n_out : int
+        The number of outputs.
+
+    Returns
+    -------
+    str
+        A SHA-256 hex digest: a change of the model's key, the input order or the output count
+        gives another key (a cache never mixes them).
+
+    Examples
+    --------
+    >>> from mechrel.uq import linear_model
+    >>> m = linear_model([0.0], [[1.0, 1.0]], ["a", "b"])
+    >>> combined_cache_key(m, ("a", "b"), 1) != combined_cache_key(m, ("b", "a"), 1)
+    True
+    """
     import hashlib
 
     key = str(model.cache_key())
@@ -466,6 +670,14 @@ def evaluate(
     Returns
     -------
     Evaluations
+        The outputs, one row per row of ``X``; a failed sample is a NaN row with its reason.
+
+    Raises
+    ------
+    StudyError
+        If ``X`` is not a finite (n, d) array for the model's inputs, the backend, ``n_jobs``
+        or ``chunk_size`` is invalid, the model cannot be pickled for workers, or the cache
+        belongs to another model (:class:`~mechrel.errors.CacheError`).
 
     Examples
     --------

@@ -93,7 +93,25 @@ DEFAULT_ALLOWABLES: Mapping[str, Allowable] = MappingProxyType({
 
 
 def output_groups(index: pd.Index) -> np.ndarray:
-    """Group label per output: the ``quantity`` level when present, else ``"all"``."""
+    """The group label of each output: its ``quantity`` level when present, else ``"all"``.
+
+    Parameters
+    ----------
+    index : pandas.Index
+        A model's output labels.
+
+    Returns
+    -------
+    ndarray of str, shape (n_out,)
+        The group (quantity) of each output.
+
+    Examples
+    --------
+    >>> idx = pd.MultiIndex.from_tuples([("velocity", 0.0), ("acceleration", 0.0)],
+    ...                                 names=["quantity", "crank_angle"])
+    >>> output_groups(idx).tolist(), output_groups(pd.Index(["y"])).tolist()
+    (['velocity', 'acceleration'], ['all'])
+    """
     if isinstance(index, pd.MultiIndex) and "quantity" in index.names:
         return np.asarray(index.get_level_values("quantity").astype(str))
     if index.name == "quantity":
@@ -108,8 +126,26 @@ EXTREME_STATS = ("max", "min", "max_abs")
 
 
 def per_angle_mask(index: pd.Index) -> np.ndarray:
-    """True for the outputs at an analysis angle, False for the cycle extremes
-    (:data:`EXTREME_STATS` in the ``crank_angle`` level); all True for other indexes."""
+    """Which outputs are at an analysis angle (not a cycle extreme).
+
+    Parameters
+    ----------
+    index : pandas.Index
+        A model's output labels.
+
+    Returns
+    -------
+    ndarray of bool, shape (n_out,)
+        False for the cycle extremes (:data:`EXTREME_STATS` in the ``crank_angle`` level); all
+        True for other indexes.
+
+    Examples
+    --------
+    >>> idx = pd.MultiIndex.from_tuples([("velocity", 0.0), ("velocity", "max_abs")],
+    ...                                 names=["quantity", "crank_angle"])
+    >>> per_angle_mask(idx).tolist()
+    [True, False]
+    """
     if isinstance(index, pd.MultiIndex) and "crank_angle" in index.names:
         angles = index.get_level_values("crank_angle")
         return np.array([not isinstance(a, str) for a in angles], dtype=bool)
@@ -117,11 +153,34 @@ def per_angle_mask(index: pd.Index) -> np.ndarray:
 
 
 def whole_cycle_column(index: pd.Index, group: str, event: str) -> int | None:
-    """Position of the output whose event is the whole-cycle event of ``group`` (a quantity):
-    the cycle's largest |error| (``max_abs``) for the two-sided event, its largest signed error
-    (``max``) for the one-sided one, |i| ≤ I (i ≤ I) at every instant being max |i| ≤ I
-    (max i ≤ I). ``None`` when the index has no cycle extremes (the analysis angles then stand
-    in for the cycle)."""
+    """The position of the output whose event is the whole-cycle event of a quantity.
+
+    The cycle's largest |error| (``max_abs``) for the two-sided event, its largest signed error
+    (``max``) for the one-sided one: |i| <= I (i <= I) at every instant is max |i| <= I
+    (max i <= I).
+
+    Parameters
+    ----------
+    index : pandas.Index
+        A model's output labels.
+    group : str
+        The quantity.
+    event : {"one-sided", "two-sided"}
+        The event.
+
+    Returns
+    -------
+    int or None
+        The position; None when the index has no cycle extremes (the analysis angles then stand
+        in for the cycle).
+
+    Examples
+    --------
+    >>> idx = pd.MultiIndex.from_tuples([("velocity", 0.0), ("velocity", "max"),
+    ...                                  ("velocity", "max_abs")], names=["quantity", "crank_angle"])
+    >>> whole_cycle_column(idx, "velocity", "two-sided"), whole_cycle_column(idx, "velocity", "one-sided")
+    (2, 1)
+    """
     if not (isinstance(index, pd.MultiIndex) and "crank_angle" in index.names
             and "quantity" in index.names):
         return None
@@ -133,10 +192,36 @@ def whole_cycle_column(index: pd.Index, group: str, event: str) -> int | None:
 
 
 def resolve_allowables(index: pd.Index, allowable: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(μ_I, σ_I, group) per output.
+    """The allowable's mean and standard deviation, and the group, of each output.
 
-    ``allowable``: None (the paper's defaults by the ``quantity`` level), one :class:`Allowable`
-    for every output, or a mapping ``{quantity: Allowable}`` (also accepts (mean, std) tuples).
+    Parameters
+    ----------
+    index : pandas.Index
+        A model's output labels.
+    allowable : None, Allowable, tuple or mapping
+        None (the defaults by the ``quantity`` level, :data:`DEFAULT_ALLOWABLES`), one
+        :class:`Allowable` (or ``(mean, std)``) for every output, or ``{quantity: Allowable}``;
+        in the outputs' units.
+
+    Returns
+    -------
+    mu_I, sigma_I : ndarray, shape (n_out,)
+        The allowable's mean and standard deviation per output.
+    group : ndarray of str, shape (n_out,)
+        The group (quantity) per output.
+
+    Raises
+    ------
+    StudyError
+        If ``allowable`` is of another type, keyed by quantity for outputs without one, or
+        misses a quantity of the outputs.
+
+    Examples
+    --------
+    >>> idx = pd.MultiIndex.from_tuples([("velocity", 0.0)], names=["quantity", "crank_angle"])
+    >>> mu, sd, g = resolve_allowables(idx, None)
+    >>> float(mu[0]), float(sd[0]), g.tolist()
+    (0.3, 0.1, ['velocity'])
     """
     groups = output_groups(index)
     if isinstance(allowable, tuple) and len(allowable) == 2:
@@ -349,6 +434,11 @@ def binomial_interval(k, n, *, confidence_level: float = 0.95, method: str = "wi
     -------
     lo, hi : ndarray
         The interval's bounds.
+
+    Raises
+    ------
+    StudyError
+        If ``confidence_level`` is not in (0, 1) or ``method`` is unknown.
 
     Examples
     --------

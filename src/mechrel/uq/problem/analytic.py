@@ -20,7 +20,20 @@ __all__ = ["LinearFunction", "linear_model", "ishigami", "ishigami_model", "ishi
 
 @dataclass(frozen=True)
 class LinearFunction:
-    """y = a + B x (picklable callable)."""
+    """The affine map y = a + B x, a picklable callable (the function of :func:`linear_model`).
+
+    Parameters
+    ----------
+    a : tuple of float
+        The intercepts, one per output.
+    B : tuple of tuple of float
+        The coefficients, one row per output and one column per input.
+
+    Examples
+    --------
+    >>> LinearFunction((1.0,), ((2.0, -1.0),))(np.array([3.0, 4.0])).tolist()
+    [3.0]
+    """
 
     a: tuple[float, ...]
     B: tuple[tuple[float, ...], ...]

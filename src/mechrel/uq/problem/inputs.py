@@ -95,17 +95,80 @@ class Normal:
     kind = "normal"
 
     def validated(self, name: str) -> Normal:
+        """The marginal with its parameters checked and converted to float.
+
+        Parameters
+        ----------
+        name : str
+            The input's name, for the error message.
+
+        Returns
+        -------
+        Normal
+            The same distribution with float parameters.
+
+        Raises
+        ------
+        StudyError
+            If the mean is not a finite number or the standard deviation is not > 0.
+
+        Examples
+        --------
+        >>> Normal(1, 2).validated("x")
+        Normal(mean=1.0, std=2.0)
+        """
         return Normal(_finite(name, "mean", self.mean), _finite(name, "std", self.std, positive=True))
 
     def scipy(self):
+        """The frozen SciPy distribution of this marginal.
+
+        Returns
+        -------
+        scipy.stats.rv_continuous
+            ``scipy.stats.norm(mean, std)``.
+
+        Examples
+        --------
+        >>> float(Normal(1.0, 2.0).scipy().cdf(1.0))
+        0.5
+        """
         return stats.norm(self.mean, self.std)
 
     def chaospy(self):
+        """The chaospy distribution of this marginal.
+
+        Returns
+        -------
+        chaospy.Distribution
+            ``chaospy.Normal(mean, std)``.
+
+        Examples
+        --------
+        >>> float(Normal(1.0, 2.0).chaospy().mom(1))
+        1.0
+        """
         import chaospy
 
         return chaospy.Normal(self.mean, self.std)
 
     def from_z(self, z: np.ndarray) -> np.ndarray:
+        """Map standard-normal germ values to this marginal (the inverse Rosenblatt transform).
+
+        Parameters
+        ----------
+        z : ndarray
+            Standard-normal values.
+
+        Returns
+        -------
+        ndarray
+            ``mean + std z``, in the input's unit.
+
+        Examples
+        --------
+        >>> Normal(1.0, 2.0).from_z(np.array([0.0, 1.0])).tolist()
+        [1.0, 3.0]
+        """
         return self.mean + self.std * z
 
 
@@ -137,6 +200,29 @@ class TruncNormal:
     kind = "truncnormal"
 
     def validated(self, name: str) -> TruncNormal:
+        """The marginal with its parameters checked and converted to float.
+
+        Parameters
+        ----------
+        name : str
+            The input's name, for the error message.
+
+        Returns
+        -------
+        TruncNormal
+            The same distribution with float parameters.
+
+        Raises
+        ------
+        StudyError
+            If a parameter is not a number, ``std`` is not > 0, ``lower < upper`` fails, both bounds
+            are infinite, or the interval holds a negligible probability (<= 1e-10) of the parent.
+
+        Examples
+        --------
+        >>> TruncNormal(0, 1, -1, float("inf")).validated("x").lower
+        -1.0
+        """
         mean = _finite(name, "mean", self.mean)
         std = _finite(name, "std", self.std, positive=True)
         try:
@@ -160,16 +246,57 @@ class TruncNormal:
         return TruncNormal(mean, std, lo, hi)
 
     def scipy(self):
+        """The frozen SciPy distribution of this marginal.
+
+        Returns
+        -------
+        scipy.stats.rv_continuous
+            ``scipy.stats.truncnorm`` with standardized bounds.
+
+        Examples
+        --------
+        >>> round(float(TruncNormal(0.0, 1.0, -1.0, 1.0).scipy().cdf(0.0)), 12)
+        0.5
+        """
         a = (self.lower - self.mean) / self.std
         b = (self.upper - self.mean) / self.std
         return stats.truncnorm(a, b, loc=self.mean, scale=self.std)
 
     def chaospy(self):
+        """The chaospy distribution of this marginal.
+
+        Returns
+        -------
+        chaospy.Distribution
+            ``chaospy.TruncNormal(lower, upper, mean, std)``.
+
+        Examples
+        --------
+        >>> round(float(TruncNormal(0.0, 1.0, -1.0, 1.0).chaospy().mom(1)), 12)
+        0.0
+        """
         import chaospy
 
         return chaospy.TruncNormal(lower=self.lower, upper=self.upper, mu=self.mean, sigma=self.std)
 
     def from_z(self, z: np.ndarray) -> np.ndarray:
+        """Map standard-normal germ values to this marginal (through its inverse CDF).
+
+        Parameters
+        ----------
+        z : ndarray
+            Standard-normal values.
+
+        Returns
+        -------
+        ndarray
+            ``F⁻¹(Φ(z))``, within ``[lower, upper]``, in the input's unit.
+
+        Examples
+        --------
+        >>> TruncNormal(0.0, 1.0, -1.0, 1.0).from_z(np.array([0.0])).tolist()
+        [0.0]
+        """
         return self.scipy().ppf(np.clip(special.ndtr(z), _U_EPS, 1 - _U_EPS))
 
 
@@ -194,6 +321,28 @@ class Uniform:
     kind = "uniform"
 
     def validated(self, name: str) -> Uniform:
+        """The marginal with its bounds checked and converted to float.
+
+        Parameters
+        ----------
+        name : str
+            The input's name, for the error message.
+
+        Returns
+        -------
+        Uniform
+            The same distribution with float bounds.
+
+        Raises
+        ------
+        StudyError
+            If a bound is not a finite number or ``lower < upper`` fails.
+
+        Examples
+        --------
+        >>> Uniform(0, 1).validated("x")
+        Uniform(lower=0.0, upper=1.0)
+        """
         lo = _finite(name, "lower", self.lower)
         hi = _finite(name, "upper", self.upper)
         if not lo < hi:
@@ -201,14 +350,55 @@ class Uniform:
         return Uniform(lo, hi)
 
     def scipy(self):
+        """The frozen SciPy distribution of this marginal.
+
+        Returns
+        -------
+        scipy.stats.rv_continuous
+            ``scipy.stats.uniform(lower, upper - lower)``.
+
+        Examples
+        --------
+        >>> float(Uniform(0.0, 4.0).scipy().mean())
+        2.0
+        """
         return stats.uniform(self.lower, self.upper - self.lower)
 
     def chaospy(self):
+        """The chaospy distribution of this marginal.
+
+        Returns
+        -------
+        chaospy.Distribution
+            ``chaospy.Uniform(lower, upper)``.
+
+        Examples
+        --------
+        >>> float(Uniform(0.0, 4.0).chaospy().mom(1))
+        2.0
+        """
         import chaospy
 
         return chaospy.Uniform(self.lower, self.upper)
 
     def from_z(self, z: np.ndarray) -> np.ndarray:
+        """Map standard-normal germ values to this marginal.
+
+        Parameters
+        ----------
+        z : ndarray
+            Standard-normal values.
+
+        Returns
+        -------
+        ndarray
+            ``lower + (upper - lower) Φ(z)``, in the input's unit.
+
+        Examples
+        --------
+        >>> Uniform(0.0, 4.0).from_z(np.array([0.0])).tolist()
+        [2.0]
+        """
         return self.lower + (self.upper - self.lower) * special.ndtr(z)
 
 
@@ -237,27 +427,107 @@ class LogNormal:
     kind = "lognormal"
 
     def validated(self, name: str) -> LogNormal:
+        """The marginal with its parameters checked and converted to float.
+
+        Parameters
+        ----------
+        name : str
+            The input's name, for the error message.
+
+        Returns
+        -------
+        LogNormal
+            The same distribution with float parameters.
+
+        Raises
+        ------
+        StudyError
+            If the mean or the standard deviation is not a finite number > 0.
+
+        Examples
+        --------
+        >>> LogNormal(1, 1).validated("x")
+        LogNormal(mean=1.0, std=1.0)
+        """
         return LogNormal(
             _finite(name, "mean", self.mean, positive=True), _finite(name, "std", self.std, positive=True)
         )
 
     @property
     def log_params(self) -> tuple[float, float]:
-        """(μ_ln, σ_ln) of ln X: σ_ln² = ln(1 + (s/m)²), μ_ln = ln m − σ_ln²/2."""
+        """The parameters (μ_ln, σ_ln) of ln X.
+
+        From the mean m and standard deviation s of X: σ_ln² = ln(1 + (s/m)²), μ_ln = ln m − σ_ln²/2
+        (the moments of the lognormal distribution).
+
+        Returns
+        -------
+        tuple of float
+            ``(mu_ln, sigma_ln)`` (dimensionless: ln of the input's unit).
+
+        Examples
+        --------
+        >>> mu, s = LogNormal(1.0, 1.0).log_params
+        >>> math.isclose(s**2, math.log(2.0)), math.isclose(mu, -s**2 / 2)
+        (True, True)
+        """
         s2 = math.log1p((self.std / self.mean) ** 2)
         return math.log(self.mean) - 0.5 * s2, math.sqrt(s2)
 
     def scipy(self):
+        """The frozen SciPy distribution of this marginal.
+
+        Returns
+        -------
+        scipy.stats.rv_continuous
+            ``scipy.stats.lognorm(sigma_ln, scale=exp(mu_ln))``.
+
+        Examples
+        --------
+        >>> round(float(LogNormal(2.0, 0.5).scipy().mean()), 12)
+        2.0
+        """
         mu, s = self.log_params
         return stats.lognorm(s, scale=math.exp(mu))
 
     def chaospy(self):
+        """The chaospy distribution of this marginal.
+
+        Returns
+        -------
+        chaospy.Distribution
+            ``chaospy.LogNormal(mu_ln, sigma_ln)``.
+
+        Examples
+        --------
+        >>> round(float(LogNormal(2.0, 0.5).chaospy().mom(1)), 12)
+        2.0
+        """
         import chaospy
 
         mu, s = self.log_params
         return chaospy.LogNormal(mu=mu, sigma=s)
 
     def from_z(self, z: np.ndarray) -> np.ndarray:
+        """Map standard-normal germ values to this marginal.
+
+        Parameters
+        ----------
+        z : ndarray
+            Standard-normal values.
+
+        Returns
+        -------
+        ndarray
+            ``exp(mu_ln + sigma_ln z)``, in the input's unit.
+
+        Examples
+        --------
+        The median (z = 0) is m / √(1 + (s/m)²):
+
+        >>> LogNormal(1.0, 1.0).from_z(np.array([0.0])).round(6).tolist()
+        [0.707107]
+        """
         mu, s = self.log_params
         return np.exp(mu + s * z)
 
@@ -469,14 +739,36 @@ class UncertainInputs:
         specs: Mapping[str, Any],
         correlation: Any = None,
     ) -> UncertainInputs:
-        """Build from ``{name: spec}``.
+        """Build the inputs from ``{name: spec}``.
 
-        ``spec`` is a marginal object (``Normal(mean, std)``, ``TruncNormal(mean, std, lower,
-        upper)``, ``Uniform(lower, upper)``, ``LogNormal(mean, std)``) or a mapping such as
-        ``{"distribution": "normal", "mean": 1.0, "std": 0.1}``.
+        Parameters
+        ----------
+        specs : mapping of str to marginal or mapping
+            ``{name: spec}``; a spec is a marginal object (``Normal(mean, std)``,
+            ``TruncNormal(mean, std, lower, upper)``, ``Uniform(lower, upper)``,
+            ``LogNormal(mean, std)``) or a mapping such as
+            ``{"distribution": "normal", "mean": 1.0, "std": 0.1}``, in SI units.
+        correlation : None, array_like or mapping, optional
+            Pearson correlation of the physical inputs: ``None`` (independent), a d×d matrix in the
+            order of ``specs``, or ``{(name_a, name_b): rho}`` (unlisted pairs 0).
 
-        ``correlation`` (Pearson, of the physical inputs): ``None`` (independent), a d×d matrix
-        in the order of ``specs``, or a mapping ``{(name_a, name_b): rho}`` (unlisted pairs 0).
+        Returns
+        -------
+        UncertainInputs
+            The validated inputs.
+
+        Raises
+        ------
+        StudyError
+            If ``specs`` is empty or not a mapping, a spec or a correlation entry is invalid (unknown
+            name, |rho| > 1, not positive definite after the Nataf transform).
+
+        Examples
+        --------
+        >>> u = UncertainInputs.from_specs({"a": {"distribution": "uniform", "lower": 0, "upper": 2},
+        ...                                 "b": Normal(0.0, 1.0)}, correlation={("a", "b"): 0.3})
+        >>> u.names, u.independent
+        (('a', 'b'), False)
         """
         if not isinstance(specs, Mapping) or len(specs) == 0:
             raise StudyError(
@@ -579,34 +871,118 @@ class UncertainInputs:
     # ----------------------------------------------------------------- properties
     @property
     def d(self) -> int:
+        """The number of inputs.
+
+        Returns
+        -------
+        int
+            ``len(names)``.
+
+        Examples
+        --------
+        >>> UncertainInputs.from_specs({"a": Normal(0, 1), "b": Normal(0, 1)}).d
+        2
+        """
         return len(self.names)
 
     @property
     def independent(self) -> bool:
+        """Whether the inputs are independent (no correlation given, or the identity).
+
+        Returns
+        -------
+        bool
+            True without a correlation.
+
+        Examples
+        --------
+        >>> UncertainInputs.from_specs({"a": Normal(0, 1)}).independent
+        True
+        """
         return self.correlation is None
 
     @property
     def mean(self) -> np.ndarray:
-        """True means of the inputs (for truncnormal: of the truncated variable)."""
+        """The true means of the inputs (for a truncated normal: of the truncated variable).
+
+        Returns
+        -------
+        ndarray, shape (d,)
+            The means, in the inputs' units.
+
+        Examples
+        --------
+        >>> UncertainInputs.from_specs({"a": Uniform(0, 2), "b": Normal(5, 1)}).mean.tolist()
+        [1.0, 5.0]
+        """
         return np.array([m.scipy().mean() for m in self.marginals])
 
     @property
     def std(self) -> np.ndarray:
-        """True standard deviations of the inputs."""
+        """The true standard deviations of the inputs.
+
+        Returns
+        -------
+        ndarray, shape (d,)
+            The standard deviations, in the inputs' units.
+
+        Examples
+        --------
+        >>> UncertainInputs.from_specs({"b": Normal(5, 3)}).std.tolist()
+        [3.0]
+        """
         return np.array([m.scipy().std() for m in self.marginals])
 
     @property
     def pearson_correlation(self) -> np.ndarray:
+        """The Pearson correlation matrix of the physical inputs (the identity when independent).
+
+        Returns
+        -------
+        ndarray, shape (d, d)
+            The correlation matrix.
+
+        Examples
+        --------
+        >>> UncertainInputs.from_specs({"a": Normal(0, 1), "b": Normal(0, 1)},
+        ...                            {("a", "b"): 0.5}).pearson_correlation.tolist()
+        [[1.0, 0.5], [0.5, 1.0]]
+        """
         return np.eye(self.d) if self.correlation is None else np.array(self.correlation)
 
     @property
     def covariance(self) -> np.ndarray:
+        """The covariance matrix of the physical inputs, ``R_ij σ_i σ_j``.
+
+        Returns
+        -------
+        ndarray, shape (d, d)
+            The covariance, in the products of the inputs' units.
+
+        Examples
+        --------
+        >>> UncertainInputs.from_specs({"a": Normal(0, 2), "b": Normal(0, 3)},
+        ...                            {("a", "b"): 0.5}).covariance.tolist()
+        [[4.0, 3.0], [3.0, 9.0]]
+        """
         s = self.std
         return self.pearson_correlation * np.outer(s, s)
 
     @property
     def joint(self):
-        """Chaospy joint distribution: ``J(marginals)``, or ``Nataf(J(marginals), R_z)``."""
+        """The chaospy joint distribution of the inputs.
+
+        Returns
+        -------
+        chaospy.Distribution
+            ``J(marginals)``, or ``Nataf(J(marginals), R_z)`` when correlated.
+
+        Examples
+        --------
+        >>> j = UncertainInputs.from_specs({"a": Normal(1, 1), "b": Uniform(0, 2)}).joint
+        >>> j.mom([[1, 0], [0, 1]]).round(12).tolist()
+        [1.0, 1.0]
+        """
         import chaospy
 
         j = chaospy.J(*[m.chaospy() for m in self.marginals])
@@ -615,6 +991,18 @@ class UncertainInputs:
         return chaospy.Nataf(j, self.gaussian_correlation)
 
     def to_frame(self) -> pd.DataFrame:
+        """One row per input: its distribution, parameters, mean and standard deviation.
+
+        Returns
+        -------
+        pandas.DataFrame
+            Indexed by the input's name; columns ``distribution``, ``parameters``, ``mean``, ``std``.
+
+        Examples
+        --------
+        >>> UncertainInputs.from_specs({"a": Normal(1, 2)}).to_frame()["std"].tolist()
+        [2.0]
+        """
         rows = []
         for n, m in zip(self.names, self.marginals):
             d = m.scipy()
@@ -623,7 +1011,18 @@ class UncertainInputs:
         return pd.DataFrame(rows).set_index("name")
 
     def describe(self) -> dict:
-        """JSON-friendly description (for provenance)."""
+        """A JSON-friendly description of the inputs, for provenance.
+
+        Returns
+        -------
+        dict
+            ``names``, ``marginals`` (their reprs) and ``correlation`` (a nested list or None).
+
+        Examples
+        --------
+        >>> UncertainInputs.from_specs({"a": Normal(1, 2)}).describe()
+        {'names': ['a'], 'marginals': ['Normal(mean=1.0, std=2.0)'], 'correlation': None}
+        """
         return {
             "names": list(self.names),
             "marginals": [repr(m) for m in self.marginals],
@@ -631,7 +1030,28 @@ class UncertainInputs:
         }
 
     def reordered(self, names: Sequence[str]) -> UncertainInputs:
-        """The same inputs in the order ``names`` (must be the same set)."""
+        """The same inputs in the order ``names``.
+
+        Parameters
+        ----------
+        names : sequence of str
+            The same set of names, in the wanted order (usually a model's ``input_names``).
+
+        Returns
+        -------
+        UncertainInputs
+            The reordered inputs (``self`` when the order is already that one).
+
+        Raises
+        ------
+        StudyError
+            If ``names`` is not the same set as :attr:`names`.
+
+        Examples
+        --------
+        >>> UncertainInputs.from_specs({"a": Normal(0, 1), "b": Normal(0, 2)}).reordered(["b", "a"]).names
+        ('b', 'a')
+        """
         names = tuple(names)
         if names == self.names:
             return self
@@ -648,7 +1068,29 @@ class UncertainInputs:
 
     # ----------------------------------------------------------------- transforms
     def from_unit(self, u: np.ndarray) -> np.ndarray:
-        """Map points of the unit hypercube (independent uniforms, shape (n, d)) to inputs."""
+        """Map points of the unit hypercube (independent uniforms) to inputs.
+
+        Parameters
+        ----------
+        u : array_like, shape (n, d)
+            Points in (0, 1)^d (clipped to stay strictly inside).
+
+        Returns
+        -------
+        ndarray, shape (n, d)
+            The input points (through the marginals' inverse CDFs, and the Nataf transform when
+            correlated), in the inputs' units.
+
+        Raises
+        ------
+        StudyError
+            If ``u`` is not of shape (n, d).
+
+        Examples
+        --------
+        >>> UncertainInputs.from_specs({"a": Uniform(0, 2)}).from_unit([[0.25]]).tolist()
+        [[0.5]]
+        """
         u = np.clip(np.asarray(u, dtype=float), _U_EPS, 1.0 - _U_EPS)
         if u.ndim != 2 or u.shape[1] != self.d:
             raise StudyError(f"from_unit: expected shape (n, {self.d}), got {u.shape}")
@@ -660,7 +1102,28 @@ class UncertainInputs:
         return self.from_standard_normal(special.ndtri(u))
 
     def from_standard_normal(self, z: np.ndarray) -> np.ndarray:
-        """Map iid N(0,1) germ points (n, d) to inputs (through R_z's Cholesky factor)."""
+        """Map iid standard-normal germ points to inputs (through R_z's Cholesky factor when correlated).
+
+        Parameters
+        ----------
+        z : array_like, shape (n, d)
+            Independent standard-normal points.
+
+        Returns
+        -------
+        ndarray, shape (n, d)
+            The input points, in the inputs' units.
+
+        Raises
+        ------
+        StudyError
+            If ``z`` is not of shape (n, d).
+
+        Examples
+        --------
+        >>> UncertainInputs.from_specs({"a": Normal(1, 2)}).from_standard_normal([[1.0]]).tolist()
+        [[3.0]]
+        """
         z = np.asarray(z, dtype=float)
         if z.ndim != 2 or z.shape[1] != self.d:
             raise StudyError(f"from_standard_normal: expected shape (n, {self.d}), got {z.shape}")
@@ -672,7 +1135,28 @@ class UncertainInputs:
         return out
 
     def to_standard_normal(self, x: np.ndarray) -> np.ndarray:
-        """Inverse of :meth:`from_standard_normal`."""
+        """Map input points to the independent standard-normal space (inverse of :meth:`from_standard_normal`).
+
+        Parameters
+        ----------
+        x : array_like, shape (n, d)
+            Input points, in the inputs' units.
+
+        Returns
+        -------
+        ndarray, shape (n, d)
+            The independent standard-normal points.
+
+        Raises
+        ------
+        StudyError
+            If ``x`` is not of shape (n, d).
+
+        Examples
+        --------
+        >>> UncertainInputs.from_specs({"a": Normal(1, 2)}).to_standard_normal([[3.0]]).tolist()
+        [[1.0]]
+        """
         x = np.asarray(x, dtype=float)
         if x.ndim != 2 or x.shape[1] != self.d:
             raise StudyError(f"to_standard_normal: expected shape (n, {self.d}), got {x.shape}")
@@ -691,7 +1175,32 @@ class UncertainInputs:
 
     # ----------------------------------------------------------------- sampling
     def unit_sample(self, n: int, rule: str = "random", seed: Any = None) -> np.ndarray:
-        """(n, d) points in the unit hypercube by ``rule`` (see :meth:`sample`)."""
+        """Draw ``n`` points in the unit hypercube by ``rule`` (see :meth:`sample`).
+
+        Parameters
+        ----------
+        n : int
+            The number of points (>= 1).
+        rule : {"random", "latin_hypercube", "sobol"}, optional
+            The sampling rule.
+        seed : int, SeedSequence, Generator or None, optional
+            The seed (None: fresh OS entropy).
+
+        Returns
+        -------
+        ndarray, shape (n, d)
+            Points in [0, 1)^d.
+
+        Raises
+        ------
+        StudyError
+            If ``n`` is not an integer >= 1 or ``rule`` is unknown.
+
+        Examples
+        --------
+        >>> UncertainInputs.from_specs({"a": Normal(0, 1)}).unit_sample(8, "latin_hypercube", seed=0).shape
+        (8, 1)
+        """
         n = ARGS.integer("n", n, ge=1, what="a number of draws")
         ARGS.choice("rule", rule, SAMPLING_RULES)
         rng = as_generator(seed)
@@ -702,12 +1211,35 @@ class UncertainInputs:
         return qmc.Sobol(self.d, scramble=True, rng=rng).random(n)
 
     def sample(self, n: int, rule: str = "random", seed: Any = None) -> np.ndarray:
-        """Draw ``n`` input vectors, shape (n, d).
+        """Draw ``n`` input vectors.
 
-        ``rule``: ``"random"`` (iid), ``"latin_hypercube"`` (scipy.stats.qmc.LatinHypercube) or
-        ``"sobol"`` (scrambled scipy.stats.qmc.Sobol; use a power of 2 for ``n``).
-        ``seed``: int, ``numpy.random.SeedSequence``, ``numpy.random.Generator`` or None.
-        Unit-cube points are mapped through the marginal inverse CDFs (and the Nataf transform
-        when correlated). Same seed and rule → the same bytes.
+        Unit-cube points are mapped through the marginal inverse CDFs (and the Nataf transform when
+        correlated). The same seed and rule give the same bytes.
+
+        Parameters
+        ----------
+        n : int
+            The number of draws (>= 1; a power of 2 for ``"sobol"``).
+        rule : {"random", "latin_hypercube", "sobol"}, optional
+            ``"random"`` (iid), ``"latin_hypercube"`` (``scipy.stats.qmc.LatinHypercube``) or
+            ``"sobol"`` (scrambled ``scipy.stats.qmc.Sobol``).
+        seed : int, SeedSequence, Generator or None, optional
+            The seed (None: fresh OS entropy).
+
+        Returns
+        -------
+        ndarray, shape (n, d)
+            The draws, in the inputs' units.
+
+        Raises
+        ------
+        StudyError
+            If ``n`` is not an integer >= 1 or ``rule`` is unknown.
+
+        Examples
+        --------
+        >>> u = UncertainInputs.from_specs({"a": Normal(0, 1)})
+        >>> bool((u.sample(16, "sobol", seed=3) == u.sample(16, "sobol", seed=3)).all())
+        True
         """
         return self.from_unit(self.unit_sample(n, rule, seed))

@@ -68,7 +68,29 @@ def _check_allowable(name: str, allowable: Any):
 
 @dataclass(frozen=True)
 class Component:
-    """One failure mode: g_c from a group of outputs (see the module docstring)."""
+    """One failure mode of a limit state: a margin g_c computed from a group of outputs.
+
+    Built by the constructors of :class:`LimitState`, not directly.
+
+    Parameters
+    ----------
+    name : str
+        Its name (unique within a limit state).
+    kind : {"margin", "abs", "upper", "lower"}
+        ``"margin"``: g_c = min of the outputs; ``"abs"``: g_c = a − max |y|; ``"upper"``:
+        g_c = a − max y; ``"lower"``: g_c = min y − a (a the allowable, in the outputs' unit).
+    outputs : tuple, default (None,)
+        The output labels of the group (``(None,)``: the model's only output).
+    allowable : float or marginal, optional
+        A fixed allowable, or a marginal (:class:`~mechrel.uq.Normal`, ...) for a random one.
+    func : callable, optional
+        ``func(Y) -> g`` for a component given by a function of all the outputs.
+
+    Examples
+    --------
+    >>> LimitState.exceedance(["y"], Normal(3.0, 0.1), kind="upper").components[0].kind
+    'upper'
+    """
 
     name: str
     kind: str
@@ -78,6 +100,18 @@ class Component:
 
     @property
     def random(self) -> bool:
+        """Whether the allowable is random (a marginal, an extra uncertain input).
+
+        Returns
+        -------
+        bool
+            True for a marginal allowable.
+
+        Examples
+        --------
+        >>> Component("c", "upper", ("y",), Normal(3.0, 0.1)).random
+        True
+        """
         return isinstance(self.allowable, _MARGINALS)
 
 
@@ -131,13 +165,62 @@ class LimitState:
     # ------------------------------------------------------------------ constructors
     @classmethod
     def margin(cls, output: Any = None, *, name: str | None = None) -> LimitState:
-        """The margin g is the output ``output`` (None: the model's only output)."""
+        """A limit state whose margin g is one output of the model.
+
+        Parameters
+        ----------
+        output : hashable, optional
+            The output label (None: the model's only output).
+        name : str, optional
+            Its name (default: the label, or ``"g"``).
+
+        Returns
+        -------
+        LimitState
+            One ``"margin"`` component.
+
+        Examples
+        --------
+        >>> LimitState.margin("y").name
+        'y'
+        """
         nm = str(name if name is not None else ("g" if output is None else output))
         return cls((Component(nm, "margin", (output,)),), "series", nm)
 
     @classmethod
     def exceedance(cls, outputs: Any, allowable: Any, *, kind: str = "abs", name: str | None = None) -> LimitState:
-        """An output label, or a list of labels (their series system), against ``allowable``."""
+        """A limit state: an output, or a group of outputs (their series system), against an allowable.
+
+        Parameters
+        ----------
+        outputs : hashable or list
+            An output label or a list of labels.
+        allowable : float or marginal
+            The allowable, in the outputs' unit: a finite float (fixed) or a
+            :class:`~mechrel.uq.Normal`, :class:`~mechrel.uq.LogNormal`, :class:`~mechrel.uq.Uniform`
+            or :class:`~mechrel.uq.TruncNormal` (random, an extra uncertain input).
+        kind : {"abs", "upper", "lower"}, default "abs"
+            Failure when max |y| > a, max y > a, or min y < a.
+        name : str, optional
+            Its name (default: from the labels).
+
+        Returns
+        -------
+        LimitState
+            One component.
+
+        Raises
+        ------
+        StudyError
+            If ``kind`` is unknown, ``outputs`` is empty or the allowable is not a finite number or a
+            marginal.
+
+        Examples
+        --------
+        >>> ls = LimitState.exceedance(["a", "b"], 1.0)
+        >>> ls.name, ls.components[0].outputs
+        ('a..b', ('a', 'b'))
+        """
         if kind not in KINDS[1:]:
             raise StudyError(f"LimitState.exceedance: kind = {kind!r}: unknown; allowed: {list(KINDS[1:])}")
         outs = tuple(outputs) if isinstance(outputs, (list, pd.Index, np.ndarray)) else (outputs,)
@@ -148,29 +231,134 @@ class LimitState:
 
     @classmethod
     def from_function(cls, func: Callable[[np.ndarray], Any], *, name: str = "g") -> LimitState:
-        """The margin g = ``func(Y)``, Y the (n, n_out) output matrix, returning (n,) values."""
+        """A limit state whose margin is a function of the output matrix.
+
+        Parameters
+        ----------
+        func : callable
+            ``func(Y) -> g``: Y the (n, n_out) outputs, g of shape (n,) (failure: g <= 0).
+        name : str, default "g"
+            Its name.
+
+        Returns
+        -------
+        LimitState
+            One component given by ``func``.
+
+        Raises
+        ------
+        StudyError
+            If ``func`` is not callable.
+
+        Examples
+        --------
+        >>> ls = LimitState.from_function(lambda Y: 1.0 - Y.sum(axis=1))
+        >>> ls.bind(pd.RangeIndex(2))(np.array([[0.25, 0.5]])).tolist()
+        [0.25]
+        """
         if not callable(func):
             raise StudyError(f"LimitState.from_function: func = {func!r}: not callable; allowed: a function Y -> g")
         return cls((Component(str(name), "margin", (None,), None, func),), "series", str(name))
 
     @classmethod
     def series(cls, *states: LimitState, name: str = "series") -> LimitState:
-        """Failure when any of ``states`` fails (g = min)."""
+        """A series system: failure when any of ``states`` fails (g = min).
+
+        Parameters
+        ----------
+        *states : LimitState
+            The limit states (single components or series systems).
+        name : str, default "series"
+            Its name.
+
+        Returns
+        -------
+        LimitState
+            Their components in one series system.
+
+        Raises
+        ------
+        StudyError
+            If a state is not a :class:`LimitState`, a parallel system is nested, or none is given.
+
+        Examples
+        --------
+        >>> ls = LimitState.series(LimitState.margin("a"), LimitState.margin("b"))
+        >>> ls.bind(pd.Index(["a", "b"]))(np.array([[1.0, -2.0]])).tolist()
+        [-2.0]
+        """
         return cls(_flatten(states, "series"), "series", name)
 
     @classmethod
     def parallel(cls, *states: LimitState, name: str = "parallel") -> LimitState:
-        """Failure when all of ``states`` fail (g = max)."""
+        """A parallel system: failure when all of ``states`` fail (g = max).
+
+        Parameters
+        ----------
+        *states : LimitState
+            The limit states (single components or parallel systems).
+        name : str, default "parallel"
+            Its name.
+
+        Returns
+        -------
+        LimitState
+            Their components in one parallel system.
+
+        Raises
+        ------
+        StudyError
+            If a state is not a :class:`LimitState`, a series system is nested, or none is given.
+
+        Examples
+        --------
+        >>> ls = LimitState.parallel(LimitState.margin("a"), LimitState.margin("b"))
+        >>> ls.bind(pd.Index(["a", "b"]))(np.array([[1.0, -2.0]])).tolist()
+        [1.0]
+        """
         return cls(_flatten(states, "parallel"), "parallel", name)
 
     # ------------------------------------------------------------------ use
     @property
     def random_allowables(self) -> dict:
-        """{extra input name: marginal} of the random allowables, in component order."""
+        """The random allowables, the extra uncertain inputs they add.
+
+        Returns
+        -------
+        dict
+            ``{"allowable[COMPONENT]": marginal}``, in component order.
+
+        Examples
+        --------
+        >>> LimitState.exceedance("y", Normal(3.0, 0.1), name="y").random_allowables
+        {'allowable[y]': Normal(mean=3.0, std=0.1)}
+        """
         return {f"allowable[{c.name}]": c.allowable for c in self.components if c.random}
 
     def bind(self, output_index: pd.Index) -> BoundLimitState:
-        """Resolve the output labels against a model's ``output_index``."""
+        """Resolve the output labels against a model's output index.
+
+        Parameters
+        ----------
+        output_index : pandas.Index
+            The model's output labels.
+
+        Returns
+        -------
+        BoundLimitState
+            The limit state with output positions, callable on output matrices.
+
+        Raises
+        ------
+        StudyError
+            If a label is not in ``output_index``, or ``output=None`` is used with a model of
+            several outputs.
+
+        Examples
+        --------
+        >>> LimitState.exceedance("b", 1.0).bind(pd.Index(["a", "b"])).positions[0].tolist()
+        [1]
+        """
         pos = []
         for c in self.components:
             if c.func is not None:
@@ -204,6 +392,18 @@ class LimitState:
         return BoundLimitState(self, tuple(pos))
 
     def describe(self) -> dict:
+        """A JSON-friendly description of the limit state, for provenance.
+
+        Returns
+        -------
+        dict
+            ``name``, ``system`` and per component its name, kind, outputs, allowable and function.
+
+        Examples
+        --------
+        >>> LimitState.margin("y").describe()["components"][0]["kind"]
+        'margin'
+        """
         return {"name": self.name, "system": self.system,
                 "components": [{"name": c.name, "kind": c.kind, "outputs": [repr(o) for o in c.outputs],
                                 "allowable": repr(c.allowable),
@@ -229,14 +429,55 @@ def _flatten(states: Sequence[LimitState], system: str) -> tuple[Component, ...]
 
 @dataclass(frozen=True)
 class BoundLimitState:
-    """A :class:`LimitState` with its output positions resolved for one model."""
+    """A :class:`LimitState` with its output positions resolved for one model.
+
+    Made by :meth:`LimitState.bind`; calling it on outputs ``Y`` (and random allowables ``A``)
+    gives the system margin g, of shape (n,).
+
+    Parameters
+    ----------
+    state : LimitState
+        The limit state.
+    positions : tuple
+        Per component, the output positions (None for a function component).
+
+    Examples
+    --------
+    >>> g = LimitState.exceedance("y", 2.0, kind="upper").bind(pd.Index(["y"]))
+    >>> g(np.array([[1.5], [2.5]])).tolist()
+    [0.5, -0.5]
+    """
 
     state: LimitState
     positions: tuple
 
     def components(self, Y: np.ndarray, A: np.ndarray | None = None) -> np.ndarray:
-        """(n, n_components) component margins; ``A`` (n, n_random) holds the random allowables
-        in the order of :attr:`LimitState.random_allowables`."""
+        """The component margins.
+
+        Parameters
+        ----------
+        Y : ndarray, shape (n, n_out)
+            The model's outputs.
+        A : ndarray, shape (n, n_random), optional
+            The random allowables, in the order of :attr:`LimitState.random_allowables`.
+
+        Returns
+        -------
+        ndarray, shape (n, n_components)
+            g_c per row and component (failure: g_c <= 0), in the outputs' unit.
+
+        Raises
+        ------
+        StudyError
+            If a function component returns a wrong shape.
+
+        Examples
+        --------
+        >>> ls = LimitState.series(LimitState.exceedance("y", 2.0, kind="upper"),
+        ...                        LimitState.exceedance("y", 0.0, kind="lower", name="low"))
+        >>> ls.bind(pd.Index(["y"])).components(np.array([[1.5]])).tolist()
+        [[0.5, 1.5]]
+        """
         Y = np.asarray(Y, dtype=float)
         n = Y.shape[0]
         out = np.empty((n, len(self.state.components)))

@@ -57,8 +57,26 @@ _GEOMETRY = re.compile(r"-?(ground\.points\.|bodies\.[A-Za-z_]\w*\.points\.|"
 
 
 def is_geometric(path: str) -> bool:
-    """Whether a scene path sets the mechanism's geometry: a point's coordinates (whole or a
-    component) or a length between two points of a body or of the ground."""
+    """Whether a scene path sets the mechanism's geometry.
+
+    Geometric paths are a point's coordinates (whole or one component) and a length between two
+    points of a body or of the ground.
+
+    Parameters
+    ----------
+    path : str
+        A dotted scene path, optionally prefixed with ``-``.
+
+    Returns
+    -------
+    bool
+        True for a geometric path.
+
+    Examples
+    --------
+    >>> is_geometric("bodies.crank.points.B"), is_geometric("joints.C.clearance")
+    (True, False)
+    """
     return bool(_GEOMETRY.match(path))
 
 
@@ -215,6 +233,19 @@ class MechanismModel:
 
     @property
     def scene(self):
+        """The scene the model simulates (rebuilt from its raw mapping after unpickling).
+
+        Returns
+        -------
+        mechrel.scene.Scene
+            The scene with the model's analysis grid.
+
+        Examples
+        --------
+        >>> m = MechanismModel("slider-crank-lubricated", ["joints.C.clearance"], angle_step=90.0)
+        >>> m.scene.name
+        'slider-crank-lubricated'
+        """
         if self._scene is None:
             from ...scene import load_scene
             self._scene = load_scene(self._raw)
@@ -230,7 +261,19 @@ class MechanismModel:
         ``|Φ| ≤ solver.assembly_tolerance`` (m), relative to the mechanism's size (its largest
         point distance from a body's frame or the ground's origin), and no less than machine
         epsilon. The error's reference (the nominal design) is the same in every sample, so its
-        own noise cancels in the differences."""
+        own noise cancels in the differences.
+
+        Returns
+        -------
+        float
+            The relative noise (dimensionless).
+
+        Examples
+        --------
+        >>> m = MechanismModel("slider-crank-lubricated", ["joints.C.clearance"], angle_step=90.0)
+        >>> m.output_noise   # the rtol the automatic integrator uses
+        1e-07
+        """
         from ...simulation import make_integrator
         scene = self.scene
         if not scene.clearance_joints:
@@ -243,9 +286,22 @@ class MechanismModel:
 
     @property
     def nonsmooth(self) -> str | None:
-        """Why the response is not a smooth function of the inputs, or None: dry contact
-        (``dry`` or ``transition`` joints) makes it piecewise smooth at best, chaotic at worst.
-        FOSM warns on such a model."""
+        """Why the response is not a smooth function of the inputs, or None.
+
+        Dry contact (``dry`` or ``transition`` joints) makes it piecewise smooth at best, chaotic at
+        worst. FOSM warns on such a model.
+
+        Returns
+        -------
+        str or None
+            The reason, None for a smooth (lubricated) model.
+
+        Examples
+        --------
+        >>> MechanismModel("slider-crank-lubricated", ["joints.C.clearance"],
+        ...                angle_step=90.0).nonsmooth is None
+        True
+        """
         dry = [j.name for j in self.scene.clearance_joints if j.model in ("dry", "transition")]
         if not dry:
             return None
@@ -253,8 +309,25 @@ class MechanismModel:
                 "make the response non-smooth, often chaotic")
 
     def describe(self) -> dict:
-        """The scene as given (name, :func:`~mechrel.scene.scene_hash` with ``overrides``
-        applied, source), its solver settings and the analysed outputs."""
+        """Describe the model for provenance.
+
+        The scene as given (name, :func:`~mechrel.scene.scene_hash` with ``overrides`` applied,
+        source), its solver settings and the analysed outputs.
+
+        Returns
+        -------
+        dict
+            JSON-friendly: ``kind``, ``scene``, ``scene_hash``, ``scene_source``, ``solver``,
+            ``output``, ``quantities``, ``angle_step`` (degrees), ``cycles``, ``reference``,
+            ``extremes``.
+
+        Examples
+        --------
+        >>> d = MechanismModel("slider-crank-lubricated", ["joints.C.clearance"],
+        ...                    angle_step=90.0).describe()
+        >>> d["scene"], d["angle_step"]
+        ('slider-crank-lubricated', 90.0)
+        """
         return {"kind": "MechanismModel", "scene": self._raw["name"], "scene_hash": self.scene_hash,
                 "scene_source": self.scene_source, "solver": dict(self._raw.get("solver", {})),
                 "output": self.output, "quantities": list(self.quantities),
@@ -262,6 +335,23 @@ class MechanismModel:
                 "reference": self.reference, "extremes": self.with_extremes}
 
     def cache_key(self) -> str:
+        """A SHA-256 hash of what determines the outputs besides ``x``.
+
+        The scene's hash, the inputs' paths, the output, quantities, angle step, cycles, reference,
+        extremes, the dense-output resolution, mechrel's version and the simulator code's digest.
+
+        Returns
+        -------
+        str
+            A hex digest.
+
+        Examples
+        --------
+        >>> a = MechanismModel("slider-crank-lubricated", ["joints.C.clearance"], angle_step=90.0)
+        >>> b = MechanismModel("slider-crank-lubricated", ["joints.C.clearance"], angle_step=45.0)
+        >>> a.cache_key() != b.cache_key()
+        True
+        """
         from ... import __version__
         from ..._kernel_cache import simulator_digest
         from ...scene import scene_hash
@@ -278,8 +368,33 @@ class MechanismModel:
         return hashlib.sha256(payload.encode()).hexdigest()
 
     def scene_values(self, x) -> dict:
-        """The scene overrides ``{path: value}`` that input vector ``x`` stands for (a ``-``
-        path receives the negated value). Subclasses with other kinds of inputs extend this."""
+        """The scene overrides that input vector ``x`` stands for.
+
+        A path prefixed with ``-`` receives the negated value. Subclasses with other kinds of inputs
+        extend this.
+
+        Parameters
+        ----------
+        x : array_like, shape (d,)
+            The inputs, in the order of ``input_names`` (SI units).
+
+        Returns
+        -------
+        dict
+            ``{dotted scene path: value}``.
+
+        Raises
+        ------
+        StudyError
+            If ``x`` does not hold one value per input.
+
+        Examples
+        --------
+        >>> m = MechanismModel("slider-crank-lubricated", {"c": ["joints.C.clearance"]},
+        ...                    angle_step=90.0)
+        >>> m.scene_values([0.4e-3])
+        {'joints.C.clearance': 0.0004}
+        """
         x = np.asarray(x, dtype=float).reshape(-1)
         if x.size != len(self.input_names):
             raise StudyError(f"x: expected {len(self.input_names)} values "
@@ -294,8 +409,33 @@ class MechanismModel:
         return values
 
     def simulate(self, x):
-        """The full :class:`~mechrel.simulation.SimulationResult` at input vector ``x``, its
-        errors measured against the model's ``reference``."""
+        """The full simulation at input vector ``x``, its errors measured against the model's ``reference``.
+
+        Parameters
+        ----------
+        x : array_like, shape (d,)
+            The inputs, in the order of ``input_names`` (SI units).
+
+        Returns
+        -------
+        mechrel.simulation.SimulationResult
+            The simulation of the scene with ``x`` applied.
+
+        Raises
+        ------
+        StudyError
+            If ``x`` does not hold one value per input.
+        mechrel.errors.MechrelError
+            If the scene is invalid at ``x``, cannot assemble, or the integration fails.
+
+        Examples
+        --------
+        >>> m = MechanismModel("slider-crank-lubricated", ["joints.C.clearance"],
+        ...                    quantities=["velocity"], angle_step=90.0, cycles=1)
+        >>> res = m.simulate(m.nominal)
+        >>> bool(res.time[-1] > 0)
+        True
+        """
         return self._simulate(x)
 
     def _simulate(self, x, solvers: dict | None = None):
@@ -322,10 +462,33 @@ class MechanismModel:
         return simulate_sample(scene, solver, reference=reference, extremes=self.with_extremes)
 
     def extremes(self, x) -> pd.DataFrame:
-        """Where the cycle extremes occur at input vector ``x``: one row per quantity and
-        statistic (:data:`~mechrel.uq.problem.allowables.EXTREME_STATS`), columns ``value``,
-        ``time`` (s since the start of the run) and ``crank_angle`` (degrees, from the start
-        of the analysed cycle, as the analysis angles)."""
+        """Where the cycle extremes occur at input vector ``x``.
+
+        Parameters
+        ----------
+        x : array_like, shape (d,)
+            The inputs, in the order of ``input_names`` (SI units).
+
+        Returns
+        -------
+        pandas.DataFrame
+            One row per quantity and statistic
+            (:data:`~mechrel.uq.problem.allowables.EXTREME_STATS`); columns ``value``, ``time``
+            (s since the start of the run) and ``crank_angle`` (degrees, from the start of the
+            analysed cycle, as the analysis angles).
+
+        Raises
+        ------
+        StudyError
+            If the model was made with ``extremes=False``.
+
+        Examples
+        --------
+        >>> m = MechanismModel("slider-crank-lubricated", ["joints.C.clearance"],
+        ...                    quantities=["velocity"], angle_step=90.0, cycles=1)
+        >>> m.extremes(m.nominal).columns.tolist()
+        ['value', 'time', 'crank_angle']
+        """
         res = self.simulate(x)
         if res.extremes is None:
             raise StudyError("extremes: this model was made with extremes=False")
@@ -344,21 +507,73 @@ class MechanismModel:
     """The executor hands a chunk of samples to one :meth:`evaluate_batch` call."""
 
     def evaluate(self, x) -> np.ndarray:
-        """Errors at the analysis crank angles of the last cycle, quantity-major (m, m/s, m/s²),
-        then (with ``extremes``) each quantity's cycle extremes (module docstring).
+        """The errors at the analysis crank angles of the last cycle, then the cycle extremes.
 
-        Raises :class:`~mechrel.uq.ModelFailure` with the reason when the scene is invalid at
-        ``x`` (e.g. a clearance ≤ 0), cannot assemble, or the integrator fails."""
+        Quantity-major (m, m/s, m/s²), then (with ``extremes``) each quantity's cycle extremes (see
+        the module docstring), in the order of ``output_index``.
+
+        Parameters
+        ----------
+        x : array_like, shape (d,)
+            The inputs, in the order of ``input_names`` (SI units).
+
+        Returns
+        -------
+        ndarray, shape (n_out,)
+            The response errors.
+
+        Raises
+        ------
+        ModelFailure
+            With the reason, when the scene is invalid at ``x`` (e.g. a clearance <= 0), cannot
+            assemble, the integrator fails or the response is not finite.
+        StudyError
+            If ``x`` does not hold one value per input.
+
+        Examples
+        --------
+        >>> m = MechanismModel("slider-crank-lubricated", ["joints.C.clearance"],
+        ...                    quantities=["velocity"], angle_step=90.0, cycles=1)
+        >>> y = m.evaluate(m.nominal)
+        >>> y.shape == (len(m.output_index),), bool(np.isfinite(y).all())
+        (True, True)
+        """
         return self._evaluate(x, {})
 
     def evaluate_batch(self, X) -> np.ndarray:
-        """:meth:`evaluate` at each row of ``X`` (m, d) in one call: what does not depend on
-        the sample (the integrator) is made once for the batch, and no provenance is recorded
-        per sample; the rows' numbers are those of :meth:`evaluate`, bitwise, for any batch.
+        """:meth:`evaluate` at each row of ``X`` in one call.
 
-        Raises :class:`~mechrel.uq.problem.model.RowFailures` when rows failed: every row's outputs
-        and, per failed row, the reason :meth:`evaluate` raises with (the executor records
-        them as they are; :func:`mechrel.uq.execution.executor.evaluate_rows`)."""
+        What does not depend on the sample (the integrator) is made once for the batch, and no
+        provenance is recorded per sample; the rows' numbers are those of :meth:`evaluate`,
+        bitwise, for any batch.
+
+        Parameters
+        ----------
+        X : array_like, shape (m, d)
+            One sample per row, in the order of ``input_names`` (SI units).
+
+        Returns
+        -------
+        ndarray, shape (m, n_out)
+            The response errors of each row, as :meth:`evaluate` returns them.
+
+        Raises
+        ------
+        mechrel.uq.RowFailures
+            When rows failed: every row's outputs and, per failed row, the reason
+            :meth:`evaluate` raises with (the executor records them as they are;
+            :func:`mechrel.uq.evaluate_rows`).
+        StudyError
+            If ``X`` is not of shape (m, d).
+
+        Examples
+        --------
+        >>> m = MechanismModel("slider-crank-lubricated", ["joints.C.clearance"],
+        ...                    quantities=["velocity"], angle_step=90.0, cycles=1)
+        >>> Y = m.evaluate_batch([m.nominal, m.nominal])
+        >>> Y.shape == (2, len(m.output_index)), bool((Y[0] == m.evaluate(m.nominal)).all())
+        (True, True)
+        """
         from ..execution.executor import evaluate_rows
 
         X = np.asarray(X, dtype=float)

@@ -124,7 +124,30 @@ class Model(Protocol):
     # model: the scene's name, hash and source), which every result's provenance records.
 
     def evaluate(self, x: np.ndarray) -> np.ndarray:
-        """Outputs (``n_out``,) at one input vector ``x`` (``d``,); raises ``ModelFailure``."""
+        """The outputs at one input vector.
+
+        Parameters
+        ----------
+        x : ndarray, shape (d,)
+            The inputs, in the order of ``input_names`` (SI units).
+
+        Returns
+        -------
+        ndarray, shape (n_out,)
+            The outputs, in the order of ``output_index``.
+
+        Raises
+        ------
+        ModelFailure
+            When the model cannot be evaluated at ``x`` (the executor records the sample as failed
+            with the reason).
+
+        Examples
+        --------
+        >>> from mechrel.uq import linear_model
+        >>> linear_model([1.0], [[2.0]], ["x"]).evaluate(np.array([3.0])).tolist()
+        [7.0]
+        """
         ...
 
     # Optional (not part of the runtime check): ``vectorized: bool`` and
@@ -136,12 +159,47 @@ class Model(Protocol):
     # does both).
 
     def cache_key(self) -> str:
-        """Stable hash of everything that determines the outputs except ``x``."""
+        """A stable hash of everything that determines the outputs except ``x``.
+
+        Returns
+        -------
+        str
+            The key under which the evaluation cache stores the model's results.
+
+        Examples
+        --------
+        >>> from mechrel.uq import linear_model
+        >>> linear_model([1.0], [[2.0]], ["x"]).cache_key() == linear_model([1.0], [[2.0]], ["x"]).cache_key()
+        True
+        """
         ...
 
 
 def as_output_index(index: Any, *, what: str = "output_index") -> pd.Index:
-    """Coerce ``index`` (Index, MultiIndex, sequence of labels or of tuples) to a pandas Index."""
+    """Coerce ``index`` to a pandas Index of unique output labels.
+
+    Parameters
+    ----------
+    index : pandas.Index or sequence
+        An Index, a MultiIndex, a sequence of labels, or a sequence of tuples (a MultiIndex).
+    what : str, default "output_index"
+        The field's name in the error message.
+
+    Returns
+    -------
+    pandas.Index
+        The labels.
+
+    Raises
+    ------
+    StudyError
+        If ``index`` is not a sequence, empty, or has duplicated labels.
+
+    Examples
+    --------
+    >>> as_output_index([("v", 0.0), ("v", 90.0)]).nlevels
+    2
+    """
     if isinstance(index, pd.Index):
         out = index
     else:
@@ -165,7 +223,32 @@ def as_output_index(index: Any, *, what: str = "output_index") -> pd.Index:
 
 
 def check_model(model: Any) -> tuple[tuple[str, ...], pd.Index]:
-    """Check that ``model`` implements the protocol; return (input_names, output_index)."""
+    """Check that ``model`` implements the :class:`Model` protocol.
+
+    Parameters
+    ----------
+    model : object
+        The candidate model.
+
+    Returns
+    -------
+    input_names : tuple of str
+        Its input names.
+    output_index : pandas.Index
+        Its output labels.
+
+    Raises
+    ------
+    StudyError
+        If an attribute of the protocol is missing, or the names or labels are empty or
+        duplicated.
+
+    Examples
+    --------
+    >>> from mechrel.uq import linear_model
+    >>> check_model(linear_model([0.0], [[1.0, 1.0]], ["a", "b"]))[0]
+    ('a', 'b')
+    """
     missing = [a for a in ("input_names", "output_index", "evaluate", "cache_key") if not hasattr(model, a)]
     if missing:
         raise StudyError(
@@ -250,6 +333,30 @@ class FunctionModel:
         )
 
     def evaluate(self, x: np.ndarray) -> np.ndarray:
+        """The outputs at one input vector.
+
+        Parameters
+        ----------
+        x : array_like, shape (d,)
+            The inputs, in the order of ``input_names``.
+
+        Returns
+        -------
+        ndarray, shape (n_out,)
+            The outputs.
+
+        Raises
+        ------
+        StudyError
+            If ``func`` returns another number of outputs than ``output_index`` labels.
+        ModelFailure
+            When ``func`` raises it.
+
+        Examples
+        --------
+        >>> FunctionModel(lambda x: [x[0] + 1.0], ["x"], ["y"]).evaluate([1.0]).tolist()
+        [2.0]
+        """
         x = np.asarray(x, dtype=float)
         if self.vectorized:
             return self.evaluate_batch(x[None, :])[0]
@@ -262,8 +369,31 @@ class FunctionModel:
         return y
 
     def evaluate_batch(self, X: np.ndarray) -> np.ndarray:
-        """Outputs (m, n_out) at the rows of ``X`` (m, d) in one call of a vectorised ``func``
-        (row by row for a row-wise one)."""
+        """The outputs at the rows of ``X``, in one call of a vectorised ``func`` (row by row otherwise).
+
+        Parameters
+        ----------
+        X : array_like, shape (m, d)
+            The input rows.
+
+        Returns
+        -------
+        ndarray, shape (m, n_out)
+            The outputs.
+
+        Raises
+        ------
+        StudyError
+            If ``func`` returns a wrong shape.
+        ModelFailure
+            When ``func`` raises it.
+
+        Examples
+        --------
+        >>> m = FunctionModel(lambda X: X.sum(axis=1), ["a", "b"], ["s"], vectorized=True)
+        >>> m.evaluate_batch(np.array([[1.0, 2.0], [3.0, 4.0]])).tolist()
+        [[3.0], [7.0]]
+        """
         X = np.asarray(X, dtype=float)
         n_out = len(self.output_index)
         if not self.vectorized:
@@ -280,10 +410,37 @@ class FunctionModel:
         return Y
 
     def describe(self) -> dict:
+        """A JSON-friendly description of the model, for provenance.
+
+        Returns
+        -------
+        dict
+            ``kind``, ``func`` (its qualified name), ``key`` and ``vectorized``.
+
+        Examples
+        --------
+        >>> FunctionModel(len, ["x"], ["y"], key="v1").describe()
+        {'kind': 'FunctionModel', 'func': 'builtins.len', 'key': 'v1', 'vectorized': False}
+        """
         return {"kind": "FunctionModel", "func": _func_name(self.func), "key": self.key,
                 "vectorized": self.vectorized}
 
     def cache_key(self) -> str:
+        """A SHA-256 hash of the function's name, ``key``, the input names and the output labels.
+
+        The cache cannot see inside ``func``: change ``key`` when ``func`` changes meaning.
+
+        Returns
+        -------
+        str
+            A hex digest.
+
+        Examples
+        --------
+        >>> FunctionModel(len, ["x"], ["y"], key="v1").cache_key() != FunctionModel(
+        ...     len, ["x"], ["y"], key="v2").cache_key()
+        True
+        """
         payload = json.dumps(
             {
                 "kind": "FunctionModel",
@@ -298,8 +455,24 @@ class FunctionModel:
 
 
 def describe_model(model: Any) -> dict:
-    """What provenance records of ``model``: its ``describe()`` if it has one (optional part of
-    the protocol), else its type's name."""
+    """What provenance records of ``model``.
+
+    Parameters
+    ----------
+    model : Model
+        The model.
+
+    Returns
+    -------
+    dict
+        Its ``describe()`` if it has one (an optional part of the protocol), else
+        ``{"kind": type name}``.
+
+    Examples
+    --------
+    >>> describe_model(object())
+    {'kind': 'object'}
+    """
     describe = getattr(model, "describe", None)
     if callable(describe):
         return dict(describe())
