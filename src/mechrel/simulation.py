@@ -795,6 +795,19 @@ def simulate_sample(scene: Scene, solver, *, reference: Scene | None = None,
     -------
     SimulationResult
         As :func:`simulate`'s, with an empty ``provenance``.
+
+    Examples
+    --------
+    Bitwise the numbers of :func:`simulate`, without the provenance record:
+
+    >>> import math
+    >>> from mechrel.scene import load_scene, with_overrides
+    >>> scene = with_overrides(load_scene("slider-crank-lubricated"),
+    ...                        {"analysis.cycles": 1, "analysis.sample_step_angle": math.pi / 2})
+    >>> r = simulate_sample(scene, make_integrator(scene))
+    >>> e = r.error("slider", "velocity")
+    >>> bool((e == simulate(scene).error("slider", "velocity")).all()), r.provenance
+    (True, {})
     """
     return _explained(scene, reference=reference, method="auto", integrator=None,
                       progress=False, extremes=extremes, dense_points=DENSE_POINTS,

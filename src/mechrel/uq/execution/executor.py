@@ -534,12 +534,49 @@ def _evaluate_chunk(model: Any, X: np.ndarray, n_out: int, chunk_id: int):
 
 
 def evaluate_rows(evaluate_one: Callable[[np.ndarray], Any], X: np.ndarray, n_out: int):
-    """``evaluate_one`` at each row of ``X`` with the executor's per-sample failure capture:
-    returns ``(Y, ok, reasons)``, a failed row (a :class:`~mechrel.errors.MechrelError` other
-    than ``StudyError``, or a non-finite output) NaN with its reason. ``StudyError`` and any
-    other exception (a bug) propagate; an interrupt carries the rows finished so far as
+    """``evaluate_one`` at each row of ``X`` with the executor's per-sample failure capture.
+
+    A failed row (a :class:`~mechrel.errors.MechrelError` other than ``StudyError``, or a
+    non-finite output) is NaN with its reason. ``StudyError`` and any other exception (a bug)
+    propagate; an interrupt carries the rows finished so far as
     ``.finished = (n_finished, Y, ok, reasons)``. A model's ``evaluate_batch`` that loops over
-    its rows uses it too, so that its failures read exactly as row-by-row evaluation's."""
+    its rows uses it too, so that its failures read exactly as row-by-row evaluation's.
+
+    Parameters
+    ----------
+    evaluate_one : callable
+        ``evaluate_one(x) -> array of n_out`` for one row ``x`` (a model's ``evaluate``).
+    X : ndarray, shape (m, d)
+        The rows.
+    n_out : int
+        The number of outputs per row.
+
+    Returns
+    -------
+    Y : ndarray, shape (m, n_out)
+        The outputs; NaN in failed rows.
+    ok : ndarray of bool, shape (m,)
+        Which rows succeeded.
+    reasons : list of (str or None)
+        Per row: None when it succeeded, else why it failed.
+
+    Raises
+    ------
+    StudyError
+        ``evaluate_one`` returned the wrong number of outputs (or raised a StudyError itself).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from mechrel.uq import ModelFailure
+    >>> def f(x):
+    ...     if x[0] < 0:
+    ...         raise ModelFailure("negative input")
+    ...     return [np.sqrt(x[0])]
+    >>> Y, ok, reasons = evaluate_rows(f, np.array([[4.0], [-1.0]]), 1)
+    >>> Y[:, 0].tolist(), ok.tolist(), reasons
+    ([2.0, nan], [True, False], [None, 'negative input'])
+    """
     Y = np.full((X.shape[0], n_out), np.nan)
     ok = np.zeros(X.shape[0], dtype=bool)
     reasons: list[str | None] = [None] * X.shape[0]

@@ -73,6 +73,13 @@ class RowFailures(ModelFailure):
         Every row's outputs; the failed rows' are ignored (NaN).
     reasons : sequence of (str or None)
         Per row: None when it succeeded, else its stable reason (as ``ModelFailure.reason``).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> exc = RowFailures(np.array([[1.0], [np.nan]]), [None, "clearance <= 0"])
+    >>> str(exc), exc.reasons
+    ('1 of 2 rows failed, the first: clearance <= 0', [None, 'clearance <= 0'])
     """
 
     def __init__(self, Y, reasons):
