@@ -40,6 +40,7 @@ import numpy as np
 from numba import njit
 
 from ..forces.params import P_C
+from .borrow import borrowed
 from .kinematics import LUFactors, _lu_factor, _lu_refactor, _lu_solve, _lu_workspace
 from .problem import (Workspace, applied_forces_trig, constraint_terms, driver_law, gap_of,
                       make_workspace, n_contacts)
@@ -53,6 +54,9 @@ NEWTON_ACCEPT = 1e-10
 """A Newton iteration that stops contracting (round-off) is accepted below this residual,
 relative to ``length`` (-)."""
 NEWTON_MAX_ITER = 12
+N_SLOTS = 4
+"""Solutions kept for the Newton predictor: Radau evaluates three stage times per iteration
+and the step's end, each warm-started from its own last solution."""
 
 
 class ReducedSystem(NamedTuple):
@@ -101,11 +105,15 @@ class ReducedWorkspace(NamedTuple):
     fr: np.ndarray  # (nz,) Rᵀ (Q − M q̈₀)
     gap: np.ndarray  # (nh,)
     gaprate: np.ndarray  # (nh,)
-    qc: np.ndarray  # (n,) cache: last solution
-    Rc: np.ndarray  # (n, nz)
-    v0c: np.ndarray  # (n,)
-    zc: np.ndarray  # (nz,)
-    tc: np.ndarray  # (2,) time of the cache, 1.0 once valid
+    # the predictor's cache: the last solutions at N_SLOTS distinct times (a stiff integrator
+    # evaluates its stages at a few fixed times while it iterates), slot s valid if ok[s]
+    qc: np.ndarray  # (N_SLOTS, n)
+    Rc: np.ndarray  # (N_SLOTS, n, nz)
+    v0c: np.ndarray  # (N_SLOTS, n)
+    zc: np.ndarray  # (N_SLOTS, nz)
+    tc: np.ndarray  # (N_SLOTS,) time of each slot
+    ok: np.ndarray  # (N_SLOTS,) 1.0 once written
+    slot: np.ndarray  # (2,) int: the slot read by the last solve, the next slot to replace
     res: np.ndarray  # (2,) Newton residual of the last evaluation (m), velocity residual (m/s)
 
 
@@ -114,12 +122,16 @@ def make_reduced_workspace(rs):
     n = rs.con.mass.shape[0]
     nz = 2 * rs.cl_row.shape[0]
     nh = n_contacts(rs.dyn)
-    qc = rs.q_guess.copy()
+    qc = np.empty((N_SLOTS, n))
+    for s in range(N_SLOTS):
+        qc[s] = rs.q_guess
     return ReducedWorkspace(make_workspace(rs.con), _lu_workspace(n), np.zeros((n, n)),
-                            qc.copy(), np.zeros(n), np.zeros(n), np.zeros((n, nz)),
+                            rs.q_guess.copy(), np.zeros(n), np.zeros(n), np.zeros((n, nz)),
                             np.zeros(n), np.zeros(n), np.zeros(n), np.zeros((nz, nz)),
-                            np.zeros(nz), np.zeros(nh), np.zeros(nh), qc, np.zeros((n, nz)),
-                            np.zeros(n), np.zeros(nz), np.zeros(2), np.zeros(2))
+                            np.zeros(nz), np.zeros(nh), np.zeros(nh), qc,
+                            np.zeros((N_SLOTS, n, nz)), np.zeros((N_SLOTS, n)),
+                            np.zeros((N_SLOTS, nz)), np.zeros(N_SLOTS), np.zeros(N_SLOTS),
+                            np.zeros(2, dtype=np.int64), np.zeros(2))
 
 
 @njit(cache=True, inline='always')
@@ -156,19 +168,31 @@ def _factor_jacobian(rs, rw):
         _lu_factor(A, rw.lu)
 
 
-@njit(cache=True)
-def solve_positions(t, z, rs, rw):
+@njit(cache=True, inline='always')
+def solve_positions_inline(t, z, rs, rw):
     """``q`` with ``Φ(q, t; z) = 0`` into ``rw.q`` (Newton from the cache's predictor), with
     Φ_q factored at it and its constraint terms in ``rw.cws``. Returns max |Φ| (m), NaN when
-    Newton fails."""
+    Newton fails. (The arrays are borrowed: docs/architecture.md.)"""
+    z, rs, rw = borrowed((z, rs, rw))
     n = rw.q.shape[0]
     nc = rs.cl_row.shape[0]
     q = rw.q
-    qc = rw.qc
-    zc = rw.zc
-    Rc = rw.Rc
-    v0c = rw.v0c
-    dt = t - rw.tc[0] if rw.tc[1] != 0.0 else 0.0
+    # the slot nearest in time (a never-written slot holds q_guess with R = 0, q̇₀ = 0)
+    tc = rw.tc
+    ok = rw.ok
+    best = 0
+    dbest = math.inf
+    for sl in range(N_SLOTS):
+        d = abs(t - tc[sl]) if ok[sl] != 0.0 else math.inf
+        if d < dbest:
+            dbest = d
+            best = sl
+    rw.slot[0] = best
+    qc = rw.qc[best]
+    zc = rw.zc[best]
+    Rc = rw.Rc[best]
+    v0c = rw.v0c[best]
+    dt = t - tc[best] if ok[best] != 0.0 else 0.0
     for i in range(n):
         s = qc[i] + v0c[i] * dt
         for c in range(2 * nc):
@@ -211,17 +235,24 @@ def solve_positions(t, z, rs, rw):
         it += 1
 
 
+@njit(cache=True)
+def solve_positions(t, z, rs, rw):
+    """:func:`solve_positions_inline` as a call."""
+    return solve_positions_inline(t, z, rs, rw)
+
+
 @njit(cache=True, inline='always')
 def reduced_rhs_inline(t, x, hist, rs, rw, out):
     """``dx/dt`` for ``x = (z, ż, W_in, W_cl)`` into ``out``; the bodies' ``q, q̇, q̈`` into
     ``rw``. A failed position solve gives NaN (the integrator then shrinks its step)."""
+    x, hist, rs, rw, out = borrowed((x, hist, rs, rw, out))
     dyn = rs.dyn
     nc = rs.cl_row.shape[0]
     nz = 2 * nc
     n = rw.q.shape[0]
     z = x[:nz]
     zd = x[nz:2 * nz]
-    res = solve_positions(t, z, rs, rw)
+    res = solve_positions_inline(t, z, rs, rw)
     rw.res[0] = res
     if res != res:
         for i in range(out.shape[0]):
@@ -333,16 +364,24 @@ def reduced_rhs_inline(t, x, hist, rs, rw, out):
     for i in range(n):
         vres = max(vres, abs(pd[i]))
     rw.res[1] = vres
-    # the predictor's cache
+    # the predictor's cache: the slot read if it is at this time, else the next in turn
+    sl = rw.slot[0]
+    if rw.ok[sl] == 0.0 or rw.tc[sl] != t:
+        sl = rw.slot[1]
+        rw.slot[1] = (sl + 1) % N_SLOTS
+    qc = rw.qc[sl]
+    v0c = rw.v0c[sl]
+    Rc = rw.Rc[sl]
+    zc = rw.zc[sl]
     for i in range(n):
-        rw.qc[i] = q[i]
-        rw.v0c[i] = v0[i]
+        qc[i] = q[i]
+        v0c[i] = v0[i]
         for c in range(nz):
-            rw.Rc[i, c] = R[i, c]
+            Rc[i, c] = R[i, c]
     for c in range(nz):
-        rw.zc[c] = z[c]
-    rw.tc[0] = t
-    rw.tc[1] = 1.0
+        zc[c] = z[c]
+    rw.tc[sl] = t
+    rw.ok[sl] = 1.0
 
 
 @njit(cache=True)
@@ -355,6 +394,7 @@ def reduced_rhs_into(t, x, hist, rs, rw, out):
 def reduced_gaps_into(t, x, rs, g, gd):
     """Penetration δ = |e| − c (m) and its rate (m/s) of the contact-capable joints, straight
     from ``z`` and ``ż`` (no position solve)."""
+    x, rs, g, gd = borrowed((x, rs, g, gd))
     dyn = rs.dyn
     nc = rs.cl_row.shape[0]
     for k in range(nc):
@@ -370,6 +410,7 @@ def reduced_fd_jacobian(t, x, f0, hist, rs, rw, J, xp, fp):
     ``√u max(|x_j|, floor_j)`` (``floor``: the clearance for ``z``, clearance × the fastest
     driver speed for ``ż``, ``ReducedSystem.jac_floor``), exact rows ``dz/dt = ż`` and zero
     columns for the work integrals. Returns the number of evaluations (4 nc)."""
+    x, f0, hist, rs, rw, J, xp, fp = borrowed((x, f0, hist, rs, rw, J, xp, fp))
     nz = 2 * rs.cl_row.shape[0]
     ny = x.shape[0]
     floor = rs.jac_floor
