@@ -5,7 +5,8 @@ What is asserted, and why the tolerances:
 
 * Kinematics: at ``z = ż = 0`` the reduced position and velocity solves are the kinematic
   analysis of the ideal mechanism (same square constraint system): agreement to 1e-12 m
-  (the Newton tolerances of both, near round-off of coordinates of order 1 m).
+  (both Newton iterations run to |Φ| ≤ 1e-14, near round-off of coordinates of order 1 m;
+  the Jacobian's condition number ~10-100 turns that into ≤ 1e-12).
 * ``R = ∂q/∂z`` against central differences of the position solve: the error of a central
   difference falls as h² (ratio 4 per halving of h until round-off).
 * Projection: at a consistent state the reduced accelerations are those of the absolute
@@ -45,13 +46,19 @@ def _setup(name):
 def test_centred_journals_give_the_ideal_kinematics(name):
     scene, compiled, rs, qa, _ = _setup(name)
     times = np.linspace(0.0, 0.05, 6)
-    Qi, Vi, _, _ = kinematic_analysis(compiled.ideal, qa, times)
+    # both Newton iterations to near round-off (the default assembly tolerance, 1e-12, would
+    # leave the kinematic analysis ~1e-12 rad off)
+    Qi, Vi, _, _ = kinematic_analysis(compiled.ideal, qa, times, tol=1e-14)
     rw = make_reduced_workspace(rs)
     x = np.zeros(rs.n_states)
     out = np.empty_like(x)
     for k, t in enumerate(times):
         reduced_rhs_into(t, x, np.zeros(compiled.dynamic.n_contacts), rs, rw, out)
-        np.testing.assert_allclose(rw.q, Qi[k], rtol=0, atol=1e-12)
+        d = rw.q - Qi[k]
+        # angles modulo 2π: from a predictor 0.01 s away (2 rad of crank at the slider-crank's
+        # speed) Newton may land on the same configuration one turn away
+        d[2::3] = (d[2::3] + np.pi) % (2 * np.pi) - np.pi
+        assert np.max(np.abs(d)) <= 1e-12
         np.testing.assert_allclose(rw.v, Vi[k], rtol=0, atol=1e-10)  # m/s at ω ≈ 10 rad/s
 
 
@@ -107,7 +114,8 @@ def test_projection_matches_the_absolute_dynamics(name):
 
 def test_errors_for_what_the_reduced_path_cannot_treat():
     with pytest.raises(SimulationError, match="no clearance joint"):
-        simulate(load_scene("nine-bar"), formulation="reduced", method="dynamics")
+        simulate(load_scene("nine-bar"), formulation="reduced", method="dynamics",
+                 integrator="radau")
     with pytest.raises(SimulationError, match="formulation = 'bogus'.*allowed"):
         simulate(load_scene("nine-bar-lubricated"), formulation="bogus")
     with pytest.raises(SimulationError, match="integrator 'dopri5'.*allowed: integrator 'radau'"):
@@ -116,8 +124,55 @@ def test_errors_for_what_the_reduced_path_cannot_treat():
     from importlib.resources import files
     raw = tomllib.loads(files("mechrel.scene").joinpath("data/four-bar.toml").read_text())
     raw.pop("drivers")
-    raw["analysis"].pop("cycle_driver", None)
-    raw["analysis"]["duration"] = 0.01
+    raw["analysis"] = {"duration": 0.01, "sample_step": 1e-3}
     undriven = load_scene(raw)
     with pytest.raises(SimulationError, match=r"1 ideal degree\(s\) of freedom are not driven"):
-        simulate(undriven, formulation="reduced")
+        simulate(undriven, formulation="reduced", integrator="radau")
+
+
+@pytest.mark.parametrize("name", ["nine-bar-lubricated", "four-bar"])
+def test_fast_jacobian_is_the_clearance_forces_share(name):
+    """The fast part of the reduced Jacobian (``reduced_clearance_jacobian``) against central
+    differences of the right-hand side minus those of the same mechanism without clearance
+    forces. What the fast part leaves out (R and the lever arms turning with the state, in
+    proportion to the forces) is of relative size c / L (5e-4 m / 0.7 m on the nine-bar):
+    bound 1e-2 of the largest entry. The differences use h = 1e-3 c (error O(h²) relative)."""
+    from mechrel.mechanics.reduced import reduced_clearance_jacobian
+    from mechrel.mechanics.system import without_clearance_forces
+    scene, compiled, rs, qa, _ = _setup(name)
+    smooth = rs._replace(dyn=without_clearance_forces(rs.dyn))
+    nh = compiled.dynamic.n_contacts
+    nc = len(rs.cl_row)
+    nz = 2 * nc
+    c = rs.jac_floor[:nz]
+    # a state inside the film / in contact: ε = 0.9 at joint 0, rates of c ω
+    z = np.zeros(nz)
+    z[0] = 0.9 * c[0]
+    z[2:] = 0.5 * c[2:] if nz > 2 else z[2:]
+    zd = 0.3 * rs.jac_floor[nz:]
+    x = np.concatenate([z, zd, [0.0, 0.0]])
+    hist = np.full(nh, 0.05)
+    t = 0.05
+    rw = make_reduced_workspace(rs)
+    f = np.empty_like(x)
+    JS = np.zeros((x.size, x.size))
+    reduced_clearance_jacobian(t, x, hist, rs, rw, f, JS)
+
+    def fd(system):
+        D = np.empty((nz, 2 * nz))
+        w = make_reduced_workspace(system)
+        out_p = np.empty_like(x)
+        out_m = np.empty_like(x)
+        for u in range(2 * nz):
+            h = 1e-3 * (c[u % nz] if u < nz else rs.jac_floor[u])
+            xp, xm = x.copy(), x.copy()
+            xp[u] += h
+            xm[u] -= h
+            reduced_rhs_into(t, xp, hist, system, w, out_p)
+            reduced_rhs_into(t, xm, hist, system, w, out_m)
+            D[:, u] = (out_p[nz:2 * nz] - out_m[nz:2 * nz]) / (2 * h)
+        return D
+
+    fast = fd(rs) - fd(smooth)
+    err = np.max(np.abs(JS[nz:2 * nz, :2 * nz] - fast))
+    assert err <= 1e-2 * np.max(np.abs(fast)), (err, np.max(np.abs(fast)))

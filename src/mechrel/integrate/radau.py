@@ -110,7 +110,8 @@ from ..mechanics.borrow import borrowed
 from ..mechanics.formulation import (floors as contact_floors_of, gaps, n_coordinates,
                                      new_workspace, record, rhs, rhs_call)
 from ..mechanics.problem import clearance_jacobian, rhs_inline
-from ..mechanics.reduced import ReducedSystem, expand_solution, reduced_fd_jacobian
+from ..mechanics.reduced import (ReducedSystem, expand_solution, reduced_clearance_jacobian,
+                                 reduced_fd_jacobian)
 from ..mechanics.system import without_clearance_forces
 from .events import (CTL_DONE, H_START_FLOOR, S_JAC, S_LU, S_ONSET_REJECTED, S_REJECTED, S_RHS,
                      S_STATUS, S_STEPS, STATUS_NEWTON, STATUS_NONFINITE, N_STATS,
@@ -319,63 +320,70 @@ def _is_reduced(sys_type) -> bool:
             and sys_type.instance_class is ReducedSystem)
 
 
+def fast_jacobian(t, y, hist, sys, ws, f, JS):  # pragma: no cover - compiled only
+    """The fast (clearance-force) part of the Jacobian into ``JS``, ``f(t, y)`` into ``f``:
+    :func:`~mechrel.mechanics.problem.clearance_jacobian` or
+    :func:`~mechrel.mechanics.reduced.reduced_clearance_jacobian`."""
+    raise NotImplementedError("called from compiled code only")
+
+
+@overload(fast_jacobian)
+def _ov_fast_jacobian(t, y, hist, sys, ws, f, JS):
+    if _is_reduced(sys):
+        return lambda t, y, hist, sys, ws, f, JS: reduced_clearance_jacobian(t, y, hist, sys,
+                                                                             ws, f, JS)
+    return lambda t, y, hist, sys, ws, f, JS: clearance_jacobian(t, y, hist, sys, ws, f, JS)
+
+
+def diff_jacobian(t, y, f0, hist, sys, ws, J, floor, yp, fp):  # pragma: no cover
+    """The finite-difference Jacobian (:func:`fd_jacobian` or
+    :func:`~mechrel.mechanics.reduced.reduced_fd_jacobian`); returns its evaluations."""
+    raise NotImplementedError("called from compiled code only")
+
+
+@overload(diff_jacobian)
+def _ov_diff_jacobian(t, y, f0, hist, sys, ws, J, floor, yp, fp):
+    if _is_reduced(sys):
+        return lambda t, y, f0, hist, sys, ws, J, floor, yp, fp: reduced_fd_jacobian(
+            t, y, f0, hist, sys, ws, J, yp, fp)
+    return lambda t, y, f0, hist, sys, ws, J, floor, yp, fp: fd_jacobian(
+        t, y, f0, hist, sys, ws, J, floor, yp, fp)
+
+
 @njit(cache=True)
-def _absolute_jacobian(t, y, f0, hist, sys, sys_smooth, ws, J, JS, Jsm, jac_floor, yp, fa,
-                       fb, partial, n_partial, stats):
-    """The Jacobian update of the absolute formulation (module docstring: the smooth rest by
-    differences of the mechanism without clearance forces, the fast part from
-    :func:`~mechrel.mechanics.problem.clearance_jacobian`). Returns the new count of partial
-    updates since the last full Jacobian."""
-    nq = sys.mass.shape[0]
+def jacobian_update(t, y, f0, hist, sys, sys_smooth, ws, J, JS, Jsm, jac_floor, yp, fa, fb,
+                    partial, n_partial, stats):
+    """``J = ∂f/∂y`` at ``(t, y)`` (module docstring, "Partial updates"): the smooth rest by
+    differences of the mechanism without clearance forces, kept for up to ``MAX_PARTIAL``
+    updates when ``partial``, plus the fast part at ``(t, y)``; the plain difference
+    Jacobian for a mechanism without clearance joints. Either formulation
+    (:mod:`mechrel.mechanics.formulation`). Returns the new count of partial updates."""
+    nq = n_coordinates(sys)
     ny = y.shape[0]
-    use_partial = sys.cl_b.shape[0] > 0
+    use_partial = has_partial(sys)
     if partial and n_partial < MAX_PARTIAL:
         n_partial += 1  # keep the smooth part Jsm of the last full Jacobian
     elif use_partial:
         # the smooth rest by differences of the mechanism without clearance forces
-        # (minus its constraint-geometry share, which clearance_jacobian recomputes
+        # (minus its constraint-geometry share, which the fast part recomputes
         # with the full multipliers)
-        clearance_jacobian(t, y, hist, sys_smooth, ws, fb, JS)
-        stats[S_RHS] += 1 + fd_jacobian(t, y, fb, hist, sys_smooth, ws, J, jac_floor,
-                                        yp, fa)
+        fast_jacobian(t, y, hist, sys_smooth, ws, fb, JS)
+        stats[S_RHS] += 1 + diff_jacobian(t, y, fb, hist, sys_smooth, ws, J, jac_floor,
+                                          yp, fa)
         for i in range(nq, ny):
             for c in range(2 * nq):
                 Jsm[i - nq, c] = J[i, c] - JS[i, c]
         n_partial = 0
     else:
-        stats[S_RHS] += fd_jacobian(t, y, f0, hist, sys, ws, J, jac_floor, yp, fa)
+        stats[S_RHS] += diff_jacobian(t, y, f0, hist, sys, ws, J, jac_floor, yp, fa)
         n_partial = 0
     if use_partial:  # J = smooth part + the fast (clearance) part now
-        clearance_jacobian(t, y, hist, sys, ws, fa, JS)
+        fast_jacobian(t, y, hist, sys, ws, fa, JS)
         stats[S_RHS] += 1
         for i in range(nq, ny):
             for c in range(2 * nq):
                 J[i, c] = Jsm[i - nq, c] + JS[i, c]
     return n_partial
-
-
-def jacobian_update(t, y, f0, hist, sys, sys_smooth, ws, J, JS, Jsm, jac_floor, yp, fa, fb,
-                    partial, n_partial, stats):  # pragma: no cover - compiled only
-    """``J = ∂f/∂y`` at ``(t, y)`` for the kernel, by the formulation of ``sys``
-    (:mod:`mechrel.mechanics.formulation`); returns the partial-update count."""
-    raise NotImplementedError("called from compiled code only")
-
-
-@overload(jacobian_update)
-def _ov_jacobian_update(t, y, f0, hist, sys, sys_smooth, ws, J, JS, Jsm, jac_floor, yp, fa,
-                        fb, partial, n_partial, stats):
-    if _is_reduced(sys):
-        def impl(t, y, f0, hist, sys, sys_smooth, ws, J, JS, Jsm, jac_floor, yp, fa, fb,
-                 partial, n_partial, stats):
-            stats[S_RHS] += reduced_fd_jacobian(t, y, f0, hist, sys, ws, J, yp, fa)
-            return 0
-        return impl
-
-    def impl(t, y, f0, hist, sys, sys_smooth, ws, J, JS, Jsm, jac_floor, yp, fa, fb,
-             partial, n_partial, stats):
-        return _absolute_jacobian(t, y, f0, hist, sys, sys_smooth, ws, J, JS, Jsm, jac_floor,
-                                  yp, fa, fb, partial, n_partial, stats)
-    return impl
 
 
 def has_partial(sys):  # pragma: no cover - compiled only
@@ -386,7 +394,7 @@ def has_partial(sys):  # pragma: no cover - compiled only
 @overload(has_partial)
 def _ov_has_partial(sys):
     if _is_reduced(sys):
-        return lambda sys: False
+        return lambda sys: True  # a reduced system has clearance joints
     return lambda sys: sys.cl_b.shape[0] > 0
 
 
@@ -844,7 +852,8 @@ class Radau(Integrator):
 
     def _advance(self, system, t0, y0, hist, t_out, ctl, log_from=math.inf, n_dense=0):
         if isinstance(system, ReducedSystem):  # the reduced formulation (mechanics.reduced)
-            out = radau5_kernel(system, system, t0, y0, hist, t_out, self.step or 0.0,
+            smooth = system._replace(dyn=without_clearance_forces(system.dyn))
+            out = radau5_kernel(system, smooth, t0, y0, hist, t_out, self.step or 0.0,
                                 self.rtol, self.atol, self.max_steps, self.onset_tolerance,
                                 self.fixed_step, ctl, log_from, n_dense)
             return expand_solution(system, t_out, out)

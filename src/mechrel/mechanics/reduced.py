@@ -39,11 +39,12 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
+from ..forces.joint import clearance_force
 from ..forces.params import P_C
 from .borrow import borrowed
 from .kinematics import LUFactors, _lu_factor, _lu_refactor, _lu_solve, _lu_workspace
 from .problem import (Workspace, applied_forces_trig, constraint_terms, driver_law, gap_of,
-                      make_workspace, n_contacts)
+                      joint_state, make_workspace, n_contacts)
 from .system import System
 
 NEWTON_TOL = 64 * 2.220446049250313e-16
@@ -576,3 +577,118 @@ def expand_solution(rs: ReducedSystem, t_out, out):
     big[:, 1 + 2 * (2 * n + 2):] = log[:, 1 + 2 * nx:]
     y = Y[-1].copy() if done.all() else np.full(2 * n + 2, np.nan)
     return Y, YD, hist, stats, t, y, big, H
+
+
+@njit(cache=True)
+def reduced_clearance_jacobian(t, x, hist, rs, rw, f, JS):
+    """The fast part of ``∂f/∂x``, the one the clearance forces drive, into ``JS`` (rows
+    ``nz … ny − 1``, columns ``0 … 2 nz − 1``); ``f`` receives ``f(t, x)``.
+
+    The generalised force of joint k on ``z`` is ``Rᵀ G_k F_k`` with ``F_k = (F_x, F_y, M_S,
+    M_B)``: by virtual work ``F·δe_k + M_S δθ_S + M_B δθ_B`` and ``δe_k = δz_k`` exactly, so its
+    columns are the unit vectors of ``z_k`` for ``F_x, F_y`` and the θ-rows of ``R`` for the
+    moments. With ``s = (e, ė, ω_B, ω_S)`` the force law's arguments, ``∂e/∂z = I``,
+    ``∂ė/∂ż = I`` and ``∂ω/∂ż`` the θ-rows of ``R``,
+
+        ∂z̈/∂x ⊃ (Rᵀ M R)⁻¹ Σ_k (Rᵀ G_k) (∂F_k/∂s) (∂s/∂x),
+
+    with ``∂F/∂s`` by forward differences of the force law alone (δ = √u max(|s_i|, c) for
+    the eccentricity and its rate, √u max(|ω|, 1 rad/s) for the angular velocities), ``R``
+    and ``G`` held. What it leaves out (the turning of ``R`` and of the lever arms with the
+    state, the mechanism's inertia and gravity terms) is smooth, of relative size ``c / L``
+    against the film's or contact's stiffness; the integrator takes it from finite
+    differences of the mechanism without clearance forces. The clearance power's row gets
+    ``∂(F·ė + M_S ω_S + M_B ω_B)/∂x`` on the same terms.
+    """
+    x, hist, rs, rw, f, JS = borrowed((x, hist, rs, rw, f, JS))
+    reduced_rhs_into(t, x, hist, rs, rw, f)  # R, Rᵀ M R's factor, q, q̇ at x
+    dyn = rs.dyn
+    nc = rs.cl_row.shape[0]
+    nz = 2 * nc
+    ny = x.shape[0]
+    R = rw.R
+    L = rw.Mr  # Cholesky factor of Rᵀ M R (lower triangle)
+    q = rw.q
+    v = rw.v
+    cs = rw.cws.cs
+    sn = rw.cws.sn
+    for i in range(nz, ny):
+        for c in range(2 * nz):
+            JS[i, c] = 0.0
+    s0 = np.empty(6)
+    dF = np.empty((4, 6))
+    ds = np.zeros((6, 2 * nz))
+    G = np.empty((nz, 4))
+    H = np.empty((4, 2 * nz))
+    col = np.empty(nz)
+    for k in range(nc):
+        b = dyn.cl_b[k]
+        j = dyn.cl_j[k]
+        p = dyn.cl_p[k]
+        (s0[0], s0[1], s0[2], s0[3], s0[4], s0[5], _, _, _, _) = joint_state(
+            q, v, b, j, dyn.cl_sb[k, 0], dyn.cl_sb[k, 1], dyn.cl_sj[k, 0], dyn.cl_sj[k, 1],
+            cs, sn)
+        h = dyn.cl_hist[k]
+        impact = hist[h] if h >= 0 else 0.0
+        F0x, F0y, F0s, F0b, _ = clearance_force(s0[0], s0[1], s0[2], s0[3], s0[4], s0[5],
+                                                impact, p)
+        c = p[P_C]
+        for i in range(6):
+            scale = c if i < 4 else 1.0
+            si = s0[i]
+            sp = si + 1.4901161193847656e-08 * max(abs(si), scale)
+            d = sp - si
+            s0[i] = sp
+            f0_, f1_, f2_, f3_, _ = clearance_force(s0[0], s0[1], s0[2], s0[3], s0[4], s0[5],
+                                                    impact, p)
+            s0[i] = si
+            dF[0, i] = (f0_ - F0x) / d
+            dF[1, i] = (f1_ - F0y) / d
+            dF[2, i] = (f2_ - F0s) / d
+            dF[3, i] = (f3_ - F0b) / d
+        # ∂s/∂x: e, ė of joint k, ω_B, ω_S through R's θ-rows
+        for a in range(6):
+            for u in range(2 * nz):
+                ds[a, u] = 0.0
+        ds[0, 2 * k] = 1.0
+        ds[1, 2 * k + 1] = 1.0
+        ds[2, nz + 2 * k] = 1.0
+        ds[3, nz + 2 * k + 1] = 1.0
+        for u in range(nz):
+            ds[4, nz + u] = R[3 * b + 2, u] if b >= 0 else 0.0
+            ds[5, nz + u] = R[3 * j + 2, u] if j >= 0 else 0.0
+        for r in range(4):
+            for u in range(2 * nz):
+                acc = 0.0
+                for a in range(6):
+                    acc += dF[r, a] * ds[a, u]
+                H[r, u] = acc
+        # Rᵀ G_k: unit columns of z_k for (F_x, F_y), θ-rows of R for (M_S, M_B)
+        for i in range(nz):
+            G[i, 0] = 0.0
+            G[i, 1] = 0.0
+            G[i, 2] = R[3 * j + 2, i] if j >= 0 else 0.0
+            G[i, 3] = R[3 * b + 2, i] if b >= 0 else 0.0
+        G[2 * k, 0] = 1.0
+        G[2 * k + 1, 1] = 1.0
+        for u in range(2 * nz):
+            for i in range(nz):
+                col[i] = G[i, 0] * H[0, u] + G[i, 1] * H[1, u] + G[i, 2] * H[2, u] \
+                    + G[i, 3] * H[3, u]
+            # (Rᵀ M R)⁻¹ col with the Cholesky factor L
+            for i in range(nz):
+                s_ = col[i]
+                for m in range(i):
+                    s_ -= L[i, m] * col[m]
+                col[i] = s_ / L[i, i]
+            for i in range(nz - 1, -1, -1):
+                s_ = col[i]
+                for m in range(i + 1, nz):
+                    s_ -= L[m, i] * col[m]
+                col[i] = s_ / L[i, i]
+            for i in range(nz):
+                JS[nz + i, u] += col[i]
+            # clearance power F·ė + M_S ω_S + M_B ω_B
+            JS[2 * nz + 1, u] += (s0[2] * H[0, u] + s0[3] * H[1, u] + s0[5] * H[2, u]
+                                  + s0[4] * H[3, u] + F0x * ds[2, u] + F0y * ds[3, u]
+                                  + F0s * ds[5, u] + F0b * ds[4, u])
