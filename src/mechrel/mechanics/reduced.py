@@ -8,7 +8,7 @@ motion follows from the constraints alone, and only ``z`` carries dynamics: the 
 ``x = (z, ż, W_in, W_cl)`` (4 nc + 2 entries; the nine-bar with two clearance joints: 10 in
 place of 50). docs/mechanics.md ("The reduced formulation") derives it; in short:
 
-* position: ``Φ(q, t; z) = 0`` by Newton from a first-order predictor of the previous solution
+* position: ``Φ(q, t; z) = 0`` by Newton from a second-order predictor of the previous solution
   (a cache: the result depends on it only through the Newton residual, ≤ ``NEWTON_TOL``
   times the mechanism's size, near round-off);
 * velocity: ``Φ_q q̇ = b`` with ``b`` the drivers' angular velocities on their rows and
@@ -42,7 +42,7 @@ from numba import njit
 from ..forces.joint import clearance_force
 from ..forces.params import P_C
 from .borrow import borrowed
-from .kinematics import LUFactors, _lu_factor, _lu_refactor, _lu_solve, _lu_workspace
+from .kinematics import LUFactors, _lu_factor, _lu_solve, _lu_workspace
 from .problem import (Workspace, applied_forces_trig, constraint_terms, driver_law, gap_of,
                       joint_state, make_workspace, n_contacts)
 from .system import System
@@ -110,8 +110,9 @@ class ReducedWorkspace(NamedTuple):
     # evaluates its stages at a few fixed times while it iterates), slot s valid if ok[s]
     qc: np.ndarray  # (N_SLOTS, n)
     Rc: np.ndarray  # (N_SLOTS, n, nz)
-    v0c: np.ndarray  # (N_SLOTS, n)
-    zc: np.ndarray  # (N_SLOTS, nz)
+    vc: np.ndarray  # (N_SLOTS, n) q̇
+    ac: np.ndarray  # (N_SLOTS, n) q̈
+    zc: np.ndarray  # (N_SLOTS, 3, nz) z, ż, z̈
     tc: np.ndarray  # (N_SLOTS,) time of each slot
     ok: np.ndarray  # (N_SLOTS,) 1.0 once written
     slot: np.ndarray  # (2,) int: the slot read by the last solve, the next slot to replace
@@ -131,8 +132,57 @@ def make_reduced_workspace(rs):
                             np.zeros(n), np.zeros(n), np.zeros(n), np.zeros((nz, nz)),
                             np.zeros(nz), np.zeros(nh), np.zeros(nh), qc,
                             np.zeros((N_SLOTS, n, nz)), np.zeros((N_SLOTS, n)),
-                            np.zeros((N_SLOTS, nz)), np.zeros(N_SLOTS), np.zeros(N_SLOTS),
+                            np.zeros((N_SLOTS, n)), np.zeros((N_SLOTS, 3, nz)),
+                            np.zeros(N_SLOTS), np.zeros(N_SLOTS),
                             np.zeros(2, dtype=np.int64), np.zeros(2))
+
+
+PIVOT_THRESHOLD = 0.1
+"""Threshold pivoting: the factorisation keeps its recorded pivot order while each planned
+pivot is at least this fraction of the largest candidate in its column (the bound on the
+multipliers, 1 / 0.1, keeps the growth of the elimination bounded, as threshold partial
+pivoting in sparse direct solvers does); otherwise it pivots afresh. Strict partial pivoting
+re-planned the factorisation whenever two candidates swapped order as the mechanism moved."""
+
+
+@njit(cache=True, inline='always')
+def _lu_refactor_threshold(A, f):
+    """:func:`mechrel.mechanics.kinematics._lu_refactor` with threshold pivoting
+    (:data:`PIVOT_THRESHOLD`): returns False (factors unusable) when ``A`` has a non-zero
+    outside the planned pattern or a planned pivot falls below the threshold."""
+    n = A.shape[0]
+    lp, lr, lv, up, ui, uv, ur, ud, pp, pr, pat, perm, wk, y, off, valid = f
+    if not valid[0]:
+        return False
+    bits = np.ascontiguousarray(A).reshape(n * n).view(np.int64)
+    outside = 0
+    for i in range(n * n):
+        outside |= bits[i] & off[i]
+    if outside != 0:
+        return False
+    for k in range(n):
+        prow = ur[k]
+        amax = 0.0
+        for r in range(pp[k], pp[k + 1]):
+            a = abs(A[pr[r], k])
+            if a > amax:
+                amax = a
+        piv = A[prow, k]
+        if not abs(piv) >= PIVOT_THRESHOLD * amax or piv == 0.0:
+            return False
+        rd = 1.0 / piv
+        ud[k] = rd
+        u0 = up[k]
+        u1 = up[k + 1]
+        for c in range(u0, u1):
+            uv[c] = A[prow, ui[c]]
+        for r in range(lp[k], lp[k + 1]):
+            i = lr[r]
+            el = A[i, k] * rd
+            lv[r] = el
+            for c in range(u0, u1):
+                A[i, ui[c]] -= el * uv[c]
+    return True
 
 
 @njit(cache=True, inline='always')
@@ -154,7 +204,7 @@ def _factor_jacobian(rs, rw):
                 A[r, 3 * body] += co[o]
                 A[r, 3 * body + 1] += co[o + 1]
                 A[r, 3 * body + 2] += co[o + 2]
-    if not _lu_refactor(A, rw.lu):
+    if not _lu_refactor_threshold(A, rw.lu):
         for i in range(n):
             for j in range(n):
                 A[i, j] = 0.0
@@ -178,7 +228,9 @@ def solve_positions_inline(t, z, rs, rw):
     n = rw.q.shape[0]
     nc = rs.cl_row.shape[0]
     q = rw.q
-    # the slot nearest in time (a never-written slot holds q_guess with R = 0, q̇₀ = 0)
+    # the slot nearest in time (a never-written slot holds q_guess with R = 0, q̇ = q̈ = 0);
+    # second order: q ≈ q_c + q̇_c Δt + q̈_c Δt²/2 + R (z − z_c(t)) with z_c(t) the slot's z
+    # continued to second order, so the error is O(Δt³, Δt |z − z_c(t)|, |z − z_c(t)|²)
     tc = rw.tc
     ok = rw.ok
     best = 0
@@ -192,12 +244,17 @@ def solve_positions_inline(t, z, rs, rw):
     qc = rw.qc[best]
     zc = rw.zc[best]
     Rc = rw.Rc[best]
-    v0c = rw.v0c[best]
+    vc = rw.vc[best]
+    ac = rw.ac[best]
     dt = t - tc[best] if ok[best] != 0.0 else 0.0
+    hdt2 = 0.5 * dt * dt
+    dz = rw.fr  # work (overwritten later by the projected equations)
+    for c in range(2 * nc):
+        dz[c] = z[c] - (zc[0, c] + zc[1, c] * dt + zc[2, c] * hdt2)
     for i in range(n):
-        s = qc[i] + v0c[i] * dt
+        s = qc[i] + vc[i] * dt + ac[i] * hdt2
         for c in range(2 * nc):
-            s += Rc[i, c] * (z[c] - zc[c])
+            s += Rc[i, c] * dz[c]
         q[i] = s
     cws = rw.cws
     phi = cws.phi
@@ -371,16 +428,20 @@ def reduced_rhs_inline(t, x, hist, rs, rw, out):
         sl = rw.slot[1]
         rw.slot[1] = (sl + 1) % N_SLOTS
     qc = rw.qc[sl]
-    v0c = rw.v0c[sl]
+    vc = rw.vc[sl]
+    ac = rw.ac[sl]
     Rc = rw.Rc[sl]
     zc = rw.zc[sl]
     for i in range(n):
         qc[i] = q[i]
-        v0c[i] = v0[i]
+        vc[i] = v[i]
+        ac[i] = a[i]
         for c in range(nz):
             Rc[i, c] = R[i, c]
     for c in range(nz):
-        zc[c] = z[c]
+        zc[0, c] = z[c]
+        zc[1, c] = zd[c]
+        zc[2, c] = out[nz + c]
     rw.tc[sl] = t
     rw.ok[sl] = 1.0
 
