@@ -110,7 +110,6 @@ def rhs_costs(name, repeats=5, reps=20):
     scene = load_scene(name)
     r, _ = run(scene, "absolute", 1e-6)
     compiled = compile_scene(scene)
-    n = compiled.q_guess.size
     q0, _ = assemble(compiled.ideal, compiled.q_guess, 0.0)
     qa, _ = assemble(compiled.assembly, q0, 0.0)
     rs = reduced_system(scene, compiled, qa)
@@ -171,7 +170,7 @@ def main(argv=None):
     out["lubricated"] = {"scan": rows, "chosen": best, "timing": timing,
                          "speedup": timing["absolute"]["median"] / timing["reduced"]["median"]}
     log("lubricated nine-bar:", json.dumps(out["lubricated"]["timing"]),
-        "speed-up %.2f" % out["lubricated"]["speedup"])
+        f"speed-up {out['lubricated']['speedup']:.2f}")
 
     # 2. dry scenes, radau at the same rtol
     out["dry"] = {}

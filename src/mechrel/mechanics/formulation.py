@@ -9,17 +9,13 @@ kernel source serves both formulations, each specialisation is cached on disk li
 (passing compiled functions as arguments would recompile in every process,
 docs/architecture.md), and the absolute path compiles to the code it compiled to before.
 
-==================  ==============================================  =====================
-operation           absolute (``System``)                           reduced
-==================  ==============================================  =====================
-``new_workspace``   :func:`~.problem.make_workspace`                 :func:`~.reduced.make_reduced_workspace`
-``rhs``             :func:`~.problem.rhs_inline` (inlined)            :func:`~.reduced.reduced_rhs_into`
-``rhs_call``        :func:`~.problem.rhs_into`                        :func:`~.reduced.reduced_rhs_into`
-``gaps``            :func:`~.problem.gaps_into`                       :func:`~.reduced.reduced_gaps_into`
-``contact_floors``  of the System                                     of its ``dyn`` System
-``record``          max |Φ|, |Φ̇| of the evaluated state               Newton and velocity residuals
-``n_coordinates``   ``n`` (3 per body)                                ``2 nc``
-==================  ==============================================  =====================
+``new_workspace``: :func:`~.problem.make_workspace` or
+:func:`~.reduced.make_reduced_workspace`; ``rhs`` (inlined for the absolute formulation) and
+``rhs_call``: :func:`~.problem.rhs_inline` / :func:`~.problem.rhs_into` or
+:func:`~.reduced.reduced_rhs_into`; ``gaps``: :func:`~.problem.gaps_into` or
+:func:`~.reduced.reduced_gaps_into` (straight from ``z``); ``floors``: the contact floors of the
+System (of ``ReducedSystem.dyn``); ``record``: max |Φ|, |Φ̇| of the evaluated state, or the
+Newton and velocity residuals; ``n_coordinates``: ``n`` (3 per body) or ``2 nc``.
 
 The state is ``y = (coordinates, their rates, W_in, W_cl)`` in both, so the kernels'
 second-order structure (``dy/dt``'s first half is the second) holds for either.

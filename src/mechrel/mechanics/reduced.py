@@ -621,16 +621,26 @@ def expand_solution(rs: ReducedSystem, t_out, out):
     nx = X.shape[1]
     nh = hist.shape[0]
     done = np.all(np.isfinite(X), axis=1)
+    nd = int(done.sum())
+    # output instants and log rows expanded together in time order, each position solve
+    # starting from its predecessor's: a log that begins a cycle after the start, expanded
+    # from the initial configuration, could land on another assembly branch
+    T = np.concatenate([np.asarray(t_out, dtype=float)[done], log[:, 0]])
+    XX = np.concatenate([X[done], log[:, 1:1 + nx]])
+    HH = np.concatenate([H[done], log[:, 1 + 2 * nx:1 + 2 * nx + nh]])
+    order = np.argsort(T, kind="stable")
+    Ys, YDs, res = expand_rows(np.ascontiguousarray(T[order]), np.ascontiguousarray(XX[order]),
+                               np.ascontiguousarray(HH[order]), rs)
+    Ya = np.empty_like(Ys)
+    YDa = np.empty_like(YDs)
+    Ya[order] = Ys
+    YDa[order] = YDs
+    stats[S_VIOL_POS] = max(stats[S_VIOL_POS], res)
     Y = np.full((X.shape[0], 2 * n + 2), np.nan)
     YD = np.full_like(Y, np.nan)
-    if done.any():
-        Y[done], YD[done], res = expand_rows(np.ascontiguousarray(t_out[done]),
-                                             np.ascontiguousarray(X[done]),
-                                             np.ascontiguousarray(H[done]), rs)
-        stats[S_VIOL_POS] = max(stats[S_VIOL_POS], res)
-    Yl, YDl, res = expand_rows(np.ascontiguousarray(log[:, 0]),
-                               np.ascontiguousarray(log[:, 1:1 + nx]),
-                               np.ascontiguousarray(log[:, 1 + 2 * nx:1 + 2 * nx + nh]), rs)
+    Y[done] = Ya[:nd]
+    YD[done] = YDa[:nd]
+    Yl, YDl = Ya[nd:], YDa[nd:]
     big = np.empty((log.shape[0], 1 + 2 * (2 * n + 2) + nh))
     big[:, 0] = log[:, 0]
     big[:, 1:1 + 2 * n + 2] = Yl
