@@ -770,17 +770,18 @@ def _simulate(scene: Scene, *, reference: Scene | None, method: str, integrator:
                       labels=compiled.labels["assembly"])
     y0 = np.concatenate([qa, va, np.zeros(problem.N_WORK)])
     hist0 = np.zeros(sys.n_contacts)
-    if reduced:  # integrate the clearance joints' eccentricities only
-        sys = reduced_system(scene, compiled, qa)
-        y0 = initial_state(scene, sys)
+    # the reduced formulation integrates the clearance joints' eccentricities only
+    rsys = reduced_system(scene, compiled, qa) if reduced else None
+    if rsys is not None:
+        y0 = initial_state(scene, rsys)
     bar = None
     if progress:
         from tqdm.auto import tqdm
         bar = tqdm(total=times.size, desc=f"simulate {scene.name}", unit="sample", leave=False)
     t_lo = analysis_window(compiled, times) if extremes else None
     try:
-        res = solver.integrate(sys, y0, hist0, times, progress=bar, log_from=t_lo,
-                               dense_points=dense_points)
+        res = solver.integrate(sys if rsys is None else rsys, y0, hist0, times, progress=bar,
+                               log_from=t_lo, dense_points=dense_points)
     finally:
         if bar is not None:
             bar.close()
