@@ -17,6 +17,9 @@ from pathlib import Path
 
 import pytest
 
+from mechrel.scene import load_scene
+from mechrel.simulation import simulate
+
 pytestmark = pytest.mark.skipif(not Path("/proc/self/stat").exists(),
                                 reason="reads process trees from /proc (Linux)")
 
@@ -101,6 +104,11 @@ def _stop(proc, sig):
     (signal.SIGINT, 130, "Ctrl-C"),
     pytest.param(signal.SIGTERM, 143, "SIGTERM", marks=pytest.mark.slow)])
 def test_simulate_stops_promptly_with_one_line(sig, code, name, tmp_path):
+    # the interrupt must reach a running kernel, not the one-off compilation (which announces
+    # itself on stderr): compile or load the subprocess's DOPRI5 kernel here first (same numba
+    # cache; a cold cache otherwise depends on which tests ran before this one)
+    simulate(load_scene("slider-crank-lubricated",
+                        overrides=["analysis.cycles=1", "solver.integrator=dopri5"]))
     # the simulation starts after the imports: wait until the process has used some CPU time
     proc = subprocess.Popen(CLI + LONG_SIMULATION, stdout=subprocess.PIPE,
                             stderr=subprocess.PIPE, text=True)
