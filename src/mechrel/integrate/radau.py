@@ -121,6 +121,10 @@ from numba import types
 from numba.extending import overload
 from .base import Integrator
 
+# the public entry points; fast_jacobian, diff_jacobian, jacobian_update and has_partial are
+# building blocks of the kernel
+__all__ = ["Radau", "radau5_kernel", "fd_jacobian", "lu_factor", "lu_solve"]
+
 # ---------------------------------------------------------------------------- constants
 UROUND = 2.220446049250313e-16
 SQRT_UROUND = math.sqrt(UROUND)
@@ -171,9 +175,32 @@ MAX_SINGULAR = 5
 # ---------------------------------------------------------------------------- linear algebra
 @njit(cache=True)
 def lu_factor(A, piv):
-    """In-place LU factorisation with partial pivoting, ``P A = L U`` (unit lower ``L`` below
-    the diagonal, ``U`` on and above it; row interchanges in ``piv`` as in LAPACK's getrf).
-    Works for real and complex matrices. Returns False if a pivot column is exactly zero."""
+    """In-place LU factorisation with partial pivoting, ``P A = L U``.
+
+    Unit lower ``L`` below the diagonal, ``U`` on and above it; row interchanges in ``piv``
+    as in LAPACK's getrf. Works for real and complex matrices.
+
+    Parameters
+    ----------
+    A : ndarray, shape (n, n), float or complex
+        The matrix; overwritten by ``L`` and ``U``.
+    piv : ndarray of int, shape (n,)
+        Receives the row interchanges: row k was swapped with row ``piv[k]``.
+
+    Returns
+    -------
+    bool
+        False if a pivot column is exactly zero (``A`` singular), True otherwise.
+
+    Examples
+    --------
+    >>> A = np.array([[1.0, 2.0], [3.0, 4.0]])
+    >>> piv = np.zeros(2, dtype=np.int64)
+    >>> lu_factor(A, piv), piv.tolist(), A.round(6).tolist()
+    (True, [1, 1], [[3.0, 4.0], [0.333333, 0.666667]])
+    >>> lu_factor(np.zeros((2, 2)), piv)
+    False
+    """
     A, piv = borrowed((A, piv))
     n = A.shape[0]
     for k in range(n):
@@ -204,7 +231,28 @@ def lu_factor(A, piv):
 
 @njit(cache=True)
 def lu_solve(LU, piv, b):
-    """Solve ``A x = b`` in place from :func:`lu_factor`'s output."""
+    """Solve ``A x = b`` in place from :func:`lu_factor`'s output.
+
+    Parameters
+    ----------
+    LU : ndarray, shape (n, n), float or complex
+        The factors from :func:`lu_factor`.
+    piv : ndarray of int, shape (n,)
+        Its row interchanges.
+    b : ndarray, shape (n,)
+        The right-hand side; overwritten by ``x``.
+
+    Examples
+    --------
+    >>> A = np.array([[1.0, 2.0], [3.0, 4.0]])
+    >>> piv = np.zeros(2, dtype=np.int64)
+    >>> lu_factor(A, piv)
+    True
+    >>> b = np.array([5.0, 11.0])
+    >>> lu_solve(A, piv, b)
+    >>> b.round(12).tolist()
+    [1.0, 2.0]
+    """
     LU, piv, b = borrowed((LU, piv, b))
     n = LU.shape[0]
     for k in range(n):
@@ -228,10 +276,53 @@ def lu_solve(LU, piv, b):
 # ---------------------------------------------------------------------------- Jacobian
 @njit(cache=True)
 def fd_jacobian(t, y, f0, hist, sys, ws, J, floor, yp, fp):
-    """``J = ∂rhs/∂y`` at ``(t, y)`` (``f0 = rhs(t, y)``) by forward differences with
-    ``δ_j = √u max(|y_j|, floor)``; exact rows for ``dq/dt = q̇``, zero columns for the work
-    integrals. ``yp`` and ``fp`` are work arrays of y's length. Returns the number of
-    right-hand-side evaluations (2n)."""
+    """``J = ∂rhs/∂y`` at ``(t, y)`` by forward differences.
+
+    The increments are ``δ_j = √u max(|y_j|, floor)``; the rows ``dq/dt = q̇`` are exact and
+    the work integrals' columns zero.
+
+    Parameters
+    ----------
+    t : float
+        Time (s).
+    y : ndarray, shape (ny,)
+        The state ``(q, q̇, W_in, W_cl)`` (m, rad; m/s, rad/s; J), ``ny = 2 n + 2``.
+    f0 : ndarray, shape (ny,)
+        ``rhs(t, y)``.
+    hist : ndarray, shape (nh,)
+        History of the contact-capable joints (impact speed, m/s).
+    sys : System
+        The mechanism (:class:`~mechrel.mechanics.system.System`).
+    ws : Workspace
+        Its workspace (:class:`~mechrel.mechanics.problem.Workspace`).
+    J : ndarray, shape (ny, ny)
+        Receives the Jacobian (SI units of ``f`` over those of ``y``).
+    floor : float
+        Floor of the increments' scale (SI units of ``y``; the integrator passes atol/rtol).
+    yp, fp : ndarray, shape (ny,)
+        Work arrays.
+
+    Returns
+    -------
+    int
+        The number of right-hand-side evaluations, ``2 n``.
+
+    Examples
+    --------
+    >>> from mechrel.mechanics.kinematics import assemble
+    >>> from mechrel.mechanics.problem import make_workspace, rhs
+    >>> from mechrel.mechanics.system import compile_scene
+    >>> from mechrel.scene import load_scene
+    >>> c = compile_scene(load_scene("slider-crank-lubricated"))
+    >>> q, v = assemble(c.assembly, c.q_guess, 0.0)
+    >>> dyn, y = c.dynamic, np.concatenate([q, v, np.zeros(2)])
+    >>> f0, J = rhs(0.0, y, np.zeros(0), dyn), np.zeros((20, 20))
+    >>> fd_jacobian(0.0, y, f0, np.zeros(0), dyn, make_workspace(dyn), J, 1e-4, np.empty(20),
+    ...             np.empty(20))
+    18
+    >>> bool((J[:9, 9:18] == np.eye(9)).all()), bool((J[:, 18:] == 0).all())
+    (True, True)
+    """
     y, f0, hist, sys, ws, J, yp, fp = borrowed((y, f0, hist, sys, ws, J, yp, fp))
     n = sys.mass.shape[0]
     ny = y.shape[0]
@@ -428,14 +519,71 @@ def radau5_kernel(sys, sys_smooth, t0, y0, hist, t_out, h0, rtol_user, atol_user
                   onset_tol, fixed, ctl, log_from, n_dense):
     """Radau IIA (order 5) from ``(t0, y0)`` over the increasing output instants ``t_out``.
 
-    ``h0`` ≤ 0 picks the initial step automatically. With ``fixed`` True the step ``h0`` is
-    kept constant (no error control; for convergence-order checks) except that the last step
-    ends on ``t_out[-1]``; Newton may then take up to ``NIT_FIXED`` iterations with a fresh
-    Jacobian at every step, and a failure stops with ``STATUS_NEWTON``.
-    Returns ``(Y, YD, hist, stats, t, y, log, H)`` (H: the history state at each output
-    instant); ``ctl``, ``log_from`` and ``n_dense`` as in
-    :func:`~mechrel.integrate.explicit.rk4_kernel` (the points inside a step from the
-    collocation polynomial).
+    With ``fixed`` True the step ``h0`` is kept constant (no error control; for
+    convergence-order checks) except that the last step ends on ``t_out[-1]``; Newton may then
+    take up to ``NIT_FIXED`` iterations with a fresh Jacobian at every step, and a failure
+    stops with ``STATUS_NEWTON``.
+
+    Parameters
+    ----------
+    sys : System or ReducedSystem
+        The problem (:mod:`mechrel.mechanics.formulation`).
+    sys_smooth : System or ReducedSystem
+        The same without clearance forces
+        (:func:`~mechrel.mechanics.system.without_clearance_forces`), whose finite-difference
+        Jacobian the partial updates keep.
+    t0 : float
+        Start time (s).
+    y0 : ndarray, shape (ny,)
+        Initial state (SI units; :func:`~mechrel.mechanics.formulation.rhs`).
+    hist : ndarray, shape (nh,)
+        Initial history of the contact-capable joints (m/s).
+    t_out : ndarray, shape (N,)
+        Increasing output instants (s).
+    h0 : float
+        Initial (with ``fixed``: the constant) step (s); ≤ 0 picks it automatically.
+    rtol_user, atol_user : float
+        Tolerances in RADAU5's convention (module docstring; ``atol`` in the SI units of ``y``).
+    max_steps : int
+        Step budget.
+    onset_tol : float
+        Tolerance (s) on the instant of a contact onset.
+    fixed : bool
+        Constant step without error control.
+    ctl : ndarray of int64, shape (2,)
+        Control vector: outputs done, stop request (:mod:`mechrel.integrate.events`).
+    log_from : float
+        Log every accepted step from this time on (s); ``inf``: no log.
+    n_dense : int
+        Points per step taken inside it from the collocation polynomial in the log.
+
+    Returns
+    -------
+    tuple
+        ``(Y, YD, hist, stats, t, y, log, H)``: the states and their derivatives at ``t_out``
+        (shape (N, ny)), the final history, the statistics vector (``N_STATS``), the time and
+        state reached, the step log and the history at each output instant (shape (N, nh));
+        as :func:`~mechrel.integrate.explicit.rk4_kernel`.
+
+    Examples
+    --------
+    A millisecond of the lubricated slider-crank from its centred start:
+
+    >>> from mechrel.mechanics.kinematics import assemble
+    >>> from mechrel.mechanics.problem import make_workspace, rhs
+    >>> from mechrel.mechanics.system import compile_scene
+    >>> from mechrel.scene import load_scene
+    >>> c = compile_scene(load_scene("slider-crank-lubricated"))
+    >>> q, v = assemble(c.assembly, c.q_guess, 0.0)
+    >>> dyn, y = c.dynamic, np.concatenate([q, v, np.zeros(2)])
+    >>> from mechrel.integrate.events import S_STATUS
+    >>> from mechrel.mechanics.system import without_clearance_forces
+    >>> out = radau5_kernel(dyn, without_clearance_forces(dyn), 0.0, y, np.zeros(0),
+    ...                     np.array([0.0, 1e-3]), 0.0, 1e-6, 1e-9, 100000, 1e-9, False,
+    ...                     np.zeros(2, dtype=np.int64), math.inf, 0)
+    >>> Y, stats = out[0], out[3]
+    >>> Y.shape, float(stats[S_STATUS]), round(float(Y[1, 2]), 4)
+    ((2, 20), 0.0, 0.5236)
     """
     nout = t_out.shape[0]
     ny = y0.shape[0]
@@ -814,14 +962,6 @@ def radau5_kernel(sys, sys_smooth, t0, y0, hist, t_out, h0, rtol_user, atol_user
 class Radau(Integrator):
     """Compiled Radau IIA of order 5 (RADAU5) for stiff scenes (lubricated joints).
 
-    Takes the settings of :class:`~mechrel.integrate.base.Integrator` and these.
-
-    Parameters
-    ----------
-    fixed_step : bool
-        Integrate at the constant step ``step`` without error control (for convergence-order
-        checks only).
-
     Default tolerances ``rtol = 1e-6``, ``atol = 1e-9`` in RADAU5's convention (module
     docstring; internally ``rtol' ≈ 1e-5``), for a stiff scene used without settings: on the
     lubricated nine-bar they put the peak slider acceleration within 6e-6 (relative) of a
@@ -829,6 +969,28 @@ class Radau(Integrator):
     per cycle (docs/performance.md); ``atol = 1e-9`` is a nanometre (nanoradian, nm/s) floor,
     far below the clearances (≥ 0.1 mm) and their rates that the scenes resolve. Scenes
     whose type selects ``radau`` automatically use ``DEFAULT_SOLVERS`` (1e-7, 1e-10).
+
+    Parameters
+    ----------
+    fixed_step : bool, optional
+        Integrate at the constant step ``step`` without error control (for convergence-order
+        checks only). Default False.
+    **kwargs
+        The settings of :class:`~mechrel.integrate.base.Integrator` (``step`` (s), ``rtol``,
+        ``atol``, ``max_steps``, ``onset_tolerance``).
+
+    Raises
+    ------
+    SimulationError
+        ``fixed_step`` without a ``step``, or a bad setting
+        (:class:`~mechrel.integrate.base.Integrator`).
+
+    Examples
+    --------
+    >>> Radau().settings
+    {'rtol': 1e-06, 'atol': 1e-09}
+    >>> Radau(step=1e-5, fixed_step=True).settings
+    {'rtol': 1e-06, 'atol': 1e-09, 'step': 1e-05, 'fixed_step': True}
     """
 
     name = "radau"
@@ -844,6 +1006,19 @@ class Radau(Integrator):
 
     @property
     def settings(self) -> dict:
+        """The settings this integrator uses: its tolerances, and the step in fixed-step mode.
+
+        Returns
+        -------
+        dict
+            ``{"rtol": ..., "atol": ...}``, plus ``"step"`` (s) and ``"fixed_step": True`` with
+            ``fixed_step``.
+
+        Examples
+        --------
+        >>> Radau(rtol=1e-8).settings
+        {'rtol': 1e-08, 'atol': 1e-09}
+        """
         out = {"rtol": self.rtol, "atol": self.atol}
         if self.fixed_step:
             out["step"] = self.step

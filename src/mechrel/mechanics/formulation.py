@@ -38,7 +38,39 @@ def _is_reduced(sys_type) -> bool:
 
 
 def new_workspace(sys):  # pragma: no cover - compiled only
-    """The right-hand side's workspace for ``sys``."""
+    """The right-hand side's workspace for ``sys``.
+
+    Compiled code only: numba picks the implementation for the type of ``sys``
+    (``numba.extending.overload``); from Python, call that implementation directly.
+
+    Parameters
+    ----------
+    sys : System or ReducedSystem
+        The problem.
+
+    Returns
+    -------
+    Workspace or ReducedWorkspace
+        :func:`~mechrel.mechanics.problem.make_workspace` or
+        :func:`~mechrel.mechanics.reduced.make_reduced_workspace` of ``sys``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from mechrel.mechanics.kinematics import assemble
+    >>> from mechrel.mechanics.reduced import initial_state, reduced_system
+    >>> from mechrel.mechanics.system import compile_scene
+    >>> from mechrel.scene import load_scene
+    >>> scene = load_scene("slider-crank-lubricated")
+    >>> c = compile_scene(scene)
+    >>> q0, _ = assemble(c.ideal, c.q_guess, 0.0)
+    >>> qa, va = assemble(c.assembly, q0, 0.0)
+    >>> rs = reduced_system(scene, c, qa)
+    >>> from mechrel.mechanics.problem import make_workspace
+    >>> from mechrel.mechanics.reduced import make_reduced_workspace
+    >>> make_workspace(c.dynamic).Q.shape, make_reduced_workspace(rs).fr.shape
+    ((9,), (2,))
+    """
     raise NotImplementedError("called from compiled code only")
 
 
@@ -50,8 +82,52 @@ def _ov_new_workspace(sys):
 
 
 def rhs(t, y, hist, sys, ws, out):  # pragma: no cover - compiled only
-    """``dy/dt`` into ``out`` (inlined for the absolute formulation: one call site per
-    kernel, as :func:`~mechrel.mechanics.problem.rhs_inline`)."""
+    """``dy/dt`` into ``out``, inlined for the absolute formulation.
+
+    One call site per kernel, as :func:`~mechrel.mechanics.problem.rhs_inline`; the reduced
+    formulation calls :func:`~mechrel.mechanics.reduced.reduced_rhs_into`.
+
+    Compiled code only: numba picks the implementation for the type of ``sys``
+    (``numba.extending.overload``); from Python, call that implementation directly.
+
+    Parameters
+    ----------
+    t : float
+        Time (s).
+    y : ndarray, shape (ny,)
+        The state: ``(q, q̇, W_in, W_cl)`` (m, rad; m/s, rad/s; J) for a ``System``,
+        ``(z, ż, W_in, W_cl)`` (m; m/s; J) for a ``ReducedSystem``.
+    hist : ndarray, shape (nh,)
+        History of the contact-capable joints (impact speed, m/s).
+    sys : System or ReducedSystem
+        The problem (:class:`~mechrel.mechanics.system.System`,
+        :class:`~mechrel.mechanics.reduced.ReducedSystem`).
+    ws : Workspace or ReducedWorkspace
+        Its workspace (:func:`new_workspace`).
+    out : ndarray, shape (ny,)
+        Receives ``dy/dt``.
+
+    Examples
+    --------
+    The absolute formulation's implementation, on the assembled state:
+
+    >>> import numpy as np
+    >>> from mechrel.mechanics.kinematics import assemble
+    >>> from mechrel.mechanics.reduced import initial_state, reduced_system
+    >>> from mechrel.mechanics.system import compile_scene
+    >>> from mechrel.scene import load_scene
+    >>> scene = load_scene("slider-crank-lubricated")
+    >>> c = compile_scene(scene)
+    >>> q0, _ = assemble(c.ideal, c.q_guess, 0.0)
+    >>> qa, va = assemble(c.assembly, q0, 0.0)
+    >>> rs = reduced_system(scene, c, qa)
+    >>> from mechrel.mechanics.problem import make_workspace, rhs_into
+    >>> y = np.concatenate([qa, va, np.zeros(2)])
+    >>> out = np.empty_like(y)
+    >>> rhs_into(0.0, y, np.zeros(0), c.dynamic, make_workspace(c.dynamic), out)
+    >>> bool(np.array_equal(out[:9], va))
+    True
+    """
     raise NotImplementedError("called from compiled code only")
 
 
@@ -68,7 +144,52 @@ def _ov_rhs(t, y, hist, sys, ws, out):
 
 
 def rhs_call(t, y, hist, sys, ws, out):  # pragma: no cover - compiled only
-    """``dy/dt`` into ``out``, as a call (for the sites that are not the hot loop)."""
+    """``dy/dt`` into ``out``, as a call (for the sites that are not the hot loop).
+
+    :func:`~mechrel.mechanics.problem.rhs_into` or
+    :func:`~mechrel.mechanics.reduced.reduced_rhs_into`.
+
+    Compiled code only: numba picks the implementation for the type of ``sys``
+    (``numba.extending.overload``); from Python, call that implementation directly.
+
+    Parameters
+    ----------
+    t : float
+        Time (s).
+    y : ndarray, shape (ny,)
+        The state: ``(q, q̇, W_in, W_cl)`` (m, rad; m/s, rad/s; J) for a ``System``,
+        ``(z, ż, W_in, W_cl)`` (m; m/s; J) for a ``ReducedSystem``.
+    hist : ndarray, shape (nh,)
+        History of the contact-capable joints (impact speed, m/s).
+    sys : System or ReducedSystem
+        The problem (:class:`~mechrel.mechanics.system.System`,
+        :class:`~mechrel.mechanics.reduced.ReducedSystem`).
+    ws : Workspace or ReducedWorkspace
+        Its workspace (:func:`new_workspace`).
+    out : ndarray, shape (ny,)
+        Receives ``dy/dt``.
+
+    Examples
+    --------
+    The absolute formulation's implementation, on the assembled state:
+
+    >>> import numpy as np
+    >>> from mechrel.mechanics.kinematics import assemble
+    >>> from mechrel.mechanics.reduced import initial_state, reduced_system
+    >>> from mechrel.mechanics.system import compile_scene
+    >>> from mechrel.scene import load_scene
+    >>> scene = load_scene("slider-crank-lubricated")
+    >>> c = compile_scene(scene)
+    >>> q0, _ = assemble(c.ideal, c.q_guess, 0.0)
+    >>> qa, va = assemble(c.assembly, q0, 0.0)
+    >>> rs = reduced_system(scene, c, qa)
+    >>> from mechrel.mechanics.problem import make_workspace, rhs_into
+    >>> y = np.concatenate([qa, va, np.zeros(2)])
+    >>> out = np.empty_like(y)
+    >>> rhs_into(0.0, y, np.zeros(0), c.dynamic, make_workspace(c.dynamic), out)
+    >>> bool(np.array_equal(out[:9], va))
+    True
+    """
     raise NotImplementedError("called from compiled code only")
 
 
@@ -85,7 +206,46 @@ def _ov_rhs_call(t, y, hist, sys, ws, out):
 
 
 def gaps(t, y, sys, g, gd):  # pragma: no cover - compiled only
-    """Penetration (m) and its rate (m/s) of the contact-capable joints into ``g``, ``gd``."""
+    """Penetration (m) and its rate (m/s) of the contact-capable joints into ``g``, ``gd``.
+
+    :func:`~mechrel.mechanics.problem.gaps_into` or
+    :func:`~mechrel.mechanics.reduced.reduced_gaps_into` (straight from ``z``).
+
+    Compiled code only: numba picks the implementation for the type of ``sys``
+    (``numba.extending.overload``); from Python, call that implementation directly.
+
+    Parameters
+    ----------
+    t : float
+        Time (s).
+    y : ndarray, shape (ny,)
+        The state (:func:`rhs`).
+    sys : System or ReducedSystem
+        The problem.
+    g, gd : ndarray, shape (nh,)
+        Receive the penetration δ (m) and its rate δ̇ (m/s), in ``hist`` order.
+
+    Examples
+    --------
+    The reduced formulation's implementation; the lubricated slider-crank has no
+    contact-capable joint:
+
+    >>> import numpy as np
+    >>> from mechrel.mechanics.kinematics import assemble
+    >>> from mechrel.mechanics.reduced import initial_state, reduced_system
+    >>> from mechrel.mechanics.system import compile_scene
+    >>> from mechrel.scene import load_scene
+    >>> scene = load_scene("slider-crank-lubricated")
+    >>> c = compile_scene(scene)
+    >>> q0, _ = assemble(c.ideal, c.q_guess, 0.0)
+    >>> qa, va = assemble(c.assembly, q0, 0.0)
+    >>> rs = reduced_system(scene, c, qa)
+    >>> from mechrel.mechanics.reduced import reduced_gaps_into
+    >>> g, gd = np.empty(0), np.empty(0)
+    >>> reduced_gaps_into(0.0, initial_state(scene, rs), rs, g, gd)
+    >>> g.shape
+    (0,)
+    """
     raise NotImplementedError("called from compiled code only")
 
 
@@ -97,7 +257,32 @@ def _ov_gaps(t, y, sys, g, gd):
 
 
 def floors(sys):  # pragma: no cover - compiled only
-    """Impact-speed floor (m/s) of each contact joint."""
+    """Impact-speed floor (m/s) of each contact joint.
+
+    :func:`~mechrel.integrate.events.contact_floors` of the ``System`` (of
+    ``ReducedSystem.dyn``). Compiled code only (``numba.extending.overload``).
+
+    Parameters
+    ----------
+    sys : System or ReducedSystem
+        The problem.
+
+    Returns
+    -------
+    ndarray, shape (nh,)
+        The floors (m/s).
+
+    Examples
+    --------
+    >>> from numba import njit
+    >>> from mechrel.mechanics.system import compile_scene
+    >>> from mechrel.scene import load_scene
+    >>> @njit
+    ... def floors_of(sys):
+    ...     return floors(sys)
+    >>> floors_of(compile_scene(load_scene("slider-crank-dry")).dynamic)
+    array([0.001])
+    """
     raise NotImplementedError("called from compiled code only")
 
 
@@ -109,7 +294,40 @@ def _ov_floors(sys):
 
 
 def n_coordinates(sys):  # pragma: no cover - compiled only
-    """Number of coordinates (half the state without the two work integrals)."""
+    """Number of coordinates (half the state without the two work integrals).
+
+    ``n`` (3 per body) for a ``System``, ``2 nc`` for a ``ReducedSystem``. Compiled code only
+    (``numba.extending.overload``).
+
+    Parameters
+    ----------
+    sys : System or ReducedSystem
+        The problem.
+
+    Returns
+    -------
+    int
+        The number of coordinates.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from mechrel.mechanics.kinematics import assemble
+    >>> from mechrel.mechanics.reduced import initial_state, reduced_system
+    >>> from mechrel.mechanics.system import compile_scene
+    >>> from mechrel.scene import load_scene
+    >>> scene = load_scene("slider-crank-lubricated")
+    >>> c = compile_scene(scene)
+    >>> q0, _ = assemble(c.ideal, c.q_guess, 0.0)
+    >>> qa, va = assemble(c.assembly, q0, 0.0)
+    >>> rs = reduced_system(scene, c, qa)
+    >>> from numba import njit
+    >>> @njit
+    ... def count(sys):
+    ...     return n_coordinates(sys)
+    >>> count(c.dynamic), count(rs)
+    (9, 2)
+    """
     raise NotImplementedError("called from compiled code only")
 
 
@@ -121,9 +339,45 @@ def _ov_n_coordinates(sys):
 
 
 def record(ws, stats):  # pragma: no cover - compiled only
-    """Track the largest position and velocity constraint violation of the state evaluated
-    last in ``ws`` (for the reduced formulation: the Newton residual and the residual of the
-    velocity solve)."""
+    """Track the largest constraint violations of the state evaluated last in ``ws``.
+
+    For the absolute formulation max |Φ| and max |Φ̇|
+    (:func:`~mechrel.integrate.events.record_violation`); for the reduced formulation the
+    Newton residual and the residual of the velocity solve (``ReducedWorkspace.res``).
+    Compiled code only (``numba.extending.overload``).
+
+    Parameters
+    ----------
+    ws : Workspace or ReducedWorkspace
+        The workspace of the last right-hand-side evaluation.
+    stats : ndarray, shape (N_STATS,)
+        The kernel's statistics; ``stats[S_VIOL_POS]`` (m) and ``stats[S_VIOL_VEL]`` (m/s)
+        are raised to the new values.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from mechrel.mechanics.kinematics import assemble
+    >>> from mechrel.mechanics.reduced import initial_state, reduced_system
+    >>> from mechrel.mechanics.system import compile_scene
+    >>> from mechrel.scene import load_scene
+    >>> scene = load_scene("slider-crank-lubricated")
+    >>> c = compile_scene(scene)
+    >>> q0, _ = assemble(c.ideal, c.q_guess, 0.0)
+    >>> qa, va = assemble(c.assembly, q0, 0.0)
+    >>> rs = reduced_system(scene, c, qa)
+    >>> from numba import njit
+    >>> from mechrel.integrate.events import N_STATS
+    >>> from mechrel.mechanics.reduced import make_reduced_workspace
+    >>> @njit
+    ... def track(ws, stats):
+    ...     record(ws, stats)
+    >>> rw, stats = make_reduced_workspace(rs), np.zeros(N_STATS)
+    >>> rw.res[:] = 1e-13, 2e-12
+    >>> track(rw, stats)
+    >>> float(stats[S_VIOL_POS]), float(stats[S_VIOL_VEL])
+    (1e-13, 2e-12)
+    """
     raise NotImplementedError("called from compiled code only")
 
 

@@ -39,7 +39,36 @@ N_WORK = 2  # extra states: driver work, clearance-force work
 
 @njit(cache=True)
 def driver_law(law, par, t):
-    """Angle (rad), angular velocity (rad/s) and angular acceleration (rad/s²) of a driver."""
+    """Angle (rad), angular velocity (rad/s) and angular acceleration (rad/s²) of a driver.
+
+    Parameters
+    ----------
+    law : int
+        The driver law code (``System.dr_law``: constant speed, constant acceleration, harmonic).
+    par : ndarray
+        Its parameters (a row of ``System.dr_par``: rad, rad/s, rad/s², Hz, s).
+    t : float
+        Time (s).
+
+    Returns
+    -------
+    tuple of float
+        ``(θ, θ̇, θ̈)`` at ``t``.
+
+    Examples
+    --------
+    The slider-crank's crank turns at a constant 5000 rpm = 523.599 rad/s:
+
+    >>> from mechrel.mechanics.kinematics import assemble
+    >>> from mechrel.mechanics.system import compile_scene
+    >>> from mechrel.scene import load_scene
+    >>> c = compile_scene(load_scene("slider-crank-lubricated"))
+    >>> q, v = assemble(c.assembly, c.q_guess, 0.0)
+    >>> dyn, y = c.dynamic, np.concatenate([q, v, np.zeros(2)])
+    >>> th, om, al = driver_law(dyn.dr_law[0], dyn.dr_par[0], 0.1)
+    >>> round(th, 4), round(om, 4), al
+    (52.3599, 523.5988, 0.0)
+    """
     th0 = par[D_ANGLE0]
     w = par[D_SPEED]
     if law == LAW_CONSTANT_SPEED:
@@ -76,7 +105,39 @@ def _rot(th, sx, sy):
 
 @njit(cache=True)
 def point_state(q, v, i, sx, sy):
-    """Global position and velocity of the body-frame point s on body i (i = −1: ground point)."""
+    """Global position and velocity of the body-frame point s on body i (i = −1: ground point).
+
+    Parameters
+    ----------
+    q : ndarray, shape (n,)
+        Coordinates ``(x, y, θ)`` of each body (m, m, rad).
+    v : ndarray, shape (n,)
+        Their velocities (m/s, m/s, rad/s).
+    i : int
+        The body (−1: the ground, ``(sx, sy)`` then global).
+    sx, sy : float
+        The point in body axes (m).
+
+    Returns
+    -------
+    tuple of float
+        ``(x, y, ẋ, ẏ)`` (m, m/s).
+
+    Examples
+    --------
+    The crank (body 0, centre at x = 0.025 m, ω = 523.6 rad/s) at 0.05 m from its centre:
+    ``ẏ = ẏ_0 + ω · 0.05``.
+
+    >>> from mechrel.mechanics.kinematics import assemble
+    >>> from mechrel.mechanics.system import compile_scene
+    >>> from mechrel.scene import load_scene
+    >>> c = compile_scene(load_scene("slider-crank-lubricated"))
+    >>> q, v = assemble(c.assembly, c.q_guess, 0.0)
+    >>> dyn, y = c.dynamic, np.concatenate([q, v, np.zeros(2)])
+    >>> x, yy, vx, vy = point_state(q, v, 0, 0.05, 0.0)
+    >>> round(x, 9), round(vy, 4), round(float(v[1] + v[2] * 0.05), 4)
+    (0.075, 39.2699, 39.2699)
+    """
     if i < 0:
         return sx, sy, 0.0, 0.0
     th = q[3 * i + 2]
@@ -88,13 +149,63 @@ def point_state(q, v, i, sx, sy):
 
 @njit(cache=True)
 def n_constraints(sys):
+    """Number of constraint equations m of ``sys``.
+
+    Parameters
+    ----------
+    sys : System
+        The mechanism (:class:`~mechrel.mechanics.system.System`).
+
+    Returns
+    -------
+    int
+        2 per revolute and translational joint, 1 per fixed angle and driver.
+
+    Examples
+    --------
+    >>> from mechrel.mechanics.kinematics import assemble
+    >>> from mechrel.mechanics.system import compile_scene
+    >>> from mechrel.scene import load_scene
+    >>> c = compile_scene(load_scene("slider-crank-lubricated"))
+    >>> q, v = assemble(c.assembly, c.q_guess, 0.0)
+    >>> dyn, y = c.dynamic, np.concatenate([q, v, np.zeros(2)])
+    >>> n_constraints(dyn), c.ideal.n_constraints
+    (7, 9)
+    """
     return (2 * sys.rev_i.shape[0] + 2 * sys.tr_i.shape[0] + sys.fa_i.shape[0]
             + sys.dr_i.shape[0])
 
 
 @njit(cache=True)
 def constraints(q, t, sys):
-    """Φ(q, t) (m), Φ_t (m/s) and the Jacobian Φ_q."""
+    """Φ(q, t) (m, rad), Φ_t (m/s, rad/s) and the Jacobian Φ_q.
+
+    Parameters
+    ----------
+    q : ndarray, shape (n,)
+        Coordinates (m, rad).
+    t : float
+        Time (s).
+    sys : System
+        The mechanism (:class:`~mechrel.mechanics.system.System`).
+
+    Returns
+    -------
+    tuple of ndarray
+        ``(Φ, Φ_t, Φ_q)`` of shapes (m,), (m,), (m, n).
+
+    Examples
+    --------
+    >>> from mechrel.mechanics.kinematics import assemble
+    >>> from mechrel.mechanics.system import compile_scene
+    >>> from mechrel.scene import load_scene
+    >>> c = compile_scene(load_scene("slider-crank-lubricated"))
+    >>> q, v = assemble(c.assembly, c.q_guess, 0.0)
+    >>> dyn, y = c.dynamic, np.concatenate([q, v, np.zeros(2)])
+    >>> phi, phi_t, jac = constraints(q, 0.0, dyn)
+    >>> float(np.abs(phi).max()), jac.shape
+    (0.0, (7, 9))
+    """
     m = n_constraints(sys)
     n = q.shape[0]
     phi = np.zeros(m)
@@ -155,7 +266,35 @@ def constraints(q, t, sys):
 
 @njit(cache=True)
 def gamma(q, v, t, sys):
-    """γ = −(Φ_q q̇)_q q̇ − 2Φ_qt q̇ − Φ_tt, the right-hand side of Φ_q q̈ = γ (m/s²)."""
+    """γ = −(Φ_q q̇)_q q̇ − 2Φ_qt q̇ − Φ_tt, the right-hand side of Φ_q q̈ = γ (m/s², rad/s²).
+
+    Parameters
+    ----------
+    q : ndarray, shape (n,)
+        Coordinates ``(x, y, θ)`` of each body (m, m, rad).
+    v : ndarray, shape (n,)
+        Their velocities (m/s, m/s, rad/s).
+    t : float
+        Time (s).
+    sys : System
+        The mechanism (:class:`~mechrel.mechanics.system.System`).
+
+    Returns
+    -------
+    ndarray, shape (m,)
+        γ.
+
+    Examples
+    --------
+    >>> from mechrel.mechanics.kinematics import assemble
+    >>> from mechrel.mechanics.system import compile_scene
+    >>> from mechrel.scene import load_scene
+    >>> c = compile_scene(load_scene("slider-crank-lubricated"))
+    >>> q, v = assemble(c.assembly, c.q_guess, 0.0)
+    >>> dyn, y = c.dynamic, np.concatenate([q, v, np.zeros(2)])
+    >>> gamma(q, v, 0.0, dyn).shape
+    (7,)
+    """
     m = n_constraints(sys)
     g = np.zeros(m)
     r = 0
@@ -198,15 +337,51 @@ def _point_state_trig(q, v, i, sx, sy, cs, sn):
 
 @njit(cache=True, inline='always')
 def joint_state(q, v, b, j, sbx, sby, sjx, sjy, cs, sn):
-    """Relative state of a clearance joint between the bearing point ``(sbx, sby)`` on body b
-    and the journal point ``(sjx, sjy)`` on body j (−1: ground, the point then global):
-    eccentricity e = r_S − r_B (m) and its rate (m/s), the angular velocities ω_B, ω_S
-    (rad/s), and the lever arms r_j = A_j s_j, r_b = A_b s_b (m) from the bodies' centres
-    (zero for the ground). ``cs``, ``sn``: cos θ and sin θ of every body. One place for what
-    the force assembly, the gaps, the fast Jacobian and the post-processing need; it takes
-    plain values, not the System tuple, because it runs in the right-hand side's joint loop
-    (a tuple attribute there costs a reference-count pair per joint, or its null test when
-    the tuple is borrowed)."""
+    """Relative state of a clearance joint between a bearing point and a journal point.
+
+    The bearing point ``(sbx, sby)`` is on body b and the journal point ``(sjx, sjy)`` on body
+    j (−1: ground, the point then global). One place for what the force assembly, the gaps,
+    the fast Jacobian and the post-processing need; it takes plain values, not the System
+    tuple, because it runs in the right-hand side's joint loop (a tuple attribute there costs
+    a reference-count pair per joint, or its null test when the tuple is borrowed).
+
+    Parameters
+    ----------
+    q : ndarray, shape (n,)
+        Coordinates ``(x, y, θ)`` of each body (m, m, rad).
+    v : ndarray, shape (n,)
+        Their velocities (m/s, m/s, rad/s).
+    b, j : int
+        The bearing's and the journal's body (−1: ground).
+    sbx, sby, sjx, sjy : float
+        The bearing and journal points in their bodies' axes (m).
+    cs, sn : ndarray, shape (nb,)
+        cos θ and sin θ of every body (:func:`body_trig`).
+
+    Returns
+    -------
+    tuple of float
+        ``(e_x, e_y, ė_x, ė_y, ω_B, ω_S, r_jx, r_jy, r_bx, r_by)``: eccentricity
+        e = r_S − r_B (m) and its rate (m/s), the angular velocities ω_B, ω_S (rad/s), and the
+        lever arms r_j = A_j s_j, r_b = A_b s_b (m) from the bodies' centres (zero for the
+        ground).
+
+    Examples
+    --------
+    At assembly the slider-crank's lubricated joint is centred (e = 0):
+
+    >>> from mechrel.mechanics.kinematics import assemble
+    >>> from mechrel.mechanics.system import compile_scene
+    >>> from mechrel.scene import load_scene
+    >>> c = compile_scene(load_scene("slider-crank-lubricated"))
+    >>> q, v = assemble(c.assembly, c.q_guess, 0.0)
+    >>> dyn, y = c.dynamic, np.concatenate([q, v, np.zeros(2)])
+    >>> cs, sn = np.empty(3), np.empty(3)
+    >>> body_trig(q, cs, sn)
+    >>> s = joint_state(q, v, dyn.cl_b[0], dyn.cl_j[0], *dyn.cl_sb[0], *dyn.cl_sj[0], cs, sn)
+    >>> bool(abs(s[0]) < 1e-15), round(s[4], 4), round(float(v[5]), 4)
+    (True, -218.1662, -218.1662)
+    """
     bx, by, bvx, bvy = _point_state_trig(q, v, b, sbx, sby, cs, sn)
     jx, jy, jvx, jvy = _point_state_trig(q, v, j, sjx, sjy, cs, sn)
     wb = v[3 * b + 2] if b >= 0 else 0.0
@@ -220,19 +395,85 @@ def joint_state(q, v, b, j, sbx, sby, sjx, sjy, cs, sn):
 
 @njit(cache=True, inline='always')
 def gap_of(ex, ey, evx, evy, c):
-    """Penetration δ = |e| − c (m) and its rate δ̇ = n·ė (m/s); at e = 0 the direction is
-    undefined and the joint is far from contact, so δ̇ = 0 there."""
+    """Penetration δ = |e| − c (m) and its rate δ̇ = n·ė (m/s) of one joint.
+
+    At e = 0 the direction is undefined and the joint is far from contact, so δ̇ = 0 there.
+
+    Parameters
+    ----------
+    ex, ey : float
+        Eccentricity (m).
+    evx, evy : float
+        Its rate (m/s).
+    c : float
+        Radial clearance (m).
+
+    Returns
+    -------
+    tuple of float
+        ``(δ, δ̇)``.
+
+    Examples
+    --------
+    |e| = 5e-5 m along (0.6, 0.8):
+
+    >>> gap_of(3e-5, 4e-5, 1.0, 0.0, 1e-4)
+    (-5e-05, 0.6)
+    """
     e = math.hypot(ex, ey)
     return e - c, ((evx * ex + evy * ey) / e if e > 0.0 else 0.0)
 
 
 @njit(cache=True, inline='always')
 def applied_forces_trig(t, q, v, hist, sys, Q, cs, sn, gap, gaprate):
-    """Add gravity and clearance-joint forces to Q (N, N m); return (clearance power W,
-    elastic contact energy J). ``cs``, ``sn``: cos θ and sin θ of every body. The penetration
-    δ = |e| − c (m) and its rate (m/s) of the contact-capable joints go to ``gap`` and
-    ``gaprate`` (as :func:`gaps_into` computes them), so that a kernel that evaluates the
-    right-hand side at a step's end has the gaps for its onset check."""
+    """Add gravity and clearance-joint forces to Q (N, N·m).
+
+    The penetration δ = |e| − c (m) and its rate (m/s) of the contact-capable joints go to
+    ``gap`` and ``gaprate`` (as :func:`gaps_into` computes them), so that a kernel that
+    evaluates the right-hand side at a step's end has the gaps for its onset check.
+
+    Parameters
+    ----------
+    t : float
+        Time (s).
+    q : ndarray, shape (n,)
+        Coordinates ``(x, y, θ)`` of each body (m, m, rad).
+    v : ndarray, shape (n,)
+        Their velocities (m/s, m/s, rad/s).
+    hist : ndarray, shape (nh,)
+        History of the contact-capable joints (impact speed, m/s; :func:`n_contacts`).
+    sys : System
+        The mechanism (:class:`~mechrel.mechanics.system.System`).
+    Q : ndarray, shape (n,)
+        Generalised forces (N, N, N·m), added to.
+    cs, sn : ndarray, shape (nb,)
+        cos θ and sin θ of every body (:func:`body_trig`).
+    gap, gaprate : ndarray, shape (nh,)
+        Receive the penetration δ (m) and its rate (m/s) of the contact-capable joints.
+
+    Returns
+    -------
+    tuple of float
+        ``(clearance power (W), elastic contact energy (J))``.
+
+    Examples
+    --------
+    At the centred start the film carries nothing: Q is gravity, ``−m g`` on each body:
+
+    >>> from mechrel.mechanics.kinematics import assemble
+    >>> from mechrel.mechanics.system import compile_scene
+    >>> from mechrel.scene import load_scene
+    >>> c = compile_scene(load_scene("slider-crank-lubricated"))
+    >>> q, v = assemble(c.assembly, c.q_guess, 0.0)
+    >>> dyn, y = c.dynamic, np.concatenate([q, v, np.zeros(2)])
+    >>> cs, sn = np.empty(3), np.empty(3)
+    >>> body_trig(q, cs, sn)
+    >>> Q = np.zeros(9)
+    >>> p, e = applied_forces_trig(0.0, q, v, np.zeros(0), dyn, Q, cs, sn, np.empty(0),
+    ...                            np.empty(0))
+    >>> round(float(Q[1]), 6), round(-0.3 * 9.81, 6)
+    (-2.943, -2.943)
+    """
     nb = q.shape[0] // 3
     cl_b = sys.cl_b
     cl_hist = sys.cl_hist
@@ -272,7 +513,28 @@ def applied_forces_trig(t, q, v, hist, sys, Q, cs, sn, gap, gaprate):
 
 @njit(cache=True, inline='always')
 def body_trig(q, cs, sn):
-    """Cos θ and sin θ of every body into ``cs``, ``sn``."""
+    """Cos θ and sin θ of every body into ``cs``, ``sn``.
+
+    Parameters
+    ----------
+    q : ndarray, shape (n,)
+        Coordinates (m, rad).
+    cs, sn : ndarray, shape (n // 3,)
+        Receive cos θ and sin θ.
+
+    Examples
+    --------
+    >>> from mechrel.mechanics.kinematics import assemble
+    >>> from mechrel.mechanics.system import compile_scene
+    >>> from mechrel.scene import load_scene
+    >>> c = compile_scene(load_scene("slider-crank-lubricated"))
+    >>> q, v = assemble(c.assembly, c.q_guess, 0.0)
+    >>> dyn, y = c.dynamic, np.concatenate([q, v, np.zeros(2)])
+    >>> cs, sn = np.empty(3), np.empty(3)
+    >>> body_trig(q, cs, sn)
+    >>> cs.tolist(), sn.tolist()
+    ([1.0, 1.0, 1.0], [0.0, 0.0, 0.0])
+    """
     for b in range(cs.shape[0]):
         th = q[3 * b + 2]
         cs[b] = math.cos(th)
@@ -281,7 +543,41 @@ def body_trig(q, cs, sn):
 
 @njit(cache=True)
 def applied_forces(t, q, v, hist, sys, Q):
-    """:func:`applied_forces_trig` for callers outside the right-hand side."""
+    """:func:`applied_forces_trig` for callers outside the right-hand side.
+
+    Parameters
+    ----------
+    t : float
+        Time (s).
+    q : ndarray, shape (n,)
+        Coordinates ``(x, y, θ)`` of each body (m, m, rad).
+    v : ndarray, shape (n,)
+        Their velocities (m/s, m/s, rad/s).
+    hist : ndarray, shape (nh,)
+        History of the contact-capable joints (impact speed, m/s; :func:`n_contacts`).
+    sys : System
+        The mechanism (:class:`~mechrel.mechanics.system.System`).
+    Q : ndarray, shape (n,)
+        Generalised forces (N, N, N·m), added to.
+
+    Returns
+    -------
+    tuple of float
+        ``(clearance power (W), elastic contact energy (J))``.
+
+    Examples
+    --------
+    >>> from mechrel.mechanics.kinematics import assemble
+    >>> from mechrel.mechanics.system import compile_scene
+    >>> from mechrel.scene import load_scene
+    >>> c = compile_scene(load_scene("slider-crank-lubricated"))
+    >>> q, v = assemble(c.assembly, c.q_guess, 0.0)
+    >>> dyn, y = c.dynamic, np.concatenate([q, v, np.zeros(2)])
+    >>> Q = np.zeros(9)
+    >>> p, e = applied_forces(0.0, q, v, np.zeros(0), dyn, Q)
+    >>> round(float(Q[4]), 6), e
+    (-2.0601, 0.0)
+    """
     nb = q.shape[0] // 3
     cs = np.empty(nb)
     sn = np.empty(nb)
@@ -291,11 +587,55 @@ def applied_forces(t, q, v, hist, sys, Q):
 
 
 class Workspace(NamedTuple):
-    """Preallocated arrays of one right-hand-side evaluation (:func:`make_workspace`), so that
-    an evaluation allocates nothing: on the slider-crank a dozen small temporaries per call
+    """Preallocated arrays of one right-hand-side evaluation (:func:`make_workspace`).
+
+    An evaluation allocates nothing: on the slider-crank a dozen small temporaries per call
     were a third of its cost. After :func:`rhs_into` the constraint terms of the evaluated
     state are left in ``phi`` and ``phidot`` (read by the kernels' violation records) and the
-    multipliers in ``lam``. One workspace per kernel call; not shared between threads."""
+    multipliers in ``lam``. One workspace per kernel call; not shared between threads.
+
+    Parameters
+    ----------
+    cs, sn : ndarray, shape (nb,)
+        cos θ, sin θ of each body.
+    minv : ndarray, shape (n,)
+        Diagonal of M⁻¹ (1/kg, 1/(kg m²)).
+    Q : ndarray, shape (n,)
+        Applied generalised forces (N, N·m).
+    acc : ndarray, shape (n,)
+        q̈ (m/s², rad/s²).
+    phi : ndarray, shape (m,)
+        Φ (m, rad).
+    phidot : ndarray, shape (m,)
+        Φ̇ = Φ_q q̇ + Φ_t (m/s, rad/s).
+    c : ndarray, shape (m,)
+        γ − 2α Φ̇ − β² Φ (m/s², rad/s²).
+    coef : ndarray, shape (6 m,)
+        Φ_q's row r at 6 r: (∂/∂x, ∂/∂y, ∂/∂θ) of body ``row_body[r, 0]``, then of
+        ``row_body[r, 1]``.
+    L : ndarray, shape (m²,)
+        Cholesky factor of S, row-major, permuted (structural entries only).
+    dinv : ndarray, shape (m,)
+        1 / L[j, j].
+    x : ndarray, shape (m,)
+        Right-hand side / solution of S λ = …, permuted.
+    lam : ndarray, shape (m,)
+        Lagrange multipliers λ in row order.
+    gap, gaprate : ndarray, shape (nh,)
+        Penetration δ (m) and its rate δ̇ (m/s) of each contact-capable joint, as :func:`gaps`.
+
+    Examples
+    --------
+    >>> from mechrel.mechanics.kinematics import assemble
+    >>> from mechrel.mechanics.system import compile_scene
+    >>> from mechrel.scene import load_scene
+    >>> c = compile_scene(load_scene("slider-crank-lubricated"))
+    >>> q, v = assemble(c.assembly, c.q_guess, 0.0)
+    >>> dyn, y = c.dynamic, np.concatenate([q, v, np.zeros(2)])
+    >>> ws = make_workspace(dyn)
+    >>> ws.minv.shape, ws.lam.shape, ws.L.shape
+    ((9,), (7,), (49,))
+    """
 
     cs: np.ndarray  # (nb,) cos θ of each body
     sn: np.ndarray  # (nb,) sin θ
@@ -317,7 +657,30 @@ class Workspace(NamedTuple):
 
 @njit(cache=True)
 def make_workspace(sys):
-    """A :class:`Workspace` for ``sys``."""
+    """A :class:`Workspace` for ``sys``.
+
+    Parameters
+    ----------
+    sys : System
+        The mechanism (:class:`~mechrel.mechanics.system.System`).
+
+    Returns
+    -------
+    Workspace
+        Fresh arrays sized for ``sys``.
+
+    Examples
+    --------
+    >>> from mechrel.mechanics.kinematics import assemble
+    >>> from mechrel.mechanics.system import compile_scene
+    >>> from mechrel.scene import load_scene
+    >>> c = compile_scene(load_scene("slider-crank-lubricated"))
+    >>> q, v = assemble(c.assembly, c.q_guess, 0.0)
+    >>> dyn, y = c.dynamic, np.concatenate([q, v, np.zeros(2)])
+    >>> ws = make_workspace(dyn)
+    >>> round(float(ws.minv[0]), 6), 1 / 0.3
+    (3.333333, 3.3333333333333335)
+    """
     n = sys.mass.shape[0]
     m = n_constraints(sys)
     return Workspace(np.empty(n // 3), np.empty(n // 3), 1.0 / sys.mass, np.empty(n),
@@ -336,7 +699,36 @@ def constraint_terms(t, q, v, sys, ws):
     ``γ = −(Φ_q q̇)_q q̇ − 2 Φ_qt q̇ − Φ_tt`` (Nikravesh 1988, §6.2): for a revolute joint
     ``(A_i s_i) ω_i² − (A_j s_j) ω_j²``, for a point on a line ``n·(A_i s_i) ω_i²``, for a driver
     its angular acceleration, zero for fixed angles. The Baumgarte combination
-    ``c = γ − 2α Φ̇ − β² Φ`` is formed here too."""
+    ``c = γ − 2α Φ̇ − β² Φ`` is formed here too.
+
+    Parameters
+    ----------
+    t : float
+        Time (s).
+    q : ndarray, shape (n,)
+        Coordinates ``(x, y, θ)`` of each body (m, m, rad).
+    v : ndarray, shape (n,)
+        Their velocities (m/s, m/s, rad/s).
+    sys : System
+        The mechanism (:class:`~mechrel.mechanics.system.System`).
+    ws : Workspace
+        The workspace (:func:`make_workspace`).
+
+    Examples
+    --------
+    At the assembled state Φ vanishes and Φ̇ to round-off:
+
+    >>> from mechrel.mechanics.kinematics import assemble
+    >>> from mechrel.mechanics.system import compile_scene
+    >>> from mechrel.scene import load_scene
+    >>> c = compile_scene(load_scene("slider-crank-lubricated"))
+    >>> q, v = assemble(c.assembly, c.q_guess, 0.0)
+    >>> dyn, y = c.dynamic, np.concatenate([q, v, np.zeros(2)])
+    >>> ws = make_workspace(dyn)
+    >>> constraint_terms(0.0, q, v, dyn, ws)
+    >>> float(np.abs(ws.phi).max()), bool(np.abs(ws.phidot).max() < 1e-11)
+    (0.0, True)
+    """
     # Arrays are taken out of the tuples once: each attribute access inside a loop would
     # cost a reference-count increment and decrement (a null test and a call when the caller
     # borrowed the tuples, mechanics/borrow.py).
@@ -540,12 +932,45 @@ def _cholesky_solve(sys, L, dinv, x):
 
 @njit(cache=True, inline='always')
 def accelerations_into(t, y, hist, sys, ws):
-    """q̈ into ``ws.acc`` and λ into ``ws.lam``; returns (driver power, clearance power) (W).
+    """q̈ into ``ws.acc`` and λ into ``ws.lam``.
 
     Solves the corrected eq. 24 through the Schur complement (module docstring):
     ``S λ = Φ_q M⁻¹ Q − c``, ``q̈ = M⁻¹ (Q − Φ_qᵀ λ)``, with Φ_q's sparse rows
     (:func:`constraint_terms`). The drivers' generalized force is ``−Φ_q,dᵀ λ_d``, so their
-    power is ``−Σ λ_d θ̇_d``."""
+    power is ``−Σ λ_d θ̇_d``.
+
+    Parameters
+    ----------
+    t : float
+        Time (s).
+    y : ndarray, shape (2 n + 2,)
+        The state ``(q, q̇, W_in, W_cl)``: coordinates (m, rad), velocities (m/s, rad/s), input
+        and clearance work (J).
+    hist : ndarray, shape (nh,)
+        History of the contact-capable joints (impact speed, m/s; :func:`n_contacts`).
+    sys : System
+        The mechanism (:class:`~mechrel.mechanics.system.System`).
+    ws : Workspace
+        The workspace (:func:`make_workspace`).
+
+    Returns
+    -------
+    tuple of float
+        ``(driver power, clearance power)`` (W).
+
+    Examples
+    --------
+    >>> from mechrel.mechanics.kinematics import assemble
+    >>> from mechrel.mechanics.system import compile_scene
+    >>> from mechrel.scene import load_scene
+    >>> c = compile_scene(load_scene("slider-crank-lubricated"))
+    >>> q, v = assemble(c.assembly, c.q_guess, 0.0)
+    >>> dyn, y = c.dynamic, np.concatenate([q, v, np.zeros(2)])
+    >>> ws = make_workspace(dyn)
+    >>> p_in, p_cl = accelerations_into(0.0, y, np.zeros(0), dyn, ws)
+    >>> round(p_in, 4), round(float(ws.acc[0]), 3)
+    (51.9267, -6853.892)
+    """
     sys = borrowed(sys)
     ws = borrowed(ws)
     n = sys.mass.shape[0]
@@ -587,16 +1012,77 @@ def accelerations_into(t, y, hist, sys, ws):
 
 @njit(cache=True)
 def rhs_into(t, y, hist, sys, ws, out):
-    """dy/dt for ``y = [q, q̇, W_in, W_cl]`` into ``out``, allocation-free (the kernels' form)."""
+    """dy/dt for ``y = [q, q̇, W_in, W_cl]`` into ``out``, allocation-free (the kernels' form).
+
+    Parameters
+    ----------
+    t : float
+        Time (s).
+    y : ndarray, shape (2 n + 2,)
+        The state ``(q, q̇, W_in, W_cl)``: coordinates (m, rad), velocities (m/s, rad/s), input
+        and clearance work (J).
+    hist : ndarray, shape (nh,)
+        History of the contact-capable joints (impact speed, m/s; :func:`n_contacts`).
+    sys : System
+        The mechanism (:class:`~mechrel.mechanics.system.System`).
+    ws : Workspace
+        The workspace (:func:`make_workspace`).
+    out : ndarray, shape (2 n + 2,)
+        Receives ``dy/dt = (q̇, q̈, P_in, P_cl)`` (SI units).
+
+    Examples
+    --------
+    >>> from mechrel.mechanics.kinematics import assemble
+    >>> from mechrel.mechanics.system import compile_scene
+    >>> from mechrel.scene import load_scene
+    >>> c = compile_scene(load_scene("slider-crank-lubricated"))
+    >>> q, v = assemble(c.assembly, c.q_guess, 0.0)
+    >>> dyn, y = c.dynamic, np.concatenate([q, v, np.zeros(2)])
+    >>> out = np.empty_like(y)
+    >>> rhs_into(0.0, y, np.zeros(0), dyn, make_workspace(dyn), out)
+    >>> bool(np.array_equal(out[:9], v)), round(float(out[18]), 4)
+    (True, 51.9267)
+    """
     rhs_inline(t, y, hist, sys, ws, out)
 
 
 @njit(cache=True, inline='always')
 def rhs_inline(t, y, hist, sys, ws, out):
-    """:func:`rhs_into`'s body, inlined where a kernel calls it once per stage in a tight loop
-    (RK4): a call passes the System and Workspace tuples as some 400 scalar arguments, 5–8 %
+    """:func:`rhs_into`'s body, inlined where a kernel calls it once per stage in a tight loop.
+
+    In RK4 a call passes the System and Workspace tuples as some 400 scalar arguments, 5–8 %
     of an evaluation of the slider-crank. Use it at one call site per kernel only (each site
-    compiles the whole right-hand side again)."""
+    compiles the whole right-hand side again).
+
+    Parameters
+    ----------
+    t : float
+        Time (s).
+    y : ndarray, shape (2 n + 2,)
+        The state ``(q, q̇, W_in, W_cl)``: coordinates (m, rad), velocities (m/s, rad/s), input
+        and clearance work (J).
+    hist : ndarray, shape (nh,)
+        History of the contact-capable joints (impact speed, m/s; :func:`n_contacts`).
+    sys : System
+        The mechanism (:class:`~mechrel.mechanics.system.System`).
+    ws : Workspace
+        The workspace (:func:`make_workspace`).
+    out : ndarray, shape (2 n + 2,)
+        Receives ``dy/dt = (q̇, q̈, P_in, P_cl)`` (SI units).
+
+    Examples
+    --------
+    >>> from mechrel.mechanics.kinematics import assemble
+    >>> from mechrel.mechanics.system import compile_scene
+    >>> from mechrel.scene import load_scene
+    >>> c = compile_scene(load_scene("slider-crank-lubricated"))
+    >>> q, v = assemble(c.assembly, c.q_guess, 0.0)
+    >>> dyn, y = c.dynamic, np.concatenate([q, v, np.zeros(2)])
+    >>> out = np.empty_like(y)
+    >>> rhs_inline(0.0, y, np.zeros(0), dyn, make_workspace(dyn), out)
+    >>> bool(np.array_equal(out[:9], v)), round(float(out[18]), 4)
+    (True, 51.9267)
+    """
     n = sys.mass.shape[0]
     pin, pcl = accelerations_into(t, y, hist, sys, ws)
     acc = ws.acc
@@ -609,8 +1095,39 @@ def rhs_inline(t, y, hist, sys, ws, out):
 
 @njit(cache=True)
 def accelerations(t, y, hist, sys):
-    """q̈ (n), Lagrange multipliers λ (m), driver power (W), clearance power (W): a
-    convenience form of :func:`accelerations_into` that returns fresh arrays."""
+    """q̈, the Lagrange multipliers λ, driver power and clearance power, as fresh values.
+
+    A convenience form of :func:`accelerations_into`.
+
+    Parameters
+    ----------
+    t : float
+        Time (s).
+    y : ndarray, shape (2 n + 2,)
+        The state ``(q, q̇, W_in, W_cl)``: coordinates (m, rad), velocities (m/s, rad/s), input
+        and clearance work (J).
+    hist : ndarray, shape (nh,)
+        History of the contact-capable joints (impact speed, m/s; :func:`n_contacts`).
+    sys : System
+        The mechanism (:class:`~mechrel.mechanics.system.System`).
+
+    Returns
+    -------
+    tuple
+        ``(q̈ (n,) (m/s², rad/s²), λ (m,), driver power (W), clearance power (W))``.
+
+    Examples
+    --------
+    >>> from mechrel.mechanics.kinematics import assemble
+    >>> from mechrel.mechanics.system import compile_scene
+    >>> from mechrel.scene import load_scene
+    >>> c = compile_scene(load_scene("slider-crank-lubricated"))
+    >>> q, v = assemble(c.assembly, c.q_guess, 0.0)
+    >>> dyn, y = c.dynamic, np.concatenate([q, v, np.zeros(2)])
+    >>> a, lam, p_in, p_cl = accelerations(0.0, y, np.zeros(0), dyn)
+    >>> a.shape, lam.shape, round(p_in, 4)
+    ((9,), (7,), 51.9267)
+    """
     ws = make_workspace(sys)
     pin, pcl = accelerations_into(t, y, hist, sys, ws)
     return ws.acc.copy(), ws.lam.copy(), pin, pcl
@@ -618,8 +1135,40 @@ def accelerations(t, y, hist, sys):
 
 @njit(cache=True)
 def rhs(t, y, hist, sys):
-    """dy/dt for y = [q, q̇, W_in, W_cl] as a fresh array (for Python callers such as SciPy's
-    integrators; the compiled kernels use :func:`rhs_into` with one workspace)."""
+    """dy/dt for y = [q, q̇, W_in, W_cl] as a fresh array.
+
+    For Python callers such as SciPy's integrators; the compiled kernels use :func:`rhs_into`
+    with one workspace.
+
+    Parameters
+    ----------
+    t : float
+        Time (s).
+    y : ndarray, shape (2 n + 2,)
+        The state ``(q, q̇, W_in, W_cl)``: coordinates (m, rad), velocities (m/s, rad/s), input
+        and clearance work (J).
+    hist : ndarray, shape (nh,)
+        History of the contact-capable joints (impact speed, m/s; :func:`n_contacts`).
+    sys : System
+        The mechanism (:class:`~mechrel.mechanics.system.System`).
+
+    Returns
+    -------
+    ndarray, shape (2 n + 2,)
+        ``(q̇, q̈, P_in, P_cl)`` (SI units).
+
+    Examples
+    --------
+    >>> from mechrel.mechanics.kinematics import assemble
+    >>> from mechrel.mechanics.system import compile_scene
+    >>> from mechrel.scene import load_scene
+    >>> c = compile_scene(load_scene("slider-crank-lubricated"))
+    >>> q, v = assemble(c.assembly, c.q_guess, 0.0)
+    >>> dyn, y = c.dynamic, np.concatenate([q, v, np.zeros(2)])
+    >>> f = rhs(0.0, y, np.zeros(0), dyn)
+    >>> bool(np.array_equal(f[:9], v)), f.shape
+    (True, (20,))
+    """
     out = np.empty_like(y)
     rhs_into(t, y, hist, sys, make_workspace(sys), out)
     return out
@@ -733,6 +1282,38 @@ def clearance_jacobian(t, y, hist, sys, ws, f, JS):
     the force-free multipliers — is smooth; the integrator takes it from finite differences
     of the mechanism without clearance forces (``mechrel.integrate.radau``). Rows
     ``n … ny − 1``, columns ``0 … 2n − 1`` of ``JS`` are written. ``f`` receives ``f(t, y)``.
+
+    Parameters
+    ----------
+    t : float
+        Time (s).
+    y : ndarray, shape (2 n + 2,)
+        The state ``(q, q̇, W_in, W_cl)``: coordinates (m, rad), velocities (m/s, rad/s), input
+        and clearance work (J).
+    hist : ndarray, shape (nh,)
+        History of the contact-capable joints (impact speed, m/s; :func:`n_contacts`).
+    sys : System
+        The mechanism (:class:`~mechrel.mechanics.system.System`).
+    ws : Workspace
+        The workspace (:func:`make_workspace`).
+    f : ndarray, shape (2 n + 2,)
+        Receives ``f(t, y)``.
+    JS : ndarray, shape (2 n + 2, 2 n + 2)
+        Receives the clearance forces' part of the Jacobian (SI units of ``f`` over those of
+        ``y``).
+
+    Examples
+    --------
+    >>> from mechrel.mechanics.kinematics import assemble
+    >>> from mechrel.mechanics.system import compile_scene
+    >>> from mechrel.scene import load_scene
+    >>> c = compile_scene(load_scene("slider-crank-lubricated"))
+    >>> q, v = assemble(c.assembly, c.q_guess, 0.0)
+    >>> dyn, y = c.dynamic, np.concatenate([q, v, np.zeros(2)])
+    >>> f, JS = np.empty(20), np.zeros((20, 20))
+    >>> clearance_jacobian(0.0, y, np.zeros(0), dyn, make_workspace(dyn), f, JS)
+    >>> bool(np.array_equal(f, rhs(0.0, y, np.zeros(0), dyn))), bool(np.abs(JS).max() > 0)
+    (True, True)
     """
     y, hist, sys, ws, f, JS = borrowed((y, hist, sys, ws, f, JS))
     n = sys.mass.shape[0]
@@ -938,7 +1519,25 @@ def clearance_jacobian(t, y, hist, sys, ws, f, JS):
 
 @njit(cache=True)
 def n_contacts(sys):
-    """Number of contact-capable clearance joints (the length of ``hist``)."""
+    """Number of contact-capable clearance joints (the length of ``hist``).
+
+    Parameters
+    ----------
+    sys : System
+        The mechanism (:class:`~mechrel.mechanics.system.System`).
+
+    Returns
+    -------
+    int
+        The dry and transition clearance joints.
+
+    Examples
+    --------
+    >>> from mechrel.mechanics.system import compile_scene
+    >>> from mechrel.scene import load_scene
+    >>> n_contacts(compile_scene(load_scene("slider-crank-dry")).dynamic)
+    1
+    """
     nh = 0
     for k in range(sys.cl_hist.shape[0]):
         if sys.cl_hist[k] >= 0:
@@ -948,9 +1547,38 @@ def n_contacts(sys):
 
 @njit(cache=True)
 def gaps_into(t, y, sys, g, gd):
-    """Penetration δ = |e| − c (m) and its rate δ̇ (m/s) of every contact-capable joint, into
-    ``g`` and ``gd`` (indexed like ``hist``); the same values the right-hand side leaves in
-    ``Workspace.gap``/``gaprate``."""
+    """Penetration δ = |e| − c (m) and its rate δ̇ (m/s) of every contact-capable joint.
+
+    Into ``g`` and ``gd`` (indexed like ``hist``); the same values the right-hand side leaves
+    in ``Workspace.gap``/``gaprate``.
+
+    Parameters
+    ----------
+    t : float
+        Time (s).
+    y : ndarray, shape (2 n + 2,)
+        The state ``(q, q̇, W_in, W_cl)``: coordinates (m, rad), velocities (m/s, rad/s), input
+        and clearance work (J).
+    sys : System
+        The mechanism (:class:`~mechrel.mechanics.system.System`).
+    g, gd : ndarray, shape (nh,)
+        Receive δ (m) and δ̇ (m/s).
+
+    Examples
+    --------
+    The dry slider-crank's joint assembled centred: δ = −c = −0.5 mm:
+
+    >>> from mechrel.mechanics.kinematics import assemble
+    >>> from mechrel.mechanics.system import compile_scene
+    >>> from mechrel.scene import load_scene
+    >>> c = compile_scene(load_scene("slider-crank-dry"))
+    >>> q, v = assemble(c.assembly, c.q_guess, 0.0)
+    >>> y = np.concatenate([q, v, np.zeros(2)])
+    >>> g, gd = np.empty(1), np.empty(1)
+    >>> gaps_into(0.0, y, c.dynamic, g, gd)
+    >>> g.round(12).tolist(), gd.tolist()
+    ([-0.0005], [0.0])
+    """
     y, sys, g, gd = borrowed((y, sys, g, gd))
     n = sys.mass.shape[0]
     q = y[:n]
@@ -975,7 +1603,35 @@ def gaps_into(t, y, sys, g, gd):
 
 @njit(cache=True)
 def gaps(t, y, sys):
-    """:func:`gaps_into` returning fresh arrays ``(δ, δ̇)``."""
+    """:func:`gaps_into` returning fresh arrays ``(δ, δ̇)``.
+
+    Parameters
+    ----------
+    t : float
+        Time (s).
+    y : ndarray, shape (2 n + 2,)
+        The state ``(q, q̇, W_in, W_cl)``: coordinates (m, rad), velocities (m/s, rad/s), input
+        and clearance work (J).
+    sys : System
+        The mechanism (:class:`~mechrel.mechanics.system.System`).
+
+    Returns
+    -------
+    tuple of ndarray
+        δ (m) and δ̇ (m/s), each of shape (nh,).
+
+    Examples
+    --------
+    >>> from mechrel.mechanics.kinematics import assemble
+    >>> from mechrel.mechanics.system import compile_scene
+    >>> from mechrel.scene import load_scene
+    >>> c = compile_scene(load_scene("slider-crank-dry"))
+    >>> q, v = assemble(c.assembly, c.q_guess, 0.0)
+    >>> y = np.concatenate([q, v, np.zeros(2)])
+    >>> g, gd = gaps(0.0, y, c.dynamic)
+    >>> g.round(12).tolist(), gd.tolist()
+    ([-0.0005], [0.0])
+    """
     nh = n_contacts(sys)
     g = np.empty(nh)
     gd = np.empty(nh)
@@ -985,8 +1641,34 @@ def gaps(t, y, sys):
 
 @njit(cache=True)
 def violation_from(ws):
-    """Max |Φ| (m or rad) and max |Φ_q q̇ + Φ_t| (m/s or rad/s) of the state whose
-    constraint terms are in ``ws`` (after :func:`constraint_terms` or :func:`rhs_into`)."""
+    """Max |Φ| and max |Φ_q q̇ + Φ_t| of the state whose constraint terms are in ``ws``.
+
+    After :func:`constraint_terms` or :func:`rhs_into`.
+
+    Parameters
+    ----------
+    ws : Workspace
+        The workspace (:func:`make_workspace`).
+
+    Returns
+    -------
+    tuple of float
+        max |Φ| (m or rad), max |Φ̇| (m/s or rad/s).
+
+    Examples
+    --------
+    >>> from mechrel.mechanics.kinematics import assemble
+    >>> from mechrel.mechanics.system import compile_scene
+    >>> from mechrel.scene import load_scene
+    >>> c = compile_scene(load_scene("slider-crank-lubricated"))
+    >>> q, v = assemble(c.assembly, c.q_guess, 0.0)
+    >>> dyn, y = c.dynamic, np.concatenate([q, v, np.zeros(2)])
+    >>> ws = make_workspace(dyn)
+    >>> constraint_terms(0.0, q, v, dyn, ws)
+    >>> pos, vel = violation_from(ws)
+    >>> pos, bool(vel < 1e-11)
+    (0.0, True)
+    """
     ws = borrowed(ws)
     phi = ws.phi
     phidot = ws.phidot
@@ -1000,7 +1682,35 @@ def violation_from(ws):
 
 @njit(cache=True)
 def constraint_violation(t, y, sys):
-    """Max |Φ| (m or rad) and max |Φ_q q̇ + Φ_t| (m/s or rad/s) of the state ``y``."""
+    """Max |Φ| (m or rad) and max |Φ_q q̇ + Φ_t| (m/s or rad/s) of the state ``y``.
+
+    Parameters
+    ----------
+    t : float
+        Time (s).
+    y : ndarray, shape (2 n + 2,)
+        The state ``(q, q̇, W_in, W_cl)``: coordinates (m, rad), velocities (m/s, rad/s), input
+        and clearance work (J).
+    sys : System
+        The mechanism (:class:`~mechrel.mechanics.system.System`).
+
+    Returns
+    -------
+    tuple of float
+        max |Φ|, max |Φ̇|.
+
+    Examples
+    --------
+    >>> from mechrel.mechanics.kinematics import assemble
+    >>> from mechrel.mechanics.system import compile_scene
+    >>> from mechrel.scene import load_scene
+    >>> c = compile_scene(load_scene("slider-crank-lubricated"))
+    >>> q, v = assemble(c.assembly, c.q_guess, 0.0)
+    >>> dyn, y = c.dynamic, np.concatenate([q, v, np.zeros(2)])
+    >>> pos, vel = constraint_violation(0.0, y, dyn)
+    >>> pos, bool(vel < 1e-11)
+    (0.0, True)
+    """
     n = sys.mass.shape[0]
     ws = make_workspace(sys)
     constraint_terms(t, y[:n], y[n:2 * n], sys, ws)
@@ -1009,7 +1719,35 @@ def constraint_violation(t, y, sys):
 
 @njit(cache=True)
 def mechanical_energy(y, sys):
-    """Kinetic energy ½ q̇ᵀ M q̇ and gravitational potential −Σ m g·r (J)."""
+    """Kinetic energy ½ q̇ᵀ M q̇ and gravitational potential −Σ m g·r (J).
+
+    Parameters
+    ----------
+    y : ndarray, shape (2 n + 2,)
+        The state ``(q, q̇, W_in, W_cl)``: coordinates (m, rad), velocities (m/s, rad/s), input
+        and clearance work (J).
+    sys : System
+        The mechanism (:class:`~mechrel.mechanics.system.System`).
+
+    Returns
+    -------
+    tuple of float
+        ``(T, V)`` (J).
+
+    Examples
+    --------
+    All bodies at y = 0, so V = 0; T is ½ q̇ᵀ M q̇:
+
+    >>> from mechrel.mechanics.kinematics import assemble
+    >>> from mechrel.mechanics.system import compile_scene
+    >>> from mechrel.scene import load_scene
+    >>> c = compile_scene(load_scene("slider-crank-lubricated"))
+    >>> q, v = assemble(c.assembly, c.q_guess, 0.0)
+    >>> dyn, y = c.dynamic, np.concatenate([q, v, np.zeros(2)])
+    >>> T, V = mechanical_energy(y, dyn)
+    >>> round(T, 6), round(float(0.5 * (dyn.mass * v**2).sum()), 6), V
+    (63.350904, 63.350904, 0.0)
+    """
     n = sys.mass.shape[0]
     T = 0.0
     V = 0.0
@@ -1022,10 +1760,38 @@ def mechanical_energy(y, sys):
 
 @njit(cache=True)
 def post_process(times, Y, sys):
-    """Per output instant, in one compiled call: the eccentricity (e_x, e_y) (m) of every
-    clearance joint, kinetic and gravitational energy and the elastic contact energy (J).
+    """Per output instant, the clearance joints' eccentricities and the energies.
 
-    Returns (EX, EY, T, V, E) with EX, EY of shape (N, n_clearance)."""
+    In one compiled call: the eccentricity (e_x, e_y) (m) of every clearance joint, kinetic
+    and gravitational energy and the elastic contact energy (J).
+
+    Parameters
+    ----------
+    times : ndarray, shape (N,)
+        The output instants (s).
+    Y : ndarray, shape (N, 2 n + 2)
+        The states at those instants.
+    sys : System
+        The mechanism (:class:`~mechrel.mechanics.system.System`).
+
+    Returns
+    -------
+    tuple of ndarray
+        ``(EX, EY, T, V, E)``: EX, EY of shape (N, n_clearance) (m), T, V, E of shape (N,)
+        (J).
+
+    Examples
+    --------
+    >>> from mechrel.mechanics.kinematics import assemble
+    >>> from mechrel.mechanics.system import compile_scene
+    >>> from mechrel.scene import load_scene
+    >>> c = compile_scene(load_scene("slider-crank-lubricated"))
+    >>> q, v = assemble(c.assembly, c.q_guess, 0.0)
+    >>> dyn, y = c.dynamic, np.concatenate([q, v, np.zeros(2)])
+    >>> EX, EY, T, V, E = post_process(np.zeros(1), y[None], dyn)
+    >>> EX.shape, round(float(T[0]), 6), float(E[0])
+    ((1, 1), 63.350904, 0.0)
+    """
     N = Y.shape[0]
     n = sys.mass.shape[0]
     nc = sys.cl_b.shape[0]
@@ -1059,7 +1825,33 @@ def post_process(times, Y, sys):
 
 @njit(cache=True)
 def driver_angles(law, par, times):
-    """Angle (rad) of one driver at each instant."""
+    """Angle (rad) of one driver at each instant.
+
+    Parameters
+    ----------
+    law : int
+        The driver law code (``System.dr_law``: constant speed, constant acceleration, harmonic).
+    par : ndarray
+        Its parameters (a row of ``System.dr_par``: rad, rad/s, rad/s², Hz, s).
+    times : ndarray, shape (N,)
+        The instants (s).
+
+    Returns
+    -------
+    ndarray, shape (N,)
+        θ (rad).
+
+    Examples
+    --------
+    >>> from mechrel.mechanics.kinematics import assemble
+    >>> from mechrel.mechanics.system import compile_scene
+    >>> from mechrel.scene import load_scene
+    >>> c = compile_scene(load_scene("slider-crank-lubricated"))
+    >>> q, v = assemble(c.assembly, c.q_guess, 0.0)
+    >>> dyn, y = c.dynamic, np.concatenate([q, v, np.zeros(2)])
+    >>> driver_angles(dyn.dr_law[0], dyn.dr_par[0], np.array([0.0, 0.01])).round(6).tolist()
+    [0.0, 5.235988]
+    """
     out = np.empty(times.shape[0])
     for r in range(times.shape[0]):
         out[r] = driver_law(law, par, times[r])[0]

@@ -47,6 +47,13 @@ from .problem import (Workspace, applied_forces_trig, constraint_terms, driver_l
                       joint_state, make_workspace, n_contacts)
 from .system import System
 
+# the public entry points; the ``*_inline`` variants and ``expand_rows`` are building blocks
+# of the functions below
+__all__ = ["NEWTON_TOL", "NEWTON_ACCEPT", "NEWTON_MAX_ITER", "N_SLOTS", "PIVOT_THRESHOLD",
+           "ReducedSystem", "ReducedWorkspace", "make_reduced_workspace", "solve_positions",
+           "reduced_rhs_into", "reduced_gaps_into", "reduced_fd_jacobian", "reduced_system",
+           "initial_state", "expand_solution", "reduced_clearance_jacobian"]
+
 NEWTON_TOL = 64 * 2.220446049250313e-16
 """Newton tolerance on max |Φ|, relative to the mechanism's size ``ReducedSystem.length`` (-):
 a few hundred units of round-off, so that the eccentricity the force laws see differs from
@@ -68,6 +75,37 @@ class ReducedSystem(NamedTuple):
     joints, the drivers and every clearance joint as a revolute joint at zero offset, without
     Baumgarte terms. Clearance joint k (in ``dyn``'s order) is the pair of rows
     ``cl_row[k], cl_row[k] + 1`` of ``con``, which read ``sign_k (r_S − r_B)``.
+
+    Parameters
+    ----------
+    dyn : System
+        The dynamic system (its fields: :class:`~mechrel.mechanics.system.System`).
+    con : System
+        The square constraint system described above.
+    cl_row : ndarray of int, shape (nc,)
+        First row of each clearance joint in ``con``.
+    cl_sign : ndarray, shape (nc,)
+        ±1.0: the sign that makes those rows the eccentricity ``r_S − r_B`` (m).
+    q_guess : ndarray, shape (n,)
+        A configuration near the start (m, rad): the first Newton predictor.
+    jac_floor : ndarray, shape (4 nc,)
+        Floors of the finite-difference increments: the clearance ``c`` (m) for ``z``,
+        ``c`` × the fastest driver speed (m/s) for ``ż``.
+    length : float
+        The mechanism's size (m): largest |x|, |y| of a body at the start, at least 1e-3 m.
+
+    Examples
+    --------
+    >>> from mechrel.mechanics.kinematics import assemble
+    >>> from mechrel.mechanics.system import compile_scene
+    >>> from mechrel.scene import load_scene
+    >>> scene = load_scene("slider-crank-lubricated")
+    >>> c = compile_scene(scene)
+    >>> q0, _ = assemble(c.ideal, c.q_guess, 0.0)
+    >>> qa, _ = assemble(c.assembly, q0, 0.0)
+    >>> rs = reduced_system(scene, c, qa)
+    >>> rs.cl_row.shape, rs.n_states, rs.length
+    ((1,), 6, 0.17)
     """
 
     dyn: System
@@ -80,17 +118,115 @@ class ReducedSystem(NamedTuple):
 
     @property
     def cl_p(self):  # the force-law parameters, as System.cl_p (for the integrators' advice)
+        """The clearance joints' force-law parameters, as ``System.cl_p`` of ``dyn``.
+
+        Returns
+        -------
+        ndarray, shape (nc, N_PARAMS)
+            The packed parameters (:mod:`mechrel.forces.params`), read by the integrators' advice.
+
+        Examples
+        --------
+        >>> from mechrel.mechanics.kinematics import assemble
+        >>> from mechrel.mechanics.system import compile_scene
+        >>> from mechrel.scene import load_scene
+        >>> scene = load_scene("slider-crank-lubricated")
+        >>> c = compile_scene(scene)
+        >>> q0, _ = assemble(c.ideal, c.q_guess, 0.0)
+        >>> qa, _ = assemble(c.assembly, q0, 0.0)
+        >>> rs = reduced_system(scene, c, qa)
+        >>> rs.cl_p is rs.dyn.cl_p
+        True
+        """
         return self.dyn.cl_p
 
     @property
     def n_states(self) -> int:
+        """Length of the reduced state ``x = (z, ż, W_in, W_cl)``: ``4 nc + 2``.
+
+        Returns
+        -------
+        int
+            The number of states.
+
+        Examples
+        --------
+        >>> from mechrel.mechanics.kinematics import assemble
+        >>> from mechrel.mechanics.system import compile_scene
+        >>> from mechrel.scene import load_scene
+        >>> scene = load_scene("slider-crank-lubricated")
+        >>> c = compile_scene(scene)
+        >>> q0, _ = assemble(c.ideal, c.q_guess, 0.0)
+        >>> qa, _ = assemble(c.assembly, q0, 0.0)
+        >>> rs = reduced_system(scene, c, qa)
+        >>> rs.n_states
+        6
+        """
         return 4 * self.cl_row.shape[0] + 2
 
 
 class ReducedWorkspace(NamedTuple):
-    """Arrays of one reduced right-hand-side evaluation, and the last solution (the Newton
-    predictor's cache). After :func:`reduced_rhs_into` ``q``, ``v``, ``a`` hold the bodies'
-    coordinates, velocities and accelerations and ``res[0]`` the Newton residual max |Φ|."""
+    """Arrays of one reduced right-hand-side evaluation and the Newton predictor's cache.
+
+    After :func:`reduced_rhs_into` ``q``, ``v``, ``a`` hold the bodies' coordinates,
+    velocities and accelerations and ``res[0]`` the Newton residual max |Φ|. Built by
+    :func:`make_reduced_workspace`; one per kernel call, not shared between threads. ``n``
+    is the number of coordinates (3 per body), ``nz = 2 nc``, ``nh`` the number of
+    contact-capable joints, ``N_SLOTS`` the predictor's cache size.
+
+    Parameters
+    ----------
+    cws : Workspace
+        Constraint terms of ``con`` (:class:`~mechrel.mechanics.problem.Workspace`).
+    lu : LUFactors
+        Sparse LU factors of Φ_q (:mod:`mechrel.mechanics.kinematics`).
+    A : ndarray, shape (n, n)
+        Φ_q, dense (overwritten by the factorisation).
+    q, v, a : ndarray, shape (n,)
+        The bodies' coordinates (m, rad), velocities (m/s, rad/s), accelerations (m/s², rad/s²).
+    R : ndarray, shape (n, nz)
+        ∂q/∂z (-, rad/m).
+    v0 : ndarray, shape (n,)
+        q̇ at ż = 0 (m/s, rad/s).
+    b : ndarray, shape (n,)
+        Work array.
+    Q : ndarray, shape (n,)
+        Applied generalised forces (N, N·m).
+    Mr : ndarray, shape (nz, nz)
+        Rᵀ M R (kg).
+    fr : ndarray, shape (nz,)
+        Rᵀ (Q − M q̈₀) (N).
+    gap, gaprate : ndarray, shape (nh,)
+        Penetration (m) and its rate (m/s) of each contact-capable joint.
+    qc, vc, ac : ndarray, shape (N_SLOTS, n)
+        The cached solutions q, q̇, q̈ of the last distinct times.
+    Rc : ndarray, shape (N_SLOTS, n, nz)
+        The cached ∂q/∂z.
+    zc : ndarray, shape (N_SLOTS, 3, nz)
+        The cached z (m), ż (m/s), z̈ (m/s²).
+    tc : ndarray, shape (N_SLOTS,)
+        Time of each slot (s).
+    ok : ndarray, shape (N_SLOTS,)
+        1.0 once a slot is written.
+    slot : ndarray of int, shape (2,)
+        The slot read by the last solve, the next slot to replace.
+    res : ndarray, shape (2,)
+        Newton residual of the last evaluation (m), residual of its velocity solve (m/s).
+
+    Examples
+    --------
+    >>> from mechrel.mechanics.kinematics import assemble
+    >>> from mechrel.mechanics.system import compile_scene
+    >>> from mechrel.scene import load_scene
+    >>> scene = load_scene("slider-crank-lubricated")
+    >>> c = compile_scene(scene)
+    >>> q0, _ = assemble(c.ideal, c.q_guess, 0.0)
+    >>> qa, _ = assemble(c.assembly, q0, 0.0)
+    >>> rs = reduced_system(scene, c, qa)
+    >>> rw = make_reduced_workspace(rs)
+    >>> rw.q.shape, rw.R.shape, rw.zc.shape[1:]
+    ((9,), (9, 2), (3, 2))
+    """
 
     cws: Workspace  # constraint terms of ``con`` (cos/sin, Φ, Φ̇, γ, Φ_q's rows)
     lu: LUFactors  # sparse LU of Φ_q
@@ -121,6 +257,32 @@ class ReducedWorkspace(NamedTuple):
 
 @njit(cache=True)
 def make_reduced_workspace(rs):
+    """A :class:`ReducedWorkspace` for ``rs``, its predictor cache filled with ``rs.q_guess``.
+
+    Parameters
+    ----------
+    rs : ReducedSystem
+        The reduced system.
+
+    Returns
+    -------
+    ReducedWorkspace
+        Fresh arrays for :func:`reduced_rhs_into` and its callers.
+
+    Examples
+    --------
+    >>> from mechrel.mechanics.kinematics import assemble
+    >>> from mechrel.mechanics.system import compile_scene
+    >>> from mechrel.scene import load_scene
+    >>> scene = load_scene("slider-crank-lubricated")
+    >>> c = compile_scene(scene)
+    >>> q0, _ = assemble(c.ideal, c.q_guess, 0.0)
+    >>> qa, _ = assemble(c.assembly, q0, 0.0)
+    >>> rs = reduced_system(scene, c, qa)
+    >>> rw = make_reduced_workspace(rs)
+    >>> bool((rw.q == rs.q_guess).all()), rw.Mr.shape
+    (True, (2, 2))
+    """
     n = rs.con.mass.shape[0]
     nz = 2 * rs.cl_row.shape[0]
     nh = n_contacts(rs.dyn)
@@ -295,7 +457,41 @@ def solve_positions_inline(t, z, rs, rw):
 
 @njit(cache=True)
 def solve_positions(t, z, rs, rw):
-    """:func:`solve_positions_inline` as a call."""
+    """``q`` with ``Φ(q, t; z) = 0`` into ``rw.q`` (Newton from the cache's predictor).
+
+    Φ_q is left factored at the solution and its constraint terms in ``rw.cws``. The arrays
+    are borrowed (docs/architecture.md).
+
+    Parameters
+    ----------
+    t : float
+        Time (s).
+    z : ndarray, shape (2 nc,)
+        The clearance joints' eccentricities (m), in ``rs.dyn``'s order.
+    rs : ReducedSystem
+        The reduced system.
+    rw : ReducedWorkspace
+        Its workspace; ``q`` receives the solution.
+
+    Returns
+    -------
+    float
+        max |Φ| at the solution (m), NaN when Newton fails.
+
+    Examples
+    --------
+    >>> from mechrel.mechanics.kinematics import assemble
+    >>> from mechrel.mechanics.system import compile_scene
+    >>> from mechrel.scene import load_scene
+    >>> scene = load_scene("slider-crank-lubricated")
+    >>> c = compile_scene(scene)
+    >>> q0, _ = assemble(c.ideal, c.q_guess, 0.0)
+    >>> qa, _ = assemble(c.assembly, q0, 0.0)
+    >>> rs = reduced_system(scene, c, qa)
+    >>> rw = make_reduced_workspace(rs)
+    >>> bool(solve_positions(0.0, np.zeros(2), rs, rw) < 1e-12)
+    True
+    """
     return solve_positions_inline(t, z, rs, rw)
 
 
@@ -448,14 +644,79 @@ def reduced_rhs_inline(t, x, hist, rs, rw, out):
 
 @njit(cache=True)
 def reduced_rhs_into(t, x, hist, rs, rw, out):
-    """:func:`reduced_rhs_inline` as a call."""
+    """``dx/dt`` for ``x = (z, ż, W_in, W_cl)`` into ``out``; the bodies' ``q, q̇, q̈`` into ``rw``.
+
+    A failed position solve gives NaN (the integrator then shrinks its step).
+
+    Parameters
+    ----------
+    t : float
+        Time (s).
+    x : ndarray, shape (4 nc + 2,)
+        Eccentricities ``z`` (m), their rates ``ż`` (m/s), the input and clearance work (J).
+    hist : ndarray, shape (nh,)
+        History of the contact-capable joints (the impact speed, m/s).
+    rs : ReducedSystem
+        The reduced system.
+    rw : ReducedWorkspace
+        Its workspace; receives ``q``, ``v``, ``a`` and the residuals ``res``.
+    out : ndarray, shape (4 nc + 2,)
+        Receives ``(ż, z̈, P_in, P_cl)`` (m/s, m/s², W, W).
+
+    Examples
+    --------
+    >>> from mechrel.mechanics.kinematics import assemble
+    >>> from mechrel.mechanics.system import compile_scene
+    >>> from mechrel.scene import load_scene
+    >>> scene = load_scene("slider-crank-lubricated")
+    >>> c = compile_scene(scene)
+    >>> q0, _ = assemble(c.ideal, c.q_guess, 0.0)
+    >>> qa, _ = assemble(c.assembly, q0, 0.0)
+    >>> rs = reduced_system(scene, c, qa)
+    >>> rw = make_reduced_workspace(rs)
+    >>> x = initial_state(scene, rs)
+    >>> out = np.empty_like(x)
+    >>> reduced_rhs_into(0.0, x, np.zeros(0), rs, rw, out)
+    >>> out[:2].tolist(), bool(rw.res[0] < 1e-12)
+    ([0.0, 0.0], True)
+    """
     reduced_rhs_inline(t, x, hist, rs, rw, out)
 
 
 @njit(cache=True)
 def reduced_gaps_into(t, x, rs, g, gd):
-    """Penetration δ = |e| − c (m) and its rate (m/s) of the contact-capable joints, straight
-    from ``z`` and ``ż`` (no position solve)."""
+    """Penetration δ = |e| − c (m) and its rate (m/s) of the contact-capable joints.
+
+    Straight from ``z`` and ``ż``: no position solve is needed, ``z`` holds the eccentricities.
+
+    Parameters
+    ----------
+    t : float
+        Time (s).
+    x : ndarray, shape (4 nc + 2,)
+        The reduced state (:func:`reduced_rhs_into`).
+    rs : ReducedSystem
+        The reduced system.
+    g, gd : ndarray, shape (nh,)
+        Receive δ (m) and δ̇ (m/s), in ``hist`` order.
+
+    Examples
+    --------
+    The lubricated slider-crank has no contact-capable joint (``nh = 0``):
+
+    >>> from mechrel.mechanics.kinematics import assemble
+    >>> from mechrel.mechanics.system import compile_scene
+    >>> from mechrel.scene import load_scene
+    >>> scene = load_scene("slider-crank-lubricated")
+    >>> c = compile_scene(scene)
+    >>> q0, _ = assemble(c.ideal, c.q_guess, 0.0)
+    >>> qa, _ = assemble(c.assembly, q0, 0.0)
+    >>> rs = reduced_system(scene, c, qa)
+    >>> g, gd = np.empty(0), np.empty(0)
+    >>> reduced_gaps_into(0.0, initial_state(scene, rs), rs, g, gd)
+    >>> g.shape
+    (0,)
+    """
     x, rs, g, gd = borrowed((x, rs, g, gd))
     dyn = rs.dyn
     nc = rs.cl_row.shape[0]
@@ -468,10 +729,55 @@ def reduced_gaps_into(t, x, rs, g, gd):
 
 @njit(cache=True)
 def reduced_fd_jacobian(t, x, f0, hist, rs, rw, J, xp, fp):
-    """``J = ∂f/∂x`` by forward differences of :func:`reduced_rhs_into` with the increments
-    ``√u max(|x_j|, floor_j)`` (``floor``: the clearance for ``z``, clearance × the fastest
-    driver speed for ``ż``, ``ReducedSystem.jac_floor``), exact rows ``dz/dt = ż`` and zero
-    columns for the work integrals. Returns the number of evaluations (4 nc)."""
+    """``J = ∂f/∂x`` by forward differences of :func:`reduced_rhs_into`.
+
+    The increments are ``√u max(|x_j|, floor_j)`` (``floor``: ``ReducedSystem.jac_floor``),
+    the rows ``dz/dt = ż`` are exact and the work integrals' columns zero.
+
+    Parameters
+    ----------
+    t : float
+        Time (s).
+    x : ndarray, shape (ny,)
+        The reduced state, ``ny = 4 nc + 2``.
+    f0 : ndarray, shape (ny,)
+        ``f(t, x)``.
+    hist : ndarray, shape (nh,)
+        History of the contact-capable joints (m/s).
+    rs : ReducedSystem
+        The reduced system.
+    rw : ReducedWorkspace
+        Its workspace.
+    J : ndarray, shape (ny, ny)
+        Receives the Jacobian (SI units of ``f`` over those of ``x``).
+    xp, fp : ndarray, shape (ny,)
+        Work arrays.
+
+    Returns
+    -------
+    int
+        The number of right-hand-side evaluations, ``4 nc``.
+
+    Examples
+    --------
+    >>> from mechrel.mechanics.kinematics import assemble
+    >>> from mechrel.mechanics.system import compile_scene
+    >>> from mechrel.scene import load_scene
+    >>> scene = load_scene("slider-crank-lubricated")
+    >>> c = compile_scene(scene)
+    >>> q0, _ = assemble(c.ideal, c.q_guess, 0.0)
+    >>> qa, _ = assemble(c.assembly, q0, 0.0)
+    >>> rs = reduced_system(scene, c, qa)
+    >>> rw = make_reduced_workspace(rs)
+    >>> x = initial_state(scene, rs)
+    >>> f0 = np.empty_like(x)
+    >>> reduced_rhs_into(0.0, x, np.zeros(0), rs, rw, f0)
+    >>> J = np.zeros((6, 6))
+    >>> reduced_fd_jacobian(0.0, x, f0, np.zeros(0), rs, rw, J, np.empty(6), np.empty(6))
+    4
+    >>> J[:2].tolist()
+    [[0.0, 0.0, 1.0, 0.0, 0.0, 0.0], [0.0, 0.0, 0.0, 1.0, 0.0, 0.0]]
+    """
     x, f0, hist, rs, rw, J, xp, fp = borrowed((x, f0, hist, rs, rw, J, xp, fp))
     nz = 2 * rs.cl_row.shape[0]
     ny = x.shape[0]
@@ -526,17 +832,22 @@ def expand_rows(times, X, H, rs):
 
 
 def reduced_system(scene, compiled, q0) -> ReducedSystem:
-    """The :class:`ReducedSystem` of a compiled scene, or a ``SimulationError`` naming why the
-    reduced formulation cannot treat it.
+    """The :class:`ReducedSystem` of a compiled scene.
 
     Parameters
     ----------
     scene : Scene
+        The scene (its clearance joints' order and drivers).
     compiled : CompiledScene
         ``compile_scene(scene)``.
     q0 : ndarray, shape (n,)
         The assembled coordinates at the start (m, rad): the first Newton predictor and the
         mechanism's size.
+
+    Returns
+    -------
+    ReducedSystem
+        The reduced formulation of the scene.
 
     Raises
     ------
@@ -544,6 +855,19 @@ def reduced_system(scene, compiled, q0) -> ReducedSystem:
         No clearance joint (nothing to integrate), or an ideal degree of freedom that no
         driver fixes (the constraints with every clearance joint held would not be square),
         or a constraint Jacobian that is singular at the start.
+
+    Examples
+    --------
+    >>> from mechrel.mechanics.kinematics import assemble
+    >>> from mechrel.mechanics.system import compile_scene
+    >>> from mechrel.scene import load_scene
+    >>> scene = load_scene("slider-crank-lubricated")
+    >>> c = compile_scene(scene)
+    >>> q0, _ = assemble(c.ideal, c.q_guess, 0.0)
+    >>> qa, _ = assemble(c.assembly, q0, 0.0)
+    >>> rs = reduced_system(scene, c, qa)
+    >>> rs.con.mass.shape, rs.cl_row.shape
+    ((9,), (1,))
     """
     from ..errors import SimulationError
     from ..scene.model import GROUND
@@ -595,8 +919,33 @@ def reduced_system(scene, compiled, q0) -> ReducedSystem:
 
 
 def initial_state(scene, rs: ReducedSystem) -> np.ndarray:
-    """``x0 = (e0, ė0, 0, 0)``: the clearance joints' initial eccentricities and rates (m,
-    m/s) in ``dyn``'s order, and zero work."""
+    """``x0 = (e0, ė0, 0, 0)``: the clearance joints' initial eccentricities and rates, zero work.
+
+    Parameters
+    ----------
+    scene : Scene
+        The scene (its joints' ``initial_eccentricity`` and ``initial_eccentricity_rate``).
+    rs : ReducedSystem
+        Its reduced system.
+
+    Returns
+    -------
+    ndarray, shape (4 nc + 2,)
+        ``(z, ż, W_in, W_cl)`` (m, m/s, J, J), in ``dyn``'s order of the clearance joints.
+
+    Examples
+    --------
+    >>> from mechrel.mechanics.kinematics import assemble
+    >>> from mechrel.mechanics.system import compile_scene
+    >>> from mechrel.scene import load_scene
+    >>> scene = load_scene("slider-crank-lubricated")
+    >>> c = compile_scene(scene)
+    >>> q0, _ = assemble(c.ideal, c.q_guess, 0.0)
+    >>> qa, _ = assemble(c.assembly, q0, 0.0)
+    >>> rs = reduced_system(scene, c, qa)
+    >>> initial_state(scene, rs).tolist()
+    [0.0, 0.0, 0.0, 0.0, 0.0, 0.0]
+    """
     z = [scene.joints[name].initial_eccentricity for name in _clearance_order(scene)]
     zd = [scene.joints[name].initial_eccentricity_rate for name in _clearance_order(scene)]
     return np.concatenate([np.asarray(z, dtype=float).reshape(-1),
@@ -608,12 +957,50 @@ def _clearance_order(scene):
 
 
 def expand_solution(rs: ReducedSystem, t_out, out):
-    """An integrator kernel's result ``(X, XD, hist, stats, t, x, log, H)`` on the reduced
-    state at the output instants ``t_out``, turned into the absolute one
-    ``(Y, YD, hist, stats, t, y, log, H)`` (the log's rows ``(t, x, dx/dt, hist)`` too), so
-    that everything after the integration reads the same arrays as with the absolute
-    formulation. The largest Newton residual of these rows joins the statistics' position
-    violation. Rows the kernel did not reach (NaN) stay NaN."""
+    """A kernel's result on the reduced state, turned into the absolute one.
+
+    The result ``(X, XD, hist, stats, t, x, log, H)`` at the output instants ``t_out``
+    becomes ``(Y, YD, hist, stats, t, y, log, H)`` (the log's rows ``(t, x, dx/dt, hist)``
+    too), so that everything after the integration reads the same arrays as with the
+    absolute formulation. The largest Newton residual of these rows joins the statistics'
+    position violation. Rows the kernel did not reach (NaN) stay NaN.
+
+    Parameters
+    ----------
+    rs : ReducedSystem
+        The reduced system.
+    t_out : ndarray, shape (N,)
+        The output instants (s).
+    out : tuple
+        The kernel's result ``(X, XD, hist, stats, t, x, log, H)``: ``X``, ``XD`` of shape
+        (N, 4 nc + 2), ``H`` of shape (N, nh), ``log`` of rows ``(t, x, dx/dt, hist)``.
+
+    Returns
+    -------
+    tuple
+        ``(Y, YD, hist, stats, t, y, log, H)`` with ``Y``, ``YD`` of shape (N, 2 n + 2):
+        ``(q, q̇, W_in, W_cl)`` and ``(q̇, q̈, P_in, P_cl)`` in SI units.
+
+    Examples
+    --------
+    One output row at the start, no log:
+
+    >>> from mechrel.mechanics.kinematics import assemble
+    >>> from mechrel.mechanics.system import compile_scene
+    >>> from mechrel.scene import load_scene
+    >>> scene = load_scene("slider-crank-lubricated")
+    >>> c = compile_scene(scene)
+    >>> q0, _ = assemble(c.ideal, c.q_guess, 0.0)
+    >>> qa, _ = assemble(c.assembly, q0, 0.0)
+    >>> rs = reduced_system(scene, c, qa)
+    >>> x0 = initial_state(scene, rs)
+    >>> stats = np.zeros(10)
+    >>> out = (x0[None], np.zeros((1, 6)), np.zeros(0), stats, 0.0, x0, np.zeros((0, 13)),
+    ...        np.zeros((1, 0)))
+    >>> Y, YD, *_ = expand_solution(rs, np.zeros(1), out)
+    >>> Y.shape, round(float(Y[0, 6]), 9)
+    ((1, 20), 0.17)
+    """
     from ..integrate.events import S_VIOL_POS
 
     X, XD, hist, stats, t, x, log, H = out
@@ -652,8 +1039,10 @@ def expand_solution(rs: ReducedSystem, t_out, out):
 
 @njit(cache=True)
 def reduced_clearance_jacobian(t, x, hist, rs, rw, f, JS):
-    """The fast part of ``∂f/∂x``, the one the clearance forces drive, into ``JS`` (rows
-    ``nz … ny − 1``, columns ``0 … 2 nz − 1``); ``f`` receives ``f(t, x)``.
+    """The fast part of ``∂f/∂x``, the one the clearance forces drive, into ``JS``.
+
+    ``JS``'s rows ``nz … ny − 1`` and columns ``0 … 2 nz − 1`` are written; ``f`` receives
+    ``f(t, x)``.
 
     The generalised force of joint k on ``z`` is ``Rᵀ G_k F_k`` with ``F_k = (F_x, F_y, M_S,
     M_B)``: by virtual work ``F·δe_k + M_S δθ_S + M_B δθ_B`` and ``δe_k = δz_k`` exactly, so its
@@ -670,6 +1059,40 @@ def reduced_clearance_jacobian(t, x, hist, rs, rw, f, JS):
     against the film's or contact's stiffness; the integrator takes it from finite
     differences of the mechanism without clearance forces. The clearance power's row gets
     ``∂(F·ė + M_S ω_S + M_B ω_B)/∂x`` on the same terms.
+
+    Parameters
+    ----------
+    t : float
+        Time (s).
+    x : ndarray, shape (ny,)
+        The reduced state, ``ny = 4 nc + 2``.
+    hist : ndarray, shape (nh,)
+        History of the contact-capable joints (m/s).
+    rs : ReducedSystem
+        The reduced system.
+    rw : ReducedWorkspace
+        Its workspace.
+    f : ndarray, shape (ny,)
+        Receives ``f(t, x)``.
+    JS : ndarray, shape (ny, ny)
+        Receives the clearance forces' part of the Jacobian.
+
+    Examples
+    --------
+    >>> from mechrel.mechanics.kinematics import assemble
+    >>> from mechrel.mechanics.system import compile_scene
+    >>> from mechrel.scene import load_scene
+    >>> scene = load_scene("slider-crank-lubricated")
+    >>> c = compile_scene(scene)
+    >>> q0, _ = assemble(c.ideal, c.q_guess, 0.0)
+    >>> qa, _ = assemble(c.assembly, q0, 0.0)
+    >>> rs = reduced_system(scene, c, qa)
+    >>> rw = make_reduced_workspace(rs)
+    >>> x = initial_state(scene, rs)
+    >>> f, JS = np.empty(6), np.zeros((6, 6))
+    >>> reduced_clearance_jacobian(0.0, x, np.zeros(0), rs, rw, f, JS)
+    >>> bool(np.isfinite(JS).all()), f[:2].tolist()
+    (True, [0.0, 0.0])
     """
     x, hist, rs, rw, f, JS = borrowed((x, hist, rs, rw, f, JS))
     reduced_rhs_into(t, x, hist, rs, rw, f)  # R, Rᵀ M R's factor, q, q̇ at x
