@@ -53,19 +53,15 @@ CASES = {
 
 class Peaks:
     """max |error| of the slider per quantity over the analysed window, one run per case
-    (simulated on first use). ``formulation`` applies to the lubricated cases (their
-    integrator, radau, has both; the dry cases' dopri5 integrates the absolute one)."""
+    (simulated on first use)."""
 
-    def __init__(self, cycles, from_angle, formulation="absolute"):
+    def __init__(self, cycles, from_angle):
         self.cycles, self.from_angle, self._cache = cycles, from_angle, {}
-        self.formulation = formulation
 
     def __call__(self, case, qty):
         if case not in self._cache:
             scene, ov = CASES[case]
-            form = self.formulation if scene == "nine-bar-lubricated" else "absolute"
-            res = simulate(load_scene(scene, overrides={**ov, "analysis.cycles": self.cycles}),
-                           formulation=form)
+            res = simulate(load_scene(scene, overrides={**ov, "analysis.cycles": self.cycles}))
             assert res.stats["status"] == "ok"
             keep = res.crank_angle >= self.from_angle
             self._cache[case] = {q: float(np.abs(res.error("slider", q)[keep]).max())
@@ -74,9 +70,9 @@ class Peaks:
         return self._cache[case][qty]
 
 
-@pytest.fixture(scope="module", params=["absolute", "reduced"])
-def fast(request):
-    return Peaks(cycles=1, from_angle=30.0, formulation=request.param)
+@pytest.fixture(scope="module")
+def fast():
+    return Peaks(cycles=1, from_angle=30.0)
 
 
 @pytest.fixture(scope="module")

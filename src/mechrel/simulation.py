@@ -26,7 +26,6 @@ from .forces.models import MODELS
 from .integrate import INTEGRATORS, IntegrationResult, get_integrator
 from .mechanics import problem
 from .mechanics.kinematics import assemble, kinematic_analysis
-from .mechanics.reduced import initial_state, reduced_system
 from .mechanics.system import CompiledScene, compile_scene
 from .scene.model import Scene
 
@@ -670,24 +669,6 @@ def _check_step_budget(solver, times) -> None:
 EXTREME_MAGNITUDE = 1e15
 
 
-FORMULATIONS = ("auto", "absolute", "reduced")
-
-
-def _check_formulation(formulation, solver) -> bool:
-    """Whether the run integrates the reduced formulation (``SimulationError`` for a value
-    or an integrator it does not know)."""
-    if formulation not in FORMULATIONS:
-        raise SimulationError(f"simulate: formulation = {formulation!r}: unknown; allowed: "
-                              + ", ".join(repr(f) for f in FORMULATIONS))
-    if formulation != "reduced":
-        return False
-    if solver.name != "radau":
-        raise SimulationError(f"simulate: formulation = 'reduced': integrator "
-                              f"{solver.name!r} integrates the absolute formulation only; "
-                              "allowed: integrator 'radau' with 'reduced'")
-    return True
-
-
 def extreme_values(scene: Scene) -> list[str]:
     """``PATH = VALUE`` of the scene's numbers of magnitude >= :data:`EXTREME_MAGNITUDE`.
 
@@ -729,8 +710,7 @@ def extreme_values(scene: Scene) -> list[str]:
 
 def simulate(scene: Scene, *, reference: Scene | None = None, method: str = "auto",
              integrator: str | None = None, progress: bool = False, extremes: bool = False,
-             dense_points: int = DENSE_POINTS, formulation: str = "auto",
-             **solver_settings) -> SimulationResult:
+             dense_points: int = DENSE_POINTS, **solver_settings) -> SimulationResult:
     """Simulate a scene over its analysis span.
 
     Parameters
@@ -758,12 +738,6 @@ def simulate(scene: Scene, *, reference: Scene | None = None, method: str = "aut
     dense_points : int
         Points of the integrator's continuous extension evaluated inside each step for the
         extremes (besides the step's end), ≥ 0.
-    formulation : {"auto", "absolute", "reduced"}
-        The coordinates forward dynamics integrates (docs/mechanics.md): ``absolute`` the
-        bodies' coordinates with Lagrange multipliers (any scene, any integrator);
-        ``reduced`` only the clearance joints' eccentricities, the bodies' motion recovered
-        from the constraints (scenes whose ideal degrees of freedom are all driven, with at
-        least one clearance joint; integrator ``radau``). ``auto`` is ``absolute``.
     **solver_settings
         ``step``, ``rtol``, ``atol`` overrides.
 
@@ -799,7 +773,7 @@ def simulate(scene: Scene, *, reference: Scene | None = None, method: str = "aut
     """
     return _explained(scene, reference=reference, method=method, integrator=integrator,
                       progress=progress, extremes=extremes, dense_points=dense_points,
-                      formulation=formulation, **solver_settings)
+                      **solver_settings)
 
 
 def simulate_sample(scene: Scene, solver, *, reference: Scene | None = None,
@@ -859,8 +833,7 @@ def _explained(scene, **kwargs) -> SimulationResult:
 
 def _simulate(scene: Scene, *, reference: Scene | None, method: str, integrator: str | None,
               progress: bool, extremes: bool, dense_points: int, solver=None,
-              provenance: bool = True, formulation: str = "auto",
-              **solver_settings) -> SimulationResult:
+              provenance: bool = True, **solver_settings) -> SimulationResult:
     start = time.perf_counter()
     if not isinstance(scene, Scene):
         raise TypeError(f"simulate: scene must be a Scene, got {type(scene).__name__} "
@@ -883,11 +856,8 @@ def _simulate(scene: Scene, *, reference: Scene | None, method: str, integrator:
             "equation per coordinate (remove a driver or a joint)")
     times = output_times(scene, compiled)
     _check_step_budget(solver, times)
-    reduced = _check_formulation(formulation, solver)
     has_clearance = bool(compiled.clearance_names)
     driven = compiled.ideal.n_constraints == n
-    if reduced and not has_clearance:
-        reduced_system(scene, compiled, compiled.q_guess)  # raises: nothing to reduce to
     tol = scene.solver.assembly_tolerance
     if method not in ("auto", "kinematics", "dynamics"):
         raise SimulationError(f"method: {method!r} is not one of 'auto', 'kinematics', "
@@ -946,18 +916,14 @@ def _simulate(scene: Scene, *, reference: Scene | None, method: str, integrator:
                       labels=compiled.labels["assembly"])
     y0 = np.concatenate([qa, va, np.zeros(problem.N_WORK)])
     hist0 = np.zeros(sys.n_contacts)
-    # the reduced formulation integrates the clearance joints' eccentricities only
-    rsys = reduced_system(scene, compiled, qa) if reduced else None
-    if rsys is not None:
-        y0 = initial_state(scene, rsys)
     bar = None
     if progress:
         from tqdm.auto import tqdm
         bar = tqdm(total=times.size, desc=f"simulate {scene.name}", unit="sample", leave=False)
     t_lo = analysis_window(compiled, times) if extremes else None
     try:
-        res = solver.integrate(sys if rsys is None else rsys, y0, hist0, times, progress=bar,
-                               log_from=t_lo, dense_points=dense_points)
+        res = solver.integrate(sys, y0, hist0, times, progress=bar, log_from=t_lo,
+                               dense_points=dense_points)
     finally:
         if bar is not None:
             bar.close()

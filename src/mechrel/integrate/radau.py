@@ -107,18 +107,12 @@ import numpy as np
 from numba import njit
 
 from ..mechanics.borrow import borrowed
-from ..mechanics.formulation import (floors as contact_floors_of, gaps, n_coordinates,
-                                     new_workspace, record, rhs, rhs_call)
-from ..mechanics.problem import clearance_jacobian, rhs_inline
-from ..mechanics.reduced import (ReducedSystem, expand_solution, reduced_clearance_jacobian,
-                                 reduced_fd_jacobian)
+from ..mechanics.problem import clearance_jacobian, gaps_into, rhs_inline, rhs_into
 from ..mechanics.system import without_clearance_forces
 from .events import (CTL_DONE, H_START_FLOOR, S_JAC, S_LU, S_ONSET_REJECTED, S_REJECTED, S_RHS,
-                     S_STATUS, S_STEPS, STATUS_NEWTON, STATUS_NONFINITE, N_STATS,
+                     S_STATUS, S_STEPS, STATUS_NEWTON, STATUS_NONFINITE,
                      all_finite, log_row, new_log, onset_fraction, out_of_budget,
-                     update_history_from)
-from numba import types
-from numba.extending import overload
+                     record_violation, start, update_history_from)
 from .base import Integrator
 
 # the public entry points; fast_jacobian, diff_jacobian, jacobian_update and has_partial are
@@ -405,114 +399,6 @@ def _rms(a, scal):
     return math.sqrt(s / a.shape[0])
 
 
-# ---------------------------------------------------------------------------- per formulation
-def _is_reduced(sys_type) -> bool:
-    return (isinstance(sys_type, types.BaseNamedTuple)
-            and sys_type.instance_class is ReducedSystem)
-
-
-def fast_jacobian(t, y, hist, sys, ws, f, JS):  # pragma: no cover - compiled only
-    """The fast (clearance-force) part of the Jacobian into ``JS``, ``f(t, y)`` into ``f``:
-    :func:`~mechrel.mechanics.problem.clearance_jacobian` or
-    :func:`~mechrel.mechanics.reduced.reduced_clearance_jacobian`."""
-    raise NotImplementedError("called from compiled code only")
-
-
-@overload(fast_jacobian)
-def _ov_fast_jacobian(t, y, hist, sys, ws, f, JS):
-    if _is_reduced(sys):
-        return lambda t, y, hist, sys, ws, f, JS: reduced_clearance_jacobian(t, y, hist, sys,
-                                                                             ws, f, JS)
-    return lambda t, y, hist, sys, ws, f, JS: clearance_jacobian(t, y, hist, sys, ws, f, JS)
-
-
-def diff_jacobian(t, y, f0, hist, sys, ws, J, floor, yp, fp):  # pragma: no cover
-    """The finite-difference Jacobian (:func:`fd_jacobian` or
-    :func:`~mechrel.mechanics.reduced.reduced_fd_jacobian`); returns its evaluations."""
-    raise NotImplementedError("called from compiled code only")
-
-
-@overload(diff_jacobian)
-def _ov_diff_jacobian(t, y, f0, hist, sys, ws, J, floor, yp, fp):
-    if _is_reduced(sys):
-        return lambda t, y, f0, hist, sys, ws, J, floor, yp, fp: reduced_fd_jacobian(
-            t, y, f0, hist, sys, ws, J, yp, fp)
-    return lambda t, y, f0, hist, sys, ws, J, floor, yp, fp: fd_jacobian(
-        t, y, f0, hist, sys, ws, J, floor, yp, fp)
-
-
-@njit(cache=True)
-def jacobian_update(t, y, f0, hist, sys, sys_smooth, ws, J, JS, Jsm, jac_floor, yp, fa, fb,
-                    partial, n_partial, stats):
-    """``J = ∂f/∂y`` at ``(t, y)`` (module docstring, "Partial updates"): the smooth rest by
-    differences of the mechanism without clearance forces, kept for up to ``MAX_PARTIAL``
-    updates when ``partial``, plus the fast part at ``(t, y)``; the plain difference
-    Jacobian for a mechanism without clearance joints. Either formulation
-    (:mod:`mechrel.mechanics.formulation`). Returns the new count of partial updates."""
-    nq = n_coordinates(sys)
-    ny = y.shape[0]
-    use_partial = has_partial(sys)
-    if partial and n_partial < MAX_PARTIAL:
-        n_partial += 1  # keep the smooth part Jsm of the last full Jacobian
-    elif use_partial:
-        # the smooth rest by differences of the mechanism without clearance forces
-        # (minus its constraint-geometry share, which the fast part recomputes
-        # with the full multipliers)
-        fast_jacobian(t, y, hist, sys_smooth, ws, fb, JS)
-        stats[S_RHS] += 1 + diff_jacobian(t, y, fb, hist, sys_smooth, ws, J, jac_floor,
-                                          yp, fa)
-        for i in range(nq, ny):
-            for c in range(2 * nq):
-                Jsm[i - nq, c] = J[i, c] - JS[i, c]
-        n_partial = 0
-    else:
-        stats[S_RHS] += diff_jacobian(t, y, f0, hist, sys, ws, J, jac_floor, yp, fa)
-        n_partial = 0
-    if use_partial:  # J = smooth part + the fast (clearance) part now
-        fast_jacobian(t, y, hist, sys, ws, fa, JS)
-        stats[S_RHS] += 1
-        for i in range(nq, ny):
-            for c in range(2 * nq):
-                J[i, c] = Jsm[i - nq, c] + JS[i, c]
-    return n_partial
-
-
-def has_partial(sys):  # pragma: no cover - compiled only
-    """Whether the Jacobian has a fast part that can be refreshed alone."""
-    raise NotImplementedError("called from compiled code only")
-
-
-@overload(has_partial)
-def _ov_has_partial(sys):
-    if _is_reduced(sys):
-        return lambda sys: True  # a reduced system has clearance joints
-    return lambda sys: sys.cl_b.shape[0] > 0
-
-
-@njit(cache=True)
-def _start(sys, t0, y0, hist, t_out):
-    """:func:`mechrel.integrate.events.start` for either formulation."""
-    nout = t_out.shape[0]
-    ny = y0.shape[0]
-    Y = np.full((nout, ny), np.nan)
-    YD = np.full((nout, ny), np.nan)
-    stats = np.zeros(N_STATS)
-    floors = contact_floors_of(sys)
-    ws = new_workspace(sys)
-    y = y0.copy()
-    f = np.empty(ny)
-    rhs_call(t0, y, hist, sys, ws, f)
-    stats[S_RHS] += 1
-    record(ws, stats)
-    k = 0
-    while k < nout and t_out[k] <= t0:
-        Y[k] = y
-        YD[k] = f
-        k += 1
-    tend = t_out[nout - 1] if nout > 0 else t0
-    return Y, YD, stats, floors, y, f, k, tend, ws
-
-
 # ---------------------------------------------------------------------------- the kernel
 @njit(cache=True, nogil=True)
 def radau5_kernel(sys, sys_smooth, t0, y0, hist, t_out, h0, rtol_user, atol_user, max_steps,
@@ -594,7 +480,7 @@ def radau5_kernel(sys, sys_smooth, t0, y0, hist, t_out, h0, rtol_user, atol_user
     jac_floor = atol / rtol
     nit = NIT_FIXED if fixed else NIT
 
-    Y, YD, stats, floors, y, f0, k, tend, ws = _start(sys, t0, y0, hist, t_out)
+    Y, YD, stats, floors, y, f0, k, tend, ws = start(sys, t0, y0, hist, t_out)
     H = np.zeros((nout, hist.shape[0]))  # the history state at each output instant
     for i in range(k):
         H[i] = hist
@@ -614,7 +500,7 @@ def radau5_kernel(sys, sys_smooth, t0, y0, hist, t_out, h0, rtol_user, atol_user
     h_fixed = h
 
     J = np.zeros((ny, ny))
-    nq = n_coordinates(sys)
+    nq = sys.mass.shape[0]
     E1 = np.zeros((nq, nq))
     E2 = np.zeros((nq, nq), dtype=np.complex128)
     piv1 = np.zeros(nq, dtype=np.int64)
@@ -641,7 +527,7 @@ def radau5_kernel(sys, sys_smooth, t0, y0, hist, t_out, h0, rtol_user, atol_user
     fc = F3[2]
     yp = np.zeros(ny)
 
-    use_partial = has_partial(sys)  # clearance joints: hybrid partial updates
+    use_partial = sys.cl_b.shape[0] > 0  # clearance joints: hybrid partial updates
     JS = np.zeros((ny, ny))  # clearance part of the Jacobian (rows nq …, columns < 2 nq)
     Jsm = np.zeros((ny - nq, 2 * nq))  # the rest, from the last full Jacobian
     partial = False  # the next Jacobian may refresh only the clearance columns
@@ -671,14 +557,34 @@ def radau5_kernel(sys, sys_smooth, t0, y0, hist, t_out, h0, rtol_user, atol_user
     g1 = np.empty(nh)
     gd1 = np.empty(nh)
     if contacts:
-        gaps(t, y, sys, g0, gd1)  # kept from step to step: the end of one is the next's start
+        gaps_into(t, y, sys, g0, gd1)  # kept from step to step: the end of one is the next's start
     log, nlog = new_log(log_from, ny, nh)
     ylog = np.zeros(ny)
     flog = np.zeros(ny)
     while k < nout:
         if need_jac:
-            n_partial = jacobian_update(t, y, f0, hist, sys, sys_smooth, ws, J, JS, Jsm,
-                                        jac_floor, yp, fa, fb, partial, n_partial, stats)
+            if partial and n_partial < MAX_PARTIAL:
+                n_partial += 1  # keep the smooth part Jsm of the last full Jacobian
+            elif use_partial:
+                # the smooth rest by differences of the mechanism without clearance forces
+                # (minus its constraint-geometry share, which clearance_jacobian recomputes
+                # with the full multipliers)
+                clearance_jacobian(t, y, hist, sys_smooth, ws, fb, JS)
+                stats[S_RHS] += 1 + fd_jacobian(t, y, fb, hist, sys_smooth, ws, J, jac_floor,
+                                                yp, fa)
+                for i in range(nq, ny):
+                    for c in range(2 * nq):
+                        Jsm[i - nq, c] = J[i, c] - JS[i, c]
+                n_partial = 0
+            else:
+                stats[S_RHS] += fd_jacobian(t, y, f0, hist, sys, ws, J, jac_floor, yp, fa)
+                n_partial = 0
+            if use_partial:  # J = smooth part + the fast (clearance) part now
+                clearance_jacobian(t, y, hist, sys, ws, fa, JS)
+                stats[S_RHS] += 1
+                for i in range(nq, ny):
+                    for c in range(2 * nq):
+                        J[i, c] = Jsm[i - nq, c] + JS[i, c]
             partial = False
             stats[S_JAC] += 1
             caljac = True
@@ -755,7 +661,7 @@ def radau5_kernel(sys, sys_smooth, t0, y0, hist, t_out, h0, rtol_user, atol_user
                 ts = t + C1 * h if st == 0 else (t + C2 * h if st == 1 else tph)
                 for i in range(ny):
                     ystage[i] = y[i] + z[i]
-                rhs(ts, ystage, hist, sys, ws, F3[st])
+                rhs_inline(ts, ystage, hist, sys, ws, F3[st])
             stats[S_RHS] += 3
             for i in range(ny):
                 r1[i] = TI11 * fa[i] + TI12 * fb[i] + TI13 * fc[i] - fac1 * w1[i]
@@ -833,7 +739,7 @@ def radau5_kernel(sys, sys_smooth, t0, y0, hist, t_out, h0, rtol_user, atol_user
             if err >= 1.0 and (first or reject):
                 for i in range(ny):
                     ystage[i] = y[i] + ev[i]
-                rhs_call(t, ystage, hist, sys, ws, fa)
+                rhs_into(t, ystage, hist, sys, ws, fa)
                 stats[S_RHS] += 1
                 for i in range(ny):
                     ev[i] = fa[i] + fe[i]
@@ -852,7 +758,7 @@ def radau5_kernel(sys, sys_smooth, t0, y0, hist, t_out, h0, rtol_user, atol_user
             if contacts:
                 for i in range(ny):
                     ystage[i] = y[i] + z3[i]
-                gaps(tph, ystage, sys, g1, gd1)
+                gaps_into(tph, ystage, sys, g1, gd1)
                 th_on = onset_fraction(g0, g1, hist, onset_tol)
                 if th_on < 1.0:
                     stats[S_ONSET_REJECTED] += 1
@@ -891,7 +797,7 @@ def radau5_kernel(sys, sys_smooth, t0, y0, hist, t_out, h0, rtol_user, atol_user
                     for i in range(ny):
                         Y[k, i] = y[i] + s * (cont1[i] + (s - C2M1)
                                               * (cont2[i] + (s - C1M1) * cont3[i]))
-                rhs_call(t_out[k], Y[k], hist, sys, ws, YD[k])
+                rhs_into(t_out[k], Y[k], hist, sys, ws, YD[k])
                 H[k] = hist
                 stats[S_RHS] += 1
                 k += 1
@@ -904,7 +810,7 @@ def radau5_kernel(sys, sys_smooth, t0, y0, hist, t_out, h0, rtol_user, atol_user
                         for i in range(ny):
                             ylog[i] = y[i] + s * (cont1[i] + (s - C2M1)
                                                   * (cont2[i] + (s - C1M1) * cont3[i]))
-                        rhs_call(tj, ylog, hist, sys, ws, flog)
+                        rhs_into(tj, ylog, hist, sys, ws, flog)
                         stats[S_RHS] += 1
                         log, nlog = log_row(log, nlog, tj, ylog, flog, hist)
             if not all_finite(y):
@@ -914,8 +820,8 @@ def radau5_kernel(sys, sys_smooth, t0, y0, hist, t_out, h0, rtol_user, atol_user
             if contacts:
                 g0, g1 = g1, g0
                 changed = update_history_from(g0, gd1, hist, floors, stats)
-            rhs_call(t, y, hist, sys, ws, f0)
-            record(ws, stats)
+            rhs_into(t, y, hist, sys, ws, f0)
+            record_violation(ws, stats)
             stats[S_RHS] += 1
             if t > log_from:  # and the step's end
                 log, nlog = log_row(log, nlog, t, y, f0, hist)
@@ -1026,12 +932,6 @@ class Radau(Integrator):
         return out
 
     def _advance(self, system, t0, y0, hist, t_out, ctl, log_from=math.inf, n_dense=0):
-        if isinstance(system, ReducedSystem):  # the reduced formulation (mechanics.reduced)
-            smooth = system._replace(dyn=without_clearance_forces(system.dyn))
-            out = radau5_kernel(system, smooth, t0, y0, hist, t_out, self.step or 0.0,
-                                self.rtol, self.atol, self.max_steps, self.onset_tolerance,
-                                self.fixed_step, ctl, log_from, n_dense)
-            return expand_solution(system, t_out, out)
         return radau5_kernel(system, without_clearance_forces(system), t0, y0, hist, t_out,
                              self.step or 0.0, self.rtol, self.atol, self.max_steps,
                              self.onset_tolerance, self.fixed_step, ctl, log_from, n_dense)
