@@ -7,6 +7,7 @@ of the integration (as before: up to ~20 s) or workers that linger for minutes f
 
 from __future__ import annotations
 
+import io
 import os
 import signal
 import sqlite3
@@ -17,8 +18,8 @@ from pathlib import Path
 
 import pytest
 
+from mechrel._kernel_cache import warm_up
 from mechrel.scene import load_scene
-from mechrel.simulation import simulate
 
 pytestmark = pytest.mark.skipif(not Path("/proc/self/stat").exists(),
                                 reason="reads process trees from /proc (Linux)")
@@ -48,6 +49,19 @@ methods = ["mc"]
 n = 4096
 seed = 3
 """
+
+
+@pytest.fixture(scope="module", autouse=True)
+def _kernels_compiled():
+    """Compile (or load from numba's cache) the kernels the subprocesses below run, so that
+    their interrupts reach a running computation and not the one-off compilation, which
+    announces itself on stderr ("compiling simulation kernels, once"): on a cold cache whether
+    it is compiled otherwise depends on which tests ran before these."""
+    warm_up(load_scene("slider-crank-lubricated", overrides=LONG_SIMULATION[4::2]),
+            progress=False, file=io.StringIO())  # the --set values of LONG_SIMULATION
+    warm_up(load_scene("slider-crank-lubricated",
+                       overrides=["solver.rtol=1e-5", "solver.atol=1e-8"]),
+            progress=False, file=io.StringIO())
 
 
 def _children(pid: int) -> set[int]:
@@ -104,11 +118,6 @@ def _stop(proc, sig):
     (signal.SIGINT, 130, "Ctrl-C"),
     pytest.param(signal.SIGTERM, 143, "SIGTERM", marks=pytest.mark.slow)])
 def test_simulate_stops_promptly_with_one_line(sig, code, name, tmp_path):
-    # the interrupt must reach a running kernel, not the one-off compilation (which announces
-    # itself on stderr): compile or load the subprocess's DOPRI5 kernel here first (same numba
-    # cache; a cold cache otherwise depends on which tests ran before this one)
-    simulate(load_scene("slider-crank-lubricated",
-                        overrides=["analysis.cycles=1", "solver.integrator=dopri5"]))
     # the simulation starts after the imports: wait until the process has used some CPU time
     proc = subprocess.Popen(CLI + LONG_SIMULATION, stdout=subprocess.PIPE,
                             stderr=subprocess.PIPE, text=True)
