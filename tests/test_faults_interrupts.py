@@ -129,7 +129,7 @@ def test_simulate_stops_promptly_with_one_line(sig, code, name, tmp_path):
           "the simulation to run")
     assert proc.poll() is None, "the simulation ended before it could be interrupted"
     took, err = _stop(proc, sig)
-    assert proc.returncode == code
+    assert proc.returncode == code, f"took {took:.1f} s; stderr: {err!r}"
     assert err == f"mechrel: interrupted ({name})\n"
     assert took < PROMPT, f"took {took:.1f} s to stop"
 
