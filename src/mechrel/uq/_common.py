@@ -222,3 +222,36 @@ def quantity_scale(index, Y: np.ndarray) -> np.ndarray:
             out[m] = a[m].max()
         return out
     return np.full_like(a, a.max() if a.size else 0.0)
+
+
+class CountedByProvenance:
+    """Base of the result classes whose model evaluations are counted in their provenance.
+
+    Examples
+    --------
+    >>> from mechrel.uq import FOSMResult, MonteCarloResult
+    >>> issubclass(FOSMResult, CountedByProvenance), issubclass(MonteCarloResult, CountedByProvenance)
+    (True, True)
+    """
+
+    __slots__ = ()
+
+    @property
+    def n_evaluations(self) -> int:
+        """The model evaluations behind the estimate.
+
+        Rows sent to the executor, cache hits included (``provenance["n_model_evaluations"]``).
+
+        Returns
+        -------
+        int
+            The number of evaluations (for FOSM 2d + 1, for Monte Carlo ``n``, ...).
+
+        Examples
+        --------
+        >>> class R(CountedByProvenance):
+        ...     provenance = {"n_model_evaluations": 7}
+        >>> R().n_evaluations
+        7
+        """
+        return int(self.provenance["n_model_evaluations"])  # type: ignore[attr-defined]

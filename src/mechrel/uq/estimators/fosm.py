@@ -56,6 +56,7 @@ from ..problem.model import check_model
 from ..problem.allowables import (check_event, per_angle_mask, reliability_one_sided,
                           reliability_two_sided, resolve_allowables)
 from ._problem import Problem, RareEventResult
+from .._common import CountedByProvenance
 
 __all__ = ["fosm", "fosm_design", "fd_steps", "FOSMResult", "FOSMPfResult"]
 
@@ -147,7 +148,7 @@ def fosm_design(inputs: UncertainInputs, *, step: Any = "auto", noise: float = E
 
 
 @dataclass(frozen=True, eq=False)
-class FOSMResult:
+class FOSMResult(CountedByProvenance):
     """FOSM reliability per output (frozen).
 
     Parameters
@@ -199,26 +200,6 @@ class FOSMResult:
     provenance: dict = field(repr=False)
     warnings: tuple[str, ...] = ()
 
-    @property
-    def n_evaluations(self) -> int:
-        """The model evaluations behind the estimate.
-
-        Rows sent to the executor, cache hits included (``provenance["n_model_evaluations"]``).
-
-        Returns
-        -------
-        int
-            2d + 1 for d inputs (the central-difference stencil).
-
-        Examples
-        --------
-        >>> from mechrel.uq import Allowable, Normal, UncertainInputs, linear_model
-        >>> inputs = UncertainInputs.from_specs({"a": Normal(0.0, 0.1), "b": Normal(0.0, 0.1)})
-        >>> fosm(model=linear_model([0.0], [[1.0, 1.0]], ["a", "b"]), inputs=inputs,
-        ...      allowable=Allowable(0.2, 0.0), progress=False).n_evaluations
-        5
-        """
-        return int(self.provenance["n_model_evaluations"])
 
     def to_frame(self) -> pd.DataFrame:
         """The per-output table (a copy of ``table``).

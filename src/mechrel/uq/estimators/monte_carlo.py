@@ -75,6 +75,7 @@ from ..problem.model import check_model
 from ..problem.allowables import (binomial_interval, check_event, per_angle_mask, resolve_allowables,
                           whole_cycle_column)
 from ._problem import Problem, RareEventResult
+from .._common import CountedByProvenance
 
 __all__ = ["monte_carlo", "monte_carlo_design", "MonteCarloResult", "MonteCarloPfResult",
            "ALLOWABLE_MODES", "FAILURE_MODES"]
@@ -181,7 +182,7 @@ def sample_moments(Y: np.ndarray, *, confidence_level: float) -> pd.DataFrame:
 
 
 @dataclass(frozen=True, eq=False)
-class MonteCarloResult:
+class MonteCarloResult(CountedByProvenance):
     """Monte Carlo reliability and moments (frozen).
 
     Parameters
@@ -242,26 +243,6 @@ class MonteCarloResult:
     provenance: dict = field(repr=False)
     warnings: tuple[str, ...] = ()
 
-    @property
-    def n_evaluations(self) -> int:
-        """The model evaluations behind the estimate.
-
-        Rows sent to the executor, cache hits included (``provenance["n_model_evaluations"]``).
-
-        Returns
-        -------
-        int
-            The number of samples ``n``.
-
-        Examples
-        --------
-        >>> from mechrel.uq import Allowable, Normal, UncertainInputs, linear_model
-        >>> inputs = UncertainInputs.from_specs({"x": Normal(0.0, 0.1)})
-        >>> monte_carlo(model=linear_model([0.0], [[1.0]], ["x"]), inputs=inputs, n=64, seed=1,
-        ...             allowable=Allowable(0.2, 0.0), progress=False).n_evaluations
-        64
-        """
-        return int(self.provenance["n_model_evaluations"])
 
     def to_frame(self) -> pd.DataFrame:
         """The per-output table (a copy of ``table``).

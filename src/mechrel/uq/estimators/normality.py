@@ -38,6 +38,7 @@ from .._common import _labels, emit_warnings, make_provenance, resolve_outputs_s
 from .fosm import FOSMResult
 from .monte_carlo import MonteCarloResult, reliability_from_samples
 from ..problem.allowables import per_angle_mask
+from .._common import CountedByProvenance
 
 __all__ = ["normality_check", "NormalityResult"]
 
@@ -61,7 +62,7 @@ def _ad_normal_pvalue(a2: float, n: int) -> float:
 
 
 @dataclass(frozen=True, eq=False)
-class NormalityResult:
+class NormalityResult(CountedByProvenance):
     """Per-output normality diagnostics of FOSM against Monte Carlo (frozen).
 
     Parameters
@@ -107,30 +108,6 @@ class NormalityResult:
     provenance: dict = field(repr=False)
     warnings: tuple[str, ...] = ()
 
-    @property
-    def n_evaluations(self) -> int:
-        """The model evaluations behind the estimate.
-
-        Rows sent to the executor, cache hits included (``provenance["n_model_evaluations"]``):
-        those of the Monte Carlo and the FOSM results compared.
-
-        Returns
-        -------
-        int
-            The number of model evaluations.
-
-        Examples
-        --------
-        >>> from mechrel.uq import Allowable, Normal, UncertainInputs, fosm, linear_model, monte_carlo
-        >>> inputs = UncertainInputs.from_specs({"x": Normal(0.0, 0.1)})
-        >>> model, allow = linear_model([0.0], [[1.0]], ["x"]), Allowable(0.2, 0.0)
-        >>> f = fosm(model=model, inputs=inputs, allowable=allow, progress=False)
-        >>> mc = monte_carlo(model=model, inputs=inputs, n=256, seed=1, allowable=allow,
-        ...                  progress=False)
-        >>> normality_check(fosm=f, monte_carlo=mc).n_evaluations >= 256
-        True
-        """
-        return int(self.provenance["n_model_evaluations"])
 
     def to_frame(self) -> pd.DataFrame:
         """The per-output table (a copy of ``table``).

@@ -50,6 +50,7 @@ from .._common import (
 from ..execution.executor import Evaluations
 from ..problem.inputs import UncertainInputs, as_seed_sequence, child_seed, seed_record
 from ..problem.model import check_model
+from .._common import CountedByProvenance
 
 __all__ = ["sobol_design", "sobol_indices", "SobolResult", "peak_abs"]
 
@@ -162,7 +163,7 @@ def sobol_design(inputs: UncertainInputs, *, n: int, calc_second_order: bool = F
 
 
 @dataclass(frozen=True, eq=False)
-class SobolResult:
+class SobolResult(CountedByProvenance):
     """Sobol' indices (frozen). DataFrames are outputs × inputs; ``*_conf`` are CI half-widths.
 
     Parameters
@@ -209,26 +210,6 @@ class SobolResult:
     provenance: dict = field(repr=False)
     warnings: tuple[str, ...] = ()
 
-    @property
-    def n_evaluations(self) -> int:
-        """The model evaluations behind the estimate.
-
-        Rows sent to the executor, cache hits included (``provenance["n_model_evaluations"]``).
-
-        Returns
-        -------
-        int
-            n (d + 2) for Saltelli's design with n base samples and d inputs.
-
-        Examples
-        --------
-        >>> from mechrel.uq import Normal, UncertainInputs, linear_model
-        >>> inputs = UncertainInputs.from_specs({"a": Normal(0.0, 1.0), "b": Normal(0.0, 1.0)})
-        >>> sobol_indices(model=linear_model([0.0], [[1.0, 2.0]], ["a", "b"]), inputs=inputs,
-        ...               n=64, seed=1, progress=False).n_evaluations
-        256
-        """
-        return int(self.provenance["n_model_evaluations"])
 
     def to_frame(self) -> pd.DataFrame:
         """A long table of the indices.

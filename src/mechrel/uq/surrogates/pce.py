@@ -62,6 +62,7 @@ from .._common import (
 from ..execution.executor import STATUS_OK, Evaluations
 from ..problem.inputs import SAMPLING_RULES, UncertainInputs, as_seed_sequence, child_seed, seed_record
 from ..problem.model import check_model
+from .._common import CountedByProvenance
 
 __all__ = ["polynomial_chaos", "pce_design", "PCEResult", "multi_indices"]
 
@@ -268,7 +269,7 @@ def pce_design(
 
 
 @dataclass(frozen=True, eq=False)
-class PCEResult:
+class PCEResult(CountedByProvenance):
     """A fitted polynomial chaos expansion (frozen).
 
     Parameters
@@ -336,27 +337,6 @@ class PCEResult:
     _recurrence: tuple = field(repr=False, default=())
     warnings: tuple[str, ...] = ()
 
-    @property
-    def n_evaluations(self) -> int:
-        """The model evaluations behind the estimate.
-
-        Rows sent to the executor, cache hits included (``provenance["n_model_evaluations"]``).
-
-        Returns
-        -------
-        int
-            The size of the regression design.
-
-        Examples
-        --------
-        >>> from mechrel.uq import Normal, UncertainInputs, linear_model
-        >>> inputs = UncertainInputs.from_specs({"x": Normal(0.0, 0.1)})
-        >>> r = polynomial_chaos(model=linear_model([1.0], [[2.0]], ["x"]), inputs=inputs,
-        ...                      order=1, seed=1, progress=False)
-        >>> r.n_evaluations == r.evaluations.n
-        True
-        """
-        return int(self.provenance["n_model_evaluations"])
 
     def to_frame(self) -> pd.DataFrame:
         """The per-output table of the surrogate's moments, errors and Sobol' indices.
