@@ -18,7 +18,7 @@ Two uses:
 
 * ``benchmarks/bench_lubricated_ninebar.py`` times it against mechrel (targets 1 and 2);
 * ``tests/test_baseline_agreement.py`` checks that :meth:`Baseline.rhs` equals mechrel's
-  compiled ``mechrel.mechanics.problem.rhs`` at random states of every scene type.
+  compiled ``mechrel.mechanics.dynamics.rhs`` at random states of every scene type.
 
 Force laws (as implemented here, written from docs/reference.md and the paper's eqs. 4–19)
 ---------------------------------------------------------------------------------------

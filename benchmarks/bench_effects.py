@@ -10,7 +10,7 @@ For each scene, one revolution of crank 1 (2/3 s at 3π rad/s), output every deg
   threads limited to 1;
 * ``steps``, ``rhs``: accepted steps and right-hand-side evaluations of the integrator the
   scene type uses by default (``mechrel.simulation.DEFAULT_SOLVERS``);
-* ``µs/rhs``: cost of one evaluation of ``mechrel.mechanics.problem.rhs_into`` with one
+* ``µs/rhs``: cost of one evaluation of ``mechrel.mechanics.dynamics.rhs_into`` with one
   workspace, timed directly inside a compiled loop (what the compiled kernels pay; no Python
   dispatch, no allocation), averaged over
   the states of the simulated cycle (so dry scenes mix contact and free-flight states in the
@@ -46,10 +46,10 @@ import time  # noqa: E402
 import numpy as np  # noqa: E402
 from numba import njit  # noqa: E402
 
-from mechrel.mechanics import problem  # noqa: E402
+from mechrel.mechanics.applied import applied_forces_trig  # noqa: E402
 from mechrel.mechanics.borrow import borrowed  # noqa: E402
-from mechrel.mechanics.problem import (applied_forces_trig, body_trig, make_workspace,  # noqa: E402
-                                       rhs, rhs_into)
+from mechrel.mechanics.dynamics import N_WORK, make_workspace, rhs, rhs_into  # noqa: E402
+from mechrel.mechanics.joints import body_trig  # noqa: E402
 from mechrel.mechanics.system import compile_scene  # noqa: E402
 from mechrel.scene import load_scene  # noqa: E402
 from mechrel.simulation import simulate  # noqa: E402
@@ -117,8 +117,8 @@ class Case:
             self.system = cs.dynamic if self.scene.clearance_joints else cs.ideal
             self.T = np.ascontiguousarray(self.res.time)
             self.Y = np.ascontiguousarray(np.concatenate(
-                [self.res.q, self.res.v, np.zeros((self.T.size, problem.N_WORK))], axis=1))
-            assert self.Y.shape[1] == 2 * self.system.mass.size + problem.N_WORK
+                [self.res.q, self.res.v, np.zeros((self.T.size, N_WORK))], axis=1))
+            assert self.Y.shape[1] == 2 * self.system.mass.size + N_WORK
             self.hist = np.zeros(self.system.n_contacts)
             _rhs_loop(self.T[:2], self.Y[:2], self.hist, self.system, 1)
             _forces_loop(self.T[:2], self.Y[:2], self.hist, self.system, 1)

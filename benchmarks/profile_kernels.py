@@ -33,7 +33,10 @@ import math  # noqa: E402
 import time  # noqa: E402
 
 KERNEL_MODULES = ("mechrel.forces.contact", "mechrel.forces.film", "mechrel.forces.friction",
-                  "mechrel.forces.joint", "mechrel.mechanics.problem",
+                  "mechrel.forces.joint", "mechrel.mechanics.drivers",
+                  "mechrel.mechanics.joints", "mechrel.mechanics.constraints",
+                  "mechrel.mechanics.applied", "mechrel.mechanics.dynamics",
+                  "mechrel.mechanics.jacobian", "mechrel.mechanics.post",
                   "mechrel.mechanics.kinematics", "mechrel.integrate.events",
                   "mechrel.integrate.explicit", "mechrel.integrate.radau")
 

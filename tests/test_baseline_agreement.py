@@ -32,7 +32,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from mechrel.mechanics import problem
+from mechrel.mechanics.applied import applied_forces
+from mechrel.mechanics.constraints import constraints, gamma
+from mechrel.mechanics.dynamics import accelerations, rhs
 
 _PATH = Path(__file__).resolve().parents[1] / "benchmarks" / "baseline_numpy.py"
 _spec = importlib.util.spec_from_file_location("baseline_numpy", _PATH)
@@ -157,16 +159,16 @@ def test_rhs_matches_numpy_baseline(label, cases):
         q, v = y[:n], y[n:2 * n]
         # constraints, Jacobian and γ
         phi1, phit1, J1 = bl.constraints(q, t)
-        phi2, phit2, J2 = problem.constraints(q, t, sys_)
-        g1, g2 = bl.gamma(q, v, t), problem.gamma(q, v, t, sys_)
+        phi2, phit2, J2 = constraints(q, t, sys_)
+        g1, g2 = bl.gamma(q, v, t), gamma(q, v, t, sys_)
         # generalised forces
         Q1, p1 = bl.applied(t, q, v, hist)
         Q2 = np.zeros(n)
-        p2, _ = problem.applied_forces(t, q, v, hist, sys_, Q2)
+        p2, _ = applied_forces(t, q, v, hist, sys_, Q2)
         # accelerations, multipliers, powers and the full right-hand side
         a1, lam1, pin1, pcl1 = bl.accelerations(t, y, hist)
-        a2, lam2, pin2, pcl2 = problem.accelerations(t, y, hist, sys_)
-        f1, f2 = bl.rhs(t, y, hist), problem.rhs(t, y, hist, sys_)
+        a2, lam2, pin2, pcl2 = accelerations(t, y, hist, sys_)
+        f1, f2 = bl.rhs(t, y, hist), rhs(t, y, hist, sys_)
         # scales of the two powers: sums of the magnitudes of their terms
         pin_scale = sum(abs(lam2[len(lam2) - len(bl.dyn["dr"]) + k] * v[3 * i + 2])
                         for k, (i, _, _) in enumerate(bl.dyn["dr"]))
@@ -227,6 +229,6 @@ def test_comparison_detects_a_small_model_change():
     for jt in bl.joints:
         jt.p["viscosity"] *= 1.0 + 1e-6
     n = bl.n
-    worst = max(_rel(bl.rhs(t, y, h)[n:2 * n], problem.rhs(t, y, h, bl.cs.dynamic)[n:2 * n])
+    worst = max(_rel(bl.rhs(t, y, h)[n:2 * n], rhs(t, y, h, bl.cs.dynamic)[n:2 * n])
                 for t, y, h in states)
     assert worst > 10 * TOL

@@ -21,7 +21,8 @@ import pytest
 from mechrel.forces.joint import clearance_force
 from mechrel.forces.params import (P_C, P_CE, P_CF, P_EPS0, P_FLOOR, P_K, P_L, P_LAMBDA, P_MU,
                                    P_N, P_V0, P_V1)
-from mechrel.mechanics import problem
+from mechrel.mechanics.dynamics import N_WORK
+from mechrel.mechanics.joints import gaps
 from mechrel.mechanics.system import compile_scene
 from mechrel.scene import load_scene
 from mechrel.simulation import make_integrator, simulate
@@ -47,7 +48,7 @@ def integrate(sc, cs):
     sys = cs.dynamic
     q0, _ = assemble(cs.ideal, cs.q_guess, 0.0)
     qa, va = assemble(cs.assembly, q0, 0.0)
-    y0 = np.concatenate([qa, va, np.zeros(problem.N_WORK)])
+    y0 = np.concatenate([qa, va, np.zeros(N_WORK)])
     return make_integrator(sc).integrate(sys, y0, np.zeros(sys.n_contacts),
                                          output_times(sc, cs))
 
@@ -93,7 +94,7 @@ def test_lubricated_never_evaluates_contact_code():
     # even beyond the wall (a state the film does not let the journal reach)
     assert np.all(np.isfinite(sample_forces(sys.cl_p[0], (0.0, 0.5, 0.99, 1.0, 1.2))))
     assert sys.n_contacts == 0 and np.all(sys.cl_hist == -1)
-    assert problem.gaps(0.0, np.zeros(2 * sys.mass.size + 2), sys)[0].size == 0
+    assert gaps(0.0, np.zeros(2 * sys.mass.size + 2), sys)[0].size == 0
     res = integrate(sc, cs)
     assert np.all(np.isfinite(res.y))
     assert res.stats.n_impacts == 0 and res.stats.n_onset_rejections == 0

@@ -31,7 +31,9 @@ import pytest
 
 from mechrel.forces.joint import clearance_force
 from mechrel.forces.params import P_C, P_CF, P_FLOOR, P_RB, P_RS
-from mechrel.mechanics import problem
+from mechrel.mechanics.applied import applied_forces
+from mechrel.mechanics.dynamics import N_WORK, rhs
+from mechrel.mechanics.joints import gaps, point_state
 from mechrel.mechanics.kinematics import assemble
 from mechrel.mechanics.system import compile_scene
 from mechrel.scene import load_scene
@@ -71,8 +73,8 @@ def joint_states(res, joint):
     e, ed = np.empty((N, 2)), np.empty((N, 2))
     for r in range(N):
         q, v = res.q[r], res.v[r]
-        bx, by, bvx, bvy = problem.point_state(q, v, b, *sys.cl_sb[k])
-        jx, jy, jvx, jvy = problem.point_state(q, v, j, *sys.cl_sj[k])
+        bx, by, bvx, bvy = point_state(q, v, b, *sys.cl_sb[k])
+        jx, jy, jvx, jvy = point_state(q, v, j, *sys.cl_sj[k])
         e[r] = jx - bx, jy - by
         ed[r] = jvx - bvx, jvy - bvy
     wB = res.v[:, 3 * b + 2] if b >= 0 else np.zeros(N)
@@ -146,23 +148,23 @@ def test_centred_start(model):
     sys = cs.dynamic
     q0, _ = assemble(cs.ideal, cs.q_guess, 0.0)
     qa, va = assemble(cs.assembly, q0, 0.0)
-    y0 = np.concatenate([qa, va, np.zeros(problem.N_WORK)])
+    y0 = np.concatenate([qa, va, np.zeros(N_WORK)])
     n = qa.size
     b, j = sys.cl_b[0], sys.cl_j[0]
     assert cs.body_names[j] == "slider" and tuple(sys.cl_sj[0]) == (0.0, 0.0)
-    bx, by, bvx, bvy = problem.point_state(qa, va, b, *sys.cl_sb[0])
+    bx, by, bvx, bvy = point_state(qa, va, b, *sys.cl_sb[0])
     y0[3 * j], y0[3 * j + 1] = bx, by           # journal centre = bearing centre, exactly
     y0[n + 3 * j], y0[n + 3 * j + 1] = bvx, bvy  # and the same velocity
     if model == "dry":
-        assert problem.gaps(0.0, y0, sys)[0][0] == -5e-4
+        assert gaps(0.0, y0, sys)[0][0] == -5e-4
     Q = np.zeros(n)
-    power, elastic = problem.applied_forces(0.0, y0[:n], y0[n:2 * n],
+    power, elastic = applied_forces(0.0, y0[:n], y0[n:2 * n],
                                             np.zeros(sys.n_contacts), sys, Q)
     gravity_only = np.zeros(n)
     for k in range(n // 3):
         gravity_only[3 * k:3 * k + 2] = sys.mass[3 * k] * np.asarray(sys.gravity)
     assert np.array_equal(Q, gravity_only) and power == 0.0 and elastic == 0.0
-    assert np.all(np.isfinite(problem.rhs(0.0, y0, np.zeros(sys.n_contacts), sys)))
+    assert np.all(np.isfinite(rhs(0.0, y0, np.zeros(sys.n_contacts), sys)))
 
     res = simulate(sc)
     scale = check_run(res)
@@ -218,8 +220,8 @@ def test_grazing_impact_uses_the_floored_impact_speed():
     sys = cs.dynamic
     q0, _ = assemble(cs.ideal, cs.q_guess, 0.0)
     qa, va = assemble(cs.assembly, q0, 0.0)
-    y0 = np.concatenate([qa, va, np.zeros(problem.N_WORK)])
-    g0, gd0 = problem.gaps(0.0, y0, sys)
+    y0 = np.concatenate([qa, va, np.zeros(N_WORK)])
+    g0, gd0 = gaps(0.0, y0, sys)
     assert g0[0] == pytest.approx(-gap, abs=1e-12) and gd0[0] == pytest.approx(1e-6)
     out = make_integrator(sc).integrate(sys, y0, np.zeros(sys.n_contacts), res.time[:3])
     floor = sys.cl_p[0, P_FLOOR]

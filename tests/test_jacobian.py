@@ -1,4 +1,4 @@
-"""The fast part of the Jacobian (``mechrel.mechanics.problem.clearance_jacobian``) that the
+"""The fast part of the Jacobian (``mechrel.mechanics.jacobian.clearance_jacobian``) that the
 compiled Radau refreshes between full finite-difference Jacobians.
 
 The force laws are linear in one parameter at a fixed state: the film force in the viscosity
@@ -21,7 +21,8 @@ import numpy as np
 import pytest
 
 from mechrel.forces.params import P_K, P_MU
-from mechrel.mechanics import problem
+from mechrel.mechanics.dynamics import make_workspace, rhs
+from mechrel.mechanics.jacobian import clearance_jacobian
 from mechrel.mechanics.system import compile_scene
 from mechrel.scene import load_scene
 from mechrel.simulation import simulate
@@ -34,7 +35,7 @@ def central_jacobian(t, y, hist, sys, n):
         yp, ym = y.copy(), y.copy()
         yp[j] += h
         ym[j] -= h
-        J[:, j] = (problem.rhs(t, yp, hist, sys) - problem.rhs(t, ym, hist, sys)) / (2 * h)
+        J[:, j] = (rhs(t, yp, hist, sys) - rhs(t, ym, hist, sys)) / (2 * h)
     return J
 
 
@@ -57,11 +58,11 @@ def force_linear_part(name, column, hist):
     Jd = (central_jacobian(t, y, hist, s2, n) - central_jacobian(t, y, hist, s1, n))[n:, :2 * n]
     JS = []
     for s_ in (s2, s1):
-        ws = problem.make_workspace(s_)
+        ws = make_workspace(s_)
         J = np.zeros((y.size, y.size))
         f = np.empty(y.size)
-        problem.clearance_jacobian(t, y, hist, s_, ws, f, J)
-        assert np.array_equal(f, problem.rhs(t, y, hist, s_))  # f(t, y) comes back too
+        clearance_jacobian(t, y, hist, s_, ws, f, J)
+        assert np.array_equal(f, rhs(t, y, hist, s_))  # f(t, y) comes back too
         JS.append(J[n:, :2 * n])
     return Jd, JS[0] - JS[1], n, eps
 

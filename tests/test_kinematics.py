@@ -111,7 +111,7 @@ def _numpy_kinematics(system, q0, times, tol):
     """The kinematic analysis written plainly with NumPy: the same Taylor predictor and Newton
     iteration as the compiled kernel, every linear system by np.linalg.solve (LAPACK) on the
     dense Φ_q from constraints()."""
-    from mechrel.mechanics.problem import constraints, gamma
+    from mechrel.mechanics.constraints import constraints, gamma
 
     n = q0.size
     Q, V, A = (np.empty((times.size, n)) for _ in range(3))

@@ -256,7 +256,7 @@ def _compile_job(name: str, scene) -> None:
     import numba
     import numpy as np
 
-    from .mechanics import problem
+    from .mechanics.dynamics import N_WORK, make_workspace
     from .mechanics.kinematics import assemble, kinematic_analysis
     from .mechanics.system import compile_scene
 
@@ -269,22 +269,26 @@ def _compile_job(name: str, scene) -> None:
         kinematic_analysis(compiled.ideal, q0, output_times(scene, compiled)[:2], tol=tol)
         return
     sys_ = compiled.dynamic
-    ny = 2 * compiled.q_guess.size + problem.N_WORK
+    ny = 2 * compiled.q_guess.size + N_WORK
     vec = numba.typeof(np.zeros(ny))
     mat = numba.typeof(np.zeros((ny, ny)))
     hist = numba.typeof(np.zeros(sys_.n_contacts))
     sys_t = numba.typeof(sys_)
     f64 = numba.float64
     if name == "post_process":
-        problem.post_process.compile((vec, mat, sys_t))
+        from .mechanics.post import post_process
+
+        post_process.compile((vec, mat, sys_t))
         return
-    ws = numba.typeof(problem.make_workspace(sys_))
+    ws = numba.typeof(make_workspace(sys_))
     if name == "rhs":
         from .integrate.events import start
 
         start.compile((sys_t, f64, vec, hist, vec))
     elif name == "clearance_jacobian":
-        problem.clearance_jacobian.compile((f64, vec, hist, sys_t, ws, vec, mat))
+        from .mechanics.jacobian import clearance_jacobian
+
+        clearance_jacobian.compile((f64, vec, hist, sys_t, ws, vec, mat))
     elif name == "fd_jacobian":
         from .integrate.radau import fd_jacobian
 

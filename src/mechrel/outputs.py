@@ -231,7 +231,7 @@ def _multiplier_force(compiled, which, name, st):
     """|λ| (N) of the two constraint rows of revolute joint ``name`` in system ``which``
     (``"ideal"`` or ``"dynamic"``): the force the joint transmits, from the equations of
     motion at the states (for the driven ideal mechanism, its inverse dynamics)."""
-    from .mechanics.problem import N_WORK, accelerations_into, make_workspace
+    from .mechanics.dynamics import N_WORK, accelerations_into, make_workspace
 
     sys = getattr(compiled, which)
     labels = compiled.labels[which]

@@ -24,8 +24,10 @@ import numpy as np
 from .errors import AssemblyError, SimulationError
 from .forces.models import MODELS
 from .integrate import INTEGRATORS, IntegrationResult, get_integrator
-from .mechanics import problem
+from .mechanics.drivers import driver_angles, driver_law
+from .mechanics.dynamics import N_WORK
 from .mechanics.kinematics import assemble, kinematic_analysis
+from .mechanics.post import post_process
 from .mechanics.system import CompiledScene, compile_scene
 from .scene.model import Scene
 
@@ -220,8 +222,8 @@ def _crank_angle(scene: Scene, compiled: CompiledScene, times: np.ndarray):
         return None
     sys = compiled.ideal
     k = compiled.cycle_driver
-    theta = problem.driver_angles(sys.dr_law[k], sys.dr_par[k], times)
-    th0 = problem.driver_law(sys.dr_law[k], sys.dr_par[k], 0.0)[0]
+    theta = driver_angles(sys.dr_law[k], sys.dr_par[k], times)
+    th0 = driver_law(sys.dr_law[k], sys.dr_par[k], 0.0)[0]
     sign = math.copysign(1.0, scene.drivers[compiled.driver_names[k]].speed)
     return (theta - th0) * sign * (180.0 / math.pi)
 
@@ -449,7 +451,7 @@ def _orbits_and_energy(compiled: CompiledScene, res: IntegrationResult):
     sys = compiled.dynamic
     n = sys.mass.shape[0]
     Y = np.ascontiguousarray(res.y)
-    EX, EY, T, V, E = problem.post_process(np.ascontiguousarray(res.t), Y, sys)
+    EX, EY, T, V, E = post_process(np.ascontiguousarray(res.t), Y, sys)
     orbits = {name: {"ex": EX[:, k], "ey": EY[:, k],
                      "eps": np.hypot(EX[:, k], EY[:, k]) / sys.cl_p[k, P_C]}
               for k, name in enumerate(compiled.clearance_names)}
@@ -914,7 +916,7 @@ def _simulate(scene: Scene, *, reference: Scene | None, method: str, integrator:
     sys = compiled.dynamic
     qa, va = assemble(compiled.assembly, q0, 0.0, tol=tol,
                       labels=compiled.labels["assembly"])
-    y0 = np.concatenate([qa, va, np.zeros(problem.N_WORK)])
+    y0 = np.concatenate([qa, va, np.zeros(N_WORK)])
     hist0 = np.zeros(sys.n_contacts)
     bar = None
     if progress:

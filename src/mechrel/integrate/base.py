@@ -8,7 +8,7 @@ A subclass of :class:`Integrator`
   (bool), ``adaptive`` (bool) and ``defaults`` (a dict of the settings it uses: some of
   ``step``, ``rtol``, ``atol``);
 * implements ``_advance(system, t0, y0, hist, t_out, ctl, log_from, n_dense) -> (Y, YD, hist,
-  stats, t, y, log, H)`` which integrates the right-hand side of :mod:`mechrel.mechanics.problem`
+  stats, t, y, log, H)`` which integrates the right-hand side of :mod:`mechrel.mechanics.dynamics`
   (compiled kernels: ``rhs_into`` with one ``make_workspace``) from ``(t0, y0)`` over the
   increasing output instants ``t_out`` (all ≥ t0), returning the state ``Y`` and its
   derivative ``YD`` at each instant, the history state after the last instant, the statistics

@@ -17,7 +17,9 @@ import numpy as np
 from numba import njit
 
 from ..forces.params import P_FLOOR
-from ..mechanics.problem import gaps, make_workspace, n_contacts, rhs_into, violation_from
+from ..mechanics.constraints import violation_from
+from ..mechanics.dynamics import make_workspace, rhs_into
+from ..mechanics.joints import gaps, n_contacts
 
 # Layout of the float64 statistics vector every kernel returns.
 S_STEPS, S_RHS, S_REJECTED, S_ONSET_REJECTED, S_IMPACTS, S_JAC, S_LU, S_VIOL_POS, S_VIOL_VEL, \
@@ -209,7 +211,7 @@ def record_violation(ws, stats):
 
     Parameters
     ----------
-    ws : mechrel.mechanics.problem.Workspace
+    ws : mechrel.mechanics.dynamics.Workspace
         The right-hand side's workspace.
     stats : numpy.ndarray
         Statistics vector; ``stats[S_VIOL_POS]`` (m or rad) and ``stats[S_VIOL_VEL]``

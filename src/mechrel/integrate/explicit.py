@@ -1,7 +1,7 @@
 """Compiled explicit kernels: classical RK4 at a fixed step, and Dormand–Prince 5(4) with
 step-size control and its 4th-order continuous extension.
 
-Both integrate ``mechrel.mechanics.problem.rhs`` on the output grid ``t_out`` and return the
+Both integrate ``mechrel.mechanics.dynamics.rhs`` on the output grid ``t_out`` and return the
 state and its derivative at each output instant, the history state, and the statistics vector
 (:mod:`mechrel.integrate.events`). No Python is called inside the step loop.
 
@@ -20,7 +20,7 @@ import numpy as np
 from numba import njit
 
 from ..mechanics.borrow import borrowed
-from ..mechanics.problem import rhs_inline, rhs_into
+from ..mechanics.dynamics import rhs_inline, rhs_into
 from .events import (CTL_DONE, H_START_FLOOR, S_ONSET_REJECTED, S_REJECTED, S_RHS, S_STATUS,
                      S_STEPS, STATUS_NONFINITE, all_finite, log_row, new_log,
                      onset_fraction, out_of_budget, record_violation, start,
@@ -33,7 +33,7 @@ def _rk4_step(t, y, h, hist, sys, ws, K, tmp, out):
     ``K[4] = f(t + h, out)``, the next step's first stage (so ``ws`` holds the constraint
     terms and contact gaps of ``out`` on return). Stage states are built in ``tmp`` by loops;
     the four evaluations share one (inlined) right-hand-side call site. Allocates nothing.
-    The arrays are used borrowed (:func:`~mechrel.mechanics.problem.borrowed`): the caller
+    The arrays are used borrowed (:func:`~mechrel.mechanics.borrow.borrowed`): the caller
     owns them for the duration of the call."""
     y, hist, sys, ws, K, tmp, out = borrowed((y, hist, sys, ws, K, tmp, out))
     n = y.shape[0]

@@ -2,7 +2,7 @@
 
 Everything per step runs in numba: the simplified Newton iteration on the transformed stage
 equations (one real and one complex linear system of the size of the state), the
-finite-difference Jacobian of ``mechrel.mechanics.problem.rhs`` and its reuse across steps, LU
+finite-difference Jacobian of ``mechrel.mechanics.dynamics.rhs`` and its reuse across steps, LU
 factorisations with partial pivoting (numba has no ``scipy.linalg.lu_factor``), the filtered
 error estimate, Gustafsson's predictive step-size control and the dense output of the
 collocation polynomial at the output instants. The kernel calls the problem functions by
@@ -59,7 +59,7 @@ trajectory (ε up to 0.98): column-wise relative error ≤ 3e-3 against central 
 
 Partial updates: the stiff, fast-changing entries of ``J`` are the derivatives of the
 clearance-joint forces and what they drive through the constraints (the multipliers λ and
-the accelerations carry the forces). :func:`mechrel.mechanics.problem.clearance_jacobian`
+the accelerations carry the forces). :func:`mechrel.mechanics.jacobian.clearance_jacobian`
 computes that *fast part* semi-analytically — the force laws differenced alone (cheap), the
 joint kinematics and the constrained response exact, with the Schur factor of the
 right-hand side — for the cost of about four right-hand sides (6.9 µs against 1.5 µs on the
@@ -76,6 +76,28 @@ start, after a history change, after a Newton failure or error-test rejection wi
 Jacobian, and at least every ``MAX_PARTIAL`` updates. On the lubricated nine-bar this needs
 6.5k right-hand sides per cycle where differencing the clearance bodies' columns needed
 12.4k (docs/performance.md).
+
+Code structure
+--------------
+:func:`radau5_kernel` holds the step loop and its control: step size (error test,
+Gustafsson's controller, Newton shrink and failure), when to update the Jacobian and when to
+refactorise, contact onsets, outputs and the log. Each numerical part of a step is a compiled
+helper with a documented contract, in the order a step calls them (the subroutines of
+``radau5.f`` they correspond to in brackets):
+
+* :func:`_update_jacobian` — the Jacobian, full or partial (below);
+* :func:`_factor_matrices` — the real and complex condensed iteration matrices and their LU
+  factors (:func:`_build_matrices`, :func:`lu_factor`; DECOMR, DECOMC);
+* :func:`_newton_start` — the Newton starting values from the previous collocation polynomial;
+* :func:`_solve_collocation` — the simplified Newton iteration (RADCOR's loop), returning
+  converged / failed / shrunk, the iterations, θ and η; it is the only place the stages call
+  the right-hand side (:func:`~mechrel.mechanics.dynamics.rhs_inline`, one inlined call site);
+* :func:`_estimate_error` — the filtered error estimate (ESTRAD);
+* :func:`_collocation_coefficients` — the accepted step's collocation polynomial (CONTR5's
+  coefficients), and :func:`_dense_output`, its value inside the step.
+
+The helpers' arithmetic is the kernel's, in the same order, so the cut left every result
+bitwise unchanged.
 
 History and contact onsets
 --------------------------
@@ -107,7 +129,9 @@ import numpy as np
 from numba import njit
 
 from ..mechanics.borrow import borrowed
-from ..mechanics.problem import clearance_jacobian, gaps_into, rhs_inline, rhs_into
+from ..mechanics.dynamics import rhs_inline, rhs_into
+from ..mechanics.jacobian import clearance_jacobian
+from ..mechanics.joints import gaps_into
 from ..mechanics.system import without_clearance_forces
 from .events import (CTL_DONE, H_START_FLOOR, S_JAC, S_LU, S_ONSET_REJECTED, S_REJECTED, S_RHS,
                      S_STATUS, S_STEPS, STATUS_NEWTON, STATUS_NONFINITE,
@@ -115,8 +139,8 @@ from .events import (CTL_DONE, H_START_FLOOR, S_JAC, S_LU, S_ONSET_REJECTED, S_R
                      record_violation, start, update_history_from)
 from .base import Integrator
 
-# the public entry points; fast_jacobian, diff_jacobian, jacobian_update and has_partial are
-# building blocks of the kernel
+# the public entry points; the underscored functions are the kernel's building blocks
+# (module docstring, "Code structure")
 __all__ = ["Radau", "radau5_kernel", "fd_jacobian", "lu_factor", "lu_solve"]
 
 # ---------------------------------------------------------------------------- constants
@@ -288,7 +312,7 @@ def fd_jacobian(t, y, f0, hist, sys, ws, J, floor, yp, fp):
     sys : System
         The mechanism (:class:`~mechrel.mechanics.system.System`).
     ws : Workspace
-        Its workspace (:class:`~mechrel.mechanics.problem.Workspace`).
+        Its workspace (:class:`~mechrel.mechanics.dynamics.Workspace`).
     J : ndarray, shape (ny, ny)
         Receives the Jacobian (SI units of ``f`` over those of ``y``).
     floor : float
@@ -304,7 +328,7 @@ def fd_jacobian(t, y, f0, hist, sys, ws, J, floor, yp, fp):
     Examples
     --------
     >>> from mechrel.mechanics.kinematics import assemble
-    >>> from mechrel.mechanics.problem import make_workspace, rhs
+    >>> from mechrel.mechanics.dynamics import make_workspace, rhs
     >>> from mechrel.mechanics.system import compile_scene
     >>> from mechrel.scene import load_scene
     >>> c = compile_scene(load_scene("slider-crank-lubricated"))
@@ -399,6 +423,408 @@ def _rms(a, scal):
     return math.sqrt(s / a.shape[0])
 
 
+# ---------------------------------------------------------------------------- the step's parts
+# The kernel keeps the step loop and its control (step size, Jacobian and LU reuse, rejection,
+# contact onsets, outputs); each numerical part of a step is one of these helpers (as SciPy's
+# ``_ivp/radau.py`` cuts its solver into ``solve_collocation_system``, ``predict_factor``, …).
+# Their arithmetic is the kernel's, in the same order: the results are bitwise those of the
+# kernel before the cut.
+
+NEWTON_CONVERGED = 0  # outcomes of _solve_collocation
+NEWTON_FAILED = 1  # divergence, NIT iterations or a non-finite stage: halve the step
+NEWTON_SHRINK = 2  # converging too slowly for NIT iterations: the step was shrunk already
+
+
+@njit(cache=True)
+def _update_jacobian(t, y, f0, hist, sys, sys_smooth, ws, J, JS, Jsm, partial, n_partial,
+                     use_partial, jac_floor, yp, fa, fb, stats):
+    """Bring the Jacobian ``J`` of the right-hand side up to date at ``(t, y)`` (module
+    docstring, "Partial updates").
+
+    Without clearance joints (``use_partial`` False) ``J`` is the finite-difference Jacobian
+    (:func:`fd_jacobian`). With them ``J`` = smooth rest + fast part: a *partial* update
+    (``partial`` and fewer than ``MAX_PARTIAL`` since the last full one) keeps the smooth rest
+    ``Jsm`` and recomputes only the fast part
+    (:func:`~mechrel.mechanics.jacobian.clearance_jacobian`); a full update first recomputes
+    ``Jsm`` from differences of ``sys_smooth`` minus its own fast part.
+
+    Parameters
+    ----------
+    t : float
+        Time (s).
+    y, f0 : ndarray, shape (ny,)
+        The state (SI units) and ``rhs(t, y)``.
+    hist : ndarray, shape (nh,)
+        History of the contact-capable joints (m/s).
+    sys, sys_smooth : System
+        The mechanism and the same without clearance forces.
+    ws : Workspace
+        The right-hand side's workspace.
+    J : ndarray, shape (ny, ny)
+        The Jacobian; updated.
+    JS : ndarray, shape (ny, ny)
+        Receives the fast part (rows ``nq …``, columns ``< 2 nq``).
+    Jsm : ndarray, shape (ny − nq, 2 nq)
+        The smooth rest of the last full update; recomputed by a full one.
+    partial : bool
+        A partial update is allowed.
+    n_partial : int
+        Partial updates since the last full one.
+    use_partial : bool
+        The scene has clearance joints (``J`` is rest + fast part).
+    jac_floor : float
+        Floor of the difference increments' scale (``atol/rtol``, SI units of ``y``).
+    yp, fa, fb : ndarray, shape (ny,)
+        Work arrays (``fa``, ``fb``: two rows of the kernel's stage values).
+    stats : ndarray
+        Statistics vector: the evaluations are added to ``S_RHS``, one Jacobian to ``S_JAC``.
+
+    Returns
+    -------
+    int
+        The new count of partial updates since the last full one.
+    """
+    nq = sys.mass.shape[0]
+    ny = y.shape[0]
+    if partial and n_partial < MAX_PARTIAL:
+        n_partial += 1  # keep the smooth part Jsm of the last full Jacobian
+    elif use_partial:
+        # the smooth rest by differences of the mechanism without clearance forces
+        # (minus its constraint-geometry share, which clearance_jacobian recomputes
+        # with the full multipliers)
+        clearance_jacobian(t, y, hist, sys_smooth, ws, fb, JS)
+        stats[S_RHS] += 1 + fd_jacobian(t, y, fb, hist, sys_smooth, ws, J, jac_floor,
+                                        yp, fa)
+        for i in range(nq, ny):
+            for c in range(2 * nq):
+                Jsm[i - nq, c] = J[i, c] - JS[i, c]
+        n_partial = 0
+    else:
+        stats[S_RHS] += fd_jacobian(t, y, f0, hist, sys, ws, J, jac_floor, yp, fa)
+        n_partial = 0
+    if use_partial:  # J = smooth part + the fast (clearance) part now
+        clearance_jacobian(t, y, hist, sys, ws, fa, JS)
+        stats[S_RHS] += 1
+        for i in range(nq, ny):
+            for c in range(2 * nq):
+                J[i, c] = Jsm[i - nq, c] + JS[i, c]
+    stats[S_JAC] += 1
+    return n_partial
+
+
+@njit(cache=True)
+def _factor_matrices(J, h, E1, E2, piv1, piv2):
+    """Build and LU-factorise the real and complex condensed iteration matrices for the step
+    ``h`` (:func:`_build_matrices`, :func:`lu_factor`).
+
+    Parameters
+    ----------
+    J : ndarray, shape (ny, ny)
+        The Jacobian.
+    h : float
+        The step (s).
+    E1, E2 : ndarray, shape (nq, nq), float and complex
+        Receive the factors.
+    piv1, piv2 : ndarray of int, shape (nq,)
+        Receive their row interchanges.
+
+    Returns
+    -------
+    bool
+        False if either matrix is singular (then ``E2`` is not factorised).
+    """
+    _build_matrices(J, h, E1, E2)
+    ok = lu_factor(E1, piv1)
+    if ok:
+        ok = lu_factor(E2, piv2)
+    return ok
+
+
+@njit(cache=True)
+def _newton_start(first, h, hold, cont1, cont2, cont3, z1, z2, z3, w1, w2, w3):
+    """Starting values of the Newton iteration: zero on the first step, else the previous
+    step's collocation polynomial extrapolated to the new stages (RADCOR).
+
+    Parameters
+    ----------
+    first : bool
+        The first step (no polynomial yet).
+    h, hold : float
+        The new and the previous step (s).
+    cont1, cont2, cont3 : ndarray, shape (ny,)
+        The previous polynomial's coefficients (:func:`_collocation_coefficients`).
+    z1, z2, z3 : ndarray, shape (ny,)
+        Receive the stages ``Z_i = Y_i − y`` (SI units of ``y``).
+    w1, w2, w3 : ndarray, shape (ny,)
+        Receive the transformed stages ``W = (T⁻¹ ⊗ I) Z``.
+    """
+    ny = z1.shape[0]
+    if first:
+        for i in range(ny):
+            z1[i] = 0.0
+            z2[i] = 0.0
+            z3[i] = 0.0
+            w1[i] = 0.0
+            w2[i] = 0.0
+            w3[i] = 0.0
+    else:
+        c3q = h / hold
+        c1q = C1 * c3q
+        c2q = C2 * c3q
+        for i in range(ny):
+            ak1 = cont1[i]
+            ak2 = cont2[i]
+            ak3 = cont3[i]
+            a = c1q * (ak1 + (c1q - C2M1) * (ak2 + (c1q - C1M1) * ak3))
+            b = c2q * (ak1 + (c2q - C2M1) * (ak2 + (c2q - C1M1) * ak3))
+            c = c3q * (ak1 + (c3q - C2M1) * (ak2 + (c3q - C1M1) * ak3))
+            z1[i] = a
+            z2[i] = b
+            z3[i] = c
+            w1[i] = TI11 * a + TI12 * b + TI13 * c
+            w2[i] = TI21 * a + TI22 * b + TI23 * c
+            w3[i] = TI31 * a + TI32 * b + TI33 * c
+
+
+@njit(cache=True)
+def _solve_collocation(t, h, tph, y, hist, sys, ws, J, E1, piv1, E2, piv2, fac1, alphn, betan,
+                       scal, fnewt, faccon, nit, fixed, z1, z2, z3, w1, w2, w3, F3, ystage, r1,
+                       rc, work1, work2, stats):
+    """The simplified Newton iteration on the collocation system of one step (module docstring).
+
+    From the starting values in ``z``, ``w`` (:func:`_newton_start`), iterate with the
+    factorised matrices until ``η ‖ΔW‖ ≤ κ`` (``η = θ/(1 − θ)``, ``κ = fnewt``), at most
+    ``nit`` iterations; shrink ``h`` at once when the predicted error after ``nit`` iterations
+    stays above ``κ`` (not with ``fixed``).
+
+    Parameters
+    ----------
+    t, h : float
+        The step's start and size (s).
+    tph : float
+        The step's end (s): ``t + h``, or the output instant the last step ends on.
+    y : ndarray, shape (ny,)
+        The state at ``t`` (SI units).
+    hist : ndarray, shape (nh,)
+        History of the contact-capable joints (m/s).
+    sys : System
+        The mechanism.
+    ws : Workspace
+        The right-hand side's workspace.
+    J : ndarray, shape (ny, ny)
+        The Jacobian the matrices were built from.
+    E1, piv1, E2, piv2 : ndarray
+        The factorised real and complex matrices (:func:`_factor_matrices`).
+    fac1, alphn, betan : float
+        ``γ/h``, ``α/h``, ``β/h`` of the ``h`` the matrices were built for (1/s).
+    scal : ndarray, shape (ny,)
+        Error scale ``atol + rtol |y|`` (SI units of ``y``).
+    fnewt : float
+        The Newton tolerance κ.
+    faccon : float
+        η of the previous step's iteration.
+    nit : int
+        Maximum iterations.
+    fixed : bool
+        Fixed-step mode (never shrink).
+    z1, z2, z3, w1, w2, w3 : ndarray, shape (ny,)
+        The stages and the transformed stages; updated to the iterate.
+    F3 : ndarray, shape (3, ny)
+        Receives f at the three stages.
+    ystage, r1 : ndarray, shape (ny,)
+        Work arrays.
+    rc : ndarray of complex, shape (ny,)
+        Work array.
+    work1, work2 : ndarray, shape (nq,), float and complex
+        Work arrays of :func:`_solve_condensed`.
+    stats : ndarray
+        Statistics vector: the evaluations are added to ``S_RHS``.
+
+    Returns
+    -------
+    tuple
+        ``(status, newt, theta, faccon, h)``: ``NEWTON_CONVERGED``, ``NEWTON_FAILED`` or
+        ``NEWTON_SHRINK``; the iterations done; the contraction θ observed; η; the step (s),
+        shrunk with ``NEWTON_SHRINK``.
+    """
+    ny = y.shape[0]
+    fa = F3[0]
+    fb = F3[1]
+    fc = F3[2]
+    faccon = max(faccon, UROUND) ** 0.8
+    theta = THET
+    newt = 0
+    dynold = 1.0
+    thqold = 1.0
+    status = NEWTON_SHRINK
+    while True:
+        if newt >= nit:
+            status = NEWTON_FAILED
+            break
+        for st in range(3):  # one (inlined) call site for the three stages
+            z = z1 if st == 0 else (z2 if st == 1 else z3)
+            ts = t + C1 * h if st == 0 else (t + C2 * h if st == 1 else tph)
+            for i in range(ny):
+                ystage[i] = y[i] + z[i]
+            rhs_inline(ts, ystage, hist, sys, ws, F3[st])
+        stats[S_RHS] += 3
+        for i in range(ny):
+            r1[i] = TI11 * fa[i] + TI12 * fb[i] + TI13 * fc[i] - fac1 * w1[i]
+            re = TI21 * fa[i] + TI22 * fb[i] + TI23 * fc[i] - alphn * w2[i] + betan * w3[i]
+            im = TI31 * fa[i] + TI32 * fb[i] + TI33 * fc[i] - alphn * w3[i] - betan * w2[i]
+            rc[i] = complex(re, im)
+        _solve_condensed(E1, piv1, J, fac1, r1, work1)
+        _solve_condensed(E2, piv2, J, complex(alphn, betan), rc, work2)
+        newt += 1
+        s = 0.0
+        for i in range(ny):
+            s += (r1[i] / scal[i]) ** 2 + (rc[i].real / scal[i]) ** 2 \
+                + (rc[i].imag / scal[i]) ** 2
+        dyno = math.sqrt(s / (3.0 * ny))
+        if not math.isfinite(dyno):
+            status = NEWTON_FAILED
+            break
+        if newt > 1 and newt < nit:
+            thq = dyno / dynold
+            if newt == 2:
+                theta = thq
+            else:
+                theta = math.sqrt(thq * thqold)
+            thqold = thq
+            if theta < 0.99:
+                faccon = theta / (1.0 - theta)
+                dyth = faccon * dyno * theta ** (nit - 1 - newt) / fnewt
+                if dyth >= 1.0 and not fixed:  # no convergence in NIT iterations: shrink
+                    qnewt = max(1e-4, min(20.0, dyth))
+                    h *= 0.8 * qnewt ** (-1.0 / (4.0 + nit - 1 - newt))
+                    break
+            else:
+                status = NEWTON_FAILED
+                break
+        dynold = max(dyno, UROUND)
+        for i in range(ny):
+            w1[i] += r1[i]
+            w2[i] += rc[i].real
+            w3[i] += rc[i].imag
+            z1[i] = T11 * w1[i] + T12 * w2[i] + T13 * w3[i]
+            z2[i] = T21 * w1[i] + T22 * w2[i] + T23 * w3[i]
+            z3[i] = T31 * w1[i] + w2[i]
+        if faccon * dyno <= fnewt:
+            status = NEWTON_CONVERGED
+            break
+    return status, newt, theta, faccon, h
+
+
+@njit(cache=True)
+def _estimate_error(t, h, y, f0, hist, sys, ws, J, E1, piv1, fac1, scal, z1, z2, z3, fe, ev,
+                    ystage, fa, work1, refine, stats):
+    """The filtered error estimate of a converged step (ESTRAD).
+
+    ``err = ‖(γ/h I − J)⁻¹ (f(y) + (e·Z)/h)‖`` in the scaled RMS norm, recomputed once with
+    ``f(y + err)`` in place of ``f(y)`` when it is ≥ 1 and ``refine`` (first step or after a
+    rejection), as RADAU5 does.
+
+    Parameters
+    ----------
+    t, h : float
+        The step's start and size (s).
+    y, f0 : ndarray, shape (ny,)
+        The state at ``t`` and ``rhs(t, y)``.
+    hist : ndarray, shape (nh,)
+        History of the contact-capable joints (m/s).
+    sys : System
+        The mechanism.
+    ws : Workspace
+        The right-hand side's workspace.
+    J, E1, piv1 : ndarray
+        The Jacobian and the factorised real matrix (:func:`_factor_matrices`).
+    fac1 : float
+        ``γ/h`` (1/s).
+    scal : ndarray, shape (ny,)
+        Error scale (SI units of ``y``).
+    z1, z2, z3 : ndarray, shape (ny,)
+        The converged stages.
+    fe, ev, ystage, fa : ndarray, shape (ny,)
+        Work arrays (``ev`` receives the error vector).
+    work1 : ndarray, shape (nq,)
+        Work array of :func:`_solve_condensed`.
+    refine : bool
+        Allow the recomputation (first step, or the step after a rejection).
+    stats : ndarray
+        Statistics vector: the evaluation is added to ``S_RHS``.
+
+    Returns
+    -------
+    float
+        The scaled error, ≥ 1e-10; 1e10 if it is not finite.
+    """
+    ny = y.shape[0]
+    hee1 = DD1 / h
+    hee2 = DD2 / h
+    hee3 = DD3 / h
+    for i in range(ny):
+        fe[i] = hee1 * z1[i] + hee2 * z2[i] + hee3 * z3[i]
+        ev[i] = fe[i] + f0[i]
+    _solve_condensed(E1, piv1, J, fac1, ev, work1)
+    err = max(_rms(ev, scal), 1e-10)
+    if err >= 1.0 and refine:
+        for i in range(ny):
+            ystage[i] = y[i] + ev[i]
+        rhs_into(t, ystage, hist, sys, ws, fa)
+        stats[S_RHS] += 1
+        for i in range(ny):
+            ev[i] = fa[i] + fe[i]
+        _solve_condensed(E1, piv1, J, fac1, ev, work1)
+        err = max(_rms(ev, scal), 1e-10)
+    if not math.isfinite(err):
+        err = 1e10
+    return err
+
+
+@njit(cache=True)
+def _collocation_coefficients(z1, z2, z3, cont1, cont2, cont3):
+    """Coefficients of the accepted step's collocation polynomial (CONTR5).
+
+    The polynomial through ``y``, ``Y₁``, ``Y₂``, ``Y₃`` in ``s = (t' − t)/h ∈ [−1, 0]`` from
+    the step's end ``t`` (:func:`_dense_output`); also the predictor of the next step's Newton
+    start (:func:`_newton_start`).
+
+    Parameters
+    ----------
+    z1, z2, z3 : ndarray, shape (ny,)
+        The accepted stages ``Z_i = Y_i − y`` (SI units of ``y``).
+    cont1, cont2, cont3 : ndarray, shape (ny,)
+        Receive the coefficients.
+    """
+    for i in range(z1.shape[0]):
+        z1i = z1[i]
+        z2i = z2[i]
+        cont1[i] = (z2i - z3[i]) / C2M1
+        ak = (z1i - z2i) / C1MC2
+        acont3 = (ak - z1i / C1) / C2
+        cont2[i] = (ak - cont1[i]) / C1M1
+        cont3[i] = cont2[i] - acont3
+
+
+@njit(cache=True)
+def _dense_output(s, y, cont1, cont2, cont3, out):
+    """The collocation polynomial at ``s = (t' − t)/h`` (−1 < s ≤ 0) into ``out``.
+
+    Parameters
+    ----------
+    s : float
+        The instant as a fraction of the step from its end ``t``.
+    y : ndarray, shape (ny,)
+        The state at the step's end (SI units).
+    cont1, cont2, cont3 : ndarray, shape (ny,)
+        The coefficients (:func:`_collocation_coefficients`).
+    out : ndarray, shape (ny,)
+        Receives the state at ``t + s h``.
+    """
+    for i in range(y.shape[0]):
+        out[i] = y[i] + s * (cont1[i] + (s - C2M1) * (cont2[i] + (s - C1M1) * cont3[i]))
+
+
 # ---------------------------------------------------------------------------- the kernel
 @njit(cache=True, nogil=True)
 def radau5_kernel(sys, sys_smooth, t0, y0, hist, t_out, h0, rtol_user, atol_user, max_steps,
@@ -412,16 +838,16 @@ def radau5_kernel(sys, sys_smooth, t0, y0, hist, t_out, h0, rtol_user, atol_user
 
     Parameters
     ----------
-    sys : System or ReducedSystem
-        The problem (:mod:`mechrel.mechanics.formulation`).
-    sys_smooth : System or ReducedSystem
+    sys : System
+        The mechanism (:class:`~mechrel.mechanics.system.System`).
+    sys_smooth : System
         The same without clearance forces
         (:func:`~mechrel.mechanics.system.without_clearance_forces`), whose finite-difference
         Jacobian the partial updates keep.
     t0 : float
         Start time (s).
     y0 : ndarray, shape (ny,)
-        Initial state (SI units; :func:`~mechrel.mechanics.formulation.rhs`).
+        Initial state (SI units; :func:`~mechrel.mechanics.dynamics.rhs`).
     hist : ndarray, shape (nh,)
         Initial history of the contact-capable joints (m/s).
     t_out : ndarray, shape (N,)
@@ -456,7 +882,7 @@ def radau5_kernel(sys, sys_smooth, t0, y0, hist, t_out, h0, rtol_user, atol_user
     A millisecond of the lubricated slider-crank from its centred start:
 
     >>> from mechrel.mechanics.kinematics import assemble
-    >>> from mechrel.mechanics.problem import make_workspace, rhs
+    >>> from mechrel.mechanics.dynamics import make_workspace, rhs
     >>> from mechrel.mechanics.system import compile_scene
     >>> from mechrel.scene import load_scene
     >>> c = compile_scene(load_scene("slider-crank-lubricated"))
@@ -524,7 +950,6 @@ def radau5_kernel(sys, sys_smooth, t0, y0, hist, t_out, h0, rtol_user, atol_user
     F3 = np.zeros((3, ny))  # f at the three stages
     fa = F3[0]
     fb = F3[1]
-    fc = F3[2]
     yp = np.zeros(ny)
 
     use_partial = sys.cl_b.shape[0] > 0  # clearance joints: hybrid partial updates
@@ -563,40 +988,17 @@ def radau5_kernel(sys, sys_smooth, t0, y0, hist, t_out, h0, rtol_user, atol_user
     flog = np.zeros(ny)
     while k < nout:
         if need_jac:
-            if partial and n_partial < MAX_PARTIAL:
-                n_partial += 1  # keep the smooth part Jsm of the last full Jacobian
-            elif use_partial:
-                # the smooth rest by differences of the mechanism without clearance forces
-                # (minus its constraint-geometry share, which clearance_jacobian recomputes
-                # with the full multipliers)
-                clearance_jacobian(t, y, hist, sys_smooth, ws, fb, JS)
-                stats[S_RHS] += 1 + fd_jacobian(t, y, fb, hist, sys_smooth, ws, J, jac_floor,
-                                                yp, fa)
-                for i in range(nq, ny):
-                    for c in range(2 * nq):
-                        Jsm[i - nq, c] = J[i, c] - JS[i, c]
-                n_partial = 0
-            else:
-                stats[S_RHS] += fd_jacobian(t, y, f0, hist, sys, ws, J, jac_floor, yp, fa)
-                n_partial = 0
-            if use_partial:  # J = smooth part + the fast (clearance) part now
-                clearance_jacobian(t, y, hist, sys, ws, fa, JS)
-                stats[S_RHS] += 1
-                for i in range(nq, ny):
-                    for c in range(2 * nq):
-                        J[i, c] = Jsm[i - nq, c] + JS[i, c]
+            n_partial = _update_jacobian(t, y, f0, hist, sys, sys_smooth, ws, J, JS, Jsm,
+                                         partial, n_partial, use_partial, jac_floor, yp, fa, fb,
+                                         stats)
             partial = False
-            stats[S_JAC] += 1
             caljac = True
             need_jac = False
             need_lu = True
         if out_of_budget(stats, h, t, max_steps, ctl):
             break
         if need_lu:
-            _build_matrices(J, h, E1, E2)
-            ok = lu_factor(E1, piv1)
-            if ok:
-                ok = lu_factor(E2, piv2)
+            ok = _factor_matrices(J, h, E1, E2, piv1, piv2)
             stats[S_LU] += 1
             fac1 = U1 / h
             alphn = ALPH / h
@@ -618,101 +1020,18 @@ def radau5_kernel(sys, sys_smooth, t0, y0, hist, t_out, h0, rtol_user, atol_user
         tph = tend if last else t + h
 
         # starting values of the Newton iteration: the previous collocation polynomial
-        if first:
-            for i in range(ny):
-                z1[i] = 0.0
-                z2[i] = 0.0
-                z3[i] = 0.0
-                w1[i] = 0.0
-                w2[i] = 0.0
-                w3[i] = 0.0
-        else:
-            c3q = h / hold
-            c1q = C1 * c3q
-            c2q = C2 * c3q
-            for i in range(ny):
-                ak1 = cont1[i]
-                ak2 = cont2[i]
-                ak3 = cont3[i]
-                a = c1q * (ak1 + (c1q - C2M1) * (ak2 + (c1q - C1M1) * ak3))
-                b = c2q * (ak1 + (c2q - C2M1) * (ak2 + (c2q - C1M1) * ak3))
-                c = c3q * (ak1 + (c3q - C2M1) * (ak2 + (c3q - C1M1) * ak3))
-                z1[i] = a
-                z2[i] = b
-                z3[i] = c
-                w1[i] = TI11 * a + TI12 * b + TI13 * c
-                w2[i] = TI21 * a + TI22 * b + TI23 * c
-                w3[i] = TI31 * a + TI32 * b + TI33 * c
+        _newton_start(first, h, hold, cont1, cont2, cont3, z1, z2, z3, w1, w2, w3)
 
         # simplified Newton iteration
-        faccon = max(faccon, UROUND) ** 0.8
-        theta = THET
-        newt = 0
-        dynold = 1.0
-        thqold = 1.0
-        converged = False
-        failed = False
-        while True:
-            if newt >= nit:
-                failed = True
-                break
-            for st in range(3):  # one (inlined) call site for the three stages
-                z = z1 if st == 0 else (z2 if st == 1 else z3)
-                ts = t + C1 * h if st == 0 else (t + C2 * h if st == 1 else tph)
-                for i in range(ny):
-                    ystage[i] = y[i] + z[i]
-                rhs_inline(ts, ystage, hist, sys, ws, F3[st])
-            stats[S_RHS] += 3
-            for i in range(ny):
-                r1[i] = TI11 * fa[i] + TI12 * fb[i] + TI13 * fc[i] - fac1 * w1[i]
-                re = TI21 * fa[i] + TI22 * fb[i] + TI23 * fc[i] - alphn * w2[i] + betan * w3[i]
-                im = TI31 * fa[i] + TI32 * fb[i] + TI33 * fc[i] - alphn * w3[i] - betan * w2[i]
-                rc[i] = complex(re, im)
-            _solve_condensed(E1, piv1, J, fac1, r1, work1)
-            _solve_condensed(E2, piv2, J, complex(alphn, betan), rc, work2)
-            newt += 1
-            s = 0.0
-            for i in range(ny):
-                s += (r1[i] / scal[i]) ** 2 + (rc[i].real / scal[i]) ** 2 \
-                    + (rc[i].imag / scal[i]) ** 2
-            dyno = math.sqrt(s / (3.0 * ny))
-            if not math.isfinite(dyno):
-                failed = True
-                break
-            if newt > 1 and newt < nit:
-                thq = dyno / dynold
-                if newt == 2:
-                    theta = thq
-                else:
-                    theta = math.sqrt(thq * thqold)
-                thqold = thq
-                if theta < 0.99:
-                    faccon = theta / (1.0 - theta)
-                    dyth = faccon * dyno * theta ** (nit - 1 - newt) / fnewt
-                    if dyth >= 1.0 and not fixed:  # no convergence in NIT iterations: shrink
-                        qnewt = max(1e-4, min(20.0, dyth))
-                        h *= 0.8 * qnewt ** (-1.0 / (4.0 + nit - 1 - newt))
-                        break
-                else:
-                    failed = True
-                    break
-            dynold = max(dyno, UROUND)
-            for i in range(ny):
-                w1[i] += r1[i]
-                w2[i] += rc[i].real
-                w3[i] += rc[i].imag
-                z1[i] = T11 * w1[i] + T12 * w2[i] + T13 * w3[i]
-                z2[i] = T21 * w1[i] + T22 * w2[i] + T23 * w3[i]
-                z3[i] = T31 * w1[i] + w2[i]
-            if faccon * dyno <= fnewt:
-                converged = True
-                break
+        status, newt, theta, faccon, h = _solve_collocation(
+            t, h, tph, y, hist, sys, ws, J, E1, piv1, E2, piv2, fac1, alphn, betan, scal, fnewt,
+            faccon, nit, fixed, z1, z2, z3, w1, w2, w3, F3, ystage, r1, rc, work1, work2, stats)
 
-        if not converged:
+        if status != NEWTON_CONVERGED:
             stats[S_REJECTED] += 1
             reject = True
             last = False
-            if failed:
+            if status == NEWTON_FAILED:
                 n_fail += 1
                 if n_fail >= MAX_NEWTON_FAILURES or fixed:
                     stats[S_STATUS] = STATUS_NEWTON
@@ -728,25 +1047,8 @@ def radau5_kernel(sys, sys_smooth, t0, y0, hist, t_out, h0, rtol_user, atol_user
         if fixed:
             err = 0.0
         else:
-            hee1 = DD1 / h
-            hee2 = DD2 / h
-            hee3 = DD3 / h
-            for i in range(ny):
-                fe[i] = hee1 * z1[i] + hee2 * z2[i] + hee3 * z3[i]
-                ev[i] = fe[i] + f0[i]
-            _solve_condensed(E1, piv1, J, fac1, ev, work1)
-            err = max(_rms(ev, scal), 1e-10)
-            if err >= 1.0 and (first or reject):
-                for i in range(ny):
-                    ystage[i] = y[i] + ev[i]
-                rhs_into(t, ystage, hist, sys, ws, fa)
-                stats[S_RHS] += 1
-                for i in range(ny):
-                    ev[i] = fa[i] + fe[i]
-                _solve_condensed(E1, piv1, J, fac1, ev, work1)
-                err = max(_rms(ev, scal), 1e-10)
-            if not math.isfinite(err):
-                err = 1e10
+            err = _estimate_error(t, h, y, f0, hist, sys, ws, J, E1, piv1, fac1, scal, z1, z2,
+                                  z3, fe, ev, ystage, fa, work1, first or reject, stats)
 
         # proposed step
         fac = min(SAFE, SAFE * (1.0 + 2.0 * NIT) / (newt + 2.0 * NIT))
@@ -780,23 +1082,14 @@ def radau5_kernel(sys, sys_smooth, t0, y0, hist, t_out, h0, rtol_user, atol_user
             t = tph
             for i in range(ny):
                 y[i] += z3[i]
-                z1i = z1[i]
-                z2i = z2[i]
-                cont1[i] = (z2i - z3[i]) / C2M1
-                ak = (z1i - z2i) / C1MC2
-                acont3 = (ak - z1i / C1) / C2
-                cont2[i] = (ak - cont1[i]) / C1M1
-                cont3[i] = cont2[i] - acont3
+            _collocation_coefficients(z1, z2, z3, cont1, cont2, cont3)
             stats[S_STEPS] += 1
             # outputs in (told, t] from the collocation polynomial, s = (t_out − t)/h ∈ (−1, 0]
             while k < nout and t_out[k] <= t:
                 if t_out[k] == t:
                     Y[k] = y
                 else:
-                    s = (t_out[k] - t) / hold
-                    for i in range(ny):
-                        Y[k, i] = y[i] + s * (cont1[i] + (s - C2M1)
-                                              * (cont2[i] + (s - C1M1) * cont3[i]))
+                    _dense_output((t_out[k] - t) / hold, y, cont1, cont2, cont3, Y[k])
                 rhs_into(t_out[k], Y[k], hist, sys, ws, YD[k])
                 H[k] = hist
                 stats[S_RHS] += 1
@@ -807,9 +1100,7 @@ def radau5_kernel(sys, sys_smooth, t0, y0, hist, t_out, h0, rtol_user, atol_user
                     s = j / (n_dense + 1.0) - 1.0
                     tj = t + s * hold
                     if tj >= log_from:
-                        for i in range(ny):
-                            ylog[i] = y[i] + s * (cont1[i] + (s - C2M1)
-                                                  * (cont2[i] + (s - C1M1) * cont3[i]))
+                        _dense_output(s, y, cont1, cont2, cont3, ylog)
                         rhs_into(tj, ylog, hist, sys, ws, flog)
                         stats[S_RHS] += 1
                         log, nlog = log_row(log, nlog, tj, ylog, flog, hist)

@@ -23,7 +23,9 @@ import numpy as np
 from scipy import integrate
 from scipy.optimize import brentq
 
-from ..mechanics.problem import constraint_violation, gaps, rhs
+from ..mechanics.dynamics import rhs
+from ..mechanics.joints import gaps
+from ..mechanics.post import constraint_violation
 from . import events as ev
 from .base import Integrator
 

@@ -22,7 +22,7 @@ import numpy as np
 from numba import njit
 
 from ..errors import AssemblyError
-from .problem import constraints, gamma
+from .constraints import constraints, gamma
 
 # the public API; LUFactors and the _lu_* functions are the sparse solver behind it
 __all__ = ["assemble", "kinematic_analysis"]

@@ -376,7 +376,7 @@ def _system(scene: Scene, index, clearance_as: str) -> tuple[System, tuple[str, 
 
     labels = tuple(rev_labels + tr_labels + fa_labels
                    + [f"drivers.{name}" for name in scene.drivers])
-    # Bodies of each constraint row, in the row order of mechrel.mechanics.problem: revolute
+    # Bodies of each constraint row, in the row order of mechrel.mechanics.constraints: revolute
     # x and y rows (i, j), translational (i) twice, fixed angles (i), drivers (i).
     row_body = ([(i, j) for i, j in zip(rev_i, rev_j) for _ in range(2)]
                 + [(i, -1) for i in tr_i for _ in range(2)]
