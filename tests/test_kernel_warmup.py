@@ -77,3 +77,31 @@ def test_the_stiff_kernels_callees_compile_in_a_helper_process():
     assert set(kc._WAIT_FOR) <= done <= set(kc._HELPER_JOBS)
     with pytest.raises(ValueError, match="unknown compile job 'nope'"):
         kc._compile_job("nope", scene)
+
+
+def test_the_compile_jobs_compile_the_types_the_kernel_passes():
+    # a job compiled for other argument types than the Radau kernel passes would be compiled
+    # a second time by the kernel (no gain, and twice the work). A kernel loaded from the
+    # cache does not look its callees up again, so the kernel is compiled afresh here (an
+    # uncached copy, for the signature a simulation called it with): its typing resolves every
+    # callee for the types it passes, which must be those the jobs compiled
+    import numba
+
+    from mechrel.integrate import radau
+    from mechrel.mechanics.jacobian import clearance_jacobian
+    from mechrel.simulation import simulate
+
+    dispatchers = {"newton": radau._solve_collocation, "fd_jacobian": radau.fd_jacobian,
+                   "clearance_jacobian": clearance_jacobian}
+    assert set(dispatchers) | {"rhs", "kinematics", "post_process"} \
+        == set(kc._HELPER_JOBS) | set(kc._OWN_JOBS)
+    scene = load_scene("slider-crank-lubricated", overrides={"analysis.cycles": 0.01})
+    simulate(scene)
+    for name in dispatchers:
+        kc._compile_job(name, scene)
+    jobs = {name: set(d.signatures) for name, d in dispatchers.items()}
+    fresh = numba.njit(radau.radau5_kernel.py_func)
+    for signature in radau.radau5_kernel.signatures:
+        fresh.compile(signature)
+    assert fresh.signatures
+    assert {name: set(d.signatures) for name, d in dispatchers.items()} == jobs

@@ -233,18 +233,20 @@ def warm_up(scene, *, progress: bool = True, file=None) -> float:
 # ----------------------------------------------------------------------------- two processes
 
 # The stiff integrator's kernel calls compiled functions that numba compiles (and caches) each
-# on its own: the right-hand side inside ``events.start`` (inlined there, in the Radau kernel's
-# stages and in the finite-difference Jacobian: three copies), the clearance Jacobian, the
-# finite-difference Jacobian; the simulation also needs the kinematic analysis and the
+# on its own: the right-hand side inside ``events.start`` (inlined there, in the stages of the
+# Radau Newton iteration ``radau._solve_collocation`` and in the finite-difference Jacobian:
+# three copies), the Newton iteration, the clearance Jacobian, the finite-difference Jacobian
+# and the kernel's smaller helpers; the simulation also needs the kinematic analysis and the
 # post-processing. A cold compilation did them one after another on one core. numba loads a
 # callee from the on-disk cache when another process has put it there first, so a second
 # process compiles part of them while this one compiles the rest: ``_HELPER_JOBS`` in a helper
 # process, in this order; ``_OWN_JOBS`` here; then this process waits for the helper's jobs
-# that the kernel and the kinematic analysis need, and compiles the kernel itself, loading
-# them. On two idle cores the critical path is the own jobs plus the kernel's own body.
-_HELPER_JOBS = ("rhs", "kinematics", "post_process")
+# that the kernel and the kinematic analysis need, and compiles the kernel itself (its step
+# loop and small helpers), loading them. On two idle cores the critical path is the longer of
+# the helper's waited jobs and the own jobs, plus the kernel's own body.
+_HELPER_JOBS = ("rhs", "newton", "kinematics", "post_process")
 _OWN_JOBS = ("fd_jacobian", "clearance_jacobian")  # the latter calls rhs_into: the helper's first
-_WAIT_FOR = ("rhs", "kinematics")  # post_process is needed only after the integration
+_WAIT_FOR = ("rhs", "newton", "kinematics")  # post_process is needed only after the integration
 
 
 def _compile_job(name: str, scene) -> None:
@@ -293,6 +295,21 @@ def _compile_job(name: str, scene) -> None:
         from .integrate.radau import fd_jacobian
 
         fd_jacobian.compile((f64, vec, vec, hist, sys_t, ws, mat, f64, vec, vec))
+    elif name == "newton":  # Radau's Newton iteration: the stages' inlined right-hand side
+        from .integrate.radau import _solve_collocation
+
+        nq = compiled.q_guess.size
+        qmat = numba.typeof(np.zeros((nq, nq)))
+        cmat = numba.typeof(np.zeros((nq, nq), dtype=np.complex128))
+        ivec = numba.typeof(np.zeros(nq, dtype=np.int64))
+        qvec = numba.typeof(np.zeros(nq))
+        cqvec = numba.typeof(np.zeros(nq, dtype=np.complex128))
+        cvec = numba.typeof(np.zeros(ny, dtype=np.complex128))
+        F3 = numba.typeof(np.zeros((3, ny)))
+        _solve_collocation.compile(
+            (f64, f64, f64, vec, hist, sys_t, ws, mat, qmat, ivec, cmat, ivec, f64, f64, f64,
+             vec, f64, f64, numba.int64, numba.boolean) + (vec,) * 6
+            + (F3, vec, vec, cvec, qvec, cqvec, vec))
     else:
         raise ValueError(f"unknown compile job {name!r}")
 

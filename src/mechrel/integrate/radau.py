@@ -484,6 +484,8 @@ def _update_jacobian(t, y, f0, hist, sys, sys_smooth, ws, J, JS, Jsm, partial, n
     int
         The new count of partial updates since the last full one.
     """
+    y, f0, hist, sys, sys_smooth, ws, J, JS, Jsm, yp, fa, fb, stats = borrowed(
+        (y, f0, hist, sys, sys_smooth, ws, J, JS, Jsm, yp, fa, fb, stats))
     nq = sys.mass.shape[0]
     ny = y.shape[0]
     if partial and n_partial < MAX_PARTIAL:
@@ -533,6 +535,7 @@ def _factor_matrices(J, h, E1, E2, piv1, piv2):
     bool
         False if either matrix is singular (then ``E2`` is not factorised).
     """
+    J, E1, E2, piv1, piv2 = borrowed((J, E1, E2, piv1, piv2))
     _build_matrices(J, h, E1, E2)
     ok = lu_factor(E1, piv1)
     if ok:
@@ -558,6 +561,8 @@ def _newton_start(first, h, hold, cont1, cont2, cont3, z1, z2, z3, w1, w2, w3):
     w1, w2, w3 : ndarray, shape (ny,)
         Receive the transformed stages ``W = (T⁻¹ ⊗ I) Z``.
     """
+    cont1, cont2, cont3, z1, z2, z3, w1, w2, w3 = borrowed(
+        (cont1, cont2, cont3, z1, z2, z3, w1, w2, w3))
     ny = z1.shape[0]
     if first:
         for i in range(ny):
@@ -647,6 +652,9 @@ def _solve_collocation(t, h, tph, y, hist, sys, ws, J, E1, piv1, E2, piv2, fac1,
         ``NEWTON_SHRINK``; the iterations done; the contraction θ observed; η; the step (s),
         shrunk with ``NEWTON_SHRINK``.
     """
+    (y, hist, sys, ws, J, E1, piv1, E2, piv2, scal, z1, z2, z3, w1, w2, w3, F3, ystage, r1, rc,
+     work1, work2, stats) = borrowed((y, hist, sys, ws, J, E1, piv1, E2, piv2, scal, z1, z2, z3,
+                                      w1, w2, w3, F3, ystage, r1, rc, work1, work2, stats))
     ny = y.shape[0]
     fa = F3[0]
     fb = F3[1]
@@ -758,6 +766,9 @@ def _estimate_error(t, h, y, f0, hist, sys, ws, J, E1, piv1, fac1, scal, z1, z2,
     float
         The scaled error, ≥ 1e-10; 1e10 if it is not finite.
     """
+    (y, f0, hist, sys, ws, J, E1, piv1, scal, z1, z2, z3, fe, ev, ystage, fa, work1,
+     stats) = borrowed((y, f0, hist, sys, ws, J, E1, piv1, scal, z1, z2, z3, fe, ev, ystage, fa,
+                        work1, stats))
     ny = y.shape[0]
     hee1 = DD1 / h
     hee2 = DD2 / h
@@ -796,6 +807,7 @@ def _collocation_coefficients(z1, z2, z3, cont1, cont2, cont3):
     cont1, cont2, cont3 : ndarray, shape (ny,)
         Receive the coefficients.
     """
+    z1, z2, z3, cont1, cont2, cont3 = borrowed((z1, z2, z3, cont1, cont2, cont3))
     for i in range(z1.shape[0]):
         z1i = z1[i]
         z2i = z2[i]
@@ -821,6 +833,7 @@ def _dense_output(s, y, cont1, cont2, cont3, out):
     out : ndarray, shape (ny,)
         Receives the state at ``t + s h``.
     """
+    y, cont1, cont2, cont3, out = borrowed((y, cont1, cont2, cont3, out))
     for i in range(y.shape[0]):
         out[i] = y[i] + s * (cont1[i] + (s - C2M1) * (cont2[i] + (s - C1M1) * cont3[i]))
 
