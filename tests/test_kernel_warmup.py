@@ -84,7 +84,8 @@ def test_the_compile_jobs_compile_the_types_the_kernel_passes():
     # a second time by the kernel (no gain, and twice the work). A kernel loaded from the
     # cache does not look its callees up again, so the kernel is compiled afresh here (an
     # uncached copy, for the signature a simulation called it with): its typing resolves every
-    # callee for the types it passes, which must be those the jobs compiled
+    # callee for the types it passes, which must be those the jobs compiled (the test takes
+    # about 10 s: the kernel's own body)
     import numba
 
     from mechrel.integrate import radau
@@ -105,3 +106,10 @@ def test_the_compile_jobs_compile_the_types_the_kernel_passes():
         fresh.compile(signature)
     assert fresh.signatures
     assert {name: set(d.signatures) for name, d in dispatchers.items()} == jobs
+    # and the kernel's step helpers are each compiled once (a flag first typed as a literal
+    # True or 0 compiled a helper a second time, for the literal)
+    helpers = (radau._update_jacobian, radau._factor_matrices, radau._newton_start,
+               radau._solve_collocation, radau._estimate_error, radau._collocation_coefficients,
+               radau._dense_output)
+    assert [len(h.signatures) for h in helpers] == [1] * len(helpers), \
+        [[str(sig) for sig in h.signatures] for h in helpers if len(h.signatures) != 1]

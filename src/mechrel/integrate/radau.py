@@ -968,12 +968,14 @@ def radau5_kernel(sys, sys_smooth, t0, y0, hist, t_out, h0, rtol_user, atol_user
     use_partial = sys.cl_b.shape[0] > 0  # clearance joints: hybrid partial updates
     JS = np.zeros((ny, ny))  # clearance part of the Jacobian (rows nq …, columns < 2 nq)
     Jsm = np.zeros((ny - nq, 2 * nq))  # the rest, from the last full Jacobian
-    partial = False  # the next Jacobian may refresh only the clearance columns
-    n_partial = 0
+    # np.bool_ and np.int64: typed as plain bool and int64 from the start, so the helpers that
+    # take these flags compile once (a literal True, False or 0 compiled them a second time)
+    partial = np.bool_(False)  # the next Jacobian may refresh only the clearance columns
+    n_partial = np.int64(0)
     need_jac = True
     need_lu = True
     caljac = False  # the current J was computed at the current (t, y)
-    first = True
+    first = np.bool_(True)
     reject = False
     last = False
     hold = h

@@ -9,8 +9,10 @@ check. :func:`applied_forces_trig` is the right-hand side's (inlined) form, with
 cosines and sines given; :func:`applied_forces` the form for other callers. All
 ``@njit(cache=True)``.
 
-Source: generalised forces of a force applied at a body-fixed point, Nikravesh 1988,
-*Computer-Aided Analysis of Mechanical Systems*, §6.3; the force laws, docs/forces.md.
+Source: the generalised forces of a force applied at a body-fixed point (Nikravesh 1988,
+*Computer-Aided Analysis of Mechanical Systems*, ch. 6); how a clearance joint's force and
+moments reach its two bodies, docs/mechanics.md ("Clearance joints"); the force laws,
+docs/forces.md.
 """
 
 from __future__ import annotations

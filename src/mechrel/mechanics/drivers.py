@@ -6,7 +6,7 @@ constant speed, constant acceleration, harmonic, smooth start) as functions of t
 and :func:`driver_angles` for an output grid (the crank angle of a result). All
 ``@njit(cache=True)``.
 
-Source: the laws are those of the scene format (docs/scenes.md, ``[[drivers]]``); the smooth
+Source: the laws are those of the scene format (docs/scenes.md, ``[drivers.NAME]``); the smooth
 start follows the speed ``ω s(t/T)`` with ``s`` the quintic smoothstep ``10τ³ − 15τ⁴ + 6τ⁵``,
 whose derivative vanishes at both ends of the ramp, so the driver's acceleration is continuous.
 """

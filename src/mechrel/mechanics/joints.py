@@ -11,8 +11,9 @@ the angular velocities and lever arms the force laws and their Jacobian need):
 the kernels' inner-loop forms (``joint_state``, ``gap_of``, ``body_trig``) are
 ``inline='always'`` and take plain values, not the System tuple.
 
-Source: Nikravesh 1988, *Computer-Aided Analysis of Mechanical Systems*, ch. 4 (points on
-planar bodies); the clearance-joint eccentricity as in Flores & Ambrósio 2004 (docs/forces.md).
+Source: Nikravesh 1988, *Computer-Aided Analysis of Mechanical Systems*, ch. 4 (a point on a
+planar body); the clearance joint's eccentricity and its use by the force laws are written out
+in docs/mechanics.md ("Coordinates and bodies", "Clearance joints") and docs/forces.md.
 """
 
 from __future__ import annotations

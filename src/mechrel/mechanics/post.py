@@ -6,9 +6,9 @@ Owns what a result reports about the states an integration returned, outside the
 clearance joints' eccentricities and the kinetic, gravitational and elastic contact energies,
 in one compiled call). All ``@njit(cache=True)``.
 
-Source: the energies of a planar rigid-body system, Nikravesh 1988, *Computer-Aided Analysis of
-Mechanical Systems*, §6.6; the elastic contact energy is the force law's
-(docs/forces.md).
+Source: the kinetic energy with the diagonal mass matrix and the potential of uniform gravity
+of planar rigid bodies, and the energy balance they enter, docs/mechanics.md; the elastic
+contact energy is the force law's (docs/forces.md).
 """
 
 from __future__ import annotations
