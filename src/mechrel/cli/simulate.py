@@ -32,7 +32,9 @@ def _summary_lines(result) -> list[str]:
     lines = [f"scene {result.scene.name} ({result.method}): {result.time.size} samples over "
              f"{result.time[-1]:.4g} s",
              f"  solver {st['integrator']}: {st.get('n_steps', 0)} steps, "
-             f"{st.get('n_rhs', 0)} rhs evaluations, {st.get('n_rejected', 0)} rejected, "
+             f"{st.get('n_rhs', 0)} rhs evaluations, {st.get('n_rejected', 0)} rejected"
+             + (f" ({st['n_newton_rejected']} by Newton)" if st.get("n_newton_rejected") else "")
+             + ", "
              f"{st.get('n_impacts', 0)} impacts; max constraint violation "
              f"{st['max_position_violation']:.2e}; wall {st['wall_time']:.3f} s"]
     for name, q in result.outputs.items():

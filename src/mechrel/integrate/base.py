@@ -72,13 +72,17 @@ class SolverStats:
     settings : dict
         The step/tolerances actually used.
     n_steps, n_rhs, n_rejected : int
-        Accepted steps, right-hand-side evaluations, steps rejected by error control.
+        Accepted steps, right-hand-side evaluations, rejected trial steps (by the error test,
+        or because an implicit method's Newton iteration did not converge).
     n_onset_rejections : int
         Trial steps rejected to locate a contact onset.
     n_impacts : int
         Located contact onsets (impacts).
     n_jacobians, n_lu : int
         Jacobian evaluations and LU factorisations (implicit methods).
+    n_newton_rejected : int
+        Of ``n_rejected``, the trial steps whose Newton iteration did not converge (``radau``;
+        0 for explicit methods and SciPy's solvers, which do not report it).
     max_position_violation : float
         Largest |Φ| at accepted steps (m or rad).
     max_velocity_violation : float
@@ -113,6 +117,7 @@ class SolverStats:
     n_impacts: int
     n_jacobians: int
     n_lu: int
+    n_newton_rejected: int
     max_position_violation: float
     max_velocity_violation: float
     wall_time: float
@@ -506,7 +511,8 @@ class Integrator:
             n_rejected=int(total[ev.S_REJECTED]),
             n_onset_rejections=int(total[ev.S_ONSET_REJECTED]),
             n_impacts=int(total[ev.S_IMPACTS]), n_jacobians=int(total[ev.S_JAC]),
-            n_lu=int(total[ev.S_LU]), max_position_violation=float(total[ev.S_VIOL_POS]),
+            n_lu=int(total[ev.S_LU]), n_newton_rejected=int(total[ev.S_NEWTON_REJECTED]),
+            max_position_violation=float(total[ev.S_VIOL_POS]),
             max_velocity_violation=float(total[ev.S_VIOL_VEL]), wall_time=wall,
             status=ev.STATUS_TEXT[status])
         if status != ev.STATUS_OK or not np.all(np.isfinite(Y)):

@@ -22,9 +22,11 @@ from ..mechanics.dynamics import make_workspace, rhs_into
 from ..mechanics.joints import gaps, n_contacts
 
 # Layout of the float64 statistics vector every kernel returns.
+# S_NEWTON_REJECTED counts the part of S_REJECTED whose Newton iteration did not converge
+# (implicit kernels; the rest failed the error test).
 S_STEPS, S_RHS, S_REJECTED, S_ONSET_REJECTED, S_IMPACTS, S_JAC, S_LU, S_VIOL_POS, S_VIOL_VEL, \
-    S_STATUS = range(10)
-N_STATS = 10
+    S_STATUS, S_NEWTON_REJECTED = range(11)
+N_STATS = 11
 STATUS_OK, STATUS_MAX_STEPS, STATUS_STEP_UNDERFLOW, STATUS_NONFINITE, STATUS_NEWTON, \
     STATUS_STOPPED = range(6)
 STATUS_TEXT = ("ok", "maximum number of steps reached", "step size underflow",
