@@ -106,10 +106,7 @@ def test_the_compile_jobs_compile_the_types_the_kernel_passes():
         fresh.compile(signature)
     assert fresh.signatures
     assert {name: set(d.signatures) for name, d in dispatchers.items()} == jobs
-    # and the kernel's step helpers are each compiled once (a flag first typed as a literal
-    # True or 0 compiled a helper a second time, for the literal)
-    helpers = (radau._update_jacobian, radau._factor_matrices, radau._newton_start,
-               radau._solve_collocation, radau._estimate_error, radau._collocation_coefficients,
-               radau._dense_output)
-    assert [len(h.signatures) for h in helpers] == [1] * len(helpers), \
-        [[str(sig) for sig in h.signatures] for h in helpers if len(h.signatures) != 1]
+    # and the Newton iteration, the one step helper the kernel calls (the others are inlined),
+    # is compiled once (a flag first typed as a literal True or 0 compiled a called helper a
+    # second time, for the literal)
+    assert len(radau._solve_collocation.signatures) == 1, radau._solve_collocation.signatures

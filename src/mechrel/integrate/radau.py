@@ -97,7 +97,12 @@ helper with a documented contract, in the order a step calls them (the subroutin
   coefficients), and :func:`_dense_output`, its value inside the step.
 
 The helpers' arithmetic is the kernel's, in the same order, so the cut left every result
-bitwise unchanged.
+bitwise unchanged. :func:`_solve_collocation` is compiled on its own (the cold warm-up compiles
+it in its helper process, :func:`mechrel._kernel_cache.split_compile`); the others are
+``inline='always'``, compiled into the kernel: as separate functions they added about 10 s to
+a cold one-process compile (each passes the System and Workspace tuples) for no gain at run
+time. Every helper takes its arrays borrowed (:func:`~mechrel.mechanics.borrow.borrowed`): a
+plain call of the Newton iteration otherwise cost 5–6 % of a warm cycle in reference counts.
 
 History and contact onsets
 --------------------------
@@ -432,14 +437,15 @@ def _rms(a, scal):
 # contact onsets, outputs); each numerical part of a step is one of these helpers (as SciPy's
 # ``_ivp/radau.py`` cuts its solver into ``solve_collocation_system``, ``predict_factor``, …).
 # Their arithmetic is the kernel's, in the same order: the results are bitwise those of the
-# kernel before the cut.
+# kernel before the cut. All but _solve_collocation are inlined (module docstring, "Code
+# structure").
 
 NEWTON_CONVERGED = 0  # outcomes of _solve_collocation
 NEWTON_FAILED = 1  # divergence, NIT iterations or a non-finite stage: halve the step
 NEWTON_SHRINK = 2  # converging too slowly for NIT iterations: the step was shrunk already
 
 
-@njit(cache=True)
+@njit(cache=True, inline='always')
 def _update_jacobian(t, y, f0, hist, sys, sys_smooth, ws, J, JS, Jsm, partial, n_partial,
                      use_partial, jac_floor, yp, fa, fb, stats):
     """Bring the Jacobian ``J`` of the right-hand side up to date at ``(t, y)`` (module
@@ -518,7 +524,7 @@ def _update_jacobian(t, y, f0, hist, sys, sys_smooth, ws, J, JS, Jsm, partial, n
     return n_partial
 
 
-@njit(cache=True)
+@njit(cache=True, inline='always')
 def _factor_matrices(J, h, E1, E2, piv1, piv2):
     """Build and LU-factorise the real and complex condensed iteration matrices for the step
     ``h`` (:func:`_build_matrices`, :func:`lu_factor`).
@@ -547,7 +553,7 @@ def _factor_matrices(J, h, E1, E2, piv1, piv2):
     return ok
 
 
-@njit(cache=True)
+@njit(cache=True, inline='always')
 def _newton_start(first, h, hold, cont1, cont2, cont3, z1, z2, z3, w1, w2, w3):
     """Starting values of the Newton iteration: zero on the first step, else the previous
     step's collocation polynomial extrapolated to the new stages (RADCOR).
@@ -727,7 +733,7 @@ def _solve_collocation(t, h, tph, y, hist, sys, ws, J, E1, piv1, E2, piv2, fac1,
     return status, newt, theta, faccon, h
 
 
-@njit(cache=True)
+@njit(cache=True, inline='always')
 def _estimate_error(t, h, y, f0, hist, sys, ws, J, E1, piv1, fac1, scal, z1, z2, z3, fe, ev,
                     ystage, fa, work1, refine, stats):
     """The filtered error estimate of a converged step (ESTRAD).
@@ -796,7 +802,7 @@ def _estimate_error(t, h, y, f0, hist, sys, ws, J, E1, piv1, fac1, scal, z1, z2,
     return err
 
 
-@njit(cache=True)
+@njit(cache=True, inline='always')
 def _collocation_coefficients(z1, z2, z3, cont1, cont2, cont3):
     """Coefficients of the accepted step's collocation polynomial (CONTR5).
 
@@ -822,7 +828,7 @@ def _collocation_coefficients(z1, z2, z3, cont1, cont2, cont3):
         cont3[i] = cont2[i] - acont3
 
 
-@njit(cache=True)
+@njit(cache=True, inline='always')
 def _dense_output(s, y, cont1, cont2, cont3, out):
     """The collocation polynomial at ``s = (t' − t)/h`` (−1 < s ≤ 0) into ``out``.
 
