@@ -54,17 +54,31 @@ seed = 3
 @pytest.fixture(scope="module", autouse=True)
 def _kernels_compiled(tmp_path_factory):
     """Compile (or load from numba's cache) everything the subprocesses below run, so that
-    their interrupts reach a running computation and not the one-off compilation: it announces
-    itself on stderr ("compiling simulation kernels, once"), and a signal that arrives while
-    numba compiles a function the run needs after its warm-up (e.g. for the cycle extremes
-    `simulate` prints) can be lost. On a cold cache, what is compiled before these tests
-    depends on which tests ran before them; here it does not."""
+    their interrupts reach a running computation and not the one-off compilation, which
+    announces itself on stderr ("compiling simulation kernels, once") before the one line these
+    tests expect (an interrupt during the compilation is tested on its own, below). On a cold
+    cache, what is compiled before these tests depends on which tests ran before them; here it
+    does not."""
     short = [a if a != "analysis.cycles=400" else "analysis.cycles=1" for a in LONG_SIMULATION]
     subprocess.run(CLI + short, capture_output=True, check=True,
                    cwd=tmp_path_factory.mktemp("warm"))
     warm_up(load_scene("slider-crank-lubricated",
                        overrides=["solver.rtol=1e-5", "solver.atol=1e-8"]),
             progress=False, file=io.StringIO())  # the study's scene
+
+
+def _popen(argv, **kwargs):
+    """``subprocess.Popen`` of ``argv`` with SIGINT at its default disposition in the child.
+
+    A process started in the background by a non-interactive shell (``cmd &``, as CI scripts
+    and job runners start test suites) has SIGINT *ignored*, and its children inherit that:
+    Python then installs no ``KeyboardInterrupt`` handler and a SIGINT does nothing (a run of
+    this suite in such a background job saw ``mechrel simulate`` finish normally after its
+    Ctrl-C). A terminal's Ctrl-C goes to foreground processes, whose SIGINT is not ignored:
+    that is what these tests model, whatever the disposition pytest itself inherited."""
+    return subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),
+                            **kwargs)
 
 
 def _children(pid: int) -> set[int]:
@@ -122,8 +136,7 @@ def _stop(proc, sig):
     pytest.param(signal.SIGTERM, 143, "SIGTERM", marks=pytest.mark.slow)])
 def test_simulate_stops_promptly_with_one_line(sig, code, name, tmp_path):
     # the simulation starts after the imports: wait until the process has used some CPU time
-    proc = subprocess.Popen(CLI + LONG_SIMULATION, stdout=subprocess.PIPE,
-                            stderr=subprocess.PIPE, text=True)
+    proc = _popen(CLI + LONG_SIMULATION)
     time.sleep(0.5)
     _wait(lambda: _cpu_seconds(proc.pid) > 4.0 or proc.poll() is not None, 300,
           "the simulation to run")
@@ -132,6 +145,33 @@ def test_simulate_stops_promptly_with_one_line(sig, code, name, tmp_path):
     assert proc.returncode == code, f"took {took:.1f} s; stderr: {err!r}"
     assert err == f"mechrel: interrupted ({name})\n"
     assert took < PROMPT, f"took {took:.1f} s to stop"
+
+
+def test_ctrl_c_during_the_one_off_compilation_stops_it_and_its_helper(tmp_path):
+    # a cold kernel cache (an empty NUMBA_CACHE_DIR): the run announces the compilation and a
+    # helper process compiles part of it (mechrel._kernel_cache.split_compile); Ctrl-C to the
+    # parent alone (as a job runner's SIGINT) stops the parent at once, and the helper, which
+    # nobody reads any more, ends itself within its watch interval (0.5 s) instead of
+    # compiling on for up to a minute
+    env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path / "numba"))
+    proc = _popen(CLI + ["simulate", "slider-crank-lubricated", "--no-progress"], env=env,
+                  cwd=tmp_path)
+    _wait(lambda: _children(proc.pid) or proc.poll() is not None, 120,
+          "the compile helper to start")
+    assert proc.poll() is None, "the run ended before it could be interrupted"
+    helpers = {c for c in _children(proc.pid) if _alive(c)}
+    time.sleep(1.0)  # into the compilation
+    took, err = _stop(proc, signal.SIGINT)
+    assert proc.returncode == 130, f"took {took:.1f} s; stderr: {err!r}"
+    assert err.startswith("compiling simulation kernels, once")
+    assert err.endswith("mechrel: interrupted (Ctrl-C)\n")
+    assert took < PROMPT, f"took {took:.1f} s to stop"
+    try:
+        _wait(lambda: not any(_alive(h) for h in helpers), 10, f"helper {helpers} to end")
+    finally:
+        for h in helpers:
+            if _alive(h):
+                os.kill(h, signal.SIGKILL)
 
 
 def _cpu_seconds(pid: int) -> float:
@@ -151,7 +191,7 @@ def test_in_process_reliability_keeps_finished_samples_and_resumes(sig, code, na
     out = tmp_path / "out"
     db = out / "evaluations.sqlite"
     argv = CLI + ["reliability", str(study), "--jobs", "1", "--no-progress", "--out", str(out)]
-    proc = subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    proc = _popen(argv)
     _wait(lambda: _rows(db) >= 1 or proc.poll() is not None, 300, "a first cached chunk")
     assert proc.poll() is None
     took, err = _stop(proc, sig)
@@ -169,8 +209,7 @@ def _start_parallel(tmp_path):
     study.write_text(STUDY)
     out = tmp_path / "out"
     argv = CLI + ["reliability", str(study), "--jobs", "2", "--no-progress", "--out", str(out)]
-    proc = subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                            start_new_session=True)
+    proc = _popen(argv, start_new_session=True)
     db = out / "evaluations.sqlite"
     _wait(lambda: _rows(db) >= 1 or proc.poll() is not None, 300, "a first cached chunk")
     assert proc.poll() is None

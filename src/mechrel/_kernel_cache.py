@@ -327,7 +327,10 @@ def split_compile(scene) -> set[str]:
 
     from .scene.loader import thaw
 
+    from .uq.execution._workers import PARENT_ENV
+
     env = dict(os.environ)
+    env[PARENT_ENV] = str(os.getpid())  # the helper ends itself when this process ends
     env["PYTHONPATH"] = os.pathsep.join([str(_PACKAGE.parent)]
                                         + ([env["PYTHONPATH"]] if env.get("PYTHONPATH") else []))
     try:
@@ -373,11 +376,16 @@ def _reap(proc) -> None:
 
 def _helper() -> None:
     """The helper process of :func:`split_compile`: the scene's raw mapping (JSON) on stdin,
-    the job names as arguments; prints each job's name when it is done."""
+    the job names as arguments; prints each job's name when it is done. It ends itself when
+    the process that started it ends (interrupted, or killed), instead of compiling on for
+    nobody (:func:`mechrel.uq.execution._workers.watch_parent`)."""
     import json
     import sys
 
     from .scene import load_scene
+    from .uq.execution._workers import watch_parent
+
+    watch_parent()
 
     scene = load_scene(json.loads(sys.stdin.read()))
     for name in sys.argv[1:]:
