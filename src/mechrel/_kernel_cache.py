@@ -96,10 +96,10 @@ DEFAULT_COMPILE_SECONDS = {"rk4": 55.0, "dopri5": 55.0, "radau": 50.0, "kinemati
 (stored beside the cache). The kinematic analysis takes about 10 s of CPU (numba's compile events,
 benchmarks/bench_cold_start.py); the dry slider-crank's first run (DOPRI5 and the kinematic
 analysis, one process) took 65 s in a fresh checkout. A cold Radau warm-up runs in two processes
-(:func:`split_compile`): 55 s of CPU in this one and 35 s in the helper on the default study,
-against 94 s in one process, so about 60 s on two free cores (as measured on the loaded VM:
-115 s against 225 s, load average 4.6). The load moves these numbers by a factor of two or
-more either way."""
+(:func:`split_compile`): about 38 s of CPU in this one and 44 s in the helper on the default
+study (since the Newton iteration is the helper's; benchmarks/bench_cold_start.py, load ≈ 1),
+against 80 s in one process, so about 60 s on two free cores (59 s measured). The load moves
+these numbers by a factor of two or more either way."""
 
 
 def is_compiled(entry: str) -> bool:
