@@ -54,6 +54,7 @@ from numba import njit  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _common import git_state  # noqa: E402
+from bench_effects import _rhs_loop  # noqa: E402  (one rhs_into per state, compiled)
 
 import mechrel.integrate.radau as radau  # noqa: E402
 from mechrel.integrate.events import S_JAC, S_LU, S_REJECTED, S_RHS, S_STEPS, new_log, start  # noqa: E402
@@ -70,18 +71,6 @@ STAGES = 3
 
 # ---------------------------------------------------------------------------- compiled timings
 # Not cached: a cached caller keeps its own copy of its callees (bench_effects.py says why).
-@njit(cache=False)
-def _rhs_loop(T, Y, hist, sys, reps):
-    s = 0.0
-    ws = make_workspace(sys)
-    out = np.empty(Y.shape[1])
-    for _ in range(reps):
-        for k in range(Y.shape[0]):
-            rhs_into(T[k], Y[k], hist, sys, ws, out)
-            s += out[0]
-    return s
-
-
 @njit(cache=False)
 def _lu_loop(J, h, reps):
     n = (J.shape[0] - N_WORK) // 2
