@@ -143,8 +143,8 @@ from ..mechanics.jacobian import clearance_jacobian
 from ..mechanics.joints import gaps_into
 from ..mechanics.system import without_clearance_forces
 from .events import (CTL_DONE, H_START_FLOOR, S_JAC, S_LU, S_NEWTON_REJECTED,
-                     S_ONSET_REJECTED, S_REJECTED, S_RHS, S_STATUS, S_STEPS, STATUS_NEWTON, STATUS_NONFINITE,
-                     all_finite, log_row, new_log, onset_fraction, out_of_budget,
+                     S_ONSET_REJECTED, S_REJECTED, S_RHS, S_STATUS, S_STEPS, STATUS_NEWTON,
+                     STATUS_NONFINITE, all_finite, log_row, new_log, onset_fraction, out_of_budget,
                      record_violation, start, update_history_from)
 from .base import Integrator
 
