@@ -57,9 +57,9 @@ from _common import git_state  # noqa: E402
 from bench_effects import _rhs_loop  # noqa: E402  (one rhs_into per state, compiled)
 
 import mechrel.integrate.radau as radau  # noqa: E402
-from mechrel.integrate.events import S_JAC, S_LU, S_REJECTED, S_RHS, S_STEPS, new_log, start  # noqa: E402
+from mechrel.integrate.events import (N_STATS, S_JAC, S_LU, S_REJECTED, S_RHS, S_STEPS,  # noqa: E402
+                                     new_log, start)
 from mechrel.mechanics.dynamics import N_WORK, make_workspace, rhs_into  # noqa: E402
-from mechrel.mechanics.jacobian import clearance_jacobian  # noqa: E402
 from mechrel.mechanics.system import compile_scene, without_clearance_forces  # noqa: E402
 from mechrel.scene import load_scene  # noqa: E402
 from mechrel.simulation import simulate  # noqa: E402
@@ -106,19 +106,18 @@ def _per_call(fn, args, calls_per_rep, seconds=0.3):
 
 
 def full_jacobian(t, y, hist, sys):
-    """Radau's full Jacobian (smooth part by differences of the force-free mechanism, fast part
-    semi-analytic), as the kernel assembles it."""
+    """Radau's full Jacobian at ``(t, y)``: the kernel's own update
+    (``mechrel.integrate.radau._update_jacobian``, not partial), smooth part by differences of
+    the force-free mechanism plus the semi-analytic fast part, with the increments' floor
+    ``atol/rtol`` of this benchmark's settings (``ATOL_RATIO``)."""
     ny = y.size
     nq = sys.mass.shape[0]
-    sm = without_clearance_forces(sys)
-    ws = make_workspace(sys)
-    J, JS = np.zeros((ny, ny)), np.zeros((ny, ny))
-    fa, fb, yp = np.zeros(ny), np.zeros(ny), np.zeros(ny)
-    clearance_jacobian(t, y, hist, sm, ws, fb, JS)
-    radau.fd_jacobian(t, y, fb, hist, sm, ws, J, 1e-3, yp, fa)
-    Jsm = J[nq:, :2 * nq] - JS[nq:, :2 * nq]
-    clearance_jacobian(t, y, hist, sys, ws, fa, JS)
-    J[nq:, :2 * nq] = Jsm + JS[nq:, :2 * nq]
+    J = np.zeros((ny, ny))
+    radau._update_jacobian(t, y, np.zeros(ny), hist, sys, without_clearance_forces(sys),
+                           make_workspace(sys), J, np.zeros((ny, ny)),
+                           np.zeros((ny - nq, 2 * nq)), np.bool_(False), np.int64(0),
+                           np.bool_(True), ATOL_RATIO, np.zeros(ny),
+                           np.zeros(ny), np.zeros(ny), np.zeros(N_STATS))
     return J
 
 
