@@ -365,12 +365,7 @@ class EvaluationCache:
         ...     c.forget_failures(), c.stats()
         (1, {'k': {'ok': 1, 'failed': 0}})
         """
-        with self._guard(), self._connect() as con:
-            if model_key is None:
-                cur = con.execute("DELETE FROM evaluations WHERE ok = 0")
-            else:
-                cur = con.execute("DELETE FROM evaluations WHERE ok = 0 AND model_key = ?", (model_key,))
-            return cur.rowcount
+        return self._delete("ok = 0", model_key)
 
     def clear(self, model_key: str | None = None) -> int:
         """Delete all cached rows, of one model key or of all.
@@ -399,11 +394,17 @@ class EvaluationCache:
         ...     c.clear("k"), c.stats()
         (1, {})
         """
+        return self._delete("1", model_key)
+
+    def _delete(self, condition: str, model_key: str | None) -> int:
+        """Delete the rows meeting the SQL ``condition`` (a constant of this class), of one
+        model key or of all; returns how many."""
         with self._guard(), self._connect() as con:
             if model_key is None:
-                cur = con.execute("DELETE FROM evaluations")
+                cur = con.execute(f"DELETE FROM evaluations WHERE {condition}")
             else:
-                cur = con.execute("DELETE FROM evaluations WHERE model_key = ?", (model_key,))
+                cur = con.execute(f"DELETE FROM evaluations WHERE {condition} AND model_key = ?",
+                                  (model_key,))
             return cur.rowcount
 
     def stats(self) -> dict[str, Any]:
