@@ -226,3 +226,43 @@ def test_sobol_indices_outside_the_unit_interval_beyond_their_interval_warn():
     assert len(out) == 1
     assert out[0].startswith("sobol: 1 first-order indices lie outside [0, 1] by more than "
                              "their confidence interval (e.g. a on y: -0.300 ± 0.100)")
+
+
+def test_a_sobol_design_of_a_size_not_a_power_of_2_is_a_caveat_of_the_result():
+    # SciPy's own warning ("balance properties ... require n to be a power of 2") names no
+    # remedy; ours names the balanced sizes on either side and travels with the result
+    model = FunctionModel(_linear, ["a", "b"], ["p", "q"])
+    kw = dict(model=model, inputs=INPUTS, rule="sobol", seed=1, allowable=ALLOW, progress=False)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        res = monte_carlo(n=100, **kw)
+    assert [str(w.message) for w in caught] == [
+        "monte_carlo: rule='sobol' with n = 100 points: not a power of 2, so the points are not "
+        "a balanced Sobol' net and the estimate may converge no faster than with "
+        "rule='random'; n = 64 or 128 keeps the balance"]
+    assert caught[0].category is EstimateWarning
+    assert res.warnings == (str(caught[0].message),)
+    ok, got = _quiet(monte_carlo, n=128, **kw)
+    assert got == [] and ok.warnings == ()
+    # the other rules have no such caveat at any size
+    rnd, got = _quiet(monte_carlo, n=100, **{**kw, "rule": "random"})
+    assert got == [] and rnd.warnings == ()
+
+
+def test_the_cli_states_the_sobol_caveat_once_in_the_summary(tmp_path, capsys):
+    from mechrel.cli.main import main
+
+    f = tmp_path / "s.toml"
+    f.write_text('scene = "slider-crank"\nangle_step = 90.0\n[inputs.crank]\n'
+                 'paths = ["bodies.crank.length(O,A)"]\ndistribution = "normal"\n'
+                 'mean = 0.05\nstd = 1e-5\n[reliability]\nmethods = ["mc"]\nn = 24\n'
+                 'rule = "sobol"\nseed = 1\n')
+    assert main(["reliability", str(f), "--out", str(tmp_path / "o"), "--no-progress",
+                 "--jobs", "1"]) == 0
+    captured = capsys.readouterr()
+    assert "balance" not in captured.err  # neither SciPy's warning nor ours on stderr
+    lines = [line for line in captured.out.splitlines() if "not a power of 2" in line]
+    assert lines == ["  warning: monte_carlo: rule='sobol' with n = 24 points: not a power "
+                     "of 2, so the points are not a balanced Sobol' net and the estimate may "
+                     "converge no faster than with rule='random'; n = 16 or 32 keeps the "
+                     "balance"]

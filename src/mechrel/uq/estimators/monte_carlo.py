@@ -49,6 +49,7 @@ from __future__ import annotations
 
 import math
 import time
+import warnings
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -56,13 +57,14 @@ import numpy as np
 import pandas as pd
 from scipy import special, stats
 
-from mechrel.errors import StudyError
+from mechrel.errors import EstimateWarning, StudyError
 
 from ..._checks import ARGS
 from .._common import (
     SampleFailuresError,
     check_inputs,
     check_memory,
+    emit_warnings,
     exclusive_source,
     executor_kwargs,
     failure_message,
@@ -70,7 +72,8 @@ from .._common import (
     run,
 )
 from ..execution.executor import Evaluations
-from ..problem.inputs import SAMPLING_RULES, as_seed_sequence, child_seed, seed_record
+from ..problem.inputs import (SAMPLING_RULES, as_seed_sequence, child_seed, seed_record,
+                              sobol_balance_note)
 from ..problem.model import check_model
 from ..problem.allowables import (binomial_interval, check_event, per_angle_mask, resolve_allowables,
                           whole_cycle_column)
@@ -213,7 +216,9 @@ class MonteCarloResult(CountedByProvenance):
     provenance : dict
         How the result was made.
     warnings : tuple of str
-        Caveats of the estimate (for a run on a PCE surrogate, the surrogate's).
+        Caveats of the estimate: a Sobol' design of a size that is not a power of 2
+        (:func:`~mechrel.uq.problem.inputs.sobol_balance_note`); for a run on a PCE surrogate,
+        the surrogate's.
 
     Examples
     --------
@@ -411,6 +416,7 @@ def monte_carlo(
             executor=executor_kwargs(n_jobs, backend, cache, progress, chunk_size))
     ss = as_seed_sequence(seed)
     ss_x, ss_I = child_seed(ss, 0), child_seed(ss, 1)
+    notes: tuple[str, ...] = ()
     if model is not None:
         ARGS.choice("rule", rule, SAMPLING_RULES)
         if inputs is None:
@@ -419,7 +425,11 @@ def monte_carlo(
         inputs = check_inputs(inputs, names)
         n = ARGS.sample_count("n", n)
         check_memory(n, len(names) + len(index), "n", n)
-        X = inputs.sample(n, rule, ss_x)
+        note = sobol_balance_note(n) if rule == "sobol" else None
+        with warnings.catch_warnings():  # the caveat, if any, is the result's: emitted below
+            warnings.simplefilter("ignore", EstimateWarning)
+            X = inputs.sample(n, rule, ss_x)
+        notes = emit_warnings([f"monte_carlo: {note}"] if note else [])
         ev = run(model, X, executor_kwargs(n_jobs, backend, cache, progress, chunk_size))
     else:
         assert evaluations is not None  # exclusive_source: exactly one
@@ -457,7 +467,7 @@ def monte_carlo(
     )
     return MonteCarloResult(
         table, whole, event, allowable, allowable_mode, rule, confidence_level, ci_method, failures,
-        ev.n_failed, ev.failure_counts(), ev, ss, prov,
+        ev.n_failed, ev.failure_counts(), ev, ss, prov, notes,
     )
 
 

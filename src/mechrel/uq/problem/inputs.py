@@ -32,6 +32,7 @@ quadrature and root finding. ``UncertainInputs.gaussian_correlation`` exposes R_
 from __future__ import annotations
 
 import math
+import warnings
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
@@ -42,7 +43,7 @@ from scipy import optimize, special, stats
 from scipy.stats import qmc
 
 from mechrel._checks import ARGS
-from mechrel.errors import StudyError
+from mechrel.errors import EstimateWarning, StudyError
 
 __all__ = [
     "Normal",
@@ -55,9 +56,45 @@ __all__ = [
     "as_seed_sequence",
     "as_generator",
     "child_seed",
+    "sobol_balance_note",
 ]
 
 SAMPLING_RULES = ("random", "latin_hypercube", "sobol")
+
+
+def sobol_balance_note(n: int) -> str | None:
+    """The caveat of ``n`` scrambled Sobol' points when ``n`` is not a power of 2, else None.
+
+    The first ``2**m`` points of a (scrambled) Sobol' sequence form a (t, m, s)-net: every
+    elementary box of volume ``2**t / 2**m`` holds exactly ``2**t`` of them. That balance is
+    what makes the variance of an average over them fall faster than ``1/n`` for smooth
+    integrands (Owen 1997, "Scrambled net variance for integrals of smooth functions",
+    Ann. Statist. 25(4)). A count between two powers of 2 is an unbalanced part of the next
+    net: the estimate stays unbiased, but that faster decrease is no longer assured.
+
+    Parameters
+    ----------
+    n : int
+        The number of points (>= 1).
+
+    Returns
+    -------
+    str or None
+        The caveat, naming the nearest balanced counts; None for a power of 2.
+
+    Examples
+    --------
+    >>> sobol_balance_note(8192) is None
+    True
+    >>> print(sobol_balance_note(10000))
+    rule='sobol' with n = 10000 points: not a power of 2, so the points are not a balanced Sobol' net and the estimate may converge no faster than with rule='random'; n = 8192 or 16384 keeps the balance
+    """
+    if n & (n - 1) == 0:
+        return None
+    low = 1 << (n.bit_length() - 1)
+    return (f"rule='sobol' with n = {n} points: not a power of 2, so the points are not a "
+            f"balanced Sobol' net and the estimate may converge no faster than with "
+            f"rule='random'; n = {low} or {2 * low} keeps the balance")
 _U_EPS = 2.0**-53  # keep unit-cube points strictly inside (0, 1) so inverse CDFs stay finite
 
 
@@ -1208,7 +1245,15 @@ class UncertainInputs:
             return rng.random((n, self.d))
         if rule == "latin_hypercube":
             return qmc.LatinHypercube(self.d, rng=rng).random(n)
-        return qmc.Sobol(self.d, scramble=True, rng=rng).random(n)
+        note = sobol_balance_note(n)
+        with warnings.catch_warnings():
+            # SciPy's own warning names no remedy a caller of mechrel can act on: ours does
+            warnings.filterwarnings("ignore", message="The balance properties of Sobol",
+                                    category=UserWarning)
+            points = qmc.Sobol(self.d, scramble=True, rng=rng).random(n)
+        if note is not None:
+            warnings.warn(note, EstimateWarning, stacklevel=3)
+        return points
 
     def sample(self, n: int, rule: str = "random", seed: Any = None) -> np.ndarray:
         """Draw ``n`` input vectors.
