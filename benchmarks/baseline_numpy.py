@@ -437,7 +437,8 @@ class Baseline:
         ax, ay = c * s[0] - sn * s[1], sn * s[0] + c * s[1]
         pos = np.stack([Q[:, 3 * b] + ax, Q[:, 3 * b + 1] + ay], 1)
         vel = np.stack([V[:, 3 * b] - ay * w, V[:, 3 * b + 1] + ax * w], 1)
-        acc = np.stack([A[:, 3 * b] - ay * al - ax * w * w, A[:, 3 * b + 1] + ax * al - ay * w * w], 1)
+        acc = np.stack([A[:, 3 * b] - ay * al - ax * w * w,
+                        A[:, 3 * b + 1] + ax * al - ay * w * w], 1)
         return pos @ u, vel @ u, acc @ u
 
 
@@ -508,7 +509,8 @@ def simulate(scene="nine-bar-lubricated", *, method="LSODA", rtol=1e-7, atol=1e-
 def _main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--scene", default="nine-bar-lubricated")
-    ap.add_argument("--method", default="LSODA", choices=["LSODA", "Radau", "BDF", "RK45", "DOP853"])
+    ap.add_argument("--method", default="LSODA",
+                    choices=["LSODA", "Radau", "BDF", "RK45", "DOP853"])
     ap.add_argument("--rtol", type=float, default=1e-7)
     ap.add_argument("--atol", type=float, default=None, help="default rtol * 1e-3")
     ap.add_argument("--solve", default="augmented", choices=["augmented", "schur"])

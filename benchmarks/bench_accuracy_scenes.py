@@ -4,7 +4,8 @@ For every scene this calls :func:`mechrel.studies.accuracy.accuracy_report` (the
 ``mechrel accuracy SCENE``) with a bounded candidate list (each scene a few minutes on one
 core), writes the figure to ``docs/figures/performance/accuracy_<scene>.png``, the table to
 ``<out>/accuracy_<scene>.csv`` and a Markdown summary (tables, recommendation, the default of
-``mechrel.simulation.DEFAULT_SOLVERS`` and its measured error) to ``<out>/accuracy_<scene>.md`` (``--replot`` redraws the figures from the saved tables).
+``mechrel.simulation.DEFAULT_SOLVERS`` and its measured error) to
+``<out>/accuracy_<scene>.md`` (``--replot`` redraws the figures from the saved tables).
 
 Error measures and reference: see ``mechrel.studies.accuracy`` (pointwise max error / range
 for ideal and lubricated scenes; for dry scenes, whose trajectories are chaotic, the difference

@@ -173,7 +173,7 @@ def bench(repeats, rhs_seconds, rhs_rounds):
         for case in cases:
             case.round()
         print(f"simulate round {r + 1}/{repeats}", flush=True)
-    for r in range(rhs_rounds):
+    for _ in range(rhs_rounds):
         for case in cases:
             case.rhs_round()
     for case in cases:

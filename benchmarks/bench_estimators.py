@@ -7,9 +7,10 @@ The default study (``load_study("nine-bar-lubricated")``: clearance, viscosity a
 uncertain; two cycles, the second analysed; slider errors every 18°, 3 × 21 outputs) with the
 scene's ``radau`` at ``--rtol`` (default 1e-5, atol = 1e-3 rtol) instead of 1e-7: ≈ 30 % cheaper
 per evaluation, and ``mechrel accuracy nine-bar-lubricated`` measures its pointwise error at
-≈ 1e-3 of the error curves' range, far below the spread the inputs cause (measured on 8 samples: the outputs at rtol 1e-5
-and 1e-8 differ by at most 0.3–0.5 % of the reference standard deviation at the worst angles). Every estimator evaluates through one persistent cache, so the reference
-samples are computed once and a rerun of the script only analyses.
+≈ 1e-3 of the error curves' range, far below the spread the inputs cause (measured on 8
+samples: the outputs at rtol 1e-5 and 1e-8 differ by at most 0.3–0.5 % of the reference
+standard deviation at the worst angles). Every estimator evaluates through one persistent
+cache, so the reference samples are computed once and a rerun of the script only analyses.
 
 The tolerance
 -------------
@@ -340,8 +341,10 @@ def plot(table, refinfo, figdir):
 
     figdir.mkdir(parents=True, exist_ok=True)
     style = {"FOSM": ("C3", "s"), "MC": ("C0", "o"), "PCE": ("C2", "^"), "Sobol": ("C1", "D")}
-    panels = [("R_min", "worst point-in-time reliability,\n|R̂_min − R_min,ref| (max over quantities)"),
-              ("R_cycle", "whole-cycle reliability,\n|R̂_cycle − R_cycle,ref| (max over quantities)"),
+    panels = [("R_min", "worst point-in-time reliability,\n"
+                        "|R̂_min − R_min,ref| (max over quantities)"),
+              ("R_cycle", "whole-cycle reliability,\n"
+                          "|R̂_cycle − R_cycle,ref| (max over quantities)"),
               ("moments", "mean and std at the worst angle,\nmax |error| / σ_ref"),
               ("sobol", "Sobol' indices of the peak |error|,\nmax |Ŝ − S_ref| (S1 and ST)")]
     for xcol, xlabel, fname in [("n_evals", "model evaluations", "estimators_vs_evaluations.png"),

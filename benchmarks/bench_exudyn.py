@@ -95,7 +95,8 @@ class ExudynSliderCrank:
         import exudyn as exu
         from exudyn.itemInterface import (LoadMassProportional, MarkerBodyMass,
                                           MarkerBodyPosition, MarkerNodeCoordinate,
-                                          NodePointGround, NodeRigidBody2D, ObjectConnectorCoordinate,
+                                          NodePointGround, NodeRigidBody2D,
+                                          ObjectConnectorCoordinate,
                                           ObjectGenericODE2, ObjectGround, ObjectJointRevolute2D,
                                           ObjectRigidBody2D)
         self.exu = exu
@@ -115,8 +116,9 @@ class ExudynSliderCrank:
         nodes, objs = {}, {}
         for k, name in enumerate(cs.body_names):
             b = sc.bodies[name]
-            nodes[name] = mbs.AddNode(NodeRigidBody2D(referenceCoordinates=list(qa[3 * k:3 * k + 3]),
-                                                      initialVelocities=list(va[3 * k:3 * k + 3])))
+            nodes[name] = mbs.AddNode(NodeRigidBody2D(
+                referenceCoordinates=list(qa[3 * k:3 * k + 3]),
+                initialVelocities=list(va[3 * k:3 * k + 3])))
             objs[name] = mbs.AddObject(ObjectRigidBody2D(mass=b.mass, inertia=b.inertia,
                                                          nodeNumber=nodes[name]))
             mbs.AddLoad(LoadMassProportional(
@@ -134,7 +136,8 @@ class ExudynSliderCrank:
                                                            mpos("rod", pts["rod"]["A"])]))
         for coord in (1, 2):  # slider: y = 0 and angle = 0 (the line through O along x)
             mbs.AddObject(ObjectConnectorCoordinate(markerNumbers=[
-                mGc, mbs.AddMarker(MarkerNodeCoordinate(nodeNumber=nodes["slider"], coordinate=coord))]))
+                mGc, mbs.AddMarker(MarkerNodeCoordinate(nodeNumber=nodes["slider"],
+                                                        coordinate=coord))]))
         mbs.AddObject(ObjectConnectorCoordinate(
             markerNumbers=[mGc, mbs.AddMarker(MarkerNodeCoordinate(nodeNumber=nodes["crank"],
                                                                    coordinate=2))],
@@ -147,7 +150,8 @@ class ExudynSliderCrank:
         sS = tuple(pts["slider"]["B"])
         assert sS == (0.0, 0.0)
         c, RB, RS = p["clearance"], p["bearing_radius"], p["journal_radius"]
-        K, nexp, ce, floor = p["stiffness"], p["exponent"], p["restitution"], p["impact_speed_floor"]
+        K, nexp = p["stiffness"], p["exponent"]
+        ce, floor = p["restitution"], p["impact_speed_floor"]
         cf, v0, v1 = p["friction_coefficient"], p["v0"], p["v1"]
         damp = 0.75 * (1.0 - ce * ce)
         st = {"hist": 0.0, "impacts": 0, "calls": 0, "max_pen": 0.0, "first_impact": None,
@@ -344,7 +348,8 @@ def main(argv=None):
             fi = p["first_impact_s"]
             print(f"| {r['h']:.3g} | {code} | {p['impacts']} | "
                   f"{fi * 1e3 if fi is not None else float('nan'):.4f} | "
-                  f"{p['max_penetration_m'] * 1e6:.2f} | {p['max_slider_dev_from_ideal_m'] * 1e6:.1f} |")
+                  f"{p['max_penetration_m'] * 1e6:.2f} | "
+                  f"{p['max_slider_dev_from_ideal_m'] * 1e6:.1f} |")
         ph = r["physics"]
         print(f"| {r['h']:.3g} | both | max \\|e_mechrel − e_exudyn\\| before the first impact: "
               f"{ph['e_max_diff_before_first_impact_m'] * 1e6:.4f} µm; max \\|slider x "

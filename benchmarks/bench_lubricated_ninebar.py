@@ -137,7 +137,8 @@ def time_candidates(cands, n_repeats, log):
 
 def fmt_row(r):
     if "failed" in r:
-        return f"| {r['code']} | {r['integrator']} | {r['rtol']:.0e} | failed: {r['failed'][:60]} | | | | | |"
+        return (f"| {r['code']} | {r['integrator']} | {r['rtol']:.0e} | "
+                f"failed: {r['failed'][:60]} | | | | | |")
     return (f"| {r['code']} | {r['integrator']} | {r['rtol']:.0e} | {r['wall']:.3f} | "
             f"{r['integration']:.3f} | {r['steps']} | {r['rhs']} | {100 * r['peak_rel_dev']:.3f} | "
             f"{100 * r['curve_rel_dev']:.3f} |")
@@ -202,7 +203,6 @@ def main(argv=None):
         r["_scene"] = scene
     cands = {id(r): r for crit in ("peak_rel_dev", "curve_rel_dev")
              for r in passing(mr_rows, crit) + passing(bl_rows, crit)}
-    n_rep = max(args.repeats, args.baseline_repeats)
     mr_c = [c for c in cands.values() if c["code"] == "mechrel"]
     bl_c = [c for c in cands.values() if c["code"] == "baseline"]
     print(f"timing {len(mr_c)} mechrel settings x {args.repeats} and {len(bl_c)} baseline "

@@ -5,7 +5,8 @@ What is measured
 ----------------
 * ``model = load_study("nine-bar-lubricated").model()`` (two cycles per sample, the second
   analysed), ``X = study.uncertain_inputs().sample(n, "sobol", seed)``, evaluated with
-  :func:`mechrel.uq.execution.executor.evaluate` (``n_jobs=1``: in-process; ``n_jobs=2``: loky workers);
+  :func:`mechrel.uq.execution.executor.evaluate` (``n_jobs=1``: in-process; ``n_jobs=2``:
+  loky workers);
 * 1 worker: warm process (numba's cache already loaded by one untimed evaluation);
 * 2 workers, "cold": the first ``evaluate`` call of the process, which starts the loky workers
   (spawn, imports, numba cache load in each) — includes start-up;
