@@ -9,22 +9,27 @@ nothing more):
 
 * ``one process``: ``simulate`` of the short run :func:`mechrel._kernel_cache.warm_up` makes,
   on one core: every kernel compiled one after another (the warm-up before this change);
-* ``two processes``: :func:`mechrel._kernel_cache.warm_up` itself, which hands the Radau
-  kernel's callees, the kinematic analysis and the post-processing to a helper process
-  (:func:`mechrel._kernel_cache.split_compile`) and compiles the kernel here.
+* ``two processes``: :func:`mechrel._kernel_cache.warm_up` itself, which hands part of the
+  Radau kernel's callees and the post-processing to a helper process
+  (:func:`mechrel._kernel_cache.split_compile`), compiles the rest and then the kernel here;
+* ``two processes, previous shares`` (``--modes two-previous``): the same with the shares of
+  the helper and this process before they were balanced (the helper also compiled the
+  kinematic analysis, and this process waited for it; the clearance Jacobian did not wait for
+  the helper's right-hand side), set in the run's process before the warm-up.
 
-The runs alternate (``--rounds`` pairs), one at a time; each reports its wall time, the CPU
-time of the process and its children, the load average before it, the compile time of the
-first sample after it (0 when nothing was left), the CPU time of this process and of the
-helper during the compilation (with two free cores the wall time is about the larger of the
-two, plus what this process waits for the helper; on a loaded machine the wall time says how
-busy it was), and the functions numba compiled for more
-than one type signature (a cache file ``NAME-LINE.py311.2.nbc``). The machine's other jobs
-are stated by the load average; medians over rounds.
+The runs alternate (``--rounds`` rounds of ``--modes``), one at a time; each reports its
+wall time, the CPU time of the process and its children, the load average before it, the
+compile time of the first sample after it (0 when nothing was left), the CPU time of this
+process and of the helper during the compilation (with two free cores the wall time is about
+the larger of the two, plus what this process waits for the helper; on a loaded machine the
+wall time says how busy it was), and the functions numba compiled for more than one type
+signature (a cache file ``NAME-LINE.py311.2.nbc``). The machine's other jobs are stated by
+the load average; medians over rounds.
 
 Run::
 
     python benchmarks/bench_cold_start.py --rounds 2 --json /tmp/cold.json
+    python benchmarks/bench_cold_start.py --rounds 3 --modes two-previous two
 """
 
 from __future__ import annotations
@@ -58,6 +63,11 @@ if sys.argv[1] == "one":
     step = a.sample_step_angle / abs(scene.drivers[a.cycle_driver].speed)
     simulate(with_overrides(scene, {"analysis.duration": step}))
 else:
+    if sys.argv[1] == "two-previous":
+        kc._HELPER_JOBS = ("rhs", "newton", "kinematics", "post_process")
+        kc._OWN_JOBS = ("fd_jacobian", "clearance_jacobian")
+        kc._NEEDS = {}
+        kc._WAIT_FOR = ("rhs", "newton", "kinematics")
     kc.warm_up(scene, progress=False, file=open("/dev/null", "w"))
 t2 = time.perf_counter()
 r1 = resource.getrusage(resource.RUSAGE_SELF)
@@ -74,6 +84,10 @@ print(json.dumps({"import_and_load": t1 - t0, "compile": t2 - t1,
                   "cpu_helper": rc.ru_utime + rc.ru_stime,
                   "first_sample_extra": (t3 - t2) - (t4 - t3)}))
 """
+
+
+LABELS = {"one": "one process", "two": "two processes",
+          "two-previous": "two processes, previous shares"}
 
 
 def one_run(mode: str) -> dict:
@@ -94,10 +108,11 @@ def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--rounds", type=int, default=2)
     ap.add_argument("--json", default=None)
+    ap.add_argument("--modes", nargs="+", choices=list(LABELS), default=["one", "two"])
     args = ap.parse_args(argv)
     runs = []
     for _ in range(args.rounds):
-        for mode in ("one", "two"):
+        for mode in args.modes:
             d = one_run(mode)
             runs.append(d)
             print(json.dumps({k: (round(v, 2) if isinstance(v, float) else v)
@@ -105,7 +120,8 @@ def main(argv=None):
     print("\n| warm-up | compile, wall (s) | CPU s, this process | CPU s, helper | first sample, "
           "compile left (s) | load before |")
     print("|---|---|---|---|---|---|")
-    for mode, label in (("one", "one process"), ("two", "two processes")):
+    for mode in args.modes:
+        label = LABELS[mode]
         rs = [d for d in runs if d["mode"] == mode]
 
         def med(key, rs=rs):

@@ -91,15 +91,15 @@ _ENTRY_POINTS = {
     "kinematics": ("mechrel.mechanics.kinematics", "_kinematics"),
 }
 _TIMES = "kernel-compile-seconds.json"
-DEFAULT_COMPILE_SECONDS = {"rk4": 55.0, "dopri5": 55.0, "radau": 50.0, "kinematics": 10.0}
+DEFAULT_COMPILE_SECONDS = {"rk4": 55.0, "dopri5": 55.0, "radau": 36.0, "kinematics": 10.0}
 """First-compilation times (s) on two idle cores, used until this machine has measured its own
 (stored beside the cache). The kinematic analysis takes about 10 s of CPU (numba's compile events,
 benchmarks/bench_cold_start.py); the dry slider-crank's first run (DOPRI5 and the kinematic
 analysis, one process) took 65 s in a fresh checkout. A cold Radau warm-up runs in two processes
-(:func:`split_compile`): about 38 s of CPU in this one and 44 s in the helper on the default
-study (since the Newton iteration is the helper's; benchmarks/bench_cold_start.py, load ≈ 1),
-against 80 s in one process, so about 60 s on two free cores (59 s measured). The load moves
-these numbers by a factor of two or more either way."""
+(:func:`split_compile`): about 45 s of CPU in this one and 29 s in the helper on the default
+study (benchmarks/bench_cold_start.py, load ≈ 1.3), against 78 s in one process, so about 45 s
+on two free cores (45.4 s measured, median of three). The load moves these numbers by a factor
+of two or more either way."""
 
 
 def is_compiled(entry: str) -> bool:
@@ -240,13 +240,22 @@ def warm_up(scene, *, progress: bool = True, file=None) -> float:
 # post-processing. A cold compilation did them one after another on one core. numba loads a
 # callee from the on-disk cache when another process has put it there first, so a second
 # process compiles part of them while this one compiles the rest: ``_HELPER_JOBS`` in a helper
-# process, in this order; ``_OWN_JOBS`` here; then this process waits for the helper's jobs
-# that the kernel and the kinematic analysis need, and compiles the kernel itself (its step
+# process, in this order; ``_OWN_JOBS`` here, each after the helper's jobs it calls
+# (``_NEEDS``, else it would compile them a second time); then this process waits for the
+# helper's jobs that the kernel needs (``_WAIT_FOR``) and compiles the kernel itself (its step
 # loop and small helpers), loading them. On two idle cores the critical path is the longer of
-# the helper's waited jobs and the own jobs, plus the kernel's own body.
-_HELPER_JOBS = ("rhs", "newton", "kinematics", "post_process")
-_OWN_JOBS = ("fd_jacobian", "clearance_jacobian")  # the latter calls rhs_into: the helper's first
-_WAIT_FOR = ("rhs", "newton", "kinematics")  # post_process is needed only after the integration
+# the two shares, plus the kernel's own body, so the shares are balanced by their compile
+# times (numba's self times on an idle machine, ``benchmarks/profile_compile.py``: the Newton
+# iteration 12.0 s, the kernel's body 11.8 s, the finite-difference Jacobian 9.8 s, the
+# right-hand side 9.8 s, the clearance Jacobian 5.9 s, the kinematic analysis ≈ 5 s, the
+# post-processing ≈ 3.5 s, each with smaller callees). The post-processing, needed only after
+# the integration, ends the helper's share while the kernel compiles here. Measured
+# (``benchmarks/bench_cold_start.py --modes two-previous two``): 45 s against 55 s with the
+# kinematic analysis in the helper's share (docs/performance.md, "The one-off compilation").
+_HELPER_JOBS = ("rhs", "newton", "post_process")
+_OWN_JOBS = ("fd_jacobian", "kinematics", "clearance_jacobian")
+_NEEDS = {"clearance_jacobian": ("rhs",)}  # it calls rhs_into, which the helper's "rhs" caches
+_WAIT_FOR = ("rhs", "newton")
 
 
 def _compile_job(name: str, scene) -> None:
@@ -356,15 +365,22 @@ def split_compile(scene) -> set[str]:
         except OSError:  # the helper died at start: its jobs compile here, in the kernel
             pass
         for name in _OWN_JOBS:
+            _wait_for(_NEEDS.get(name, ()), done, finished)
             _compile_job(name, scene)
-        while not finished.is_set() and not all(n in done for n in _WAIT_FOR):
-            finished.wait(0.05)
+        _wait_for(_WAIT_FOR, done, finished)
     finally:
         if not finished.is_set():  # the rest (post-processing) it may finish on its own
             threading.Thread(target=_reap, args=(proc,), daemon=True).start()
         else:
             proc.wait()
     return set(done)
+
+
+def _wait_for(names, done: set, finished) -> None:
+    """Wait until the helper has reported each job of ``names`` done (in ``done``), or has
+    ended (``finished`` set: what it did not do compiles here, in the caller's job)."""
+    while not finished.is_set() and not all(n in done for n in names):
+        finished.wait(0.05)
 
 
 def _reap(proc) -> None:
