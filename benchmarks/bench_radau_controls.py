@@ -1,0 +1,121 @@
+"""Radau's Newton tolerance κ and step-growth limit against error and time, lubricated scenes.
+
+RADAU5 stops its simplified Newton iteration when the predicted distance to the collocation
+solution is below ``κ`` times the error scale, with ``κ = max(10 u / r, min(0.03, √r))`` for
+the transformed tolerance ``r = 0.1 rtol^(2/3)``, and lets a step grow at most eightfold
+(``FACR = 1/8``) (Hairer & Wanner, *Solving Ordinary Differential Equations II*, 2nd ed.,
+Springer 1996, §IV.8; mechrel's kernel uses both as they are). On the lubricated nine-bar about
+40 % of Radau's trial steps are rejected because the Newton iteration diverged after the step
+had grown (docs/performance.md, "Cost per cycle against the floor"). A looser ``κ`` means
+fewer iterations per step and fewer divergent ones, but less converged stages; a smaller
+growth limit means fewer divergent iterations, but more steps. Is there time to be had at the
+same accuracy?
+
+For each scene and ``rtol`` (atol = 1e-3 rtol) this runs, interleaved, the shipped Radau and
+variants compiled from its source by asserted edits (so they cannot drift from it):
+``κ = min(0.03, 3 √r)``, ``min(0.03, 10 √r)``, the constant ``0.03``, and growth limits of
+4× and 2×. Each run is scored by the largest error of the slider's displacement, velocity and
+acceleration error curves against a radau rtol 1e-11 reference, divided by the reference
+curve's range (the pointwise measure of ``mechrel accuracy``); time is the median kernel wall
+time of ``--repeats`` warm runs. Compare settings on the error–time frontier, not at equal
+``rtol``: a variant that is faster at one ``rtol`` but less accurate may only have moved along
+the frontier.
+
+Run (≈ 8 min, of which ≈ 5 compiling the five variants)::
+
+    python benchmarks/bench_radau_controls.py --repeats 5 --json bench_radau_controls.json
+"""
+
+from __future__ import annotations
+
+import os
+
+for _v in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "NUMBA_NUM_THREADS"):
+    os.environ.setdefault(_v, "1")
+
+import argparse  # noqa: E402
+import json  # noqa: E402
+import statistics  # noqa: E402
+import sys  # noqa: E402
+from pathlib import Path  # noqa: E402
+
+import numpy as np  # noqa: E402
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _common import git_state  # noqa: E402
+from bench_floor import _Swap, radau_variant  # noqa: E402
+
+import mechrel.integrate.radau as radau  # noqa: E402
+from mechrel.scene import load_scene  # noqa: E402
+from mechrel.simulation import simulate  # noqa: E402
+
+SHIPPED = "    fnewt = max(10.0 * UROUND / rtol, min(0.03, math.sqrt(rtol)))\n"
+_LINE = "    fnewt = max(10.0 * UROUND / rtol, {})\n"
+_GROWTH = "FACR = 0.125  # h_new ≤ h / FACR\n"
+VARIANTS = {  # label: the edits of the shipped source
+    "κ = min(0.03, 3 √r)": [(SHIPPED, _LINE.format("min(0.03, 3.0 * math.sqrt(rtol))"))],
+    "κ = min(0.03, 10 √r)": [(SHIPPED, _LINE.format("min(0.03, 10.0 * math.sqrt(rtol))"))],
+    "κ = 0.03": [(SHIPPED, _LINE.format("0.03"))],
+    "growth ≤ 4×": [(_GROWTH, "FACR = 0.25\n")],
+    "growth ≤ 2×": [(_GROWTH, "FACR = 0.5\n")],
+}
+_IMPORT = ("from .base import Integrator\n", "from mechrel.integrate.base import Integrator\n")
+RTOLS = (3e-4, 1e-4, 3e-5, 1e-5, 1e-6, 1e-7)
+REF_RTOL, REF_ATOL = 1e-11, 1e-14
+QUANTITIES = ("displacement", "velocity", "acceleration")
+
+
+def curve_error(res, ref) -> float:
+    """The largest |e − e_ref| / range(e_ref) over the slider's three error curves e."""
+    worst = 0.0
+    for q in QUANTITIES:
+        e, er = res.error("slider", q), ref.error("slider", q)
+        worst = max(worst, float(np.max(np.abs(e - er)) / (er.max() - er.min())))
+    return worst
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--repeats", type=int, default=5)
+    ap.add_argument("--scenes", nargs="+",
+                    default=["nine-bar-lubricated", "slider-crank-lubricated"])
+    ap.add_argument("--json", default=None)
+    args = ap.parse_args(argv)
+    kernels = {"shipped": radau.Radau._advance}
+    for i, (label, edits) in enumerate(VARIANTS.items()):
+        kernels[label] = radau_variant([*edits, _IMPORT], f"radau_controls_{i}")
+    rows = []
+    for name in args.scenes:
+        scene = load_scene(name)
+        ref = simulate(scene, integrator="radau", rtol=REF_RTOL, atol=REF_ATOL)
+        for rtol in RTOLS:
+            kw = {"integrator": "radau", "rtol": rtol, "atol": 1e-3 * rtol}
+            times = {k: [] for k in kernels}
+            last = {}
+            for _ in range(args.repeats):
+                for label, advance in kernels.items():
+                    with _Swap(advance):
+                        r = simulate(scene, **kw)
+                    times[label].append(r.stats["wall_time"])
+                    last[label] = r
+            for label, r in last.items():
+                row = {"scene": name, "rtol": rtol, "variant": label,
+                       "kernel_ms": 1e3 * statistics.median(times[label]),
+                       "steps": r.stats["n_steps"], "rejected": r.stats["n_rejected"],
+                       "rhs": r.stats["n_rhs"], "error": curve_error(r, ref)}
+                rows.append(row)
+                print(f"{name} rtol {rtol:g} {label:20s} {row['kernel_ms']:7.2f} ms  "
+                      f"steps {row['steps']:4d} rejected {row['rejected']:4d} rhs "
+                      f"{row['rhs']:5d}  error {row['error']:.2e}", flush=True)
+    print("\n| scene | rtol | Radau | kernel (ms) | steps | rejected | error / range |")
+    print("|---|---:|---|---:|---:|---:|---:|")
+    for r in rows:
+        print(f"| {r['scene']} | {r['rtol']:g} | {r['variant']} | {r['kernel_ms']:.2f} | "
+              f"{r['steps']} | {r['rejected']} | {r['error']:.2g} |")
+    print(git_state())
+    if args.json:
+        Path(args.json).write_text(json.dumps({"rows": rows, "git": git_state()}, indent=1))
+
+
+if __name__ == "__main__":
+    main()
