@@ -79,6 +79,54 @@ def test_the_stiff_kernels_callees_compile_in_a_helper_process():
         kc._compile_job("nope", scene)
 
 
+def test_own_jobs_wait_for_the_helper_jobs_they_call(monkeypatch):
+    # numba loads a callee from the on-disk cache only if the helper has put it there: an own
+    # job that calls a helper's function (the clearance Jacobian calls rhs_into) must start
+    # after the helper reported it, or it compiles it a second time; and split_compile returns
+    # only when the jobs the kernel needs are reported. A fake helper reports its jobs 0.3 s
+    # apart; the order of events is recorded
+    import subprocess
+    import threading
+    import time
+
+    events = []
+    lock = threading.Lock()
+
+    def note(what):
+        with lock:
+            events.append(what)
+
+    class FakeHelper:
+        def __init__(self, args, **kw):
+            self.jobs = [a for a in args if a in kc._HELPER_JOBS]
+            assert tuple(self.jobs) == kc._HELPER_JOBS
+            self.stdin = io.StringIO()
+            self.stdout = self._report()
+            self.returncode = None
+
+        def _report(self):
+            for name in self.jobs:
+                time.sleep(0.3)
+                note(f"helper:{name}")
+                yield name + "\n"
+
+        def wait(self, timeout=None):
+            return 0
+
+    monkeypatch.setattr(subprocess, "Popen", FakeHelper)
+    monkeypatch.setattr(kc, "_compile_job", lambda name, scene: note(f"own:{name}"))
+    kc.split_compile(load_scene("slider-crank-lubricated"))
+    done_at = len(events)
+    for own, needs in kc._NEEDS.items():
+        for need in needs:
+            assert events.index(f"helper:{need}") < events.index(f"own:{own}"), events
+    for need in kc._WAIT_FOR:  # reported before split_compile returned
+        assert events.index(f"helper:{need}") < done_at, events
+    # jobs without needs do not wait: the first own job starts before the helper's first report
+    assert events[0] == f"own:{kc._OWN_JOBS[0]}", events
+    assert "clearance_jacobian" in kc._NEEDS and kc._NEEDS["clearance_jacobian"] == ("rhs",)
+
+
 def test_the_compile_jobs_compile_the_types_the_kernel_passes():
     # a job compiled for other argument types than the Radau kernel passes would be compiled
     # a second time by the kernel (no gain, and twice the work). A kernel loaded from the
