@@ -156,17 +156,23 @@ def test_sobol_with_too_few_samples_warns():
     assert got == [] and big.warnings == ()
 
 
-def test_the_reliability_summary_carries_warnings_and_ends_with_a_verdict(tmp_path, capsys):
+def _reliability_cli(tmp_path, capsys, *, angle_step, reliability):
+    """``mechrel reliability`` on the slider-crank with its crank's length uncertain (a study
+    file with ``reliability`` as its [reliability] table); the captured output."""
     from mechrel.cli.main import main
 
     f = tmp_path / "s.toml"
-    f.write_text('scene = "slider-crank"\nangle_step = 30.0\n[inputs.crank]\n'
+    f.write_text(f'scene = "slider-crank"\nangle_step = {angle_step}\n[inputs.crank]\n'
                  'paths = ["bodies.crank.length(O,A)"]\ndistribution = "normal"\n'
-                 'mean = 0.05\nstd = 1e-5\n[reliability]\nmethods = ["fosm", "mc"]\nn = 16\n'
-                 'seed = 1\n')
+                 f'mean = 0.05\nstd = 1e-5\n[reliability]\n{reliability}')
     assert main(["reliability", str(f), "--out", str(tmp_path / "o"), "--no-progress",
                  "--jobs", "1"]) == 0
-    captured = capsys.readouterr()
+    return capsys.readouterr()
+
+
+def test_the_reliability_summary_carries_warnings_and_ends_with_a_verdict(tmp_path, capsys):
+    captured = _reliability_cli(tmp_path, capsys, angle_step=30.0,
+                                reliability='methods = ["fosm", "mc"]\nn = 16\nseed = 1\n')
     lines = captured.out.strip().splitlines()
     assert "EstimateWarning" not in captured.err  # in the summary, not twice
     summary = json.loads((tmp_path / "o" / "summary.json").read_text())
@@ -250,16 +256,9 @@ def test_a_sobol_design_of_a_size_not_a_power_of_2_is_a_caveat_of_the_result():
 
 
 def test_the_cli_states_the_sobol_caveat_once_in_the_summary(tmp_path, capsys):
-    from mechrel.cli.main import main
-
-    f = tmp_path / "s.toml"
-    f.write_text('scene = "slider-crank"\nangle_step = 90.0\n[inputs.crank]\n'
-                 'paths = ["bodies.crank.length(O,A)"]\ndistribution = "normal"\n'
-                 'mean = 0.05\nstd = 1e-5\n[reliability]\nmethods = ["mc"]\nn = 24\n'
-                 'rule = "sobol"\nseed = 1\n')
-    assert main(["reliability", str(f), "--out", str(tmp_path / "o"), "--no-progress",
-                 "--jobs", "1"]) == 0
-    captured = capsys.readouterr()
+    captured = _reliability_cli(
+        tmp_path, capsys, angle_step=90.0,
+        reliability='methods = ["mc"]\nn = 24\nrule = "sobol"\nseed = 1\n')
     assert "balance" not in captured.err  # neither SciPy's warning nor ours on stderr
     lines = [line for line in captured.out.splitlines() if "not a power of 2" in line]
     assert lines == ["  warning: monte_carlo: rule='sobol' with n = 24 points: not a power "
