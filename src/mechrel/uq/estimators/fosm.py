@@ -39,14 +39,15 @@ import pandas as pd
 from mechrel.errors import StudyError
 
 from .._common import (
+    CountedByProvenance,
     _labels,
     check_inputs,
     emit_warnings,
-    quantity_scale,
     exclusive_source,
     executor_kwargs,
     failure_message,
     make_provenance,
+    quantity_scale,
     readonly,
     run,
 )
@@ -56,7 +57,6 @@ from ..problem.model import check_model
 from ..problem.allowables import (check_event, per_angle_mask, reliability_one_sided,
                           reliability_two_sided, resolve_allowables)
 from ._problem import Problem, RareEventResult
-from .._common import CountedByProvenance
 
 __all__ = ["fosm", "fosm_design", "fd_steps", "FOSMResult", "FOSMPfResult"]
 
@@ -199,7 +199,6 @@ class FOSMResult(CountedByProvenance):
     evaluations: Evaluations
     provenance: dict = field(repr=False)
     warnings: tuple[str, ...] = ()
-
 
     def to_frame(self) -> pd.DataFrame:
         """The per-output table (a copy of ``table``).

@@ -61,6 +61,7 @@ from mechrel.errors import EstimateWarning, StudyError
 
 from ..._checks import ARGS
 from .._common import (
+    CountedByProvenance,
     SampleFailuresError,
     check_inputs,
     check_memory,
@@ -78,7 +79,6 @@ from ..problem.model import check_model
 from ..problem.allowables import (binomial_interval, check_event, per_angle_mask, resolve_allowables,
                           whole_cycle_column)
 from ._problem import Problem, RareEventResult
-from .._common import CountedByProvenance
 
 __all__ = ["monte_carlo", "monte_carlo_design", "MonteCarloResult", "MonteCarloPfResult",
            "ALLOWABLE_MODES", "FAILURE_MODES"]
@@ -247,7 +247,6 @@ class MonteCarloResult(CountedByProvenance):
     seed: Any
     provenance: dict = field(repr=False)
     warnings: tuple[str, ...] = ()
-
 
     def to_frame(self) -> pd.DataFrame:
         """The per-output table (a copy of ``table``).

@@ -34,11 +34,11 @@ from scipy import stats
 from mechrel.errors import StudyError
 
 from ..._checks import ARGS
-from .._common import _labels, emit_warnings, make_provenance, resolve_outputs_safe
+from .._common import (CountedByProvenance, _labels, emit_warnings, make_provenance,
+                       resolve_outputs_safe)
 from .fosm import FOSMResult
 from .monte_carlo import MonteCarloResult, reliability_from_samples
 from ..problem.allowables import per_angle_mask
-from .._common import CountedByProvenance
 
 __all__ = ["normality_check", "NormalityResult"]
 
@@ -107,7 +107,6 @@ class NormalityResult(CountedByProvenance):
     monte_carlo: MonteCarloResult
     provenance: dict = field(repr=False)
     warnings: tuple[str, ...] = ()
-
 
     def to_frame(self) -> pd.DataFrame:
         """The per-output table (a copy of ``table``).

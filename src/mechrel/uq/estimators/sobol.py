@@ -37,10 +37,11 @@ from mechrel.errors import StudyError
 
 from ..._checks import ARGS
 from .._common import (
-    emit_warnings,
+    CountedByProvenance,
     SampleFailuresError,
     check_inputs,
     check_memory,
+    emit_warnings,
     exclusive_source,
     executor_kwargs,
     failure_message,
@@ -50,7 +51,6 @@ from .._common import (
 from ..execution.executor import Evaluations
 from ..problem.inputs import UncertainInputs, as_seed_sequence, child_seed, seed_record
 from ..problem.model import check_model
-from .._common import CountedByProvenance
 
 __all__ = ["sobol_design", "sobol_indices", "SobolResult", "peak_abs"]
 
@@ -209,7 +209,6 @@ class SobolResult(CountedByProvenance):
     evaluations: Evaluations
     provenance: dict = field(repr=False)
     warnings: tuple[str, ...] = ()
-
 
     def to_frame(self) -> pd.DataFrame:
         """A long table of the indices.

@@ -49,9 +49,10 @@ from mechrel.errors import StudyError
 
 from ..._checks import ARGS
 from .._common import (
-    emit_warnings,
+    CountedByProvenance,
     SampleFailuresError,
     check_inputs,
+    emit_warnings,
     exclusive_source,
     executor_kwargs,
     failure_message,
@@ -62,7 +63,6 @@ from .._common import (
 from ..execution.executor import STATUS_OK, Evaluations
 from ..problem.inputs import SAMPLING_RULES, UncertainInputs, as_seed_sequence, child_seed, seed_record
 from ..problem.model import check_model
-from .._common import CountedByProvenance
 
 __all__ = ["polynomial_chaos", "pce_design", "PCEResult", "multi_indices"]
 
@@ -336,7 +336,6 @@ class PCEResult(CountedByProvenance):
     provenance: dict = field(repr=False)
     _recurrence: tuple = field(repr=False, default=())
     warnings: tuple[str, ...] = ()
-
 
     def to_frame(self) -> pd.DataFrame:
         """The per-output table of the surrogate's moments, errors and Sobol' indices.
