@@ -107,11 +107,35 @@ def test_unassemblable_geometry_names_the_violated_constraints():
 
 # ------------------------------------------------------------- compiled sparse LU kinematics
 
+def _numpy_gamma(q, v, t, system):
+    """γ = −(Φ_q q̇)_q q̇ − 2Φ_qt q̇ − Φ_tt written plainly (Nikravesh 1988, §6.2): a revolute
+    joint's two rows (A_i s_i) ω_i² − (A_j s_j) ω_j², a point on a line n·(A_i s_i) ω_i² and
+    zero for its angle row, zero for a fixed angle, a driver's angular acceleration."""
+    from mechrel.mechanics.drivers import driver_law
+
+    def rotated(body, s):
+        c, sn = math.cos(q[3 * body + 2]), math.sin(q[3 * body + 2])
+        return np.array([c * s[0] - sn * s[1], sn * s[0] + c * s[1]])
+
+    rows = []
+    for i, j, si, sj in zip(system.rev_i, system.rev_j, system.rev_si, system.rev_sj):
+        g = rotated(i, si) * v[3 * i + 2] ** 2
+        if j >= 0:
+            g = g - rotated(j, sj) * v[3 * j + 2] ** 2
+        rows += list(g)
+    for i, si, nrm in zip(system.tr_i, system.tr_si, system.tr_n):
+        rows += [float(nrm @ rotated(i, si)) * v[3 * i + 2] ** 2, 0.0]
+    rows += [0.0] * system.fa_i.shape[0]
+    rows += [driver_law(law, par, t)[2] for law, par in zip(system.dr_law, system.dr_par)]
+    return np.array(rows)
+
+
 def _numpy_kinematics(system, q0, times, tol):
     """The kinematic analysis written plainly with NumPy: the same Taylor predictor and Newton
     iteration as the compiled kernel, every linear system by np.linalg.solve (LAPACK) on the
-    dense Φ_q from constraints()."""
-    from mechrel.mechanics.constraints import constraints, gamma
+    dense Φ_q from constraints() (the compiled kernel works on the sparse rows of
+    constraint_terms()), γ from :func:`_numpy_gamma`."""
+    from mechrel.mechanics.constraints import constraints
 
     n = q0.size
     Q, V, A = (np.empty((times.size, n)) for _ in range(3))
@@ -129,7 +153,7 @@ def _numpy_kinematics(system, q0, times, tol):
         else:
             raise AssertionError(f"reference Newton did not converge at t = {t}")
         v = np.linalg.solve(J, -phit)
-        a = np.linalg.solve(J, gamma(q, v, t, system))
+        a = np.linalg.solve(J, _numpy_gamma(q, v, t, system))
         Q[k], V[k], A[k] = q, v, a
         conds.append(np.linalg.cond(J))
         tprev = t

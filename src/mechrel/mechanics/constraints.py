@@ -2,10 +2,11 @@
 
 Owns the constraint rows of a :class:`~mechrel.mechanics.system.System`, in the row order
 revolute (2 rows), translational (2), fixed angle (1), driver (1): :func:`n_constraints`;
-``Φ(q, t)``, ``Φ_t`` and the Jacobian ``Φ_q`` as dense arrays for the kinematic analysis
-(:func:`constraints`, :func:`gamma`); the same terms in the sparse, allocation-free form of the
-right-hand side (:func:`constraint_terms`: each row of Φ_q acts on at most two bodies, with
-the Baumgarte combination formed there); and the violation of a state (:func:`violation_from`).
+``Φ(q, t)``, ``Φ_t`` and the Jacobian ``Φ_q`` as dense arrays for the assembly
+(:func:`constraints`); the same terms and γ in the sparse, allocation-free form of the
+right-hand side and the kinematic analysis (:func:`constraint_terms`: each row of Φ_q acts on
+at most two bodies, with the Baumgarte combination formed there); and the violation of a state
+(:func:`violation_from`).
 All ``@njit(cache=True)``.
 
 Formulation (Nikravesh 1988, *Computer-Aided Analysis of Mechanical Systems*, ch. 6; Baumgarte
@@ -143,66 +144,6 @@ def constraints(q, t, sys):
         J[r, 3 * i + 2] = 1.0
         r += 1
     return phi, phit, J
-
-
-@njit(cache=True)
-def gamma(q, v, t, sys):
-    """γ = −(Φ_q q̇)_q q̇ − 2Φ_qt q̇ − Φ_tt, the right-hand side of Φ_q q̈ = γ (m/s², rad/s²).
-
-    Parameters
-    ----------
-    q : ndarray, shape (n,)
-        Coordinates ``(x, y, θ)`` of each body (m, m, rad).
-    v : ndarray, shape (n,)
-        Their velocities (m/s, m/s, rad/s).
-    t : float
-        Time (s).
-    sys : System
-        The mechanism (:class:`~mechrel.mechanics.system.System`).
-
-    Returns
-    -------
-    ndarray, shape (m,)
-        γ.
-
-    Examples
-    --------
-    >>> from mechrel.mechanics.kinematics import assemble
-    >>> from mechrel.mechanics.system import compile_scene
-    >>> from mechrel.scene import load_scene
-    >>> c = compile_scene(load_scene("slider-crank-lubricated"))
-    >>> q, v = assemble(c.assembly, c.q_guess, 0.0)
-    >>> dyn, y = c.dynamic, np.concatenate([q, v, np.zeros(2)])
-    >>> gamma(q, v, 0.0, dyn).shape
-    (7,)
-    """
-    m = n_constraints(sys)
-    g = np.zeros(m)
-    r = 0
-    for k in range(sys.rev_i.shape[0]):
-        i = sys.rev_i[k]
-        j = sys.rev_j[k]
-        ax, ay, _, _ = _rot(q[3 * i + 2], sys.rev_si[k, 0], sys.rev_si[k, 1])
-        w2 = v[3 * i + 2] ** 2
-        g[r] = ax * w2
-        g[r + 1] = ay * w2
-        if j >= 0:
-            ax, ay, _, _ = _rot(q[3 * j + 2], sys.rev_sj[k, 0], sys.rev_sj[k, 1])
-            w2 = v[3 * j + 2] ** 2
-            g[r] -= ax * w2
-            g[r + 1] -= ay * w2
-        r += 2
-    for k in range(sys.tr_i.shape[0]):
-        i = sys.tr_i[k]
-        ax, ay, _, _ = _rot(q[3 * i + 2], sys.tr_si[k, 0], sys.tr_si[k, 1])
-        g[r] = (sys.tr_n[k, 0] * ax + sys.tr_n[k, 1] * ay) * v[3 * i + 2] ** 2
-        r += 2
-    r += sys.fa_i.shape[0]
-    for k in range(sys.dr_i.shape[0]):
-        _, _, acc = driver_law(sys.dr_law[k], sys.dr_par[k], t)
-        g[r] = acc
-        r += 1
-    return g
 
 
 @njit(cache=True, inline='always')

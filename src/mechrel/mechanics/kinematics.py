@@ -22,7 +22,8 @@ import numpy as np
 from numba import njit
 
 from ..errors import AssemblyError
-from .constraints import constraints, gamma
+from .constraints import constraint_terms, constraints
+from .dynamics import make_workspace
 
 # the public API; LUFactors and the _lu_* functions are the sparse solver behind it
 __all__ = ["assemble", "kinematic_analysis"]
@@ -338,6 +339,26 @@ def _max_abs(x):
     return r
 
 
+@njit(cache=True, inline='always')
+def _jacobian_into(ws, row_body, J):
+    """The dense Φ_q (m × n) into ``J`` from the sparse rows that
+    :func:`~mechrel.mechanics.constraints.constraint_terms` left in ``ws``: row r acts on the
+    bodies ``row_body[r]`` (−1: ground) with ``ws.coef[6 r:6 r + 6]``. Every other entry is
+    set to zero (the factorisation overwrites ``J``)."""
+    co = ws.coef
+    n = J.shape[1]
+    for r in range(J.shape[0]):
+        for c in range(n):
+            J[r, c] = 0.0
+        for s in range(2):
+            b = row_body[r, s]
+            if b >= 0:
+                o = 6 * r + 3 * s
+                J[r, 3 * b] = co[o]
+                J[r, 3 * b + 1] = co[o + 1]
+                J[r, 3 * b + 2] = co[o + 2]
+
+
 @njit(cache=True)
 def _kinematics(q0, times, sys, tol, max_iter):
     """Kinematic analysis of a fully driven mechanism (m == n) at ``times``.
@@ -345,6 +366,11 @@ def _kinematics(q0, times, sys, tol, max_iter):
     Returns ``Q, V, A, max_violation, done``; ``done < len(times)`` when Newton did not
     converge within ``max_iter`` iterations at ``times[done]`` (``Q`` etc. then hold the
     instants before it). A singular Φ_q raises ``np.linalg.LinAlgError``.
+
+    The constraint terms come from the right-hand side's allocation-free
+    :func:`~mechrel.mechanics.constraints.constraint_terms` (one sine and cosine per body,
+    the sparse rows of Φ_q): evaluated at zero velocity it gives Φ and Φ_t, at the solved
+    velocity γ (its Baumgarte combination undone: ``γ = c + 2α Φ̇ + β² Φ``).
     """
     nt = times.shape[0]
     n = q0.shape[0]
@@ -352,6 +378,13 @@ def _kinematics(q0, times, sys, tol, max_iter):
     V = np.empty((nt, n))
     A = np.empty((nt, n))
     lu = _lu_workspace(n)
+    ws = make_workspace(sys)
+    row_body = sys.row_body
+    alpha2 = 2.0 * sys.baumgarte[0]
+    beta2 = sys.baumgarte[1] * sys.baumgarte[1]
+    J = np.empty((n, n))
+    dq = np.empty(n)
+    rest = np.zeros(n)
     viol = 0.0
     q = q0.copy()
     v = np.zeros(n)
@@ -366,27 +399,32 @@ def _kinematics(q0, times, sys, tol, max_iter):
             q[i] = q[i] + v[i] * dt + 0.5 * a[i] * dt * dt
         it = 0
         while True:
-            phi, phit, J = constraints(q, t, sys)
-            res = _max_abs(phi)
+            constraint_terms(t, q, rest, sys, ws)  # Φ and, at zero velocity, Φ̇ = Φ_t
+            res = _max_abs(ws.phi)
             if not res <= tol and it >= max_iter:
                 return Q[:k], V[:k], A[:k], viol, k
-            # J is a fresh array from constraints(): factor it in place, by the previous
-            # factorisation's plan when it still applies. The factors at the converged q are
-            # the ones the velocity and acceleration solves need.
+            # factor Φ_q, by the previous factorisation's plan when it still applies. The
+            # factors at the converged q are the ones the velocity and acceleration solves
+            # need.
+            _jacobian_into(ws, row_body, J)
             if not _lu_refactor(J, lu):
-                if lu.valid[0]:  # the replay stopped part-way through J: evaluate it again
-                    _, _, J = constraints(q, t, sys)
+                if lu.valid[0]:  # the replay stopped part-way through J: fill it again
+                    _jacobian_into(ws, row_body, J)
                 _lu_factor(J, lu)
             if res <= tol:
                 break
-            _lu_solve(lu, phi)  # Newton step Φ_q Δq = Φ (square: the minimum-norm one)
             for i in range(n):
-                q[i] -= phi[i]
+                dq[i] = ws.phi[i]
+            _lu_solve(lu, dq)  # Newton step Φ_q Δq = Φ (square: the minimum-norm one)
+            for i in range(n):
+                q[i] -= dq[i]
             it += 1
         for i in range(n):
-            v[i] = -phit[i]
+            v[i] = -ws.phidot[i]
         _lu_solve(lu, v)  # Φ_q q̇ = −Φ_t
-        a = gamma(q, v, t, sys)
+        constraint_terms(t, q, v, sys, ws)
+        for i in range(n):
+            a[i] = ws.c[i] + (alpha2 * ws.phidot[i] + beta2 * ws.phi[i])
         _lu_solve(lu, a)  # Φ_q q̈ = γ
         for i in range(n):
             Q[k, i] = q[i]
