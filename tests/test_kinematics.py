@@ -186,6 +186,34 @@ def test_compiled_kinematic_analysis_matches_numpy_reference(name):
     assert viol <= tol
 
 
+def test_ideal_accelerations_do_not_depend_on_the_baumgarte_parameters():
+    # The kinematic analysis takes γ out of the right-hand side's stabilised
+    # c = γ − 2α Φ̇ − β² Φ and adds the Baumgarte terms back. With β = 1e6 (β² = 1e12) a
+    # residual |Φ| of 1e-16 m left by Newton would move q̈ by 1e-4 m/s² (1e-6 of the
+    # nine-bar's accelerations) if they were not; added back, what is left is their round-off,
+    # eps × |β² Φ| ≈ 1e-20 m/s², and 2α Φ̇ ≈ 2e6 × 1e-16 m/s. The positions and velocities
+    # see α and β only through q̈ in the next instant's Taylor predictor (q̈ dt²/2, dt = 1.5 ms
+    # at 1°), so they stay within a few ulp: 1e-14 relative.
+    from mechrel.mechanics.kinematics import kinematic_analysis
+    from mechrel.scene import with_overrides
+    from mechrel.simulation import output_times
+
+    base = load_scene("nine-bar")
+    runs = []
+    for ab in (None, 1e6):
+        scene = base if ab is None else with_overrides(
+            base, {"solver.baumgarte_alpha": ab, "solver.baumgarte_beta": ab})
+        compiled = compile_scene(scene)
+        tol = scene.solver.assembly_tolerance
+        q0, _ = assemble(compiled.ideal, compiled.q_guess, 0.0, tol=tol)
+        runs.append(kinematic_analysis(compiled.ideal, q0, output_times(scene, compiled),
+                                       tol=tol))
+    (Q1, V1, A1, _), (Q2, V2, A2, _) = runs
+    for got, ref, bound in ((Q2, Q1, 1e-14), (V2, V1, 1e-14), (A2, A1, 1e-12)):
+        err = np.max(np.abs(got - ref), axis=1) / np.max(np.abs(ref), axis=1)
+        assert np.max(err) <= bound, (np.max(err), bound)
+
+
 def test_redundant_driver_makes_the_jacobian_singular():
     # The crank's driver moved to the slider: the slider's angle is held twice (translational
     # joint and driver, two identical Jacobian rows) and the crank is free, so Φ_q is square

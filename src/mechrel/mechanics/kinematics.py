@@ -339,7 +339,7 @@ def _max_abs(x):
     return r
 
 
-@njit(cache=True, inline='always')
+@njit(cache=True)
 def _jacobian_into(ws, row_body, J):
     """The dense Φ_q (m × n) into ``J`` from the sparse rows that
     :func:`~mechrel.mechanics.constraints.constraint_terms` left in ``ws``: row r acts on the
@@ -370,7 +370,8 @@ def _kinematics(q0, times, sys, tol, max_iter):
     The constraint terms come from the right-hand side's allocation-free
     :func:`~mechrel.mechanics.constraints.constraint_terms` (one sine and cosine per body,
     the sparse rows of Φ_q): evaluated at zero velocity it gives Φ and Φ_t, at the solved
-    velocity γ (its Baumgarte combination undone: ``γ = c + 2α Φ̇ + β² Φ``).
+    velocity γ (its Baumgarte combination undone: ``γ = c + 2α Φ̇ + β² Φ``). It is called
+    from one place (it is inlined, and each call site would be compiled again).
     """
     nt = times.shape[0]
     n = q0.shape[0]
@@ -398,8 +399,11 @@ def _kinematics(q0, times, sys, tol, max_iter):
         for i in range(n):
             q[i] = q[i] + v[i] * dt + 0.5 * a[i] * dt * dt
         it = 0
+        solved = False  # Newton at zero velocity (Φ̇ = Φ_t), then once at the solved q̇ (γ)
         while True:
-            constraint_terms(t, q, rest, sys, ws)  # Φ and, at zero velocity, Φ̇ = Φ_t
+            constraint_terms(t, q, v if solved else rest, sys, ws)
+            if solved:
+                break
             res = _max_abs(ws.phi)
             if not res <= tol and it >= max_iter:
                 return Q[:k], V[:k], A[:k], viol, k
@@ -412,17 +416,17 @@ def _kinematics(q0, times, sys, tol, max_iter):
                     _jacobian_into(ws, row_body, J)
                 _lu_factor(J, lu)
             if res <= tol:
-                break
+                for i in range(n):
+                    v[i] = -ws.phidot[i]
+                _lu_solve(lu, v)  # Φ_q q̇ = −Φ_t
+                solved = True
+                continue
             for i in range(n):
                 dq[i] = ws.phi[i]
             _lu_solve(lu, dq)  # Newton step Φ_q Δq = Φ (square: the minimum-norm one)
             for i in range(n):
                 q[i] -= dq[i]
             it += 1
-        for i in range(n):
-            v[i] = -ws.phidot[i]
-        _lu_solve(lu, v)  # Φ_q q̇ = −Φ_t
-        constraint_terms(t, q, v, sys, ws)
         for i in range(n):
             a[i] = ws.c[i] + (alpha2 * ws.phidot[i] + beta2 * ws.phi[i])
         _lu_solve(lu, a)  # Φ_q q̈ = γ
