@@ -287,6 +287,7 @@ def radau_variant(edits, name):
         return mod.radau5_kernel(system, without_clearance_forces(system), t0, y0, hist, t_out,
                                  self.step or 0.0, self.rtol, self.atol, self.max_steps,
                                  self.onset_tolerance, self.fixed_step, ctl, log_from, n_dense)
+    advance.module = mod  # the variant's other functions, for callers that time them
     return advance
 
 
