@@ -193,40 +193,30 @@ def test_radau_counts_newton_rejections_apart():
 # ---------------------------------------------------------------------------- radau internals
 @pytest.mark.parametrize("dtype", [np.float64, np.complex128])
 def test_lu_with_partial_pivoting(dtype):
+    # The pivots are LAPACK's: getrf picks the entry of largest |Re| + |Im| (izamax with
+    # dcabs1), not of largest modulus. The complex column 0 holds 1 + 1j (|Re| + |Im| = 2,
+    # modulus 1.41) and 1.5 (1.5 both ways), so the two rules pivot on different rows. Same
+    # pivots, so the factors agree with LAPACK's to round-off (a backward-stable elimination in
+    # another order of operations: cond(A) × eps ≈ 1e-14 here), and so does the solution.
+    import scipy.linalg as sla
+
     rng = np.random.default_rng(1)
     A = rng.standard_normal((9, 9)).astype(dtype)
     if dtype == np.complex128:
         A += 1j * rng.standard_normal((9, 9))
+        A[:, 0] = [0.1, 1.5, 1 + 1j, 0.2j, -0.3, 0.5, 0.7, -0.2 + 0.4j, 1.2]
     A[0, 0] = 0.0  # needs pivoting
     b = rng.standard_normal(9).astype(dtype)
     LU, piv = A.copy(), np.zeros(9, dtype=np.int64)
     assert lu_factor(LU, piv)
+    ref, ref_piv = sla.lu_factor(A)
+    assert piv.tolist() == ref_piv.tolist()
+    np.testing.assert_allclose(LU, ref, rtol=1e-12, atol=1e-12)
     x = b.copy()
     lu_solve(LU, piv, x)
     np.testing.assert_allclose(x, np.linalg.solve(A, b), rtol=1e-12, atol=1e-12)
     S = np.ones((3, 3), dtype=dtype)  # singular: reported, not divided by zero
     assert not lu_factor(S, np.zeros(3, dtype=np.int64))
-
-
-@pytest.mark.parametrize("dtype", [np.float64, np.complex128])
-def test_lu_pivots_are_lapacks(dtype):
-    # LAPACK's getrf picks the entry of largest |Re| + |Im| (izamax with dcabs1), not of
-    # largest modulus. Column 0 below holds 1 + 1j (|Re| + |Im| = 2, modulus 1.41) and 1.5
-    # (1.5 both ways): the two rules pivot on different rows. Same pivots, so the factors
-    # agree with LAPACK's to round-off: a backward-stable elimination in another order of
-    # operations, cond(A) × eps ≈ 1e-14 here, so 1e-12.
-    import scipy.linalg as sla
-
-    rng = np.random.default_rng(7)
-    A = rng.standard_normal((6, 6)).astype(dtype)
-    if dtype == np.complex128:
-        A += 1j * rng.standard_normal((6, 6))
-        A[:, 0] = [0.1, 1.5, 1 + 1j, 0.2j, -0.3, 0.5]
-    LU, piv = A.copy(), np.zeros(6, dtype=np.int64)
-    assert lu_factor(LU, piv)
-    ref, ref_piv = sla.lu_factor(A)
-    assert piv.tolist() == ref_piv.tolist()
-    np.testing.assert_allclose(LU, ref, rtol=1e-12, atol=1e-12)
 
 
 def test_radau_settings_and_errors():
