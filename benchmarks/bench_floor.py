@@ -277,6 +277,7 @@ def radau_variant(edits, name):
         src = src.replace(old, new)
     src = src.replace("from ..", "from mechrel.").replace("from .events",
                                                           "from mechrel.integrate.events")
+    src = src.replace("from .base import", "from mechrel.integrate.base import")
     path = Path(tempfile.mkdtemp(prefix="mechrel-floor-")) / f"{name}.py"
     path.write_text(src)
     spec = importlib.util.spec_from_file_location(name, path)
