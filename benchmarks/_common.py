@@ -2,7 +2,10 @@
 
 from __future__ import annotations
 
+import importlib.util
 import subprocess
+import sys
+import tempfile
 from pathlib import Path
 
 
@@ -14,3 +17,22 @@ def git_state() -> str:
                               text=True, check=True).stdout.strip()
     except (OSError, subprocess.CalledProcessError):
         return "unknown"
+
+
+def module_from_source(src: str, edits, name: str, what: str):
+    """Import ``src`` with ``edits`` (``(old, new)`` pairs, each matching exactly once) as the
+    module ``name``, from a file in a temporary folder (numba compiles it there afresh).
+    ``what`` names the source in the error raised when an edit no longer matches it."""
+    for old, new in edits:
+        n = src.count(old)
+        if n != 1:
+            raise RuntimeError(f"{what} changed ({n} matches of {old.strip()[:60]!r}); "
+                               "update the benchmark's edits")
+        src = src.replace(old, new)
+    path = Path(tempfile.mkdtemp(prefix="mechrel-bench-")) / f"{name}.py"
+    path.write_text(src)
+    spec = importlib.util.spec_from_file_location(name, path)
+    mod = importlib.util.module_from_spec(spec)
+    sys.modules[name] = mod  # so that another such module can import it by name
+    spec.loader.exec_module(mod)
+    return mod

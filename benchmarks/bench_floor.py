@@ -37,14 +37,12 @@ for _v in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "NUMBA_
     os.environ.setdefault(_v, "1")
 
 import argparse  # noqa: E402
-import importlib.util  # noqa: E402
 import inspect  # noqa: E402
 import json  # noqa: E402
 import math  # noqa: E402
 import platform  # noqa: E402
 import statistics  # noqa: E402
 import sys  # noqa: E402
-import tempfile  # noqa: E402
 import time  # noqa: E402
 from pathlib import Path  # noqa: E402
 
@@ -53,7 +51,7 @@ import scipy.linalg as sla  # noqa: E402
 from numba import njit  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _common import git_state  # noqa: E402
+from _common import git_state, module_from_source  # noqa: E402
 from bench_effects import _rhs_loop  # noqa: E402  (one rhs_into per state, compiled)
 
 import mechrel.integrate.radau as radau  # noqa: E402
@@ -240,7 +238,7 @@ _EDITS = [
     (_CALL_END + "stats)\n",
      _CALL_END + "stats,\n            sys_smooth, JS, Jsm, jac_floor, yp, use_partial)\n"),
     ("    nit = NIT_FIXED if fixed else NIT\n", "    nit = NIT_FIXED if fixed else NIT_EXACT\n"),
-    ("from .base import Integrator\n",
+    ("from mechrel.integrate.base import Integrator\n",
      f"from mechrel.integrate.base import Integrator\nNIT_EXACT = {NIT_EXACT}\n"),
 ]
 
@@ -260,29 +258,20 @@ _CONTROLLER_EDITS = [
      "                hcap = 2.0 * max(hcap, h)\n"
      "            hnew = min(hnew, hcap)\n"
      "            hacc = h\n"),
-    ("from .base import Integrator\n",
+    ("from mechrel.integrate.base import Integrator\n",
      f"from mechrel.integrate.base import Integrator\nTHETA_TARGET = {THETA_TARGET!r}\n"),
 ]
 
 
 def radau_variant(edits, name):
     """The ``_advance`` of Radau compiled from a copy of the shipped kernel's source with
-    ``edits`` applied (each must match exactly once), in a temporary module ``name``."""
+    ``edits`` applied (each must match exactly once), in a temporary module ``name``; the
+    copy's relative imports are made absolute first, so edits anchor on the absolute ones."""
     src = inspect.getsource(radau)
-    for old, new in edits:
-        n = src.count(old)
-        if n != 1:
-            raise RuntimeError(f"bench_floor: the Radau kernel changed ({n} matches of "
-                               f"{old.strip()[:60]!r}); update _EDITS")
-        src = src.replace(old, new)
     src = src.replace("from ..", "from mechrel.").replace("from .events",
                                                           "from mechrel.integrate.events")
     src = src.replace("from .base import", "from mechrel.integrate.base import")
-    path = Path(tempfile.mkdtemp(prefix="mechrel-floor-")) / f"{name}.py"
-    path.write_text(src)
-    spec = importlib.util.spec_from_file_location(name, path)
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
+    mod = module_from_source(src, edits, name, "the Radau kernel")
 
     def advance(self, system, t0, y0, hist, t_out, ctl, log_from=math.inf, n_dense=0):
         return mod.radau5_kernel(system, without_clearance_forces(system), t0, y0, hist, t_out,

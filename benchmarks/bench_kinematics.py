@@ -33,18 +33,16 @@ for _v in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "NUMBA_
     os.environ.setdefault(_v, "1")
 
 import argparse  # noqa: E402
-import importlib.util  # noqa: E402
 import json  # noqa: E402
 import subprocess  # noqa: E402
 import sys  # noqa: E402
-import tempfile  # noqa: E402
 import time  # noqa: E402
 from pathlib import Path  # noqa: E402
 
 import numpy as np  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _common import git_state  # noqa: E402
+from _common import git_state, module_from_source  # noqa: E402
 
 import mechrel.simulation as simulation  # noqa: E402
 from mechrel.mechanics.kinematics import _kinematics, assemble  # noqa: E402
@@ -56,34 +54,23 @@ SCENES = ("nine-bar", "slider-crank", "four-bar")
 ROOT = Path(__file__).resolve().parent.parent
 
 
-def _module_at(rev: str, path: str, name: str, replace: dict):
+def _module_at(rev: str, path: str, name: str, edits):
     """The module ``path`` as it was at git ``rev``, its relative imports rewritten by
-    ``replace``, imported under ``name`` from a temporary file (numba compiles it afresh)."""
+    ``edits``, imported under ``name`` (:func:`_common.module_from_source`)."""
     src = subprocess.run(["git", "show", f"{rev}:{path}"], cwd=ROOT, capture_output=True,
                          text=True, check=True).stdout
-    for old, new in replace.items():
-        if old not in src:
-            raise RuntimeError(f"bench_kinematics: {path} at {rev} has no {old!r}")
-        src = src.replace(old, new)
-    src = src.replace("cache=True", "cache=False")
-    file = Path(tempfile.mkdtemp(prefix="mechrel-kin-")) / f"{name}.py"
-    file.write_text(src)
-    spec = importlib.util.spec_from_file_location(name, file)
-    mod = importlib.util.module_from_spec(spec)
-    sys.modules[name] = mod
-    spec.loader.exec_module(mod)
-    return mod
+    return module_from_source(src, edits, name, f"{path} at {rev}")
 
 
 def earlier_kinematics(rev: str):
     """``_kinematics`` of git ``rev`` with that revision's ``constraints`` module."""
     _module_at(rev, "src/mechrel/mechanics/constraints.py", "_kin_before_constraints",
-               {"from .borrow": "from mechrel.mechanics.borrow",
-                "from .drivers": "from mechrel.mechanics.drivers",
-                "from .joints": "from mechrel.mechanics.joints"})
+               [("from .borrow", "from mechrel.mechanics.borrow"),
+                ("from .drivers", "from mechrel.mechanics.drivers"),
+                ("from .joints", "from mechrel.mechanics.joints")])
     mod = _module_at(rev, "src/mechrel/mechanics/kinematics.py", "_kin_before",
-                     {"from ..errors": "from mechrel.errors",
-                      "from .constraints": "from _kin_before_constraints"})
+                     [("from ..errors", "from mechrel.errors"),
+                      ("from .constraints", "from _kin_before_constraints")])
     return mod._kinematics
 
 
