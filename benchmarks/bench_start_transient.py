@@ -97,21 +97,25 @@ def decay_angle(c1, c3, span, angles) -> float:
     return float(angles[late[-1]]) if late.size else 0.0
 
 
-def measure(model, x, study_solver, nominal_values, start) -> tuple[dict, object]:
-    """Residual, decay angles and integration error (module docstring) at inputs ``x``, and the
-    three-cycle tight run."""
+GRID = {"analysis.sample_step_angle": ONE_DEGREE}
+
+
+def tight_run(model, x):
+    """Three cycles at inputs ``x`` at the tight tolerance, on the 1° grid."""
+    return simulate(with_overrides(model.scene, {**model.scene_values(x), **TIGHT,
+                                                 "analysis.cycles": 3, **GRID}))
+
+
+def measure(model, x, tight, study_solver, nominal_values, start) -> dict:
+    """Residual, decay angles and integration error (module docstring) at inputs ``x``, whose
+    :func:`tight_run` is ``tight``."""
     values = model.scene_values(x)
-    grid = {"analysis.sample_step_angle": ONE_DEGREE}
-    tight = simulate(with_overrides(model.scene, {**values, **TIGHT, "analysis.cycles": 3,
-                                                  **grid}))
     study = simulate(with_overrides(model.scene, {**values, **study_solver,
-                                                  "analysis.cycles": 2, **grid}))
+                                                  "analysis.cycles": 2, **GRID}))
+    warm = simulate(with_overrides(model.scene, {
+        **values, **TIGHT, "analysis.cycles": 1, **GRID,
+        **warm_overrides(model.scene, values, nominal_values, start)}))
     out = {"residual": {}, "decay_angle": {}, "integration_error": {}, "decay_angle_warm": {}}
-    warm = None
-    if start is not None:
-        warm = simulate(with_overrides(model.scene, {
-            **values, **TIGHT, "analysis.cycles": 1, **grid,
-            **warm_overrides(model.scene, values, nominal_values, start)}))
     per = (tight.time.size - 1) // 3
     angles = np.arange(per + 1) * 360.0 / per
     for q in QUANTITIES:
@@ -122,9 +126,8 @@ def measure(model, x, study_solver, nominal_values, start) -> tuple[dict, object
         out["decay_angle"][q] = decay_angle(c1, c3, span, angles)
         s2 = study.error("slider", q)[per:]
         out["integration_error"][q] = float(np.max(np.abs(s2 - c2)) / span)
-        if warm is not None:
-            out["decay_angle_warm"][q] = decay_angle(warm.error("slider", q), c3, span, angles)
-    return out, tight
+        out["decay_angle_warm"][q] = decay_angle(warm.error("slider", q), c3, span, angles)
+    return out
 
 
 def main(argv=None):
@@ -145,10 +148,9 @@ def main(argv=None):
     nominal_values = model.scene_values(cases[0][1])
     start = None
     for label, x in cases:  # the nominal first: its periodic state is the warm start
-        m, tight = measure(model, x, study_solver, nominal_values, start)
-        if start is None:
-            start = periodic_start(tight)
-            m, _ = measure(model, x, study_solver, nominal_values, start)
+        tight = tight_run(model, x)
+        start = start or periodic_start(tight)
+        m = measure(model, x, tight, study_solver, nominal_values, start)
         rows.append({"case": label, "inputs": dict(zip(names, map(float, x))), **m})
         print(label, json.dumps({k: {q: round(v, 8) for q, v in d.items()}
                                  for k, d in m.items()}), flush=True)
