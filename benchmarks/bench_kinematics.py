@@ -1,22 +1,24 @@
-"""The kinematic analysis of a fully driven mechanism: the shipped version against an earlier
-one, side by side in one process.
+"""The kinematic analysis of a fully driven mechanism: in closed form, by Newton–Raphson, and
+by Newton–Raphson as an earlier revision did it, side by side in one process.
 
-The ideal mechanism's kinematic analysis (positions by Newton, velocities and accelerations by
-two more solves with the same factors; :func:`mechrel.mechanics.kinematics.kinematic_analysis`)
-runs at every output instant and, for the cycle extremes, at every logged instant of the
-integration: about 860 instants per sample of the default study. Until git 7cb42ec it built
-the dense Φ_q, Φ and Φ_t with ``constraints()`` (a new array each call, a sine and cosine per
-joint end) and γ with ``gamma()``; it now takes them from the right-hand side's
-allocation-free ``constraint_terms()`` (one sine and cosine per body, Φ_q's sparse rows
-scattered into one reused matrix).
+The ideal mechanism's kinematic analysis runs at every output instant and, for the cycle
+extremes, at every logged instant of the integration: about 860 instants per sample of the
+default study. :func:`mechrel.mechanics.kinematics.kinematic_analysis` places the bodies of a
+mechanism built of class-II groups in closed form (``_construct``,
+:mod:`mechrel.mechanics.construction`), and solves any other by Newton–Raphson (``_kinematics``:
+positions by Newton, velocities and accelerations by two more solves with the same factors).
+Until git 7cb42ec the Newton analysis built the dense Φ_q, Φ and Φ_t with ``constraints()``
+(a new array each call, a sine and cosine per joint end) and γ with ``gamma()``; it now takes
+them from the right-hand side's allocation-free ``constraint_terms()``.
 
 What is measured, on the embedded driven scenes (two cycles on a 1/4° grid):
 
-* µs per instant of the compiled analysis (``_kinematics``), shipped and ``--before`` (the
-  module as it was at that git revision, with the ``constraints`` module of that revision,
-  compiled in this process from ``git show``), interleaved over ``--repeats`` rounds, medians;
-* the largest difference of Q, V, A between the two, relative to the largest entry (both
-  converge the same Newton iterates to 1e-12; what is left is round-off);
+* µs per instant of the closed form (``_construct``), of the shipped Newton analysis
+  (``_kinematics``) and of the Newton analysis at ``--before`` (the module as it was at that
+  git revision, with the ``constraints`` module of that revision, compiled in this process
+  from ``git show``), interleaved over ``--repeats`` rounds, medians;
+* the largest difference of Q, V, A between them, relative to the largest entry (the Newton
+  analyses converge the same iterates to |Φ| ≤ 1e-12; the closed form is exact to round-off);
 * the default study's instants per sample (the output grid and the logged instants of one
   sample at the nominal inputs) times the saving per instant: the saving per sample.
 
@@ -45,6 +47,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _common import git_state, module_from_source  # noqa: E402
 
 import mechrel.simulation as simulation  # noqa: E402
+from mechrel.mechanics.construction import _construct, construction  # noqa: E402
 from mechrel.mechanics.kinematics import _kinematics, assemble  # noqa: E402
 from mechrel.mechanics.system import compile_scene  # noqa: E402
 from mechrel.scene import load_scene  # noqa: E402
@@ -115,30 +118,42 @@ def main(argv=None):
         q0, _ = assemble(system, c.q_guess, 0.0)
         times = np.linspace(0.0, 2 * c.period, 2 * 1440 + 1)
         call = (q0, times, system, 1e-12, 50)
-        new, old = _kinematics(*call), before(*call)  # compiles both
-        diff = {lab: float(np.max(np.abs(a - b)) / np.max(np.abs(b)))
-                for lab, a, b in zip("QVA", new[:3], old[:3])}
-        t_new, t_old = [], []
+        closed = (q0, times, system, construction(system), 1e-12)
+        new, old, con = _kinematics(*call), before(*call), _construct(*closed)  # compiles all
+        assert new[4] == old[4] == con[4] == times.size  # every instant done
+
+        def rel(x, y):
+            return {lab: float(np.max(np.abs(a - b)) / np.max(np.abs(b)))
+                    for lab, a, b in zip("QVA", x[:3], y[:3])}
+
+        t_new, t_old, t_con = [], [], []
         for _ in range(args.repeats):
+            t_con.append(per_instant(_construct, closed, times.size))
             t_new.append(per_instant(_kinematics, call, times.size))
             t_old.append(per_instant(before, call, times.size))
-        row = {"scene": name, "instants": int(times.size), "us_shipped": float(np.median(t_new)),
-               "us_before": float(np.median(t_old)), "max_rel_diff": diff}
+        row = {"scene": name, "instants": int(times.size),
+               "us_closed_form": float(np.median(t_con)), "us_newton": float(np.median(t_new)),
+               "us_before": float(np.median(t_old)), "newton_vs_before": rel(new, old),
+               "closed_form_vs_newton": rel(con, new),
+               "max_violation": {"closed_form": float(con[3]), "newton": float(new[3])}}
         rows.append(row)
         print(json.dumps(row), flush=True)
     n_study = study_instants()
     nine = rows[0]
-    saving_ms = n_study * (nine["us_before"] - nine["us_shipped"]) / 1e3
-    print(f"\n| scene | {args.before} (µs per instant) | shipped (µs per instant) | speed-up "
-          "| largest difference (Q, V, A; relative) |")
-    print("|---|---:|---:|---:|---|")
+    saving_ms = n_study * (nine["us_newton"] - nine["us_closed_form"]) / 1e3
+    print(f"\n| scene | Newton at {args.before} (µs per instant) | Newton (µs) | closed form "
+          "(µs) | closed form against Newton | largest difference, closed form − Newton "
+          "(Q, V, A; relative) | max |Φ| closed form, Newton |")
+    print("|---|---:|---:|---:|---:|---|---|")
     for r in rows:
-        d = ", ".join(f"{v:.1e}" for v in r["max_rel_diff"].values())
-        print(f"| {r['scene']} | {r['us_before']:.2f} | {r['us_shipped']:.2f} "
-              f"| {r['us_before'] / r['us_shipped']:.2f}× | {d} |")
+        d = ", ".join(f"{v:.1e}" for v in r["closed_form_vs_newton"].values())
+        mv = r["max_violation"]
+        print(f"| {r['scene']} | {r['us_before']:.2f} | {r['us_newton']:.2f} "
+              f"| {r['us_closed_form']:.2f} | {r['us_newton'] / r['us_closed_form']:.2f}× "
+              f"| {d} | {mv['closed_form']:.1e}, {mv['newton']:.1e} |")
     print(f"\ndefault study: {n_study} instants per sample (nominal inputs) × "
-          f"{nine['us_before'] - nine['us_shipped']:.2f} µs = {saving_ms:.2f} ms saved per "
-          "sample")
+          f"{nine['us_newton'] - nine['us_closed_form']:.2f} µs = {saving_ms:.2f} ms saved per "
+          "sample by the closed form")
     print(git_state())
     if args.json:
         Path(args.json).write_text(json.dumps({"rows": rows, "study_instants": n_study,

@@ -272,9 +272,10 @@ def per_sample_split(model, X, rounds):
     out = {f"{how}_{part}": [] for how in ("row_by_row", "batch")
            for part in ("total", "radau_kernel", "kinematic_analysis", "rest")}
     n = X.shape[0]
-    advance, kin = radau.Radau._advance, kinematics._kinematics
+    advance, kin, con = radau.Radau._advance, kinematics._kinematics, kinematics._construct
     radau.Radau._advance = timed(advance, "radau")
-    kinematics._kinematics = timed(kin, "kinematics")
+    kinematics._kinematics = timed(kin, "kinematics")  # by Newton–Raphson …
+    kinematics._construct = timed(con, "kinematics")  # … or in closed form
     try:
         for _ in range(rounds):
             for how in ("row_by_row", "batch"):
@@ -291,7 +292,7 @@ def per_sample_split(model, X, rounds):
                 out[f"{how}_rest"].append((wall - spent["radau"] - spent["kinematics"]) / n)
             assert np.array_equal(old, new)  # the batch changes no number
     finally:
-        radau.Radau._advance, kinematics._kinematics = advance, kin
+        radau.Radau._advance, kinematics._kinematics, kinematics._construct = advance, kin, con
     rounds_ms = {k: [round(1e3 * x, 2) for x in v] for k, v in out.items()}
     print("per sample (ms), each round: " + json.dumps(rounds_ms), flush=True)
     return {k: statistics_median(v) for k, v in out.items()}

@@ -158,3 +158,19 @@ def test_the_compile_jobs_compile_the_types_the_kernel_passes():
     # is compiled once (a flag first typed as a literal True or 0 compiled a called helper a
     # second time, for the literal)
     assert len(radau._solve_collocation.signatures) == 1, radau._solve_collocation.signatures
+
+
+def test_the_kinematic_analysis_entry_is_the_one_the_scene_compiles(monkeypatch):
+    # a mechanism built of class-II groups compiles the closed form, any other driven one the
+    # Newton analysis; a scene whose ideal mechanism is not fully driven (the free double
+    # pendulum) runs no kinematic analysis at all, so it must not wait for one to be compiled
+    monkeypatch.setattr(kc, "is_compiled", lambda entry: False)
+    assert kc.cold_entries(load_scene("nine-bar"))[0] == "kinematics"
+    assert "kinematics" not in kc.cold_entries(load_scene("double-pendulum"))
+    assert "kinematics-newton" not in kc.cold_entries(load_scene("double-pendulum"))
+    import mechrel.mechanics.construction as construction
+
+    monkeypatch.setattr(construction, "construction", lambda system: None)
+    assert kc.cold_entries(load_scene("nine-bar"))[0] == "kinematics-newton"
+    assert kc._ENTRY_POINTS["kinematics-newton"] == ("mechrel.mechanics.kinematics",
+                                                     "_kinematics")

@@ -88,12 +88,16 @@ _ENTRY_POINTS = {
     "rk4": ("mechrel.integrate.explicit", "rk4_kernel"),
     "dopri5": ("mechrel.integrate.explicit", "dopri5_kernel"),
     "radau": ("mechrel.integrate.radau", "radau5_kernel"),
-    "kinematics": ("mechrel.mechanics.kinematics", "_kinematics"),
+    "kinematics": ("mechrel.mechanics.construction", "_construct"),
+    "kinematics-newton": ("mechrel.mechanics.kinematics", "_kinematics"),
 }
 _TIMES = "kernel-compile-seconds.json"
-DEFAULT_COMPILE_SECONDS = {"rk4": 55.0, "dopri5": 55.0, "radau": 36.0, "kinematics": 10.0}
+DEFAULT_COMPILE_SECONDS = {"rk4": 55.0, "dopri5": 55.0, "radau": 36.0, "kinematics": 6.0,
+                           "kinematics-newton": 10.0}
 """First-compilation times (s) on two idle cores, used until this machine has measured its own
-(stored beside the cache). The kinematic analysis takes about 10 s of CPU (numba's compile events,
+(stored beside the cache). The kinematic analysis takes about 6 s of CPU in closed form
+(:mod:`mechrel.mechanics.construction`: 5.4–5.7 s measured in a fresh cache) and about 10 s by
+Newton–Raphson, for mechanisms not built of class-II groups (numba's compile events,
 benchmarks/bench_cold_start.py); the dry slider-crank's first run (DOPRI5 and the kinematic
 analysis, one process) took 65 s in a fresh checkout. A cold Radau warm-up runs in two processes
 (:func:`split_compile`): about 45 s of CPU in this one and 29 s in the helper on the default
@@ -104,8 +108,8 @@ of two or more either way."""
 
 def is_compiled(entry: str) -> bool:
     """Whether ``entry`` (a key of the entry points: ``rk4``, ``dopri5``, ``radau``,
-    ``kinematics``) is compiled in this process or has an index in numba's on-disk cache, i.e.
-    whether calling it will not compile it from scratch."""
+    ``kinematics``, ``kinematics-newton``) is compiled in this process or has an index in
+    numba's on-disk cache, i.e. whether calling it will not compile it from scratch."""
     import importlib
 
     module, name = _ENTRY_POINTS[entry]
@@ -120,9 +124,14 @@ def is_compiled(entry: str) -> bool:
 
 def cold_entries(scene) -> list[str]:
     """The compiled entry points ``scene`` needs that are not compiled yet."""
+    from .mechanics.construction import construction
+    from .mechanics.system import compile_scene
     from .simulation import make_integrator
 
-    need = ["kinematics"]
+    ideal = compile_scene(scene).ideal
+    need = []
+    if ideal.n_constraints == ideal.n_coordinates:  # a fully driven ideal mechanism
+        need.append("kinematics" if construction(ideal) is not None else "kinematics-newton")
     if scene.clearance_joints or not scene.drivers:
         integrator = make_integrator(scene).name
         if integrator in _ENTRY_POINTS:

@@ -7,11 +7,13 @@ freedom: the correction moves the guess as little as possible). Velocities solve
 independent constraints as coordinates) the kinematic analysis needs no dynamics at all:
 ``q`` by Newton at each instant, ``q̇ = −Φ_q⁻¹ Φ_t``, ``q̈ = Φ_q⁻¹ γ``.
 
-There Φ_q is square, so the kinematic analysis factors it by its own sparse LU with partial
-pivoting (:class:`LUFactors`; a LAPACK call from numba costs several µs of fixed overhead at
-n ≈ 24, more than this whole factorisation of a Jacobian with at most six non-zeros per row)
-once per Newton iteration, and reuses the factors at the converged ``q`` for the velocity and
-the acceleration.
+Most machines need no Newton iteration at all: :mod:`~mechrel.mechanics.construction` places
+their bodies in closed form, and :func:`kinematic_analysis` uses it where it applies. Where it
+does not, Newton's Φ_q is square, so the kinematic analysis factors it by its own sparse LU
+with partial pivoting (:class:`LUFactors`; a LAPACK call from numba costs several µs of fixed
+overhead at n ≈ 24, more than this whole factorisation of a Jacobian with at most six
+non-zeros per row) once per Newton iteration, and reuses the factors at the converged ``q``
+for the velocity and the acceleration.
 """
 
 from __future__ import annotations
@@ -23,6 +25,7 @@ from numba import njit
 
 from ..errors import AssemblyError
 from .constraints import constraint_terms, constraints
+from .construction import _construct, construction
 from .dynamics import make_workspace
 
 # the public API; LUFactors and the _lu_* functions are the sparse solver behind it
@@ -442,6 +445,12 @@ def _kinematics(q0, times, sys, tol, max_iter):
 def kinematic_analysis(system, q_guess, times, *, tol=1e-12, max_iter=50, labels=None):
     """Positions, velocities and accelerations of a fully driven mechanism at ``times``.
 
+    A mechanism built of driven or fixed-angle bodies and class-II groups (the nine-bar, the
+    slider-crank, the four-bar) is placed in closed form by
+    :mod:`~mechrel.mechanics.construction`, with its residual Φ checked at every instant;
+    from the first instant that cannot be built so (a toggle, a residual above ``tol``), and
+    for every other mechanism, each instant is solved by Newton–Raphson from the previous one.
+
     Parameters
     ----------
     system : System
@@ -489,16 +498,30 @@ def kinematic_analysis(system, q_guess, times, *, tol=1e-12, max_iter=50, labels
             f"constraints for {n} coordinates ({n - system.n_constraints} degrees of freedom "
             "left); use forward dynamics instead")
     times = np.ascontiguousarray(times, dtype=float)
+    q_guess = np.asarray(q_guess, dtype=float)
+    plan = construction(system)
+    if plan is not None:  # closed form; Newton from the first instant it cannot build, if any
+        Q, V, A, viol, done = _construct(q_guess, times, system, plan, float(tol))
+        if done == times.shape[0]:
+            return Q, V, A, viol
+        parts = [(Q, V, A, viol)]
+        q_guess = Q[done - 1] if done > 0 else q_guess
+        times = times[done:]
+    else:
+        parts = []
     try:
-        Q, V, A, viol, done = _kinematics(np.asarray(q_guess, dtype=float), times, system,
-                                          float(tol), int(max_iter))
+        Q, V, A, viol, done = _kinematics(q_guess, times, system, float(tol), int(max_iter))
     except np.linalg.LinAlgError as exc:
         raise AssemblyError("kinematic analysis hit a singular constraint Jacobian (a toggle "
                             "or dead-centre position of the mechanism)") from exc
     if done < times.shape[0]:
         # re-run the failing instant in Python for a message naming the violated constraints
-        last = Q[done - 1] if done > 0 else np.asarray(q_guess, dtype=float)
+        last = Q[done - 1] if done > 0 else q_guess
         assemble(system, last, float(times[done]), tol=tol, max_iter=max_iter, labels=labels)
         raise AssemblyError(f"kinematic analysis: Newton–Raphson failed at t = "
                             f"{times[done]:g} s (the assembly branch ends there)")
+    if parts:
+        Q0, V0, A0, viol0 = parts[0]
+        return (np.concatenate([Q0, Q]), np.concatenate([V0, V]), np.concatenate([A0, A]),
+                max(viol0, viol))
     return Q, V, A, viol

@@ -1,0 +1,734 @@
+"""Closed-form kinematics of a fully driven mechanism: the bodies placed one after another.
+
+Most machines are built from the cranks their motors turn and, added one after another,
+groups of two links whose two outer joints are already placed: Assur groups of class II
+(Artobolevsky 1977, ch. 2). Such a group's inner joint is where two circles meet (the RRR
+dyad: two links pinned to placed points and to each other) or where a circle meets a line (the
+RRP dyad: a link and a slider on a fixed guide). Its position is then a closed form with one
+square root, and its velocity and acceleration two linear equations each, so the kinematic
+analysis needs no Newton iteration and no factorisation of Φ_q (Hartenberg & Denavit 1964,
+ch. 8; Nikravesh 1988, §5.5 calls these "kinematic modules").
+
+:func:`construction` reads a :class:`~mechrel.mechanics.system.System` as a graph of *nodes*
+(the points where revolute joints pin bodies together: a body point and every point pinned to
+it, transitively, are one node; the ground's points are placed) and finds an order of steps
+that places every body, or returns None when the mechanism is not built that way (a class-III
+group, a slider guided by a moving body, a prescribed offset in a revolute joint). The steps:
+
+``POSE_ANGLE``
+    a body whose angle is known (a driver, a fixed angle) and one of whose nodes is placed;
+``POSE_TWO``
+    a body two of whose nodes are placed (the angle from the line through them);
+``LOCATE``
+    the other nodes of a placed body;
+``CIRCLES``
+    a node that two unplaced bodies share, each with one other node placed: the two circles
+    around those nodes meet at ``N = N₁ + (a/L) D ± (h/L) D⊥`` with ``D = N₂ − N₁``,
+    ``a = (d₁² − d₂² + L²)/(2L)``, ``h = √(d₁² − a²)``;
+``CIRCLE_LINE``
+    a node that an unplaced body (one other node placed) shares with a slider on a fixed line:
+    ``N = P₀ + (w·u ± √(d₁² − (u × w)²)) u`` with ``w = N₁ − P₀``.
+
+Each step that builds a node is followed by placing the bodies it used, so every constraint
+equation is used exactly once. The sign of each square root (the assembly branch) is the one
+of the first guess. Velocities and accelerations follow the steps in the same order: a node
+where two circles meet has ``(N − N_i)·(Ṅ − Ṅ_i) = 0`` for i = 1, 2, and
+``(N − N_i)·(N̈ − N̈_i) + |Ṅ − Ṅ_i|² = 0``; a body through two nodes turns at
+``ω = (d × ḋ)/|d|²``, ``α = (d × d̈)/|d|²`` with ``d = N₂ − N₁`` (a rigid ``d`` has
+``ḋ = ω d⊥`` and ``d̈ = α d⊥ − ω² d``).
+
+:func:`_construct` checks every instant's positions against the constraint equations (the
+same residual the Newton analysis converges on) and its velocities and accelerations for
+being finite; an instant where a square root has no real value, two circles are tangent, the
+residual exceeds the tolerance or a value overflowed (a driver speed of 1e300 rad/s) is
+reported as not done, and :func:`~mechrel.mechanics.kinematics.kinematic_analysis` continues
+from there with Newton–Raphson.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import NamedTuple
+
+import numpy as np
+from numba import njit
+
+from .borrow import borrowed
+from .constraints import constraint_terms
+from .drivers import driver_law
+from .dynamics import make_workspace
+
+__all__ = ["Construction", "construction"]
+
+# Step codes (column 0 of Construction.op).
+POSE_ANGLE, POSE_TWO, LOCATE, CIRCLES, CIRCLE_LINE, OFFSET = range(6)
+# Where a POSE_ANGLE step's angle comes from (its op[:, 3]).
+ANGLE_DRIVER, ANGLE_CONSTANT = 0, 1
+
+
+class Construction(NamedTuple):
+    """The steps that place a mechanism's bodies one after another (:func:`construction`).
+
+    Parameters
+    ----------
+    op : ndarray of int, shape (n_steps, 5)
+        One row per step, ``(code, a, b, c, d)``:
+
+        - ``POSE_ANGLE``: body, node, angle source (``ANGLE_DRIVER`` or ``ANGLE_CONSTANT``),
+          driver index;
+        - ``POSE_TWO``: body, node 1, node 2;
+        - ``LOCATE``: node, body;
+        - ``CIRCLES``: node, node 1, node 2, branch slot;
+        - ``CIRCLE_LINE``: node, node 1, –, branch slot.
+    par : ndarray, shape (n_steps, 5)
+        The step's numbers (m, rad; unused entries zero): ``POSE_ANGLE`` the node in the
+        body's frame and the constant angle; ``POSE_TWO`` node 1 in the body's frame and the
+        angle of node 1 → node 2 in it; ``LOCATE`` the node in the body's frame; ``CIRCLES``
+        the radii d₁, d₂ around nodes 1 and 2; ``CIRCLE_LINE`` the radius d₁, a point P₀ of
+        the line and its unit direction u.
+    node_body : ndarray of int, shape (n_nodes,)
+        A body each node is a point of (−1: the ground).
+    node_s : ndarray, shape (n_nodes, 2)
+        The node in that body's frame, a ground node's global position (m): the kernel reads
+        the first guess's nodes from them, for the branch of each square root.
+    n_branches : int
+        The number of square roots (``CIRCLES`` and ``CIRCLE_LINE`` steps).
+
+    Examples
+    --------
+    The nine-bar's fourteen steps; the first circles are rod 3 (0.326 m) and rod 4
+    (0.497 m) around the crank pins:
+
+    >>> from mechrel.mechanics.system import compile_scene
+    >>> from mechrel.scene import load_scene
+    >>> plan = construction(compile_scene(load_scene("nine-bar")).ideal)
+    >>> plan.op.shape, plan.n_branches, plan.par[4, :2].round(3).tolist()
+    ((14, 5), 3, [0.326, 0.497])
+    """
+
+    op: np.ndarray  # (n_steps, 9) int64
+    par: np.ndarray  # (n_steps, 5) float64
+    node_body: np.ndarray  # (n_nodes,) int64
+    node_s: np.ndarray  # (n_nodes, 2) float64
+    cl_nodes: np.ndarray  # (nc, 2) int64: each clearance joint's bearing and journal node
+    n_branches: int
+
+
+class _Refuse(Exception):
+    """The mechanism is not built of the steps above (internal to :func:`construction`)."""
+
+
+def _plan(nb, rev_i, rev_j, rev_si, rev_sj, tr_i, tr_si, tr_p0, tr_n, tr_angle, fa_i,
+          fa_angle, dr_i, cl_b, cl_sb, cl_j, cl_sj):
+    # Nodes: the revolute joints' end points, keyed by (body, x, y) (ground: global x, y),
+    # joined transitively by union-find.
+    keys: dict[tuple, int] = {}
+    parent: list[int] = []
+
+    def key_of(body, s):
+        k = (int(body), float(s[0]), float(s[1]))
+        if k not in keys:
+            keys[k] = len(parent)
+            parent.append(len(parent))
+        return keys[k]
+
+    def find(x):
+        while parent[x] != x:
+            parent[x] = parent[parent[x]]
+            x = parent[x]
+        return x
+
+    for j in range(rev_i.shape[0]):
+        a = find(key_of(rev_i[j], rev_si[j]))
+        b = find(key_of(rev_j[j], rev_sj[j]))
+        parent[max(a, b)] = min(a, b)
+    # a clearance joint's bearing and journal points: two nodes, e = journal − bearing apart
+    ends = [(key_of(cl_b[c], cl_sb[c]), key_of(cl_j[c], cl_sj[c])) for c in range(len(cl_b))]
+    roots = sorted({find(k) for k in keys.values()})
+    node_of = {r: n for n, r in enumerate(roots)}
+    ends = [(node_of[find(kb)], node_of[find(kj)]) for kb, kj in ends]
+    if any(nb_ == nj_ for nb_, nj_ in ends):
+        raise _Refuse  # the joint's two points pinned together by revolute joints
+    n_nodes = len(roots)
+    # body -> {node: local point}; a node holding two points of one body (or two ground
+    # points) pins them together: not a mechanism this builds
+    on_body: list[dict[int, tuple[float, float]]] = [dict() for _ in range(nb)]
+    ground: dict[int, tuple[float, float]] = {}
+    node_body = np.full(n_nodes, -2, dtype=np.int64)
+    node_s = np.zeros((n_nodes, 2))
+    for (body, x, y), k in keys.items():
+        n = node_of[find(k)]
+        where = ground if body < 0 else on_body[body]
+        if n in where and where[n] != (x, y):
+            raise _Refuse
+        where[n] = (x, y)
+        if node_body[n] == -2 or body < 0:
+            node_body[n] = body
+            node_s[n] = (x, y)
+    # the angle of a body, where a constraint states it: (source, driver, constant)
+    angle: dict[int, tuple[int, int, float]] = {}
+    line: dict[int, int] = {}
+    for d, b in enumerate(dr_i):
+        if b in angle:
+            raise _Refuse
+        angle[int(b)] = (ANGLE_DRIVER, d, 0.0)
+    for f, b in enumerate(fa_i):
+        if b in angle:
+            raise _Refuse
+        angle[int(b)] = (ANGLE_CONSTANT, 0, float(fa_angle[f]))
+    for t, b in enumerate(tr_i):
+        if b in angle:
+            raise _Refuse
+        angle[int(b)] = (ANGLE_CONSTANT, 0, float(tr_angle[t]))
+        line[int(b)] = t
+
+    placed = set(ground)
+    posed: set[int] = set()
+    used_offsets: set[int] = set()
+    op: list[tuple] = []
+    par: list[tuple] = []
+    n_branches = 0
+
+    def locate_rest(b, used):
+        for n, s in on_body[b].items():
+            if n in used:
+                continue
+            if n in placed:  # a closed loop that this order does not solve
+                raise _Refuse
+            op.append((LOCATE, n, b, 0, 0, -1, 0, -1, 0))
+            par.append((s[0], s[1], 0.0, 0.0, 0.0))
+            placed.add(n)
+
+    def pose_two(b, n1, n2):
+        s1, s2 = on_body[b][n1], on_body[b][n2]
+        op.append((POSE_TWO, b, n1, n2, 0, -1, 0, -1, 0))
+        phi0 = math.atan2(s2[1] - s1[1], s2[0] - s1[0])
+        par.append((s1[0], s1[1], phi0, math.cos(phi0), math.sin(phi0)))
+        posed.add(b)
+        locate_rest(b, (n1, n2))
+
+    def pose_angle(b, n):
+        src, d, th = angle[b]
+        s = on_body[b][n]
+        op.append((POSE_ANGLE, b, n, src, d, -1, 0, -1, 0))
+        par.append((s[0], s[1], th, math.cos(th), math.sin(th)))
+        posed.add(b)
+        locate_rest(b, (n,))
+
+    def dist(b, n1, n2):
+        s1, s2 = on_body[b][n1], on_body[b][n2]
+        return math.hypot(s2[0] - s1[0], s2[1] - s1[1])
+
+    while len(posed) < nb:
+        progress = False
+        for b in range(nb):
+            if b in posed:
+                continue
+            here = [n for n in on_body[b] if n in placed]
+            if b in angle and b not in line and len(here) == 1:
+                pose_angle(b, here[0])
+                progress = True
+            elif len(here) >= 2 or (b in angle and len(here) >= 1):
+                raise _Refuse  # more placed nodes than the body has freedom for
+        for n in range(n_nodes):
+            if n in placed:
+                continue
+            offset = [(c, other, sg) for c, (n_b, n_j) in enumerate(ends)
+                      for end, other, sg in ((n_b, n_j, -1), (n_j, n_b, 1))
+                      if end == n and other in placed]
+            if offset:  # bearing = journal − e, journal = bearing + e
+                c, other, sg = offset[0]
+                op.append((OFFSET, n, other, c, sg, -1, 0, -1, 0))
+                par.append((0.0, 0.0, 0.0, 0.0, 0.0))
+                placed.add(n)
+                used_offsets.add(c)
+                progress = True
+                continue
+            # circles for n: bodies holding n, or holding the far end m of a clearance joint
+            # at n (n = m + sg e: that body's circle for n is centred sg e away)
+            holders = [(n, -1, 0)] + [(other, c, sg) for c, (n_b, n_j) in enumerate(ends)
+                                      for end, other, sg in ((n_b, n_j, -1), (n_j, n_b, 1))
+                                      if end == n and other not in placed]
+            circles, lines = [], []
+            for m, c, sg in holders:
+                for b in range(nb):
+                    if b in posed or m not in on_body[b]:
+                        continue
+                    here = [k for k in on_body[b] if k in placed]
+                    if b in line and not here and c < 0:
+                        lines.append(b)
+                    elif b not in angle and len(here) == 1:
+                        circles.append((b, here[0], m, c, sg))
+            if len(circles) >= 2:
+                (b1, n1, m1, c1, s1), (b2, n2, m2, c2, s2) = circles[:2]
+                op.append((CIRCLES, n, n1, n2, n_branches, c1, s1, c2, s2))
+                par.append((dist(b1, n1, m1), dist(b2, n2, m2), 0.0, 0.0, 0.0))
+                used = ((b1, n1, m1, c1, s1), (b2, n2, m2, c2, s2))
+            elif circles and lines:
+                (b1, n1, m1, c1, s1), b2 = circles[0], lines[0]
+                t = line[b2]
+                th = float(tr_angle[t])
+                c, s = math.cos(th), math.sin(th)
+                ds = np.subtract(on_body[b2][n], tr_si[t])  # the node's offset from the line
+                p0 = tr_p0[t] + (c * ds[0] - s * ds[1], s * ds[0] + c * ds[1])
+                u = (-tr_n[t][1], tr_n[t][0])
+                op.append((CIRCLE_LINE, n, n1, 0, n_branches, c1, s1, -1, 0))
+                par.append((dist(b1, n1, m1), p0[0], p0[1], u[0], u[1]))
+                used = ((b1, n1, m1, c1, s1),)
+            else:
+                continue
+            n_branches += 1
+            placed.add(n)
+            for b, k, m, c, sg in used:
+                if m != n:  # the clearance joint's far end: m = n − sg e
+                    op.append((OFFSET, m, n, c, -sg, -1, 0, -1, 0))
+                    par.append((0.0, 0.0, 0.0, 0.0, 0.0))
+                    placed.add(m)
+                    used_offsets.add(c)
+                pose_two(b, k, m)
+            if not circles[1:]:
+                pose_angle(lines[0], n)
+            progress = True
+        if not progress:
+            raise _Refuse
+    if len(placed) < n_nodes or len(used_offsets) < len(ends):
+        raise _Refuse  # a node left over, or a clearance joint whose offset is not free
+    return Construction(np.array(op, dtype=np.int64).reshape(-1, 9),
+                        np.array(par, dtype=float).reshape(-1, 5), node_body, node_s,
+                        np.array(ends, dtype=np.int64).reshape(-1, 2), n_branches)
+
+
+_PLANS: dict[bytes, Construction | None] = {}
+
+
+def construction(system) -> Construction | None:
+    """The steps that place ``system``'s bodies in closed form, or None.
+
+    Parameters
+    ----------
+    system : System
+        A compiled mechanism (:class:`~mechrel.mechanics.system.System`).
+
+    Returns
+    -------
+    Construction or None
+        None when the mechanism is not built of driven or fixed-angle bodies and class-II
+        groups (two circles, a circle and a fixed line), when a revolute joint holds a
+        prescribed offset, or when some constraint would be left unused (a closed loop the
+        order does not solve, a redundant constraint).
+
+    Examples
+    --------
+    The slider-crank: the crank is placed by its driver, then the crank pin and the slider's
+    pin meet where a circle (the rod) crosses the slider's line:
+
+    >>> from mechrel.mechanics.system import compile_scene
+    >>> from mechrel.scene import load_scene
+    >>> plan = construction(compile_scene(load_scene("slider-crank")).ideal)
+    >>> [("POSE_ANGLE", "POSE_TWO", "LOCATE", "CIRCLES", "CIRCLE_LINE")[c]
+    ...  for c in plan.op[:, 0]]
+    ['POSE_ANGLE', 'LOCATE', 'CIRCLE_LINE', 'POSE_TWO', 'POSE_ANGLE']
+    >>> construction(compile_scene(load_scene("double-pendulum")).ideal) is None  # not driven
+    True
+    """
+    s = system
+    if np.any(s.rev_off != 0.0) or np.any(s.rev_offdot != 0.0):
+        return None
+    parts = (s.rev_i, s.rev_j, s.rev_si, s.rev_sj, s.tr_i, s.tr_si, s.tr_p0, s.tr_n,
+             s.tr_angle, s.fa_i, s.fa_angle, s.dr_i, s.cl_b, s.cl_sb, s.cl_j, s.cl_sj)
+    key = b"|".join(np.ascontiguousarray(a).tobytes() for a in parts) + bytes(
+        [s.mass.shape[0] // 3 % 256])
+    if key not in _PLANS:
+        if len(_PLANS) >= 256:
+            _PLANS.clear()
+        try:
+            _PLANS[key] = _plan(s.mass.shape[0] // 3, *parts)
+        except _Refuse:
+            _PLANS[key] = None
+    return _PLANS[key]
+
+
+@njit(cache=True, inline='always')
+def _at(X, k, E, c, sg):
+    """``X[k] + sg E[c]``: node k's position, velocity or acceleration (``X``), moved by
+    ``sg`` times clearance joint c's eccentricity or its rate (``E``); ``sg = 0``: no move."""
+    if sg == 0:
+        return X[k, 0], X[k, 1]
+    return X[k, 0] + sg * E[c, 0], X[k, 1] + sg * E[c, 1]
+
+
+@njit(cache=True, inline='always')
+def _branch_signs(q0, con):
+    """The sign of each square root on the assembly branch of the configuration ``q0``."""
+    op = con.op
+    par = con.par
+    node_body = con.node_body
+    node_s = con.node_s
+    nn = node_body.shape[0]
+    G = np.empty((nn, 2))  # the nodes of q0
+    for k in range(nn):
+        b = node_body[k]
+        if b < 0:
+            G[k, 0] = node_s[k, 0]
+            G[k, 1] = node_s[k, 1]
+        else:
+            c = math.cos(q0[3 * b + 2])
+            s = math.sin(q0[3 * b + 2])
+            G[k, 0] = q0[3 * b] + c * node_s[k, 0] - s * node_s[k, 1]
+            G[k, 1] = q0[3 * b + 1] + s * node_s[k, 0] + c * node_s[k, 1]
+    ends = con.cl_nodes
+    E = np.empty((ends.shape[0], 2))  # the guess's eccentricities, journal − bearing
+    for c in range(ends.shape[0]):
+        E[c, 0] = G[ends[c, 1], 0] - G[ends[c, 0], 0]
+        E[c, 1] = G[ends[c, 1], 1] - G[ends[c, 0], 1]
+    sign = np.ones(con.n_branches)
+    for o in range(op.shape[0]):
+        k = op[o, 1]
+        if op[o, 0] == CIRCLES:
+            x1, y1 = _at(G, op[o, 2], E, op[o, 5], op[o, 6])
+            x2, y2 = _at(G, op[o, 3], E, op[o, 7], op[o, 8])
+            if (x2 - x1) * (G[k, 1] - y1) - (y2 - y1) * (G[k, 0] - x1) < 0.0:
+                sign[op[o, 4]] = -1.0
+        elif op[o, 0] == CIRCLE_LINE:
+            x1, y1 = _at(G, op[o, 2], E, op[o, 5], op[o, 6])
+            if (G[k, 0] - x1) * par[o, 3] + (G[k, 1] - y1) * par[o, 4] < 0.0:
+                sign[op[o, 4]] = -1.0
+    return sign
+
+
+@njit(cache=True, inline='always')
+def _ground_nodes(con, N):
+    """The ground's nodes into ``N`` (they never move)."""
+    for k in range(con.node_body.shape[0]):
+        if con.node_body[k] < 0:
+            N[k, 0] = con.node_s[k, 0]
+            N[k, 1] = con.node_s[k, 1]
+
+
+@njit(cache=True, inline='always')
+def _place(con, sign, sys, t, e, N, q, cs, sn, drv, th_prev):
+    """Positions: every step's node or body at time ``t``, the clearance joints at the
+    eccentricities ``e`` (nc × 2, m), with each body's cos θ and sin θ into ``cs``, ``sn``
+    and each driver's ``(θ, θ̇, θ̈)`` into ``drv`` (for :func:`_rates` and
+    :func:`_accelerations`). Each body angle found from two nodes continues its previous
+    value ``th_prev`` (updated). Returns False where a square root has no real value (the
+    group cannot be assembled). One sine and cosine per driver and one arctangent per body
+    placed through two nodes: the orientation of such a body is the unit vector from its
+    first node to its second turned back by the constant angle of that line in the body."""
+    op = con.op
+    par = con.par
+    twopi = 2.0 * math.pi
+    for d in range(drv.shape[0]):
+        th, w, al = driver_law(sys.dr_law[d], sys.dr_par[d], t)
+        drv[d, 0] = th
+        drv[d, 1] = w
+        drv[d, 2] = al
+    for o in range(op.shape[0]):
+        code = op[o, 0]
+        if code == POSE_ANGLE:
+            b = op[o, 1]
+            k = op[o, 2]
+            if op[o, 3] == ANGLE_DRIVER:
+                th = drv[op[o, 4], 0]
+                c = math.cos(th)
+                s = math.sin(th)
+            else:
+                th = par[o, 2]
+                c = par[o, 3]
+                s = par[o, 4]
+            cs[b] = c
+            sn[b] = s
+            q[3 * b] = N[k, 0] - (c * par[o, 0] - s * par[o, 1])
+            q[3 * b + 1] = N[k, 1] - (s * par[o, 0] + c * par[o, 1])
+            q[3 * b + 2] = th
+        elif code == POSE_TWO:
+            b = op[o, 1]
+            k1 = op[o, 2]
+            k2 = op[o, 3]
+            dx = N[k2, 0] - N[k1, 0]
+            dy = N[k2, 1] - N[k1, 1]
+            th = math.atan2(dy, dx) - par[o, 2]
+            th += twopi * round((th_prev[b] - th) / twopi)  # the branch of the angle nearest
+            th_prev[b] = th                                # the last one
+            L = math.hypot(dx, dy)
+            c0 = par[o, 3]
+            s0 = par[o, 4]
+            c = (dx * c0 + dy * s0) / L  # (dx, dy)/L turned by −φ₀
+            s = (dy * c0 - dx * s0) / L
+            cs[b] = c
+            sn[b] = s
+            q[3 * b] = N[k1, 0] - (c * par[o, 0] - s * par[o, 1])
+            q[3 * b + 1] = N[k1, 1] - (s * par[o, 0] + c * par[o, 1])
+            q[3 * b + 2] = th
+        elif code == LOCATE:
+            k = op[o, 1]
+            b = op[o, 2]
+            c = cs[b]
+            s = sn[b]
+            N[k, 0] = q[3 * b] + c * par[o, 0] - s * par[o, 1]
+            N[k, 1] = q[3 * b + 1] + s * par[o, 0] + c * par[o, 1]
+        elif code == OFFSET:
+            k = op[o, 1]
+            k1 = op[o, 2]
+            c = op[o, 3]
+            sg = float(op[o, 4])
+            N[k, 0] = N[k1, 0] + sg * e[c, 0]
+            N[k, 1] = N[k1, 1] + sg * e[c, 1]
+        elif code == CIRCLES:
+            k = op[o, 1]
+            x1, y1 = _at(N, op[o, 2], e, op[o, 5], op[o, 6])  # the circles' centres
+            x2, y2 = _at(N, op[o, 3], e, op[o, 7], op[o, 8])
+            d1 = par[o, 0]
+            d2 = par[o, 1]
+            dx = x2 - x1
+            dy = y2 - y1
+            L = math.hypot(dx, dy)
+            along = (d1 * d1 - d2 * d2 + L * L) / (2.0 * L)
+            h2 = d1 * d1 - along * along
+            if not h2 >= 0.0:  # the circles do not meet (NaN: a node at infinity)
+                return False
+            h = sign[op[o, 4]] * math.sqrt(h2)
+            N[k, 0] = x1 + (along * dx - h * dy) / L
+            N[k, 1] = y1 + (along * dy + h * dx) / L
+        else:  # CIRCLE_LINE: N = P0 + s u
+            k = op[o, 1]
+            x1, y1 = _at(N, op[o, 2], e, op[o, 5], op[o, 6])
+            d1 = par[o, 0]
+            ux = par[o, 3]
+            uy = par[o, 4]
+            wx = x1 - par[o, 1]
+            wy = y1 - par[o, 2]
+            off = ux * wy - uy * wx  # the centre's distance from the line
+            h2 = d1 * d1 - off * off
+            if not h2 >= 0.0:
+                return False
+            sl = ux * wx + uy * wy + sign[op[o, 4]] * math.sqrt(h2)
+            N[k, 0] = par[o, 1] + sl * ux
+            N[k, 1] = par[o, 2] + sl * uy
+    return True
+
+
+@njit(cache=True, inline='always')
+def _rates(con, drv, e, edot, drive, N, q, Nv, v):
+    """Velocities at the placed positions (``N``, ``q``), the clearance joints' eccentricities
+    changing at ``edot`` (nc × 2, m/s) and the drivers turning at ``drive`` times their rates.
+    Linear in ``(edot, drive)``: with ``drive = 0`` and a unit ``edot`` it gives a column of
+    ∂q/∂e. Returns False at a toggle (two tangent circles, a rod square to its slider's
+    line), where the velocities are not defined."""
+    op = con.op
+    par = con.par
+    for o in range(op.shape[0]):
+        code = op[o, 0]
+        if code == POSE_ANGLE or code == POSE_TWO:
+            b = op[o, 1]
+            k = op[o, 2]
+            if code == POSE_TWO:
+                k2 = op[o, 3]
+                dx = N[k2, 0] - N[k, 0]
+                dy = N[k2, 1] - N[k, 1]
+                w = (dx * (Nv[k2, 1] - Nv[k, 1]) - dy * (Nv[k2, 0] - Nv[k, 0])) / (
+                    dx * dx + dy * dy)
+            elif op[o, 3] == ANGLE_DRIVER:
+                w = drive * drv[op[o, 4], 1]
+            else:
+                w = 0.0
+            # ṙ = Ṅ − ω × (A s), A s = N − r
+            v[3 * b] = Nv[k, 0] + w * (N[k, 1] - q[3 * b + 1])
+            v[3 * b + 1] = Nv[k, 1] - w * (N[k, 0] - q[3 * b])
+            v[3 * b + 2] = w
+        elif code == LOCATE:
+            k = op[o, 1]
+            b = op[o, 2]
+            w = v[3 * b + 2]
+            Nv[k, 0] = v[3 * b] - w * (N[k, 1] - q[3 * b + 1])
+            Nv[k, 1] = v[3 * b + 1] + w * (N[k, 0] - q[3 * b])
+        elif code == OFFSET:
+            k = op[o, 1]
+            k1 = op[o, 2]
+            c = op[o, 3]
+            sg = float(op[o, 4])
+            Nv[k, 0] = Nv[k1, 0] + sg * edot[c, 0]
+            Nv[k, 1] = Nv[k1, 1] + sg * edot[c, 1]
+        elif code == CIRCLES:
+            # (N − C_j)·Ṅ = (N − C_j)·Ċ_j for the centres C_j, j = 1, 2
+            k = op[o, 1]
+            x1, y1 = _at(N, op[o, 2], e, op[o, 5], op[o, 6])
+            x2, y2 = _at(N, op[o, 3], e, op[o, 7], op[o, 8])
+            c1x, c1y = _at(Nv, op[o, 2], edot, op[o, 5], op[o, 6])
+            c2x, c2y = _at(Nv, op[o, 3], edot, op[o, 7], op[o, 8])
+            e1x = N[k, 0] - x1
+            e1y = N[k, 1] - y1
+            e2x = N[k, 0] - x2
+            e2y = N[k, 1] - y2
+            det = e1x * e2y - e1y * e2x
+            if not abs(det) > 0.0:  # tangent circles: a toggle position
+                return False
+            r1 = e1x * c1x + e1y * c1y
+            r2 = e2x * c2x + e2y * c2y
+            Nv[k, 0] = (r1 * e2y - r2 * e1y) / det
+            Nv[k, 1] = (r2 * e1x - r1 * e2x) / det
+        else:  # CIRCLE_LINE
+            k = op[o, 1]
+            x1, y1 = _at(N, op[o, 2], e, op[o, 5], op[o, 6])
+            c1x, c1y = _at(Nv, op[o, 2], edot, op[o, 5], op[o, 6])
+            ux = par[o, 3]
+            uy = par[o, 4]
+            e1x = N[k, 0] - x1
+            e1y = N[k, 1] - y1
+            den = e1x * ux + e1y * uy
+            if not abs(den) > 0.0:  # the rod square to the line: a dead centre
+                return False
+            sd = (e1x * c1x + e1y * c1y) / den
+            Nv[k, 0] = sd * ux
+            Nv[k, 1] = sd * uy
+    return True
+
+
+@njit(cache=True, inline='always')
+def _accelerations(con, drv, e, edot, eddot, N, q, Nv, v, Na, a):
+    """Accelerations at the placed positions and the velocities of :func:`_rates`
+    (``Nv``, ``v``), the eccentricities accelerating at ``eddot`` (nc × 2, m/s²) and the
+    drivers at their laws' accelerations. Called only where :func:`_rates` succeeded (no
+    toggle)."""
+    op = con.op
+    par = con.par
+    for o in range(op.shape[0]):
+        code = op[o, 0]
+        if code == POSE_ANGLE or code == POSE_TWO:
+            b = op[o, 1]
+            k = op[o, 2]
+            if code == POSE_TWO:
+                k2 = op[o, 3]
+                dx = N[k2, 0] - N[k, 0]
+                dy = N[k2, 1] - N[k, 1]
+                al = (dx * (Na[k2, 1] - Na[k, 1]) - dy * (Na[k2, 0] - Na[k, 0])) / (
+                    dx * dx + dy * dy)
+            elif op[o, 3] == ANGLE_DRIVER:
+                al = drv[op[o, 4], 2]
+            else:
+                al = 0.0
+            w = v[3 * b + 2]
+            px = N[k, 0] - q[3 * b]
+            py = N[k, 1] - q[3 * b + 1]
+            # r̈ = N̈ − α × (A s) + ω² (A s)
+            a[3 * b] = Na[k, 0] + al * py + w * w * px
+            a[3 * b + 1] = Na[k, 1] - al * px + w * w * py
+            a[3 * b + 2] = al
+        elif code == LOCATE:
+            k = op[o, 1]
+            b = op[o, 2]
+            w = v[3 * b + 2]
+            al = a[3 * b + 2]
+            px = N[k, 0] - q[3 * b]
+            py = N[k, 1] - q[3 * b + 1]
+            Na[k, 0] = a[3 * b] - al * py - w * w * px
+            Na[k, 1] = a[3 * b + 1] + al * px - w * w * py
+        elif code == OFFSET:
+            k = op[o, 1]
+            k1 = op[o, 2]
+            c = op[o, 3]
+            sg = float(op[o, 4])
+            Na[k, 0] = Na[k1, 0] + sg * eddot[c, 0]
+            Na[k, 1] = Na[k1, 1] + sg * eddot[c, 1]
+        elif code == CIRCLES:
+            # (N − C_j)·N̈ = (N − C_j)·C̈_j − |Ṅ − Ċ_j|² for the centres C_j, j = 1, 2
+            k = op[o, 1]
+            x1, y1 = _at(N, op[o, 2], e, op[o, 5], op[o, 6])
+            x2, y2 = _at(N, op[o, 3], e, op[o, 7], op[o, 8])
+            c1x, c1y = _at(Nv, op[o, 2], edot, op[o, 5], op[o, 6])
+            c2x, c2y = _at(Nv, op[o, 3], edot, op[o, 7], op[o, 8])
+            a1x, a1y = _at(Na, op[o, 2], eddot, op[o, 5], op[o, 6])
+            a2x, a2y = _at(Na, op[o, 3], eddot, op[o, 7], op[o, 8])
+            e1x = N[k, 0] - x1
+            e1y = N[k, 1] - y1
+            e2x = N[k, 0] - x2
+            e2y = N[k, 1] - y2
+            det = e1x * e2y - e1y * e2x
+            g1x = Nv[k, 0] - c1x
+            g1y = Nv[k, 1] - c1y
+            g2x = Nv[k, 0] - c2x
+            g2y = Nv[k, 1] - c2y
+            r1 = e1x * a1x + e1y * a1y - (g1x * g1x + g1y * g1y)
+            r2 = e2x * a2x + e2y * a2y - (g2x * g2x + g2y * g2y)
+            Na[k, 0] = (r1 * e2y - r2 * e1y) / det
+            Na[k, 1] = (r2 * e1x - r1 * e2x) / det
+        else:  # CIRCLE_LINE
+            k = op[o, 1]
+            x1, y1 = _at(N, op[o, 2], e, op[o, 5], op[o, 6])
+            c1x, c1y = _at(Nv, op[o, 2], edot, op[o, 5], op[o, 6])
+            a1x, a1y = _at(Na, op[o, 2], eddot, op[o, 5], op[o, 6])
+            ux = par[o, 3]
+            uy = par[o, 4]
+            e1x = N[k, 0] - x1
+            e1y = N[k, 1] - y1
+            gx = Nv[k, 0] - c1x
+            gy = Nv[k, 1] - c1y
+            sdd = (e1x * a1x + e1y * a1y - (gx * gx + gy * gy)) / (e1x * ux + e1y * uy)
+            Na[k, 0] = sdd * ux
+            Na[k, 1] = sdd * uy
+
+
+@njit(cache=True)
+def _construct(q0, times, sys, con, tol):
+    """Positions, velocities and accelerations at ``times`` by the steps of ``con``.
+
+    Returns ``Q, V, A, max_violation, done`` as
+    :func:`~mechrel.mechanics.kinematics._kinematics`: ``done < len(times)`` when the
+    instant ``times[done]`` could not be built (no real intersection, tangent circles, a
+    residual above ``tol``, a velocity or acceleration that is not finite); the arrays then
+    hold the instants before it.
+    """
+    nt = times.shape[0]
+    n = q0.shape[0]
+    Q = np.empty((nt, n))
+    V = np.empty((nt, n))
+    A = np.empty((nt, n))
+    sys, con = borrowed((sys, con))  # the arguments keep them alive (mechanics/borrow.py)
+    nn = con.node_body.shape[0]
+    N = np.zeros((nn, 2))
+    Nv = np.zeros((nn, 2))
+    Na = np.zeros((nn, 2))
+    _ground_nodes(con, N)
+    sign = _branch_signs(q0, con)
+    none = np.zeros((0, 2))  # no clearance joint: no eccentricity
+    q = np.empty(n)
+    v = np.empty(n)
+    a = np.empty(n)
+    cs = np.empty(n // 3)
+    sn = np.empty(n // 3)
+    drv = np.empty((sys.dr_i.shape[0], 3))
+    th_prev = np.empty(n // 3)
+    for b in range(n // 3):
+        th_prev[b] = q0[3 * b + 2]
+    ws = make_workspace(sys)
+    rest = np.zeros(n)
+    viol = 0.0
+    for i in range(nt):
+        t = times[i]
+        if not _place(con, sign, sys, t, none, N, q, cs, sn, drv, th_prev):
+            return Q[:i], V[:i], A[:i], viol, i
+        if not _rates(con, drv, none, none, 1.0, N, q, Nv, v):
+            return Q[:i], V[:i], A[:i], viol, i
+        _accelerations(con, drv, none, none, none, N, q, Nv, v, Na, a)
+        # every constraint equation at the built positions: the residual Newton converges on
+        constraint_terms(t, q, rest, sys, ws)
+        res = 0.0
+        for r in range(ws.phi.shape[0]):
+            e = abs(ws.phi[r])
+            if e > res or e != e:
+                res = e
+                if e != e:  # NaN: fails the test below
+                    break
+        if not res <= tol:
+            return Q[:i], V[:i], A[:i], viol, i
+        fin = 0.0  # 0 unless a velocity or acceleration overflowed (inf − inf is NaN)
+        for j in range(n):
+            fin += (v[j] - v[j]) + (a[j] - a[j])
+        if fin != 0.0:
+            return Q[:i], V[:i], A[:i], viol, i
+        viol = max(viol, res)
+        for j in range(n):
+            Q[i, j] = q[j]
+            V[i, j] = v[j]
+            A[i, j] = a[j]
+    return Q, V, A, viol, nt
