@@ -71,19 +71,27 @@ class Construction(NamedTuple):
 
     Parameters
     ----------
-    op : ndarray of int, shape (n_steps, 5)
-        One row per step, ``(code, a, b, c, d)``:
+    op : ndarray of int, shape (n_steps, 9)
+        One row per step, ``(code, a, b, c, d, j1, s1, j2, s2)``:
 
         - ``POSE_ANGLE``: body, node, angle source (``ANGLE_DRIVER`` or ``ANGLE_CONSTANT``),
           driver index;
         - ``POSE_TWO``: body, node 1, node 2;
         - ``LOCATE``: node, body;
+        - ``OFFSET``: node, node 1, clearance joint, sign: the node is node 1 plus sign × the
+          joint's eccentricity (a journal is its bearing + e, a bearing its journal − e);
         - ``CIRCLES``: node, node 1, node 2, branch slot;
         - ``CIRCLE_LINE``: node, node 1, –, branch slot.
+
+        ``(j1, s1)`` and ``(j2, s2)``: the circles around node 1 and node 2 are centred
+        ``s`` × clearance joint ``j``'s eccentricity away from them (``s = 0``: not moved),
+        where the node being placed is the far end of a clearance joint from the link
+        that makes the circle.
     par : ndarray, shape (n_steps, 5)
         The step's numbers (m, rad; unused entries zero): ``POSE_ANGLE`` the node in the
-        body's frame and the constant angle; ``POSE_TWO`` node 1 in the body's frame and the
-        angle of node 1 → node 2 in it; ``LOCATE`` the node in the body's frame; ``CIRCLES``
+        body's frame and the constant angle with its cosine and sine; ``POSE_TWO`` node 1 in
+        the body's frame and the angle φ₀ of node 1 → node 2 in it with its cosine and sine;
+        ``LOCATE`` the node in the body's frame; ``CIRCLES``
         the radii d₁, d₂ around nodes 1 and 2; ``CIRCLE_LINE`` the radius d₁, a point P₀ of
         the line and its unit direction u.
     node_body : ndarray of int, shape (n_nodes,)
@@ -91,6 +99,9 @@ class Construction(NamedTuple):
     node_s : ndarray, shape (n_nodes, 2)
         The node in that body's frame, a ground node's global position (m): the kernel reads
         the first guess's nodes from them, for the branch of each square root.
+    cl_nodes : ndarray of int, shape (nc, 2)
+        Each clearance joint's bearing node and journal node (a mechanism with clearance
+        joints as force elements, ``compiled.dynamic``; empty for an ideal one).
     n_branches : int
         The number of square roots (``CIRCLES`` and ``CIRCLE_LINE`` steps).
 
@@ -103,7 +114,7 @@ class Construction(NamedTuple):
     >>> from mechrel.scene import load_scene
     >>> plan = construction(compile_scene(load_scene("nine-bar")).ideal)
     >>> plan.op.shape, plan.n_branches, plan.par[4, :2].round(3).tolist()
-    ((14, 5), 3, [0.326, 0.497])
+    ((14, 9), 3, [0.326, 0.497])
     """
 
     op: np.ndarray  # (n_steps, 9) int64
@@ -307,15 +318,18 @@ def construction(system) -> Construction | None:
     Parameters
     ----------
     system : System
-        A compiled mechanism (:class:`~mechrel.mechanics.system.System`).
+        A compiled mechanism (:class:`~mechrel.mechanics.system.System`): a fully driven one
+        (``compiled.ideal``), or one whose clearance joints are force elements
+        (``compiled.dynamic``), placed for given eccentricities of those joints.
 
     Returns
     -------
     Construction or None
         None when the mechanism is not built of driven or fixed-angle bodies and class-II
         groups (two circles, a circle and a fixed line), when a revolute joint holds a
-        prescribed offset, or when some constraint would be left unused (a closed loop the
-        order does not solve, a redundant constraint).
+        prescribed offset, when some constraint would be left unused (a closed loop the
+        order does not solve, a redundant constraint), or when a clearance joint's
+        eccentricity is not free (both its points placed by other joints).
 
     Examples
     --------
@@ -325,9 +339,16 @@ def construction(system) -> Construction | None:
     >>> from mechrel.mechanics.system import compile_scene
     >>> from mechrel.scene import load_scene
     >>> plan = construction(compile_scene(load_scene("slider-crank")).ideal)
-    >>> [("POSE_ANGLE", "POSE_TWO", "LOCATE", "CIRCLES", "CIRCLE_LINE")[c]
-    ...  for c in plan.op[:, 0]]
+    >>> names = ("POSE_ANGLE", "POSE_TWO", "LOCATE", "CIRCLES", "CIRCLE_LINE", "OFFSET")
+    >>> [names[c] for c in plan.op[:, 0]]
     ['POSE_ANGLE', 'LOCATE', 'CIRCLE_LINE', 'POSE_TWO', 'POSE_ANGLE']
+
+    With its rod–slider joint as a lubricated bearing, the slider's pin is where the rod's
+    circle, centred e away from the crank pin, crosses the line; the rod's eye is e from it:
+
+    >>> plan = construction(compile_scene(load_scene("slider-crank-lubricated")).dynamic)
+    >>> [names[c] for c in plan.op[:, 0]]
+    ['POSE_ANGLE', 'LOCATE', 'CIRCLE_LINE', 'OFFSET', 'POSE_TWO', 'POSE_ANGLE']
     >>> construction(compile_scene(load_scene("double-pendulum")).ideal) is None  # not driven
     True
     """

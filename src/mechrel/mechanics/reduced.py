@@ -1,0 +1,418 @@
+"""The equations of motion in the clearance joints' eccentricities.
+
+When a mechanism's ideal degrees of freedom are all driven, the motion that clearance adds has
+exactly two degrees of freedom per clearance joint: its eccentricity ``e = r_S − r_B`` (journal
+point minus bearing point, m). With the bodies placed in closed form for any ``e``
+(:mod:`~mechrel.mechanics.construction`, whose steps treat each clearance joint as two nodes
+``e`` apart), the positions ``q(z, t)`` of all bodies are a function of the reduced coordinates
+``z = (e_1, …, e_nc)`` and time, and
+
+    q̇ = R ż + q̇₀,     q̈ = R z̈ + q̈₀,     R = ∂q/∂z (n × 2 nc),
+
+where ``q̇₀`` is the velocity with ``ż = 0`` (the drivers alone) and ``q̈₀`` the acceleration
+with ``z̈ = 0`` (the drivers' accelerations and every velocity-quadratic term). Each column of
+``R`` is the construction's velocity pass with a unit rate of one eccentricity component and
+the drivers at rest; ``q̈₀`` is its acceleration pass with ``ë = 0``. Projecting
+``M q̈ = Q + Φ_qᵀ λ`` onto the admissible motions (the columns of ``R``, which satisfy
+``Φ_q R = 0``) removes the multipliers (the principle of virtual work; Nikravesh 1988, §6.5,
+"embedding"; Haug 1989, ch. 6):
+
+    (Rᵀ M R) z̈ = Rᵀ (Q(q, q̇, t) − M q̈₀).
+
+``Q`` is the same gravity and clearance-joint forces as in the absolute formulation
+(:func:`~mechrel.mechanics.applied.applied_forces_trig`), evaluated at the placed ``q`` and
+``q̇``. The constraints hold exactly (to round-off) at every evaluation, with no Baumgarte
+terms, and the state has ``4 nc`` entries (8 for the nine-bar) instead of ``2 n + 2`` (50).
+
+State ``y = (z, ż)``: the eccentricities (m) and their rates (m/s), clearance joint by joint.
+The assembly branch of each square root of the construction is the one of the configuration
+the work arrays are made from (:func:`make_reduced_work`).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import NamedTuple
+
+import numpy as np
+from numba import njit
+
+from .applied import applied_forces_trig
+from .borrow import borrowed
+from .construction import _accelerations, _branch_signs, _ground_nodes, _place, _rates
+from .construction import construction  # noqa: F401  (the docstring examples use it)
+from .joints import n_contacts
+
+__all__ = ["ReducedWork", "expand", "make_reduced_work", "reduced_coordinates",
+           "reduced_rhs_into"]
+
+
+class ReducedWork(NamedTuple):
+    """Preallocated arrays of one reduced evaluation (:func:`make_reduced_work`).
+
+    Parameters
+    ----------
+    N, Nv, Na : ndarray, shape (n_nodes, 2)
+        The nodes' positions (m), velocities (m/s) and accelerations (m/s²).
+    Nt : ndarray, shape (n_nodes, 2)
+        Node velocities of one column of ``R``.
+    q, v, a : ndarray, shape (n,)
+        The bodies' coordinates, velocities and accelerations (SI).
+    vt : ndarray, shape (n,)
+        Body velocities of one column of ``R``.
+    R : ndarray, shape (n, 2 nc)
+        ∂q/∂z.
+    E, Ed, Edd, U : ndarray, shape (nc, 2)
+        The eccentricities (m), their rates (m/s), accelerations (m/s²), and a unit rate.
+    Q : ndarray, shape (n,)
+        The applied generalised forces (N, N·m).
+    cs, sn : ndarray, shape (nb,)
+        cos θ, sin θ of every body (the construction computes them).
+    gap, gaprate : ndarray, shape (nh,)
+        The contact-capable joints' penetration (m) and its rate (m/s).
+    th, th_ref : ndarray, shape (nb,)
+        Body angles found from two nodes continue ``th_ref`` (rad), the reference
+        configuration's; ``th`` is the copy an evaluation updates.
+    Mr : ndarray, shape (2 nc, 2 nc)
+        Rᵀ M R (kg), factorised in place.
+    b : ndarray, shape (2 nc,)
+        Rᵀ (Q − M q̈₀) (N), solved in place for z̈.
+    sign : ndarray, shape (n_branches,)
+        The assembly branch of each square root of the construction.
+    drv : ndarray, shape (nd, 3)
+        Each driver's θ (rad), θ̇ (rad/s), θ̈ (rad/s²) at the evaluation's time.
+
+    Examples
+    --------
+    After an evaluation, ``R`` holds ∂q/∂z: moving the first joint's eccentricity moves its
+    bearing body (rod 3, body 2) and the rest of the chain, not the crank that carries the
+    journal (body 0):
+
+    >>> from mechrel.mechanics.kinematics import assemble
+    >>> from mechrel.mechanics.system import compile_scene
+    >>> from mechrel.scene import load_scene
+    >>> c = compile_scene(load_scene("nine-bar-lubricated"))
+    >>> q0, _ = assemble(c.assembly, c.q_guess, 0.0)
+    >>> con = construction(c.dynamic)
+    >>> rw = make_reduced_work(c.dynamic, con, q0)
+    >>> reduced_rhs_into(0.0, np.zeros(8), np.zeros(0), c.dynamic, con, rw, np.empty(8))
+    True
+    >>> bool(np.all(rw.R[0:3] == 0.0)), bool(np.abs(rw.R[6:9, 0]).max() > 0.1)
+    (True, True)
+    """
+
+    N: np.ndarray
+    Nv: np.ndarray
+    Na: np.ndarray
+    Nt: np.ndarray
+    q: np.ndarray
+    v: np.ndarray
+    a: np.ndarray
+    vt: np.ndarray
+    R: np.ndarray
+    E: np.ndarray
+    Ed: np.ndarray
+    Edd: np.ndarray
+    U: np.ndarray
+    Q: np.ndarray
+    cs: np.ndarray
+    sn: np.ndarray
+    gap: np.ndarray
+    gaprate: np.ndarray
+    th: np.ndarray
+    th_ref: np.ndarray
+    Mr: np.ndarray
+    b: np.ndarray
+    sign: np.ndarray
+    drv: np.ndarray
+
+
+@njit(cache=True)
+def make_reduced_work(sys, con, q_ref):
+    """The :class:`ReducedWork` of ``sys`` placed by ``con``, on the assembly branch and with
+    the angles of the configuration ``q_ref`` (an assembled ``q``, m and rad).
+
+    Parameters
+    ----------
+    sys : System
+        The mechanism with its clearance joints as force elements (``compiled.dynamic``).
+    con : Construction
+        ``construction(sys)``.
+    q_ref : ndarray, shape (n,)
+        The reference configuration.
+
+    Returns
+    -------
+    ReducedWork
+
+    Examples
+    --------
+    >>> from mechrel.mechanics.kinematics import assemble
+    >>> from mechrel.mechanics.system import compile_scene
+    >>> from mechrel.scene import load_scene
+    >>> c = compile_scene(load_scene("nine-bar-lubricated"))
+    >>> q0, _ = assemble(c.assembly, c.q_guess, 0.0)
+    >>> rw = make_reduced_work(c.dynamic, construction(c.dynamic), q0)
+    >>> rw.R.shape, rw.Mr.shape
+    ((24, 4), (4, 4))
+    """
+    n = q_ref.shape[0]
+    nb = n // 3
+    nn = con.node_body.shape[0]
+    nc = con.cl_nodes.shape[0]
+    nz = 2 * nc
+    nh = n_contacts(sys)
+    N = np.zeros((nn, 2))
+    _ground_nodes(con, N)
+    th_ref = np.empty(nb)
+    for i in range(nb):
+        th_ref[i] = q_ref[3 * i + 2]
+    return ReducedWork(N, np.zeros((nn, 2)), np.zeros((nn, 2)), np.zeros((nn, 2)),
+                       np.empty(n), np.empty(n), np.empty(n), np.empty(n), np.empty((n, nz)),
+                       np.empty((nc, 2)), np.empty((nc, 2)), np.zeros((nc, 2)),
+                       np.zeros((nc, 2)), np.empty(n), np.empty(nb), np.empty(nb),
+                       np.empty(nh), np.empty(nh), np.empty(nb), th_ref,
+                       np.empty((nz, nz)), np.empty(nz), _branch_signs(q_ref, con),
+                       np.empty((sys.dr_i.shape[0], 3)))
+
+
+@njit(cache=True, inline='always')
+def _kinematics_of(t, y, sys, con, rw):
+    """Positions, velocities and ``q̈₀`` of the reduced state ``y`` into ``rw``; False where
+    the construction has no real solution or a toggle."""
+    nc = rw.E.shape[0]
+    nz = 2 * nc
+    for c in range(nc):
+        rw.E[c, 0] = y[2 * c]
+        rw.E[c, 1] = y[2 * c + 1]
+        rw.Ed[c, 0] = y[nz + 2 * c]
+        rw.Ed[c, 1] = y[nz + 2 * c + 1]
+    for i in range(rw.th.shape[0]):
+        rw.th[i] = rw.th_ref[i]
+    if not _place(con, rw.sign, sys, t, rw.E, rw.N, rw.q, rw.cs, rw.sn, rw.drv, rw.th):
+        return False
+    if not _rates(con, rw.drv, rw.E, rw.Ed, 1.0, rw.N, rw.q, rw.Nv, rw.v):
+        return False
+    _accelerations(con, rw.drv, rw.E, rw.Ed, rw.Edd, rw.N, rw.q, rw.Nv, rw.v, rw.Na, rw.a)
+    return True
+
+
+@njit(cache=True)
+def reduced_rhs_into(t, y, hist, sys, con, rw, out):
+    """``dy/dt = (ż, z̈)`` of the reduced state ``y = (z, ż)`` into ``out``.
+
+    Parameters
+    ----------
+    t : float
+        Time (s).
+    y : ndarray, shape (4 nc,)
+        Eccentricities (m) and their rates (m/s), clearance joint by joint.
+    hist : ndarray, shape (nh,)
+        History of the contact-capable joints (impact speed, m/s).
+    sys : System
+        The mechanism with its clearance joints as force elements.
+    con : Construction
+        ``construction(sys)``.
+    rw : ReducedWork
+        Work arrays (:func:`make_reduced_work`); on return they hold this state's ``q``,
+        ``q̇`` (``rw.q``, ``rw.v``), ``q̈₀`` (``rw.a``), ``R`` and forces.
+    out : ndarray, shape (4 nc,)
+        Receives ``(ż, z̈)`` (m/s, m/s²); NaN where the mechanism cannot be placed at ``y``
+        (an eccentricity that breaks a group's assembly, a toggle).
+
+    Returns
+    -------
+    bool
+        False where ``out`` is NaN.
+
+    Examples
+    --------
+    The lubricated nine-bar centred and at rest relative to its ideal motion: the film
+    carries no load yet, so the journals fall behind the drivers' motion (z̈ ≠ 0):
+
+    >>> from mechrel.mechanics.kinematics import assemble
+    >>> from mechrel.mechanics.system import compile_scene
+    >>> from mechrel.scene import load_scene
+    >>> c = compile_scene(load_scene("nine-bar-lubricated"))
+    >>> q0, _ = assemble(c.assembly, c.q_guess, 0.0)
+    >>> con = construction(c.dynamic)
+    >>> rw = make_reduced_work(c.dynamic, con, q0)
+    >>> out = np.empty(8)
+    >>> reduced_rhs_into(0.0, np.zeros(8), np.zeros(0), c.dynamic, con, rw, out)
+    True
+    >>> bool(np.all(out[:4] == 0.0) and np.abs(out[4:]).max() > 1.0)
+    True
+    """
+    y, hist, sys, con, rw, out = borrowed((y, hist, sys, con, rw, out))  # mechanics/borrow.py
+    nc = rw.E.shape[0]
+    nz = 2 * nc
+    n = rw.q.shape[0]
+    if not _kinematics_of(t, y, sys, con, rw):
+        for i in range(out.shape[0]):
+            out[i] = math.nan
+        return False
+    R = rw.R
+    for col in range(nz):  # R = ∂q/∂z: the velocity pass for a unit rate of z[col]
+        rw.U[col // 2, col % 2] = 1.0
+        _rates(con, rw.drv, rw.E, rw.U, 0.0, rw.N, rw.q, rw.Nt, rw.vt)
+        rw.U[col // 2, col % 2] = 0.0
+        for i in range(n):
+            R[i, col] = rw.vt[i]
+    Q = rw.Q
+    for i in range(n):
+        Q[i] = 0.0
+    applied_forces_trig(t, rw.q, rw.v, hist, sys, Q, rw.cs, rw.sn, rw.gap, rw.gaprate)
+    mass = sys.mass
+    for i in range(n):
+        Q[i] -= mass[i] * rw.a[i]  # Q − M q̈₀
+    Mr = rw.Mr
+    b = rw.b
+    for r in range(nz):
+        s = 0.0
+        for i in range(n):
+            s += R[i, r] * Q[i]
+        b[r] = s
+        for c in range(r + 1):
+            s = 0.0
+            for i in range(n):
+                s += R[i, r] * mass[i] * R[i, c]
+            Mr[r, c] = s
+    # Cholesky of the symmetric positive definite Rᵀ M R (lower triangle), then z̈
+    for j in range(nz):
+        d = Mr[j, j]
+        for k in range(j):
+            d -= Mr[j, k] * Mr[j, k]
+        d = math.sqrt(d)
+        Mr[j, j] = d
+        for i in range(j + 1, nz):
+            s = Mr[i, j]
+            for k in range(j):
+                s -= Mr[i, k] * Mr[j, k]
+            Mr[i, j] = s / d
+    for i in range(nz):
+        s = b[i]
+        for k in range(i):
+            s -= Mr[i, k] * b[k]
+        b[i] = s / Mr[i, i]
+    for i in range(nz - 1, -1, -1):
+        s = b[i]
+        for k in range(i + 1, nz):
+            s -= Mr[k, i] * b[k]
+        b[i] = s / Mr[i, i]
+    for i in range(nz):
+        out[i] = y[nz + i]
+        out[nz + i] = b[i]
+    return True
+
+
+@njit(cache=True)
+def _expand(t, y, zdd, sys, con, rw):
+    if not _kinematics_of(t, y, sys, con, rw):
+        return False
+    nc = rw.E.shape[0]
+    for c in range(nc):
+        rw.Edd[c, 0] = zdd[2 * c]
+        rw.Edd[c, 1] = zdd[2 * c + 1]
+    _accelerations(con, rw.drv, rw.E, rw.Ed, rw.Edd, rw.N, rw.q, rw.Nv, rw.v, rw.Na, rw.a)
+    for c in range(nc):
+        rw.Edd[c, 0] = 0.0
+        rw.Edd[c, 1] = 0.0
+    return True
+
+
+def expand(t, y, zdd, sys, con, rw):
+    """The absolute coordinates, velocities and accelerations of a reduced state.
+
+    Parameters
+    ----------
+    t : float
+        Time (s).
+    y : ndarray, shape (4 nc,)
+        The reduced state ``(z, ż)`` (m, m/s).
+    zdd : ndarray, shape (2 nc,)
+        The eccentricities' accelerations z̈ (m/s²), e.g. ``reduced_rhs_into``'s second half.
+    sys : System
+        The mechanism with its clearance joints as force elements.
+    con : Construction
+        ``construction(sys)``.
+    rw : ReducedWork
+        Work arrays (:func:`make_reduced_work`).
+
+    Returns
+    -------
+    q, v, a : ndarray, shape (n,)
+        Positions (m, rad), velocities (m/s, rad/s), accelerations (m/s², rad/s²).
+
+    Raises
+    ------
+    ValueError
+        Where the mechanism cannot be placed at ``y``.
+
+    Examples
+    --------
+    The nine-bar with both joints centred is the ideal mechanism: the slider (body 8)
+    starts 0.575769 m below the ground's origin, as the scene says:
+
+    >>> from mechrel.mechanics.kinematics import assemble
+    >>> from mechrel.mechanics.system import compile_scene
+    >>> from mechrel.scene import load_scene
+    >>> c = compile_scene(load_scene("nine-bar-lubricated"))
+    >>> q0, _ = assemble(c.assembly, c.q_guess, 0.0)
+    >>> con = construction(c.dynamic)
+    >>> q, v, a = expand(0.0, np.zeros(8), np.zeros(4), c.dynamic, con,
+    ...                  make_reduced_work(c.dynamic, con, q0))
+    >>> round(float(q[22]), 6)
+    -0.575769
+    """
+    if not _expand(float(t), np.ascontiguousarray(y, dtype=float),
+                   np.ascontiguousarray(zdd, dtype=float), sys, con, rw):
+        raise ValueError(f"the mechanism cannot be placed at the reduced state {y!r} "
+                         f"(t = {t:g} s)")
+    return rw.q.copy(), rw.v.copy(), rw.a.copy()
+
+
+def reduced_coordinates(sys, con, q, v):
+    """The reduced state ``(z, ż)`` of an absolute state: each clearance joint's eccentricity
+    ``e = r_S − r_B`` (m) and its rate (m/s).
+
+    Parameters
+    ----------
+    sys : System
+        The mechanism with its clearance joints as force elements.
+    con : Construction
+        ``construction(sys)`` (the order of the clearance joints).
+    q, v : ndarray, shape (n,)
+        Coordinates (m, rad) and velocities (m/s, rad/s).
+
+    Returns
+    -------
+    ndarray, shape (4 nc,)
+
+    Examples
+    --------
+    >>> from mechrel.mechanics.kinematics import assemble
+    >>> from mechrel.mechanics.system import compile_scene
+    >>> from mechrel.scene import load_scene
+    >>> c = compile_scene(load_scene("nine-bar-lubricated"))
+    >>> q0, v0 = assemble(c.assembly, c.q_guess, 0.0)
+    >>> y = reduced_coordinates(c.dynamic, construction(c.dynamic), q0, v0)
+    >>> y.shape, bool(np.abs(y).max() < 1e-12)  # centred, at rest relative to the ideal motion
+    ((8,), True)
+    """
+    nc = con.cl_nodes.shape[0]
+    y = np.empty(4 * nc)
+
+    def point(b, s):
+        if b < 0:
+            return np.asarray(s, dtype=float), np.zeros(2)
+        c, sn = math.cos(q[3 * b + 2]), math.sin(q[3 * b + 2])
+        p = np.array([c * s[0] - sn * s[1], sn * s[0] + c * s[1]])
+        w = v[3 * b + 2]
+        return q[3 * b:3 * b + 2] + p, v[3 * b:3 * b + 2] + w * np.array([-p[1], p[0]])
+
+    for k in range(nc):
+        rb, vb = point(sys.cl_b[k], sys.cl_sb[k])
+        rj, vj = point(sys.cl_j[k], sys.cl_sj[k])
+        y[2 * k:2 * k + 2] = rj - rb
+        y[2 * nc + 2 * k:2 * nc + 2 * k + 2] = vj - vb
+    return y

@@ -1,0 +1,171 @@
+"""The equations of motion in the clearance joints' eccentricities (mechrel.mechanics.reduced):
+the placed configuration satisfies every constraint, ∂q/∂z spans the admissible motions, and
+the accelerations satisfy the constrained equations of motion and agree with the absolute
+formulation at every state tried."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from mechrel.forces.params import P_C
+from mechrel.mechanics.applied import applied_forces
+from mechrel.mechanics.constraints import constraints
+from mechrel.mechanics.construction import OFFSET, construction
+from mechrel.mechanics.dynamics import accelerations
+from mechrel.mechanics.kinematics import assemble
+from mechrel.mechanics.reduced import (expand, make_reduced_work, reduced_coordinates,
+                                       reduced_rhs_into)
+from mechrel.mechanics.system import compile_scene
+from mechrel.scene import load_scene
+
+from test_kinematics import _numpy_gamma
+
+EPS = np.finfo(float).eps
+SCENES = ("nine-bar-lubricated", "slider-crank-lubricated", "four-bar", "nine-bar-dry")
+
+
+def _setup(name):
+    compiled = compile_scene(load_scene(name))
+    system = compiled.dynamic
+    q0, _ = assemble(compiled.assembly, compiled.q_guess, 0.0)
+    con = construction(system)
+    return system, con, make_reduced_work(system, con, q0), q0
+
+
+_CASES = {name: _setup(name) for name in SCENES}
+
+
+def test_every_clearance_scene_is_placed_by_its_eccentricities():
+    # each clearance joint's two points are two nodes e apart: one OFFSET step per joint
+    # (the nine-bar's crank pins to the rods' eyes) or, where the joint is a group's inner
+    # joint (the slider-crank's rod-slider pin, the four-bar's rocker pin), a circle centred
+    # e away from its link's other node and then the OFFSET step to the far end
+    for name, (system, con, _, _) in _CASES.items():
+        assert con is not None, name
+        nc = system.cl_b.shape[0]
+        assert con.cl_nodes.shape == (nc, 2)
+        assert sorted(con.op[con.op[:, 0] == OFFSET, 3].tolist()) == list(range(nc)), name
+    four = _CASES["four-bar"][1]
+    shifted = four.op[(four.op[:, 5] >= 0) | (four.op[:, 7] >= 0)]
+    assert shifted.shape[0] == 1  # the circle of the coupler–rocker group, moved by joint B
+
+
+def _state(system, rng_state, t, radius, angle, rates):
+    """A reduced state: joint k's eccentricity radius[k] × clearance at angle[k], its rate
+    rates[k] × clearance × 50 /s (the nine-bar's journals move ~25 clearances per second)."""
+    nc = system.cl_b.shape[0]
+    c = system.cl_p[:, P_C]
+    z = np.ravel(np.column_stack([radius[:nc] * c * np.cos(angle[:nc]),
+                                  radius[:nc] * c * np.sin(angle[:nc])]))
+    zd = np.asarray(rates[:2 * nc]) * np.repeat(c, 2) * 50.0
+    return np.concatenate([z, zd])
+
+
+states = dict(
+    name=st.sampled_from(SCENES),
+    t=st.floats(0.0, 0.7),
+    radius=st.lists(st.floats(0.0, 0.95), min_size=2, max_size=2),
+    angle=st.lists(st.floats(-math.pi, math.pi), min_size=2, max_size=2),
+    rates=st.lists(st.floats(-3.0, 3.0), min_size=4, max_size=4),
+)
+
+
+@settings(max_examples=60, deadline=None)
+@given(**states)
+def test_reduced_states_satisfy_the_constrained_equations_of_motion(name, t, radius, angle,
+                                                                      rates):
+    # The definition of the constrained motion, checked with the dense constraints(), the
+    # NumPy γ of the tests and applied_forces, none of which the reduced evaluation uses:
+    # Φ(q) = 0 and Φ_q q̇ + Φ_t = 0 (the construction is exact: |Φ| at round-off of metre
+    # coordinates, 64 eps), Φ_q ∂q/∂z = 0 (the columns are admissible motions), Φ_q q̈ = γ,
+    # and M q̈ − Q = Φ_qᵀ λ for some λ (Lagrange's equations of the first kind). The last
+    # holds when Rᵀ (M q̈ − Q) = 0 and the columns of R span the null space of Φ_q (Φ_q R = 0
+    # and [Φ_q; Rᵀ] of full rank, so R has the n − m = 2 nc columns the null space needs).
+    # Rᵀ (M q̈ − Q) is formed here from expand()'s q̈ (its own acceleration pass with z̈) and
+    # applied_forces(): it vanishes up to the round-off of solving Rᵀ M R z̈ = b, amplified by
+    # cond(Rᵀ M R) and by forces that cancel, relative to |R| (|Q| + |M q̈|): 64 eps cond.
+    system, con, rw, _ = _CASES[name]
+    y = _state(system, None, t, radius, angle, rates)
+    nz = y.size // 2
+    out = np.empty(2 * nz)
+    hist = np.zeros(system.n_contacts)
+    assert reduced_rhs_into(t, y, hist, system, con, rw, out)
+    assert np.array_equal(out[:nz], y[nz:])
+    R = rw.R.copy()
+    Mr = R.T @ (system.mass[:, None] * R)
+    q, v, a = expand(t, y, out[nz:], system, con, rw)
+    assert np.allclose(reduced_coordinates(system, con, q, v), y, rtol=0.0,
+                       atol=64 * EPS * max(1.0, np.abs(y).max()))
+    phi, phit, J = constraints(q, t, system)
+    assert np.abs(phi).max() <= 64 * EPS
+    assert np.abs(J @ v + phit).max() <= 64 * EPS * np.abs(J).max() * np.abs(v).max()
+    assert np.abs(J @ R).max() <= 64 * EPS * np.abs(J).max() * np.abs(R).max()
+    g = _numpy_gamma(q, v, t, system)
+    assert np.abs(J @ a - g).max() <= 64 * EPS * (np.abs(J).max() * np.abs(a).max()
+                                                  + np.abs(g).max())
+    assert np.linalg.matrix_rank(np.vstack([J, R.T])) == q.size
+    Q = np.zeros(q.size)
+    applied_forces(t, q, v, hist, system, Q)
+    r = system.mass * a - Q
+    scale = np.linalg.norm(R) * (np.linalg.norm(Q) + np.linalg.norm(system.mass * a))
+    assert np.linalg.norm(R.T @ r) <= 64 * EPS * np.linalg.cond(Mr) * scale
+
+
+@settings(max_examples=60, deadline=None)
+@given(**states)
+def test_reduced_accelerations_are_the_absolute_formulations(name, t, radius, angle, rates):
+    # At a state that satisfies the constraints, the absolute formulation (Schur complement
+    # of the Lagrange-multiplier equations, Baumgarte terms vanishing with Φ and Φ̇) must give
+    # the same accelerations. How sensitive its own solve is to round-off is measured here,
+    # by moving q and q̇ by one ulp (random signs, four draws): with thin films that spread
+    # reaches 1e-8 m/s² on 1e3 m/s² accelerations. The two formulations must agree within
+    # ten times that spread (measured: within twice).
+    system, con, rw, _ = _CASES[name]
+    y = _state(system, None, t, radius, angle, rates)
+    nz = y.size // 2
+    out = np.empty(2 * nz)
+    hist = np.zeros(system.n_contacts)
+    reduced_rhs_into(t, y, hist, system, con, rw, out)
+    q, v, a = expand(t, y, out[nz:], system, con, rw)
+    extra = np.zeros(2)
+    absolute = accelerations(t, np.concatenate([q, v, extra]), hist, system)[0]
+    rng = np.random.default_rng(0)
+    spread = 0.0
+    for _ in range(4):
+        qq = q * (1 + rng.choice([-1.0, 1.0], q.size) * EPS)
+        vv = v * (1 + rng.choice([-1.0, 1.0], v.size) * EPS)
+        other = accelerations(t, np.concatenate([qq, vv, extra]), hist, system)[0]
+        spread = max(spread, np.abs(other - absolute).max())
+    assert np.abs(a - absolute).max() <= 10 * spread + 64 * EPS * np.abs(absolute).max()
+
+
+def test_a_state_the_mechanism_cannot_take_is_nan_not_a_number_passed_on():
+    # an eccentricity of 1 m breaks the nine-bar's groups (rod 3 and rod 4 cannot reach P):
+    # the evaluation says so and fills dy/dt with NaN, and expand() raises
+    system, con, rw, _ = _CASES["nine-bar-lubricated"]
+    y = np.zeros(8)
+    y[0] = 1.0
+    out = np.zeros(8)
+    assert not reduced_rhs_into(0.1, y, np.zeros(0), system, con, rw, out)
+    assert np.all(np.isnan(out))
+    with pytest.raises(ValueError, match="cannot be placed at the reduced state"):
+        expand(0.1, y, np.zeros(4), system, con, rw)
+
+
+def test_the_centred_joints_are_the_ideal_mechanism():
+    # z = 0, ż = 0: the positions and velocities are the ideal mechanism's (its kinematic
+    # analysis, to its round-off), whatever the forces
+    from mechrel.mechanics.kinematics import kinematic_analysis
+
+    compiled = compile_scene(load_scene("nine-bar-lubricated"))
+    system, con, rw, q0 = _CASES["nine-bar-lubricated"]
+    times = np.linspace(0.0, 2.0 / 3.0, 25)
+    Qi, Vi, _, _ = kinematic_analysis(compiled.ideal, q0, times)
+    for k, t in enumerate(times):
+        q, v, _ = expand(t, np.zeros(8), np.zeros(4), system, con, rw)
+        assert np.abs(q - Qi[k]).max() <= 1e-14 * 3 and np.abs(v - Vi[k]).max() <= 1e-12
