@@ -430,12 +430,13 @@ def _ground_nodes(con, N):
 def _place(con, sign, sys, t, e, N, q, cs, sn, drv, th_prev):
     """Positions: every step's node or body at time ``t``, the clearance joints at the
     eccentricities ``e`` (nc × 2, m), with each body's cos θ and sin θ into ``cs``, ``sn``
-    and each driver's ``(θ, θ̇, θ̈)`` into ``drv`` (for :func:`_rates` and
-    :func:`_accelerations`). Each body angle found from two nodes continues its previous
-    value ``th_prev`` (updated). Returns False where a square root has no real value (the
-    group cannot be assembled). One sine and cosine per driver and one arctangent per body
-    placed through two nodes: the orientation of such a body is the unit vector from its
-    first node to its second turned back by the constant angle of that line in the body."""
+    and each driver's ``(θ, θ̇, θ̈)`` into ``drv`` (for :func:`_derivatives`).
+
+    Each body angle found from two nodes continues its previous value ``th_prev`` (updated).
+    Returns False where a square root has no real value (the group cannot be assembled). One
+    sine and cosine per driver and one arctangent per body placed through two nodes: the
+    orientation of such a body is the unit vector from its first node to its second turned
+    back by the constant angle of that line in the body."""
     op = con.op
     par = con.par
     twopi = 2.0 * math.pi
@@ -530,14 +531,27 @@ def _place(con, sign, sys, t, e, N, q, cs, sn, drv, th_prev):
 
 
 @njit(cache=True, inline='always')
-def _rates(con, drv, e, edot, drive, N, q, Nv, v):
-    """Velocities at the placed positions (``N``, ``q``), the clearance joints' eccentricities
-    changing at ``edot`` (nc × 2, m/s) and the drivers turning at ``drive`` times their rates.
-    Linear in ``(edot, drive)``: with ``drive = 0`` and a unit ``edot`` it gives a column of
-    ∂q/∂e. Returns False at a toggle (two tangent circles, a rod square to its slider's
-    line), where the velocities are not defined."""
+def _derivatives(con, drv, order, drive, e, edot, dE, N, q, Nv, v, X, x):
+    """One derivative pass at the placed positions (``N``, ``q``): the velocities
+    (``order`` 1) or the accelerations (``order`` 2) of every node into ``X`` and every body
+    into ``x``, the clearance joints' eccentricities ``e`` changing at ``dE`` (their rates
+    ``edot``, m/s, or their accelerations, m/s²) and the drivers at ``drive`` times the
+    derivative of that order of their laws (``drv``).
+
+    Each step's position equation differentiated once is linear in the unknown velocity; once
+    more, the acceleration obeys the same equations with velocity-quadratic terms added
+    (from ``Nv``, ``v``, the velocities of the pass of order 1). For a node where two circles
+    around the centres ``C_j`` meet, ``(N − C_j)·Ṅ = (N − C_j)·Ċ_j`` and
+    ``(N − C_j)·N̈ = (N − C_j)·C̈_j − |Ṅ − Ċ_j|²``; a body through two nodes turns at
+    ``(d × ḋ)/|d|²`` and accelerates at ``(d × d̈)/|d|²``; a point ``p = A s`` of a body moves
+    at ``ṙ + ω × p`` and accelerates at ``r̈ + α × p − ω² p``. Linear in ``(dE, drive)`` for
+    ``order`` 1: with ``drive = 0`` and a unit ``dE`` the pass gives a column of ∂q/∂e (then
+    ``X``, ``x`` are not ``Nv``, ``v``). Returns False at a toggle (two tangent circles, a rod
+    square to its slider's line), where neither is defined."""
     op = con.op
     par = con.par
+    quad = order == 2  # the velocity-quadratic terms, in accelerations only (Nv and v are
+    # not read for velocities: they may be the output, or not yet hold numbers)
     for o in range(op.shape[0]):
         code = op[o, 0]
         if code == POSE_ANGLE or code == POSE_TWO:
@@ -547,36 +561,40 @@ def _rates(con, drv, e, edot, drive, N, q, Nv, v):
                 k2 = op[o, 3]
                 dx = N[k2, 0] - N[k, 0]
                 dy = N[k2, 1] - N[k, 1]
-                w = (dx * (Nv[k2, 1] - Nv[k, 1]) - dy * (Nv[k2, 0] - Nv[k, 0])) / (
+                wa = (dx * (X[k2, 1] - X[k, 1]) - dy * (X[k2, 0] - X[k, 0])) / (
                     dx * dx + dy * dy)
             elif op[o, 3] == ANGLE_DRIVER:
-                w = drive * drv[op[o, 4], 1]
+                wa = drive * drv[op[o, 4], order]
             else:
-                w = 0.0
-            # ṙ = Ṅ − ω × (A s), A s = N − r
-            v[3 * b] = Nv[k, 0] + w * (N[k, 1] - q[3 * b + 1])
-            v[3 * b + 1] = Nv[k, 1] - w * (N[k, 0] - q[3 * b])
-            v[3 * b + 2] = w
+                wa = 0.0
+            w2 = v[3 * b + 2] * v[3 * b + 2] if quad else 0.0
+            px = N[k, 0] - q[3 * b]  # A s: from the body's centre to the node
+            py = N[k, 1] - q[3 * b + 1]
+            x[3 * b] = X[k, 0] + wa * py + w2 * px
+            x[3 * b + 1] = X[k, 1] - wa * px + w2 * py
+            x[3 * b + 2] = wa
         elif code == LOCATE:
             k = op[o, 1]
             b = op[o, 2]
-            w = v[3 * b + 2]
-            Nv[k, 0] = v[3 * b] - w * (N[k, 1] - q[3 * b + 1])
-            Nv[k, 1] = v[3 * b + 1] + w * (N[k, 0] - q[3 * b])
+            wa = x[3 * b + 2]
+            w2 = v[3 * b + 2] * v[3 * b + 2] if quad else 0.0
+            px = N[k, 0] - q[3 * b]
+            py = N[k, 1] - q[3 * b + 1]
+            X[k, 0] = x[3 * b] - wa * py - w2 * px
+            X[k, 1] = x[3 * b + 1] + wa * px - w2 * py
         elif code == OFFSET:
             k = op[o, 1]
             k1 = op[o, 2]
             c = op[o, 3]
             sg = float(op[o, 4])
-            Nv[k, 0] = Nv[k1, 0] + sg * edot[c, 0]
-            Nv[k, 1] = Nv[k1, 1] + sg * edot[c, 1]
+            X[k, 0] = X[k1, 0] + sg * dE[c, 0]
+            X[k, 1] = X[k1, 1] + sg * dE[c, 1]
         elif code == CIRCLES:
-            # (N − C_j)·Ṅ = (N − C_j)·Ċ_j for the centres C_j, j = 1, 2
             k = op[o, 1]
-            x1, y1 = _at(N, op[o, 2], e, op[o, 5], op[o, 6])
+            x1, y1 = _at(N, op[o, 2], e, op[o, 5], op[o, 6])  # the centres C_j …
             x2, y2 = _at(N, op[o, 3], e, op[o, 7], op[o, 8])
-            c1x, c1y = _at(Nv, op[o, 2], edot, op[o, 5], op[o, 6])
-            c2x, c2y = _at(Nv, op[o, 3], edot, op[o, 7], op[o, 8])
+            d1x, d1y = _at(X, op[o, 2], dE, op[o, 5], op[o, 6])  # … and their derivatives
+            d2x, d2y = _at(X, op[o, 3], dE, op[o, 7], op[o, 8])
             e1x = N[k, 0] - x1
             e1y = N[k, 1] - y1
             e2x = N[k, 0] - x2
@@ -584,14 +602,23 @@ def _rates(con, drv, e, edot, drive, N, q, Nv, v):
             det = e1x * e2y - e1y * e2x
             if not abs(det) > 0.0:  # tangent circles: a toggle position
                 return False
-            r1 = e1x * c1x + e1y * c1y
-            r2 = e2x * c2x + e2y * c2y
-            Nv[k, 0] = (r1 * e2y - r2 * e1y) / det
-            Nv[k, 1] = (r2 * e1x - r1 * e2x) / det
-        else:  # CIRCLE_LINE
+            r1 = e1x * d1x + e1y * d1y
+            r2 = e2x * d2x + e2y * d2y
+            if quad:  # − |Ṅ − Ċ_j|²
+                c1x, c1y = _at(Nv, op[o, 2], edot, op[o, 5], op[o, 6])
+                c2x, c2y = _at(Nv, op[o, 3], edot, op[o, 7], op[o, 8])
+                g1x = Nv[k, 0] - c1x
+                g1y = Nv[k, 1] - c1y
+                g2x = Nv[k, 0] - c2x
+                g2y = Nv[k, 1] - c2y
+                r1 -= g1x * g1x + g1y * g1y
+                r2 -= g2x * g2x + g2y * g2y
+            X[k, 0] = (r1 * e2y - r2 * e1y) / det
+            X[k, 1] = (r2 * e1x - r1 * e2x) / det
+        else:  # CIRCLE_LINE: N = P0 + s u
             k = op[o, 1]
             x1, y1 = _at(N, op[o, 2], e, op[o, 5], op[o, 6])
-            c1x, c1y = _at(Nv, op[o, 2], edot, op[o, 5], op[o, 6])
+            d1x, d1y = _at(X, op[o, 2], dE, op[o, 5], op[o, 6])
             ux = par[o, 3]
             uy = par[o, 4]
             e1x = N[k, 0] - x1
@@ -599,94 +626,16 @@ def _rates(con, drv, e, edot, drive, N, q, Nv, v):
             den = e1x * ux + e1y * uy
             if not abs(den) > 0.0:  # the rod square to the line: a dead centre
                 return False
-            sd = (e1x * c1x + e1y * c1y) / den
-            Nv[k, 0] = sd * ux
-            Nv[k, 1] = sd * uy
+            r1 = e1x * d1x + e1y * d1y
+            if quad:
+                c1x, c1y = _at(Nv, op[o, 2], edot, op[o, 5], op[o, 6])
+                gx = Nv[k, 0] - c1x
+                gy = Nv[k, 1] - c1y
+                r1 -= gx * gx + gy * gy
+            sd = r1 / den
+            X[k, 0] = sd * ux
+            X[k, 1] = sd * uy
     return True
-
-
-@njit(cache=True, inline='always')
-def _accelerations(con, drv, e, edot, eddot, N, q, Nv, v, Na, a):
-    """Accelerations at the placed positions and the velocities of :func:`_rates`
-    (``Nv``, ``v``), the eccentricities accelerating at ``eddot`` (nc × 2, m/s²) and the
-    drivers at their laws' accelerations. Called only where :func:`_rates` succeeded (no
-    toggle)."""
-    op = con.op
-    par = con.par
-    for o in range(op.shape[0]):
-        code = op[o, 0]
-        if code == POSE_ANGLE or code == POSE_TWO:
-            b = op[o, 1]
-            k = op[o, 2]
-            if code == POSE_TWO:
-                k2 = op[o, 3]
-                dx = N[k2, 0] - N[k, 0]
-                dy = N[k2, 1] - N[k, 1]
-                al = (dx * (Na[k2, 1] - Na[k, 1]) - dy * (Na[k2, 0] - Na[k, 0])) / (
-                    dx * dx + dy * dy)
-            elif op[o, 3] == ANGLE_DRIVER:
-                al = drv[op[o, 4], 2]
-            else:
-                al = 0.0
-            w = v[3 * b + 2]
-            px = N[k, 0] - q[3 * b]
-            py = N[k, 1] - q[3 * b + 1]
-            # r̈ = N̈ − α × (A s) + ω² (A s)
-            a[3 * b] = Na[k, 0] + al * py + w * w * px
-            a[3 * b + 1] = Na[k, 1] - al * px + w * w * py
-            a[3 * b + 2] = al
-        elif code == LOCATE:
-            k = op[o, 1]
-            b = op[o, 2]
-            w = v[3 * b + 2]
-            al = a[3 * b + 2]
-            px = N[k, 0] - q[3 * b]
-            py = N[k, 1] - q[3 * b + 1]
-            Na[k, 0] = a[3 * b] - al * py - w * w * px
-            Na[k, 1] = a[3 * b + 1] + al * px - w * w * py
-        elif code == OFFSET:
-            k = op[o, 1]
-            k1 = op[o, 2]
-            c = op[o, 3]
-            sg = float(op[o, 4])
-            Na[k, 0] = Na[k1, 0] + sg * eddot[c, 0]
-            Na[k, 1] = Na[k1, 1] + sg * eddot[c, 1]
-        elif code == CIRCLES:
-            # (N − C_j)·N̈ = (N − C_j)·C̈_j − |Ṅ − Ċ_j|² for the centres C_j, j = 1, 2
-            k = op[o, 1]
-            x1, y1 = _at(N, op[o, 2], e, op[o, 5], op[o, 6])
-            x2, y2 = _at(N, op[o, 3], e, op[o, 7], op[o, 8])
-            c1x, c1y = _at(Nv, op[o, 2], edot, op[o, 5], op[o, 6])
-            c2x, c2y = _at(Nv, op[o, 3], edot, op[o, 7], op[o, 8])
-            a1x, a1y = _at(Na, op[o, 2], eddot, op[o, 5], op[o, 6])
-            a2x, a2y = _at(Na, op[o, 3], eddot, op[o, 7], op[o, 8])
-            e1x = N[k, 0] - x1
-            e1y = N[k, 1] - y1
-            e2x = N[k, 0] - x2
-            e2y = N[k, 1] - y2
-            det = e1x * e2y - e1y * e2x
-            g1x = Nv[k, 0] - c1x
-            g1y = Nv[k, 1] - c1y
-            g2x = Nv[k, 0] - c2x
-            g2y = Nv[k, 1] - c2y
-            r1 = e1x * a1x + e1y * a1y - (g1x * g1x + g1y * g1y)
-            r2 = e2x * a2x + e2y * a2y - (g2x * g2x + g2y * g2y)
-            Na[k, 0] = (r1 * e2y - r2 * e1y) / det
-            Na[k, 1] = (r2 * e1x - r1 * e2x) / det
-        else:  # CIRCLE_LINE
-            k = op[o, 1]
-            x1, y1 = _at(N, op[o, 2], e, op[o, 5], op[o, 6])
-            c1x, c1y = _at(Nv, op[o, 2], edot, op[o, 5], op[o, 6])
-            a1x, a1y = _at(Na, op[o, 2], eddot, op[o, 5], op[o, 6])
-            ux = par[o, 3]
-            uy = par[o, 4]
-            e1x = N[k, 0] - x1
-            e1y = N[k, 1] - y1
-            gx = Nv[k, 0] - c1x
-            gy = Nv[k, 1] - c1y
-            sdd = (e1x * a1x + e1y * a1y - (gx * gx + gy * gy)) / (e1x * ux + e1y * uy)
-            Na[k, 0] = sdd * ux
-            Na[k, 1] = sdd * uy
 
 
 @njit(cache=True)
@@ -728,9 +677,9 @@ def _construct(q0, times, sys, con, tol):
         t = times[i]
         if not _place(con, sign, sys, t, none, N, q, cs, sn, drv, th_prev):
             return Q[:i], V[:i], A[:i], viol, i
-        if not _rates(con, drv, none, none, 1.0, N, q, Nv, v):
+        if not _derivatives(con, drv, 1, 1.0, none, none, none, N, q, Nv, v, Nv, v):
             return Q[:i], V[:i], A[:i], viol, i
-        _accelerations(con, drv, none, none, none, N, q, Nv, v, Na, a)
+        _derivatives(con, drv, 2, 1.0, none, none, none, N, q, Nv, v, Na, a)
         # every constraint equation at the built positions: the residual Newton converges on
         constraint_terms(t, q, rest, sys, ws)
         res = 0.0

@@ -39,7 +39,7 @@ from numba import njit
 
 from .applied import applied_forces_trig
 from .borrow import borrowed
-from .construction import _accelerations, _branch_signs, _ground_nodes, _place, _rates
+from .construction import _branch_signs, _derivatives, _ground_nodes, _place
 from .construction import construction  # noqa: F401  (the docstring examples use it)
 from .joints import n_contacts
 
@@ -191,9 +191,11 @@ def _kinematics_of(t, y, sys, con, rw):
         rw.th[i] = rw.th_ref[i]
     if not _place(con, rw.sign, sys, t, rw.E, rw.N, rw.q, rw.cs, rw.sn, rw.drv, rw.th):
         return False
-    if not _rates(con, rw.drv, rw.E, rw.Ed, 1.0, rw.N, rw.q, rw.Nv, rw.v):
+    if not _derivatives(con, rw.drv, 1, 1.0, rw.E, rw.Ed, rw.Ed, rw.N, rw.q, rw.Nv, rw.v,
+                        rw.Nv, rw.v):
         return False
-    _accelerations(con, rw.drv, rw.E, rw.Ed, rw.Edd, rw.N, rw.q, rw.Nv, rw.v, rw.Na, rw.a)
+    _derivatives(con, rw.drv, 2, 1.0, rw.E, rw.Ed, rw.Edd, rw.N, rw.q, rw.Nv, rw.v, rw.Na,
+                 rw.a)
     return True
 
 
@@ -254,7 +256,8 @@ def reduced_rhs_into(t, y, hist, sys, con, rw, out):
     R = rw.R
     for col in range(nz):  # R = ∂q/∂z: the velocity pass for a unit rate of z[col]
         rw.U[col // 2, col % 2] = 1.0
-        _rates(con, rw.drv, rw.E, rw.U, 0.0, rw.N, rw.q, rw.Nt, rw.vt)
+        _derivatives(con, rw.drv, 1, 0.0, rw.E, rw.Ed, rw.U, rw.N, rw.q, rw.Nv, rw.v, rw.Nt,
+                     rw.vt)
         rw.U[col // 2, col % 2] = 0.0
         for i in range(n):
             R[i, col] = rw.vt[i]
@@ -313,7 +316,8 @@ def _expand(t, y, zdd, sys, con, rw):
     for c in range(nc):
         rw.Edd[c, 0] = zdd[2 * c]
         rw.Edd[c, 1] = zdd[2 * c + 1]
-    _accelerations(con, rw.drv, rw.E, rw.Ed, rw.Edd, rw.N, rw.q, rw.Nv, rw.v, rw.Na, rw.a)
+    _derivatives(con, rw.drv, 2, 1.0, rw.E, rw.Ed, rw.Edd, rw.N, rw.q, rw.Nv, rw.v, rw.Na,
+                 rw.a)
     for c in range(nc):
         rw.Edd[c, 0] = 0.0
         rw.Edd[c, 1] = 0.0
