@@ -447,9 +447,9 @@ def kinematic_analysis(system, q_guess, times, *, tol=1e-12, max_iter=50, labels
 
     A mechanism built of driven or fixed-angle bodies and class-II groups (the nine-bar, the
     slider-crank, the four-bar) is placed in closed form by
-    :mod:`~mechrel.mechanics.construction`, with its residual Φ checked at every instant;
-    from the first instant that cannot be built so (a toggle, a residual above ``tol``), and
-    for every other mechanism, each instant is solved by Newton–Raphson from the previous one.
+    :mod:`~mechrel.mechanics.construction`, its residual Φ checked at the first and last
+    instant; from the first instant that cannot be built so (a toggle, an overflow), and for
+    every other mechanism, each instant is solved by Newton–Raphson from the previous one.
 
     Parameters
     ----------
@@ -471,7 +471,8 @@ def kinematic_analysis(system, q_guess, times, *, tol=1e-12, max_iter=50, labels
     -------
     Q, V, A : ndarray, shape (len(times), n)
     max_violation : float
-        Largest |Φ| over the instants (m or rad).
+        Largest |Φ| over the instants solved by Newton and the first and last instant placed
+        in closed form (m or rad).
 
     Raises
     ------
@@ -500,15 +501,19 @@ def kinematic_analysis(system, q_guess, times, *, tol=1e-12, max_iter=50, labels
     times = np.ascontiguousarray(times, dtype=float)
     q_guess = np.asarray(q_guess, dtype=float)
     plan = construction(system)
+    parts = []
     if plan is not None:  # closed form; Newton from the first instant it cannot build, if any
-        Q, V, A, viol, done = _construct(q_guess, times, system, plan, float(tol))
-        if done == times.shape[0]:
-            return Q, V, A, viol
-        parts = [(Q, V, A, viol)]
-        q_guess = Q[done - 1] if done > 0 else q_guess
-        times = times[done:]
-    else:
-        parts = []
+        Q, V, A, done = _construct(q_guess, times, system, plan)
+        viol = 0.0  # |Φ| of the first and last instant built (module construction's docstring)
+        for k in {0, done - 1} if done > 0 else ():
+            viol = max(viol, float(np.max(np.abs(constraints(Q[k], times[k], system)[0]),
+                                          initial=0.0)))
+        if viol <= tol:  # (a NaN fails too)
+            if done == times.shape[0]:
+                return Q, V, A, viol
+            parts = [(Q, V, A, viol)]
+            q_guess = Q[done - 1] if done > 0 else q_guess
+            times = times[done:]
     try:
         Q, V, A, viol, done = _kinematics(q_guess, times, system, float(tol), int(max_iter))
     except np.linalg.LinAlgError as exc:
