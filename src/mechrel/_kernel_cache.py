@@ -92,12 +92,13 @@ _ENTRY_POINTS = {
     "kinematics-newton": ("mechrel.mechanics.kinematics", "_kinematics"),
 }
 _TIMES = "kernel-compile-seconds.json"
-DEFAULT_COMPILE_SECONDS = {"rk4": 55.0, "dopri5": 55.0, "radau": 36.0, "kinematics": 6.0,
+DEFAULT_COMPILE_SECONDS = {"rk4": 55.0, "dopri5": 55.0, "radau": 36.0, "kinematics": 8.0,
                            "kinematics-newton": 10.0}
 """First-compilation times (s) on two idle cores, used until this machine has measured its own
-(stored beside the cache). The kinematic analysis takes about 6 s of CPU in closed form
-(:mod:`mechrel.mechanics.construction`: 5.4–5.7 s measured in a fresh cache) and about 10 s by
-Newton–Raphson, for mechanisms not built of class-II groups (numba's compile events,
+(stored beside the cache). The kinematic analysis takes about 8 s of CPU in closed form
+(:mod:`mechrel.mechanics.construction`: 7.2–7.4 s measured in a fresh cache, after the
+assembly's own compilation) and about 10 s by Newton–Raphson, for mechanisms not built of
+class-II groups (numba's compile events,
 benchmarks/bench_cold_start.py); the dry slider-crank's first run (DOPRI5 and the kinematic
 analysis, one process) took 65 s in a fresh checkout. A cold Radau warm-up runs in two processes
 (:func:`split_compile`): about 45 s of CPU in this one and 29 s in the helper on the default

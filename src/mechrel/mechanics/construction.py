@@ -269,6 +269,7 @@ def _plan(nb, rev_i, rev_j, rev_si, rev_sj, tr_i, tr_si, tr_p0, tr_n, tr_angle, 
                         lines.append(b)
                     elif b not in angle and len(here) == 1:
                         circles.append((b, here[0], m, c, sg))
+            slider = -1  # the body on a line, if a circle meets its line
             if len(circles) >= 2:
                 (b1, n1, m1, c1, s1), (b2, n2, m2, c2, s2) = circles[:2]
                 op.append((CIRCLES, n, n1, n2, n_branches, c1, s1, c2, s2))
@@ -285,6 +286,7 @@ def _plan(nb, rev_i, rev_j, rev_si, rev_sj, tr_i, tr_si, tr_p0, tr_n, tr_angle, 
                 op.append((CIRCLE_LINE, n, n1, 0, n_branches, c1, s1, -1, 0))
                 par.append((dist(b1, n1, m1), p0[0], p0[1], u[0], u[1]))
                 used = ((b1, n1, m1, c1, s1),)
+                slider = b2
             else:
                 continue
             n_branches += 1
@@ -296,8 +298,8 @@ def _plan(nb, rev_i, rev_j, rev_si, rev_sj, tr_i, tr_si, tr_p0, tr_n, tr_angle, 
                     placed.add(m)
                     used_offsets.add(c)
                 pose_two(b, k, m)
-            if not circles[1:]:
-                pose_angle(lines[0], n)
+            if slider >= 0:
+                pose_angle(slider, n)
             progress = True
         if not progress:
             raise _Refuse
@@ -308,7 +310,7 @@ def _plan(nb, rev_i, rev_j, rev_si, rev_sj, tr_i, tr_si, tr_p0, tr_n, tr_angle, 
                         np.array(ends, dtype=np.int64).reshape(-1, 2), n_branches)
 
 
-_PLANS: dict[bytes, Construction | None] = {}
+_PLANS: dict[tuple, Construction | None] = {}
 
 
 def construction(system) -> Construction | None:
@@ -356,8 +358,8 @@ def construction(system) -> Construction | None:
         return None
     parts = (s.rev_i, s.rev_j, s.rev_si, s.rev_sj, s.tr_i, s.tr_si, s.tr_p0, s.tr_n,
              s.tr_angle, s.fa_i, s.fa_angle, s.dr_i, s.cl_b, s.cl_sb, s.cl_j, s.cl_sj)
-    key = b"|".join(np.ascontiguousarray(a).tobytes() for a in parts) + bytes(
-        [s.mass.shape[0] // 3 % 256])
+    key = (s.mass.shape[0],) + tuple((a.shape, np.ascontiguousarray(a).tobytes())
+                                     for a in parts)
     if key not in _PLANS:
         if len(_PLANS) >= 256:
             _PLANS.clear()

@@ -501,7 +501,7 @@ def kinematic_analysis(system, q_guess, times, *, tol=1e-12, max_iter=50, labels
     times = np.ascontiguousarray(times, dtype=float)
     q_guess = np.asarray(q_guess, dtype=float)
     plan = construction(system)
-    parts = []
+    head = None  # the instants placed in closed form before Newton took over
     if plan is not None:  # closed form; Newton from the first instant it cannot build, if any
         Q, V, A, done = _construct(q_guess, times, system, plan)
         viol = 0.0  # |Φ| of the first and last instant built (module construction's docstring)
@@ -511,7 +511,7 @@ def kinematic_analysis(system, q_guess, times, *, tol=1e-12, max_iter=50, labels
         if viol <= tol:  # (a NaN fails too)
             if done == times.shape[0]:
                 return Q, V, A, viol
-            parts = [(Q, V, A, viol)]
+            head = (Q, V, A, viol)
             q_guess = Q[done - 1] if done > 0 else q_guess
             times = times[done:]
     try:
@@ -525,8 +525,8 @@ def kinematic_analysis(system, q_guess, times, *, tol=1e-12, max_iter=50, labels
         assemble(system, last, float(times[done]), tol=tol, max_iter=max_iter, labels=labels)
         raise AssemblyError(f"kinematic analysis: Newton–Raphson failed at t = "
                             f"{times[done]:g} s (the assembly branch ends there)")
-    if parts:
-        Q0, V0, A0, viol0 = parts[0]
+    if head is not None:
+        Q0, V0, A0, viol0 = head
         return (np.concatenate([Q0, Q]), np.concatenate([V0, V]), np.concatenate([A0, A]),
                 max(viol0, viol))
     return Q, V, A, viol
