@@ -380,6 +380,19 @@ def _at(X, k, E, c, sg):
 
 
 @njit(cache=True, inline='always')
+def _offset(step, X, E):
+    """An ``OFFSET`` step on positions, velocities or accelerations: node ``step[1]`` is node
+    ``step[2]`` plus ``step[4]`` times clearance joint ``step[3]``'s eccentricity (``X``: the
+    nodes' positions or derivatives, ``E``: the eccentricities' or their derivatives)."""
+    k = step[1]
+    k1 = step[2]
+    c = step[3]
+    sg = float(step[4])
+    X[k, 0] = X[k1, 0] + sg * E[c, 0]
+    X[k, 1] = X[k1, 1] + sg * E[c, 1]
+
+
+@njit(cache=True, inline='always')
 def _branch_signs(q0, con):
     """The sign of each square root on the assembly branch of the configuration ``q0``."""
     op = con.op
@@ -448,10 +461,22 @@ def _place(con, sign, sys, t, e, N, q, cs, sn, drv, th_prev):
         drv[d, 2] = al
     for o in range(op.shape[0]):
         code = op[o, 0]
-        if code == POSE_ANGLE:
+        if code == POSE_ANGLE or code == POSE_TWO:
             b = op[o, 1]
             k = op[o, 2]
-            if op[o, 3] == ANGLE_DRIVER:
+            if code == POSE_TWO:
+                k2 = op[o, 3]
+                dx = N[k2, 0] - N[k, 0]
+                dy = N[k2, 1] - N[k, 1]
+                th = math.atan2(dy, dx) - par[o, 2]
+                th += twopi * round((th_prev[b] - th) / twopi)  # the branch of the angle
+                th_prev[b] = th                                # nearest the last one
+                L = math.hypot(dx, dy)
+                c0 = par[o, 3]
+                s0 = par[o, 4]
+                c = (dx * c0 + dy * s0) / L  # (dx, dy)/L turned by −φ₀
+                s = (dy * c0 - dx * s0) / L
+            elif op[o, 3] == ANGLE_DRIVER:
                 th = drv[op[o, 4], 0]
                 c = math.cos(th)
                 s = math.sin(th)
@@ -464,25 +489,6 @@ def _place(con, sign, sys, t, e, N, q, cs, sn, drv, th_prev):
             q[3 * b] = N[k, 0] - (c * par[o, 0] - s * par[o, 1])
             q[3 * b + 1] = N[k, 1] - (s * par[o, 0] + c * par[o, 1])
             q[3 * b + 2] = th
-        elif code == POSE_TWO:
-            b = op[o, 1]
-            k1 = op[o, 2]
-            k2 = op[o, 3]
-            dx = N[k2, 0] - N[k1, 0]
-            dy = N[k2, 1] - N[k1, 1]
-            th = math.atan2(dy, dx) - par[o, 2]
-            th += twopi * round((th_prev[b] - th) / twopi)  # the branch of the angle nearest
-            th_prev[b] = th                                # the last one
-            L = math.hypot(dx, dy)
-            c0 = par[o, 3]
-            s0 = par[o, 4]
-            c = (dx * c0 + dy * s0) / L  # (dx, dy)/L turned by −φ₀
-            s = (dy * c0 - dx * s0) / L
-            cs[b] = c
-            sn[b] = s
-            q[3 * b] = N[k1, 0] - (c * par[o, 0] - s * par[o, 1])
-            q[3 * b + 1] = N[k1, 1] - (s * par[o, 0] + c * par[o, 1])
-            q[3 * b + 2] = th
         elif code == LOCATE:
             k = op[o, 1]
             b = op[o, 2]
@@ -491,12 +497,7 @@ def _place(con, sign, sys, t, e, N, q, cs, sn, drv, th_prev):
             N[k, 0] = q[3 * b] + c * par[o, 0] - s * par[o, 1]
             N[k, 1] = q[3 * b + 1] + s * par[o, 0] + c * par[o, 1]
         elif code == OFFSET:
-            k = op[o, 1]
-            k1 = op[o, 2]
-            c = op[o, 3]
-            sg = float(op[o, 4])
-            N[k, 0] = N[k1, 0] + sg * e[c, 0]
-            N[k, 1] = N[k1, 1] + sg * e[c, 1]
+            _offset(op[o], N, e)
         elif code == CIRCLES:
             k = op[o, 1]
             x1, y1 = _at(N, op[o, 2], e, op[o, 5], op[o, 6])  # the circles' centres
@@ -584,12 +585,7 @@ def _derivatives(con, drv, order, drive, e, edot, dE, N, q, Nv, v, X, x):
             X[k, 0] = x[3 * b] - wa * py - w2 * px
             X[k, 1] = x[3 * b + 1] + wa * px - w2 * py
         elif code == OFFSET:
-            k = op[o, 1]
-            k1 = op[o, 2]
-            c = op[o, 3]
-            sg = float(op[o, 4])
-            X[k, 0] = X[k1, 0] + sg * dE[c, 0]
-            X[k, 1] = X[k1, 1] + sg * dE[c, 1]
+            _offset(op[o], X, dE)
         elif code == CIRCLES:
             k = op[o, 1]
             x1, y1 = _at(N, op[o, 2], e, op[o, 5], op[o, 6])  # the centres C_j …
