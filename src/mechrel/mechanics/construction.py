@@ -380,14 +380,14 @@ def _at(X, k, E, c, sg):
 
 
 @njit(cache=True, inline='always')
-def _offset(step, X, E):
-    """An ``OFFSET`` step on positions, velocities or accelerations: node ``step[1]`` is node
-    ``step[2]`` plus ``step[4]`` times clearance joint ``step[3]``'s eccentricity (``X``: the
-    nodes' positions or derivatives, ``E``: the eccentricities' or their derivatives)."""
-    k = step[1]
-    k1 = step[2]
-    c = step[3]
-    sg = float(step[4])
+def _offset(op, o, X, E):
+    """``OFFSET`` step ``o`` on positions, velocities or accelerations: node ``op[o, 1]`` is
+    node ``op[o, 2]`` plus ``op[o, 4]`` times clearance joint ``op[o, 3]``'s eccentricity
+    (``X``: the nodes' positions or derivatives, ``E``: the eccentricities' or theirs)."""
+    k = op[o, 1]
+    k1 = op[o, 2]
+    c = op[o, 3]
+    sg = float(op[o, 4])
     X[k, 0] = X[k1, 0] + sg * E[c, 0]
     X[k, 1] = X[k1, 1] + sg * E[c, 1]
 
@@ -497,7 +497,7 @@ def _place(con, sign, sys, t, e, N, q, cs, sn, drv, th_prev):
             N[k, 0] = q[3 * b] + c * par[o, 0] - s * par[o, 1]
             N[k, 1] = q[3 * b + 1] + s * par[o, 0] + c * par[o, 1]
         elif code == OFFSET:
-            _offset(op[o], N, e)
+            _offset(op, o, N, e)
         elif code == CIRCLES:
             k = op[o, 1]
             x1, y1 = _at(N, op[o, 2], e, op[o, 5], op[o, 6])  # the circles' centres
@@ -585,7 +585,7 @@ def _derivatives(con, drv, order, drive, e, edot, dE, N, q, Nv, v, X, x):
             X[k, 0] = x[3 * b] - wa * py - w2 * px
             X[k, 1] = x[3 * b + 1] + wa * px - w2 * py
         elif code == OFFSET:
-            _offset(op[o], X, dE)
+            _offset(op, o, X, dE)
         elif code == CIRCLES:
             k = op[o, 1]
             x1, y1 = _at(N, op[o, 2], e, op[o, 5], op[o, 6])  # the centres C_j …
