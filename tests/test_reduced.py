@@ -87,10 +87,11 @@ def test_reduced_states_satisfy_the_constrained_equations_of_motion(name, t, rad
     # holds when Rᵀ (M q̈ − Q) = 0 and the columns of R span the null space of Φ_q (Φ_q R = 0
     # and [Φ_q; Rᵀ] of full rank, so R has the n − m = 2 nc columns the null space needs).
     # Rᵀ (M q̈ − Q) is formed here from expand()'s q̈ (its own acceleration pass with z̈) and
-    # applied_forces(): it vanishes up to the round-off of solving Rᵀ M R z̈ = Rᵀ (Q − M q̈₀),
-    # amplified by cond(Rᵀ M R), relative to the terms that cancel in it, not to the result
-    # (M R z̈ and M q̈₀ each reach several times M q̈ with a squeeze film): 64 eps cond ×
-    # |R| (|Q| + |M q̈₀| + |M R z̈|).
+    # applied_forces() at expand()'s q and q̇: it vanishes up to the round-off of solving
+    # Rᵀ M R z̈ = Rᵀ (Q − M q̈₀), amplified by cond(Rᵀ M R), relative to |R| (|Q| + |M q̈|):
+    # 64 eps cond. (That holds only if the forces of the reduced evaluation are those of the
+    # body q describes: with each orientation taken from the unit vector between two nodes
+    # instead of the angle, a stiff film's force moved by 1e-10 N and this check failed.)
     system, con, rw, _ = _CASES[name]
     y = _state(system, None, t, radius, angle, rates)
     nz = y.size // 2
@@ -99,7 +100,6 @@ def test_reduced_states_satisfy_the_constrained_equations_of_motion(name, t, rad
     assert reduced_rhs_into(t, y, hist, system, con, rw, out)
     assert np.array_equal(out[:nz], y[nz:])
     R = rw.R.copy()
-    a0 = rw.a.copy()  # q̈₀, the accelerations with z̈ = 0
     Mr = R.T @ (system.mass[:, None] * R)
     q, v, a = expand(t, y, out[nz:], system, con, rw)
     assert np.allclose(reduced_coordinates(system, con, q, v), y, rtol=0.0,
@@ -115,8 +115,7 @@ def test_reduced_states_satisfy_the_constrained_equations_of_motion(name, t, rad
     Q = np.zeros(q.size)
     applied_forces(t, q, v, hist, system, Q)
     r = system.mass * a - Q
-    scale = np.linalg.norm(R) * (np.linalg.norm(Q) + np.linalg.norm(system.mass * a0)
-                                 + np.linalg.norm(system.mass * (R @ out[nz:])))
+    scale = np.linalg.norm(R) * (np.linalg.norm(Q) + np.linalg.norm(system.mass * a))
     assert np.linalg.norm(R.T @ r) <= 64 * EPS * np.linalg.cond(Mr) * scale
 
 

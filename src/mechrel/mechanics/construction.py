@@ -88,9 +88,8 @@ class Construction(NamedTuple):
         that makes the circle.
     par : ndarray, shape (n_steps, 5)
         The step's numbers (m, rad; unused entries zero): ``POSE_ANGLE`` the node in the
-        body's frame and the constant angle with its cosine and sine; ``POSE_TWO`` node 1 in
-        the body's frame and the angle φ₀ of node 1 → node 2 in it with its cosine and sine;
-        ``LOCATE`` the node in the body's frame; ``CIRCLES``
+        body's frame and the constant angle; ``POSE_TWO`` node 1 in the body's frame and the
+        angle φ₀ of node 1 → node 2 in it; ``LOCATE`` the node in the body's frame; ``CIRCLES``
         the radii d₁, d₂ around nodes 1 and 2; ``CIRCLE_LINE`` the radius d₁, a point P₀ of
         the line and its unit direction u.
     node_body : ndarray of int, shape (n_nodes,)
@@ -212,8 +211,7 @@ def _plan(nb, rev_i, rev_j, rev_si, rev_sj, tr_i, tr_si, tr_p0, tr_n, tr_angle, 
     def pose_two(b, n1, n2):
         s1, s2 = on_body[b][n1], on_body[b][n2]
         op.append((POSE_TWO, b, n1, n2, 0, -1, 0, -1, 0))
-        phi0 = math.atan2(s2[1] - s1[1], s2[0] - s1[0])
-        par.append((s1[0], s1[1], phi0, math.cos(phi0), math.sin(phi0)))
+        par.append((s1[0], s1[1], math.atan2(s2[1] - s1[1], s2[0] - s1[0]), 0.0, 0.0))
         posed.add(b)
         locate_rest(b, (n1, n2))
 
@@ -221,7 +219,7 @@ def _plan(nb, rev_i, rev_j, rev_si, rev_sj, tr_i, tr_si, tr_p0, tr_n, tr_angle, 
         src, d, th = angle[b]
         s = on_body[b][n]
         op.append((POSE_ANGLE, b, n, src, d, -1, 0, -1, 0))
-        par.append((s[0], s[1], th, math.cos(th), math.sin(th)))
+        par.append((s[0], s[1], th, 0.0, 0.0))
         posed.add(b)
         locate_rest(b, (n,))
 
@@ -447,10 +445,10 @@ def _place(con, sign, sys, t, e, N, q, cs, sn, drv, th_prev):
     and each driver's ``(θ, θ̇, θ̈)`` into ``drv`` (for :func:`_derivatives`).
 
     Each body angle found from two nodes continues its previous value ``th_prev`` (updated).
-    Returns False where a square root has no real value (the group cannot be assembled). One
-    sine and cosine per driver and one arctangent per body placed through two nodes: the
-    orientation of such a body is the unit vector from its first node to its second turned
-    back by the constant angle of that line in the body."""
+    Returns False where a square root has no real value (the group cannot be assembled). Each
+    body's cosine and sine are those of its angle in ``q`` (not the unit vector between its
+    nodes, which differs in the last bit): a stiff film's force moves by 1e-10 N for such a
+    bit, and the forces must see the body that ``q`` describes."""
     op = con.op
     par = con.par
     twopi = 2.0 * math.pi
@@ -471,19 +469,14 @@ def _place(con, sign, sys, t, e, N, q, cs, sn, drv, th_prev):
                 th = math.atan2(dy, dx) - par[o, 2]
                 th += twopi * round((th_prev[b] - th) / twopi)  # the branch of the angle
                 th_prev[b] = th                                # nearest the last one
-                L = math.hypot(dx, dy)
-                c0 = par[o, 3]
-                s0 = par[o, 4]
-                c = (dx * c0 + dy * s0) / L  # (dx, dy)/L turned by −φ₀
-                s = (dy * c0 - dx * s0) / L
             elif op[o, 3] == ANGLE_DRIVER:
                 th = drv[op[o, 4], 0]
-                c = math.cos(th)
-                s = math.sin(th)
             else:
                 th = par[o, 2]
-                c = par[o, 3]
-                s = par[o, 4]
+            # the orientation from the angle itself, as every consumer of q computes it
+            # (body_trig): the force laws then see the same body as q describes, to the bit
+            c = math.cos(th)
+            s = math.sin(th)
             cs[b] = c
             sn[b] = s
             q[3 * b] = N[k, 0] - (c * par[o, 0] - s * par[o, 1])

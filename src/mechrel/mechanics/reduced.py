@@ -41,7 +41,7 @@ from .applied import applied_forces_trig
 from .borrow import borrowed
 from .construction import _branch_signs, _derivatives, _ground_nodes, _place
 from .construction import construction  # noqa: F401  (the docstring examples use it)
-from .joints import n_contacts
+from .joints import body_trig, joint_state, n_contacts
 
 __all__ = ["ReducedWork", "expand", "make_reduced_work", "reduced_coordinates",
            "reduced_rhs_into"]
@@ -178,8 +178,9 @@ def make_reduced_work(sys, con, q_ref):
 
 @njit(cache=True, inline='always')
 def _kinematics_of(t, y, sys, con, rw):
-    """Positions, velocities and ``q̈₀`` of the reduced state ``y`` into ``rw``; False where
-    the construction has no real solution or a toggle."""
+    """Positions, velocities and accelerations of the reduced state ``y`` into ``rw``, the
+    eccentricities accelerating at ``rw.Edd`` (zero: ``q̈₀``); False where the construction
+    has no real solution or a toggle."""
     nc = rw.E.shape[0]
     nz = 2 * nc
     for c in range(nc):
@@ -310,18 +311,15 @@ def reduced_rhs_into(t, y, hist, sys, con, rw, out):
 
 @njit(cache=True)
 def _expand(t, y, zdd, sys, con, rw):
-    if not _kinematics_of(t, y, sys, con, rw):
-        return False
     nc = rw.E.shape[0]
     for c in range(nc):
         rw.Edd[c, 0] = zdd[2 * c]
         rw.Edd[c, 1] = zdd[2 * c + 1]
-    _derivatives(con, rw.drv, 2, 1.0, rw.E, rw.Ed, rw.Edd, rw.N, rw.q, rw.Nv, rw.v, rw.Na,
-                 rw.a)
-    for c in range(nc):
+    ok = _kinematics_of(t, y, sys, con, rw)
+    for c in range(nc):  # back to zero, for reduced_rhs_into's q̈₀
         rw.Edd[c, 0] = 0.0
         rw.Edd[c, 1] = 0.0
-    return True
+    return ok
 
 
 def expand(t, y, zdd, sys, con, rw):
@@ -404,19 +402,14 @@ def reduced_coordinates(sys, con, q, v):
     ((8,), True)
     """
     nc = con.cl_nodes.shape[0]
+    q = np.ascontiguousarray(q, dtype=float)
+    v = np.ascontiguousarray(v, dtype=float)
+    cs, sn = np.empty(q.size // 3), np.empty(q.size // 3)
+    body_trig(q, cs, sn)
     y = np.empty(4 * nc)
-
-    def point(b, s):
-        if b < 0:
-            return np.asarray(s, dtype=float), np.zeros(2)
-        c, sn = math.cos(q[3 * b + 2]), math.sin(q[3 * b + 2])
-        p = np.array([c * s[0] - sn * s[1], sn * s[0] + c * s[1]])
-        w = v[3 * b + 2]
-        return q[3 * b:3 * b + 2] + p, v[3 * b:3 * b + 2] + w * np.array([-p[1], p[0]])
-
-    for k in range(nc):
-        rb, vb = point(sys.cl_b[k], sys.cl_sb[k])
-        rj, vj = point(sys.cl_j[k], sys.cl_sj[k])
-        y[2 * k:2 * k + 2] = rj - rb
-        y[2 * nc + 2 * k:2 * nc + 2 * k + 2] = vj - vb
+    for k in range(nc):  # the relative state the force laws see
+        ex, ey, evx, evy = joint_state(q, v, sys.cl_b[k], sys.cl_j[k], *sys.cl_sb[k],
+                                       *sys.cl_sj[k], cs, sn)[:4]
+        y[2 * k:2 * k + 2] = ex, ey
+        y[2 * nc + 2 * k:2 * nc + 2 * k + 2] = evx, evy
     return y
