@@ -84,21 +84,11 @@ class ReducedWork(NamedTuple):
 
     Examples
     --------
-    After an evaluation, ``R`` holds ∂q/∂z: moving the first joint's eccentricity moves its
-    bearing body (rod 3, body 2) and the rest of the chain, not the crank that carries the
-    journal (body 0):
+    Made by :func:`make_reduced_work`, filled by :func:`reduced_rhs_into` (whose example
+    reads ``R``):
 
-    >>> from mechrel.mechanics.kinematics import assemble
-    >>> from mechrel.mechanics.system import compile_scene
-    >>> from mechrel.scene import load_scene
-    >>> c = compile_scene(load_scene("nine-bar-lubricated"))
-    >>> q0, _ = assemble(c.assembly, c.q_guess, 0.0)
-    >>> con = construction(c.dynamic)
-    >>> rw = make_reduced_work(c.dynamic, con, q0)
-    >>> reduced_rhs_into(0.0, np.zeros(8), np.zeros(0), c.dynamic, con, rw, np.empty(8))
-    True
-    >>> bool(np.all(rw.R[0:3] == 0.0)), bool(np.abs(rw.R[6:9, 0]).max() > 0.1)
-    (True, True)
+    >>> ReducedWork._fields[:3], ReducedWork._fields[8]
+    (('N', 'Nv', 'Na'), 'R')
     """
 
     N: np.ndarray
@@ -245,6 +235,12 @@ def reduced_rhs_into(t, y, hist, sys, con, rw, out):
     True
     >>> bool(np.all(out[:4] == 0.0) and np.abs(out[4:]).max() > 1.0)
     True
+
+    ``rw.R`` now holds ∂q/∂z: the first joint's eccentricity moves its bearing body (rod 3,
+    body 2) and the rest of the chain, not the crank that carries its journal (body 0):
+
+    >>> bool(np.all(rw.R[0:3] == 0.0)), bool(np.abs(rw.R[6:9, 0]).max() > 0.1)
+    (True, True)
     """
     y, hist, sys, con, rw, out = borrowed((y, hist, sys, con, rw, out))  # mechanics/borrow.py
     nc = rw.E.shape[0]
