@@ -63,7 +63,7 @@ def _state(system, rng_state, t, radius, angle, rates):
     z = np.ravel(np.column_stack([radius[:nc] * c * np.cos(angle[:nc]),
                                   radius[:nc] * c * np.sin(angle[:nc])]))
     zd = np.asarray(rates[:2 * nc]) * np.repeat(c, 2) * 50.0
-    return np.concatenate([z, zd])
+    return np.concatenate([z, zd, np.zeros(2)])  # and the two work integrals
 
 
 states = dict(
@@ -94,14 +94,14 @@ def test_reduced_states_satisfy_the_constrained_equations_of_motion(name, t, rad
     # instead of the angle, a stiff film's force moved by 1e-10 N and this check failed.)
     system, con, rw, _ = _CASES[name]
     y = _state(system, None, t, radius, angle, rates)
-    nz = y.size // 2
-    out = np.empty(2 * nz)
+    nz = (y.size - 2) // 2
+    out = np.empty(2 * nz + 2)
     hist = np.zeros(system.n_contacts)
     assert reduced_rhs_into(t, y, hist, system, con, rw, out)
-    assert np.array_equal(out[:nz], y[nz:])
+    assert np.array_equal(out[:nz], y[nz:2 * nz])
     R = rw.R.copy()
     Mr = R.T @ (system.mass[:, None] * R)
-    q, v, a = expand(t, y, out[nz:], system, con, rw)
+    q, v, a = expand(t, y, out[nz:2 * nz], system, con, rw)
     assert np.allclose(reduced_coordinates(system, con, q, v), y, rtol=0.0,
                        atol=64 * EPS * max(1.0, np.abs(y).max()))
     phi, phit, J = constraints(q, t, system)
@@ -127,33 +127,39 @@ def test_reduced_accelerations_are_the_absolute_formulations(name, t, radius, an
     # the same accelerations. How sensitive its own solve is to round-off is measured here,
     # by moving q and q̇ by one ulp (random signs, four draws): with thin films that spread
     # reaches 1e-8 m/s² on 1e3 m/s² accelerations. The two formulations must agree within
-    # ten times that spread (measured: within twice).
+    # ten times that spread (measured: within twice). The same holds for the drivers' power,
+    # −Σ λ_d θ̇_d there and q̇ᵀ (M q̈ − Q) here, and the clearance power is the same force
+    # laws' at the same state.
     system, con, rw, _ = _CASES[name]
     y = _state(system, None, t, radius, angle, rates)
-    nz = y.size // 2
-    out = np.empty(2 * nz)
+    nz = (y.size - 2) // 2
+    out = np.empty(2 * nz + 2)
     hist = np.zeros(system.n_contacts)
     reduced_rhs_into(t, y, hist, system, con, rw, out)
-    q, v, a = expand(t, y, out[nz:], system, con, rw)
+    q, v, a = expand(t, y, out[nz:2 * nz], system, con, rw)
     extra = np.zeros(2)
-    absolute = accelerations(t, np.concatenate([q, v, extra]), hist, system)[0]
+    absolute, _, p_in, p_cl = accelerations(t, np.concatenate([q, v, extra]), hist, system)
     rng = np.random.default_rng(0)
-    spread = 0.0
+    spread = spread_in = 0.0
     for _ in range(4):
         qq = q * (1 + rng.choice([-1.0, 1.0], q.size) * EPS)
         vv = v * (1 + rng.choice([-1.0, 1.0], v.size) * EPS)
-        other = accelerations(t, np.concatenate([qq, vv, extra]), hist, system)[0]
+        other, _, other_in, _ = accelerations(t, np.concatenate([qq, vv, extra]), hist, system)
         spread = max(spread, np.abs(other - absolute).max())
+        spread_in = max(spread_in, abs(other_in - p_in))
     assert np.abs(a - absolute).max() <= 10 * spread + 64 * EPS * np.abs(absolute).max()
+    assert abs(out[2 * nz] - p_in) <= 10 * spread_in + 64 * EPS * (
+        np.abs(v) @ (np.abs(system.mass * a) + np.abs(system.mass * rw.a)))
+    assert out[2 * nz + 1] == pytest.approx(p_cl, rel=64 * EPS, abs=1e-300)
 
 
 def test_a_state_the_mechanism_cannot_take_is_nan_not_a_number_passed_on():
     # an eccentricity of 1 m breaks the nine-bar's groups (rod 3 and rod 4 cannot reach P):
     # the evaluation says so and fills dy/dt with NaN, and expand() raises
     system, con, rw, _ = _CASES["nine-bar-lubricated"]
-    y = np.zeros(8)
+    y = np.zeros(10)
     y[0] = 1.0
-    out = np.zeros(8)
+    out = np.zeros(10)
     assert not reduced_rhs_into(0.1, y, np.zeros(0), system, con, rw, out)
     assert np.all(np.isnan(out))
     with pytest.raises(ValueError, match="cannot be placed at the reduced state"):
@@ -170,5 +176,5 @@ def test_the_centred_joints_are_the_ideal_mechanism():
     times = np.linspace(0.0, 2.0 / 3.0, 25)
     Qi, Vi, _, _ = kinematic_analysis(compiled.ideal, q0, times)
     for k, t in enumerate(times):
-        q, v, _ = expand(t, np.zeros(8), np.zeros(4), system, con, rw)
+        q, v, _ = expand(t, np.zeros(10), np.zeros(4), system, con, rw)
         assert np.abs(q - Qi[k]).max() <= 1e-14 * 3 and np.abs(v - Vi[k]).max() <= 1e-12

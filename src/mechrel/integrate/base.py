@@ -25,6 +25,10 @@ A subclass of :class:`Integrator`
   (so a wrapped library solver must be stepped by the subclass, as
   :mod:`mechrel.integrate.scipy_ivp` does, not run to the end by a driver such as
   ``solve_ivp``);
+* may integrate other equations than the absolute ones, as long as what ``_advance`` returns
+  is in the absolute layout (``radau`` integrates the clearance joints' eccentricities where
+  that applies and expands its outputs); it then overrides ``formulation_for(system)``, which
+  names the formulation in :class:`SolverStats`;
 * locates contact onsets before capturing the impact speed (use
   :func:`~mechrel.integrate.events.onset_fraction` and
   :func:`~mechrel.integrate.events.update_history`), and never returns non-finite values
@@ -91,6 +95,10 @@ class SolverStats:
         Seconds, including compilation on a cold cache.
     status : str
         ``"ok"`` or why the run stopped (``events.STATUS_TEXT``).
+    formulation : str
+        The equations integrated: ``"absolute"`` (all bodies' coordinates with Lagrange
+        multipliers, :mod:`mechrel.mechanics.dynamics`) or ``"reduced"`` (the clearance
+        joints' eccentricities, :mod:`mechrel.mechanics.reduced`; ``radau`` only).
 
     Examples
     --------
@@ -122,6 +130,7 @@ class SolverStats:
     max_velocity_violation: float
     wall_time: float
     status: str
+    formulation: str = "absolute"
 
     def as_dict(self) -> dict:
         """The statistics as a plain dictionary (for provenance files and tables).
@@ -351,6 +360,22 @@ class Integrator:
         keys = ("step",) if not self.adaptive else ("rtol", "atol")
         return {k: getattr(self, k) for k in keys}
 
+    def formulation_for(self, system) -> str:
+        """The formulation ``_advance`` integrates ``system`` in (:class:`SolverStats`):
+        ``"absolute"`` unless a subclass integrates other equations.
+
+        Parameters
+        ----------
+        system : mechrel.mechanics.system.System
+            The compiled mechanism.
+
+        Returns
+        -------
+        str
+            ``"absolute"`` or ``"reduced"``.
+        """
+        return "absolute"
+
     def _advance(self, system, t0, y0, hist, t_out, ctl, log_from=math.inf,
                  n_dense=0):  # pragma: no cover - abstract
         raise NotImplementedError
@@ -514,7 +539,7 @@ class Integrator:
             n_lu=int(total[ev.S_LU]), n_newton_rejected=int(total[ev.S_NEWTON_REJECTED]),
             max_position_violation=float(total[ev.S_VIOL_POS]),
             max_velocity_violation=float(total[ev.S_VIOL_VEL]), wall_time=wall,
-            status=ev.STATUS_TEXT[status])
+            status=ev.STATUS_TEXT[status], formulation=self.formulation_for(system))
         if status != ev.STATUS_OK or not np.all(np.isfinite(Y)):
             raise SimulationError(
                 f"integrator {self.name!r} stopped at t = {t:.6g} s: {ev.STATUS_TEXT[status]} "

@@ -17,8 +17,8 @@ import numpy as np
 from numba import njit
 
 from ..forces.params import P_FLOOR
-from ..mechanics.constraints import violation_from
-from ..mechanics.dynamics import make_workspace, rhs_into
+from ..mechanics.dynamics import make_workspace, rhs_into  # noqa: F401  (docstring examples)
+from ..mechanics.formulation import contact_system, evaluate, make_work, violation
 from ..mechanics.joints import gaps, n_contacts
 
 # Layout of the float64 statistics vector every kernel returns.
@@ -213,8 +213,9 @@ def record_violation(ws, stats):
 
     Parameters
     ----------
-    ws : mechrel.mechanics.dynamics.Workspace
-        The right-hand side's workspace.
+    ws : mechrel.mechanics.dynamics.Workspace or mechrel.mechanics.reduced.ReducedWork
+        The right-hand side's work arrays (a reduced evaluation satisfies the constraints by
+        construction and records nothing).
     stats : numpy.ndarray
         Statistics vector; ``stats[S_VIOL_POS]`` (m or rad) and ``stats[S_VIOL_VEL]``
         (m/s or rad/s) are raised to the violation found.
@@ -234,7 +235,7 @@ def record_violation(ws, stats):
     >>> bool(stats[S_VIOL_POS] < 1e-12 and stats[S_VIOL_VEL] < 1e-12)
     True
     """
-    p, v = violation_from(ws)
+    p, v = violation(ws)
     if p > stats[S_VIOL_POS]:
         stats[S_VIOL_POS] = p
     if v > stats[S_VIOL_VEL]:
@@ -276,12 +277,12 @@ def start(sys, t0, y0, hist, t_out):
 
     Parameters
     ----------
-    sys : mechrel.mechanics.system.System
-        The compiled mechanism.
+    sys : mechrel.mechanics.system.System or mechrel.mechanics.reduced.ReducedSystem
+        The compiled mechanism, in either formulation (:mod:`mechrel.mechanics.formulation`).
     t0 : float
         Start time (s).
     y0 : numpy.ndarray
-        Initial state ``[q, q̇, W]``.
+        Initial state ``[q, q̇, W]`` (or ``[z, ż, W]``).
     hist : numpy.ndarray
         Initial history state (m/s).
     t_out : numpy.ndarray
@@ -312,11 +313,11 @@ def start(sys, t0, y0, hist, t_out):
     Y = np.full((nout, ny), np.nan)
     YD = np.full((nout, ny), np.nan)
     stats = np.zeros(N_STATS)
-    floors = contact_floors(sys)
-    ws = make_workspace(sys)
+    floors = contact_floors(contact_system(sys))
+    ws = make_work(sys)
     y = y0.copy()
     f = np.empty(ny)
-    rhs_into(t0, y, hist, sys, ws, f)
+    evaluate(t0, y, hist, sys, ws, f)
     stats[S_RHS] += 1
     record_violation(ws, stats)
     k = 0

@@ -138,19 +138,19 @@ import numpy as np
 from numba import njit
 
 from ..mechanics.borrow import borrowed
-from ..mechanics.dynamics import rhs_inline, rhs_into
-from ..mechanics.jacobian import clearance_jacobian
-from ..mechanics.joints import gaps_into
+from ..mechanics.formulation import (evaluate, evaluate_inline, fast_jacobian, gaps,
+                                     has_fast_part, n_coordinates)
 from ..mechanics.system import without_clearance_forces
 from .events import (CTL_DONE, H_START_FLOOR, S_JAC, S_LU, S_NEWTON_REJECTED,
-                     S_ONSET_REJECTED, S_REJECTED, S_RHS, S_STATUS, S_STEPS, STATUS_NEWTON,
+                     S_ONSET_REJECTED, S_REJECTED, S_RHS, S_STATUS, S_STEPS, S_VIOL_POS,
+                     S_VIOL_VEL, STATUS_NEWTON,
                      STATUS_NONFINITE, all_finite, log_row, new_log, onset_fraction, out_of_budget,
                      record_violation, start, update_history_from)
 from .base import Integrator
 
 # the public entry points; the underscored functions are the kernel's building blocks
 # (module docstring, "Code structure")
-__all__ = ["Radau", "radau5_kernel", "fd_jacobian", "lu_factor", "lu_solve"]
+__all__ = ["Radau", "radau5_kernel", "reduced_system", "fd_jacobian", "lu_factor", "lu_solve"]
 
 # ---------------------------------------------------------------------------- constants
 UROUND = 2.220446049250313e-16
@@ -357,7 +357,7 @@ def fd_jacobian(t, y, f0, hist, sys, ws, J, floor, yp, fp):
     (True, True)
     """
     y, f0, hist, sys, ws, J, yp, fp = borrowed((y, f0, hist, sys, ws, J, yp, fp))
-    n = sys.mass.shape[0]
+    n = n_coordinates(sys)
     ny = y.shape[0]
     for i in range(n):
         for j in range(ny):
@@ -374,7 +374,7 @@ def fd_jacobian(t, y, f0, hist, sys, ws, J, floor, yp, fp):
         yj = y[j]
         yp[j] = yj + SQRT_UROUND * max(abs(yj), floor)
         d = yp[j] - yj  # the increment actually represented
-        rhs_inline(t, yp, hist, sys, ws, fp)
+        evaluate_inline(t, yp, hist, sys, ws, fp)
         for i in range(n, ny):
             J[i, j] = (fp[i] - f0[i]) / d
         yp[j] = yj
@@ -502,7 +502,7 @@ def _update_jacobian(t, y, f0, hist, sys, sys_smooth, ws, J, JS, Jsm, partial, n
     """
     y, f0, hist, sys, sys_smooth, ws, J, JS, Jsm, yp, fa, fb, stats = borrowed(
         (y, f0, hist, sys, sys_smooth, ws, J, JS, Jsm, yp, fa, fb, stats))
-    nq = sys.mass.shape[0]
+    nq = n_coordinates(sys)
     ny = y.shape[0]
     if partial and n_partial < MAX_PARTIAL:
         n_partial += 1  # keep the smooth part Jsm of the last full Jacobian
@@ -510,7 +510,7 @@ def _update_jacobian(t, y, f0, hist, sys, sys_smooth, ws, J, JS, Jsm, partial, n
         # the smooth rest by differences of the mechanism without clearance forces
         # (minus its constraint-geometry share, which clearance_jacobian recomputes
         # with the full multipliers)
-        clearance_jacobian(t, y, hist, sys_smooth, ws, fb, JS)
+        fast_jacobian(t, y, hist, sys_smooth, ws, fb, JS)
         stats[S_RHS] += 1 + fd_jacobian(t, y, fb, hist, sys_smooth, ws, J, jac_floor,
                                         yp, fa)
         for i in range(nq, ny):
@@ -521,7 +521,7 @@ def _update_jacobian(t, y, f0, hist, sys, sys_smooth, ws, J, JS, Jsm, partial, n
         stats[S_RHS] += fd_jacobian(t, y, f0, hist, sys, ws, J, jac_floor, yp, fa)
         n_partial = 0
     if use_partial:  # J = smooth part + the fast (clearance) part now
-        clearance_jacobian(t, y, hist, sys, ws, fa, JS)
+        fast_jacobian(t, y, hist, sys, ws, fa, JS)
         stats[S_RHS] += 1
         for i in range(nq, ny):
             for c in range(2 * nq):
@@ -690,7 +690,7 @@ def _solve_collocation(t, h, tph, y, hist, sys, ws, J, E1, piv1, E2, piv2, fac1,
             ts = t + C1 * h if st == 0 else (t + C2 * h if st == 1 else tph)
             for i in range(ny):
                 ystage[i] = y[i] + z[i]
-            rhs_inline(ts, ystage, hist, sys, ws, F3[st])
+            evaluate_inline(ts, ystage, hist, sys, ws, F3[st])
         stats[S_RHS] += 3
         for i in range(ny):
             r1[i] = TI11 * fa[i] + TI12 * fb[i] + TI13 * fc[i] - fac1 * w1[i]
@@ -797,7 +797,7 @@ def _estimate_error(t, h, y, f0, hist, sys, ws, J, E1, piv1, fac1, scal, z1, z2,
     if err >= 1.0 and refine:
         for i in range(ny):
             ystage[i] = y[i] + ev[i]
-        rhs_into(t, ystage, hist, sys, ws, fa)
+        evaluate(t, ystage, hist, sys, ws, fa)
         stats[S_RHS] += 1
         for i in range(ny):
             ev[i] = fa[i] + fe[i]
@@ -955,7 +955,7 @@ def radau5_kernel(sys, sys_smooth, t0, y0, hist, t_out, h0, rtol_user, atol_user
     h_fixed = h
 
     J = np.zeros((ny, ny))
-    nq = sys.mass.shape[0]
+    nq = n_coordinates(sys)
     E1 = np.zeros((nq, nq))
     E2 = np.zeros((nq, nq), dtype=np.complex128)
     piv1 = np.zeros(nq, dtype=np.int64)
@@ -981,7 +981,7 @@ def radau5_kernel(sys, sys_smooth, t0, y0, hist, t_out, h0, rtol_user, atol_user
     fb = F3[1]
     yp = np.zeros(ny)
 
-    use_partial = sys.cl_b.shape[0] > 0  # clearance joints: hybrid partial updates
+    use_partial = has_fast_part(sys)  # absolute, with clearance joints: partial updates
     JS = np.zeros((ny, ny))  # clearance part of the Jacobian (rows nq …, columns < 2 nq)
     Jsm = np.zeros((ny - nq, 2 * nq))  # the rest, from the last full Jacobian
     # np.bool_ and np.int64: typed as plain bool and int64 from the start, so the helpers that
@@ -1013,7 +1013,7 @@ def radau5_kernel(sys, sys_smooth, t0, y0, hist, t_out, h0, rtol_user, atol_user
     g1 = np.empty(nh)
     gd1 = np.empty(nh)
     if contacts:
-        gaps_into(t, y, sys, g0, gd1)  # kept from step to step: the end of one is the next's start
+        gaps(t, y, sys, g0, gd1)  # kept from step to step: the end of one is the next's start
     log, nlog = new_log(log_from, ny, nh)
     ylog = np.zeros(ny)
     flog = np.zeros(ny)
@@ -1092,7 +1092,7 @@ def radau5_kernel(sys, sys_smooth, t0, y0, hist, t_out, h0, rtol_user, atol_user
             if contacts:
                 for i in range(ny):
                     ystage[i] = y[i] + z3[i]
-                gaps_into(tph, ystage, sys, g1, gd1)
+                gaps(tph, ystage, sys, g1, gd1)
                 th_on = onset_fraction(g0, g1, hist, onset_tol)
                 if th_on < 1.0:
                     stats[S_ONSET_REJECTED] += 1
@@ -1122,7 +1122,7 @@ def radau5_kernel(sys, sys_smooth, t0, y0, hist, t_out, h0, rtol_user, atol_user
                     Y[k] = y
                 else:
                     _dense_output((t_out[k] - t) / hold, y, cont1, cont2, cont3, Y[k])
-                rhs_into(t_out[k], Y[k], hist, sys, ws, YD[k])
+                evaluate(t_out[k], Y[k], hist, sys, ws, YD[k])
                 H[k] = hist
                 stats[S_RHS] += 1
                 k += 1
@@ -1133,7 +1133,7 @@ def radau5_kernel(sys, sys_smooth, t0, y0, hist, t_out, h0, rtol_user, atol_user
                     tj = t + s * hold
                     if tj >= log_from:
                         _dense_output(s, y, cont1, cont2, cont3, ylog)
-                        rhs_into(tj, ylog, hist, sys, ws, flog)
+                        evaluate(tj, ylog, hist, sys, ws, flog)
                         stats[S_RHS] += 1
                         log, nlog = log_row(log, nlog, tj, ylog, flog, hist)
             if not all_finite(y):
@@ -1143,7 +1143,7 @@ def radau5_kernel(sys, sys_smooth, t0, y0, hist, t_out, h0, rtol_user, atol_user
             if contacts:
                 g0, g1 = g1, g0
                 changed = update_history_from(g0, gd1, hist, floors, stats)
-            rhs_into(t, y, hist, sys, ws, f0)
+            evaluate(t, y, hist, sys, ws, f0)
             record_violation(ws, stats)
             stats[S_RHS] += 1
             if t > log_from:  # and the step's end
@@ -1204,6 +1204,17 @@ class Radau(Integrator):
     fixed_step : bool, optional
         Integrate at the constant step ``step`` without error control (for convergence-order
         checks only). Default False.
+    formulation : {"auto", "absolute", "reduced"}, optional
+        The equations integrated. ``"reduced"``: the clearance joints' eccentricities
+        (:mod:`mechrel.mechanics.reduced`; ``4 nc + 2`` states, the constraints exact), for a
+        mechanism whose ideal degrees of freedom are all driven and that the construction
+        places in closed form (:func:`reduced_system`); ``"absolute"``: all bodies'
+        coordinates with Lagrange multipliers (:mod:`mechrel.mechanics.dynamics`), for every
+        mechanism. ``"auto"`` (default) is ``"reduced"`` where it applies. Either way the
+        results are in the absolute layout; :attr:`SolverStats.formulation
+        <mechrel.integrate.base.SolverStats>` says which ran. The tolerances weigh different
+        states (eccentricities, m, against body coordinates), so the same settings are not
+        the same accuracy: docs/performance.md compares the two at equal accuracy.
     **kwargs
         The settings of :class:`~mechrel.integrate.base.Integrator` (``step`` (s), ``rtol``,
         ``atol``, ``max_steps``, ``onset_tolerance``).
@@ -1211,7 +1222,7 @@ class Radau(Integrator):
     Raises
     ------
     SimulationError
-        ``fixed_step`` without a ``step``, or a bad setting
+        ``fixed_step`` without a ``step``, an unknown ``formulation``, or a bad setting
         (:class:`~mechrel.integrate.base.Integrator`).
 
     Examples
@@ -1225,36 +1236,197 @@ class Radau(Integrator):
     name = "radau"
     stiff = True
     defaults = {"rtol": 1e-6, "atol": 1e-9}
+    formulations = ("auto", "absolute", "reduced")
 
-    def __init__(self, *, fixed_step: bool = False, **kwargs):
+    def __init__(self, *, fixed_step: bool = False, formulation: str = "auto", **kwargs):
         super().__init__(**kwargs)
+        from ..errors import SimulationError
         self.fixed_step = bool(fixed_step)
         if self.fixed_step and self.step is None:
-            from ..errors import SimulationError
             raise SimulationError("solver.step: the fixed-step mode of 'radau' needs a step (s)")
+        if formulation not in self.formulations:
+            raise SimulationError(f"solver.formulation = {formulation!r}: allowed: "
+                                  + ", ".join(repr(f) for f in self.formulations))
+        self.formulation = formulation
 
     @property
     def settings(self) -> dict:
-        """The settings this integrator uses: its tolerances, and the step in fixed-step mode.
+        """The settings this integrator uses: its tolerances, the step in fixed-step mode and a
+        formulation other than ``"auto"``.
 
         Returns
         -------
         dict
             ``{"rtol": ..., "atol": ...}``, plus ``"step"`` (s) and ``"fixed_step": True`` with
-            ``fixed_step``.
+            ``fixed_step``, and ``"formulation"`` when one was asked for.
 
         Examples
         --------
         >>> Radau(rtol=1e-8).settings
         {'rtol': 1e-08, 'atol': 1e-09}
+        >>> Radau(formulation="absolute").settings
+        {'rtol': 1e-06, 'atol': 1e-09, 'formulation': 'absolute'}
         """
         out = {"rtol": self.rtol, "atol": self.atol}
         if self.fixed_step:
             out["step"] = self.step
             out["fixed_step"] = True
+        if self.formulation != "auto":
+            out["formulation"] = self.formulation
         return out
 
+    def formulation_for(self, system) -> str:
+        """``"reduced"`` where the reduced equations apply and were not declined
+        (``formulation="absolute"``), else ``"absolute"``.
+
+        Parameters
+        ----------
+        system : System
+            The mechanism with its clearance joints as force elements.
+
+        Returns
+        -------
+        str
+
+        Raises
+        ------
+        SimulationError
+            ``formulation="reduced"`` where they do not apply (:func:`reduced_system`).
+
+        Examples
+        --------
+        >>> from mechrel.mechanics.system import compile_scene
+        >>> from mechrel.scene import load_scene
+        >>> sys = compile_scene(load_scene("nine-bar-lubricated")).dynamic
+        >>> Radau().formulation_for(sys), Radau(formulation="absolute").formulation_for(sys)
+        ('reduced', 'absolute')
+        """
+        if self.formulation == "absolute":
+            return "absolute"
+        return "absolute" if reduced_system(
+            system, None, required=self.formulation == "reduced") is None else "reduced"
+
     def _advance(self, system, t0, y0, hist, t_out, ctl, log_from=math.inf, n_dense=0):
-        return radau5_kernel(system, without_clearance_forces(system), t0, y0, hist, t_out,
-                             self.step or 0.0, self.rtol, self.atol, self.max_steps,
-                             self.onset_tolerance, self.fixed_step, ctl, log_from, n_dense)
+        reduced = None if self.formulation == "absolute" else reduced_system(
+            system, y0, required=self.formulation == "reduced")
+        if reduced is None:
+            return radau5_kernel(system, without_clearance_forces(system), t0, y0, hist, t_out,
+                                 self.step or 0.0, self.rtol, self.atol, self.max_steps,
+                                 self.onset_tolerance, self.fixed_step, ctl, log_from, n_dense)
+        return _advance_reduced(reduced, self, t0, y0, hist, t_out, ctl, log_from, n_dense)
+
+
+def reduced_system(system, y0, *, required=False):
+    """The :class:`~mechrel.mechanics.reduced.ReducedSystem` of ``system`` at the state
+    ``y0``, or None where the reduced equations do not apply.
+
+    They apply when the construction (:func:`~mechrel.mechanics.construction.construction`)
+    places every body from the drivers and the clearance joints' eccentricities, i.e. when
+    every ideal degree of freedom is driven and the mechanism is built of the groups it knows;
+    and when the mechanism has clearance joints (otherwise there is nothing to integrate).
+
+    Parameters
+    ----------
+    system : System
+        The mechanism with its clearance joints as force elements.
+    y0 : ndarray, shape (2 n + 2,) or None
+        The initial state; its configuration fixes the assembly branch and the angles'
+        continuation (None: only whether the equations apply; the result's ``q_ref`` is
+        then empty).
+    required : bool, optional
+        Raise instead of returning None.
+
+    Returns
+    -------
+    ReducedSystem or None
+
+    Raises
+    ------
+    SimulationError
+        With ``required``, where the reduced equations do not apply (the reason).
+
+    Examples
+    --------
+    >>> from mechrel.mechanics.kinematics import assemble
+    >>> from mechrel.mechanics.system import compile_scene
+    >>> from mechrel.scene import load_scene
+    >>> c = compile_scene(load_scene("nine-bar-lubricated"))
+    >>> q, v = assemble(c.assembly, c.q_guess, 0.0)
+    >>> y0 = np.concatenate([q, v, np.zeros(2)])
+    >>> reduced_system(c.dynamic, y0).con.cl_nodes.shape
+    (2, 2)
+    >>> d = compile_scene(load_scene("double-pendulum"))
+    >>> reduced_system(d.dynamic, np.zeros(14), required=True)
+    Traceback (most recent call last):
+    ...
+    mechrel.errors.SimulationError: solver.formulation = 'reduced': the mechanism has no clearance joint whose eccentricities it could integrate; allowed for mechanisms whose ideal degrees of freedom are all driven and that have clearance joints (use 'auto' or 'absolute')
+    """
+    from ..errors import SimulationError
+    from ..mechanics.construction import construction
+    from ..mechanics.reduced import ReducedSystem
+
+    why = None
+    con = None
+    if system.cl_b.shape[0] == 0:
+        why = "the mechanism has no clearance joint whose eccentricities it could integrate"
+    else:
+        con = construction(system)
+        if con is None:
+            why = ("the mechanism cannot be placed in closed form from its drivers and the "
+                   "clearance joints' eccentricities (an undriven degree of freedom, or a "
+                   "group the construction does not know)")
+    if why is None:
+        n = system.mass.shape[0] if y0 is not None else 0
+        q_ref = np.zeros(0) if y0 is None else np.asarray(y0[:n], dtype=float)
+        return ReducedSystem(system, con, np.ascontiguousarray(q_ref).copy())
+    if required:
+        raise SimulationError(
+            f"solver.formulation = 'reduced': {why}; allowed for mechanisms whose ideal "
+            "degrees of freedom are all driven and that have clearance joints (use 'auto' or "
+            "'absolute')")
+    return None
+
+
+def _advance_reduced(red, radau, t0, y0, hist, t_out, ctl, log_from, n_dense):
+    """``Radau._advance`` on the reduced equations: the kernel integrates ``(z, ż, W)``; the
+    outputs, the log and the final state are expanded to the absolute layout
+    (:func:`~mechrel.mechanics.reduced.expand_rows`), so that a caller sees the contract of
+    :class:`~mechrel.integrate.base.Integrator` unchanged. The constraint violation reported
+    is that of the expanded first and last outputs, by the dense constraint functions (the
+    construction satisfies the constraints to round-off at every instant)."""
+    from ..mechanics.constraints import constraints
+    from ..mechanics.reduced import expand_rows, make_reduced_work, reduced_coordinates
+
+    system, con = red.sys, red.con
+    n = system.mass.shape[0]
+    yr0 = reduced_coordinates(system, con, y0[:n], y0[n:2 * n], work=y0[2 * n:2 * n + 2])
+    Y, YD, hist, stats, t, y, log, H = radau5_kernel(
+        red, red, t0, yr0, hist, t_out, radau.step or 0.0, radau.rtol, radau.atol,
+        radau.max_steps, radau.onset_tolerance, radau.fixed_step, ctl, log_from, n_dense)
+    rw = make_reduced_work(system, con, red.q_ref)
+    ny = 2 * n + 2
+    Ya, YDa = np.empty((Y.shape[0], ny)), np.empty((Y.shape[0], ny))
+    expand_rows(t_out, Y, YD, system, con, rw, Ya, YDa)
+    done = [k for k in (0, int(ctl[CTL_DONE]) - 1) if 0 <= k < Y.shape[0]]
+    for k in done:
+        if np.all(np.isfinite(Ya[k])):
+            phi, phit, J = constraints(Ya[k, :n], float(t_out[k]), system)
+            stats[S_VIOL_POS] = max(stats[S_VIOL_POS], float(np.max(np.abs(phi), initial=0.0)))
+            stats[S_VIOL_VEL] = max(stats[S_VIOL_VEL],
+                                    float(np.max(np.abs(J @ Ya[k, n:2 * n] + phit), initial=0.0)))
+    nh = hist.shape[0]
+    ya, yda = np.empty((1, ny)), np.empty((1, ny))
+    fr = np.zeros((1, y.shape[0]))  # the final state's z'' is not needed: q, q' only
+    expand_rows(np.array([t]), y.reshape(1, -1), fr, system, con, rw, ya, yda)
+    if log.shape[0]:
+        m = y.shape[0]
+        la = np.empty((log.shape[0], 1 + 2 * ny + nh))
+        la[:, 0] = log[:, 0]
+        Yl, YDl = la[:, 1:1 + ny], la[:, 1 + ny:1 + 2 * ny]
+        Yl_, YDl_ = np.empty_like(Yl), np.empty_like(YDl)
+        expand_rows(np.ascontiguousarray(log[:, 0]), np.ascontiguousarray(log[:, 1:1 + m]),
+                    np.ascontiguousarray(log[:, 1 + m:1 + 2 * m]), system, con, rw, Yl_, YDl_)
+        la[:, 1:1 + ny], la[:, 1 + ny:1 + 2 * ny] = Yl_, YDl_
+        la[:, 1 + 2 * ny:] = log[:, 1 + 2 * m:]
+        log = la
+    return Ya, YDa, hist, stats, t, ya[0], log, H

@@ -24,7 +24,15 @@ the drivers at rest; ``q̈₀`` is its acceleration pass with ``ë = 0``. Projec
 ``q̇``. The constraints hold exactly (to round-off) at every evaluation, with no Baumgarte
 terms, and the state has ``4 nc`` entries (8 for the nine-bar) instead of ``2 n + 2`` (50).
 
-State ``y = (z, ż)``: the eccentricities (m) and their rates (m/s), clearance joint by joint.
+State ``y = (z, ż, W_in, W_cl)``: the eccentricities (m) and their rates (m/s), clearance joint
+by joint, and the drivers' and clearance joints' work (J), as the absolute state ends with
+them. The clearance power ``P_cl`` is the force laws' (the same as the absolute formulation's);
+the drivers' power is that of the constraint forces, ``P_in = q̇ᵀ (M q̈ − Q)``: ideal joints
+do no work, so the drivers' reactions are all of it (the absolute formulation computes the same
+quantity as ``−Σ λ_d θ̇_d``; the two agree to round-off at a state that satisfies the
+constraints, which a test checks). The layout ``(coordinates, velocities, two work integrals)``
+is the absolute state's with ``z`` for ``q``, so the integrators' second-order structure
+(Radau's condensed iteration matrices) applies unchanged.
 The assembly branch of each square root of the construction is the one of the configuration
 the work arrays are made from (:func:`make_reduced_work`).
 """
@@ -41,10 +49,37 @@ from .applied import applied_forces_trig
 from .borrow import borrowed
 from .construction import _branch_signs, _derivatives, _ground_nodes, _place
 from .construction import construction  # noqa: F401  (the docstring examples use it)
-from .joints import body_trig, joint_state, n_contacts
+from ..forces.params import P_C
+from .joints import body_trig, gap_of, joint_state, n_contacts
 
-__all__ = ["ReducedWork", "expand", "make_reduced_work", "reduced_coordinates",
-           "reduced_rhs_into"]
+__all__ = ["ReducedSystem", "ReducedWork", "expand", "expand_rows", "make_reduced_work",
+           "reduced_coordinates", "reduced_gaps_into", "reduced_rhs_into"]
+
+
+class ReducedSystem(NamedTuple):
+    """A mechanism in its reduced coordinates: what the integrators take in place of a
+    :class:`~mechrel.mechanics.system.System` to integrate the reduced equations
+    (:mod:`mechrel.mechanics.formulation` dispatches on the type).
+
+    Parameters
+    ----------
+    sys : System
+        The mechanism with its clearance joints as force elements (``compiled.dynamic``).
+    con : Construction
+        ``construction(sys)``.
+    q_ref : ndarray, shape (n,)
+        The configuration whose assembly branch and angles the evaluations continue (m, rad;
+        :func:`make_reduced_work`).
+
+    Examples
+    --------
+    >>> ReducedSystem._fields
+    ('sys', 'con', 'q_ref')
+    """
+
+    sys: object
+    con: object
+    q_ref: np.ndarray
 
 
 class ReducedWork(NamedTuple):
@@ -192,14 +227,16 @@ def _kinematics_of(t, y, sys, con, rw):
 
 @njit(cache=True)
 def reduced_rhs_into(t, y, hist, sys, con, rw, out):
-    """``dy/dt = (ż, z̈)`` of the reduced state ``y = (z, ż)`` into ``out``.
+    """``dy/dt = (ż, z̈, P_in, P_cl)`` of the reduced state ``y = (z, ż, W_in, W_cl)`` into
+    ``out`` (module docstring).
 
     Parameters
     ----------
     t : float
         Time (s).
-    y : ndarray, shape (4 nc,)
-        Eccentricities (m) and their rates (m/s), clearance joint by joint.
+    y : ndarray, shape (4 nc + 2,)
+        Eccentricities (m), their rates (m/s), clearance joint by joint, and the two work
+        integrals (J).
     hist : ndarray, shape (nh,)
         History of the contact-capable joints (impact speed, m/s).
     sys : System
@@ -208,10 +245,11 @@ def reduced_rhs_into(t, y, hist, sys, con, rw, out):
         ``construction(sys)``.
     rw : ReducedWork
         Work arrays (:func:`make_reduced_work`); on return they hold this state's ``q``,
-        ``q̇`` (``rw.q``, ``rw.v``), ``q̈₀`` (``rw.a``), ``R`` and forces.
-    out : ndarray, shape (4 nc,)
-        Receives ``(ż, z̈)`` (m/s, m/s²); NaN where the mechanism cannot be placed at ``y``
-        (an eccentricity that breaks a group's assembly, a toggle).
+        ``q̇`` (``rw.q``, ``rw.v``), ``q̈₀`` (``rw.a``), ``R``, ``Q − M q̈₀`` (``rw.Q``) and
+        the contact joints' gaps.
+    out : ndarray, shape (4 nc + 2,)
+        Receives ``(ż, z̈, P_in, P_cl)`` (m/s, m/s², W, W); NaN where the mechanism cannot be
+        placed at ``y`` (an eccentricity that breaks a group's assembly, a toggle).
 
     Returns
     -------
@@ -230,10 +268,10 @@ def reduced_rhs_into(t, y, hist, sys, con, rw, out):
     >>> q0, _ = assemble(c.assembly, c.q_guess, 0.0)
     >>> con = construction(c.dynamic)
     >>> rw = make_reduced_work(c.dynamic, con, q0)
-    >>> out = np.empty(8)
-    >>> reduced_rhs_into(0.0, np.zeros(8), np.zeros(0), c.dynamic, con, rw, out)
+    >>> out = np.empty(10)
+    >>> reduced_rhs_into(0.0, np.zeros(10), np.zeros(0), c.dynamic, con, rw, out)
     True
-    >>> bool(np.all(out[:4] == 0.0) and np.abs(out[4:]).max() > 1.0)
+    >>> bool(np.all(out[:4] == 0.0) and np.abs(out[4:8]).max() > 1.0)
     True
 
     ``rw.R`` now holds ∂q/∂z: the first joint's eccentricity moves its bearing body (rod 3,
@@ -261,7 +299,7 @@ def reduced_rhs_into(t, y, hist, sys, con, rw, out):
     Q = rw.Q
     for i in range(n):
         Q[i] = 0.0
-    applied_forces_trig(t, rw.q, rw.v, hist, sys, Q, rw.cs, rw.sn, rw.gap, rw.gaprate)
+    pcl, _ = applied_forces_trig(t, rw.q, rw.v, hist, sys, Q, rw.cs, rw.sn, rw.gap, rw.gaprate)
     mass = sys.mass
     for i in range(n):
         Q[i] -= mass[i] * rw.a[i]  # Q − M q̈₀
@@ -299,14 +337,61 @@ def reduced_rhs_into(t, y, hist, sys, con, rw, out):
         for k in range(i + 1, nz):
             s -= Mr[k, i] * b[k]
         b[i] = s / Mr[i, i]
+    # the drivers' power q̇ᵀ (M q̈ − Q) = q̇ᵀ (M R z̈ − (Q − M q̈₀)) (module docstring)
+    pin = 0.0
+    for i in range(n):
+        s = 0.0
+        for c in range(nz):
+            s += R[i, c] * b[c]
+        pin += rw.v[i] * (mass[i] * s - Q[i])
     for i in range(nz):
         out[i] = y[nz + i]
         out[nz + i] = b[i]
+    out[2 * nz] = pin
+    out[2 * nz + 1] = pcl
     return True
 
 
 @njit(cache=True)
-def _expand(t, y, zdd, sys, con, rw):
+def reduced_gaps_into(y, sys, g, gd):
+    """Penetration δ = |e| − c (m) and its rate δ̇ (m/s) of every contact-capable joint, read
+    from the reduced state (the eccentricities are its coordinates).
+
+    The reduced counterpart of :func:`~mechrel.mechanics.joints.gaps_into` (the same
+    :func:`~mechrel.mechanics.joints.gap_of`), indexed like ``hist``.
+
+    Parameters
+    ----------
+    y : ndarray, shape (4 nc + 2,)
+        The reduced state (module docstring).
+    sys : System
+        The mechanism with its clearance joints as force elements.
+    g, gd : ndarray, shape (nh,)
+        Receive δ (m) and δ̇ (m/s).
+
+    Examples
+    --------
+    The dry slider-crank's joint 0.2 mm off centre, closing at 0.1 m/s: 0.3 mm from contact:
+
+    >>> from mechrel.mechanics.system import compile_scene
+    >>> from mechrel.scene import load_scene
+    >>> sys = compile_scene(load_scene("slider-crank-dry")).dynamic
+    >>> g, gd = np.empty(1), np.empty(1)
+    >>> reduced_gaps_into(np.array([2e-4, 0.0, 0.1, 0.0, 0.0, 0.0]), sys, g, gd)
+    >>> round(float(g[0]), 12), float(gd[0])
+    (-0.0003, 0.1)
+    """
+    nz = 2 * sys.cl_hist.shape[0]
+    for k in range(sys.cl_hist.shape[0]):
+        h = sys.cl_hist[k]
+        if h >= 0:
+            g[h], gd[h] = gap_of(y[2 * k], y[2 * k + 1], y[nz + 2 * k], y[nz + 2 * k + 1],
+                                 sys.cl_p[k, P_C])
+
+
+@njit(cache=True, inline='always')
+def _expand_into(t, y, zdd, sys, con, rw):
+    """:func:`_kinematics_of` with the eccentricities accelerating at ``zdd``."""
     nc = rw.E.shape[0]
     for c in range(nc):
         rw.Edd[c, 0] = zdd[2 * c]
@@ -318,6 +403,83 @@ def _expand(t, y, zdd, sys, con, rw):
     return ok
 
 
+@njit(cache=True)
+def _expand(t, y, zdd, sys, con, rw):
+    return _expand_into(t, y, zdd, sys, con, rw)
+
+
+@njit(cache=True)
+def expand_rows(T, Y, YD, sys, con, rw, Ya, YDa):
+    """The absolute states and their derivatives of reduced ones, row by row (an
+    integration's outputs or its log).
+
+    Parameters
+    ----------
+    T : ndarray, shape (N,)
+        The rows' instants (s).
+    Y, YD : ndarray, shape (N, 4 nc + 2)
+        Reduced states ``(z, ż, W_in, W_cl)`` and their derivatives ``(ż, z̈, P_in, P_cl)``.
+    sys : System
+        The mechanism with its clearance joints as force elements.
+    con : Construction
+        ``construction(sys)``.
+    rw : ReducedWork
+        Work arrays (:func:`make_reduced_work`).
+    Ya, YDa : ndarray, shape (N, 2 n + 2)
+        Receive ``(q, q̇, W_in, W_cl)`` and ``(q̇, q̈, P_in, P_cl)`` (SI units): the layout of
+        :func:`~mechrel.mechanics.dynamics.rhs_into`. A row that is not finite, or where the
+        mechanism cannot be placed, is NaN.
+
+    Returns
+    -------
+    int
+        The rows that are NaN.
+
+    Examples
+    --------
+    >>> from mechrel.mechanics.kinematics import assemble
+    >>> from mechrel.mechanics.system import compile_scene
+    >>> from mechrel.scene import load_scene
+    >>> c = compile_scene(load_scene("nine-bar-lubricated"))
+    >>> q0, _ = assemble(c.assembly, c.q_guess, 0.0)
+    >>> con = construction(c.dynamic)
+    >>> rw = make_reduced_work(c.dynamic, con, q0)
+    >>> Y, YD = np.zeros((2, 10)), np.zeros((2, 10))
+    >>> Y[1] = np.nan
+    >>> Ya, YDa = np.empty((2, 50)), np.empty((2, 50))
+    >>> expand_rows(np.zeros(2), Y, YD, c.dynamic, con, rw, Ya, YDa)
+    1
+    >>> bool(np.abs(Ya[0, :24] - q0).max() < 1e-12), bool(np.isnan(YDa[1]).all())
+    (True, True)
+    """
+    T, Y, YD, sys, con, rw, Ya, YDa = borrowed((T, Y, YD, sys, con, rw, Ya, YDa))
+    nz = 2 * rw.E.shape[0]
+    n = rw.q.shape[0]
+    bad = 0
+    for k in range(T.shape[0]):
+        ok = True
+        for i in range(Y.shape[1]):
+            if not (math.isfinite(Y[k, i]) and math.isfinite(YD[k, i])):
+                ok = False
+        if ok:
+            ok = _expand_into(T[k], Y[k], YD[k, nz:2 * nz], sys, con, rw)
+        if not ok:
+            bad += 1
+            for i in range(2 * n + 2):
+                Ya[k, i] = math.nan
+                YDa[k, i] = math.nan
+            continue
+        for i in range(n):
+            Ya[k, i] = rw.q[i]
+            Ya[k, n + i] = rw.v[i]
+            YDa[k, i] = rw.v[i]
+            YDa[k, n + i] = rw.a[i]
+        for i in range(2):
+            Ya[k, 2 * n + i] = Y[k, 2 * nz + i]
+            YDa[k, 2 * n + i] = YD[k, 2 * nz + i]
+    return bad
+
+
 def expand(t, y, zdd, sys, con, rw):
     """The absolute coordinates, velocities and accelerations of a reduced state.
 
@@ -325,8 +487,8 @@ def expand(t, y, zdd, sys, con, rw):
     ----------
     t : float
         Time (s).
-    y : ndarray, shape (4 nc,)
-        The reduced state ``(z, ż)`` (m, m/s).
+    y : ndarray, shape (4 nc + 2,)
+        The reduced state (m, m/s, J; only ``(z, ż)`` is read).
     zdd : ndarray, shape (2 nc,)
         The eccentricities' accelerations z̈ (m/s²), e.g. ``reduced_rhs_into``'s second half.
     sys : System
@@ -357,7 +519,7 @@ def expand(t, y, zdd, sys, con, rw):
     >>> c = compile_scene(load_scene("nine-bar-lubricated"))
     >>> q0, _ = assemble(c.assembly, c.q_guess, 0.0)
     >>> con = construction(c.dynamic)
-    >>> q, v, a = expand(0.0, np.zeros(8), np.zeros(4), c.dynamic, con,
+    >>> q, v, a = expand(0.0, np.zeros(10), np.zeros(4), c.dynamic, con,
     ...                  make_reduced_work(c.dynamic, con, q0))
     >>> round(float(q[22]), 6)
     -0.575769
@@ -369,9 +531,9 @@ def expand(t, y, zdd, sys, con, rw):
     return rw.q.copy(), rw.v.copy(), rw.a.copy()
 
 
-def reduced_coordinates(sys, con, q, v):
-    """The reduced state ``(z, ż)`` of an absolute state: each clearance joint's eccentricity
-    ``e = r_S − r_B`` (m) and its rate (m/s).
+def reduced_coordinates(sys, con, q, v, work=(0.0, 0.0)):
+    """The reduced state ``(z, ż, W_in, W_cl)`` of an absolute state: each clearance joint's
+    eccentricity ``e = r_S − r_B`` (m) and its rate (m/s), then the two work integrals (J).
 
     Parameters
     ----------
@@ -381,10 +543,12 @@ def reduced_coordinates(sys, con, q, v):
         ``construction(sys)`` (the order of the clearance joints).
     q, v : ndarray, shape (n,)
         Coordinates (m, rad) and velocities (m/s, rad/s).
+    work : pair of float, optional
+        The drivers' and the clearance joints' work so far (J). Default zero.
 
     Returns
     -------
-    ndarray, shape (4 nc,)
+    ndarray, shape (4 nc + 2,)
 
     Examples
     --------
@@ -395,14 +559,15 @@ def reduced_coordinates(sys, con, q, v):
     >>> q0, v0 = assemble(c.assembly, c.q_guess, 0.0)
     >>> y = reduced_coordinates(c.dynamic, construction(c.dynamic), q0, v0)
     >>> y.shape, bool(np.abs(y).max() < 1e-12)  # centred, at rest relative to the ideal motion
-    ((8,), True)
+    ((10,), True)
     """
     nc = con.cl_nodes.shape[0]
     q = np.ascontiguousarray(q, dtype=float)
     v = np.ascontiguousarray(v, dtype=float)
     cs, sn = np.empty(q.size // 3), np.empty(q.size // 3)
     body_trig(q, cs, sn)
-    y = np.empty(4 * nc)
+    y = np.empty(4 * nc + 2)
+    y[4 * nc:] = work
     for k in range(nc):  # the relative state the force laws see
         ex, ey, evx, evy = joint_state(q, v, sys.cl_b[k], sys.cl_j[k], *sys.cl_sb[k],
                                        *sys.cl_sj[k], cs, sn)[:4]
