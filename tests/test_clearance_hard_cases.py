@@ -94,15 +94,19 @@ def run(scene, overrides=None, **kw):
 
 # ------------------------------------------------------------------------------------ ε → 1 ---
 
-def test_lubricated_eccentricity_approaches_one_but_stays_below():
+@pytest.mark.parametrize("formulation", ["reduced", "absolute"])
+def test_lubricated_eccentricity_approaches_one_but_stays_below(formulation):
     # Slider-crank at 5000 rpm, slider 0.5 kg (3.6 × the scene's), oil 1 cP (1/400 of the
     # scene's): the film must carry ~10 kN with h_min = c(1 − ε) of a few nm. The film force
     # diverges as ε → 1 (squeeze ∝ ε̇/(1 − ε²)^1.5), so ε approaches 1 without reaching it.
     # SciPy's LSODA needs 1.9 M right-hand sides (70 s) for this; the compiled Radau needs
-    # 12 k: a case that needs the compiled stiff method (given explicitly here).
+    # 12 k: a case that needs the compiled stiff method (given explicitly here), in both of
+    # its formulations (the reduced one integrates e itself, the absolute one the bodies).
     res = run("slider-crank-lubricated",
               {"bodies.slider.mass": 0.5, "joints.C.lubricant.viscosity": 1e-3,
-               "analysis.cycles": 0.5}, integrator="radau", rtol=1e-7, atol=1e-10)
+               "analysis.cycles": 0.5}, integrator="radau", rtol=1e-7, atol=1e-10,
+              formulation=formulation)
+    assert res.stats["formulation"] == formulation
     check_run(res)
     eps = res.orbits["C"]["eps"]
     assert 0.9999 < eps.max() < 1.0
@@ -121,12 +125,14 @@ def test_lubricated_eccentricity_approaches_one_but_stays_below():
     assert res.energy["dissipated"][-1] > 0
 
 
-def test_lubricated_one_centipoise_default_slider_stays_inside():
+@pytest.mark.parametrize("formulation", ["reduced", "absolute"])
+def test_lubricated_one_centipoise_default_slider_stays_inside(formulation):
     # The same at the scene's own slider mass with the scene type's default integrator:
     # ε → 1 − 2e-5, never past the wall (the film used to be clamped at ε = 0.99, which let
     # this journal reach ε ≈ 13).
     res = run("slider-crank-lubricated",
-              {"joints.C.lubricant.viscosity": 1e-3, "analysis.cycles": 0.5})
+              {"joints.C.lubricant.viscosity": 1e-3, "analysis.cycles": 0.5},
+              formulation=formulation)
     check_run(res)
     assert 0.999 < res.orbits["C"]["eps"].max() < 1.0
 

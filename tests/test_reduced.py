@@ -18,8 +18,9 @@ from mechrel.mechanics.constraints import constraints
 from mechrel.mechanics.construction import OFFSET, construction
 from mechrel.mechanics.dynamics import accelerations
 from mechrel.mechanics.kinematics import assemble
-from mechrel.mechanics.reduced import (expand, make_reduced_work, reduced_coordinates,
-                                       reduced_rhs_into)
+from mechrel.mechanics.joints import gaps_into
+from mechrel.mechanics.reduced import (expand, expand_rows, make_reduced_work,
+                                       reduced_coordinates, reduced_gaps_into, reduced_rhs_into)
 from mechrel.mechanics.system import compile_scene
 from mechrel.scene import load_scene
 
@@ -178,3 +179,39 @@ def test_the_centred_joints_are_the_ideal_mechanism():
     for k, t in enumerate(times):
         q, v, _ = expand(t, np.zeros(10), np.zeros(4), system, con, rw)
         assert np.abs(q - Qi[k]).max() <= 1e-14 * 3 and np.abs(v - Vi[k]).max() <= 1e-12
+
+
+@settings(max_examples=30, deadline=None)
+@given(**states)
+def test_gaps_and_expanded_rows_are_the_absolute_states(name, t, radius, angle, rates):
+    # The gaps read from z are those of the placed bodies (joints.gaps_into on expand()'s
+    # state: the same gap_of of the same e, computed from the bodies' points, to the
+    # round-off of metre coordinates), and expand_rows() is expand() row by row, with the
+    # derivative row (q̇, q̈, P_in, P_cl) of the reduced evaluation.
+    system, con, rw, _ = _CASES[name]
+    y = _state(system, None, t, radius, angle, rates)
+    y[-2:] = 3.0, -1.0  # work integrals pass through
+    nz = (y.size - 2) // 2
+    out = np.empty(2 * nz + 2)
+    hist = np.zeros(system.n_contacts)
+    reduced_rhs_into(t, y, hist, system, con, rw, out)
+    q, v, a = expand(t, y, out[nz:2 * nz], system, con, rw)
+    nh = system.n_contacts
+    g, gd, ga, gda = np.empty(nh), np.empty(nh), np.empty(nh), np.empty(nh)
+    reduced_gaps_into(y, system, g, gd)
+    gaps_into(t, np.concatenate([q, v, y[-2:]]), system, ga, gda)
+    assert np.allclose(g, ga, rtol=0.0, atol=64 * EPS)
+    # the rate of |e| is ė·e/|e|: at e = 0 (a centred journal) it has no limit, and the
+    # bodies' points give e of round-off size in some direction; elsewhere the two agree
+    held = np.array([radius[k] > 1e-6 for k in range(system.cl_b.shape[0])
+                     if system.cl_hist[k] >= 0], dtype=bool)
+    assert np.allclose(gd[held], gda[held], rtol=0.0,
+                       atol=64 * EPS * max(1.0, np.abs(v).max()) / max(min(radius), 1e-6))
+    n = q.size
+    Ya, YDa = np.empty((2, 2 * n + 2)), np.empty((2, 2 * n + 2))
+    Y, YD = np.vstack([y, y]), np.vstack([out, out])
+    Y[1, 0] = np.inf  # a row that is not finite comes out NaN, and is counted
+    assert expand_rows(np.array([t, t]), Y, YD, system, con, rw, Ya, YDa) == 1
+    assert np.array_equal(Ya[0], np.concatenate([q, v, y[-2:]]))
+    assert np.array_equal(YDa[0], np.concatenate([v, a, out[-2:]]))
+    assert np.isnan(Ya[1]).all() and np.isnan(YDa[1]).all()

@@ -271,7 +271,8 @@ _WAIT_FOR = ("rhs", "newton")
 def _compile_job(name: str, scene) -> None:
     """Compile (or load from the cache) the dispatcher of job ``name`` for the argument types
     a simulation of ``scene`` passes it (numba types of arrays made as the kernels make them:
-    C-contiguous float64, the scene's System and Workspace), without running it; the
+    C-contiguous float64, the scene's System and Workspace, or ReducedSystem and ReducedWork
+    where its Radau integrates the reduced equations), without running it; the
     kinematic analysis is run on the scene's first two output instants, as ``simulate`` runs
     it."""
     import numba
@@ -301,7 +302,34 @@ def _compile_job(name: str, scene) -> None:
 
         post_process.compile((vec, mat, sys_t))
         return
-    ws = numba.typeof(make_workspace(sys_))
+    # the integrator's jobs: for the formulation the scene's Radau will integrate
+    # (mechrel.mechanics.formulation), with the types of its system and work arrays
+    from .integrate.radau import reduced_system
+    from .simulation import make_integrator
+
+    integrator = make_integrator(scene)
+    nq = compiled.q_guess.size
+    if getattr(integrator, "formulation_for", None) and \
+            integrator.formulation_for(sys_) == "reduced":
+        from .mechanics.reduced import make_reduced_work
+
+        q0, _ = assemble(compiled.assembly, compiled.q_guess, 0.0,
+                         tol=scene.solver.assembly_tolerance)
+        red = reduced_system(sys_, np.concatenate([q0, np.zeros(nq + N_WORK)]))
+        nq = 2 * red.con.cl_nodes.shape[0]
+        ny = 2 * nq + N_WORK
+        vec = numba.typeof(np.zeros(ny))
+        mat = numba.typeof(np.zeros((ny, ny)))
+        ws = numba.typeof(make_reduced_work(sys_, red.con, red.q_ref))
+        if name == "clearance_jacobian":  # the reduced equations' own fast part
+            from .mechanics.reduced import reduced_fast_jacobian
+
+            reduced_fast_jacobian.compile((f64, vec, hist, sys_t, numba.typeof(red.con), ws,
+                                           vec, mat))
+            return
+        sys_t = numba.typeof(red)
+    else:
+        ws = numba.typeof(make_workspace(sys_))
     if name == "rhs":
         from .integrate.events import start
 
@@ -317,7 +345,6 @@ def _compile_job(name: str, scene) -> None:
     elif name == "newton":  # Radau's Newton iteration: the stages' inlined right-hand side
         from .integrate.radau import _solve_collocation
 
-        nq = compiled.q_guess.size
         qmat = numba.typeof(np.zeros((nq, nq)))
         cmat = numba.typeof(np.zeros((nq, nq), dtype=np.complex128))
         ivec = numba.typeof(np.zeros(nq, dtype=np.int64))

@@ -373,6 +373,13 @@ class Integrator:
         -------
         str
             ``"absolute"`` or ``"reduced"``.
+
+        Examples
+        --------
+        >>> from mechrel.mechanics.system import compile_scene
+        >>> from mechrel.scene import load_scene
+        >>> DOPRI5().formulation_for(compile_scene(load_scene("slider-crank-dry")).dynamic)
+        'absolute'
         """
         return "absolute"
 

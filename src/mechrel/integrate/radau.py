@@ -1356,10 +1356,12 @@ def reduced_system(system, y0, *, required=False):
     >>> reduced_system(c.dynamic, y0).con.cl_nodes.shape
     (2, 2)
     >>> d = compile_scene(load_scene("double-pendulum"))
-    >>> reduced_system(d.dynamic, np.zeros(14), required=True)
+    >>> reduced_system(d.dynamic, np.zeros(14)) is None
+    True
+    >>> reduced_system(d.dynamic, np.zeros(14), required=True)  # doctest: +ELLIPSIS
     Traceback (most recent call last):
     ...
-    mechrel.errors.SimulationError: solver.formulation = 'reduced': the mechanism has no clearance joint whose eccentricities it could integrate; allowed for mechanisms whose ideal degrees of freedom are all driven and that have clearance joints (use 'auto' or 'absolute')
+    mechrel.errors.SimulationError: solver.formulation = 'reduced': the mechanism has no ...
     """
     from ..errors import SimulationError
     from ..mechanics.construction import construction
@@ -1400,8 +1402,9 @@ def _advance_reduced(red, radau, t0, y0, hist, t_out, ctl, log_from, n_dense):
     system, con = red.sys, red.con
     n = system.mass.shape[0]
     yr0 = reduced_coordinates(system, con, y0[:n], y0[n:2 * n], work=y0[2 * n:2 * n + 2])
+    smooth = red._replace(sys=without_clearance_forces(system))
     Y, YD, hist, stats, t, y, log, H = radau5_kernel(
-        red, red, t0, yr0, hist, t_out, radau.step or 0.0, radau.rtol, radau.atol,
+        red, smooth, t0, yr0, hist, t_out, radau.step or 0.0, radau.rtol, radau.atol,
         radau.max_steps, radau.onset_tolerance, radau.fixed_step, ctl, log_from, n_dense)
     rw = make_reduced_work(system, con, red.q_ref)
     ny = 2 * n + 2

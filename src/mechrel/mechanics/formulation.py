@@ -3,24 +3,30 @@
 A compiled integrator kernel takes a *system* and a *work* object and only ever calls the
 functions below on them. Each is resolved when numba compiles the kernel, from the system's
 type (``numba.extending.overload``), so one kernel source serves both formulations and each
-compiled version contains only its own code:
+compiled version contains only its own code. For a
+:class:`~mechrel.mechanics.system.System` (the absolute formulation):
 
-================================  ===========================================  ==============================================
-system (what the kernel gets)     :class:`~mechrel.mechanics.system.System`    :class:`~mechrel.mechanics.reduced.ReducedSystem`
-================================  ===========================================  ==============================================
-state ``y``                       ``(q, q̇, W_in, W_cl)``, ``2 n + 2``          ``(z, ż, W_in, W_cl)``, ``4 nc + 2``
-work                              :func:`~.dynamics.make_workspace`            :func:`~.reduced.make_reduced_work`
-right-hand side                   :func:`~.dynamics.rhs_into`                  :func:`~.reduced.reduced_rhs_into`
-contact gaps                      :func:`~.joints.gaps_into`                   :func:`~.reduced.reduced_gaps_into`
-constraint violation recorded     from the last evaluation                     none: the constraints hold by construction
-fast part of the Jacobian         :func:`~.jacobian.clearance_jacobian`        none: finite differences of ``4 nc`` columns
-================================  ===========================================  ==============================================
+* state ``(q, q̇, W_in, W_cl)``, ``2 n + 2`` entries; work arrays
+  :func:`~mechrel.mechanics.dynamics.make_workspace`;
+* right-hand side :func:`~mechrel.mechanics.dynamics.rhs_into`, contact gaps
+  :func:`~mechrel.mechanics.joints.gaps_into`;
+* the constraint violation of the last evaluation is recorded;
+* fast part of the Jacobian :func:`~mechrel.mechanics.jacobian.clearance_jacobian`.
 
-Both states end with the two work integrals and are ``(coordinates, velocities, W)``, so the
-integrators' structure (the exact rows ``d(coordinates)/dt = velocities``, Radau's condensed
-iteration matrices) is the same; :func:`n_coordinates` says how many coordinates there are.
+For a :class:`~mechrel.mechanics.reduced.ReducedSystem` (the reduced formulation):
 
-Adding a formulation is a system type plus one branch in each function here.
+* state ``(z, ż, W_in, W_cl)``, ``4 nc + 2`` entries; work arrays
+  :func:`~mechrel.mechanics.reduced.make_reduced_work`;
+* right-hand side :func:`~mechrel.mechanics.reduced.reduced_rhs_into`, contact gaps
+  :func:`~mechrel.mechanics.reduced.reduced_gaps_into`;
+* nothing is recorded: the constraints hold by construction;
+* fast part of the Jacobian :func:`~mechrel.mechanics.reduced.reduced_fast_jacobian`.
+
+Both states are ``(coordinates, velocities, two work integrals)``, so the integrators'
+structure (the exact rows ``d(coordinates)/dt = velocities``, Radau's condensed iteration
+matrices) is the same; :func:`n_coordinates` says how many coordinates there are. Adding a
+formulation is a system type plus one branch in each function here. The pure-Python functions
+only name and document the operations: they raise outside compiled code.
 
 Examples
 --------
@@ -49,8 +55,8 @@ from .constraints import violation_from
 from .dynamics import make_workspace, rhs_inline, rhs_into
 from .jacobian import clearance_jacobian
 from .joints import gaps_into
-from .reduced import (ReducedSystem, ReducedWork, make_reduced_work, reduced_gaps_into,
-                      reduced_rhs_into)
+from .reduced import (ReducedSystem, ReducedWork, make_reduced_work, reduced_fast_jacobian,
+                      reduced_gaps_into, reduced_rhs_into)
 
 __all__ = ["contact_system", "evaluate", "evaluate_inline", "fast_jacobian", "gaps",
            "has_fast_part", "make_work", "n_coordinates", "violation"]
@@ -61,51 +67,282 @@ def _reduced(sys) -> bool:
     return isinstance(sys, types.NamedTuple) and sys.instance_class is ReducedSystem
 
 
-# The pure-Python bodies below are what the functions mean; numba compiles the overloads.
-
 def n_coordinates(sys):
-    """The number of coordinates of the state (``n`` absolute, ``2 nc`` reduced)."""
+    """The number of coordinates of the state: ``n`` absolute, ``2 nc`` reduced.
+
+    Parameters
+    ----------
+    sys : System or ReducedSystem
+        The mechanism in its formulation.
+
+    Returns
+    -------
+    int
+
+    Examples
+    --------
+    >>> from numba import njit
+    >>> from mechrel.mechanics.system import compile_scene
+    >>> from mechrel.scene import load_scene
+    >>> njit(lambda s: n_coordinates(s))(compile_scene(load_scene("slider-crank")).dynamic)
+    9
+    """
     raise NotImplementedError("compiled only (numba)")
 
 
 def make_work(sys):
-    """The work arrays of one evaluation (a Workspace or a ReducedWork)."""
+    """The work arrays of one evaluation.
+
+    Parameters
+    ----------
+    sys : System or ReducedSystem
+        The mechanism in its formulation.
+
+    Returns
+    -------
+    Workspace or ReducedWork
+
+    Examples
+    --------
+    >>> from numba import njit
+    >>> from mechrel.mechanics.system import compile_scene
+    >>> from mechrel.scene import load_scene
+    >>> ws = njit(lambda s: make_work(s))(compile_scene(load_scene("slider-crank")).dynamic)
+    >>> type(ws).__name__
+    'Workspace'
+    """
     raise NotImplementedError("compiled only (numba)")
 
 
 def contact_system(sys):
-    """The :class:`~mechrel.mechanics.system.System` whose joints carry the contact data."""
+    """The :class:`~mechrel.mechanics.system.System` whose joints carry the contact data.
+
+    Parameters
+    ----------
+    sys : System or ReducedSystem
+        The mechanism in its formulation.
+
+    Returns
+    -------
+    System
+
+    Examples
+    --------
+    >>> from numba import njit
+    >>> from mechrel.mechanics.system import compile_scene
+    >>> from mechrel.scene import load_scene
+    >>> dyn = compile_scene(load_scene("slider-crank-dry")).dynamic
+    >>> njit(lambda s: contact_system(s).cl_hist.shape[0])(dyn)
+    1
+    """
     raise NotImplementedError("compiled only (numba)")
 
 
 def evaluate(t, y, hist, sys, ws, out):
-    """``dy/dt`` into ``out``, a call (:func:`~.dynamics.rhs_into`)."""
+    """``dy/dt`` into ``out``, as a call (:func:`~mechrel.mechanics.dynamics.rhs_into`,
+    :func:`~mechrel.mechanics.reduced.reduced_rhs_into`).
+
+    Parameters
+    ----------
+    t : float
+        Time (s).
+    y : ndarray
+        The state (SI units; module docstring).
+    hist : ndarray, shape (nh,)
+        History of the contact-capable joints (impact speed, m/s).
+    sys : System or ReducedSystem
+        The mechanism in its formulation.
+    ws : Workspace or ReducedWork
+        Its work arrays (:func:`make_work`).
+    out : ndarray
+        Receives ``dy/dt`` (SI units).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from numba import njit
+    >>> from mechrel.mechanics.dynamics import make_workspace, rhs
+    >>> from mechrel.mechanics.kinematics import assemble
+    >>> from mechrel.mechanics.system import compile_scene
+    >>> from mechrel.scene import load_scene
+    >>> c = compile_scene(load_scene("slider-crank-lubricated"))
+    >>> q, v = assemble(c.assembly, c.q_guess, 0.0)
+    >>> y, out = np.concatenate([q, v, np.zeros(2)]), np.empty(20)
+    >>> njit(lambda *a: evaluate(*a))(0.0, y, np.zeros(0), c.dynamic,
+    ...                               make_workspace(c.dynamic), out)
+    >>> bool(np.array_equal(out, rhs(0.0, y, np.zeros(0), c.dynamic)))
+    True
+    """
     raise NotImplementedError("compiled only (numba)")
 
 
 def evaluate_inline(t, y, hist, sys, ws, out):
-    """``dy/dt`` into ``out``, inlined at the call site (:func:`~.dynamics.rhs_inline`; use
-    it at one site per kernel)."""
+    """:func:`evaluate` inlined at the call site (:func:`~mechrel.mechanics.dynamics.rhs_inline`):
+    use it at one site per kernel, each site compiles the whole right-hand side again.
+
+    Parameters
+    ----------
+    t : float
+        Time (s).
+    y : ndarray
+        The state (SI units; module docstring).
+    hist : ndarray, shape (nh,)
+        History of the contact-capable joints (impact speed, m/s).
+    sys : System or ReducedSystem
+        The mechanism in its formulation.
+    ws : Workspace or ReducedWork
+        Its work arrays (:func:`make_work`).
+    out : ndarray
+        Receives ``dy/dt`` (SI units).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from numba import njit
+    >>> from mechrel.mechanics.dynamics import make_workspace, rhs
+    >>> from mechrel.mechanics.kinematics import assemble
+    >>> from mechrel.mechanics.system import compile_scene
+    >>> from mechrel.scene import load_scene
+    >>> c = compile_scene(load_scene("slider-crank-lubricated"))
+    >>> q, v = assemble(c.assembly, c.q_guess, 0.0)
+    >>> y, out = np.concatenate([q, v, np.zeros(2)]), np.empty(20)
+    >>> f = njit(lambda t, y, h, s, w, o: evaluate_inline(t, y, h, s, w, o))
+    >>> f(0.0, y, np.zeros(0), c.dynamic, make_workspace(c.dynamic), out)
+    >>> bool(np.array_equal(out, rhs(0.0, y, np.zeros(0), c.dynamic)))
+    True
+    """
     raise NotImplementedError("compiled only (numba)")
 
 
 def gaps(t, y, sys, g, gd):
-    """Penetration (m) and its rate (m/s) of the contact-capable joints."""
+    """Penetration δ = |e| − c (m) and its rate (m/s) of the contact-capable joints.
+
+    Parameters
+    ----------
+    t : float
+        Time (s).
+    y : ndarray
+        The state (SI units; module docstring).
+    sys : System or ReducedSystem
+        The mechanism in its formulation.
+    g, gd : ndarray, shape (nh,)
+        Receive δ (m) and δ̇ (m/s), indexed like ``hist``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from numba import njit
+    >>> from mechrel.mechanics.kinematics import assemble
+    >>> from mechrel.mechanics.system import compile_scene
+    >>> from mechrel.scene import load_scene
+    >>> c = compile_scene(load_scene("slider-crank-dry"))
+    >>> q, v = assemble(c.assembly, c.q_guess, 0.0)
+    >>> g, gd = np.empty(1), np.empty(1)
+    >>> njit(lambda *a: gaps(*a))(0.0, np.concatenate([q, v, np.zeros(2)]), c.dynamic, g, gd)
+    >>> g.round(12).tolist()
+    [-0.0005]
+    """
     raise NotImplementedError("compiled only (numba)")
 
 
 def violation(ws):
-    """``(position, velocity)`` constraint violation of the last evaluation (m, m/s)."""
+    """``(position, velocity)`` constraint violation of the last evaluation in ``ws``
+    (m or rad, m/s or rad/s); zero for the reduced formulation, exact by construction.
+
+    Parameters
+    ----------
+    ws : Workspace or ReducedWork
+        The work arrays of the last evaluation.
+
+    Returns
+    -------
+    tuple of float
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from numba import njit
+    >>> from mechrel.mechanics.construction import construction
+    >>> from mechrel.mechanics.kinematics import assemble
+    >>> from mechrel.mechanics.reduced import make_reduced_work
+    >>> from mechrel.mechanics.system import compile_scene
+    >>> from mechrel.scene import load_scene
+    >>> c = compile_scene(load_scene("slider-crank-lubricated"))
+    >>> q, _ = assemble(c.assembly, c.q_guess, 0.0)
+    >>> rw = make_reduced_work(c.dynamic, construction(c.dynamic), q)
+    >>> njit(lambda w: violation(w))(rw)
+    (0.0, 0.0)
+    """
     raise NotImplementedError("compiled only (numba)")
 
 
 def has_fast_part(sys):
-    """Whether the Jacobian is split into a smooth rest and a fast clearance part."""
+    """Whether the Jacobian is split into a smooth rest and a fast clearance part
+    (:func:`mechrel.integrate.radau._update_jacobian`): the mechanism has clearance joints.
+
+    Parameters
+    ----------
+    sys : System or ReducedSystem
+        The mechanism in its formulation.
+
+    Returns
+    -------
+    bool
+
+    Examples
+    --------
+    >>> from numba import njit
+    >>> from mechrel.mechanics.system import compile_scene
+    >>> from mechrel.scene import load_scene
+    >>> f = njit(lambda s: has_fast_part(s))
+    >>> f(compile_scene(load_scene("slider-crank")).dynamic)
+    False
+    >>> f(compile_scene(load_scene("slider-crank-lubricated")).dynamic)
+    True
+    """
     raise NotImplementedError("compiled only (numba)")
 
 
 def fast_jacobian(t, y, hist, sys, ws, f, JS):
-    """The fast (clearance) part of the Jacobian into ``JS`` (:func:`~.jacobian.clearance_jacobian`)."""
+    """The fast (clearance) part of the Jacobian into ``JS`` and ``f(t, y)`` into ``f``
+    (:func:`~mechrel.mechanics.jacobian.clearance_jacobian`,
+    :func:`~mechrel.mechanics.reduced.reduced_fast_jacobian`).
+
+    Parameters
+    ----------
+    t : float
+        Time (s).
+    y : ndarray
+        The state (SI units; module docstring).
+    hist : ndarray, shape (nh,)
+        History of the contact-capable joints (impact speed, m/s).
+    sys : System or ReducedSystem
+        The mechanism in its formulation.
+    ws : Workspace or ReducedWork
+        Its work arrays (:func:`make_work`).
+    f : ndarray
+        Receives ``dy/dt``.
+    JS : ndarray, shape (ny, ny)
+        Receives the fast part (rows ``n_coordinates …``, columns ``< 2 n_coordinates``).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from numba import njit
+    >>> from mechrel.mechanics.construction import construction
+    >>> from mechrel.mechanics.kinematics import assemble
+    >>> from mechrel.mechanics.reduced import ReducedSystem, make_reduced_work
+    >>> from mechrel.mechanics.system import compile_scene
+    >>> from mechrel.scene import load_scene
+    >>> c = compile_scene(load_scene("slider-crank-lubricated"))
+    >>> q, _ = assemble(c.assembly, c.q_guess, 0.0)
+    >>> red = ReducedSystem(c.dynamic, construction(c.dynamic), q)
+    >>> y, f, JS = np.array([3e-4, 0, 0, 0.01, 0, 0]), np.empty(6), np.zeros((6, 6))
+    >>> njit(lambda *a: fast_jacobian(*a))(0.0, y, np.zeros(0), red,
+    ...                                    make_reduced_work(c.dynamic, red.con, q), f, JS)
+    >>> bool(np.abs(JS[2:4, :4]).max() > 1e6)
+    True
+    """
     raise NotImplementedError("compiled only (numba)")
 
 
@@ -171,7 +408,7 @@ def _violation(ws):
 @overload(has_fast_part, inline='always')
 def _has_fast_part(sys):
     if _reduced(sys):
-        return lambda sys: False
+        return lambda sys: sys.sys.cl_b.shape[0] > 0
     return lambda sys: sys.cl_b.shape[0] > 0
 
 
@@ -179,7 +416,7 @@ def _has_fast_part(sys):
 def _fast_jacobian(t, y, hist, sys, ws, f, JS):
     if _reduced(sys):
         def impl(t, y, hist, sys, ws, f, JS):
-            pass
+            reduced_fast_jacobian(t, y, hist, sys.sys, sys.con, ws, f, JS)
         return impl
     return lambda t, y, hist, sys, ws, f, JS: clearance_jacobian(t, y, hist, sys, ws, f, JS)
 

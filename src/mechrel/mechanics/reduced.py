@@ -49,11 +49,13 @@ from .applied import applied_forces_trig
 from .borrow import borrowed
 from .construction import _branch_signs, _derivatives, _ground_nodes, _place
 from .construction import construction  # noqa: F401  (the docstring examples use it)
+from ..forces.joint import clearance_force
 from ..forces.params import P_C
 from .joints import body_trig, gap_of, joint_state, n_contacts
 
 __all__ = ["ReducedSystem", "ReducedWork", "expand", "expand_rows", "make_reduced_work",
-           "reduced_coordinates", "reduced_gaps_into", "reduced_rhs_into"]
+           "reduced_coordinates", "reduced_fast_jacobian", "reduced_gaps_into",
+           "reduced_rhs_into"]
 
 
 class ReducedSystem(NamedTuple):
@@ -116,6 +118,10 @@ class ReducedWork(NamedTuple):
         The assembly branch of each square root of the construction.
     drv : ndarray, shape (nd, 3)
         Each driver's θ (rad), θ̇ (rad/s), θ̈ (rad/s²) at the evaluation's time.
+    D : ndarray, shape (2 nc,)
+        Scratch of :func:`reduced_fast_jacobian`: one column of ∂z̈/∂s (m/s² per unit of s).
+    w : ndarray, shape (2 nc,)
+        Scratch of :func:`reduced_fast_jacobian`: ``Rᵀ M q̇`` (kg m/s).
 
     Examples
     --------
@@ -150,6 +156,8 @@ class ReducedWork(NamedTuple):
     b: np.ndarray
     sign: np.ndarray
     drv: np.ndarray
+    D: np.ndarray
+    w: np.ndarray
 
 
 @njit(cache=True)
@@ -198,7 +206,7 @@ def make_reduced_work(sys, con, q_ref):
                        np.zeros((nc, 2)), np.empty(n), np.empty(nb), np.empty(nb),
                        np.empty(nh), np.empty(nh), np.empty(nb), th_ref,
                        np.empty((nz, nz)), np.empty(nz), _branch_signs(q_ref, con),
-                       np.empty((sys.dr_i.shape[0], 3)))
+                       np.empty((sys.dr_i.shape[0], 3)), np.empty(nz), np.empty(nz))
 
 
 @njit(cache=True, inline='always')
@@ -327,16 +335,7 @@ def reduced_rhs_into(t, y, hist, sys, con, rw, out):
             for k in range(j):
                 s -= Mr[i, k] * Mr[j, k]
             Mr[i, j] = s / d
-    for i in range(nz):
-        s = b[i]
-        for k in range(i):
-            s -= Mr[i, k] * b[k]
-        b[i] = s / Mr[i, i]
-    for i in range(nz - 1, -1, -1):
-        s = b[i]
-        for k in range(i + 1, nz):
-            s -= Mr[k, i] * b[k]
-        b[i] = s / Mr[i, i]
+    _cholesky_solve(Mr, b, nz)
     # the drivers' power q̇ᵀ (M q̈ − Q) = q̇ᵀ (M R z̈ − (Q − M q̈₀)) (module docstring)
     pin = 0.0
     for i in range(n):
@@ -350,6 +349,183 @@ def reduced_rhs_into(t, y, hist, sys, con, rw, out):
     out[2 * nz] = pin
     out[2 * nz + 1] = pcl
     return True
+
+
+@njit(cache=True)
+def reduced_fast_jacobian(t, y, hist, sys, con, rw, f, JS):
+    """The fast part of ``∂f/∂y`` of the reduced equations, the one the clearance forces drive,
+    into ``JS``; ``f`` receives ``f(t, y)`` (:func:`reduced_rhs_into`).
+
+    Joint k's force law (:func:`~mechrel.forces.joint.clearance_force`) maps
+    ``s = (e_x, e_y, ė_x, ė_y, ω_B, ω_S)`` to ``F = (F_x, F_y, M_S, M_B)``, whose virtual
+    power is ``F_x δė_x + F_y δė_y + M_S δω_S + M_B δω_B``. The eccentricity is a pair of the
+    coordinates, ``e_k = z_k``, so its generalized force on ``z`` is ``F`` itself in joint k's
+    two entries, plus the moments through ``∂ω/∂ż``, the θ rows of ``R``:
+    ``Rᵀ Q_k = S_kᵀ (F_x, F_y) + R_{θS}ᵀ M_S + R_{θB}ᵀ M_B``. Holding ``R`` and
+    ``Rᵀ M R`` (smooth in z) fixed,
+
+        ∂z̈/∂y ⊃ (Rᵀ M R)⁻¹ Σ_k (S_kᵀ ∂F_xy/∂s + R_{θS}ᵀ ∂M_S/∂s + R_{θB}ᵀ ∂M_B/∂s) ∂s/∂y,
+
+    with ``∂s/∂y``: unit entries for ``e = z_k`` and ``ė = ż_k``, and ``∂ω/∂ż = R_θ``; ``∂F/∂s``
+    by forward differences of the force law alone, as
+    :func:`~mechrel.mechanics.jacobian.clearance_jacobian` takes them (δ = √u max(|s_i|,
+    scale), scale c for e and ė, 1 rad/s for ω). The work rows get
+    ``∂P_in/∂s = q̇ᵀ M R ∂z̈/∂s − q̇ᵀ ∂Q/∂s`` (``P_in = q̇ᵀ (M q̈ − Q)``, the dependence
+    through ``q̇`` vanishing with ``Rᵀ (M q̈ − Q) = 0``) and
+    ``∂P_cl/∂s = ∂(F·ė + M_S ω_S + M_B ω_B)/∂s``. What is left out (the derivatives of R, of
+    Rᵀ M R, of q̈₀ and of gravity's share) is smooth: the integrator takes it from finite
+    differences of the mechanism without clearance forces, as for the absolute formulation
+    (:func:`mechrel.integrate.radau._update_jacobian`). Rows ``2 nc … ny − 1``, columns
+    ``0 … 4 nc − 1`` of ``JS`` are written (zero where ``f`` is NaN).
+
+    Parameters
+    ----------
+    t : float
+        Time (s).
+    y : ndarray, shape (4 nc + 2,)
+        The reduced state (module docstring).
+    hist : ndarray, shape (nh,)
+        History of the contact-capable joints (impact speed, m/s).
+    sys : System
+        The mechanism with its clearance joints as force elements.
+    con : Construction
+        ``construction(sys)``.
+    rw : ReducedWork
+        Work arrays (:func:`make_reduced_work`).
+    f : ndarray, shape (4 nc + 2,)
+        Receives ``f(t, y)``.
+    JS : ndarray, shape (4 nc + 2, 4 nc + 2)
+        Receives the clearance forces' part of the Jacobian (SI units of ``f`` over those of
+        ``y``).
+
+    Examples
+    --------
+    The lubricated slider-crank's journal 0.3 mm off centre and moving: the film's stiffness
+    and damping are the large entries of ∂ë/∂(e, ė) (m/s² per m, per m/s):
+
+    >>> from mechrel.mechanics.kinematics import assemble
+    >>> from mechrel.mechanics.system import compile_scene
+    >>> from mechrel.scene import load_scene
+    >>> c = compile_scene(load_scene("slider-crank-lubricated"))
+    >>> q0, _ = assemble(c.assembly, c.q_guess, 0.0)
+    >>> con = construction(c.dynamic)
+    >>> rw = make_reduced_work(c.dynamic, con, q0)
+    >>> y = np.array([3e-4, 0.0, 0.0, 0.01, 0.0, 0.0])
+    >>> f, JS = np.empty(6), np.zeros((6, 6))
+    >>> reduced_fast_jacobian(0.0, y, np.zeros(0), c.dynamic, con, rw, f, JS)
+    >>> bool(np.abs(JS[2:4, 0:4]).max() > 1e6), bool(np.all(JS[:2] == 0.0))
+    (True, True)
+    """
+    y, hist, sys, con, rw, f, JS = borrowed((y, hist, sys, con, rw, f, JS))
+    nz = 2 * rw.E.shape[0]
+    ny = y.shape[0]
+    n = rw.q.shape[0]
+    for i in range(nz, ny):
+        for c in range(2 * nz):
+            JS[i, c] = 0.0
+    if not reduced_rhs_into(t, y, hist, sys, con, rw, f):
+        return
+    R = rw.R
+    L = rw.Mr  # the Cholesky factor of Rᵀ M R that reduced_rhs_into left (lower triangle)
+    mass = sys.mass
+    v = rw.v
+    D = rw.D
+    w = rw.w
+    for r in range(nz):  # Rᵀ M q̇
+        s = 0.0
+        for i in range(n):
+            s += R[i, r] * mass[i] * v[i]
+        w[r] = s
+    cl_b = sys.cl_b
+    cl_j = sys.cl_j
+    cl_p = sys.cl_p
+    cl_hist = sys.cl_hist
+    for k in range(cl_b.shape[0]):
+        b = cl_b[k]
+        j = cl_j[k]
+        p = cl_p[k]
+        ex, ey, evx, evy, wb, wj, rjx, rjy, rbx, rby = joint_state(
+            rw.q, v, b, j, sys.cl_sb[k, 0], sys.cl_sb[k, 1], sys.cl_sj[k, 0], sys.cl_sj[k, 1],
+            rw.cs, rw.sn)
+        h = cl_hist[k]
+        impact = hist[h] if h >= 0 else 0.0
+        s0 = np.array([ex, ey, evx, evy, wb, wj])
+        fx, fy, ms, mb, _ = clearance_force(ex, ey, evx, evy, wb, wj, impact, p)
+        c_k = p[P_C]
+        for i in range(6):
+            scale = c_k if i < 4 else 1.0
+            si = s0[i]
+            sp = si + 1.4901161193847656e-08 * max(abs(si), scale)
+            d = sp - si
+            s0[i] = sp
+            gx, gy, gs, gb, _ = clearance_force(s0[0], s0[1], s0[2], s0[3], s0[4], s0[5],
+                                                impact, p)
+            s0[i] = si
+            d0 = (gx - fx) / d
+            d1 = (gy - fy) / d
+            d2 = (gs - ms) / d
+            d3 = (gb - mb) / d
+            for r in range(nz):  # ∂(Rᵀ Q)/∂s_i
+                D[r] = 0.0
+            D[2 * k] += d0
+            D[2 * k + 1] += d1
+            if j >= 0:
+                for r in range(nz):
+                    D[r] += R[3 * j + 2, r] * d2
+            if b >= 0:
+                for r in range(nz):
+                    D[r] += R[3 * b + 2, r] * d3
+            pin = 0.0  # − q̇ᵀ ∂Q/∂s_i, with ∂Q on the journal's and the bearing's body
+            if j >= 0:
+                pin -= v[3 * j] * d0 + v[3 * j + 1] * d1 + v[3 * j + 2] * (rjx * d1 - rjy * d0
+                                                                           + d2)
+            if b >= 0:
+                pin += v[3 * b] * d0 + v[3 * b + 1] * d1 + v[3 * b + 2] * (rbx * d1 - rby * d0
+                                                                           - d3)
+            _cholesky_solve(L, D, nz)
+            for r in range(nz):
+                pin += w[r] * D[r]
+            pcl = d0 * evx + d1 * evy + d2 * wj + d3 * wb
+            if i == 2:
+                pcl += fx
+            elif i == 3:
+                pcl += fy
+            elif i == 4:
+                pcl += mb
+            elif i == 5:
+                pcl += ms
+            # ∂s_i/∂y: e = z_k, ė = ż_k, ω = R_θ ż + …
+            if i < 4:
+                col = 2 * k + i if i < 2 else nz + 2 * k + i - 2
+                for r in range(nz):
+                    JS[nz + r, col] += D[r]
+                JS[2 * nz, col] += pin
+                JS[2 * nz + 1, col] += pcl
+            else:
+                body = b if i == 4 else j
+                if body >= 0:
+                    for c in range(nz):
+                        wgt = R[3 * body + 2, c]
+                        col = nz + c
+                        for r in range(nz):
+                            JS[nz + r, col] += wgt * D[r]
+                        JS[2 * nz, col] += wgt * pin
+                        JS[2 * nz + 1, col] += wgt * pcl
+
+
+@njit(cache=True, inline='always')
+def _cholesky_solve(L, x, nz):
+    """``x ← (L Lᵀ)⁻¹ x`` with the lower triangle of ``L``."""
+    for i in range(nz):
+        s = x[i]
+        for k in range(i):
+            s -= L[i, k] * x[k]
+        x[i] = s / L[i, i]
+    for i in range(nz - 1, -1, -1):
+        s = x[i]
+        for k in range(i + 1, nz):
+            s -= L[k, i] * x[k]
+        x[i] = s / L[i, i]
 
 
 @njit(cache=True)
@@ -449,7 +625,8 @@ def expand_rows(T, Y, YD, sys, con, rw, Ya, YDa):
     >>> Ya, YDa = np.empty((2, 50)), np.empty((2, 50))
     >>> expand_rows(np.zeros(2), Y, YD, c.dynamic, con, rw, Ya, YDa)
     1
-    >>> bool(np.abs(Ya[0, :24] - q0).max() < 1e-12), bool(np.isnan(YDa[1]).all())
+    >>> q, v, a = expand(0.0, Y[0], YD[0, 4:8], c.dynamic, con, rw)
+    >>> bool(np.array_equal(Ya[0, :24], q)), bool(np.isnan(YDa[1]).all())
     (True, True)
     """
     T, Y, YD, sys, con, rw, Ya, YDa = borrowed((T, Y, YD, sys, con, rw, Ya, YDa))
