@@ -197,18 +197,26 @@ def evaluate_inline(t, y, hist, sys, ws, out):
 
     Examples
     --------
+    On the reduced formulation (whose right-hand side is a call even here; inlining the
+    absolute one compiles it whole again, about half a minute):
+
     >>> import numpy as np
     >>> from numba import njit
-    >>> from mechrel.mechanics.dynamics import make_workspace, rhs
+    >>> from mechrel.mechanics.construction import construction
     >>> from mechrel.mechanics.kinematics import assemble
+    >>> from mechrel.mechanics.reduced import (ReducedSystem, make_reduced_work,
+    ...                                        reduced_rhs_into)
     >>> from mechrel.mechanics.system import compile_scene
     >>> from mechrel.scene import load_scene
     >>> c = compile_scene(load_scene("slider-crank-lubricated"))
-    >>> q, v = assemble(c.assembly, c.q_guess, 0.0)
-    >>> y, out = np.concatenate([q, v, np.zeros(2)]), np.empty(20)
+    >>> q, _ = assemble(c.assembly, c.q_guess, 0.0)
+    >>> red = ReducedSystem(c.dynamic, construction(c.dynamic), q)
+    >>> rw = make_reduced_work(c.dynamic, red.con, q)
+    >>> y, out, ref = np.array([3e-4, 0, 0, 0.01, 0, 0]), np.empty(6), np.empty(6)
     >>> f = njit(lambda t, y, h, s, w, o: evaluate_inline(t, y, h, s, w, o))
-    >>> f(0.0, y, np.zeros(0), c.dynamic, make_workspace(c.dynamic), out)
-    >>> bool(np.array_equal(out, rhs(0.0, y, np.zeros(0), c.dynamic)))
+    >>> f(0.0, y, np.zeros(0), red, rw, out)
+    >>> _ = reduced_rhs_into(0.0, y, np.zeros(0), c.dynamic, red.con, rw, ref)
+    >>> bool(np.array_equal(out, ref))
     True
     """
     raise NotImplementedError("compiled only (numba)")
