@@ -442,7 +442,8 @@ def _ground_nodes(con, N):
 def _place(con, sign, sys, t, e, N, q, cs, sn, drv, th_prev):
     """Positions: every step's node or body at time ``t``, the clearance joints at the
     eccentricities ``e`` (nc × 2, m), with each body's cos θ and sin θ into ``cs``, ``sn``
-    and each driver's ``(θ, θ̇, θ̈)`` into ``drv`` (for :func:`_derivatives`).
+    and each driver's ``(θ, θ̇, θ̈)`` into ``drv`` (for :func:`_velocities` and
+    :func:`_accelerations`).
 
     Each body angle found from two nodes continues its previous value ``th_prev`` (updated).
     Returns False where a square root has no real value (the group cannot be assembled). Each
@@ -526,27 +527,126 @@ def _place(con, sign, sys, t, e, N, q, cs, sn, drv, th_prev):
 
 
 @njit(cache=True)
-def _derivatives(con, drv, order, drive, e, edot, dE, N, q, Nv, v, X, x):
-    """One derivative pass at the placed positions (``N``, ``q``): the velocities
-    (``order`` 1) or the accelerations (``order`` 2) of every node into ``X`` and every body
-    into ``x``, the clearance joints' eccentricities ``e`` changing at ``dE`` (their rates
-    ``edot``, m/s, or their accelerations, m/s²) and the drivers at ``drive`` times the
-    derivative of that order of their laws (``drv``).
+def _velocities(con, drv, e, N, q, X, x):
+    """The velocity pass for several motions at once, at the placed positions (``N``, ``q``).
 
-    Each step's position equation differentiated once is linear in the unknown velocity; once
-    more, the acceleration obeys the same equations with velocity-quadratic terms added
-    (from ``Nv``, ``v``, the velocities of the pass of order 1). For a node where two circles
-    around the centres ``C_j`` meet, ``(N − C_j)·Ṅ = (N − C_j)·Ċ_j`` and
-    ``(N − C_j)·N̈ = (N − C_j)·C̈_j − |Ṅ − Ċ_j|²``; a body through two nodes turns at
-    ``(d × ḋ)/|d|²`` and accelerates at ``(d × d̈)/|d|²``; a point ``p = A s`` of a body moves
-    at ``ṙ + ω × p`` and accelerates at ``r̈ + α × p − ω² p``. Linear in ``(dE, drive)`` for
-    ``order`` 1: with ``drive = 0`` and a unit ``dE`` the pass gives a column of ∂q/∂e (then
-    ``X``, ``x`` are not ``Nv``, ``v``). Returns False at a toggle (two tangent circles, a rod
-    square to its slider's line), where neither is defined."""
+    Column ``c`` of ``X`` (``m × nn × 2``: every node's velocity) and ``x`` (``m × n``: every
+    body's) is, for ``c < 2 nc``, the motion at a unit rate of eccentricity component ``c``
+    (clearance joint ``c // 2``, axis ``c % 2``) with the drivers at rest: a column of
+    ``∂q/∂z``; the last column (``c = m − 1 = 2 nc``) is the drivers' motion at their rates
+    (``drv``) with the eccentricities fixed, ``q̇₀``. The velocity for eccentricity rates
+    ``ż`` is then ``x[2 nc] + Σ_c ż_c x[c]`` (the pass is linear in the rates). Each step's
+    position equation differentiated once: for a node where two circles around ``C_j`` meet,
+    ``(N − C_j)·Ṅ = (N − C_j)·Ċ_j``; a body through two nodes turns at ``(d × ḋ)/|d|²``; a
+    point ``p = A s`` of a body moves at ``ṙ + ω × p``. The geometry of each step is computed
+    once for all columns. Returns False at a toggle (two tangent circles, a rod square to its
+    slider's line), where the velocities are not defined."""
     op = con.op
     par = con.par
-    quad = order == 2  # the velocity-quadratic terms, in accelerations only (Nv and v are
-    # not read for velocities: they may be the output, or not yet hold numbers)
+    m = x.shape[0]
+    dr = m - 1  # the drivers' column
+    for o in range(op.shape[0]):
+        code = op[o, 0]
+        if code == POSE_ANGLE or code == POSE_TWO:
+            b = op[o, 1]
+            k = op[o, 2]
+            px = N[k, 0] - q[3 * b]  # A s: from the body's centre to the node
+            py = N[k, 1] - q[3 * b + 1]
+            if code == POSE_TWO:
+                k2 = op[o, 3]
+                dx = N[k2, 0] - N[k, 0]
+                dy = N[k2, 1] - N[k, 1]
+                d2 = dx * dx + dy * dy
+            for c in range(m):
+                if code == POSE_TWO:
+                    wa = (dx * (X[c, k2, 1] - X[c, k, 1]) - dy * (X[c, k2, 0] - X[c, k, 0])) / d2
+                elif op[o, 3] == ANGLE_DRIVER and c == dr:
+                    wa = drv[op[o, 4], 1]
+                else:
+                    wa = 0.0
+                x[c, 3 * b] = X[c, k, 0] + wa * py
+                x[c, 3 * b + 1] = X[c, k, 1] - wa * px
+                x[c, 3 * b + 2] = wa
+        elif code == LOCATE:
+            k = op[o, 1]
+            b = op[o, 2]
+            px = N[k, 0] - q[3 * b]
+            py = N[k, 1] - q[3 * b + 1]
+            for c in range(m):
+                wa = x[c, 3 * b + 2]
+                X[c, k, 0] = x[c, 3 * b] - wa * py
+                X[c, k, 1] = x[c, 3 * b + 1] + wa * px
+        elif code == OFFSET:
+            k = op[o, 1]
+            k1 = op[o, 2]
+            u = 2 * op[o, 3]  # the columns of this joint's two components
+            sg = float(op[o, 4])
+            for c in range(m):
+                X[c, k, 0] = X[c, k1, 0] + (sg if c == u else 0.0)
+                X[c, k, 1] = X[c, k1, 1] + (sg if c == u + 1 else 0.0)
+        elif code == CIRCLES:
+            k = op[o, 1]
+            x1, y1 = _at(N, op[o, 2], e, op[o, 5], op[o, 6])  # the centres C_j
+            x2, y2 = _at(N, op[o, 3], e, op[o, 7], op[o, 8])
+            e1x = N[k, 0] - x1
+            e1y = N[k, 1] - y1
+            e2x = N[k, 0] - x2
+            e2y = N[k, 1] - y2
+            det = e1x * e2y - e1y * e2x
+            if not abs(det) > 0.0:  # tangent circles: a toggle position
+                return False
+            k1 = op[o, 2]
+            k2 = op[o, 3]
+            u1 = 2 * op[o, 5]  # the columns that move the centres (sg = 0: none)
+            s1 = float(op[o, 6])
+            u2 = 2 * op[o, 7]
+            s2 = float(op[o, 8])
+            for c in range(m):
+                d1x = X[c, k1, 0] + (s1 if c == u1 else 0.0)
+                d1y = X[c, k1, 1] + (s1 if c == u1 + 1 else 0.0)
+                d2x = X[c, k2, 0] + (s2 if c == u2 else 0.0)
+                d2y = X[c, k2, 1] + (s2 if c == u2 + 1 else 0.0)
+                r1 = e1x * d1x + e1y * d1y
+                r2 = e2x * d2x + e2y * d2y
+                X[c, k, 0] = (r1 * e2y - r2 * e1y) / det
+                X[c, k, 1] = (r2 * e1x - r1 * e2x) / det
+        else:  # CIRCLE_LINE: N = P0 + s u
+            k = op[o, 1]
+            x1, y1 = _at(N, op[o, 2], e, op[o, 5], op[o, 6])
+            ux = par[o, 3]
+            uy = par[o, 4]
+            e1x = N[k, 0] - x1
+            e1y = N[k, 1] - y1
+            den = e1x * ux + e1y * uy
+            if not abs(den) > 0.0:  # the rod square to the line: a dead centre
+                return False
+            k1 = op[o, 2]
+            u1 = 2 * op[o, 5]
+            s1 = float(op[o, 6])
+            for c in range(m):
+                d1x = X[c, k1, 0] + (s1 if c == u1 else 0.0)
+                d1y = X[c, k1, 1] + (s1 if c == u1 + 1 else 0.0)
+                sd = (e1x * d1x + e1y * d1y) / den
+                X[c, k, 0] = sd * ux
+                X[c, k, 1] = sd * uy
+    return True
+
+
+@njit(cache=True)
+def _accelerations(con, drv, e, edot, dE, N, q, Nv, v, X, x):
+    """The acceleration pass at the placed positions (``N``, ``q``) and velocities (``Nv``,
+    ``v``, from :func:`_velocities`): every node's acceleration into ``X`` and every body's
+    into ``x``, the clearance joints' eccentricities ``e`` (m) moving at ``edot`` (m/s) and
+    accelerating at ``dE`` (m/s²), the drivers at their laws' accelerations (``drv``).
+
+    The position equations differentiated twice: the velocity pass's equations with
+    velocity-quadratic terms added. For a node where two circles around the centres ``C_j``
+    meet, ``(N − C_j)·N̈ = (N − C_j)·C̈_j − |Ṅ − Ċ_j|²``; a body through two nodes accelerates
+    at ``(d × d̈)/|d|²``; a point ``p = A s`` of a body at ``r̈ + α × p − ω² p``. With
+    ``dE = 0`` the result is ``q̈₀``, the acceleration of the drivers and the velocities alone.
+    Returns False at a toggle (two tangent circles, a rod square to its slider's line)."""
+    op = con.op
+    par = con.par
     for o in range(op.shape[0]):
         code = op[o, 0]
         if code == POSE_ANGLE or code == POSE_TWO:
@@ -559,10 +659,10 @@ def _derivatives(con, drv, order, drive, e, edot, dE, N, q, Nv, v, X, x):
                 wa = (dx * (X[k2, 1] - X[k, 1]) - dy * (X[k2, 0] - X[k, 0])) / (
                     dx * dx + dy * dy)
             elif op[o, 3] == ANGLE_DRIVER:
-                wa = drive * drv[op[o, 4], order]
+                wa = drv[op[o, 4], 2]
             else:
                 wa = 0.0
-            w2 = v[3 * b + 2] * v[3 * b + 2] if quad else 0.0
+            w2 = v[3 * b + 2] * v[3 * b + 2]
             px = N[k, 0] - q[3 * b]  # A s: from the body's centre to the node
             py = N[k, 1] - q[3 * b + 1]
             x[3 * b] = X[k, 0] + wa * py + w2 * px
@@ -572,7 +672,7 @@ def _derivatives(con, drv, order, drive, e, edot, dE, N, q, Nv, v, X, x):
             k = op[o, 1]
             b = op[o, 2]
             wa = x[3 * b + 2]
-            w2 = v[3 * b + 2] * v[3 * b + 2] if quad else 0.0
+            w2 = v[3 * b + 2] * v[3 * b + 2]
             px = N[k, 0] - q[3 * b]
             py = N[k, 1] - q[3 * b + 1]
             X[k, 0] = x[3 * b] - wa * py - w2 * px
@@ -594,15 +694,14 @@ def _derivatives(con, drv, order, drive, e, edot, dE, N, q, Nv, v, X, x):
                 return False
             r1 = e1x * d1x + e1y * d1y
             r2 = e2x * d2x + e2y * d2y
-            if quad:  # − |Ṅ − Ċ_j|²
-                c1x, c1y = _at(Nv, op[o, 2], edot, op[o, 5], op[o, 6])
-                c2x, c2y = _at(Nv, op[o, 3], edot, op[o, 7], op[o, 8])
-                g1x = Nv[k, 0] - c1x
-                g1y = Nv[k, 1] - c1y
-                g2x = Nv[k, 0] - c2x
-                g2y = Nv[k, 1] - c2y
-                r1 -= g1x * g1x + g1y * g1y
-                r2 -= g2x * g2x + g2y * g2y
+            c1x, c1y = _at(Nv, op[o, 2], edot, op[o, 5], op[o, 6])  # − |Ṅ − Ċ_j|²
+            c2x, c2y = _at(Nv, op[o, 3], edot, op[o, 7], op[o, 8])
+            g1x = Nv[k, 0] - c1x
+            g1y = Nv[k, 1] - c1y
+            g2x = Nv[k, 0] - c2x
+            g2y = Nv[k, 1] - c2y
+            r1 -= g1x * g1x + g1y * g1y
+            r2 -= g2x * g2x + g2y * g2y
             X[k, 0] = (r1 * e2y - r2 * e1y) / det
             X[k, 1] = (r2 * e1x - r1 * e2x) / det
         else:  # CIRCLE_LINE: N = P0 + s u
@@ -617,11 +716,10 @@ def _derivatives(con, drv, order, drive, e, edot, dE, N, q, Nv, v, X, x):
             if not abs(den) > 0.0:  # the rod square to the line: a dead centre
                 return False
             r1 = e1x * d1x + e1y * d1y
-            if quad:
-                c1x, c1y = _at(Nv, op[o, 2], edot, op[o, 5], op[o, 6])
-                gx = Nv[k, 0] - c1x
-                gy = Nv[k, 1] - c1y
-                r1 -= gx * gx + gy * gy
+            c1x, c1y = _at(Nv, op[o, 2], edot, op[o, 5], op[o, 6])
+            gx = Nv[k, 0] - c1x
+            gy = Nv[k, 1] - c1y
+            r1 -= gx * gx + gy * gy
             sd = r1 / den
             X[k, 0] = sd * ux
             X[k, 1] = sd * uy
@@ -645,14 +743,16 @@ def _construct(q0, times, sys, con):
     sys, con = borrowed((sys, con))  # the arguments keep them alive (mechanics/borrow.py)
     nn = con.node_body.shape[0]
     N = np.zeros((nn, 2))
-    Nv = np.zeros((nn, 2))
     Na = np.zeros((nn, 2))
     _ground_nodes(con, N)
     sign = _branch_signs(q0, con)
     none = np.zeros((0, 2))  # no clearance joint: no eccentricity
     q = np.empty(n)
-    v = np.empty(n)
     a = np.empty(n)
+    Vc = np.zeros((1, nn, 2))  # the velocity pass's one column: the drivers' motion
+    vc = np.empty((1, n))
+    Nv = Vc[0]
+    v = vc[0]
     cs = np.empty(n // 3)
     sn = np.empty(n // 3)
     drv = np.empty((sys.dr_i.shape[0], 3))
@@ -663,9 +763,9 @@ def _construct(q0, times, sys, con):
         t = times[i]
         if not _place(con, sign, sys, t, none, N, q, cs, sn, drv, th_prev):
             return Q[:i], V[:i], A[:i], i
-        if not _derivatives(con, drv, 1, 1.0, none, none, none, N, q, Nv, v, Nv, v):
+        if not _velocities(con, drv, none, N, q, Vc, vc):
             return Q[:i], V[:i], A[:i], i
-        _derivatives(con, drv, 2, 1.0, none, none, none, N, q, Nv, v, Na, a)
+        _accelerations(con, drv, none, none, none, N, q, Nv, v, Na, a)
         fin = 0.0  # 0 unless a value overflowed (inf − inf is NaN)
         for j in range(n):
             fin += (q[j] - q[j]) + (v[j] - v[j]) + (a[j] - a[j])

@@ -47,7 +47,7 @@ from numba import njit
 
 from .applied import applied_forces_trig
 from .borrow import borrowed
-from .construction import _branch_signs, _derivatives, _ground_nodes, _place
+from .construction import _accelerations, _branch_signs, _ground_nodes, _place, _velocities
 from .construction import construction  # noqa: F401  (the docstring examples use it)
 from ..forces.joint import clearance_force
 from ..forces.params import P_C
@@ -91,16 +91,18 @@ class ReducedWork(NamedTuple):
     ----------
     N, Nv, Na : ndarray, shape (n_nodes, 2)
         The nodes' positions (m), velocities (m/s) and accelerations (m/s²).
-    Nt : ndarray, shape (n_nodes, 2)
-        Node velocities of one column of ``R``.
+    Vc : ndarray, shape (2 nc + 1, n_nodes, 2)
+        The velocity pass's columns (:func:`~mechrel.mechanics.construction._velocities`):
+        the nodes' velocities for a unit rate of each eccentricity component, then the
+        drivers' motion.
     q, v, a : ndarray, shape (n,)
         The bodies' coordinates, velocities and accelerations (SI).
-    vt : ndarray, shape (n,)
-        Body velocities of one column of ``R``.
+    vc : ndarray, shape (2 nc + 1, n)
+        The bodies' velocities of the same columns.
     R : ndarray, shape (n, 2 nc)
         ∂q/∂z.
-    E, Ed, Edd, U : ndarray, shape (nc, 2)
-        The eccentricities (m), their rates (m/s), accelerations (m/s²), and a unit rate.
+    E, Ed, Edd : ndarray, shape (nc, 2)
+        The eccentricities (m), their rates (m/s) and accelerations (m/s²).
     Q : ndarray, shape (n,)
         The applied generalised forces (N, N·m).
     cs, sn : ndarray, shape (nb,)
@@ -135,16 +137,15 @@ class ReducedWork(NamedTuple):
     N: np.ndarray
     Nv: np.ndarray
     Na: np.ndarray
-    Nt: np.ndarray
+    Vc: np.ndarray
     q: np.ndarray
     v: np.ndarray
     a: np.ndarray
-    vt: np.ndarray
+    vc: np.ndarray
     R: np.ndarray
     E: np.ndarray
     Ed: np.ndarray
     Edd: np.ndarray
-    U: np.ndarray
     Q: np.ndarray
     cs: np.ndarray
     sn: np.ndarray
@@ -200,9 +201,9 @@ def make_reduced_work(sys, con, q_ref):
     th_ref = np.empty(nb)
     for i in range(nb):
         th_ref[i] = q_ref[3 * i + 2]
-    return ReducedWork(N, np.zeros((nn, 2)), np.zeros((nn, 2)), np.zeros((nn, 2)),
-                       np.empty(n), np.empty(n), np.empty(n), np.empty(n), np.empty((n, nz)),
-                       np.empty((nc, 2)), np.empty((nc, 2)), np.zeros((nc, 2)),
+    return ReducedWork(N, np.zeros((nn, 2)), np.zeros((nn, 2)), np.zeros((nz + 1, nn, 2)),
+                       np.empty(n), np.empty(n), np.empty(n), np.zeros((nz + 1, n)),
+                       np.empty((n, nz)), np.empty((nc, 2)), np.empty((nc, 2)),
                        np.zeros((nc, 2)), np.empty(n), np.empty(nb), np.empty(nb),
                        np.empty(nh), np.empty(nh), np.empty(nb), th_ref,
                        np.empty((nz, nz)), np.empty(nz), _branch_signs(q_ref, con),
@@ -225,11 +226,28 @@ def _kinematics_of(t, y, sys, con, rw):
         rw.th[i] = rw.th_ref[i]
     if not _place(con, rw.sign, sys, t, rw.E, rw.N, rw.q, rw.cs, rw.sn, rw.drv, rw.th):
         return False
-    if not _derivatives(con, rw.drv, 1, 1.0, rw.E, rw.Ed, rw.Ed, rw.N, rw.q, rw.Nv, rw.v,
-                        rw.Nv, rw.v):
+    if not _velocities(con, rw.drv, rw.E, rw.N, rw.q, rw.Vc, rw.vc):
         return False
-    _derivatives(con, rw.drv, 2, 1.0, rw.E, rw.Ed, rw.Edd, rw.N, rw.q, rw.Nv, rw.v, rw.Na,
-                 rw.a)
+    # R = ∂q/∂z (the unit-rate columns), q̇ = R ż + q̇₀ and the nodes' velocities likewise
+    R = rw.R
+    vc = rw.vc
+    Vc = rw.Vc
+    n = rw.q.shape[0]
+    for i in range(n):
+        s = vc[nz, i]
+        for c in range(nz):
+            R[i, c] = vc[c, i]
+            s += vc[c, i] * y[nz + c]
+        rw.v[i] = s
+    for k in range(rw.Nv.shape[0]):
+        sx = Vc[nz, k, 0]
+        sy = Vc[nz, k, 1]
+        for c in range(nz):
+            sx += Vc[c, k, 0] * y[nz + c]
+            sy += Vc[c, k, 1] * y[nz + c]
+        rw.Nv[k, 0] = sx
+        rw.Nv[k, 1] = sy
+    _accelerations(con, rw.drv, rw.E, rw.Ed, rw.Edd, rw.N, rw.q, rw.Nv, rw.v, rw.Na, rw.a)
     return True
 
 
@@ -297,13 +315,6 @@ def reduced_rhs_into(t, y, hist, sys, con, rw, out):
             out[i] = math.nan
         return False
     R = rw.R
-    for col in range(nz):  # R = ∂q/∂z: the velocity pass for a unit rate of z[col]
-        rw.U[col // 2, col % 2] = 1.0
-        _derivatives(con, rw.drv, 1, 0.0, rw.E, rw.Ed, rw.U, rw.N, rw.q, rw.Nv, rw.v, rw.Nt,
-                     rw.vt)
-        rw.U[col // 2, col % 2] = 0.0
-        for i in range(n):
-            R[i, col] = rw.vt[i]
     Q = rw.Q
     for i in range(n):
         Q[i] = 0.0
