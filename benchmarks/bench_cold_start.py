@@ -12,10 +12,12 @@ nothing more):
 * ``two processes``: :func:`mechrel._kernel_cache.warm_up` itself, which hands part of the
   Radau kernel's callees and the post-processing to a helper process
   (:func:`mechrel._kernel_cache.split_compile`), compiles the rest and then the kernel here;
-* ``two processes, previous shares`` (``--modes two-previous``): the same with the shares of
-  the helper and this process before they were balanced (the helper also compiled the
-  kinematic analysis, and this process waited for it; the clearance Jacobian did not wait for
-  the helper's right-hand side), set in the run's process before the warm-up.
+* ``two processes, previous shares`` (``--modes two-previous``): the same with the absolute
+  formulation's shares of the helper and this process before they were balanced (the helper
+  also compiled the kinematic analysis, and this process waited for it; the clearance
+  Jacobian did not wait for the helper's right-hand side), set in the run's process before
+  the warm-up. Since the default study's Radau integrates the reduced equations (which have
+  their own shares, ``mechrel._kernel_cache.SHARES``), this mode no longer changes its run.
 
 The runs alternate (``--rounds`` rounds of ``--modes``), one at a time; each reports its
 wall time, the CPU time of the process and its children, the load average before it, the
@@ -64,10 +66,9 @@ if sys.argv[1] == "one":
     simulate(with_overrides(scene, {"analysis.duration": step}))
 else:
     if sys.argv[1] == "two-previous":
-        kc._HELPER_JOBS = ("rhs", "newton", "kinematics", "post_process")
-        kc._OWN_JOBS = ("fd_jacobian", "clearance_jacobian")
-        kc._NEEDS = {}
-        kc._WAIT_FOR = ("rhs", "newton", "kinematics")
+        kc.SHARES["absolute"] = kc.Shares(("rhs", "newton", "kinematics", "post_process"),
+                                          ("fd_jacobian", "clearance_jacobian"), {},
+                                          ("rhs", "newton", "kinematics"))
     kc.warm_up(scene, progress=False, file=open("/dev/null", "w"))
 t2 = time.perf_counter()
 r1 = resource.getrusage(resource.RUSAGE_SELF)

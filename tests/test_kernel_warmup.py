@@ -74,12 +74,15 @@ def test_the_stiff_kernels_callees_compile_in_a_helper_process():
     # is measured in benchmarks/bench_cold_start.py, not here)
     scene = load_scene("slider-crank-lubricated", overrides={"analysis.cycles": 0.01})
     done = kc.split_compile(scene)
-    assert set(kc._WAIT_FOR) <= done <= set(kc._HELPER_JOBS)
+    shares = kc._shares(scene)
+    assert shares == kc.SHARES["reduced"]  # the scene's Radau integrates the reduced equations
+    assert set(shares.wait_for) <= done <= set(shares.helper)
     with pytest.raises(ValueError, match="unknown compile job 'nope'"):
         kc._compile_job("nope", scene)
 
 
-def test_own_jobs_wait_for_the_helper_jobs_they_call(monkeypatch):
+@pytest.mark.parametrize("formulation", ["absolute", "reduced"])
+def test_own_jobs_wait_for_the_helper_jobs_they_call(monkeypatch, formulation):
     # numba loads a callee from the on-disk cache only if the helper has put it there: an own
     # job that calls a helper's function (the clearance Jacobian calls rhs_into) must start
     # after the helper reported it, or it compiles it a second time; and split_compile returns
@@ -98,8 +101,8 @@ def test_own_jobs_wait_for_the_helper_jobs_they_call(monkeypatch):
 
     class FakeHelper:
         def __init__(self, args, **kw):
-            self.jobs = [a for a in args if a in kc._HELPER_JOBS]
-            assert tuple(self.jobs) == kc._HELPER_JOBS
+            self.jobs = [a for a in args if a in shares.helper]
+            assert tuple(self.jobs) == shares.helper
             self.stdin = io.StringIO()
             self.stdout = self._report()
             self.returncode = None
@@ -113,18 +116,23 @@ def test_own_jobs_wait_for_the_helper_jobs_they_call(monkeypatch):
         def wait(self, timeout=None):
             return 0
 
+    shares = kc.SHARES[formulation]
+    monkeypatch.setattr(kc, "_shares", lambda scene: shares)
     monkeypatch.setattr(subprocess, "Popen", FakeHelper)
     monkeypatch.setattr(kc, "_compile_job", lambda name, scene: note(f"own:{name}"))
     kc.split_compile(load_scene("slider-crank-lubricated"))
     done_at = len(events)
-    for own, needs in kc._NEEDS.items():
+    for own, needs in shares.needs.items():
         for need in needs:
             assert events.index(f"helper:{need}") < events.index(f"own:{own}"), events
-    for need in kc._WAIT_FOR:  # reported before split_compile returned
+    for need in shares.wait_for:  # reported before split_compile returned
         assert events.index(f"helper:{need}") < done_at, events
     # jobs without needs do not wait: the first own job starts before the helper's first report
-    assert events[0] == f"own:{kc._OWN_JOBS[0]}", events
-    assert "clearance_jacobian" in kc._NEEDS and kc._NEEDS["clearance_jacobian"] == ("rhs",)
+    assert events[0] == f"own:{shares.own[0]}", events
+    assert shares.needs["clearance_jacobian"] == ("rhs",)
+    # every own job that calls the right-hand side as a function waits for it
+    if formulation == "reduced":
+        assert all(shares.needs[j] == ("rhs",) for j in ("newton", "fd_jacobian"))
 
 
 def test_the_compile_jobs_compile_the_types_the_kernel_passes():
@@ -144,10 +152,18 @@ def test_the_compile_jobs_compile_the_types_the_kernel_passes():
     # compiles their fast part (the absolute one's, clearance_jacobian, is not called)
     dispatchers = {"newton": radau._solve_collocation, "fd_jacobian": radau.fd_jacobian,
                    "clearance_jacobian": reduced_fast_jacobian}
-    assert set(dispatchers) | {"rhs", "kinematics", "post_process"} \
-        == set(kc._HELPER_JOBS) | set(kc._OWN_JOBS)
+    shares = kc.SHARES["reduced"]
+    assert set(dispatchers) | {"rhs", "start", "kinematics", "expand", "post_process"} \
+        == set(shares.helper) | set(shares.own)
     scene = load_scene("slider-crank-lubricated", overrides={"analysis.cycles": 0.01})
     simulate(scene)
+    # the expansion of the reduced outputs, which runs after the kernel: the job compiles
+    # the types the simulation passed it (one signature, not a second one)
+    from mechrel.mechanics.reduced import expand_rows
+
+    before = set(expand_rows.signatures)
+    kc._compile_job("expand", scene)
+    assert set(expand_rows.signatures) == before and len(before) >= 1
     for name in dispatchers:
         kc._compile_job(name, scene)
     jobs = {name: set(d.signatures) for name, d in dispatchers.items()}

@@ -15,6 +15,7 @@ from __future__ import annotations
 import hashlib
 import os
 from pathlib import Path
+from typing import NamedTuple
 
 _PACKAGE = Path(__file__).resolve().parent
 _KERNEL_DIRS = ("mechanics", "forces", "integrate")
@@ -249,12 +250,12 @@ def warm_up(scene, *, progress: bool = True, file=None) -> float:
 # and the kernel's smaller helpers; the simulation also needs the kinematic analysis and the
 # post-processing. A cold compilation did them one after another on one core. numba loads a
 # callee from the on-disk cache when another process has put it there first, so a second
-# process compiles part of them while this one compiles the rest: ``_HELPER_JOBS`` in a helper
-# process, in this order; ``_OWN_JOBS`` here, each after the helper's jobs it calls
-# (``_NEEDS``, else it would compile them a second time); then this process waits for the
-# helper's jobs that the kernel needs (``_WAIT_FOR``) and compiles the kernel itself (its step
-# loop and small helpers), loading them. On two idle cores the critical path is the longer of
-# the two shares, plus the kernel's own body, so the shares are balanced by their compile
+# process compiles part of them while this one compiles the rest: ``Shares.helper`` in a helper
+# process, in this order; ``Shares.own`` here, each after the helper's jobs it calls
+# (``Shares.needs``, else it would compile them a second time); then this process waits for
+# the helper's jobs that the kernel needs (``Shares.wait_for``) and compiles the kernel itself
+# (its step loop and small helpers), loading them. On two idle cores the critical path is the
+# longer of the two shares, plus the kernel's own body, so the shares are balanced by their compile
 # times (numba's self times on an idle machine, ``benchmarks/profile_compile.py``: the Newton
 # iteration 12.0 s, the kernel's body 11.8 s, the finite-difference Jacobian 9.8 s, the
 # right-hand side 9.8 s, the clearance Jacobian 5.9 s, the kinematic analysis ≈ 5 s, the
@@ -262,10 +263,51 @@ def warm_up(scene, *, progress: bool = True, file=None) -> float:
 # the integration, ends the helper's share while the kernel compiles here. Measured
 # (``benchmarks/bench_cold_start.py --modes two-previous two``): 45 s against 55 s with the
 # kinematic analysis in the helper's share (docs/performance.md, "The one-off compilation").
-_HELPER_JOBS = ("rhs", "newton", "post_process")
-_OWN_JOBS = ("fd_jacobian", "kinematics", "clearance_jacobian")
-_NEEDS = {"clearance_jacobian": ("rhs",)}  # it calls rhs_into, which the helper's "rhs" caches
-_WAIT_FOR = ("rhs", "newton")
+# Where the scene's Radau integrates the reduced equations (the default study), the jobs
+# compile their versions (mechrel.mechanics.formulation), whose shares differ: the kernel's
+# body 16.0 s, the reduced right-hand side 6.6 s, the expansion of the outputs 6.3 s, the
+# fast Jacobian 4.8 s, the Newton iteration 3.8 s (profile_compile.py, 2026-11-26), and
+# every job calls the reduced right-hand side: ``SHARES["reduced"]`` compiles it first, in the
+# helper, and the expansion, run after the kernel, joins the helper's share.
+class Shares(NamedTuple):
+    """How the jobs are split between the helper process and this one, for one formulation.
+
+    ``helper``: the helper's jobs, in order; ``own``: this process's, in order, each after
+    the helper's jobs it ``needs`` (``{own job: helper jobs}``: numba would compile a callee a
+    second time otherwise); ``wait_for``: the helper's jobs the kernel needs."""
+
+    helper: tuple
+    own: tuple
+    needs: dict
+    wait_for: tuple
+
+
+SHARES = {
+    # the absolute formulation: the Newton iteration and the finite-difference Jacobian each
+    # inline their own copy of the right-hand side; the clearance Jacobian calls rhs_into
+    "absolute": Shares(helper=("rhs", "newton", "post_process"),
+                       own=("fd_jacobian", "kinematics", "clearance_jacobian"),
+                       needs={"clearance_jacobian": ("rhs",)}, wait_for=("rhs", "newton")),
+    # the reduced formulation: everything calls reduced_rhs_into ("rhs"), so that comes
+    # first; the kernels' start (with the reduced work arrays) follows in the helper while
+    # this process compiles the Newton iteration and the Jacobians (self times, one process:
+    # right-hand side 11.4 s, start 10.6 s, kinematic analysis 9.3–13 s, Newton 5.7 s,
+    # expansion 5.0 s, post-processing 3.5 s, fast Jacobian 3.3 s, finite differences 2.5 s,
+    # the kernel's body 21 s; /tmp-cache runs of _compile_job, 2026-11-26)
+    "reduced": Shares(helper=("rhs", "start", "expand", "post_process"),
+                      own=("kinematics", "newton", "fd_jacobian", "clearance_jacobian"),
+                      needs={"newton": ("rhs",), "fd_jacobian": ("rhs",),
+                             "clearance_jacobian": ("rhs",)},
+                      wait_for=("rhs", "start")),
+}
+
+
+def _shares(scene) -> Shares:
+    """The split of :data:`SHARES` for the formulation ``scene``'s Radau integrates."""
+    from .mechanics.system import compile_scene
+    from .simulation import make_integrator
+
+    return SHARES[make_integrator(scene).formulation_for(compile_scene(scene).dynamic)]
 
 
 def _compile_job(name: str, scene) -> None:
@@ -309,18 +351,32 @@ def _compile_job(name: str, scene) -> None:
 
     integrator = make_integrator(scene)
     nq = compiled.q_guess.size
-    if getattr(integrator, "formulation_for", None) and \
-            integrator.formulation_for(sys_) == "reduced":
+    reduced = integrator.formulation_for(sys_) == "reduced"
+    if reduced:
         from .mechanics.reduced import make_reduced_work
 
-        q0, _ = assemble(compiled.assembly, compiled.q_guess, 0.0,
-                         tol=scene.solver.assembly_tolerance)
-        red = reduced_system(sys_, np.concatenate([q0, np.zeros(nq + N_WORK)]))
+        # the types only: the first guess has the assembled configuration's (assembling
+        # here would compile the Newton assembly in both processes)
+        red = reduced_system(sys_, np.concatenate([compiled.q_guess, np.zeros(nq + N_WORK)]))
         nq = 2 * red.con.cl_nodes.shape[0]
         ny = 2 * nq + N_WORK
         vec = numba.typeof(np.zeros(ny))
         mat = numba.typeof(np.zeros((ny, ny)))
-        ws = numba.typeof(make_reduced_work(sys_, red.con, red.q_ref))
+        # the work arrays' type from the function's Python body: calling the compiled one
+        # here would compile it in both processes (the helper's "rhs" job compiles it)
+        rw = make_reduced_work.py_func(sys_, red.con, red.q_ref)
+        ws = numba.typeof(rw)
+        if name == "expand":  # the outputs' expansion after the kernel
+            from .mechanics.reduced import expand_rows
+
+            rows = numba.typeof(np.zeros((2, ny)))
+            expand_rows.compile((numba.typeof(np.zeros(2)), rows, rows, sys_t,
+                                 numba.typeof(red.con), ws,
+                                 numba.typeof(np.zeros((2, 2 * compiled.q_guess.size
+                                                        + N_WORK))),
+                                 numba.typeof(np.zeros((2, 2 * compiled.q_guess.size
+                                                        + N_WORK)))))
+            return
         if name == "clearance_jacobian":  # the reduced equations' own fast part
             from .mechanics.reduced import reduced_fast_jacobian
 
@@ -329,8 +385,17 @@ def _compile_job(name: str, scene) -> None:
             return
         sys_t = numba.typeof(red)
     else:
+        if name == "expand":  # the absolute formulation's outputs need no expansion
+            return
         ws = numba.typeof(make_workspace(sys_))
-    if name == "rhs":
+    if name == "rhs" and reduced:  # the reduced right-hand side alone: "start" follows here
+        from .mechanics.reduced import reduced_rhs_into
+
+        reduced_rhs_into.compile((f64, vec, hist, numba.typeof(sys_), numba.typeof(red.con),
+                                  ws, vec))
+    elif name == "start" and not reduced:  # "rhs" compiles it with the right-hand side
+        return
+    elif name in ("rhs", "start"):
         from .integrate.events import start
 
         start.compile((sys_t, f64, vec, hist, vec))
@@ -362,7 +427,7 @@ def _compile_job(name: str, scene) -> None:
 
 def split_compile(scene) -> set[str]:
     """Compile the stiff integrator's callees for ``scene`` in this process and a helper
-    process at once (see ``_HELPER_JOBS``), leaving the kernel to the caller: on return the
+    process at once (see :data:`SHARES`), leaving the kernel to the caller: on return the
     helper's jobs the kernel needs are in the on-disk cache (or the helper failed, and the
     kernel compiles them itself, as before). Results do not depend on it: the same functions
     compiled for the same types. Returns the helper's jobs done by then."""
@@ -379,10 +444,11 @@ def split_compile(scene) -> set[str]:
     env[PARENT_ENV] = str(os.getpid())  # the helper ends itself when this process ends
     env["PYTHONPATH"] = os.pathsep.join([str(_PACKAGE.parent)]
                                         + ([env["PYTHONPATH"]] if env.get("PYTHONPATH") else []))
+    shares = _shares(scene)
     try:
         proc = subprocess.Popen(
             [sys.executable, "-c", "from mechrel._kernel_cache import _helper; _helper()",
-             *_HELPER_JOBS], stdin=subprocess.PIPE, stdout=subprocess.PIPE,
+             *shares.helper], stdin=subprocess.PIPE, stdout=subprocess.PIPE,
             stderr=subprocess.DEVNULL, env=env, text=True)
     except OSError:  # no interpreter to start (an embedded Python): one process, as before
         return set()
@@ -401,10 +467,10 @@ def split_compile(scene) -> set[str]:
             proc.stdin.close()
         except OSError:  # the helper died at start: its jobs compile here, in the kernel
             pass
-        for name in _OWN_JOBS:
-            _wait_for(_NEEDS.get(name, ()), done, finished)
+        for name in shares.own:
+            _wait_for(shares.needs.get(name, ()), done, finished)
             _compile_job(name, scene)
-        _wait_for(_WAIT_FOR, done, finished)
+        _wait_for(shares.wait_for, done, finished)
     finally:
         if not finished.is_set():  # the rest (post-processing) it may finish on its own
             threading.Thread(target=_reap, args=(proc,), daemon=True).start()
