@@ -49,8 +49,8 @@ from .applied import applied_forces_trig
 from .borrow import borrowed
 from .construction import _accelerations, _branch_signs, _ground_nodes, _place, _velocities
 from .construction import construction  # noqa: F401  (the docstring examples use it)
-from ..forces.joint import clearance_force
 from ..forces.params import P_C
+from .jacobian import force_law_derivatives
 from .joints import body_trig, gap_of, joint_state, n_contacts
 
 __all__ = ["ReducedSystem", "ReducedWork", "expand", "expand_rows", "make_reduced_work",
@@ -378,9 +378,9 @@ def reduced_fast_jacobian(t, y, hist, sys, con, rw, f, JS):
         ∂z̈/∂y ⊃ (Rᵀ M R)⁻¹ Σ_k (S_kᵀ ∂F_xy/∂s + R_{θS}ᵀ ∂M_S/∂s + R_{θB}ᵀ ∂M_B/∂s) ∂s/∂y,
 
     with ``∂s/∂y``: unit entries for ``e = z_k`` and ``ė = ż_k``, and ``∂ω/∂ż = R_θ``; ``∂F/∂s``
-    by forward differences of the force law alone, as
-    :func:`~mechrel.mechanics.jacobian.clearance_jacobian` takes them (δ = √u max(|s_i|,
-    scale), scale c for e and ė, 1 rad/s for ω). The work rows get
+    by forward differences of the force law alone
+    (:func:`~mechrel.mechanics.jacobian.force_law_derivatives`, as for the absolute
+    formulation). The work rows get
     ``∂P_in/∂s = q̇ᵀ M R ∂z̈/∂s − q̇ᵀ ∂Q/∂s`` (``P_in = q̇ᵀ (M q̈ − Q)``, the dependence
     through ``q̇`` vanishing with ``Rᵀ (M q̈ − Q) = 0``) and
     ``∂P_cl/∂s = ∂(F·ė + M_S ω_S + M_B ω_B)/∂s``. What is left out (the derivatives of R, of
@@ -451,6 +451,9 @@ def reduced_fast_jacobian(t, y, hist, sys, con, rw, f, JS):
     cl_j = sys.cl_j
     cl_p = sys.cl_p
     cl_hist = sys.cl_hist
+    s0 = np.empty(6)
+    F = np.empty(4)
+    dF = np.empty((4, 6))
     for k in range(cl_b.shape[0]):
         b = cl_b[k]
         j = cl_j[k]
@@ -460,22 +463,14 @@ def reduced_fast_jacobian(t, y, hist, sys, con, rw, f, JS):
             rw.cs, rw.sn)
         h = cl_hist[k]
         impact = hist[h] if h >= 0 else 0.0
-        s0 = np.array([ex, ey, evx, evy, wb, wj])
-        fx, fy, ms, mb, _ = clearance_force(ex, ey, evx, evy, wb, wj, impact, p)
-        c_k = p[P_C]
+        s0[0], s0[1], s0[2], s0[3], s0[4], s0[5] = ex, ey, evx, evy, wb, wj
+        force_law_derivatives(s0, impact, p, F, dF)
+        fx, fy, ms, mb = F[0], F[1], F[2], F[3]
         for i in range(6):
-            scale = c_k if i < 4 else 1.0
-            si = s0[i]
-            sp = si + 1.4901161193847656e-08 * max(abs(si), scale)
-            d = sp - si
-            s0[i] = sp
-            gx, gy, gs, gb, _ = clearance_force(s0[0], s0[1], s0[2], s0[3], s0[4], s0[5],
-                                                impact, p)
-            s0[i] = si
-            d0 = (gx - fx) / d
-            d1 = (gy - fy) / d
-            d2 = (gs - ms) / d
-            d3 = (gb - mb) / d
+            d0 = dF[0, i]
+            d1 = dF[1, i]
+            d2 = dF[2, i]
+            d3 = dF[3, i]
             for r in range(nz):  # ∂(Rᵀ Q)/∂s_i
                 D[r] = 0.0
             D[2 * k] += d0
