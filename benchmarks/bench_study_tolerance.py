@@ -8,7 +8,7 @@ scene's Radau at each ``rtol`` of the grid (atol = 1e-3 rtol, the study's ratio)
 rtol 1e-8, atol 1e-11 (the reference). For each quantity the figure is the largest
 |output − reference| over samples and angles, divided by the standard deviation of the
 reference outputs over the samples at that angle: the integration error as a fraction of the
-spread the inputs cause (the study file's and docs/performance.md's criterion, "0.3–0.5 %").
+spread the inputs cause (the criterion the study file states for its setting).
 Also: CPU seconds per evaluation (in this process, one worker) and the formulation that ran.
 
 Run (≈ 1–2 min warm)::
