@@ -1417,19 +1417,14 @@ def _advance_reduced(red, radau, t0, y0, hist, t_out, ctl, log_from, n_dense):
             stats[S_VIOL_POS] = max(stats[S_VIOL_POS], float(np.max(np.abs(phi), initial=0.0)))
             stats[S_VIOL_VEL] = max(stats[S_VIOL_VEL],
                                     float(np.max(np.abs(J @ Ya[k, n:2 * n] + phit), initial=0.0)))
-    nh = hist.shape[0]
     ya, yda = np.empty((1, ny)), np.empty((1, ny))
     fr = np.zeros((1, y.shape[0]))  # the final state's z'' is not needed: q, q' only
     expand_rows(np.array([t]), y.reshape(1, -1), fr, system, con, rw, ya, yda)
-    if log.shape[0]:
+    if log.shape[0]:  # rows (t, y, dy/dt, hist): the same rows in the absolute layout
         m = y.shape[0]
-        la = np.empty((log.shape[0], 1 + 2 * ny + nh))
-        la[:, 0] = log[:, 0]
-        Yl, YDl = la[:, 1:1 + ny], la[:, 1 + ny:1 + 2 * ny]
-        Yl_, YDl_ = np.empty_like(Yl), np.empty_like(YDl)
+        rows = log.shape[0]
+        Yl, YDl = np.empty((rows, ny)), np.empty((rows, ny))
         expand_rows(np.ascontiguousarray(log[:, 0]), np.ascontiguousarray(log[:, 1:1 + m]),
-                    np.ascontiguousarray(log[:, 1 + m:1 + 2 * m]), system, con, rw, Yl_, YDl_)
-        la[:, 1:1 + ny], la[:, 1 + ny:1 + 2 * ny] = Yl_, YDl_
-        la[:, 1 + 2 * ny:] = log[:, 1 + 2 * m:]
-        log = la
+                    np.ascontiguousarray(log[:, 1 + m:1 + 2 * m]), system, con, rw, Yl, YDl)
+        log = np.hstack([log[:, :1], Yl, YDl, log[:, 1 + 2 * m:]])
     return Ya, YDa, hist, stats, t, ya[0], log, H
