@@ -369,13 +369,10 @@ def _compile_job(name: str, scene) -> None:
         if name == "expand":  # the outputs' expansion after the kernel
             from .mechanics.reduced import expand_rows
 
-            rows = numba.typeof(np.zeros((2, ny)))
+            rows = numba.typeof(np.zeros((2, ny)))  # reduced rows in, absolute rows out
+            absolute = numba.typeof(np.zeros((2, 2 * compiled.q_guess.size + N_WORK)))
             expand_rows.compile((numba.typeof(np.zeros(2)), rows, rows, sys_t,
-                                 numba.typeof(red.con), ws,
-                                 numba.typeof(np.zeros((2, 2 * compiled.q_guess.size
-                                                        + N_WORK))),
-                                 numba.typeof(np.zeros((2, 2 * compiled.q_guess.size
-                                                        + N_WORK)))))
+                                 numba.typeof(red.con), ws, absolute, absolute))
             return
         if name == "clearance_jacobian":  # the reduced equations' own fast part
             from .mechanics.reduced import reduced_fast_jacobian

@@ -586,11 +586,6 @@ def _expand_into(t, y, zdd, sys, con, rw):
 
 
 @njit(cache=True)
-def _expand(t, y, zdd, sys, con, rw):
-    return _expand_into(t, y, zdd, sys, con, rw)
-
-
-@njit(cache=True)
 def expand_rows(T, Y, YD, sys, con, rw, Ya, YDa):
     """The absolute states and their derivatives of reduced ones, row by row (an
     integration's outputs or its log).
@@ -707,11 +702,16 @@ def expand(t, y, zdd, sys, con, rw):
     >>> round(float(q[22]), 6)
     -0.575769
     """
-    if not _expand(float(t), np.ascontiguousarray(y, dtype=float),
-                   np.ascontiguousarray(zdd, dtype=float), sys, con, rw):
+    nz = 2 * con.cl_nodes.shape[0]
+    n = sys.mass.shape[0]
+    Y, YD = np.zeros((1, 2 * nz + 2)), np.zeros((1, 2 * nz + 2))
+    Y[0, :2 * nz] = np.asarray(y, dtype=float)[:2 * nz]
+    YD[0, nz:2 * nz] = zdd
+    Ya, YDa = np.empty((1, 2 * n + 2)), np.empty((1, 2 * n + 2))
+    if expand_rows(np.array([float(t)]), Y, YD, sys, con, rw, Ya, YDa):
         raise ValueError(f"the mechanism cannot be placed at the reduced state {y!r} "
                          f"(t = {t:g} s)")
-    return rw.q.copy(), rw.v.copy(), rw.a.copy()
+    return Ya[0, :n].copy(), Ya[0, n:2 * n].copy(), YDa[0, n:2 * n].copy()
 
 
 def reduced_coordinates(sys, con, q, v, work=(0.0, 0.0)):
