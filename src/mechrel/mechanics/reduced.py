@@ -98,9 +98,8 @@ class ReducedWork(NamedTuple):
     q, v, a : ndarray, shape (n,)
         The bodies' coordinates, velocities and accelerations (SI).
     vc : ndarray, shape (2 nc + 1, n)
-        The bodies' velocities of the same columns.
-    R : ndarray, shape (n, 2 nc)
-        ∂q/∂z.
+        The bodies' velocities of the same columns: its first ``2 nc`` rows are ``Rᵀ``,
+        ``R = ∂q/∂z``, and its last one ``q̇₀``.
     E, Ed, Edd : ndarray, shape (nc, 2)
         The eccentricities (m), their rates (m/s) and accelerations (m/s²).
     Q : ndarray, shape (n,)
@@ -128,10 +127,10 @@ class ReducedWork(NamedTuple):
     Examples
     --------
     Made by :func:`make_reduced_work`, filled by :func:`reduced_rhs_into` (whose example
-    reads ``R``):
+    reads ``R`` from ``vc``):
 
-    >>> ReducedWork._fields[:3], ReducedWork._fields[8]
-    (('N', 'Nv', 'Na'), 'R')
+    >>> ReducedWork._fields[:3], ReducedWork._fields[7]
+    (('N', 'Nv', 'Na'), 'vc')
     """
 
     N: np.ndarray
@@ -142,7 +141,6 @@ class ReducedWork(NamedTuple):
     v: np.ndarray
     a: np.ndarray
     vc: np.ndarray
-    R: np.ndarray
     E: np.ndarray
     Ed: np.ndarray
     Edd: np.ndarray
@@ -187,8 +185,8 @@ def make_reduced_work(sys, con, q_ref):
     >>> c = compile_scene(load_scene("nine-bar-lubricated"))
     >>> q0, _ = assemble(c.assembly, c.q_guess, 0.0)
     >>> rw = make_reduced_work(c.dynamic, construction(c.dynamic), q0)
-    >>> rw.R.shape, rw.Mr.shape
-    ((24, 4), (4, 4))
+    >>> rw.vc.shape, rw.Mr.shape  # R transposed, then q̇₀; Rᵀ M R
+    ((5, 24), (4, 4))
     """
     n = q_ref.shape[0]
     nb = n // 3
@@ -203,7 +201,7 @@ def make_reduced_work(sys, con, q_ref):
         th_ref[i] = q_ref[3 * i + 2]
     return ReducedWork(N, np.zeros((nn, 2)), np.zeros((nn, 2)), np.zeros((nz + 1, nn, 2)),
                        np.empty(n), np.empty(n), np.empty(n), np.zeros((nz + 1, n)),
-                       np.empty((n, nz)), np.empty((nc, 2)), np.empty((nc, 2)),
+                       np.empty((nc, 2)), np.empty((nc, 2)),
                        np.zeros((nc, 2)), np.empty(n), np.empty(nb), np.empty(nb),
                        np.empty(nh), np.empty(nh), np.empty(nb), th_ref,
                        np.empty((nz, nz)), np.empty(nz), _branch_signs(q_ref, con),
@@ -228,15 +226,13 @@ def _kinematics_of(t, y, sys, con, rw):
         return False
     if not _velocities(con, rw.drv, rw.E, rw.N, rw.q, rw.Vc, rw.vc):
         return False
-    # R = ∂q/∂z (the unit-rate columns), q̇ = R ż + q̇₀ and the nodes' velocities likewise
-    R = rw.R
+    # q̇ = R ż + q̇₀ (vc holds Rᵀ, then q̇₀) and the nodes' velocities likewise
     vc = rw.vc
     Vc = rw.Vc
     n = rw.q.shape[0]
     for i in range(n):
         s = vc[nz, i]
         for c in range(nz):
-            R[i, c] = vc[c, i]
             s += vc[c, i] * y[nz + c]
         rw.v[i] = s
     for k in range(rw.Nv.shape[0]):
@@ -271,7 +267,8 @@ def reduced_rhs_into(t, y, hist, sys, con, rw, out):
         ``construction(sys)``.
     rw : ReducedWork
         Work arrays (:func:`make_reduced_work`); on return they hold this state's ``q``,
-        ``q̇`` (``rw.q``, ``rw.v``), ``q̈₀`` (``rw.a``), ``R``, ``Q − M q̈₀`` (``rw.Q``) and
+        ``q̇`` (``rw.q``, ``rw.v``), ``q̈₀`` (``rw.a``), ``Rᵀ`` (``rw.vc[:2 nc]``),
+        ``Q − M q̈₀`` (``rw.Q``) and
         the contact joints' gaps.
     out : ndarray, shape (4 nc + 2,)
         Receives ``(ż, z̈, P_in, P_cl)`` (m/s, m/s², W, W); NaN where the mechanism cannot be
@@ -300,10 +297,11 @@ def reduced_rhs_into(t, y, hist, sys, con, rw, out):
     >>> bool(np.all(out[:4] == 0.0) and np.abs(out[4:8]).max() > 1.0)
     True
 
-    ``rw.R`` now holds ∂q/∂z: the first joint's eccentricity moves its bearing body (rod 3,
-    body 2) and the rest of the chain, not the crank that carries its journal (body 0):
+    ``rw.vc[:4]`` now holds ``Rᵀ = (∂q/∂z)ᵀ``: the first joint's eccentricity moves its
+    bearing body (rod 3, body 2) and the rest of the chain, not the crank that carries its
+    journal (body 0):
 
-    >>> bool(np.all(rw.R[0:3] == 0.0)), bool(np.abs(rw.R[6:9, 0]).max() > 0.1)
+    >>> bool(np.all(rw.vc[:4, 0:3] == 0.0)), bool(np.abs(rw.vc[0, 6:9]).max() > 0.1)
     (True, True)
     """
     y, hist, sys, con, rw, out = borrowed((y, hist, sys, con, rw, out))  # mechanics/borrow.py
@@ -314,7 +312,7 @@ def reduced_rhs_into(t, y, hist, sys, con, rw, out):
         for i in range(out.shape[0]):
             out[i] = math.nan
         return False
-    R = rw.R
+    Rt = rw.vc  # Rᵀ in its first nz rows
     Q = rw.Q
     for i in range(n):
         Q[i] = 0.0
@@ -327,12 +325,12 @@ def reduced_rhs_into(t, y, hist, sys, con, rw, out):
     for r in range(nz):
         s = 0.0
         for i in range(n):
-            s += R[i, r] * Q[i]
+            s += Rt[r, i] * Q[i]
         b[r] = s
         for c in range(r + 1):
             s = 0.0
             for i in range(n):
-                s += R[i, r] * mass[i] * R[i, c]
+                s += Rt[r, i] * mass[i] * Rt[c, i]
             Mr[r, c] = s
     # Cholesky of the symmetric positive definite Rᵀ M R (lower triangle), then z̈
     for j in range(nz):
@@ -352,7 +350,7 @@ def reduced_rhs_into(t, y, hist, sys, con, rw, out):
     for i in range(n):
         s = 0.0
         for c in range(nz):
-            s += R[i, c] * b[c]
+            s += Rt[c, i] * b[c]
         pin += rw.v[i] * (mass[i] * s - Q[i])
     for i in range(nz):
         out[i] = y[nz + i]
@@ -436,7 +434,7 @@ def reduced_fast_jacobian(t, y, hist, sys, con, rw, f, JS):
             JS[i, c] = 0.0
     if not reduced_rhs_into(t, y, hist, sys, con, rw, f):
         return
-    R = rw.R
+    Rt = rw.vc  # Rᵀ in its first nz rows
     L = rw.Mr  # the Cholesky factor of Rᵀ M R that reduced_rhs_into left (lower triangle)
     mass = sys.mass
     v = rw.v
@@ -445,7 +443,7 @@ def reduced_fast_jacobian(t, y, hist, sys, con, rw, f, JS):
     for r in range(nz):  # Rᵀ M q̇
         s = 0.0
         for i in range(n):
-            s += R[i, r] * mass[i] * v[i]
+            s += Rt[r, i] * mass[i] * v[i]
         w[r] = s
     cl_b = sys.cl_b
     cl_j = sys.cl_j
@@ -477,10 +475,10 @@ def reduced_fast_jacobian(t, y, hist, sys, con, rw, f, JS):
             D[2 * k + 1] += d1
             if j >= 0:
                 for r in range(nz):
-                    D[r] += R[3 * j + 2, r] * d2
+                    D[r] += Rt[r, 3 * j + 2] * d2
             if b >= 0:
                 for r in range(nz):
-                    D[r] += R[3 * b + 2, r] * d3
+                    D[r] += Rt[r, 3 * b + 2] * d3
             pin = 0.0  # − q̇ᵀ ∂Q/∂s_i, with ∂Q on the journal's and the bearing's body
             if j >= 0:
                 pin -= v[3 * j] * d0 + v[3 * j + 1] * d1 + v[3 * j + 2] * (rjx * d1 - rjy * d0
@@ -511,7 +509,7 @@ def reduced_fast_jacobian(t, y, hist, sys, con, rw, f, JS):
                 body = b if i == 4 else j
                 if body >= 0:
                     for c in range(nz):
-                        wgt = R[3 * body + 2, c]
+                        wgt = Rt[c, 3 * body + 2]
                         col = nz + c
                         for r in range(nz):
                             JS[nz + r, col] += wgt * D[r]
