@@ -15,8 +15,8 @@ from mechrel.errors import AssemblyError
 from mechrel.mechanics import kinematics
 from mechrel.mechanics.constraints import constraints
 from mechrel.mechanics.drivers import driver_law
-from mechrel.mechanics.construction import (CIRCLE_LINE, CIRCLES, LOCATE, POSE_ANGLE, POSE_TWO,
-                                            _construct, construction)
+from mechrel.mechanics.construction import (ANGLE_FREE, CIRCLE_LINE, CIRCLES, LOCATE,
+                                            POSE_ANGLE, POSE_TWO, _construct, construction)
 from mechrel.mechanics.kinematics import _kinematics, assemble, kinematic_analysis
 from mechrel.mechanics.system import D_ANGLE0, D_SPEED, compile_scene
 from mechrel.scene import load_scene
@@ -57,9 +57,26 @@ def test_the_embedded_driven_scenes_are_built_of_class_two_groups():
     assert nine.par[4, :2].tolist() == pytest.approx([0.326, 0.497], abs=1e-12)
 
 
+def test_an_undriven_link_swings_at_a_free_angle():
+    # the double pendulum: no driver, so each link is posed at a free angle about its placed
+    # hinge (ground O, then A); free angle f's row of the passes' drv follows the drivers'
+    # (none here), its index in column 5
+    plan = construction(compile_scene(load_scene("double-pendulum")).ideal)
+    assert plan.op[:, 0].tolist() == [POSE_ANGLE, LOCATE, POSE_ANGLE]
+    assert plan.op[[0, 2], 3].tolist() == [ANGLE_FREE, ANGLE_FREE]
+    assert plan.op[[0, 2], 1].tolist() == [0, 1] and plan.op[[0, 2], 5].tolist() == [0, 1]
+    assert plan.n_free == 2 and plan.n_branches == 0
+    # the four-bar without its driver: the crank gets the one free angle, and the coupler and
+    # rocker close the loop by circles, as in the driven four-bar; the driven scenes, none
+    from test_reduced import undriven_four_bar
+    plan = construction(compile_scene(undriven_four_bar()).ideal)
+    assert plan.op[:, 0].tolist() == [POSE_ANGLE, LOCATE, CIRCLES, POSE_TWO, POSE_TWO]
+    assert plan.op[0, 3] == ANGLE_FREE and plan.n_free == 1
+    for name in DRIVEN:
+        assert construction(compile_scene(load_scene(name)).ideal).n_free == 0, name
+
+
 def test_mechanisms_not_built_that_way_are_left_to_newton():
-    # not driven (the double pendulum swings freely)
-    assert construction(compile_scene(load_scene("double-pendulum")).ideal) is None
     # the driver moved to the slider: the slider's angle held twice, the crank free
     scene = load_scene("slider-crank", overrides={"drivers.crank.body": "slider"})
     assert construction(compile_scene(scene).ideal) is None

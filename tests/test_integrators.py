@@ -87,7 +87,11 @@ def pendulum_reference(pendulum):
 
 @pytest.mark.parametrize("integrator,settings", [
     ("dopri5", {}),  # its defaults (1e-8, 1e-10): measured 1.8e-8
-    ("radau", {"rtol": 1e-8, "atol": 1e-11}),  # measured 7e-8 (defaults 1e-6: 2e-6)
+    # the double pendulum is undriven: radau's default formulation integrates its two links'
+    # angles (the construction's free angles); measured 2.0e-7 there and 7.8e-8 on the
+    # absolute equations (defaults 1e-6: 4.1e-6 and 2.1e-6)
+    ("radau", {"rtol": 1e-8, "atol": 1e-11}),
+    ("radau", {"rtol": 1e-8, "atol": 1e-11, "formulation": "absolute"}),
 ])
 def test_double_pendulum_conserves_energy(pendulum, integrator, settings):
     res = simulate(pendulum, integrator=integrator, **settings)
@@ -119,16 +123,19 @@ def test_dopri5_error_decreases_with_tolerance(pendulum, pendulum_reference):
     assert errs[2] <= 1e-7
 
 
-def test_radau_fixed_step_is_fifth_order(pendulum):
+@pytest.mark.parametrize("formulation", ["reduced", "absolute"])
+def test_radau_fixed_step_is_fifth_order(pendulum, formulation):
     """Radau IIA's classical order 2s − 1 = 5, with constant steps on the smooth, non-stiff
-    pendulum."""
+    pendulum, in its two free angles and in absolute coordinates."""
     scene = with_overrides(pendulum, {"analysis.sample_step": 0.04, "analysis.duration": 1.0})
     ref = simulate(scene, integrator="dopri5", rtol=1e-13, atol=1e-15)
     steps = [0.04, 0.02, 0.01, 0.005]
     errs = [np.max(np.abs(_tip(simulate(scene, integrator="radau", step=h, fixed_step=True,
-                                        rtol=1e-12, atol=1e-14)) - _tip(ref)))
+                                        rtol=1e-12, atol=1e-14, formulation=formulation))
+                          - _tip(ref)))
             for h in steps]
-    # measured 7.5e-5 … 1.9e-9 m, slope 5.09 (local slopes 5.3, 5.0, 5.0)
+    # measured absolute 7.5e-5 … 1.9e-9 m, slope 5.09 (local slopes 5.3, 5.0, 5.0);
+    # reduced 6.8e-5 … 1.3e-9 m, slope 5.20 (local 5.8, 4.9, 5.0)
     assert abs(_slope(steps, errs) - 5.0) <= 0.3
 
 
@@ -145,16 +152,16 @@ def test_radau_stiff_setting_converges_at_stage_order(pendulum):
     stiff = with_overrides(base, {"solver.baumgarte_alpha": 1e4})
     steps = [4e-3, 2e-3, 1e-3]
     pos, vel = [], []
-    for h in steps:
+    for h in steps:  # the absolute formulation: the reduced one has no Baumgarte terms
         res = simulate(stiff, integrator="radau", step=h, fixed_step=True, rtol=1e-12,
-                       atol=1e-14)
+                       atol=1e-14, formulation="absolute")
         pos.append(np.max(np.abs(_tip(res) - _tip(ref))))
         vel.append(np.max(np.abs(_tip(res, "velocity") - _tip(ref, "velocity"))))
     # measured: positions 1.5e-12 … 1e-14 m, velocities 8.9e-10 … 1.0e-11 m/s (slope 3.2)
     assert max(pos) <= 1e-10
     assert abs(_slope(steps, vel) - 3.0) <= 0.5
     # and the adaptive method takes far fewer steps than an explicit one on this problem
-    r_radau = simulate(stiff, integrator="radau", rtol=1e-8, atol=1e-11)
+    r_radau = simulate(stiff, integrator="radau", rtol=1e-8, atol=1e-11, formulation="absolute")
     r_dopri = simulate(stiff, integrator="dopri5", rtol=1e-8, atol=1e-11)
     assert np.max(np.abs(_tip(r_radau) - _tip(ref))) <= 1e-7
     assert r_radau.stats["n_steps"] * 10 <= r_dopri.stats["n_steps"]

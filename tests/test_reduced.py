@@ -1,11 +1,17 @@
-"""The equations of motion in the clearance joints' eccentricities (mechrel.mechanics.reduced):
-the placed configuration satisfies every constraint, ∂q/∂z spans the admissible motions, and
-the accelerations satisfy the constrained equations of motion and agree with the absolute
-formulation at every state tried."""
+"""The equations of motion in the clearance joints' eccentricities and the free angles
+(mechrel.mechanics.reduced): the placed configuration satisfies every constraint, ∂q/∂z spans
+the admissible motions, and the accelerations satisfy the constrained equations of motion and
+agree with the absolute formulation at every state tried. The scenes: the fully driven ones
+with clearance joints, and three undriven ones: the double pendulum (two free angles, no
+clearance joint), the same pendulum with its middle hinge a lubricated bearing (two free
+angles and one eccentricity), and the four-bar without its driver (one free angle, the crank's,
+then the closed loop of the coupler and rocker; two eccentricities)."""
 
 from __future__ import annotations
 
 import math
+import tomllib
+from importlib import resources
 
 import numpy as np
 import pytest
@@ -27,11 +33,34 @@ from mechrel.scene import load_scene
 from test_kinematics import _numpy_gamma
 
 EPS = np.finfo(float).eps
-SCENES = ("nine-bar-lubricated", "slider-crank-lubricated", "four-bar", "nine-bar-dry")
+SCENES = ("nine-bar-lubricated", "slider-crank-lubricated", "four-bar", "nine-bar-dry",
+          "double-pendulum", "pendulum-lubricated", "four-bar-undriven")
+# the double pendulum's middle hinge as a lubricated bearing (0.1 mm, 5 mm radius, 10 mm long,
+# 0.2 Pa s): undriven, so the construction gives both links free angles
+PENDULUM_LUBRICATED = {"joints.A.model": "lubricated", "joints.A.clearance": 1e-4,
+                       "joints.A.bearing_radius": 5e-3, "joints.A.length": 1e-2,
+                       "joints.A.lubricant.viscosity": 0.2}
+
+
+def undriven_four_bar():
+    """The embedded four-bar with its crank's driver taken out: a four-bar pendulum swinging
+    under gravity from the embedded configuration, over 0.5 s."""
+    raw = tomllib.loads((resources.files("mechrel.scene") / "data" / "four-bar.toml").read_text())
+    del raw["drivers"]
+    raw.update(name="four-bar-undriven", analysis={"duration": 0.5, "sample_step": 1e-3})
+    return load_scene(raw)
+
+
+def _scene(name):
+    if name == "pendulum-lubricated":
+        return load_scene("double-pendulum", overrides=PENDULUM_LUBRICATED)
+    if name == "four-bar-undriven":
+        return undriven_four_bar()
+    return load_scene(name)
 
 
 def _setup(name):
-    compiled = compile_scene(load_scene(name))
+    compiled = compile_scene(_scene(name))
     system = compiled.dynamic
     q0, _ = assemble(compiled.assembly, compiled.q_guess, 0.0)
     con = construction(system)
@@ -56,15 +85,17 @@ def test_every_clearance_scene_is_placed_by_its_eccentricities():
     assert shifted.shape[0] == 1  # the circle of the coupler–rocker group, moved by joint B
 
 
-def _state(system, rng_state, t, radius, angle, rates):
+def _state(con, system, t, radius, angle, rates, free, spin):
     """A reduced state: joint k's eccentricity radius[k] × clearance at angle[k], its rate
-    rates[k] × clearance × 50 /s (the nine-bar's journals move ~25 clearances per second)."""
+    rates[k] × clearance × 50 /s (the nine-bar's journals move ~25 clearances per second);
+    free angle f at free[f] (rad), turning at spin[f] (rad/s)."""
     nc = system.cl_b.shape[0]
+    nf = con.n_free
     c = system.cl_p[:, P_C]
     z = np.ravel(np.column_stack([radius[:nc] * c * np.cos(angle[:nc]),
                                   radius[:nc] * c * np.sin(angle[:nc])]))
     zd = np.asarray(rates[:2 * nc]) * np.repeat(c, 2) * 50.0
-    return np.concatenate([z, zd, np.zeros(2)])  # and the two work integrals
+    return np.concatenate([z, free[:nf], zd, spin[:nf], np.zeros(2)])  # and the work
 
 
 states = dict(
@@ -73,20 +104,23 @@ states = dict(
     radius=st.lists(st.floats(0.0, 0.95), min_size=2, max_size=2),
     angle=st.lists(st.floats(-math.pi, math.pi), min_size=2, max_size=2),
     rates=st.lists(st.floats(-3.0, 3.0), min_size=4, max_size=4),
+    free=st.lists(st.floats(-math.pi, math.pi), min_size=2, max_size=2),
+    spin=st.lists(st.floats(-20.0, 20.0), min_size=2, max_size=2),
 )
 
 
 @settings(max_examples=60, deadline=None)
 @given(**states)
 def test_reduced_states_satisfy_the_constrained_equations_of_motion(name, t, radius, angle,
-                                                                      rates):
+                                                                      rates, free, spin):
     # The definition of the constrained motion, checked with the dense constraints(), the
     # NumPy γ of the tests and applied_forces, none of which the reduced evaluation uses:
     # Φ(q) = 0 and Φ_q q̇ + Φ_t = 0 (the construction is exact: |Φ| at round-off of metre
     # coordinates, 64 eps), Φ_q ∂q/∂z = 0 (the columns are admissible motions), Φ_q q̈ = γ,
     # and M q̈ − Q = Φ_qᵀ λ for some λ (Lagrange's equations of the first kind). The last
     # holds when Rᵀ (M q̈ − Q) = 0 and the columns of R span the null space of Φ_q (Φ_q R = 0
-    # and [Φ_q; Rᵀ] of full rank, so R has the n − m = 2 nc columns the null space needs).
+    # and [Φ_q; Rᵀ] of full rank, so R has the n − m = 2 nc + nf columns the null space
+    # needs).
     # Rᵀ (M q̈ − Q) is formed here from expand()'s q̈ (its own acceleration pass with z̈) and
     # applied_forces() at expand()'s q and q̇: it vanishes up to the round-off of solving
     # Rᵀ M R z̈ = Rᵀ (Q − M q̈₀), amplified by cond(Rᵀ M R), relative to |R| (|Q| + |M q̈|):
@@ -94,7 +128,7 @@ def test_reduced_states_satisfy_the_constrained_equations_of_motion(name, t, rad
     # body q describes: with each orientation taken from the unit vector between two nodes
     # instead of the angle, a stiff film's force moved by 1e-10 N and this check failed.)
     system, con, rw, _ = _CASES[name]
-    y = _state(system, None, t, radius, angle, rates)
+    y = _state(con, system, t, radius, angle, rates, free, spin)
     nz = (y.size - 2) // 2
     out = np.empty(2 * nz + 2)
     hist = np.zeros(system.n_contacts)
@@ -122,7 +156,8 @@ def test_reduced_states_satisfy_the_constrained_equations_of_motion(name, t, rad
 
 @settings(max_examples=60, deadline=None)
 @given(**states)
-def test_reduced_accelerations_are_the_absolute_formulations(name, t, radius, angle, rates):
+def test_reduced_accelerations_are_the_absolute_formulations(name, t, radius, angle, rates,
+                                                             free, spin):
     # At a state that satisfies the constraints, the absolute formulation (Schur complement
     # of the Lagrange-multiplier equations, Baumgarte terms vanishing with Φ and Φ̇) must give
     # the same accelerations. How sensitive its own solve is to round-off is measured here,
@@ -130,9 +165,13 @@ def test_reduced_accelerations_are_the_absolute_formulations(name, t, radius, an
     # reaches 1e-8 m/s² on 1e3 m/s² accelerations. The two formulations must agree within
     # ten times that spread (measured: within twice). The same holds for the drivers' power,
     # −Σ λ_d θ̇_d there and q̇ᵀ (M q̈ − Q) here, and the clearance power is the same force
-    # laws' at the same state.
+    # laws' at the same state. The round-off of q̇ᵀ (M R z̈ − (Q − M q̈₀)) is bounded by
+    # 64 eps Σ |q̇_i| (|M q̈|_i + |M q̈₀|_i + |Q|_i); an undriven mechanism has no drivers'
+    # power at all (0 there), so its q̇ᵀ (M q̈ − Q) is that round-off alone, which the film's
+    # |Q| sets where the accelerations are small (1.7e-19 W measured, against a bound of
+    # 7e-17 W, on the lubricated pendulum with its journal moving at 5 mm/s).
     system, con, rw, _ = _CASES[name]
-    y = _state(system, None, t, radius, angle, rates)
+    y = _state(con, system, t, radius, angle, rates, free, spin)
     nz = (y.size - 2) // 2
     out = np.empty(2 * nz + 2)
     hist = np.zeros(system.n_contacts)
@@ -149,8 +188,10 @@ def test_reduced_accelerations_are_the_absolute_formulations(name, t, radius, an
         spread = max(spread, np.abs(other - absolute).max())
         spread_in = max(spread_in, abs(other_in - p_in))
     assert np.abs(a - absolute).max() <= 10 * spread + 64 * EPS * np.abs(absolute).max()
+    Q = np.zeros(q.size)
+    applied_forces(t, q, v, hist, system, Q)
     assert abs(out[2 * nz] - p_in) <= 10 * spread_in + 64 * EPS * (
-        np.abs(v) @ (np.abs(system.mass * a) + np.abs(system.mass * rw.a)))
+        np.abs(v) @ (np.abs(system.mass * a) + np.abs(system.mass * rw.a) + np.abs(Q)))
     assert out[2 * nz + 1] == pytest.approx(p_cl, rel=64 * EPS, abs=1e-300)
 
 
@@ -183,13 +224,14 @@ def test_the_centred_joints_are_the_ideal_mechanism():
 
 @settings(max_examples=30, deadline=None)
 @given(**states)
-def test_gaps_and_expanded_rows_are_the_absolute_states(name, t, radius, angle, rates):
+def test_gaps_and_expanded_rows_are_the_absolute_states(name, t, radius, angle, rates, free,
+                                                        spin):
     # The gaps read from z are those of the placed bodies (joints.gaps_into on expand()'s
     # state: the same gap_of of the same e, computed from the bodies' points, to the
     # round-off of metre coordinates), and expand_rows() is expand() row by row, with the
     # derivative row (q̇, q̈, P_in, P_cl) of the reduced evaluation.
     system, con, rw, _ = _CASES[name]
-    y = _state(system, None, t, radius, angle, rates)
+    y = _state(con, system, t, radius, angle, rates, free, spin)
     y[-2:] = 3.0, -1.0  # work integrals pass through
     nz = (y.size - 2) // 2
     out = np.empty(2 * nz + 2)

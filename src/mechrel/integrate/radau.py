@@ -1321,9 +1321,10 @@ def reduced_system(system, y0, *, required=False):
     ``y0``, or None where the reduced equations do not apply.
 
     They apply when the construction (:func:`~mechrel.mechanics.construction.construction`)
-    places every body from the drivers and the clearance joints' eccentricities, i.e. when
-    every ideal degree of freedom is driven and the mechanism is built of the groups it knows;
-    and when the mechanism has clearance joints (otherwise there is nothing to integrate).
+    places every body from the drivers, the clearance joints' eccentricities and the free
+    angles of the undriven degrees of freedom, i.e. when the mechanism is built of the groups
+    it knows; and when it has clearance joints or an undriven degree of freedom (otherwise
+    there is nothing to integrate).
 
     Parameters
     ----------
@@ -1355,10 +1356,17 @@ def reduced_system(system, y0, *, required=False):
     >>> y0 = np.concatenate([q, v, np.zeros(2)])
     >>> reduced_system(c.dynamic, y0).con.cl_nodes.shape
     (2, 2)
+
+    The double pendulum is integrated in its two links' angles; the ideal nine-bar, fully
+    driven, has nothing to integrate:
+
     >>> d = compile_scene(load_scene("double-pendulum"))
-    >>> reduced_system(d.dynamic, np.zeros(14)) is None
+    >>> reduced_system(d.dynamic, np.zeros(14)).con.n_free
+    2
+    >>> i = compile_scene(load_scene("nine-bar"))
+    >>> reduced_system(i.dynamic, None) is None
     True
-    >>> reduced_system(d.dynamic, np.zeros(14), required=True)  # doctest: +ELLIPSIS
+    >>> reduced_system(i.dynamic, None, required=True)  # doctest: +ELLIPSIS
     Traceback (most recent call last):
     ...
     mechrel.errors.SimulationError: solver.formulation = 'reduced': the mechanism has no ...
@@ -1368,24 +1376,24 @@ def reduced_system(system, y0, *, required=False):
     from ..mechanics.reduced import ReducedSystem
 
     why = None
-    con = None
-    if system.cl_b.shape[0] == 0:
-        why = "the mechanism has no clearance joint whose eccentricities it could integrate"
-    else:
-        con = construction(system)
-        if con is None:
-            why = ("the mechanism cannot be placed in closed form from its drivers and the "
-                   "clearance joints' eccentricities (an undriven degree of freedom, or a "
-                   "group the construction does not know)")
+    con = construction(system)
+    if con is None:
+        why = ("the mechanism cannot be placed in closed form from its drivers, the clearance "
+               "joints' eccentricities and the angles of its undriven links (a group the "
+               "construction does not know, such as a class-III group, a slider guided by a "
+               "moving body or an undriven slider)")
+    elif system.cl_b.shape[0] == 0 and con.n_free == 0:
+        why = ("the mechanism has no clearance joint and no undriven degree of freedom: "
+               "nothing to integrate")
     if why is None:
         n = system.mass.shape[0] if y0 is not None else 0
         q_ref = np.zeros(0) if y0 is None else np.asarray(y0[:n], dtype=float)
         return ReducedSystem(system, con, np.ascontiguousarray(q_ref).copy())
     if required:
         raise SimulationError(
-            f"solver.formulation = 'reduced': {why}; allowed for mechanisms whose ideal "
-            "degrees of freedom are all driven and that have clearance joints (use 'auto' or "
-            "'absolute')")
+            f"solver.formulation = 'reduced': {why}; allowed for mechanisms the construction "
+            "places and that have clearance joints or undriven degrees of freedom (use 'auto' "
+            "or 'absolute')")
     return None
 
 

@@ -17,6 +17,9 @@ group, a slider guided by a moving body, a prescribed offset in a revolute joint
 
 ``POSE_ANGLE``
     a body whose angle is known (a driver, a fixed angle) and one of whose nodes is placed;
+    or, where no other step can go on, an undriven body one of whose nodes is placed, whose
+    angle then becomes a **free angle**: a coordinate of the mechanism's own (a pendulum's
+    swing, the crank of a machine turned by a torque rather than a prescribed motion);
 ``POSE_TWO``
     a body two of whose nodes are placed (the angle from the line through them);
 ``LOCATE``
@@ -30,7 +33,10 @@ group, a slider guided by a moving body, a prescribed offset in a revolute joint
     ``N = P₀ + (w·u ± √(d₁² − (u × w)²)) u`` with ``w = N₁ − P₀``.
 
 Each step that builds a node is followed by placing the bodies it used, so every constraint
-equation is used exactly once. The sign of each square root (the assembly branch) is the one
+equation is used exactly once. A free angle is taken only when the construction is stuck, one
+body at a time, and the plan is refused if a body later receives more placed nodes than its
+freedom allows; the free angles are then as many as the mechanism's undriven degrees of
+freedom (a kinematic analysis has none: it needs a fully driven mechanism). The sign of each square root (the assembly branch) is the one
 of the first guess. Velocities and accelerations follow the steps in the same order: a node
 where two circles meet has ``(N − N_i)·(Ṅ − Ṅ_i) = 0`` for i = 1, 2, and
 ``(N − N_i)·(N̈ − N̈_i) + |Ṅ − Ṅ_i|² = 0``; a body through two nodes turns at
@@ -62,7 +68,7 @@ __all__ = ["Construction", "construction"]
 # Step codes (column 0 of Construction.op).
 POSE_ANGLE, POSE_TWO, LOCATE, CIRCLES, CIRCLE_LINE, OFFSET = range(6)
 # Where a POSE_ANGLE step's angle comes from (its op[:, 3]).
-ANGLE_DRIVER, ANGLE_CONSTANT = 0, 1
+ANGLE_DRIVER, ANGLE_CONSTANT, ANGLE_FREE = 0, 1, 2
 
 
 class Construction(NamedTuple):
@@ -73,8 +79,10 @@ class Construction(NamedTuple):
     op : ndarray of int, shape (n_steps, 9)
         One row per step, ``(code, a, b, c, d, j1, s1, j2, s2)``:
 
-        - ``POSE_ANGLE``: body, node, angle source (``ANGLE_DRIVER`` or ``ANGLE_CONSTANT``),
-          driver index;
+        - ``POSE_ANGLE``: body, node, angle source (``ANGLE_DRIVER``, ``ANGLE_CONSTANT`` or
+          ``ANGLE_FREE``), the row of the angle in the passes' ``drv`` array (the drivers
+          first, then the free angles), and for ``ANGLE_FREE`` the free angle's index (in
+          column 5);
         - ``POSE_TWO``: body, node 1, node 2;
         - ``LOCATE``: node, body;
         - ``OFFSET``: node, node 1, clearance joint, sign: the node is node 1 plus sign × the
@@ -102,6 +110,9 @@ class Construction(NamedTuple):
         joints as force elements, ``compiled.dynamic``; empty for an ideal one).
     n_branches : int
         The number of square roots (``CIRCLES`` and ``CIRCLE_LINE`` steps).
+    n_free : int
+        The number of free angles (``POSE_ANGLE`` steps with ``ANGLE_FREE``): the mechanism's
+        undriven degrees of freedom; zero for a fully driven one.
 
     Examples
     --------
@@ -121,6 +132,7 @@ class Construction(NamedTuple):
     node_s: np.ndarray  # (n_nodes, 2) float64
     cl_nodes: np.ndarray  # (nc, 2) int64: each clearance joint's bearing and journal node
     n_branches: int
+    n_free: int
 
 
 class _Refuse(Exception):
@@ -197,6 +209,7 @@ def _plan(nb, rev_i, rev_j, rev_si, rev_sj, tr_i, tr_si, tr_p0, tr_n, tr_angle, 
     op: list[tuple] = []
     par: list[tuple] = []
     n_branches = 0
+    free: list[int] = []  # the bodies whose angles are free coordinates, in their order
 
     def locate_rest(b, used):
         for n, s in on_body[b].items():
@@ -220,6 +233,14 @@ def _plan(nb, rev_i, rev_j, rev_si, rev_sj, tr_i, tr_si, tr_p0, tr_n, tr_angle, 
         s = on_body[b][n]
         op.append((POSE_ANGLE, b, n, src, d, -1, 0, -1, 0))
         par.append((s[0], s[1], th, 0.0, 0.0))
+        posed.add(b)
+        locate_rest(b, (n,))
+
+    def pose_free(b, n):
+        s = on_body[b][n]
+        op.append((POSE_ANGLE, b, n, ANGLE_FREE, len(dr_i) + len(free), len(free), 0, -1, 0))
+        par.append((s[0], s[1], 0.0, 0.0, 0.0))
+        free.append(b)
         posed.add(b)
         locate_rest(b, (n,))
 
@@ -299,13 +320,20 @@ def _plan(nb, rev_i, rev_j, rev_si, rev_sj, tr_i, tr_si, tr_p0, tr_n, tr_angle, 
             if slider >= 0:
                 pose_angle(slider, n)
             progress = True
+        if not progress:  # stuck: the first undriven body pinned at one placed node swings
+            for b in range(nb):  # freely (a free angle: module docstring)
+                here = [n for n in on_body[b] if n in placed]
+                if b not in posed and b not in angle and len(here) == 1:
+                    pose_free(b, here[0])
+                    progress = True
+                    break
         if not progress:
             raise _Refuse
     if len(placed) < n_nodes or len(used_offsets) < len(ends):
         raise _Refuse  # a node left over, or a clearance joint whose offset is not free
     return Construction(np.array(op, dtype=np.int64).reshape(-1, 9),
                         np.array(par, dtype=float).reshape(-1, 5), node_body, node_s,
-                        np.array(ends, dtype=np.int64).reshape(-1, 2), n_branches)
+                        np.array(ends, dtype=np.int64).reshape(-1, 2), n_branches, len(free))
 
 
 _PLANS: dict[tuple, Construction | None] = {}
@@ -348,8 +376,13 @@ def construction(system) -> Construction | None:
     >>> plan = construction(compile_scene(load_scene("slider-crank-lubricated")).dynamic)
     >>> [names[c] for c in plan.op[:, 0]]
     ['POSE_ANGLE', 'LOCATE', 'CIRCLE_LINE', 'OFFSET', 'POSE_TWO', 'POSE_ANGLE']
-    >>> construction(compile_scene(load_scene("double-pendulum")).ideal) is None  # not driven
-    True
+
+    The double pendulum is not driven: each link swings about the node already placed, so
+    each gets a free angle (rows 0 and 1 of the passes' ``drv``, there being no driver):
+
+    >>> plan = construction(compile_scene(load_scene("double-pendulum")).ideal)
+    >>> [names[c] for c in plan.op[:, 0]], plan.n_free, plan.op[[0, 2], 3:6].tolist()
+    (['POSE_ANGLE', 'LOCATE', 'POSE_ANGLE'], 2, [[2, 0, 0], [2, 1, 1]])
     """
     s = system
     if np.any(s.rev_off != 0.0) or np.any(s.rev_offdot != 0.0):
@@ -442,8 +475,9 @@ def _ground_nodes(con, N):
 def _place(con, sign, sys, t, e, N, q, cs, sn, drv, th_prev):
     """Positions: every step's node or body at time ``t``, the clearance joints at the
     eccentricities ``e`` (nc × 2, m), with each body's cos θ and sin θ into ``cs``, ``sn``
-    and each driver's ``(θ, θ̇, θ̈)`` into ``drv`` (for :func:`_velocities` and
-    :func:`_accelerations`).
+    and each driver's ``(θ, θ̇, θ̈)`` into the first rows of ``drv`` (for :func:`_velocities`
+    and :func:`_accelerations`). The free angles' rows of ``drv``, after the drivers', are
+    read: the caller writes each free angle's value, rate and acceleration there.
 
     Each body angle found from two nodes continues its previous value ``th_prev`` (updated).
     Returns False where a square root has no real value (the group cannot be assembled). Each
@@ -453,7 +487,7 @@ def _place(con, sign, sys, t, e, N, q, cs, sn, drv, th_prev):
     op = con.op
     par = con.par
     twopi = 2.0 * math.pi
-    for d in range(drv.shape[0]):
+    for d in range(sys.dr_law.shape[0]):  # the free angles' rows are the caller's
         th, w, al = driver_law(sys.dr_law[d], sys.dr_par[d], t)
         drv[d, 0] = th
         drv[d, 1] = w
@@ -470,10 +504,10 @@ def _place(con, sign, sys, t, e, N, q, cs, sn, drv, th_prev):
                 th = math.atan2(dy, dx) - par[o, 2]
                 th += twopi * round((th_prev[b] - th) / twopi)  # the branch of the angle
                 th_prev[b] = th                                # nearest the last one
-            elif op[o, 3] == ANGLE_DRIVER:
-                th = drv[op[o, 4], 0]
-            else:
+            elif op[o, 3] == ANGLE_CONSTANT:
                 th = par[o, 2]
+            else:  # a driver's or a free angle
+                th = drv[op[o, 4], 0]
             # the orientation from the angle itself, as every consumer of q computes it
             # (body_trig): the force laws then see the same body as q describes, to the bit
             c = math.cos(th)
@@ -532,10 +566,11 @@ def _velocities(con, drv, e, N, q, X, x):
 
     Column ``c`` of ``X`` (``m × nn × 2``: every node's velocity) and ``x`` (``m × n``: every
     body's) is, for ``c < 2 nc``, the motion at a unit rate of eccentricity component ``c``
-    (clearance joint ``c // 2``, axis ``c % 2``) with the drivers at rest: a column of
-    ``∂q/∂z``; the last column (``c = m − 1 = 2 nc``) is the drivers' motion at their rates
-    (``drv``) with the eccentricities fixed, ``q̇₀``. The velocity for eccentricity rates
-    ``ż`` is then ``x[2 nc] + Σ_c ż_c x[c]`` (the pass is linear in the rates). Each step's
+    (clearance joint ``c // 2``, axis ``c % 2``) with the drivers at rest; for
+    ``2 nc ≤ c < m − 1``, at a unit rate of free angle ``c − 2 nc``: a column of ``∂q/∂z``;
+    the last column (``c = m − 1``) is the drivers' motion at their rates (``drv``) with the
+    eccentricities and free angles fixed, ``q̇₀``. The velocity for rates ``ż`` is then
+    ``x[m − 1] + Σ_c ż_c x[c]`` (the pass is linear in the rates). Each step's
     position equation differentiated once: for a node where two circles around ``C_j`` meet,
     ``(N − C_j)·Ṅ = (N − C_j)·Ċ_j``; a body through two nodes turns at ``(d × ḋ)/|d|²``; a
     point ``p = A s`` of a body moves at ``ṙ + ω × p``. The geometry of each step is computed
@@ -562,6 +597,8 @@ def _velocities(con, drv, e, N, q, X, x):
                     wa = (dx * (X[c, k2, 1] - X[c, k, 1]) - dy * (X[c, k2, 0] - X[c, k, 0])) / d2
                 elif op[o, 3] == ANGLE_DRIVER and c == dr:
                     wa = drv[op[o, 4], 1]
+                elif op[o, 3] == ANGLE_FREE and c == 2 * e.shape[0] + op[o, 5]:
+                    wa = 1.0  # the free angle's own column
                 else:
                     wa = 0.0
                 x[c, 3 * b] = X[c, k, 0] + wa * py
@@ -637,13 +674,15 @@ def _accelerations(con, drv, e, edot, dE, N, q, Nv, v, X, x):
     """The acceleration pass at the placed positions (``N``, ``q``) and velocities (``Nv``,
     ``v``, from :func:`_velocities`): every node's acceleration into ``X`` and every body's
     into ``x``, the clearance joints' eccentricities ``e`` (m) moving at ``edot`` (m/s) and
-    accelerating at ``dE`` (m/s²), the drivers at their laws' accelerations (``drv``).
+    accelerating at ``dE`` (m/s²), the drivers and the free angles at the accelerations in
+    ``drv``.
 
     The position equations differentiated twice: the velocity pass's equations with
     velocity-quadratic terms added. For a node where two circles around the centres ``C_j``
     meet, ``(N − C_j)·N̈ = (N − C_j)·C̈_j − |Ṅ − Ċ_j|²``; a body through two nodes accelerates
     at ``(d × d̈)/|d|²``; a point ``p = A s`` of a body at ``r̈ + α × p − ω² p``. With
-    ``dE = 0`` the result is ``q̈₀``, the acceleration of the drivers and the velocities alone.
+    ``dE = 0`` and the free angles' accelerations zero the result is ``q̈₀``, the acceleration
+    of the drivers and the velocities alone.
     Returns False at a toggle (two tangent circles, a rod square to its slider's line)."""
     op = con.op
     par = con.par
@@ -658,10 +697,10 @@ def _accelerations(con, drv, e, edot, dE, N, q, Nv, v, X, x):
                 dy = N[k2, 1] - N[k, 1]
                 wa = (dx * (X[k2, 1] - X[k, 1]) - dy * (X[k2, 0] - X[k, 0])) / (
                     dx * dx + dy * dy)
-            elif op[o, 3] == ANGLE_DRIVER:
-                wa = drv[op[o, 4], 2]
-            else:
+            elif op[o, 3] == ANGLE_CONSTANT:
                 wa = 0.0
+            else:  # a driver's or a free angle's acceleration
+                wa = drv[op[o, 4], 2]
             w2 = v[3 * b + 2] * v[3 * b + 2]
             px = N[k, 0] - q[3 * b]  # A s: from the body's centre to the node
             py = N[k, 1] - q[3 * b + 1]

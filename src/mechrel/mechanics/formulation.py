@@ -15,7 +15,8 @@ compiled version contains only its own code. For a
 
 For a :class:`~mechrel.mechanics.reduced.ReducedSystem` (the reduced formulation):
 
-* state ``(z, ż, W_in, W_cl)``, ``4 nc + 2`` entries; work arrays
+* state ``(z, ż, W_in, W_cl)``, ``2 nz + 2`` entries (``nz = 2 nc + nf``: the
+  eccentricities and the free angles); work arrays
   :func:`~mechrel.mechanics.reduced.make_reduced_work`;
 * right-hand side :func:`~mechrel.mechanics.reduced.reduced_rhs_into`, contact gaps
   :func:`~mechrel.mechanics.reduced.reduced_gaps_into`;
@@ -68,7 +69,8 @@ def _reduced(sys) -> bool:
 
 
 def n_coordinates(sys):
-    """The number of coordinates of the state: ``n`` absolute, ``2 nc`` reduced.
+    """The number of coordinates of the state: ``n`` absolute, ``2 nc + nf`` reduced (the
+    eccentricities and the free angles).
 
     Parameters
     ----------
@@ -357,7 +359,7 @@ def fast_jacobian(t, y, hist, sys, ws, f, JS):
 @overload(n_coordinates, inline='always')
 def _n_coordinates(sys):
     if _reduced(sys):
-        return lambda sys: 2 * sys.con.cl_nodes.shape[0]
+        return lambda sys: 2 * sys.con.cl_nodes.shape[0] + sys.con.n_free
     return lambda sys: sys.mass.shape[0]
 
 

@@ -1,18 +1,20 @@
-"""The equations of motion in the clearance joints' eccentricities.
+"""The equations of motion in the clearance joints' eccentricities (and the free angles).
 
 When a mechanism's ideal degrees of freedom are all driven, the motion that clearance adds has
 exactly two degrees of freedom per clearance joint: its eccentricity ``e = r_S − r_B`` (journal
-point minus bearing point, m). With the bodies placed in closed form for any ``e``
-(:mod:`~mechrel.mechanics.construction`, whose steps treat each clearance joint as two nodes
-``e`` apart), the positions ``q(z, t)`` of all bodies are a function of the reduced coordinates
-``z = (e_1, …, e_nc)`` and time, and
+point minus bearing point, m). A degree of freedom that no driver sets (a pendulum's swing, a
+crank turned by a torque) adds its angle, the construction's *free angle* ``φ``. With the bodies
+placed in closed form for any ``e`` and ``φ`` (:mod:`~mechrel.mechanics.construction`, whose
+steps treat each clearance joint as two nodes ``e`` apart and pose an undriven body at its free
+angle), the positions ``q(z, t)`` of all bodies are a function of the reduced coordinates
+``z = (e_1, …, e_nc, φ_1, …, φ_nf)`` (``nz = 2 nc + nf`` of them) and time, and
 
-    q̇ = R ż + q̇₀,     q̈ = R z̈ + q̈₀,     R = ∂q/∂z (n × 2 nc),
+    q̇ = R ż + q̇₀,     q̈ = R z̈ + q̈₀,     R = ∂q/∂z (n × nz),
 
 where ``q̇₀`` is the velocity with ``ż = 0`` (the drivers alone) and ``q̈₀`` the acceleration
 with ``z̈ = 0`` (the drivers' accelerations and every velocity-quadratic term). Each column of
-``R`` is the construction's velocity pass with a unit rate of one eccentricity component and
-the drivers at rest; ``q̈₀`` is its acceleration pass with ``ë = 0``. Projecting
+``R`` is the construction's velocity pass with a unit rate of one component of ``z`` and
+the drivers at rest; ``q̈₀`` is its acceleration pass with ``z̈ = 0``. Projecting
 ``M q̈ = Q + Φ_qᵀ λ`` onto the admissible motions (the columns of ``R``, which satisfy
 ``Φ_q R = 0``) removes the multipliers (the principle of virtual work; Nikravesh 1988, §6.5,
 "embedding"; Haug 1989, ch. 6):
@@ -22,10 +24,11 @@ the drivers at rest; ``q̈₀`` is its acceleration pass with ``ë = 0``. Projec
 ``Q`` is the same gravity and clearance-joint forces as in the absolute formulation
 (:func:`~mechrel.mechanics.applied.applied_forces_trig`), evaluated at the placed ``q`` and
 ``q̇``. The constraints hold exactly (to round-off) at every evaluation, with no Baumgarte
-terms, and the state has ``4 nc`` entries (8 for the nine-bar) instead of ``2 n + 2`` (50).
+terms, and the state has ``2 nz + 2`` entries (10 for the nine-bar) instead of ``2 n + 2``
+(50).
 
-State ``y = (z, ż, W_in, W_cl)``: the eccentricities (m) and their rates (m/s), clearance joint
-by joint, and the drivers' and clearance joints' work (J), as the absolute state ends with
+State ``y = (z, ż, W_in, W_cl)``: the eccentricities (m), clearance joint by joint, then the
+free angles (rad), their rates (m/s, rad/s), and the drivers' and clearance joints' work (J), as the absolute state ends with
 them. The clearance power ``P_cl`` is the force laws' (the same as the absolute formulation's);
 the drivers' power is that of the constraint forces, ``P_in = q̇ᵀ (M q̈ − Q)``: ideal joints
 do no work, so the drivers' reactions are all of it (the absolute formulation computes the same
@@ -47,7 +50,8 @@ from numba import njit
 
 from .applied import applied_forces_trig
 from .borrow import borrowed
-from .construction import _accelerations, _branch_signs, _ground_nodes, _place, _velocities
+from .construction import (ANGLE_FREE, POSE_ANGLE, _accelerations, _branch_signs,
+                           _ground_nodes, _place, _velocities)
 from .construction import construction  # noqa: F401  (the docstring examples use it)
 from ..forces.params import P_C
 from .jacobian import force_law_derivatives
@@ -91,14 +95,14 @@ class ReducedWork(NamedTuple):
     ----------
     N, Nv, Na : ndarray, shape (n_nodes, 2)
         The nodes' positions (m), velocities (m/s) and accelerations (m/s²).
-    Vc : ndarray, shape (2 nc + 1, n_nodes, 2)
+    Vc : ndarray, shape (nz + 1, n_nodes, 2)
         The velocity pass's columns (:func:`~mechrel.mechanics.construction._velocities`):
-        the nodes' velocities for a unit rate of each eccentricity component, then the
-        drivers' motion.
+        the nodes' velocities for a unit rate of each eccentricity component and free angle,
+        then the drivers' motion.
     q, v, a : ndarray, shape (n,)
         The bodies' coordinates, velocities and accelerations (SI).
-    vc : ndarray, shape (2 nc + 1, n)
-        The bodies' velocities of the same columns: its first ``2 nc`` rows are ``Rᵀ``,
+    vc : ndarray, shape (nz + 1, n)
+        The bodies' velocities of the same columns: its first ``nz`` rows are ``Rᵀ``,
         ``R = ∂q/∂z``, and its last one ``q̇₀``.
     E, Ed, Edd : ndarray, shape (nc, 2)
         The eccentricities (m), their rates (m/s) and accelerations (m/s²).
@@ -111,17 +115,18 @@ class ReducedWork(NamedTuple):
     th, th_ref : ndarray, shape (nb,)
         Body angles found from two nodes continue ``th_ref`` (rad), the reference
         configuration's; ``th`` is the copy an evaluation updates.
-    Mr : ndarray, shape (2 nc, 2 nc)
-        Rᵀ M R (kg), factorised in place.
-    b : ndarray, shape (2 nc,)
+    Mr : ndarray, shape (nz, nz)
+        Rᵀ M R (kg, kg m, kg m²), factorised in place.
+    b : ndarray, shape (nz,)
         Rᵀ (Q − M q̈₀) (N), solved in place for z̈.
     sign : ndarray, shape (n_branches,)
         The assembly branch of each square root of the construction.
-    drv : ndarray, shape (nd, 3)
-        Each driver's θ (rad), θ̇ (rad/s), θ̈ (rad/s²) at the evaluation's time.
-    D : ndarray, shape (2 nc,)
+    drv : ndarray, shape (nd + nf, 3)
+        Each driver's θ (rad), θ̇ (rad/s), θ̈ (rad/s²) at the evaluation's time, then each
+        free angle's (from the state; its θ̈ zero but in an expansion).
+    D : ndarray, shape (nz,)
         Scratch of :func:`reduced_fast_jacobian`: one column of ∂z̈/∂s (m/s² per unit of s).
-    w : ndarray, shape (2 nc,)
+    w : ndarray, shape (nz,)
         Scratch of :func:`reduced_fast_jacobian`: ``Rᵀ M q̇`` (kg m/s).
 
     Examples
@@ -192,7 +197,7 @@ def make_reduced_work(sys, con, q_ref):
     nb = n // 3
     nn = con.node_body.shape[0]
     nc = con.cl_nodes.shape[0]
-    nz = 2 * nc
+    nz = 2 * nc + con.n_free
     nh = n_contacts(sys)
     N = np.zeros((nn, 2))
     _ground_nodes(con, N)
@@ -205,21 +210,27 @@ def make_reduced_work(sys, con, q_ref):
                        np.zeros((nc, 2)), np.empty(n), np.empty(nb), np.empty(nb),
                        np.empty(nh), np.empty(nh), np.empty(nb), th_ref,
                        np.empty((nz, nz)), np.empty(nz), _branch_signs(q_ref, con),
-                       np.empty((sys.dr_i.shape[0], 3)), np.empty(nz), np.empty(nz))
+                       np.zeros((sys.dr_i.shape[0] + con.n_free, 3)), np.empty(nz),
+                       np.empty(nz))
 
 
 @njit(cache=True, inline='always')
 def _kinematics_of(t, y, sys, con, rw):
     """Positions, velocities and accelerations of the reduced state ``y`` into ``rw``, the
-    eccentricities accelerating at ``rw.Edd`` (zero: ``q̈₀``); False where the construction
-    has no real solution or a toggle."""
+    eccentricities and the free angles accelerating at ``rw.Edd`` and the free angles' rows
+    of ``rw.drv`` (zero: ``q̈₀``); False where the construction has no real solution or a
+    toggle."""
     nc = rw.E.shape[0]
-    nz = 2 * nc
+    nz = rw.b.shape[0]
     for c in range(nc):
         rw.E[c, 0] = y[2 * c]
         rw.E[c, 1] = y[2 * c + 1]
         rw.Ed[c, 0] = y[nz + 2 * c]
         rw.Ed[c, 1] = y[nz + 2 * c + 1]
+    nd = rw.drv.shape[0] - (nz - 2 * nc)  # the free angles' rows follow the drivers'
+    for f in range(nz - 2 * nc):
+        rw.drv[nd + f, 0] = y[2 * nc + f]
+        rw.drv[nd + f, 1] = y[nz + 2 * nc + f]
     for i in range(rw.th.shape[0]):
         rw.th[i] = rw.th_ref[i]
     if not _place(con, rw.sign, sys, t, rw.E, rw.N, rw.q, rw.cs, rw.sn, rw.drv, rw.th):
@@ -256,9 +267,9 @@ def reduced_rhs_into(t, y, hist, sys, con, rw, out):
     ----------
     t : float
         Time (s).
-    y : ndarray, shape (4 nc + 2,)
-        Eccentricities (m), their rates (m/s), clearance joint by joint, and the two work
-        integrals (J).
+    y : ndarray, shape (2 nz + 2,)
+        Eccentricities (m), clearance joint by joint, and free angles (rad), their rates
+        (m/s, rad/s), and the two work integrals (J).
     hist : ndarray, shape (nh,)
         History of the contact-capable joints (impact speed, m/s).
     sys : System
@@ -270,8 +281,8 @@ def reduced_rhs_into(t, y, hist, sys, con, rw, out):
         ``q̇`` (``rw.q``, ``rw.v``), ``q̈₀`` (``rw.a``), ``Rᵀ`` (``rw.vc[:2 nc]``),
         ``Q − M q̈₀`` (``rw.Q``) and
         the contact joints' gaps.
-    out : ndarray, shape (4 nc + 2,)
-        Receives ``(ż, z̈, P_in, P_cl)`` (m/s, m/s², W, W); NaN where the mechanism cannot be
+    out : ndarray, shape (2 nz + 2,)
+        Receives ``(ż, z̈, P_in, P_cl)`` (m/s and rad/s, m/s² and rad/s², W, W); NaN where the mechanism cannot be
         placed at ``y`` (an eccentricity that breaks a group's assembly, a toggle).
 
     Returns
@@ -305,8 +316,7 @@ def reduced_rhs_into(t, y, hist, sys, con, rw, out):
     (True, True)
     """
     y, hist, sys, con, rw, out = borrowed((y, hist, sys, con, rw, out))  # mechanics/borrow.py
-    nc = rw.E.shape[0]
-    nz = 2 * nc
+    nz = rw.b.shape[0]
     n = rw.q.shape[0]
     if not _kinematics_of(t, y, sys, con, rw):
         for i in range(out.shape[0]):
@@ -385,13 +395,13 @@ def reduced_fast_jacobian(t, y, hist, sys, con, rw, f, JS):
     Rᵀ M R, of q̈₀ and of gravity's share) is smooth: the integrator takes it from finite
     differences of the mechanism without clearance forces, as for the absolute formulation
     (:func:`mechrel.integrate.radau._update_jacobian`). Rows ``2 nc … ny − 1``, columns
-    ``0 … 4 nc − 1`` of ``JS`` are written (zero where ``f`` is NaN).
+    ``0 … 2 nz − 1`` of ``JS`` are written (zero where ``f`` is NaN).
 
     Parameters
     ----------
     t : float
         Time (s).
-    y : ndarray, shape (4 nc + 2,)
+    y : ndarray, shape (2 nz + 2,)
         The reduced state (module docstring).
     hist : ndarray, shape (nh,)
         History of the contact-capable joints (impact speed, m/s).
@@ -401,9 +411,9 @@ def reduced_fast_jacobian(t, y, hist, sys, con, rw, f, JS):
         ``construction(sys)``.
     rw : ReducedWork
         Work arrays (:func:`make_reduced_work`).
-    f : ndarray, shape (4 nc + 2,)
+    f : ndarray, shape (2 nz + 2,)
         Receives ``f(t, y)``.
-    JS : ndarray, shape (4 nc + 2, 4 nc + 2)
+    JS : ndarray, shape (2 nz + 2, 2 nz + 2)
         Receives the clearance forces' part of the Jacobian (SI units of ``f`` over those of
         ``y``).
 
@@ -426,7 +436,7 @@ def reduced_fast_jacobian(t, y, hist, sys, con, rw, f, JS):
     (True, True)
     """
     y, hist, sys, con, rw, f, JS = borrowed((y, hist, sys, con, rw, f, JS))
-    nz = 2 * rw.E.shape[0]
+    nz = rw.b.shape[0]
     ny = y.shape[0]
     n = rw.q.shape[0]
     for i in range(nz, ny):
@@ -542,7 +552,7 @@ def reduced_gaps_into(y, sys, g, gd):
 
     Parameters
     ----------
-    y : ndarray, shape (4 nc + 2,)
+    y : ndarray, shape (2 nz + 2,)
         The reduced state (module docstring).
     sys : System
         The mechanism with its clearance joints as force elements.
@@ -561,7 +571,7 @@ def reduced_gaps_into(y, sys, g, gd):
     >>> round(float(g[0]), 12), float(gd[0])
     (-0.0003, 0.1)
     """
-    nz = 2 * sys.cl_hist.shape[0]
+    nz = (y.shape[0] - 2) // 2  # the eccentricities first, then any free angles
     for k in range(sys.cl_hist.shape[0]):
         h = sys.cl_hist[k]
         if h >= 0:
@@ -571,15 +581,22 @@ def reduced_gaps_into(y, sys, g, gd):
 
 @njit(cache=True, inline='always')
 def _expand_into(t, y, zdd, sys, con, rw):
-    """:func:`_kinematics_of` with the eccentricities accelerating at ``zdd``."""
+    """:func:`_kinematics_of` with the eccentricities and free angles accelerating at
+    ``zdd``."""
     nc = rw.E.shape[0]
+    nf = rw.b.shape[0] - 2 * nc
+    nd = rw.drv.shape[0] - nf
     for c in range(nc):
         rw.Edd[c, 0] = zdd[2 * c]
         rw.Edd[c, 1] = zdd[2 * c + 1]
+    for f in range(nf):
+        rw.drv[nd + f, 2] = zdd[2 * nc + f]
     ok = _kinematics_of(t, y, sys, con, rw)
     for c in range(nc):  # back to zero, for reduced_rhs_into's q̈₀
         rw.Edd[c, 0] = 0.0
         rw.Edd[c, 1] = 0.0
+    for f in range(nf):
+        rw.drv[nd + f, 2] = 0.0
     return ok
 
 
@@ -592,7 +609,7 @@ def expand_rows(T, Y, YD, sys, con, rw, Ya, YDa):
     ----------
     T : ndarray, shape (N,)
         The rows' instants (s).
-    Y, YD : ndarray, shape (N, 4 nc + 2)
+    Y, YD : ndarray, shape (N, 2 nz + 2)
         Reduced states ``(z, ż, W_in, W_cl)`` and their derivatives ``(ż, z̈, P_in, P_cl)``.
     sys : System
         The mechanism with its clearance joints as force elements.
@@ -629,7 +646,7 @@ def expand_rows(T, Y, YD, sys, con, rw, Ya, YDa):
     (True, True)
     """
     T, Y, YD, sys, con, rw, Ya, YDa = borrowed((T, Y, YD, sys, con, rw, Ya, YDa))
-    nz = 2 * rw.E.shape[0]
+    nz = rw.b.shape[0]
     n = rw.q.shape[0]
     bad = 0
     for k in range(T.shape[0]):
@@ -663,10 +680,10 @@ def expand(t, y, zdd, sys, con, rw):
     ----------
     t : float
         Time (s).
-    y : ndarray, shape (4 nc + 2,)
-        The reduced state (m, m/s, J; only ``(z, ż)`` is read).
-    zdd : ndarray, shape (2 nc,)
-        The eccentricities' accelerations z̈ (m/s²), e.g. ``reduced_rhs_into``'s second half.
+    y : ndarray, shape (2 nz + 2,)
+        The reduced state (m and rad, m/s and rad/s, J; only ``(z, ż)`` is read).
+    zdd : ndarray, shape (nz,)
+        The accelerations z̈ (m/s², rad/s²), e.g. ``reduced_rhs_into``'s second half.
     sys : System
         The mechanism with its clearance joints as force elements.
     con : Construction
@@ -700,7 +717,7 @@ def expand(t, y, zdd, sys, con, rw):
     >>> round(float(q[22]), 6)
     -0.575769
     """
-    nz = 2 * con.cl_nodes.shape[0]
+    nz = 2 * con.cl_nodes.shape[0] + con.n_free
     n = sys.mass.shape[0]
     Y, YD = np.zeros((1, 2 * nz + 2)), np.zeros((1, 2 * nz + 2))
     Y[0, :2 * nz] = np.asarray(y, dtype=float)[:2 * nz]
@@ -714,14 +731,15 @@ def expand(t, y, zdd, sys, con, rw):
 
 def reduced_coordinates(sys, con, q, v, work=(0.0, 0.0)):
     """The reduced state ``(z, ż, W_in, W_cl)`` of an absolute state: each clearance joint's
-    eccentricity ``e = r_S − r_B`` (m) and its rate (m/s), then the two work integrals (J).
+    eccentricity ``e = r_S − r_B`` (m) and each free angle (the angle of its body, rad), their
+    rates (m/s, rad/s), then the two work integrals (J).
 
     Parameters
     ----------
     sys : System
         The mechanism with its clearance joints as force elements.
     con : Construction
-        ``construction(sys)`` (the order of the clearance joints).
+        ``construction(sys)`` (the order of the clearance joints and free angles).
     q, v : ndarray, shape (n,)
         Coordinates (m, rad) and velocities (m/s, rad/s).
     work : pair of float, optional
@@ -729,7 +747,7 @@ def reduced_coordinates(sys, con, q, v, work=(0.0, 0.0)):
 
     Returns
     -------
-    ndarray, shape (4 nc + 2,)
+    ndarray, shape (2 nz + 2,)
 
     Examples
     --------
@@ -741,17 +759,30 @@ def reduced_coordinates(sys, con, q, v, work=(0.0, 0.0)):
     >>> y = reduced_coordinates(c.dynamic, construction(c.dynamic), q0, v0)
     >>> y.shape, bool(np.abs(y).max() < 1e-12)  # centred, at rest relative to the ideal motion
     ((10,), True)
+
+    The double pendulum has no driver: its two links' angles are its coordinates
+
+    >>> d = compile_scene(load_scene("double-pendulum"))
+    >>> q0, v0 = assemble(d.assembly, d.q_guess, 0.0)
+    >>> v0[[2, 5]] = 1.5, -0.5
+    >>> reduced_coordinates(d.dynamic, construction(d.dynamic), q0, v0).tolist()
+    [0.0, 0.0, 1.5, -0.5, 0.0, 0.0]
     """
     nc = con.cl_nodes.shape[0]
+    nz = 2 * nc + con.n_free
     q = np.ascontiguousarray(q, dtype=float)
     v = np.ascontiguousarray(v, dtype=float)
     cs, sn = np.empty(q.size // 3), np.empty(q.size // 3)
     body_trig(q, cs, sn)
-    y = np.empty(4 * nc + 2)
-    y[4 * nc:] = work
+    y = np.empty(2 * nz + 2)
+    y[2 * nz:] = work
     for k in range(nc):  # the relative state the force laws see
         ex, ey, evx, evy = joint_state(q, v, sys.cl_b[k], sys.cl_j[k], *sys.cl_sb[k],
                                        *sys.cl_sj[k], cs, sn)[:4]
         y[2 * k:2 * k + 2] = ex, ey
-        y[2 * nc + 2 * k:2 * nc + 2 * k + 2] = evx, evy
+        y[nz + 2 * k:nz + 2 * k + 2] = evx, evy
+    for o in np.flatnonzero((con.op[:, 0] == POSE_ANGLE) & (con.op[:, 3] == ANGLE_FREE)):
+        b, f = con.op[o, 1], con.op[o, 5]  # a free angle is its body's angle
+        y[2 * nc + f] = q[3 * b + 2]
+        y[nz + 2 * nc + f] = v[3 * b + 2]
     return y
