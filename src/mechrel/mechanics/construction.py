@@ -35,11 +35,11 @@ group, a slider guided by a moving body, a prescribed offset in a revolute joint
 Each step that builds a node is followed by placing the bodies it used, so every constraint
 equation is used exactly once. A free angle is taken only when the construction is stuck, one
 body at a time, and the plan is refused if a body later receives more placed nodes than its
-freedom allows; the free angles are then as many as the mechanism's undriven degrees of
-freedom (a kinematic analysis has none: it needs a fully driven mechanism). The sign of each square root (the assembly branch) is the one
-of the first guess. Velocities and accelerations follow the steps in the same order: a node
-where two circles meet has ``(N − N_i)·(Ṅ − Ṅ_i) = 0`` for i = 1, 2, and
-``(N − N_i)·(N̈ − N̈_i) + |Ṅ − Ṅ_i|² = 0``; a body through two nodes turns at
+freedom allows; the free angles are then as many as the mechanism's undriven degrees of freedom
+(a kinematic analysis has none: it needs a fully driven mechanism). The sign of each square root
+(the assembly branch) is the one of the first guess. Velocities and accelerations follow the
+steps in the same order: a node where two circles meet has ``(N − N_i)·(Ṅ − Ṅ_i) = 0`` for
+i = 1, 2, and ``(N − N_i)·(N̈ − N̈_i) + |Ṅ − Ṅ_i|² = 0``; a body through two nodes turns at
 ``ω = (d × ḋ)/|d|²``, ``α = (d × d̈)/|d|²`` with ``d = N₂ − N₁`` (a rigid ``d`` has
 ``ḋ = ω d⊥`` and ``d̈ = α d⊥ − ω² d``).
 

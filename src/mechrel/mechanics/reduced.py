@@ -28,14 +28,14 @@ terms, and the state has ``2 nz + 2`` entries (10 for the nine-bar) instead of `
 (50).
 
 State ``y = (z, ż, W_in, W_cl)``: the eccentricities (m), clearance joint by joint, then the
-free angles (rad), their rates (m/s, rad/s), and the drivers' and clearance joints' work (J), as the absolute state ends with
-them. The clearance power ``P_cl`` is the force laws' (the same as the absolute formulation's);
-the drivers' power is that of the constraint forces, ``P_in = q̇ᵀ (M q̈ − Q)``: ideal joints
-do no work, so the drivers' reactions are all of it (the absolute formulation computes the same
-quantity as ``−Σ λ_d θ̇_d``; the two agree to round-off at a state that satisfies the
-constraints, which a test checks). The layout ``(coordinates, velocities, two work integrals)``
-is the absolute state's with ``z`` for ``q``, so the integrators' second-order structure
-(Radau's condensed iteration matrices) applies unchanged.
+free angles (rad), their rates (m/s, rad/s), and the drivers' and clearance joints' work (J), as
+the absolute state ends with them. The clearance power ``P_cl`` is the force laws' (the same as
+the absolute formulation's); the drivers' power is that of the constraint forces,
+``P_in = q̇ᵀ (M q̈ − Q)``: ideal joints do no work, so the drivers' reactions are all of it (the
+absolute formulation computes the same quantity as ``−Σ λ_d θ̇_d``; the two agree to round-off
+at a state that satisfies the constraints, which a test checks). The layout ``(coordinates,
+velocities, two work integrals)`` is the absolute state's with ``z`` for ``q``, so the
+integrators' second-order structure (Radau's condensed iteration matrices) applies unchanged.
 The assembly branch of each square root of the construction is the one of the configuration
 the work arrays are made from (:func:`make_reduced_work`).
 """
@@ -282,8 +282,9 @@ def reduced_rhs_into(t, y, hist, sys, con, rw, out):
         ``Q − M q̈₀`` (``rw.Q``) and
         the contact joints' gaps.
     out : ndarray, shape (2 nz + 2,)
-        Receives ``(ż, z̈, P_in, P_cl)`` (m/s and rad/s, m/s² and rad/s², W, W); NaN where the mechanism cannot be
-        placed at ``y`` (an eccentricity that breaks a group's assembly, a toggle).
+        Receives ``(ż, z̈, P_in, P_cl)`` (m/s and rad/s, m/s² and rad/s², W, W); NaN where
+        the mechanism cannot be placed at ``y`` (an eccentricity that breaks a group's
+        assembly, a toggle).
 
     Returns
     -------
