@@ -11,15 +11,19 @@ solver count (``np.savez``); then every saved array is compared with ``np.array_
 (NaN equal to NaN). Wall times are left out. Any difference is printed and makes the exit
 status 1.
 
-``timing``: one cycle of a scene (default the lubricated nine-bar), warm, in alternating
-processes on the trees (the order reversed every round), each process the median of
-``--reps`` runs after one warm-up run; prints each process's median, the load average, and the
-median over ``--rounds`` rounds with its ratio to the first tree.
+``timing``: one ``simulate`` of a scene (default the lubricated nine-bar at its own settings;
+``--settings`` adds keyword arguments as JSON, e.g. the default study's tolerances and the
+cycle extremes), warm, in alternating processes on the trees (the order reversed every
+round), each process the median of ``--reps`` runs after one warm-up run; prints each
+process's median, the load average, and the median over ``--rounds`` rounds with its ratio to
+the first tree.
 
 Run::
 
     python benchmarks/compare_trees.py bitwise /tmp/before .
     python benchmarks/compare_trees.py timing /tmp/before . --rounds 7 --reps 15
+    python benchmarks/compare_trees.py timing /tmp/before . --rounds 7 --reps 15 \
+        --settings '{"rtol": 1e-5, "atol": 1e-8, "extremes": true}'
 
 A cold tree compiles its kernels in its first process (minutes); run ``timing`` once with
 ``--rounds 1`` to warm both caches first.
@@ -90,11 +94,12 @@ import json, sys, time
 from mechrel.scene import load_scene
 from mechrel.simulation import simulate
 scene = load_scene(sys.argv[1])
-simulate(scene)
+settings = json.loads(sys.argv[3])
+simulate(scene, **settings)
 times = []
 for _ in range(int(sys.argv[2])):
     t0 = time.perf_counter()
-    r = simulate(scene)
+    r = simulate(scene, **settings)
     times.append(time.perf_counter() - t0)
 print(json.dumps({"t": sorted(times)[len(times) // 2], "steps": int(r.stats["n_steps"]),
                   "rhs": int(r.stats["n_rhs"])}))
@@ -130,11 +135,12 @@ def bitwise(trees) -> int:
     return 1 if differ else 0
 
 
-def timing(trees, scene: str, rounds: int, reps: int) -> int:
+def timing(trees, scene: str, rounds: int, reps: int, settings: str = "{}") -> int:
     medians = {str(t): [] for t in trees}
     for r in range(rounds):
         for tree in (trees if r % 2 == 0 else trees[::-1]):
-            d = json.loads(_run(tree, TIMING, scene, str(reps)).strip().splitlines()[-1])
+            d = json.loads(_run(tree, TIMING, scene, str(reps), settings)
+                           .strip().splitlines()[-1])
             medians[str(tree)].append(d["t"])
             print(f"round {r}: {tree}: {d['t'] * 1e3:.2f} ms ({d['steps']} steps, {d['rhs']} "
                   f"right-hand sides), load {os.getloadavg()[0]:.2f}", flush=True)
@@ -152,11 +158,13 @@ def main(argv=None) -> int:
     ap.add_argument("--scene", default="nine-bar-lubricated", help="timing: the scene")
     ap.add_argument("--rounds", type=int, default=7)
     ap.add_argument("--reps", type=int, default=15)
+    ap.add_argument("--settings", default="{}",
+                    help='timing: keyword arguments of simulate, as JSON ({"rtol": 1e-5})')
     args = ap.parse_args(argv)
     trees = [t.resolve() for t in args.trees]
     if args.mode == "bitwise":
         return bitwise(trees)
-    return timing(trees, args.scene, args.rounds, args.reps)
+    return timing(trees, args.scene, args.rounds, args.reps, args.settings)
 
 
 if __name__ == "__main__":

@@ -25,7 +25,7 @@ from mechrel.mechanics.construction import OFFSET, construction
 from mechrel.mechanics.dynamics import accelerations
 from mechrel.mechanics.kinematics import assemble
 from mechrel.mechanics.joints import gaps_into
-from mechrel.mechanics.reduced import (expand, expand_rows, make_reduced_work,
+from mechrel.mechanics.reduced import (expand, expand_rows, make_reduced_work, output_row,
                                        reduced_coordinates, reduced_gaps_into, reduced_rhs_into)
 from mechrel.mechanics.system import compile_scene
 from mechrel.scene import load_scene
@@ -229,7 +229,10 @@ def test_gaps_and_expanded_rows_are_the_absolute_states(name, t, radius, angle, 
     # The gaps read from z are those of the placed bodies (joints.gaps_into on expand()'s
     # state: the same gap_of of the same e, computed from the bodies' points, to the
     # round-off of metre coordinates), and expand_rows() is expand() row by row, with the
-    # derivative row (q̇, q̈, P_in, P_cl) of the reduced evaluation.
+    # derivative row (q̇, q̈, P_in, P_cl) of the reduced evaluation. output_row(), the row an
+    # integrator writes right after evaluating an output instant, is the same row: q, q̇ and
+    # the work bitwise (the same placement), q̈ = q̈₀ + R z̈ to the round-off of that sum,
+    # 64 eps (|q̈₀| + |R| |z̈|), against the acceleration pass run with z̈.
     system, con, rw, _ = _CASES[name]
     y = _state(con, system, t, radius, angle, rates, free, spin)
     y[-2:] = 3.0, -1.0  # work integrals pass through
@@ -237,7 +240,14 @@ def test_gaps_and_expanded_rows_are_the_absolute_states(name, t, radius, angle, 
     out = np.empty(2 * nz + 2)
     hist = np.zeros(system.n_contacts)
     reduced_rhs_into(t, y, hist, system, con, rw, out)
+    n = rw.q.size
+    row, drow = np.empty(2 * n + 2), np.empty(2 * n + 2)
+    output_row(y, out, rw, row, drow)
+    bound = 64 * EPS * (np.abs(rw.a) + np.abs(rw.vc[:nz].T) @ np.abs(out[nz:2 * nz]))
     q, v, a = expand(t, y, out[nz:2 * nz], system, con, rw)
+    assert np.array_equal(row, np.concatenate([q, v, y[-2:]]))
+    assert np.array_equal(drow[:n], v) and np.array_equal(drow[-2:], out[-2:])
+    assert np.all(np.abs(drow[n:2 * n] - a) <= bound)
     nh = system.n_contacts
     g, gd, ga, gda = np.empty(nh), np.empty(nh), np.empty(nh), np.empty(nh)
     reduced_gaps_into(y, system, g, gd)

@@ -366,7 +366,7 @@ def _compile_job(name: str, scene) -> None:
         # here would compile it in both processes (the helper's "rhs" job compiles it)
         rw = make_reduced_work.py_func(sys_, red.con, red.q_ref)
         ws = numba.typeof(rw)
-        if name == "expand":  # the outputs' expansion after the kernel
+        if name == "expand":  # the final state's expansion after the kernel
             from .mechanics.reduced import expand_rows
 
             rows = numba.typeof(np.zeros((2, ny)))  # reduced rows in, absolute rows out

@@ -18,7 +18,8 @@ from numba import njit
 
 from ..forces.params import P_FLOOR
 from ..mechanics.dynamics import make_workspace, rhs_into  # noqa: F401  (docstring examples)
-from ..mechanics.formulation import contact_system, evaluate, make_work, violation
+from ..mechanics.formulation import (contact_system, evaluate, make_work, output_width,
+                                     violation, write_output)
 from ..mechanics.joints import gaps, n_contacts
 
 # Layout of the float64 statistics vector every kernel returns.
@@ -271,9 +272,10 @@ def all_finite(y):
 def start(sys, t0, y0, hist, t_out):
     """What every kernel does first.
 
-    Allocate the outputs (NaN until written), the statistics, the contact floors and the
-    right-hand-side workspace; evaluate f(t0, y0); record the output instants at t0 and the
-    initial constraint violation.
+    Allocate the outputs (NaN until written; rows in the absolute layout ``(q, q̇, W)``,
+    :func:`~mechrel.mechanics.formulation.write_output`), the statistics, the contact floors
+    and the right-hand-side workspace; evaluate f(t0, y0); record the output instants at t0
+    and the initial constraint violation.
 
     Parameters
     ----------
@@ -310,8 +312,8 @@ def start(sys, t0, y0, hist, t_out):
     """
     nout = t_out.shape[0]
     ny = y0.shape[0]
-    Y = np.full((nout, ny), np.nan)
-    YD = np.full((nout, ny), np.nan)
+    Y = np.full((nout, output_width(sys)), np.nan)
+    YD = np.full((nout, output_width(sys)), np.nan)
     stats = np.zeros(N_STATS)
     floors = contact_floors(contact_system(sys))
     ws = make_work(sys)
@@ -322,8 +324,7 @@ def start(sys, t0, y0, hist, t_out):
     record_violation(ws, stats)
     k = 0
     while k < nout and t_out[k] <= t0:
-        Y[k] = y
-        YD[k] = f
+        write_output(sys, ws, y, f, Y[k], YD[k])
         k += 1
     tend = t_out[nout - 1] if nout > 0 else t0
     return Y, YD, stats, floors, y, f, k, tend, ws

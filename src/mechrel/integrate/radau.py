@@ -139,7 +139,8 @@ from numba import njit
 
 from ..mechanics.borrow import borrowed
 from ..mechanics.formulation import (evaluate, evaluate_inline, fast_jacobian, gaps,
-                                     has_fast_part, n_coordinates)
+                                     has_fast_part, n_coordinates, output_width,
+                                     write_output)
 from ..mechanics.system import without_clearance_forces
 from .events import (CTL_DONE, H_START_FLOOR, S_JAC, S_LU, S_NEWTON_REJECTED,
                      S_ONSET_REJECTED, S_REJECTED, S_RHS, S_STATUS, S_STEPS, S_VIOL_POS,
@@ -902,9 +903,11 @@ def radau5_kernel(sys, sys_smooth, t0, y0, hist, t_out, h0, rtol_user, atol_user
     -------
     tuple
         ``(Y, YD, hist, stats, t, y, log, H)``: the states and their derivatives at ``t_out``
-        (shape (N, ny)), the final history, the statistics vector (``N_STATS``), the time and
-        state reached, the step log and the history at each output instant (shape (N, nh));
-        as :func:`~mechrel.integrate.explicit.rk4_kernel`.
+        in the absolute layout (shape (N, 2 n + 2), whichever formulation ``sys`` is in:
+        :func:`~mechrel.mechanics.formulation.write_output`), the final history, the
+        statistics vector (``N_STATS``), the time and state reached (in ``sys``'s
+        formulation), the step log (rows in the absolute layout) and the history at each
+        output instant (shape (N, nh)); as :func:`~mechrel.integrate.explicit.rk4_kernel`.
 
     Examples
     --------
@@ -1014,9 +1017,11 @@ def radau5_kernel(sys, sys_smooth, t0, y0, hist, t_out, h0, rtol_user, atol_user
     gd1 = np.empty(nh)
     if contacts:
         gaps(t, y, sys, g0, gd1)  # kept from step to step: the end of one is the next's start
-    log, nlog = new_log(log_from, ny, nh)
+    log, nlog = new_log(log_from, output_width(sys), nh)  # rows in the absolute layout
     ylog = np.zeros(ny)
     flog = np.zeros(ny)
+    yrow = np.zeros(output_width(sys))
+    frow = np.zeros(output_width(sys))
     while k < nout:
         if need_jac:
             n_partial = _update_jacobian(t, y, f0, hist, sys, sys_smooth, ws, J, JS, Jsm,
@@ -1119,10 +1124,11 @@ def radau5_kernel(sys, sys_smooth, t0, y0, hist, t_out, h0, rtol_user, atol_user
             # outputs in (told, t] from the collocation polynomial, s = (t_out − t)/h ∈ (−1, 0]
             while k < nout and t_out[k] <= t:
                 if t_out[k] == t:
-                    Y[k] = y
+                    ylog[:] = y
                 else:
-                    _dense_output((t_out[k] - t) / hold, y, cont1, cont2, cont3, Y[k])
-                evaluate(t_out[k], Y[k], hist, sys, ws, YD[k])
+                    _dense_output((t_out[k] - t) / hold, y, cont1, cont2, cont3, ylog)
+                evaluate(t_out[k], ylog, hist, sys, ws, flog)
+                write_output(sys, ws, ylog, flog, Y[k], YD[k])
                 H[k] = hist
                 stats[S_RHS] += 1
                 k += 1
@@ -1135,7 +1141,8 @@ def radau5_kernel(sys, sys_smooth, t0, y0, hist, t_out, h0, rtol_user, atol_user
                         _dense_output(s, y, cont1, cont2, cont3, ylog)
                         evaluate(tj, ylog, hist, sys, ws, flog)
                         stats[S_RHS] += 1
-                        log, nlog = log_row(log, nlog, tj, ylog, flog, hist)
+                        write_output(sys, ws, ylog, flog, yrow, frow)
+                        log, nlog = log_row(log, nlog, tj, yrow, frow, hist)
             if not all_finite(y):
                 stats[S_STATUS] = STATUS_NONFINITE
                 break
@@ -1146,8 +1153,9 @@ def radau5_kernel(sys, sys_smooth, t0, y0, hist, t_out, h0, rtol_user, atol_user
             evaluate(t, y, hist, sys, ws, f0)
             record_violation(ws, stats)
             stats[S_RHS] += 1
-            if t > log_from:  # and the step's end
-                log, nlog = log_row(log, nlog, t, y, f0, hist)
+            if t > log_from:  # and the step's end (ws still holds its evaluation)
+                write_output(sys, ws, y, f0, yrow, frow)
+                log, nlog = log_row(log, nlog, t, yrow, frow, hist)
             for i in range(ny):
                 scal[i] = atol + rtol * abs(y[i])
             caljac = False
@@ -1398,11 +1406,12 @@ def reduced_system(system, y0, *, required=False):
 
 
 def _advance_reduced(red, radau, t0, y0, hist, t_out, ctl, log_from, n_dense):
-    """``Radau._advance`` on the reduced equations: the kernel integrates ``(z, ż, W)``; the
-    outputs, the log and the final state are expanded to the absolute layout
+    """``Radau._advance`` on the reduced equations: the kernel integrates ``(z, ż, W)`` and
+    writes its outputs and log in the absolute layout (from each output's own evaluation,
+    :func:`~mechrel.mechanics.reduced.output_row`); the final state is expanded here
     (:func:`~mechrel.mechanics.reduced.expand_rows`), so that a caller sees the contract of
     :class:`~mechrel.integrate.base.Integrator` unchanged. The constraint violation reported
-    is that of the expanded first and last outputs, by the dense constraint functions (the
+    is that of the first and last outputs, by the dense constraint functions (the
     construction satisfies the constraints to round-off at every instant)."""
     from ..mechanics.constraints import constraints
     from ..mechanics.reduced import expand_rows, make_reduced_work, reduced_coordinates
@@ -1414,25 +1423,16 @@ def _advance_reduced(red, radau, t0, y0, hist, t_out, ctl, log_from, n_dense):
     Y, YD, hist, stats, t, y, log, H = radau5_kernel(
         red, smooth, t0, yr0, hist, t_out, radau.step or 0.0, radau.rtol, radau.atol,
         radau.max_steps, radau.onset_tolerance, radau.fixed_step, ctl, log_from, n_dense)
-    rw = make_reduced_work(system, con, red.q_ref)
-    ny = 2 * n + 2
-    Ya, YDa = np.empty((Y.shape[0], ny)), np.empty((Y.shape[0], ny))
-    expand_rows(t_out, Y, YD, system, con, rw, Ya, YDa)
     done = [k for k in (0, int(ctl[CTL_DONE]) - 1) if 0 <= k < Y.shape[0]]
     for k in done:
-        if np.all(np.isfinite(Ya[k])):
-            phi, phit, J = constraints(Ya[k, :n], float(t_out[k]), system)
+        if np.all(np.isfinite(Y[k])):
+            phi, phit, J = constraints(Y[k, :n], float(t_out[k]), system)
             stats[S_VIOL_POS] = max(stats[S_VIOL_POS], float(np.max(np.abs(phi), initial=0.0)))
             stats[S_VIOL_VEL] = max(stats[S_VIOL_VEL],
-                                    float(np.max(np.abs(J @ Ya[k, n:2 * n] + phit), initial=0.0)))
+                                    float(np.max(np.abs(J @ Y[k, n:2 * n] + phit), initial=0.0)))
+    ny = 2 * n + 2
     ya, yda = np.empty((1, ny)), np.empty((1, ny))
     fr = np.zeros((1, y.shape[0]))  # the final state's z'' is not needed: q, q' only
-    expand_rows(np.array([t]), y.reshape(1, -1), fr, system, con, rw, ya, yda)
-    if log.shape[0]:  # rows (t, y, dy/dt, hist): the same rows in the absolute layout
-        m = y.shape[0]
-        rows = log.shape[0]
-        Yl, YDl = np.empty((rows, ny)), np.empty((rows, ny))
-        expand_rows(np.ascontiguousarray(log[:, 0]), np.ascontiguousarray(log[:, 1:1 + m]),
-                    np.ascontiguousarray(log[:, 1 + m:1 + 2 * m]), system, con, rw, Yl, YDl)
-        log = np.hstack([log[:, :1], Yl, YDl, log[:, 1 + 2 * m:]])
-    return Ya, YDa, hist, stats, t, ya[0], log, H
+    expand_rows(np.array([t]), y.reshape(1, -1), fr, system, con,
+                make_reduced_work(system, con, red.q_ref), ya, yda)
+    return Y, YD, hist, stats, t, ya[0], log, H

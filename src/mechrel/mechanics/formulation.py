@@ -21,7 +21,9 @@ For a :class:`~mechrel.mechanics.reduced.ReducedSystem` (the reduced formulation
 * right-hand side :func:`~mechrel.mechanics.reduced.reduced_rhs_into`, contact gaps
   :func:`~mechrel.mechanics.reduced.reduced_gaps_into`;
 * nothing is recorded: the constraints hold by construction;
-* fast part of the Jacobian :func:`~mechrel.mechanics.reduced.reduced_fast_jacobian`.
+* fast part of the Jacobian :func:`~mechrel.mechanics.reduced.reduced_fast_jacobian`;
+* output rows in the absolute layout :func:`~mechrel.mechanics.reduced.output_row`, from what
+  the evaluation at the output instant left in the work arrays.
 
 Both states are ``(coordinates, velocities, two work integrals)``, so the integrators'
 structure (the exact rows ``d(coordinates)/dt = velocities``, Radau's condensed iteration
@@ -56,11 +58,12 @@ from .constraints import violation_from
 from .dynamics import make_workspace, rhs_inline, rhs_into
 from .jacobian import clearance_jacobian
 from .joints import gaps_into
-from .reduced import (ReducedSystem, ReducedWork, make_reduced_work, reduced_fast_jacobian,
-                      reduced_gaps_into, reduced_rhs_into)
+from .reduced import (ReducedSystem, ReducedWork, make_reduced_work, output_row,
+                      reduced_fast_jacobian, reduced_gaps_into, reduced_rhs_into)
 
 __all__ = ["contact_system", "evaluate", "evaluate_inline", "fast_jacobian", "gaps",
-           "has_fast_part", "make_work", "n_coordinates", "violation"]
+           "has_fast_part", "make_work", "n_coordinates", "output_width", "violation",
+           "write_output"]
 
 
 def _reduced(sys) -> bool:
@@ -286,6 +289,73 @@ def violation(ws):
     raise NotImplementedError("compiled only (numba)")
 
 
+def output_width(sys):
+    """The length of an output row: the absolute state's ``2 n + 2`` in either formulation
+    (the integrators return their outputs and logs in the absolute layout).
+
+    Parameters
+    ----------
+    sys : System or ReducedSystem
+        The mechanism in its formulation.
+
+    Returns
+    -------
+    int
+
+    Examples
+    --------
+    >>> from numba import njit
+    >>> from mechrel.mechanics.construction import construction
+    >>> from mechrel.mechanics.kinematics import assemble
+    >>> from mechrel.mechanics.reduced import ReducedSystem
+    >>> from mechrel.mechanics.system import compile_scene
+    >>> from mechrel.scene import load_scene
+    >>> c = compile_scene(load_scene("slider-crank-lubricated"))
+    >>> q, _ = assemble(c.assembly, c.q_guess, 0.0)
+    >>> width = njit(lambda s: output_width(s))
+    >>> width(c.dynamic), width(ReducedSystem(c.dynamic, construction(c.dynamic), q))
+    (20, 20)
+    """
+    raise NotImplementedError("compiled only (numba)")
+
+
+def write_output(sys, ws, y, f, Ya, YDa):
+    """The output row of the state ``y`` and its derivative ``f``, which must be the last
+    evaluation into ``ws``: ``y`` and ``f`` themselves (absolute), or the absolute row of a
+    reduced state (:func:`~mechrel.mechanics.reduced.output_row`, without placing the
+    mechanism again).
+
+    Parameters
+    ----------
+    sys : System or ReducedSystem
+        The mechanism in its formulation.
+    ws : Workspace or ReducedWork
+        The work arrays of the evaluation of ``f``.
+    y, f : ndarray
+        The state and ``dy/dt`` (SI units).
+    Ya, YDa : ndarray, shape (output_width(sys),)
+        Receive the row ``(q, q̇, W_in, W_cl)`` and ``(q̇, q̈, P_in, P_cl)``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from numba import njit
+    >>> from mechrel.mechanics.dynamics import make_workspace
+    >>> from mechrel.mechanics.kinematics import assemble
+    >>> from mechrel.mechanics.system import compile_scene
+    >>> from mechrel.scene import load_scene
+    >>> c = compile_scene(load_scene("slider-crank-lubricated"))
+    >>> q, v = assemble(c.assembly, c.q_guess, 0.0)
+    >>> y, f, Ya, YDa = np.concatenate([q, v, [0, 0]]), np.ones(20), np.empty(20), np.empty(20)
+    >>> ws = make_workspace(c.dynamic)
+    >>> write = njit(lambda s, w, y, f, a, b: write_output(s, w, y, f, a, b))
+    >>> write(c.dynamic, ws, y, f, Ya, YDa)
+    >>> bool(np.array_equal(Ya, y)), bool(np.array_equal(YDa, f))
+    (True, True)
+    """
+    raise NotImplementedError("compiled only (numba)")
+
+
 def has_fast_part(sys):
     """Whether the Jacobian is split into a smooth rest and a fast clearance part
     (:func:`mechrel.integrate.radau._update_jacobian`): the mechanism has clearance joints.
@@ -361,6 +431,25 @@ def _n_coordinates(sys):
     if _reduced(sys):
         return lambda sys: 2 * sys.con.cl_nodes.shape[0] + sys.con.n_free
     return lambda sys: sys.mass.shape[0]
+
+
+@overload(output_width, inline='always')
+def _output_width(sys):
+    if _reduced(sys):
+        return lambda sys: 2 * sys.sys.mass.shape[0] + 2
+    return lambda sys: 2 * sys.mass.shape[0] + 2
+
+
+@overload(write_output, inline='always')
+def _write_output(sys, ws, y, f, Ya, YDa):
+    if _reduced(sys):
+        return lambda sys, ws, y, f, Ya, YDa: output_row(y, f, ws, Ya, YDa)
+
+    def impl(sys, ws, y, f, Ya, YDa):
+        for i in range(y.shape[0]):
+            Ya[i] = y[i]
+            YDa[i] = f[i]
+    return impl
 
 
 @overload(make_work)

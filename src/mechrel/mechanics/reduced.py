@@ -58,7 +58,7 @@ from .jacobian import force_law_derivatives
 from .joints import body_trig, gap_of, joint_state, n_contacts
 
 __all__ = ["ReducedSystem", "ReducedWork", "expand", "expand_rows", "make_reduced_work",
-           "reduced_coordinates", "reduced_fast_jacobian", "reduced_gaps_into",
+           "output_row", "reduced_coordinates", "reduced_fast_jacobian", "reduced_gaps_into",
            "reduced_rhs_into"]
 
 
@@ -599,6 +599,72 @@ def _expand_into(t, y, zdd, sys, con, rw):
     for f in range(nf):
         rw.drv[nd + f, 2] = 0.0
     return ok
+
+
+@njit(cache=True)
+def output_row(y, f, rw, Ya, YDa):
+    """The absolute row of the reduced state ``y`` right after its evaluation: what the
+    evaluation left in ``rw`` gives ``q``, ``q̇`` and ``q̈ = q̈₀ + R z̈`` without placing the
+    mechanism again (an integrator's outputs and its log; :func:`expand_rows` for rows it
+    has not just evaluated).
+
+    Parameters
+    ----------
+    y, f : ndarray, shape (2 nz + 2,)
+        The reduced state and ``reduced_rhs_into(t, y, …)``, which must be the last
+        evaluation into ``rw``.
+    rw : ReducedWork
+        The work arrays of that evaluation.
+    Ya, YDa : ndarray, shape (2 n + 2,)
+        Receive ``(q, q̇, W_in, W_cl)`` and ``(q̇, q̈, P_in, P_cl)`` (SI units); NaN where ``y``
+        or ``f`` is not finite (a state the mechanism cannot take).
+
+    Examples
+    --------
+    The same row as :func:`expand_rows` gives, to round-off (``q̈`` here is ``q̈₀ + R z̈``,
+    there the acceleration pass with ``z̈``):
+
+    >>> from mechrel.mechanics.kinematics import assemble
+    >>> from mechrel.mechanics.system import compile_scene
+    >>> from mechrel.scene import load_scene
+    >>> c = compile_scene(load_scene("nine-bar-lubricated"))
+    >>> q0, _ = assemble(c.assembly, c.q_guess, 0.0)
+    >>> con = construction(c.dynamic)
+    >>> rw = make_reduced_work(c.dynamic, con, q0)
+    >>> y, f = np.array([1e-4, 0, 0, -2e-4, 0.01, 0, 0, 0, 0, 0]), np.empty(10)
+    >>> reduced_rhs_into(0.1, y, np.zeros(0), c.dynamic, con, rw, f)
+    True
+    >>> Ya, YDa, Ye, YDe = np.empty(50), np.empty(50), np.empty((1, 50)), np.empty((1, 50))
+    >>> output_row(y, f, rw, Ya, YDa)
+    >>> expand_rows(np.array([0.1]), y[None], f[None], c.dynamic, con, rw, Ye, YDe)
+    0
+    >>> bool(np.array_equal(Ya, Ye[0])), bool(np.allclose(YDa, YDe[0], rtol=1e-12, atol=1e-9))
+    (True, True)
+    """
+    y, f, rw, Ya, YDa = borrowed((y, f, rw, Ya, YDa))
+    nz = rw.b.shape[0]
+    n = rw.q.shape[0]
+    ok = True
+    for i in range(y.shape[0]):
+        if not (math.isfinite(y[i]) and math.isfinite(f[i])):
+            ok = False
+    if not ok:
+        for i in range(2 * n + 2):
+            Ya[i] = math.nan
+            YDa[i] = math.nan
+        return
+    Rt = rw.vc  # Rᵀ in its first nz rows
+    for i in range(n):
+        s = rw.a[i]  # q̈₀
+        for c in range(nz):
+            s += Rt[c, i] * f[nz + c]
+        Ya[i] = rw.q[i]
+        Ya[n + i] = rw.v[i]
+        YDa[i] = rw.v[i]
+        YDa[n + i] = s
+    for i in range(2):
+        Ya[2 * n + i] = y[2 * nz + i]
+        YDa[2 * n + i] = f[2 * nz + i]
 
 
 @njit(cache=True)
