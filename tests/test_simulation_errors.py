@@ -139,6 +139,12 @@ def test_loose_tolerances_take_a_first_step(name, rtol):
      r"solver settings of 'dopri5': unknown 'tol'; allowed: atol, rtol, step"),
     (lambda sc: simulate(sc, integrator="dopri5", fixed_step=True), "SimulationError",
      r"solver settings of 'dopri5': unknown 'fixed_step'"),
+    # named like simulate's private path's parameters: they used to be taken for them (an
+    # AttributeError "'str' object has no attribute 'adaptive'" from deep inside)
+    (lambda sc: simulate(sc, integrator="dopri5", solver="dopri5"), "SimulationError",
+     r"solver settings of 'dopri5': unknown 'solver'; allowed: atol, rtol, step"),
+    (lambda sc: simulate(sc, integrator="dopri5", provenance=False), "SimulationError",
+     r"solver settings of 'dopri5': unknown 'provenance'"),
     # the ideal slider-crank is solved by kinematic analysis, which needs no integrator: a
     # misspelt one was silently ignored there
     (lambda sc: simulate(sc, integrator="dopri"), "SimulationError",

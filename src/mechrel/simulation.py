@@ -773,9 +773,11 @@ def simulate(scene: Scene, *, reference: Scene | None = None, method: str = "aut
     >>> round(float(x.max() - x.min()), 9)
     0.1
     """
+    # the settings as one mapping: a setting named like a parameter of the private path
+    # (solver=, provenance=) is then refused by name with the allowed ones, not taken for it
     return _explained(scene, reference=reference, method=method, integrator=integrator,
                       progress=progress, extremes=extremes, dense_points=dense_points,
-                      **solver_settings)
+                      solver_settings=solver_settings)
 
 
 def simulate_sample(scene: Scene, solver, *, reference: Scene | None = None,
@@ -835,7 +837,7 @@ def _explained(scene, **kwargs) -> SimulationResult:
 
 def _simulate(scene: Scene, *, reference: Scene | None, method: str, integrator: str | None,
               progress: bool, extremes: bool, dense_points: int, solver=None,
-              provenance: bool = True, **solver_settings) -> SimulationResult:
+              provenance: bool = True, solver_settings=None) -> SimulationResult:
     start = time.perf_counter()
     if not isinstance(scene, Scene):
         raise TypeError(f"simulate: scene must be a Scene, got {type(scene).__name__} "
@@ -844,7 +846,7 @@ def _simulate(scene: Scene, *, reference: Scene | None, method: str, integrator:
         _check_reference(scene, reference)
     # made (and so checked) even when kinematic analysis needs no integrator
     if solver is None:
-        solver = make_integrator(scene, integrator, **solver_settings)
+        solver = make_integrator(scene, integrator, **(solver_settings or {}))
     compiled = compile_scene(scene)
     n = compiled.q_guess.size
     if compiled.ideal.n_constraints > n:
