@@ -263,15 +263,21 @@ _CONTROLLER_EDITS = [
 ]
 
 
-def radau_variant(edits, name):
+def radau_variant(edits, name, formulations=False):
     """The ``_advance`` of Radau compiled from a copy of the shipped kernel's source with
     ``edits`` applied (each must match exactly once), in a temporary module ``name``; the
-    copy's relative imports are made absolute first, so edits anchor on the absolute ones."""
+    copy's relative imports are made absolute first, so edits anchor on the absolute ones.
+    The variant integrates the absolute equations; with ``formulations`` it is the copy's own
+    ``Radau._advance``, which integrates the reduced ones wherever the shipped one does."""
     src = inspect.getsource(radau)
     src = src.replace("from ..", "from mechrel.").replace("from .events",
                                                           "from mechrel.integrate.events")
     src = src.replace("from .base import", "from mechrel.integrate.base import")
     mod = module_from_source(src, edits, name, "the Radau kernel")
+    if formulations:
+        advance = mod.Radau._advance
+        advance.module = mod
+        return advance
 
     def advance(self, system, t0, y0, hist, t_out, ctl, log_from=math.inf, n_dense=0):
         return mod.radau5_kernel(system, without_clearance_forces(system), t0, y0, hist, t_out,
