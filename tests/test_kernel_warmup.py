@@ -26,7 +26,7 @@ def test_a_cold_cache_is_announced_and_its_time_recorded(monkeypatch, tmp_path):
     # a cold cache simulated by the check (a real cold compile takes minutes): warm_up says
     # what it does and how long it takes, shows the elapsed time, and records the time taken
     times = tmp_path / "kernel-compile-seconds.json"
-    monkeypatch.setattr(kc, "is_compiled", lambda entry: False)
+    monkeypatch.setattr(kc, "is_compiled", lambda entry, formulation=None: False)
     monkeypatch.setattr(kc, "_times_file", lambda: times)
     scene = load_scene("slider-crank-lubricated")
     assert kc.cold_entries(scene) == ["kinematics", "radau"]
@@ -55,7 +55,7 @@ def test_a_compilation_past_its_estimate_says_so_and_keeps_counting(monkeypatch,
 
     times = tmp_path / "kernel-compile-seconds.json"
     times.write_text(json.dumps({"kinematics": 0.6, "radau": 0.6}))
-    monkeypatch.setattr(kc, "is_compiled", lambda entry: False)
+    monkeypatch.setattr(kc, "is_compiled", lambda entry, formulation=None: False)
     monkeypatch.setattr(kc, "_times_file", lambda: times)
     monkeypatch.setattr(mechrel.simulation, "simulate", lambda scene: time.sleep(2.2))
     monkeypatch.setattr(kc, "split_compile", lambda scene: set())  # the rest of the work
@@ -190,7 +190,7 @@ def test_the_kinematic_analysis_entry_is_the_one_the_scene_compiles(monkeypatch)
     # a mechanism built of class-II groups compiles the closed form, any other driven one the
     # Newton analysis; a scene whose ideal mechanism is not fully driven (the free double
     # pendulum) runs no kinematic analysis at all, so it must not wait for one to be compiled
-    monkeypatch.setattr(kc, "is_compiled", lambda entry: False)
+    monkeypatch.setattr(kc, "is_compiled", lambda entry, formulation=None: False)
     assert kc.cold_entries(load_scene("nine-bar"))[0] == "kinematics"
     assert "kinematics" not in kc.cold_entries(load_scene("double-pendulum"))
     assert "kinematics-newton" not in kc.cold_entries(load_scene("double-pendulum"))
@@ -200,3 +200,44 @@ def test_the_kinematic_analysis_entry_is_the_one_the_scene_compiles(monkeypatch)
     assert kc.cold_entries(load_scene("nine-bar"))[0] == "kinematics-newton"
     assert kc._ENTRY_POINTS["kinematics-newton"] == ("mechrel.mechanics.kinematics",
                                                      "_kinematics")
+
+
+def test_a_kernel_compiled_for_one_formulation_is_cold_for_the_other(monkeypatch):
+    # radau's absolute and reduced kernels are separate overloads: an index (or a process)
+    # holding only the absolute one must not pass the reduced one as compiled, or its
+    # first compilation would go unannounced; a stale index (numba returns {}) is cold
+    from types import SimpleNamespace
+
+    import numba
+    import numpy as np
+
+    from mechrel.integrate import radau
+    from mechrel.mechanics.kinematics import assemble
+    from mechrel.mechanics.system import compile_scene
+
+    c = compile_scene(load_scene("slider-crank-lubricated"))
+    q, v = assemble(c.assembly, c.q_guess, 0.0)
+    red = radau.reduced_system(c.dynamic, np.concatenate([q, v, [0.0, 0.0]]))
+    absolute = (numba.typeof(c.dynamic), numba.float64)
+    reduced = (numba.typeof(red), numba.float64)
+
+    def fake(signatures, cached):
+        index = {(sig, ("magic",), ("hash",)): "data" for sig in cached}
+        cache_file = SimpleNamespace(_load_index=lambda: index)
+        return SimpleNamespace(signatures=signatures, _cache=SimpleNamespace(
+            _cache_file=cache_file))
+
+    monkeypatch.setattr(radau, "radau5_kernel", fake([], [absolute]))
+    assert kc.is_compiled("radau", "absolute") and kc.is_compiled("radau")
+    assert not kc.is_compiled("radau", "reduced")
+    monkeypatch.setattr(radau, "radau5_kernel", fake([absolute], []))  # in this process
+    assert not kc.is_compiled("radau", "reduced")
+    monkeypatch.setattr(radau, "radau5_kernel", fake([], [absolute, reduced]))
+    assert kc.is_compiled("radau", "reduced")
+    monkeypatch.setattr(radau, "radau5_kernel", fake([], []))  # no index, or a stale one
+    assert not kc.is_compiled("radau") and not kc.is_compiled("radau", "absolute")
+    # and cold_entries asks for the formulation the scene's Radau integrates
+    monkeypatch.setattr(radau, "radau5_kernel", fake([], [absolute]))
+    monkeypatch.setattr(kc, "is_compiled", lambda entry, formulation=None:
+                        entry != "radau" or formulation == "absolute")
+    assert kc.cold_entries(load_scene("slider-crank-lubricated")) == ["radau"]

@@ -108,20 +108,36 @@ on two free cores (45.4 s measured, median of three). The load moves these numbe
 of two or more either way."""
 
 
-def is_compiled(entry: str) -> bool:
+def is_compiled(entry: str, formulation: str | None = None) -> bool:
     """Whether ``entry`` (a key of the entry points: ``rk4``, ``dopri5``, ``radau``,
-    ``kinematics``, ``kinematics-newton``) is compiled in this process or has an index in
-    numba's on-disk cache, i.e. whether calling it will not compile it from scratch."""
+    ``kinematics``, ``kinematics-newton``) is compiled in this process or has a fresh index
+    in numba's on-disk cache, i.e. whether calling it will not compile it from scratch.
+
+    With ``formulation`` (``"absolute"`` or ``"reduced"``), for a kernel that integrates
+    either (:mod:`mechrel.mechanics.formulation`): whether it is compiled for that one. Each
+    formulation is its own compiled overload, so a user whose first stiff run integrated the
+    absolute equations still has the reduced kernel to compile.
+    """
     import importlib
+
+    from .mechanics.reduced import ReducedSystem
 
     module, name = _ENTRY_POINTS[entry]
     dispatcher = getattr(importlib.import_module(module), name)
-    if dispatcher.signatures:
+
+    def wanted(args) -> bool:  # an overload's argument types: the system comes first
+        if formulation is None:
+            return True
+        reduced = getattr(args[0], "instance_class", None) is ReducedSystem if args else False
+        return reduced == (formulation == "reduced")
+
+    if any(wanted(sig) for sig in dispatcher.signatures):
         return True
-    try:  # numba's cache locator: the index file of the function's cached overloads
-        return os.path.exists(dispatcher._cache._cache_file._index_path)
+    try:  # numba's cache: the index of the function's cached overloads ({} when stale)
+        index = dispatcher._cache._cache_file._load_index()
     except AttributeError:  # another numba layout: assume cached rather than announce wrongly
         return True
+    return any(wanted(key[0]) for key in index)
 
 
 def cold_entries(scene) -> list[str]:
@@ -134,11 +150,13 @@ def cold_entries(scene) -> list[str]:
     need = []
     if ideal.n_constraints == ideal.n_coordinates:  # a fully driven ideal mechanism
         need.append("kinematics" if construction(ideal) is not None else "kinematics-newton")
+    cold = [e for e in need if not is_compiled(e)]
     if scene.clearance_joints or not scene.drivers:
-        integrator = make_integrator(scene).name
-        if integrator in _ENTRY_POINTS:
-            need.append(integrator)
-    return [e for e in need if not is_compiled(e)]
+        integrator = make_integrator(scene)
+        formulation = integrator.formulation_for(compile_scene(scene).dynamic)
+        if integrator.name in _ENTRY_POINTS and not is_compiled(integrator.name, formulation):
+            cold.append(integrator.name)
+    return cold
 
 
 def _times_file() -> Path:
