@@ -1018,9 +1018,9 @@ def radau5_kernel(sys, sys_smooth, t0, y0, hist, t_out, h0, rtol_user, atol_user
     if contacts:
         gaps(t, y, sys, g0, gd1)  # kept from step to step: the end of one is the next's start
     log, nlog = new_log(log_from, output_width(sys), nh)  # rows in the absolute layout
-    ylog = np.zeros(ny)
-    flog = np.zeros(ny)
-    yrow = np.zeros(output_width(sys))
+    ydense = np.zeros(ny)  # a state from the collocation polynomial (an output, a log point)
+    fdense = np.zeros(ny)  # and its derivative
+    yrow = np.zeros(output_width(sys))  # a log row in the absolute layout
     frow = np.zeros(output_width(sys))
     while k < nout:
         if need_jac:
@@ -1124,11 +1124,11 @@ def radau5_kernel(sys, sys_smooth, t0, y0, hist, t_out, h0, rtol_user, atol_user
             # outputs in (told, t] from the collocation polynomial, s = (t_out − t)/h ∈ (−1, 0]
             while k < nout and t_out[k] <= t:
                 if t_out[k] == t:
-                    ylog[:] = y
+                    ydense[:] = y
                 else:
-                    _dense_output((t_out[k] - t) / hold, y, cont1, cont2, cont3, ylog)
-                evaluate(t_out[k], ylog, hist, sys, ws, flog)
-                write_output(sys, ws, ylog, flog, Y[k], YD[k])
+                    _dense_output((t_out[k] - t) / hold, y, cont1, cont2, cont3, ydense)
+                evaluate(t_out[k], ydense, hist, sys, ws, fdense)
+                write_output(sys, ws, ydense, fdense, Y[k], YD[k])
                 H[k] = hist
                 stats[S_RHS] += 1
                 k += 1
@@ -1138,10 +1138,10 @@ def radau5_kernel(sys, sys_smooth, t0, y0, hist, t_out, h0, rtol_user, atol_user
                     s = j / (n_dense + 1.0) - 1.0
                     tj = t + s * hold
                     if tj >= log_from:
-                        _dense_output(s, y, cont1, cont2, cont3, ylog)
-                        evaluate(tj, ylog, hist, sys, ws, flog)
+                        _dense_output(s, y, cont1, cont2, cont3, ydense)
+                        evaluate(tj, ydense, hist, sys, ws, fdense)
                         stats[S_RHS] += 1
-                        write_output(sys, ws, ylog, flog, yrow, frow)
+                        write_output(sys, ws, ydense, fdense, yrow, frow)
                         log, nlog = log_row(log, nlog, tj, yrow, frow, hist)
             if not all_finite(y):
                 stats[S_STATUS] = STATUS_NONFINITE

@@ -501,6 +501,8 @@ def kinematic_analysis(system, q_guess, times, *, tol=1e-12, max_iter=50, labels
     times = np.ascontiguousarray(times, dtype=float)
     q_guess = np.asarray(q_guess, dtype=float)
     plan = construction(system)
+    if plan is not None and plan.n_free:  # cannot happen for n_constraints == n (a complete
+        plan = None  # plan has as many free angles as degrees of freedom); the guard keeps it so
     head = None  # the instants placed in closed form before Newton took over
     if plan is not None:  # closed form; Newton from the first instant it cannot build, if any
         Q, V, A, done = _construct(q_guess, times, system, plan)
