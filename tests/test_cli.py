@@ -31,6 +31,7 @@ def test_simulate_clearance_scene_with_overrides_and_parquet(tmp_path, capsys):
     assert rc == 0
     text = capsys.readouterr().out
     assert "acceleration error" in text and "joint C: max eccentricity ratio" in text
+    assert "solver radau on the reduced equations: " in text  # which equations ran
     frame = pd.read_parquet(out)
     for q in ("displacement", "velocity", "acceleration"):
         assert {f"slider.{q}", f"slider.{q}.ideal", f"slider.{q}.error"} <= set(frame.columns)

@@ -31,7 +31,9 @@ def _summary_lines(result) -> list[str]:
     st = result.stats
     lines = [f"scene {result.scene.name} ({result.method}): {result.time.size} samples over "
              f"{result.time[-1]:.4g} s",
-             f"  solver {st['integrator']}: {st.get('n_steps', 0)} steps, "
+             f"  solver {st['integrator']}"
+             + (" on the reduced equations" if st.get("formulation") == "reduced" else "")
+             + f": {st.get('n_steps', 0)} steps, "
              f"{st.get('n_rhs', 0)} rhs evaluations, {st.get('n_rejected', 0)} rejected"
              + (f" ({st['n_newton_rejected']} by Newton)" if st.get("n_newton_rejected") else "")
              + ", "
