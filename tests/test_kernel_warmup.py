@@ -241,3 +241,26 @@ def test_a_kernel_compiled_for_one_formulation_is_cold_for_the_other(monkeypatch
     monkeypatch.setattr(kc, "is_compiled", lambda entry, formulation=None:
                         entry != "radau" or formulation == "absolute")
     assert kc.cold_entries(load_scene("slider-crank-lubricated")) == ["radau"]
+
+
+def test_the_kernel_checked_and_compiled_is_the_one_the_run_uses(monkeypatch, tmp_path):
+    # `mechrel simulate --integrator radau` on a scene whose own integrator is DOPRI5: the
+    # warm-up must look at (and compile) Radau's kernel, not the scene's DOPRI5
+    import mechrel.simulation
+
+    monkeypatch.setattr(kc, "is_compiled", lambda entry, formulation=None: entry != "radau")
+    monkeypatch.setattr(kc, "_times_file", lambda: tmp_path / "kernel-compile-seconds.json")
+    seen = []
+    monkeypatch.setattr(kc, "split_compile", lambda s: seen.append(s.solver.integrator) or set())
+    monkeypatch.setattr(mechrel.simulation, "simulate",
+                        lambda s: seen.append(("run", s.solver.integrator)))
+    scene = load_scene("slider-crank-dry")
+    out = io.StringIO()
+    assert kc.warm_up(scene, file=out) == 0.0 and out.getvalue() == ""  # its DOPRI5: warm
+    kc.warm_up(scene, integrator="radau", progress=False, file=out)
+    assert out.getvalue().startswith("compiling simulation kernels, once")
+    assert seen == ["radau", ("run", "radau")]
+    from mechrel.errors import SimulationError
+
+    with pytest.raises(SimulationError, match=r"solver\.integrator: unknown integrator 'dopri'"):
+        kc.warm_up(scene, integrator="dopri", progress=False, file=out)

@@ -191,8 +191,13 @@ def _record_seconds(entries, seconds: float) -> None:
         pass
 
 
-def warm_up(scene, *, progress: bool = True, file=None) -> float:
+def warm_up(scene, *, integrator: str | None = None, progress: bool = True,
+            file=None) -> float:
     """Compile the kernels ``scene`` needs if the cache is cold, announcing it.
+
+    ``integrator`` is the one the run will use in place of ``scene.solver.integrator``
+    (``simulate(scene, integrator=...)``, ``mechrel simulate --integrator``): its kernel is
+    the one checked and compiled.
 
     On a cold cache: prints "compiling simulation kernels, once — about N s" (N: this
     machine's last measured compile time, or :data:`DEFAULT_COMPILE_SECONDS`) and a bar of the
@@ -205,11 +210,15 @@ def warm_up(scene, *, progress: bool = True, file=None) -> float:
     import threading
     import time
 
+    from .scene import with_overrides
+    from .simulation import make_integrator, simulate
+
+    if integrator is not None:
+        make_integrator(scene, integrator)  # a wrong name refused as simulate refuses it
+        scene = with_overrides(scene, {"solver.integrator": integrator})
     cold = cold_entries(scene)
     if not cold:
         return 0.0
-    from .scene import with_overrides
-    from .simulation import simulate
 
     expected = _expected_seconds(cold)
     out = file or sys.stderr

@@ -91,7 +91,8 @@ def _cmd_simulate(args) -> int:
                                   "rename the folder)")
     from .._kernel_cache import warm_up
 
-    warm_up(scene, progress=not args.no_progress)  # announces a cold cache's compilation
+    # announces a cold cache's compilation, of the kernel of the integrator the run uses
+    warm_up(scene, integrator=args.integrator, progress=not args.no_progress)
     result = simulate(scene, integrator=args.integrator, progress=not args.no_progress,
                       extremes=bool(scene.clearance_joints))
     print("\n".join(_summary_lines(result)))
