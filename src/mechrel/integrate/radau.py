@@ -1213,16 +1213,17 @@ class Radau(Integrator):
         Integrate at the constant step ``step`` without error control (for convergence-order
         checks only). Default False.
     formulation : {"auto", "absolute", "reduced"}, optional
-        The equations integrated. ``"reduced"``: the clearance joints' eccentricities
-        (:mod:`mechrel.mechanics.reduced`; ``4 nc + 2`` states, the constraints exact), for a
-        mechanism whose ideal degrees of freedom are all driven and that the construction
-        places in closed form (:func:`reduced_system`); ``"absolute"``: all bodies'
-        coordinates with Lagrange multipliers (:mod:`mechrel.mechanics.dynamics`), for every
-        mechanism. ``"auto"`` (default) is ``"reduced"`` where it applies. Either way the
-        results are in the absolute layout; :attr:`SolverStats.formulation
-        <mechrel.integrate.base.SolverStats>` says which ran. The tolerances weigh different
-        states (eccentricities, m, against body coordinates), so the same settings are not
-        the same accuracy: docs/performance.md compares the two at equal accuracy.
+        The equations integrated. ``"reduced"``: the clearance joints' eccentricities and
+        the free angles of the undriven links (:mod:`mechrel.mechanics.reduced`;
+        ``2 (2 nc + nf) + 2`` states, the constraints exact), for a mechanism the
+        construction places in closed form and that has something to integrate
+        (:func:`reduced_system`); ``"absolute"``: all bodies' coordinates with Lagrange
+        multipliers (:mod:`mechrel.mechanics.dynamics`), for every mechanism. ``"auto"``
+        (default) is ``"reduced"`` where it applies. Either way the results are in the
+        absolute layout; :attr:`SolverStats.formulation <mechrel.integrate.base.SolverStats>`
+        says which ran. The tolerances weigh different states (eccentricities in m, free
+        angles in rad, against body coordinates), so the same settings are not the same
+        accuracy: docs/performance.md compares the two at equal accuracy.
     **kwargs
         The settings of :class:`~mechrel.integrate.base.Integrator` (``step`` (s), ``rtol``,
         ``atol``, ``max_steps``, ``onset_tolerance``).
