@@ -63,7 +63,7 @@ def test_auto_is_reduced_where_it_applies_and_absolute_elsewhere():
 
 def test_asking_for_reduced_where_it_cannot_apply_says_why():
     ideal = compile_scene(load_scene("nine-bar")).dynamic
-    with pytest.raises(SimulationError, match=r"solver\.formulation = 'reduced': the mechanism "
+    with pytest.raises(SimulationError, match=r"radau's formulation = 'reduced': the mechanism "
                                               r"has no clearance joint and no undriven degree of "
                                               r"freedom: nothing to integrate.*use 'auto' or "
                                               r"'absolute'"):
@@ -71,10 +71,10 @@ def test_asking_for_reduced_where_it_cannot_apply_says_why():
     # a revolute joint that holds a prescribed offset is not a node the construction knows
     offset = compile_scene(load_scene("nine-bar-lubricated")).dynamic
     offset = offset._replace(rev_off=np.full_like(offset.rev_off, 1e-4))
-    with pytest.raises(SimulationError, match=r"solver\.formulation = 'reduced': the mechanism "
+    with pytest.raises(SimulationError, match=r"radau's formulation = 'reduced': the mechanism "
                                               r"cannot be placed in closed form"):
         Radau(formulation="reduced").formulation_for(offset)
-    with pytest.raises(SimulationError, match=r"solver\.formulation = 'exact': allowed: 'auto', "
+    with pytest.raises(SimulationError, match=r"radau's formulation = 'exact': allowed: 'auto', "
                                               r"'absolute', 'reduced'"):
         Radau(formulation="exact")
 

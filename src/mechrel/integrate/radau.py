@@ -1254,7 +1254,7 @@ class Radau(Integrator):
         if self.fixed_step and self.step is None:
             raise SimulationError("solver.step: the fixed-step mode of 'radau' needs a step (s)")
         if formulation not in self.formulations:
-            raise SimulationError(f"solver.formulation = {formulation!r}: allowed: "
+            raise SimulationError(f"radau's formulation = {formulation!r}: allowed: "
                                   + ", ".join(repr(f) for f in self.formulations))
         self.formulation = formulation
 
@@ -1378,7 +1378,7 @@ def reduced_system(system, y0, *, required=False):
     >>> reduced_system(i.dynamic, None, required=True)  # doctest: +ELLIPSIS
     Traceback (most recent call last):
     ...
-    mechrel.errors.SimulationError: solver.formulation = 'reduced': the mechanism has no ...
+    mechrel.errors.SimulationError: radau's formulation = 'reduced': the mechanism has no ...
     """
     from ..errors import SimulationError
     from ..mechanics.construction import construction
@@ -1400,7 +1400,7 @@ def reduced_system(system, y0, *, required=False):
         return ReducedSystem(system, con, np.ascontiguousarray(q_ref).copy())
     if required:
         raise SimulationError(
-            f"solver.formulation = 'reduced': {why}; allowed for mechanisms the construction "
+            f"radau's formulation = 'reduced': {why}; allowed for mechanisms the construction "
             "places and that have clearance joints or undriven degrees of freedom (use 'auto' "
             "or 'absolute')")
     return None
