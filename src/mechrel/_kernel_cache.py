@@ -146,14 +146,15 @@ def cold_entries(scene) -> list[str]:
     from .mechanics.system import compile_scene
     from .simulation import make_integrator
 
-    ideal = compile_scene(scene).ideal
+    compiled = compile_scene(scene)
+    ideal = compiled.ideal
     need = []
     if ideal.n_constraints == ideal.n_coordinates:  # a fully driven ideal mechanism
         need.append("kinematics" if construction(ideal) is not None else "kinematics-newton")
     cold = [e for e in need if not is_compiled(e)]
     if scene.clearance_joints or not scene.drivers:
         integrator = make_integrator(scene)
-        formulation = integrator.formulation_for(compile_scene(scene).dynamic)
+        formulation = integrator.formulation_for(compiled.dynamic)
         if integrator.name in _ENTRY_POINTS and not is_compiled(integrator.name, formulation):
             cold.append(integrator.name)
     return cold

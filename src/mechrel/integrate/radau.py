@@ -1382,7 +1382,7 @@ def reduced_system(system, y0, *, required=False):
     """
     from ..errors import SimulationError
     from ..mechanics.construction import construction
-    from ..mechanics.reduced import ReducedSystem
+    from ..mechanics.reduced import ReducedSystem, n_reduced
 
     why = None
     con = construction(system)
@@ -1391,7 +1391,7 @@ def reduced_system(system, y0, *, required=False):
                "joints' eccentricities and the angles of its undriven links (a group the "
                "construction does not know, such as a class-III group, a slider guided by a "
                "moving body or an undriven slider)")
-    elif system.cl_b.shape[0] == 0 and con.n_free == 0:
+    elif n_reduced(con) == 0:
         why = ("the mechanism has no clearance joint and no undriven degree of freedom: "
                "nothing to integrate")
     if why is None:

@@ -58,7 +58,7 @@ from .constraints import violation_from
 from .dynamics import make_workspace, rhs_inline, rhs_into
 from .jacobian import clearance_jacobian
 from .joints import gaps_into
-from .reduced import (ReducedSystem, ReducedWork, make_reduced_work, output_row,
+from .reduced import (ReducedSystem, ReducedWork, make_reduced_work, n_reduced, output_row,
                       reduced_fast_jacobian, reduced_gaps_into, reduced_rhs_into)
 
 __all__ = ["contact_system", "evaluate", "evaluate_inline", "fast_jacobian", "gaps",
@@ -429,7 +429,7 @@ def fast_jacobian(t, y, hist, sys, ws, f, JS):
 @overload(n_coordinates, inline='always')
 def _n_coordinates(sys):
     if _reduced(sys):
-        return lambda sys: 2 * sys.con.cl_nodes.shape[0] + sys.con.n_free
+        return lambda sys: n_reduced(sys.con)
     return lambda sys: sys.mass.shape[0]
 
 

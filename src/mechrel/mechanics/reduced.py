@@ -47,6 +47,7 @@ from typing import NamedTuple
 
 import numpy as np
 from numba import njit
+from numba.extending import register_jitable
 
 from .applied import applied_forces_trig
 from .borrow import borrowed
@@ -58,8 +59,8 @@ from .jacobian import force_law_derivatives
 from .joints import body_trig, gap_of, joint_state, n_contacts
 
 __all__ = ["ReducedSystem", "ReducedWork", "expand", "expand_rows", "make_reduced_work",
-           "output_row", "reduced_coordinates", "reduced_fast_jacobian", "reduced_gaps_into",
-           "reduced_rhs_into"]
+           "n_reduced", "output_row", "reduced_coordinates", "reduced_fast_jacobian",
+           "reduced_gaps_into", "reduced_rhs_into"]
 
 
 class ReducedSystem(NamedTuple):
@@ -164,6 +165,34 @@ class ReducedWork(NamedTuple):
     w: np.ndarray
 
 
+@register_jitable
+def n_reduced(con):
+    """The number of reduced coordinates ``nz = 2 nc + nf`` of a construction: two per
+    clearance joint (its eccentricity), one per free angle. The reduced state has
+    ``2 nz + 2`` entries. Plain Python where called from Python, compiled inline in compiled
+    code.
+
+    Parameters
+    ----------
+    con : Construction
+        ``construction(sys)``.
+
+    Returns
+    -------
+    int
+
+    Examples
+    --------
+    >>> from mechrel.mechanics.system import compile_scene
+    >>> from mechrel.scene import load_scene
+    >>> n_reduced(construction(compile_scene(load_scene("nine-bar-lubricated")).dynamic))
+    4
+    >>> n_reduced(construction(compile_scene(load_scene("double-pendulum")).dynamic))
+    2
+    """
+    return 2 * con.cl_nodes.shape[0] + con.n_free
+
+
 @njit(cache=True)
 def make_reduced_work(sys, con, q_ref):
     """The :class:`ReducedWork` of ``sys`` placed by ``con``, on the assembly branch and with
@@ -197,7 +226,7 @@ def make_reduced_work(sys, con, q_ref):
     nb = n // 3
     nn = con.node_body.shape[0]
     nc = con.cl_nodes.shape[0]
-    nz = 2 * nc + con.n_free
+    nz = n_reduced(con)
     nh = n_contacts(sys)
     N = np.zeros((nn, 2))
     _ground_nodes(con, N)
@@ -784,7 +813,7 @@ def expand(t, y, zdd, sys, con, rw):
     >>> round(float(q[22]), 6)
     -0.575769
     """
-    nz = 2 * con.cl_nodes.shape[0] + con.n_free
+    nz = n_reduced(con)
     n = sys.mass.shape[0]
     Y, YD = np.zeros((1, 2 * nz + 2)), np.zeros((1, 2 * nz + 2))
     Y[0, :2 * nz] = np.asarray(y, dtype=float)[:2 * nz]
@@ -836,7 +865,7 @@ def reduced_coordinates(sys, con, q, v, work=(0.0, 0.0)):
     [0.0, 0.0, 1.5, -0.5, 0.0, 0.0]
     """
     nc = con.cl_nodes.shape[0]
-    nz = 2 * nc + con.n_free
+    nz = n_reduced(con)
     q = np.ascontiguousarray(q, dtype=float)
     v = np.ascontiguousarray(v, dtype=float)
     cs, sn = np.empty(q.size // 3), np.empty(q.size // 3)
