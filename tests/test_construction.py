@@ -15,8 +15,9 @@ from mechrel.errors import AssemblyError
 from mechrel.mechanics import kinematics
 from mechrel.mechanics.constraints import constraints
 from mechrel.mechanics.drivers import driver_law
-from mechrel.mechanics.construction import (ANGLE_FREE, CIRCLE_LINE, CIRCLES, LOCATE,
-                                            POSE_ANGLE, POSE_TWO, _construct, construction)
+from mechrel.mechanics.construction import (ANGLE_CONSTANT, ANGLE_FREE, CIRCLE_LINE, CIRCLES,
+                                            LOCATE, OFFSET, POSE_ANGLE, POSE_TWO, SLIDE,
+                                            _construct, construction)
 from mechrel.mechanics.kinematics import _kinematics, assemble, kinematic_analysis
 from mechrel.mechanics.system import D_ANGLE0, D_SPEED, compile_scene
 from mechrel.scene import load_scene
@@ -74,6 +75,31 @@ def test_an_undriven_link_swings_at_a_free_angle():
     assert plan.op[0, 3] == ANGLE_FREE and plan.n_free == 1
     for name in DRIVEN:
         assert construction(compile_scene(load_scene(name)).ideal).n_free == 0, name
+
+
+def test_an_undriven_slider_slides_at_a_free_position():
+    # the cart with a pendulum: nothing is placed from the ground, so the cart (a slider with
+    # no placed node) takes a free position, its node at P0 + s u on the rail (P0 the hinge
+    # at s = 0, u the rail's direction), its angle the rail's; then the pendulum swings at a
+    # free angle about the hinge. Free coordinate 0 is the position, 1 the angle.
+    from test_reduced import block_incline, cart_pendulum
+    plan = construction(compile_scene(cart_pendulum()).ideal)
+    assert plan.op[:, 0].tolist() == [SLIDE, POSE_ANGLE, POSE_ANGLE]
+    assert plan.op[0, 2] == 0 and plan.op[0, 4:6].tolist() == [0, 0]  # the cart; drv row 0
+    assert plan.op[1, 3] == ANGLE_CONSTANT and plan.op[2, 3] == ANGLE_FREE
+    assert plan.op[2, 4:6].tolist() == [1, 1] and plan.n_free == 2
+    assert plan.par[0, :4].tolist() == [0.0, 0.0, 1.0, 0.0]
+    # with a lubricated hinge the pendulum's end is the cart's node offset by e
+    plan = construction(compile_scene(cart_pendulum(lubricated=True)).dynamic)
+    assert plan.op[:, 0].tolist() == [SLIDE, POSE_ANGLE, OFFSET, POSE_ANGLE]
+    assert plan.n_free == 2 and plan.cl_nodes.shape == (1, 2)
+    # a block with no revolute joint slides on its own sliding point, down the incline
+    plan = construction(compile_scene(block_incline()).ideal)
+    assert plan.op[:, 0].tolist() == [SLIDE, POSE_ANGLE] and plan.n_free == 1
+    assert np.allclose(plan.par[0, 2:4], [math.cos(math.pi / 6), -math.sin(math.pi / 6)],
+                       rtol=0.0, atol=EPS)
+    # a slider that a driven group places is not free: the slider-crank's, by a circle
+    assert SLIDE not in construction(compile_scene(load_scene("slider-crank")).ideal).op[:, 0]
 
 
 def test_mechanisms_not_built_that_way_are_left_to_newton():

@@ -2,10 +2,12 @@
 (mechrel.mechanics.reduced): the placed configuration satisfies every constraint, ∂q/∂z spans
 the admissible motions, and the accelerations satisfy the constrained equations of motion and
 agree with the absolute formulation at every state tried. The scenes: the fully driven ones
-with clearance joints, and three undriven ones: the double pendulum (two free angles, no
+with clearance joints, and six undriven ones: the double pendulum (two free angles, no
 clearance joint), the same pendulum with its middle hinge a lubricated bearing (two free
-angles and one eccentricity), and the four-bar without its driver (one free angle, the crank's,
-then the closed loop of the coupler and rocker; two eccentricities)."""
+angles and one eccentricity), the four-bar without its driver (one free angle, the crank's,
+then the closed loop of the coupler and rocker; two eccentricities), a cart on a rail with a
+pendulum (a free position and a free angle), the same with a lubricated hinge (and one
+eccentricity), and a block on an incline (one free position, no revolute joint)."""
 
 from __future__ import annotations
 
@@ -34,7 +36,8 @@ from test_kinematics import _numpy_gamma
 
 EPS = np.finfo(float).eps
 SCENES = ("nine-bar-lubricated", "slider-crank-lubricated", "four-bar", "nine-bar-dry",
-          "double-pendulum", "pendulum-lubricated", "four-bar-undriven")
+          "double-pendulum", "pendulum-lubricated", "four-bar-undriven", "cart-pendulum",
+          "cart-pendulum-lubricated", "block-incline")
 # the double pendulum's middle hinge as a lubricated bearing (0.1 mm, 5 mm radius, 10 mm long,
 # 0.2 Pa s): undriven, so the construction gives both links free angles
 PENDULUM_LUBRICATED = {"joints.A.model": "lubricated", "joints.A.clearance": 1e-4,
@@ -51,7 +54,63 @@ def undriven_four_bar():
     return load_scene(raw)
 
 
+def cart_pendulum(lubricated=False):
+    """A cart (2 kg) on a horizontal rail with a pendulum (a uniform 0.4 m, 0.5 kg bar) hinged
+    on it, released at rest 60° from hanging, over 1 s: two undriven freedoms, the cart's
+    position on its line (a free position) and the pendulum's angle (a free angle). No
+    horizontal force acts, so the horizontal momentum stays zero. With ``lubricated`` the
+    hinge is a lubricated bearing (the double pendulum's: 0.1 mm, 5 mm radius, 10 mm long,
+    0.2 Pa s), and the journal's eccentricity adds two coordinates."""
+    raw = {
+        "name": "cart-pendulum", "gravity": [0.0, -9.81],
+        "description": "cart on a horizontal rail with a pendulum hinged on it",
+        "ground": {"points": {"O": [0.0, 0.0]}},
+        "bodies": {
+            "cart": {"mass": 2.0, "inertia": 0.01, "position": [0.0, 0.0], "angle": 0.0,
+                     "points": {"P": [0.0, 0.0]}},
+            # m L² / 12; the hinge plus 0.2 m at −30° (benchmarks/scenes/
+            # cart-pendulum-lubricated.toml has the same numbers)
+            "pendulum": {"mass": 0.5, "inertia": 0.006666666666666667,
+                         "position": [0.17320508075688773, -0.1], "angle": -math.pi / 6,
+                         "points": {"P": [-0.2, 0.0], "B": [0.2, 0.0]}}},
+        "joints": {"rail": {"type": "translational", "connects": ["cart.P", "ground.O"],
+                            "direction": [1.0, 0.0], "angle": 0.0},
+                   "hinge": {"type": "revolute", "connects": ["cart.P", "pendulum.P"]}},
+        "outputs": {"cart": {"point": "cart.P", "axis": [1.0, 0.0]},
+                    "bob": {"point": "pendulum.B", "axis": [0.0, 1.0]}},
+        "analysis": {"duration": 1.0, "sample_step": 1e-3}}
+    if lubricated:
+        raw["name"] = "cart-pendulum-lubricated"
+        raw["joints"]["hinge"].update(model="lubricated", clearance=1e-4, bearing_radius=5e-3,
+                                      length=1e-2, lubricant={"viscosity": 0.2})
+    return load_scene(raw)
+
+
+def block_incline():
+    """A 1.5 kg block on a frictionless rail inclined 30° down (direction (cos 30°, −sin 30°)),
+    released at rest, over 1 s: one free position and no revolute joint (the construction
+    gives the block a node at its sliding point). Along the rail it accelerates at
+    g sin 30° = 4.905 m/s², exactly."""
+    u = [math.cos(math.pi / 6), -math.sin(math.pi / 6)]
+    return load_scene({
+        "name": "block-incline", "gravity": [0.0, -9.81],
+        "description": "block sliding down a frictionless incline",
+        "ground": {"points": {"O": [0.0, 0.0]}},
+        "bodies": {"block": {"mass": 1.5, "inertia": 0.01, "position": [0.0, 0.0],
+                             "angle": 0.0, "points": {"S": [0.0, 0.0]}}},
+        "joints": {"rail": {"type": "translational", "connects": ["block.S", "ground.O"],
+                            "direction": u, "angle": 0.0}},
+        "outputs": {"block": {"point": "block.S", "axis": u}},
+        "analysis": {"duration": 1.0, "sample_step": 1e-2}})
+
+
 def _scene(name):
+    if name == "cart-pendulum":
+        return cart_pendulum()
+    if name == "cart-pendulum-lubricated":
+        return cart_pendulum(lubricated=True)
+    if name == "block-incline":
+        return block_incline()
     if name == "pendulum-lubricated":
         return load_scene("double-pendulum", overrides=PENDULUM_LUBRICATED)
     if name == "four-bar-undriven":
@@ -88,7 +147,8 @@ def test_every_clearance_scene_is_placed_by_its_eccentricities():
 def _state(con, system, t, radius, angle, rates, free, spin):
     """A reduced state: joint k's eccentricity radius[k] × clearance at angle[k], its rate
     rates[k] × clearance × 50 /s (the nine-bar's journals move ~25 clearances per second);
-    free angle f at free[f] (rad), turning at spin[f] (rad/s)."""
+    free coordinate f at free[f] (rad, or m for a free position), moving at spin[f] (rad/s,
+    m/s)."""
     nc = system.cl_b.shape[0]
     nf = con.n_free
     c = system.cl_p[:, P_C]

@@ -124,8 +124,10 @@ def test_reduced_runs_hold_the_constraints_and_close_the_energy_balance(runs):
 
 # ------------------------------------------------------------------ undriven mechanisms
 def _undriven(name):
-    from test_reduced import PENDULUM_LUBRICATED, undriven_four_bar
+    from test_reduced import PENDULUM_LUBRICATED, cart_pendulum, undriven_four_bar
 
+    if name.startswith("cart-pendulum"):
+        return cart_pendulum(lubricated=name.endswith("lubricated")), "cart"
     if name == "pendulum-lubricated":
         return load_scene("double-pendulum", overrides=PENDULUM_LUBRICATED), "tip_y"
     if name == "four-bar-undriven":
@@ -140,7 +142,8 @@ def _out_dev(a, b, output, kind):
 
 
 @pytest.fixture(scope="module", params=("double-pendulum", "pendulum-lubricated",
-                                        "four-bar-undriven"))
+                                        "four-bar-undriven", "cart-pendulum",
+                                        "cart-pendulum-lubricated"))
 def undriven_runs(request):
     scene, output = _undriven(request.param)
     runs = {}
@@ -157,9 +160,11 @@ def test_undriven_mechanisms_integrate_the_same_motion_in_their_free_angles(undr
     # An undriven link's angle is a coordinate of the reduced equations (the construction's
     # free angle): the double pendulum (two free angles), the same pendulum with a
     # lubricated middle hinge (and one eccentricity), the four-bar without its driver (one
-    # free angle, two eccentricities, a dry joint that impacts). The bound is the module's:
-    # the two formulations differ by at most the sum of their own errors, each estimated
-    # against a ten times tighter run, with a factor of two for that estimate.
+    # free angle, two eccentricities, a dry joint that impacts); and an undriven slider's
+    # position (a free position): the cart with a pendulum (and a lubricated hinge). The
+    # bound is the module's: the two formulations differ by at most the sum of their own
+    # errors, each estimated against a ten times tighter run, with a factor of two for that
+    # estimate.
     name, output, r = undriven_runs
     for kind in KINDS:
         own_abs = _out_dev(r["absolute", 1e-10], r["absolute", 1e-11], output, kind)
@@ -180,3 +185,39 @@ def test_undriven_mechanisms_integrate_the_same_motion_in_their_free_angles(undr
     balance = np.max(np.abs(E["balance"]))
     assert balance <= 0.1 * 1e-10 ** (2 / 3) * scale, name
     assert np.max(np.abs(r["reduced", 1e-11].energy["balance"])) < balance, name
+
+
+@pytest.mark.parametrize("lubricated", (False, True))
+def test_a_free_position_keeps_the_carts_horizontal_momentum(lubricated):
+    # The cart with a pendulum: no horizontal force, released at rest, so the horizontal
+    # momentum m_cart ẋ_cart + m_pend ẋ_pend stays zero. The absolute formulation keeps it
+    # to round-off (a Runge–Kutta method conserves linear invariants of its state: 64 eps of
+    # the scale); in the reduced state (s, φ, ṡ, φ̇) it is not linear, so it is an integration
+    # error there: within Radau's internal tolerance 0.1 rtol^(2/3) of the momentum scale
+    # m_pend max|ẋ_pend| (measured at rtol 1e-10: 3.1e-9 N s against a scale of 0.53 N s,
+    # 0.27 of the bound)
+    from test_reduced import cart_pendulum
+
+    scene = cart_pendulum(lubricated=lubricated)
+    rtol = 1e-10
+    for f, rel in (("reduced", 0.1 * rtol ** (2 / 3)), ("absolute", 64 * np.finfo(float).eps)):
+        v = simulate(scene, integrator="radau", rtol=rtol, atol=rtol * 1e-3, formulation=f).v
+        p = 2.0 * v[:, 0] + 0.5 * v[:, 3]
+        assert np.abs(p).max() <= rel * 0.5 * np.abs(v[:, 3]).max(), (lubricated, f)
+
+
+def test_a_block_on_an_incline_slides_at_g_sin_30():
+    # one free position and no revolute joint: s̈ = g sin 30° = 4.905 m/s² exactly, so
+    # s = ½ g sin 30° t². Radau's stages and its dense output (the collocation polynomial of
+    # degree 3) are exact for a quadratic, so only round-off is left: 64 eps of the largest
+    # value (measured: 2.2e-15 m of 2.45 m)
+    from test_reduced import block_incline
+
+    res = simulate(block_incline(), integrator="radau", rtol=1e-6, atol=1e-9)
+    assert res.stats["formulation"] == "reduced" and res.stats["status"] == "ok"
+    t, out = res.time, res.outputs["block"]
+    a = 9.81 * 0.5
+    eps = np.finfo(float).eps
+    assert np.abs(out["displacement"] - 0.5 * a * t ** 2).max() <= 64 * eps * 0.5 * a
+    assert np.abs(out["velocity"] - a * t).max() <= 64 * eps * a
+    assert np.abs(out["acceleration"] - a).max() <= 64 * eps * a

@@ -1214,9 +1214,10 @@ class Radau(Integrator):
         checks only). Default False.
     formulation : {"auto", "absolute", "reduced"}, optional
         The equations integrated. ``"reduced"``: the clearance joints' eccentricities and
-        the free angles of the undriven links (:mod:`mechrel.mechanics.reduced`;
-        ``2 (2 nc + nf) + 2`` states, the constraints exact), for a mechanism the
-        construction places in closed form and that has something to integrate
+        the free coordinates of the undriven links and sliders
+        (:mod:`mechrel.mechanics.reduced`; ``2 (2 nc + nf) + 2`` states, the constraints
+        exact), for a mechanism the construction places in closed form and that has
+        something to integrate
         (:func:`reduced_system`); ``"absolute"``: all bodies' coordinates with Lagrange
         multipliers (:mod:`mechrel.mechanics.dynamics`), for every mechanism. ``"auto"``
         (default) is ``"reduced"`` where it applies. Either way the results are in the
@@ -1331,9 +1332,10 @@ def reduced_system(system, y0, *, required=False):
 
     They apply when the construction (:func:`~mechrel.mechanics.construction.construction`)
     places every body from the drivers, the clearance joints' eccentricities and the free
-    angles of the undriven degrees of freedom, i.e. when the mechanism is built of the groups
-    it knows; and when it has clearance joints or an undriven degree of freedom (otherwise
-    there is nothing to integrate).
+    coordinates of the undriven degrees of freedom (free angles of links, free positions of
+    sliders), i.e. when the mechanism is built of the groups it knows; and when it has
+    clearance joints or an undriven degree of freedom (otherwise there is nothing to
+    integrate).
 
     Parameters
     ----------
@@ -1388,9 +1390,9 @@ def reduced_system(system, y0, *, required=False):
     con = construction(system)
     if con is None:
         why = ("the mechanism cannot be placed in closed form from its drivers, the clearance "
-               "joints' eccentricities and the angles of its undriven links (a group the "
-               "construction does not know, such as a class-III group, a slider guided by a "
-               "moving body or an undriven slider)")
+               "joints' eccentricities and its undriven links' angles and sliders' positions "
+               "(a group the construction does not know, such as a class-III group, or a "
+               "revolute joint holding a prescribed offset)")
     elif n_reduced(con) == 0:
         why = ("the mechanism has no clearance joint and no undriven degree of freedom: "
                "nothing to integrate")

@@ -20,6 +20,13 @@ group, a slider guided by a moving body, a prescribed offset in a revolute joint
     or, where no other step can go on, an undriven body one of whose nodes is placed, whose
     angle then becomes a **free angle**: a coordinate of the mechanism's own (a pendulum's
     swing, the crank of a machine turned by a torque rather than a prescribed motion);
+``SLIDE``
+    where no other step (and no free angle) can go on, a slider none of whose nodes is placed
+    (a cart on a rail, a block on an incline): one of its nodes at a **free position**
+    ``N = P₀ + s u`` along the line, ``s`` a coordinate of the mechanism's own like a free
+    angle, the slider then posed at its fixed angle. A slider that carries no revolute joint
+    gets a node at its sliding point for this. Free angles and free positions together are
+    the plan's *free coordinates*;
 ``POSE_TWO``
     a body two of whose nodes are placed (the angle from the line through them);
 ``LOCATE``
@@ -33,10 +40,11 @@ group, a slider guided by a moving body, a prescribed offset in a revolute joint
     ``N = P₀ + (w·u ± √(d₁² − (u × w)²)) u`` with ``w = N₁ − P₀``.
 
 Each step that builds a node is followed by placing the bodies it used, so every constraint
-equation is used exactly once. A free angle is taken only when the construction is stuck, one
-body at a time, and the plan is refused if a body later receives more placed nodes than its
-freedom allows; the free angles are then as many as the mechanism's undriven degrees of freedom
-(a kinematic analysis has none: it needs a fully driven mechanism). The sign of each square root
+equation is used exactly once. A free coordinate is taken only when the construction is
+stuck, one body at a time (a free angle before a free position), and the plan is refused if a
+body later receives more placed nodes than its freedom allows; the free coordinates are then as
+many as the mechanism's undriven degrees of freedom (a kinematic analysis has none: it needs a
+fully driven mechanism). The sign of each square root
 (the assembly branch) is the one of the first guess. Velocities and accelerations follow the
 steps in the same order: a node where two circles meet has ``(N − N_i)·(Ṅ − Ṅ_i) = 0`` for
 i = 1, 2, and ``(N − N_i)·(N̈ − N̈_i) + |Ṅ − Ṅ_i|² = 0``; a body through two nodes turns at
@@ -66,7 +74,7 @@ from .drivers import driver_law
 __all__ = ["Construction", "construction"]
 
 # Step codes (column 0 of Construction.op).
-POSE_ANGLE, POSE_TWO, LOCATE, CIRCLES, CIRCLE_LINE, OFFSET = range(6)
+POSE_ANGLE, POSE_TWO, LOCATE, CIRCLES, CIRCLE_LINE, OFFSET, SLIDE = range(7)
 # Where a POSE_ANGLE step's angle comes from (its op[:, 3]).
 ANGLE_DRIVER, ANGLE_CONSTANT, ANGLE_FREE = 0, 1, 2
 
@@ -81,14 +89,16 @@ class Construction(NamedTuple):
 
         - ``POSE_ANGLE``: body, node, angle source (``ANGLE_DRIVER``, ``ANGLE_CONSTANT`` or
           ``ANGLE_FREE``), the row of the angle in the passes' ``drv`` array (the drivers
-          first, then the free angles), and for ``ANGLE_FREE`` the free angle's index (in
-          column 5);
+          first, then the free coordinates), and for ``ANGLE_FREE`` the free coordinate's
+          index (in column 5);
         - ``POSE_TWO``: body, node 1, node 2;
         - ``LOCATE``: node, body;
         - ``OFFSET``: node, node 1, clearance joint, sign: the node is node 1 plus sign × the
           joint's eccentricity (a journal is its bearing + e, a bearing its journal − e);
         - ``CIRCLES``: node, node 1, node 2, branch slot;
-        - ``CIRCLE_LINE``: node, node 1, –, branch slot.
+        - ``CIRCLE_LINE``: node, node 1, –, branch slot;
+        - ``SLIDE``: node, body, –, the row of the free position in ``drv``, the free
+          coordinate's index.
 
         ``(j1, s1)`` and ``(j2, s2)``: the circles around node 1 and node 2 are centred
         ``s`` × clearance joint ``j``'s eccentricity away from them (``s = 0``: not moved),
@@ -99,7 +109,8 @@ class Construction(NamedTuple):
         body's frame and the constant angle; ``POSE_TWO`` node 1 in the body's frame and the
         angle φ₀ of node 1 → node 2 in it; ``LOCATE`` the node in the body's frame; ``CIRCLES``
         the radii d₁, d₂ around nodes 1 and 2; ``CIRCLE_LINE`` the radius d₁, a point P₀ of
-        the line and its unit direction u.
+        the line and its unit direction u; ``SLIDE`` the node's position P₀ at ``s = 0`` and
+        the line's unit direction u (columns 0–3).
     node_body : ndarray of int, shape (n_nodes,)
         A body each node is a point of (−1: the ground).
     node_s : ndarray, shape (n_nodes, 2)
@@ -111,8 +122,9 @@ class Construction(NamedTuple):
     n_branches : int
         The number of square roots (``CIRCLES`` and ``CIRCLE_LINE`` steps).
     n_free : int
-        The number of free angles (``POSE_ANGLE`` steps with ``ANGLE_FREE``): the mechanism's
-        undriven degrees of freedom; zero for a fully driven one.
+        The number of free coordinates: free angles (``POSE_ANGLE`` steps with
+        ``ANGLE_FREE``) and free positions (``SLIDE`` steps), the mechanism's undriven
+        degrees of freedom; zero for a fully driven one.
 
     Examples
     --------
@@ -163,6 +175,11 @@ def _plan(nb, rev_i, rev_j, rev_si, rev_sj, tr_i, tr_si, tr_p0, tr_n, tr_angle, 
         a = find(key_of(rev_i[j], rev_si[j]))
         b = find(key_of(rev_j[j], rev_sj[j]))
         parent[max(a, b)] = min(a, b)
+    # a slider that carries no revolute joint: a node at its sliding point (for SLIDE)
+    pinned = {int(b) for b in (*rev_i, *rev_j, *cl_b, *cl_j)}
+    for t, b in enumerate(tr_i):
+        if int(b) not in pinned:
+            key_of(b, tr_si[t])
     # a clearance joint's bearing and journal points: two nodes, e = journal − bearing apart
     ends = [(key_of(cl_b[c], cl_sb[c]), key_of(cl_j[c], cl_sj[c])) for c in range(len(cl_b))]
     roots = sorted({find(k) for k in keys.values()})
@@ -209,7 +226,7 @@ def _plan(nb, rev_i, rev_j, rev_si, rev_sj, tr_i, tr_si, tr_p0, tr_n, tr_angle, 
     op: list[tuple] = []
     par: list[tuple] = []
     n_branches = 0
-    free: list[int] = []  # the bodies whose angles are free coordinates, in their order
+    free: list[int] = []  # the bodies with a free coordinate (angle or position), in order
 
     def locate_rest(b, used):
         for n, s in on_body[b].items():
@@ -243,6 +260,19 @@ def _plan(nb, rev_i, rev_j, rev_si, rev_sj, tr_i, tr_si, tr_p0, tr_n, tr_angle, 
         free.append(b)
         posed.add(b)
         locate_rest(b, (n,))
+
+    def slide_free(b, n):
+        t = line[b]
+        th = float(tr_angle[t])
+        c, s = math.cos(th), math.sin(th)
+        ds = np.subtract(on_body[b][n], tr_si[t])  # the node's offset from the sliding point
+        p0 = tr_p0[t] + (c * ds[0] - s * ds[1], s * ds[0] + c * ds[1])
+        op.append((SLIDE, n, b, 0, len(dr_i) + len(free), len(free), 0, -1, 0))
+        # u: the joint's direction (its normal n = (−u_y, u_x) turned back): s counts along it
+        par.append((p0[0], p0[1], tr_n[t][1], -tr_n[t][0], 0.0))
+        free.append(b)
+        placed.add(n)
+        pose_angle(b, n)
 
     def dist(b, n1, n2):
         s1, s2 = on_body[b][n1], on_body[b][n2]
@@ -327,6 +357,13 @@ def _plan(nb, rev_i, rev_j, rev_si, rev_sj, tr_i, tr_si, tr_p0, tr_n, tr_angle, 
                     pose_free(b, here[0])
                     progress = True
                     break
+        if not progress:  # still stuck: the first slider with no placed node slides freely
+            for b in range(nb):  # (a free position: module docstring)
+                if b not in posed and b in line and on_body[b] \
+                        and not any(n in placed for n in on_body[b]):
+                    slide_free(b, min(on_body[b]))
+                    progress = True
+                    break
         if not progress:
             raise _Refuse
     if len(placed) < n_nodes or len(used_offsets) < len(ends):
@@ -355,8 +392,10 @@ def construction(system) -> Construction | None:
         None when the mechanism is not built of driven or fixed-angle bodies and class-II
         groups (two circles, a circle and a fixed line), when a revolute joint holds a
         prescribed offset, when some constraint would be left unused (a closed loop the
-        order does not solve, a redundant constraint), or when a clearance joint's
-        eccentricity is not free (both its points placed by other joints).
+        order does not solve, a redundant constraint), when a clearance joint's
+        eccentricity is not free (both its points placed by other joints), or when the
+        eccentricities and free coordinates would not be as many as the mechanism's degrees
+        of freedom.
 
     Examples
     --------
@@ -395,9 +434,17 @@ def construction(system) -> Construction | None:
         if len(_PLANS) >= 256:
             _PLANS.clear()
         try:
-            _PLANS[key] = _plan(s.mass.shape[0] // 3, *parts)
+            plan = _plan(s.mass.shape[0] // 3, *parts)
         except _Refuse:
-            _PLANS[key] = None
+            plan = None
+        # a plan that uses every constraint equation once leaves the mechanism's degrees of
+        # freedom n − m to the eccentricities and the free coordinates; anything else would be
+        # a constraint used twice or not at all (the steps are built so that it cannot be:
+        # this is the check that they were)
+        if plan is not None and (s.mass.shape[0] - s.n_constraints
+                                 != 2 * plan.cl_nodes.shape[0] + plan.n_free):
+            plan = None
+        _PLANS[key] = plan
     return _PLANS[key]
 
 
@@ -476,8 +523,9 @@ def _place(con, sign, sys, t, e, N, q, cs, sn, drv, th_prev):
     """Positions: every step's node or body at time ``t``, the clearance joints at the
     eccentricities ``e`` (nc × 2, m), with each body's cos θ and sin θ into ``cs``, ``sn``
     and each driver's ``(θ, θ̇, θ̈)`` into the first rows of ``drv`` (for :func:`_velocities`
-    and :func:`_accelerations`). The free angles' rows of ``drv``, after the drivers', are
-    read: the caller writes each free angle's value, rate and acceleration there.
+    and :func:`_accelerations`). The free coordinates' rows of ``drv``, after the drivers',
+    are read: the caller writes each free angle's or free position's value, rate and
+    acceleration there.
 
     Each body angle found from two nodes continues its previous value ``th_prev`` (updated).
     Returns False where a square root has no real value (the group cannot be assembled). Each
@@ -487,7 +535,7 @@ def _place(con, sign, sys, t, e, N, q, cs, sn, drv, th_prev):
     op = con.op
     par = con.par
     twopi = 2.0 * math.pi
-    for d in range(sys.dr_law.shape[0]):  # the free angles' rows are the caller's
+    for d in range(sys.dr_law.shape[0]):  # the free coordinates' rows are the caller's
         th, w, al = driver_law(sys.dr_law[d], sys.dr_par[d], t)
         drv[d, 0] = th
         drv[d, 1] = w
@@ -542,6 +590,11 @@ def _place(con, sign, sys, t, e, N, q, cs, sn, drv, th_prev):
             h = sign[op[o, 4]] * math.sqrt(h2)
             N[k, 0] = x1 + (along * dx - h * dy) / L
             N[k, 1] = y1 + (along * dy + h * dx) / L
+        elif code == SLIDE:  # N = P0 + s u, s a free position
+            k = op[o, 1]
+            sl = drv[op[o, 4], 0]
+            N[k, 0] = par[o, 0] + sl * par[o, 2]
+            N[k, 1] = par[o, 1] + sl * par[o, 3]
         else:  # CIRCLE_LINE: N = P0 + s u
             k = op[o, 1]
             x1, y1 = _at(N, op[o, 2], e, op[o, 5], op[o, 6])
@@ -567,9 +620,10 @@ def _velocities(con, drv, e, N, q, X, x):
     Column ``c`` of ``X`` (``m × nn × 2``: every node's velocity) and ``x`` (``m × n``: every
     body's) is, for ``c < 2 nc``, the motion at a unit rate of eccentricity component ``c``
     (clearance joint ``c // 2``, axis ``c % 2``) with the drivers at rest; for
-    ``2 nc ≤ c < m − 1``, at a unit rate of free angle ``c − 2 nc``: a column of ``∂q/∂z``;
-    the last column (``c = m − 1``) is the drivers' motion at their rates (``drv``) with the
-    eccentricities and free angles fixed, ``q̇₀``. The velocity for rates ``ż`` is then
+    ``2 nc ≤ c < m − 1``, at a unit rate of free coordinate ``c − 2 nc`` (a free angle or a
+    free position): a column of ``∂q/∂z``; the last column (``c = m − 1``) is the drivers'
+    motion at their rates (``drv``) with the eccentricities and free coordinates fixed,
+    ``q̇₀``. The velocity for rates ``ż`` is then
     ``x[m − 1] + Σ_c ż_c x[c]`` (the pass is linear in the rates). Each step's
     position equation differentiated once: for a node where two circles around ``C_j`` meet,
     ``(N − C_j)·Ṅ = (N − C_j)·Ċ_j``; a body through two nodes turns at ``(d × ḋ)/|d|²``; a
@@ -621,6 +675,12 @@ def _velocities(con, drv, e, N, q, X, x):
             for c in range(m):
                 X[c, k, 0] = X[c, k1, 0] + (sg if c == u else 0.0)
                 X[c, k, 1] = X[c, k1, 1] + (sg if c == u + 1 else 0.0)
+        elif code == SLIDE:  # Ṅ = ṡ u: the free position's own column
+            k = op[o, 1]
+            f = 2 * e.shape[0] + op[o, 5]
+            for c in range(m):
+                X[c, k, 0] = par[o, 2] if c == f else 0.0
+                X[c, k, 1] = par[o, 3] if c == f else 0.0
         elif code == CIRCLES:
             k = op[o, 1]
             x1, y1 = _at(N, op[o, 2], e, op[o, 5], op[o, 6])  # the centres C_j
@@ -674,15 +734,15 @@ def _accelerations(con, drv, e, edot, dE, N, q, Nv, v, X, x):
     """The acceleration pass at the placed positions (``N``, ``q``) and velocities (``Nv``,
     ``v``, from :func:`_velocities`): every node's acceleration into ``X`` and every body's
     into ``x``, the clearance joints' eccentricities ``e`` (m) moving at ``edot`` (m/s) and
-    accelerating at ``dE`` (m/s²), the drivers and the free angles at the accelerations in
-    ``drv``.
+    accelerating at ``dE`` (m/s²), the drivers and the free coordinates at the accelerations
+    in ``drv``.
 
     The position equations differentiated twice: the velocity pass's equations with
     velocity-quadratic terms added. For a node where two circles around the centres ``C_j``
     meet, ``(N − C_j)·N̈ = (N − C_j)·C̈_j − |Ṅ − Ċ_j|²``; a body through two nodes accelerates
-    at ``(d × d̈)/|d|²``; a point ``p = A s`` of a body at ``r̈ + α × p − ω² p``. With
-    ``dE = 0`` and the free angles' accelerations zero the result is ``q̈₀``, the acceleration
-    of the drivers and the velocities alone.
+    at ``(d × d̈)/|d|²``; a point ``p = A s`` of a body at ``r̈ + α × p − ω² p``; a free
+    position's node at ``s̈ u``. With ``dE = 0`` and the free coordinates' accelerations zero
+    the result is ``q̈₀``, the acceleration of the drivers and the velocities alone.
     Returns False at a toggle (two tangent circles, a rod square to its slider's line)."""
     op = con.op
     par = con.par
@@ -718,6 +778,11 @@ def _accelerations(con, drv, e, edot, dE, N, q, Nv, v, X, x):
             X[k, 1] = x[3 * b + 1] + wa * px - w2 * py
         elif code == OFFSET:
             _offset(op, o, X, dE)
+        elif code == SLIDE:
+            k = op[o, 1]
+            sa = drv[op[o, 4], 2]
+            X[k, 0] = sa * par[o, 2]
+            X[k, 1] = sa * par[o, 3]
         elif code == CIRCLES:
             k = op[o, 1]
             x1, y1 = _at(N, op[o, 2], e, op[o, 5], op[o, 6])  # the centres C_j …

@@ -16,7 +16,7 @@ compiled version contains only its own code. For a
 For a :class:`~mechrel.mechanics.reduced.ReducedSystem` (the reduced formulation):
 
 * state ``(z, ż, W_in, W_cl)``, ``2 nz + 2`` entries (``nz = 2 nc + nf``: the
-  eccentricities and the free angles); work arrays
+  eccentricities and the free coordinates); work arrays
   :func:`~mechrel.mechanics.reduced.make_reduced_work`;
 * right-hand side :func:`~mechrel.mechanics.reduced.reduced_rhs_into`, contact gaps
   :func:`~mechrel.mechanics.reduced.reduced_gaps_into`;
@@ -73,7 +73,7 @@ def _reduced(sys) -> bool:
 
 def n_coordinates(sys):
     """The number of coordinates of the state: ``n`` absolute, ``2 nc + nf`` reduced (the
-    eccentricities and the free angles).
+    eccentricities and the free coordinates).
 
     Parameters
     ----------

@@ -1,13 +1,16 @@
-"""The equations of motion in the clearance joints' eccentricities (and the free angles).
+"""The equations of motion in the clearance joints' eccentricities (and the free coordinates).
 
 When a mechanism's ideal degrees of freedom are all driven, the motion that clearance adds has
 exactly two degrees of freedom per clearance joint: its eccentricity ``e = r_S − r_B`` (journal
-point minus bearing point, m). A degree of freedom that no driver sets (a pendulum's swing, a
-crank turned by a torque) adds its angle, the construction's *free angle* ``φ``. With the bodies
-placed in closed form for any ``e`` and ``φ`` (:mod:`~mechrel.mechanics.construction`, whose
-steps treat each clearance joint as two nodes ``e`` apart and pose an undriven body at its free
-angle), the positions ``q(z, t)`` of all bodies are a function of the reduced coordinates
-``z = (e_1, …, e_nc, φ_1, …, φ_nf)`` (``nz = 2 nc + nf`` of them) and time, and
+point minus bearing point, m). A degree of freedom that no driver sets adds a *free
+coordinate* of the construction: the angle ``φ`` of an undriven link (a pendulum's swing, a
+crank turned by a torque) or the position ``s`` of an undriven slider along its line (a cart on
+a rail). With the bodies placed in closed form for any ``e`` and free coordinates
+(:mod:`~mechrel.mechanics.construction`, whose steps treat each clearance joint as two nodes
+``e`` apart and pose an undriven body at its free angle or position), the positions
+``q(z, t)`` of all bodies are a function of the reduced coordinates
+``z = (e_1, …, e_nc, φ_1 or s_1, …)`` (``nz = 2 nc + nf`` of them, ``nf`` free coordinates)
+and time, and
 
     q̇ = R ż + q̇₀,     q̈ = R z̈ + q̈₀,     R = ∂q/∂z (n × nz),
 
@@ -28,9 +31,10 @@ terms, and the state has ``2 nz + 2`` entries (10 for the nine-bar) instead of `
 (50).
 
 State ``y = (z, ż, W_in, W_cl)``: the eccentricities (m), clearance joint by joint, then the
-free angles (rad), their rates (m/s, rad/s), and the drivers' and clearance joints' work (J), as
-the absolute state ends with them. The clearance power ``P_cl`` is the force laws' (the same as
-the absolute formulation's); the drivers' power is that of the constraint forces,
+free coordinates (rad for an angle, m for a position), their rates, and the drivers' and
+clearance joints' work (J), as the absolute state ends with them. The clearance power
+``P_cl`` is the force laws' (the same as the absolute formulation's); the drivers' power is
+that of the constraint forces,
 ``P_in = q̇ᵀ (M q̈ − Q)``: ideal joints do no work, so the drivers' reactions are all of it (the
 absolute formulation computes the same quantity as ``−Σ λ_d θ̇_d``; the two agree to round-off
 at a state that satisfies the constraints, which a test checks). The layout ``(coordinates,
@@ -51,7 +55,7 @@ from numba.extending import register_jitable
 
 from .applied import applied_forces_trig
 from .borrow import borrowed
-from .construction import (ANGLE_FREE, POSE_ANGLE, _accelerations, _branch_signs,
+from .construction import (ANGLE_FREE, POSE_ANGLE, SLIDE, _accelerations, _branch_signs,
                            _ground_nodes, _place, _velocities)
 from .construction import construction  # noqa: F401  (the docstring examples use it)
 from ..forces.params import P_C
@@ -98,8 +102,8 @@ class ReducedWork(NamedTuple):
         The nodes' positions (m), velocities (m/s) and accelerations (m/s²).
     Vc : ndarray, shape (nz + 1, n_nodes, 2)
         The velocity pass's columns (:func:`~mechrel.mechanics.construction._velocities`):
-        the nodes' velocities for a unit rate of each eccentricity component and free angle,
-        then the drivers' motion.
+        the nodes' velocities for a unit rate of each eccentricity component and free
+        coordinate, then the drivers' motion.
     q, v, a : ndarray, shape (n,)
         The bodies' coordinates, velocities and accelerations (SI).
     vc : ndarray, shape (nz + 1, n)
@@ -124,7 +128,8 @@ class ReducedWork(NamedTuple):
         The assembly branch of each square root of the construction.
     drv : ndarray, shape (nd + nf, 3)
         Each driver's θ (rad), θ̇ (rad/s), θ̈ (rad/s²) at the evaluation's time, then each
-        free angle's (from the state; its θ̈ zero but in an expansion).
+        free coordinate's value, rate and acceleration (from the state; the acceleration
+        zero but in an expansion).
     D : ndarray, shape (nz,)
         Scratch of :func:`reduced_fast_jacobian`: one column of ∂z̈/∂s (m/s² per unit of s).
     w : ndarray, shape (nz,)
@@ -168,9 +173,9 @@ class ReducedWork(NamedTuple):
 @register_jitable
 def n_reduced(con):
     """The number of reduced coordinates ``nz = 2 nc + nf`` of a construction: two per
-    clearance joint (its eccentricity), one per free angle. The reduced state has
-    ``2 nz + 2`` entries. Plain Python where called from Python, compiled inline in compiled
-    code.
+    clearance joint (its eccentricity), one per free coordinate (a link's angle or a slider's
+    position). The reduced state has ``2 nz + 2`` entries. Plain Python where called from
+    Python, compiled inline in compiled code.
 
     Parameters
     ----------
@@ -246,9 +251,9 @@ def make_reduced_work(sys, con, q_ref):
 @njit(cache=True, inline='always')
 def _kinematics_of(t, y, sys, con, rw):
     """Positions, velocities and accelerations of the reduced state ``y`` into ``rw``, the
-    eccentricities and the free angles accelerating at ``rw.Edd`` and the free angles' rows
-    of ``rw.drv`` (zero: ``q̈₀``); False where the construction has no real solution or a
-    toggle."""
+    eccentricities and the free coordinates accelerating at ``rw.Edd`` and the free
+    coordinates' rows of ``rw.drv`` (zero: ``q̈₀``); False where the construction has no real
+    solution or a toggle."""
     nc = rw.E.shape[0]
     nz = rw.b.shape[0]
     for c in range(nc):
@@ -256,7 +261,7 @@ def _kinematics_of(t, y, sys, con, rw):
         rw.E[c, 1] = y[2 * c + 1]
         rw.Ed[c, 0] = y[nz + 2 * c]
         rw.Ed[c, 1] = y[nz + 2 * c + 1]
-    nd = rw.drv.shape[0] - (nz - 2 * nc)  # the free angles' rows follow the drivers'
+    nd = rw.drv.shape[0] - (nz - 2 * nc)  # the free coordinates' rows follow the drivers'
     for f in range(nz - 2 * nc):
         rw.drv[nd + f, 0] = y[2 * nc + f]
         rw.drv[nd + f, 1] = y[nz + 2 * nc + f]
@@ -297,8 +302,8 @@ def reduced_rhs_into(t, y, hist, sys, con, rw, out):
     t : float
         Time (s).
     y : ndarray, shape (2 nz + 2,)
-        Eccentricities (m), clearance joint by joint, and free angles (rad), their rates
-        (m/s, rad/s), and the two work integrals (J).
+        Eccentricities (m), clearance joint by joint, and free coordinates (rad or m), their
+        rates (m/s, rad/s), and the two work integrals (J).
     hist : ndarray, shape (nh,)
         History of the contact-capable joints (impact speed, m/s).
     sys : System
@@ -601,7 +606,7 @@ def reduced_gaps_into(y, sys, g, gd):
     >>> round(float(g[0]), 12), float(gd[0])
     (-0.0003, 0.1)
     """
-    nz = (y.shape[0] - 2) // 2  # the eccentricities first, then any free angles
+    nz = (y.shape[0] - 2) // 2  # the eccentricities first, then any free coordinates
     for k in range(sys.cl_hist.shape[0]):
         h = sys.cl_hist[k]
         if h >= 0:
@@ -611,7 +616,7 @@ def reduced_gaps_into(y, sys, g, gd):
 
 @njit(cache=True, inline='always')
 def _expand_into(t, y, zdd, sys, con, rw):
-    """:func:`_kinematics_of` with the eccentricities and free angles accelerating at
+    """:func:`_kinematics_of` with the eccentricities and free coordinates accelerating at
     ``zdd``."""
     nc = rw.E.shape[0]
     nf = rw.b.shape[0] - 2 * nc
@@ -827,15 +832,16 @@ def expand(t, y, zdd, sys, con, rw):
 
 def reduced_coordinates(sys, con, q, v, work=(0.0, 0.0)):
     """The reduced state ``(z, ż, W_in, W_cl)`` of an absolute state: each clearance joint's
-    eccentricity ``e = r_S − r_B`` (m) and each free angle (the angle of its body, rad), their
-    rates (m/s, rad/s), then the two work integrals (J).
+    eccentricity ``e = r_S − r_B`` (m) and each free coordinate (a free angle: the angle of its
+    body, rad; a free position: the slider's node along its line from ``P₀``, m), their rates
+    (m/s, rad/s), then the two work integrals (J).
 
     Parameters
     ----------
     sys : System
         The mechanism with its clearance joints as force elements.
     con : Construction
-        ``construction(sys)`` (the order of the clearance joints and free angles).
+        ``construction(sys)`` (the order of the clearance joints and free coordinates).
     q, v : ndarray, shape (n,)
         Coordinates (m, rad) and velocities (m/s, rad/s).
     work : pair of float, optional
@@ -881,4 +887,13 @@ def reduced_coordinates(sys, con, q, v, work=(0.0, 0.0)):
         b, f = con.op[o, 1], con.op[o, 5]  # a free angle is its body's angle
         y[2 * nc + f] = q[3 * b + 2]
         y[nz + 2 * nc + f] = v[3 * b + 2]
+    for o in np.flatnonzero(con.op[:, 0] == SLIDE):  # a free position: N = P0 + s u
+        k, f = con.op[o, 1], con.op[o, 5]
+        b, (sx, sy) = con.node_body[k], con.node_s[k]  # the node as a point of a body
+        px, py = cs[b] * sx - sn[b] * sy, sn[b] * sx + cs[b] * sy
+        ux, uy = con.par[o, 2], con.par[o, 3]
+        y[2 * nc + f] = (q[3 * b] + px - con.par[o, 0]) * ux + (q[3 * b + 1] + py
+                                                                 - con.par[o, 1]) * uy
+        w = v[3 * b + 2]
+        y[nz + 2 * nc + f] = (v[3 * b] - w * py) * ux + (v[3 * b + 1] + w * px) * uy
     return y
