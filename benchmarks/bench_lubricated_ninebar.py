@@ -189,7 +189,10 @@ def main(argv=None):
     # ---- scans
     print("| code | integrator | rtol | wall (s) | integration (s) | steps | rhs evals | "
           "peak dev (%) | curve dev (%) |\n|---|---|---|---|---|---|---|---|---|")
-    tols = [1e-3, 3e-4, 1e-4, 3e-5, 1e-5, 1e-6] if not args.quick else [1e-4, 1e-5]
+    # radau integrates the reduced equations here (its default formulation), which meet the
+    # peak criterion from rtol 3e-2 (docs/performance.md, "Radau on the reduced equations")
+    tols = ([3e-2, 1e-2, 3e-3, 1e-3, 3e-4, 1e-4, 3e-5, 1e-5, 1e-6] if not args.quick
+            else [1e-4, 1e-5])
     mr_settings = [("radau", t) for t in tols if "radau" in INTEGRATORS]
     mr_settings += [("lsoda", t) for t in ([1e-4, 1e-5, 1e-6] if not args.quick else [1e-5])]
     mr_settings += [("bdf", t) for t in ([1e-4, 1e-5, 1e-6] if not args.quick else [])]
