@@ -61,6 +61,21 @@ def test_auto_is_reduced_where_it_applies_and_absolute_elsewhere():
         compile_scene(load_scene("nine-bar-lubricated")).dynamic) == "absolute"
 
 
+def test_a_scene_chooses_radaus_formulation():
+    # [solver] formulation: the scene's choice reaches radau, a keyword of simulate overrides
+    # it, and a scene that leaves it unset has no such field in its canonical form (so no
+    # scene hash moved when the field was added)
+    from mechrel.scene import canonical_json, with_overrides
+
+    base = load_scene("slider-crank-lubricated", overrides={"analysis.cycles": 0.25})
+    absolute = with_overrides(base, {"solver.formulation": "absolute"})
+    assert "formulation" not in canonical_json(base)
+    assert '"formulation":"absolute"' in canonical_json(absolute)
+    assert simulate(base).stats["formulation"] == "reduced"
+    assert simulate(absolute).stats["formulation"] == "absolute"
+    assert simulate(absolute, formulation="reduced").stats["formulation"] == "reduced"
+
+
 def test_asking_for_reduced_where_it_cannot_apply_says_why():
     ideal = compile_scene(load_scene("nine-bar")).dynamic
     with pytest.raises(SimulationError, match=r"radau's formulation = 'reduced': the mechanism "

@@ -159,6 +159,18 @@ def test_api_misuse_is_one_clear_error(call, error, message):
         call(load_scene("slider-crank"))
 
 
+def test_radaus_formulation_in_a_scene_run_by_another_integrator_is_named():
+    # the dry slider-crank runs DOPRI5 by default: radau's equations cannot apply there
+    from mechrel.errors import SimulationError
+    scene = load_scene("slider-crank-dry", overrides={"solver.formulation": "absolute"})
+    with pytest.raises(SimulationError, match=r"solver\.formulation = 'absolute': the equations "
+                       r"that 'radau' integrates, but this scene runs 'dopri5' \(set "
+                       r"solver\.integrator = 'radau', or leave solver\.formulation unset\)"):
+        simulate(scene)
+    res = simulate(scene, integrator="radau", rtol=1e-5, atol=1e-8)  # radau: it applies
+    assert res.stats["formulation"] == "absolute"
+
+
 @pytest.mark.parametrize("name", ["slider-crank", "slider-crank-dry"])
 def test_over_constrained_mechanism_is_named(name):
     # a second driver on the rod: 10 constraint equations for 9 coordinates. Before, the ideal

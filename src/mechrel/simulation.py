@@ -87,8 +87,8 @@ def make_integrator(scene: Scene, integrator: str | None = None, **settings):
     Parameters
     ----------
     scene : Scene
-        Its ``solver`` table gives the integrator, step (s), tolerances, step budget and
-        contact-onset tolerance (m).
+        Its ``solver`` table gives the integrator, step (s), tolerances, step budget,
+        contact-onset tolerance (m) and radau's formulation.
     integrator : str, optional
         Overrides ``scene.solver.integrator``: ``"auto"`` (:data:`DEFAULT_SOLVERS` of the
         scene's kind, :func:`scene_kind`) or a name of :data:`mechrel.integrate.INTEGRATORS`.
@@ -104,7 +104,8 @@ def make_integrator(scene: Scene, integrator: str | None = None, **settings):
     Raises
     ------
     SimulationError
-        An unknown integrator or setting, or a fixed-step method without a step.
+        An unknown integrator or setting, a fixed-step method without a step, or a
+        ``solver.formulation`` for an integrator other than radau.
 
     Examples
     --------
@@ -115,6 +116,12 @@ def make_integrator(scene: Scene, integrator: str | None = None, **settings):
     >>> solver = make_integrator(load_scene("slider-crank-dry"))
     >>> solver.name, solver.rtol, solver.atol
     ('dopri5', 1e-08, 1e-11)
+
+    A scene may choose the equations radau integrates:
+
+    >>> scene = load_scene("nine-bar-lubricated", overrides={"solver.formulation": "absolute"})
+    >>> make_integrator(scene).formulation
+    'absolute'
     """
     s = scene.solver
     name = s.integrator if integrator is None else integrator
@@ -139,6 +146,13 @@ def make_integrator(scene: Scene, integrator: str | None = None, **settings):
         value = getattr(s, key)
         if value is not None:
             chosen[key] = value
+    if s.formulation is not None:  # radau's equations (a setting of radau alone)
+        if "formulation" not in own:
+            raise SimulationError(
+                f"solver.formulation = {s.formulation!r}: the equations that 'radau' "
+                f"integrates, but this scene runs {name!r} (set solver.integrator = 'radau', "
+                "or leave solver.formulation unset)")
+        chosen["formulation"] = s.formulation
     chosen.update({k: v for k, v in settings.items() if v is not None})
     if name == "rk4" and chosen.get("step") is None:
         raise SimulationError("solver.step: the fixed-step integrator 'rk4' needs a step (s)")

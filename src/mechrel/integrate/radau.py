@@ -142,6 +142,7 @@ from ..mechanics.formulation import (evaluate, evaluate_inline, fast_jacobian, g
                                      has_fast_part, n_coordinates, output_width,
                                      write_output)
 from ..mechanics.system import without_clearance_forces
+from ..scene.model import FORMULATIONS
 from .events import (CTL_DONE, H_START_FLOOR, S_JAC, S_LU, S_NEWTON_REJECTED,
                      S_ONSET_REJECTED, S_REJECTED, S_RHS, S_STATUS, S_STEPS, S_VIOL_POS,
                      S_VIOL_VEL, STATUS_NEWTON,
@@ -1246,7 +1247,7 @@ class Radau(Integrator):
     name = "radau"
     stiff = True
     defaults = {"rtol": 1e-6, "atol": 1e-9}
-    formulations = ("auto", "absolute", "reduced")
+    formulations = FORMULATIONS  # the scene's [solver] formulation takes the same values
 
     def __init__(self, *, fixed_step: bool = False, formulation: str = "auto", **kwargs):
         super().__init__(**kwargs)

@@ -7,8 +7,9 @@ from .loader import (
     parse_value, scene_hash, with_overrides,
 )
 from .model import (
-    CLEARANCE_MODELS, DRIVER_LAWS, GROUND, INTEGRATOR_NAMES, QUANTITIES, Analysis, Body, Contact,
-    Driver, Friction, Joint, Lubricant, Output, PointRef, Scene, Solver, Transition,
+    CLEARANCE_MODELS, DRIVER_LAWS, FORMULATIONS, GROUND, INTEGRATOR_NAMES, QUANTITIES, Analysis,
+    Body, Contact, Driver, Friction, Joint, Lubricant, Output, PointRef, Scene, Solver,
+    Transition,
 )
 
 __all__ = [
@@ -17,4 +18,5 @@ __all__ = [
     "Scene", "Body", "PointRef", "Joint", "Contact", "Friction", "Lubricant", "Transition",
     "Driver", "Output", "Analysis", "Solver",
     "GROUND", "CLEARANCE_MODELS", "DRIVER_LAWS", "QUANTITIES", "INTEGRATOR_NAMES",
+    "FORMULATIONS",
 ]

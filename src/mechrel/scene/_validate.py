@@ -24,8 +24,9 @@ from ._schema import (
     JOINT_TYPES, NAME_RE, NAME_RULE, SOLVER_KEYS, TOP_KEYS,
 )
 from .model import (
-    CLEARANCE_MODELS, DRIVER_LAWS, GROUND, INTEGRATOR_NAMES, MAX_STEPS_LIMIT, Analysis, Body,
-    Contact, Driver, Friction, Joint, Lubricant, Output, PointRef, Scene, Solver, Transition,
+    CLEARANCE_MODELS, DRIVER_LAWS, FORMULATIONS, GROUND, INTEGRATOR_NAMES, MAX_STEPS_LIMIT,
+    Analysis, Body, Contact, Driver, Friction, Joint, Lubricant, Output, PointRef, Scene, Solver,
+    Transition,
 )
 
 COINCIDENT_TOL = 1e-9  # m: two joint points closer than this on one body form a zero-length link
@@ -536,6 +537,8 @@ class _Builder(Checker):
         kw: dict[str, Any] = {}
         if "integrator" in s:
             kw["integrator"] = self.choice("solver.integrator", s["integrator"], INTEGRATOR_NAMES)
+        if "formulation" in s:
+            kw["formulation"] = self.choice("solver.formulation", s["formulation"], FORMULATIONS)
         for k, unit in (("step", "s"), ("atol", None)):
             if k in s:
                 kw[k] = self.number("solver." + k, s[k], gt=0, unit=unit)

@@ -29,6 +29,11 @@ DRIVER_LAWS = ("constant-speed", "constant-acceleration", "harmonic", "smooth-st
 QUANTITIES = ("displacement", "velocity", "acceleration")
 INTEGRATOR_NAMES = ("auto", "rk4", "dopri5", "radau", "scipy-radau", "bdf", "lsoda")
 """Allowed values of ``[solver] integrator`` (checked by the scene loader)."""
+FORMULATIONS = ("auto", "absolute", "reduced")
+"""Allowed values of ``[solver] formulation``, the equations ``radau`` integrates
+(:class:`mechrel.integrate.radau.Radau`): ``"reduced"`` the clearance joints' eccentricities
+and the undriven freedoms, ``"absolute"`` all bodies' coordinates with Lagrange multipliers,
+``"auto"`` the reduced ones where they apply."""
 
 
 @dataclass(frozen=True)
@@ -480,6 +485,9 @@ class Solver:
         Largest constraint violation accepted at assembly (m, rad); default 1e-12.
     onset_tolerance : float
         Largest penetration at which a contact onset counts as located (m); default 1e-9.
+    formulation : str, optional
+        One of :data:`FORMULATIONS`: the equations ``radau`` integrates (only with the
+        integrator ``radau``); unset: radau's default, ``"auto"``.
 
     Examples
     --------
@@ -498,6 +506,7 @@ class Solver:
     baumgarte_beta: float = 5.0
     assembly_tolerance: float = 1e-12
     onset_tolerance: float = 1e-9
+    formulation: str | None = None  # unset: not in the canonical raw, so no scene hash moves
 
 
 @dataclass(frozen=True)
