@@ -3,10 +3,12 @@
 For each scene and integrator setting this measures, in one process with the runs interleaved:
 
 * the **cost per cycle**: median wall time of ``simulate`` (warm), and of the integrator alone;
-* the **right-hand-side cost** ``t_f``: one ``rhs_into`` (the kernels' allocation-free form) in
-  a compiled loop over the states of the cycle, µs;
+* the **right-hand-side cost** ``t_f``: one evaluation of the equations Radau integrates (the
+  kernels' allocation-free form, ``mechrel.mechanics.formulation.evaluate_inline``, inlined
+  as in Radau's Newton iteration: the reduced equations where radau runs them, the absolute
+  ones otherwise) in a compiled loop over the states of the cycle, µs;
 * for implicit settings, one **LU pair** (the real and the complex condensed iteration matrices
-  of Radau, built from the Jacobian at a state of the cycle), µs;
+  of Radau, built from its full Jacobian of the same equations at a state of the cycle), µs;
 * the **fewest steps** ``N`` an L-stable method needs at the setting's accuracy, bounded from
   above by three measurements: the accepted steps of mechrel's Radau; the accepted steps of the
   same Radau with its Newton iteration made as good as it gets (fresh Jacobian at every
@@ -24,9 +26,15 @@ acceleration error within 1 % of a radau rtol 1e-10 reference) for the lubricate
 the dry scenes are chaotic (docs/performance.md, "What accuracy costs") and are reported at
 their default setting, whose floor is its own steps × stages × t_f.
 
-Run (≈ 3–5 min warm; the first run compiles the loops and the Radau variant, ≈ 1 min)::
+``--formulation`` chooses the equations radau integrates (default ``auto``, what the shipped
+Radau does: the reduced ones on the lubricated scenes); the criterion setting of the nine-bar
+is the loosest that meets the 1 % peak criterion in that formulation (rtol 3e-2 reduced, 3e-4
+absolute: ``bench_formulations.py``).
+
+Run (≈ 3–5 min warm; the first run compiles the loops and the Radau variants, ≈ 2 min)::
 
     python benchmarks/bench_floor.py --repeats 7 --json bench_floor.json
+    python benchmarks/bench_floor.py --repeats 7 --formulation absolute
 """
 
 from __future__ import annotations
@@ -52,12 +60,14 @@ from numba import njit  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _common import git_state, module_from_source  # noqa: E402
-from bench_effects import _rhs_loop  # noqa: E402  (one rhs_into per state, compiled)
 
 import mechrel.integrate.radau as radau  # noqa: E402
 from mechrel.integrate.events import (N_STATS, S_JAC, S_LU, S_REJECTED, S_RHS, S_STEPS,  # noqa: E402
                                      new_log, start)
+from mechrel.integrate.radau import reduced_system  # noqa: E402
 from mechrel.mechanics.dynamics import N_WORK, make_workspace, rhs_into  # noqa: E402
+from mechrel.mechanics.formulation import evaluate, evaluate_inline, make_work  # noqa: E402
+from mechrel.mechanics.reduced import reduced_coordinates  # noqa: E402
 from mechrel.mechanics.system import compile_scene, without_clearance_forces  # noqa: E402
 from mechrel.scene import load_scene  # noqa: E402
 from mechrel.simulation import simulate  # noqa: E402
@@ -85,6 +95,51 @@ def _lu_loop(J, h, reps):
     return s
 
 
+@njit(cache=False)
+def _eval_loop(T, Y, hist, sys, reps):
+    """``evaluate_inline`` (the kernels' allocation-free right-hand side of ``sys``'s
+    formulation, inlined as in Radau's Newton iteration) at every state ``reps`` times; returns
+    a checksum (keeps the calls)."""
+    s = 0.0
+    ws = make_work(sys)
+    out = np.empty(Y.shape[1])
+    for _ in range(reps):
+        for k in range(Y.shape[0]):
+            evaluate_inline(T[k], Y[k], hist, sys, ws, out)
+            s += out[0]
+    return s
+
+
+@njit(cache=False)
+def _jacobian(t, y, hist, sys, floor):
+    """The finite-difference Jacobian of ``sys``'s equations at ``(t, y)``
+    (``mechrel.integrate.radau.fd_jacobian``): for the LU timings, which depend on the
+    matrices' size and pivots, not on how their entries were obtained."""
+    ny = y.shape[0]
+    J = np.zeros((ny, ny))
+    f0 = np.zeros(ny)
+    ws = make_work(sys)
+    evaluate(t, y, hist, sys, ws, f0)
+    radau.fd_jacobian(t, y, f0, hist, sys, ws, J, floor, np.zeros(ny), np.zeros(ny))
+    return J
+
+
+def full_jacobian(t, y, hist, sys):
+    """Radau's full Jacobian of the absolute equations at ``(t, y)`` (RODAS, below): the
+    kernel's own update (``mechrel.integrate.radau._update_jacobian``, not partial), smooth
+    part by differences of the force-free mechanism plus the semi-analytic fast part, with the
+    increments' floor ``atol/rtol`` of this benchmark's settings (``ATOL_RATIO``)."""
+    ny = y.size
+    nq = sys.mass.shape[0]
+    J = np.zeros((ny, ny))
+    radau._update_jacobian(t, y, np.zeros(ny), hist, sys, without_clearance_forces(sys),
+                           make_workspace(sys), J, np.zeros((ny, ny)),
+                           np.zeros((ny - nq, 2 * nq)), np.bool_(False), np.int64(0),
+                           np.bool_(True), ATOL_RATIO, np.zeros(ny),
+                           np.zeros(ny), np.zeros(ny), np.zeros(N_STATS))
+    return J
+
+
 def _per_call(fn, args, calls_per_rep, seconds=0.3):
     """µs per call of a compiled loop, calibrated to ``seconds`` per chunk; best of 3 chunks."""
     fn(*args[:-1], 1)
@@ -101,22 +156,6 @@ def _per_call(fn, args, calls_per_rep, seconds=0.3):
         fn(*args[:-1], reps)
         best = min(best, (time.perf_counter() - t0) / (reps * calls_per_rep) * 1e6)
     return best
-
-
-def full_jacobian(t, y, hist, sys):
-    """Radau's full Jacobian at ``(t, y)``: the kernel's own update
-    (``mechrel.integrate.radau._update_jacobian``, not partial), smooth part by differences of
-    the force-free mechanism plus the semi-analytic fast part, with the increments' floor
-    ``atol/rtol`` of this benchmark's settings (``ATOL_RATIO``)."""
-    ny = y.size
-    nq = sys.mass.shape[0]
-    J = np.zeros((ny, ny))
-    radau._update_jacobian(t, y, np.zeros(ny), hist, sys, without_clearance_forces(sys),
-                           make_workspace(sys), J, np.zeros((ny, ny)),
-                           np.zeros((ny - nq, 2 * nq)), np.bool_(False), np.int64(0),
-                           np.bool_(True), ATOL_RATIO, np.zeros(ny),
-                           np.zeros(ny), np.zeros(ny), np.zeros(N_STATS))
-    return J
 
 
 # ---------------------------------------------------------------------------- RODAS (NumPy)
@@ -310,20 +349,27 @@ class _Swap:
         radau.Radau._advance = self.saved
 
 
-def rhs_cost(scene, res):
-    """µs per ``rhs_into`` over the states of the run ``res``."""
-    cs = compile_scene(scene)
-    sys_ = cs.dynamic
+def rhs_cost(scene, res, formulation):
+    """µs per evaluation over the states of the run ``res``, in ``formulation``
+    (``"absolute"`` or ``"reduced"``); also the system and states it used."""
+    system = compile_scene(scene).dynamic
     T = np.ascontiguousarray(res.time)
-    Y = np.ascontiguousarray(np.concatenate([res.q, res.v, np.zeros((T.size, N_WORK))], axis=1))
-    hist = np.zeros(sys_.n_contacts)
-    return _per_call(_rhs_loop, (T, Y, hist, sys_, 0), T.size), sys_, T, Y
+    Y = np.concatenate([res.q, res.v, np.zeros((T.size, N_WORK))], axis=1)
+    sys_ = system
+    if formulation == "reduced":
+        sys_ = reduced_system(system, Y[0], required=True)
+        Y = np.array([reduced_coordinates(system, sys_.con, q, v) for q, v in zip(res.q, res.v)])
+    Y = np.ascontiguousarray(Y)
+    hist = np.zeros(system.n_contacts)
+    return _per_call(_eval_loop, (T, Y, hist, sys_, 0), T.size), sys_, T, Y
 
 
 def lu_cost(sys_, T, Y, h):
-    """µs per LU pair of Radau's condensed iteration matrices at mid-cycle, step ``h``."""
+    """µs per LU pair of Radau's condensed iteration matrices at mid-cycle, step ``h``, from
+    its full Jacobian there (increments' floor ``atol/rtol`` of this benchmark's settings)."""
     k = T.size // 2
-    J = full_jacobian(T[k], Y[k].copy(), np.zeros(sys_.n_contacts), sys_)
+    system = getattr(sys_, "sys", sys_)  # the reduced system's own mechanism
+    J = _jacobian(T[k], Y[k].copy(), np.zeros(system.n_contacts), sys_, ATOL_RATIO)
     return _per_call(_lu_loop, (J, h, 0), 1)
 
 
@@ -332,11 +378,16 @@ def main(argv=None):
     ap.add_argument("--repeats", type=int, default=7, help="timed, interleaved runs per setting")
     ap.add_argument("--json", default=None, help="write all results here")
     ap.add_argument("--out", default=None, help="write the markdown table here")
+    ap.add_argument("--formulation", default="auto", choices=("auto", "absolute", "reduced"),
+                    help="the equations radau integrates (default: the shipped choice)")
     args = ap.parse_args(argv)
-    variant = radau_variant(_EDITS, "radau_exact_newton")
-    capped = radau_variant(_CONTROLLER_EDITS, "radau_theta_cap")
+    # the variants run as the shipped Radau does, in the formulation of the instance
+    variant = radau_variant(_EDITS, "radau_exact_newton", formulations=True)
+    capped = radau_variant(_CONTROLLER_EDITS, "radau_theta_cap", formulations=True)
+    form = {} if args.formulation == "auto" else {"formulation": args.formulation}
+    criterion = 3e-4 if args.formulation == "absolute" else 3e-2
     rows = []
-    lub = [("nine-bar-lubricated", 3e-4, "1 % peak criterion (bench_lubricated_ninebar.py)"),
+    lub = [("nine-bar-lubricated", criterion, "1 % peak criterion (bench_formulations.py)"),
            ("nine-bar-lubricated", 1e-5, "the main study's setting"),
            ("nine-bar-lubricated", 1e-7, "the scene's default"),
            ("slider-crank-lubricated", 1e-5, "the accuracy report's recommendation")]
@@ -347,18 +398,20 @@ def main(argv=None):
             ref = simulate(scene, integrator="radau", rtol=REF_RTOL, atol=REF_ATOL)
             refs[name] = (ref.error("slider", "acceleration"), ref)
         e_ref, ref = refs[name]
-        r = simulate(scene, integrator="radau", rtol=rtol, atol=rtol * ATOL_RATIO)
-        row = {"scene": name, "setting": f"radau rtol {rtol:g}", "why": why, "rtol": rtol,
+        kw = {"integrator": "radau", "rtol": rtol, "atol": rtol * ATOL_RATIO, **form}
+        r = simulate(scene, **kw)
+        formulation = r.stats["formulation"]
+        row = {"scene": name, "setting": f"radau ({formulation}) rtol {rtol:g}", "why": why,
+               "rtol": rtol, "formulation": formulation,
                "kind": "implicit", "steps": r.stats["n_steps"], "rejected": r.stats["n_rejected"],
                "rhs": r.stats["n_rhs"], "jac": r.stats["n_jacobians"], "lu": r.stats["n_lu"],
                "peak_dev": peak_dev(r, e_ref), "cycles": scene.analysis.cycles,
-               "kw": {"integrator": "radau", "rtol": rtol, "atol": rtol * ATOL_RATIO},
-               "scene_obj": scene}
+               "kw": kw, "scene_obj": scene}
         with _Swap(variant):
-            rv = simulate(scene, integrator="radau", rtol=rtol, atol=rtol * ATOL_RATIO)
+            rv = simulate(scene, **kw)
         row["variant_steps"] = rv.stats["n_steps"]
         row["variant_peak_dev"] = peak_dev(rv, e_ref)
-        row["t_f"], sys_, T, Y = rhs_cost(scene, ref)
+        row["t_f"], sys_, T, Y = rhs_cost(scene, ref, formulation)
         row["t_lu"] = lu_cost(sys_, T, Y, scene.analysis_duration / max(row["steps"], 1))
         rows.append(row)
     # RODAS at the 1 % criterion: the loosest tolerance that meets it
@@ -379,7 +432,7 @@ def main(argv=None):
     for name in ("nine-bar-dry", "slider-crank-dry"):
         scene = load_scene(name)
         r = simulate(scene)
-        t_f, *_ = rhs_cost(scene, r)
+        t_f, *_ = rhs_cost(scene, r, "absolute")  # DOPRI5 integrates the absolute ones
         rows.append({"scene": name, "setting": f"{r.stats['integrator']} (default)",
                      "why": "the scene's default (chaotic: no 1 % setting exists)",
                      "kind": "explicit", "steps": r.stats["n_steps"],
@@ -392,7 +445,7 @@ def main(argv=None):
     e_ref = refs["nine-bar-lubricated"][0]
     for rt in (3e-3, 1e-3, 3e-4, 1e-5, 1e-7):
         for label, adv in (("RADAU5 (shipped)", None), (f"θ cap {THETA_TARGET}", capped)):
-            kw = {"integrator": "radau", "rtol": rt, "atol": rt * ATOL_RATIO}
+            kw = {"integrator": "radau", "rtol": rt, "atol": rt * ATOL_RATIO, **form}
             if adv is None:
                 r = simulate(scene, **kw)
             else:
