@@ -13,21 +13,29 @@ same accuracy?
 
 For each scene and ``rtol`` (atol = 1e-3 rtol) this runs, interleaved, the shipped Radau and
 variants compiled from its source by asserted edits (so they cannot drift from it):
-``κ = min(0.03, 3 √r)``, ``min(0.03, 10 √r)``, the constant ``0.03``, and growth limits of
-4× and 2×. Each run is scored by the largest error of the slider's displacement, velocity and
-acceleration error curves against a radau rtol 1e-11 reference, divided by the reference
-curve's range (the pointwise measure of ``mechrel accuracy``); time is the median kernel wall
-time of ``--repeats`` warm runs. Compare settings on the error–time frontier, not at equal
+``κ = min(0.03, 3 √r)``, ``min(0.03, 10 √r)``, the constant ``0.03``, growth limits of
+4× and 2×, the Newton-aware cap of ``bench_floor.py`` and an unedited copy. Each run is scored
+by the largest error of the slider's displacement, velocity and acceleration error curves
+against a radau rtol 1e-11 reference, divided by the reference curve's range (the pointwise
+measure of ``mechrel accuracy``); time is the median kernel wall time of ``--repeats`` warm
+runs. Compare settings on the error–time frontier, not at equal
 ``rtol``: a variant that is faster at one ``rtol`` but less accurate may only have moved along
 the frontier.
 
 The earlier measurements were on the absolute equations; ``--formulation auto`` runs each
 variant as the shipped Radau runs, i.e. on the reduced equations wherever they apply.
 
-Run (≈ 8 min, of which ≈ 5 compiling the five variants)::
+``--variants`` picks some of them; ``copy`` (a fresh copy of the shipped kernel, no edit) is
+the fair baseline, since a fresh copy runs 5–7 % faster than the cached shipped kernel, and
+``θ cap 0.2`` is ``bench_floor.py``'s Newton-aware step cap.
+
+Run (≈ 8–10 min, of which ≈ 5–7 compiling the variants)::
 
     python benchmarks/bench_radau_controls.py --repeats 5 --json bench_radau_controls.json
     python benchmarks/bench_radau_controls.py --repeats 5 --formulation auto
+    python benchmarks/bench_radau_controls.py --repeats 5 --formulation auto \
+        --scenes nine-bar-lubricated --variants copy "θ cap 0.2" \
+        --rtols 3e-2 1e-2 3e-3 1e-3 3e-4 1e-4 3e-5 1e-5 1e-6 1e-7
 """
 
 from __future__ import annotations
@@ -47,7 +55,7 @@ import numpy as np  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _common import git_state  # noqa: E402
-from bench_floor import _Swap, radau_variant  # noqa: E402
+from bench_floor import _CONTROLLER_EDITS, _Swap, radau_variant  # noqa: E402
 
 import mechrel.integrate.radau as radau  # noqa: E402
 from mechrel.scene import load_scene  # noqa: E402
@@ -62,6 +70,12 @@ VARIANTS = {  # label: the edits of the shipped source
     "κ = 0.03": [(SHIPPED, _LINE.format("0.03"))],
     "growth ≤ 4×": [(_GROWTH, "FACR = 0.25\n")],
     "growth ≤ 2×": [(_GROWTH, "FACR = 0.5\n")],
+    # bench_floor.py's Newton-aware cap: after an accepted step with contraction θ the next
+    # step is at most h · 0.2/θ (the cap doubles after a step that converged at once)
+    "θ cap 0.2": _CONTROLLER_EDITS,
+    # no edit: a fresh copy of the shipped kernel, which runs 5–7 % faster than the cached
+    # shipped one (docs/performance.md), the fair baseline of the variants
+    "copy": [],
 }
 RTOLS = (3e-4, 1e-4, 3e-5, 1e-5, 1e-6, 1e-7)
 REF_RTOL, REF_ATOL = 1e-11, 1e-14
@@ -86,9 +100,11 @@ def main(argv=None):
     ap.add_argument("--rtols", nargs="+", type=float, default=list(RTOLS))
     ap.add_argument("--formulation", choices=["absolute", "auto"], default="absolute",
                     help="the equations every variant integrates (auto: as the shipped Radau)")
+    ap.add_argument("--variants", nargs="+", choices=list(VARIANTS), default=list(VARIANTS),
+                    help="the variants run beside the shipped kernel (default: all)")
     args = ap.parse_args(argv)
     kernels = {"shipped": radau.Radau._advance}
-    for i, (label, edits) in enumerate(VARIANTS.items()):
+    for i, (label, edits) in enumerate((k, VARIANTS[k]) for k in args.variants):
         kernels[label] = radau_variant(edits, f"radau_controls_{i}",
                                        formulations=args.formulation == "auto")
     rows = []
