@@ -261,15 +261,21 @@ def _plan(nb, rev_i, rev_j, rev_si, rev_sj, tr_i, tr_si, tr_p0, tr_n, tr_angle, 
         posed.add(b)
         locate_rest(b, (n,))
 
-    def slide_free(b, n):
+    def rail(b, n):
+        """The line slider b's node n moves on: its point P0 (the node with the slider at
+        the joint's point of the line) and the joint's unit direction u (from its normal
+        n = (−u_y, u_x))."""
         t = line[b]
         th = float(tr_angle[t])
         c, s = math.cos(th), math.sin(th)
         ds = np.subtract(on_body[b][n], tr_si[t])  # the node's offset from the sliding point
         p0 = tr_p0[t] + (c * ds[0] - s * ds[1], s * ds[0] + c * ds[1])
+        return p0, (tr_n[t][1], -tr_n[t][0])
+
+    def slide_free(b, n):
+        p0, u = rail(b, n)
         op.append((SLIDE, n, b, 0, len(dr_i) + len(free), len(free), 0, -1, 0))
-        # u: the joint's direction (its normal n = (−u_y, u_x) turned back): s counts along it
-        par.append((p0[0], p0[1], tr_n[t][1], -tr_n[t][0], 0.0))
+        par.append((p0[0], p0[1], u[0], u[1], 0.0))  # s counts along the joint's direction
         free.append(b)
         placed.add(n)
         pose_angle(b, n)
@@ -326,12 +332,7 @@ def _plan(nb, rev_i, rev_j, rev_si, rev_sj, tr_i, tr_si, tr_p0, tr_n, tr_angle, 
                 used = ((b1, n1, m1, c1, s1), (b2, n2, m2, c2, s2))
             elif circles and lines:
                 (b1, n1, m1, c1, s1), b2 = circles[0], lines[0]
-                t = line[b2]
-                th = float(tr_angle[t])
-                c, s = math.cos(th), math.sin(th)
-                ds = np.subtract(on_body[b2][n], tr_si[t])  # the node's offset from the line
-                p0 = tr_p0[t] + (c * ds[0] - s * ds[1], s * ds[0] + c * ds[1])
-                u = (-tr_n[t][1], tr_n[t][0])
+                p0, u = rail(b2, n)
                 op.append((CIRCLE_LINE, n, n1, 0, n_branches, c1, s1, -1, 0))
                 par.append((dist(b1, n1, m1), p0[0], p0[1], u[0], u[1]))
                 used = ((b1, n1, m1, c1, s1),)
