@@ -19,7 +19,7 @@ from numba.core.typing import signature
 from numba.extending import intrinsic
 from numba.np.arrayobj import make_array
 
-from mechrel.mechanics.borrow import borrowed
+from mechrel.mechanics.borrow import borrowed, keep_alive
 
 
 @intrinsic
@@ -98,3 +98,84 @@ def test_borrowed_refuses_what_has_no_arrays_to_borrow():
 
     with pytest.raises(TypingError, match="borrowed"):
         scalar(1.0)
+
+
+@njit
+def _borrow_own_array(n):
+    """Borrow an array this function allocated, then allocate more arrays of its size (which
+    the allocator places in any block freed meanwhile), and read the borrowed copy after them,
+    with the owner held by ``keep_alive`` (the third rule of the module docstring)."""
+    a = np.full(n, 3.0)
+    owners = (a,)
+    (b,) = borrowed(owners)
+    s = 0.0
+    for _ in range(4):
+        c = np.full(n, 7.0)
+        s += c[1]
+    v = b[0] + b[n - 1]
+    keep_alive(owners)
+    return v, s
+
+
+def test_keep_alive_holds_the_owner_of_a_borrowed_array():
+    # Without keep_alive the owner ``a`` dies at ``borrowed`` and Numba frees it there: with
+    # glibc's allocator the next array of the same size (1000 doubles) takes its block and the
+    # borrowed copy reads 7 + 7 = 14 (measured while writing this test; 100 000 doubles, which
+    # are unmapped when freed, crashed the process). Held until the read, it reads 3 + 3.
+    assert _borrow_own_array(1000) == (6.0, 28.0)
+    assert _borrow_own_array(100_000) == (6.0, 28.0)
+
+
+
+def _jacobian_wrapper(keep):
+    """Radau's Jacobian helper (inlined) called as another kernel would, with work arrays the
+    wrapper allocates; with ``keep`` the wrapper returns them too (so they outlive the call),
+    without it they die at the call."""
+    from mechrel.integrate.events import N_STATS
+    from mechrel.integrate.radau import _update_jacobian
+    from mechrel.mechanics.formulation import evaluate, has_fast_part, make_work
+
+    def jacobian(t, y, hist, red, smooth):
+        ny = y.shape[0]
+        nq = (ny - 2) // 2
+        ws = make_work(red)
+        f0 = np.zeros(ny)
+        evaluate(t, y, hist, red, ws, f0)
+        J = np.zeros((ny, ny))
+        JS = np.zeros((ny, ny))
+        Jsm = np.zeros((ny - nq, 2 * nq))
+        yp = np.zeros(ny)
+        fa = np.zeros(ny)
+        fb = np.zeros(ny)
+        stats = np.zeros(N_STATS)
+        _update_jacobian(t, y, f0, hist, red, smooth, ws, J, JS, Jsm, np.bool_(False),
+                         np.int64(0), has_fast_part(red), 1e-3, yp, fa, fb, stats)
+        if keep:
+            return J, (f0, JS, Jsm, yp, fa, fb, stats)
+        return J, None
+
+    return njit(jacobian)
+
+
+def test_radau_inlined_helpers_work_on_a_callers_own_arrays():
+    # Radau's inlined step helpers used to borrow their arguments. Inlined into a caller whose
+    # work arrays died at the call, the Jacobian helper read freed memory (the reduced
+    # slider-crank's raised ZeroDivisionError). The caller's arrays' lifetime must not change
+    # a bit of the result.
+    from mechrel.integrate.radau import reduced_system
+    from mechrel.mechanics.kinematics import assemble
+    from mechrel.mechanics.reduced import reduced_coordinates
+    from mechrel.mechanics.system import compile_scene, without_clearance_forces
+    from mechrel.scene import load_scene
+
+    c = compile_scene(load_scene("slider-crank-lubricated"))
+    q, v = assemble(c.assembly, c.q_guess, 0.0)
+    red = reduced_system(c.dynamic, np.concatenate([q, v, np.zeros(2)]))
+    smooth = red._replace(sys=without_clearance_forces(c.dynamic))
+    y = np.asarray(reduced_coordinates(c.dynamic, red.con, q, v), dtype=float)
+    y[:2] = (2e-4, -1e-4)  # off centre: the film carries load, the fast part is not zero
+    args = (0.01, y, np.zeros(0), red, smooth)
+    J_kept, _ = _jacobian_wrapper(True)(*args)
+    J_fresh, _ = _jacobian_wrapper(False)(*args)
+    assert np.abs(J_kept[2:4, :4]).max() > 1e3  # a film's stiffness and damping are in it
+    np.testing.assert_array_equal(J_fresh, J_kept)

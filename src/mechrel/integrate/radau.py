@@ -101,8 +101,14 @@ bitwise unchanged. :func:`_solve_collocation` is compiled on its own (the cold w
 it in its helper process, :func:`mechrel._kernel_cache.split_compile`); the others are
 ``inline='always'``, compiled into the kernel: as separate functions they added about 10 s to
 a cold one-process compile (each passes the System and Workspace tuples) for no gain at run
-time. Every helper takes its arrays borrowed (:func:`~mechrel.mechanics.borrow.borrowed`): a
-plain call of the Newton iteration otherwise cost 5–6 % of a warm cycle in reference counts.
+time. The called helpers take their arrays borrowed at entry
+(:func:`~mechrel.mechanics.borrow.borrowed`): a plain call of the Newton iteration otherwise
+cost 5–6 % of a warm cycle in reference counts. The inlined ones do not borrow: inlined, their
+body cannot keep its caller's arrays alive, and a caller that did not use an array after the
+call (another kernel reusing a helper) had it freed under the borrowed copy
+(:mod:`mechrel.mechanics.borrow`, "The rules"). The kernel instead borrows its work arrays
+once and holds their owners to its return (:func:`~mechrel.mechanics.borrow.keep_alive`), so
+the helpers see them borrowed and any other caller may pass its own arrays.
 
 History and contact onsets
 --------------------------
@@ -137,7 +143,7 @@ import math
 import numpy as np
 from numba import njit
 
-from ..mechanics.borrow import borrowed
+from ..mechanics.borrow import borrowed, keep_alive
 from ..mechanics.formulation import (evaluate, evaluate_inline, fast_jacobian, gaps,
                                      has_fast_part, n_coordinates, output_width,
                                      write_output)
@@ -502,8 +508,6 @@ def _update_jacobian(t, y, f0, hist, sys, sys_smooth, ws, J, JS, Jsm, partial, n
     int
         The new count of partial updates since the last full one.
     """
-    y, f0, hist, sys, sys_smooth, ws, J, JS, Jsm, yp, fa, fb, stats = borrowed(
-        (y, f0, hist, sys, sys_smooth, ws, J, JS, Jsm, yp, fa, fb, stats))
     nq = n_coordinates(sys)
     ny = y.shape[0]
     if partial and n_partial < MAX_PARTIAL:
@@ -553,7 +557,6 @@ def _factor_matrices(J, h, E1, E2, piv1, piv2):
     bool
         False if either matrix is singular (then ``E2`` is not factorised).
     """
-    J, E1, E2, piv1, piv2 = borrowed((J, E1, E2, piv1, piv2))
     _build_matrices(J, h, E1, E2)
     ok = lu_factor(E1, piv1)
     if ok:
@@ -579,8 +582,6 @@ def _newton_start(first, h, hold, cont1, cont2, cont3, z1, z2, z3, w1, w2, w3):
     w1, w2, w3 : ndarray, shape (ny,)
         Receive the transformed stages ``W = (T⁻¹ ⊗ I) Z``.
     """
-    cont1, cont2, cont3, z1, z2, z3, w1, w2, w3 = borrowed(
-        (cont1, cont2, cont3, z1, z2, z3, w1, w2, w3))
     ny = z1.shape[0]
     if first:
         for i in range(ny):
@@ -784,9 +785,6 @@ def _estimate_error(t, h, y, f0, hist, sys, ws, J, E1, piv1, fac1, scal, z1, z2,
     float
         The scaled error, ≥ 1e-10; 1e10 if it is not finite.
     """
-    (y, f0, hist, sys, ws, J, E1, piv1, scal, z1, z2, z3, fe, ev, ystage, fa, work1,
-     stats) = borrowed((y, f0, hist, sys, ws, J, E1, piv1, scal, z1, z2, z3, fe, ev, ystage, fa,
-                        work1, stats))
     ny = y.shape[0]
     hee1 = DD1 / h
     hee2 = DD2 / h
@@ -825,7 +823,6 @@ def _collocation_coefficients(z1, z2, z3, cont1, cont2, cont3):
     cont1, cont2, cont3 : ndarray, shape (ny,)
         Receive the coefficients.
     """
-    z1, z2, z3, cont1, cont2, cont3 = borrowed((z1, z2, z3, cont1, cont2, cont3))
     for i in range(z1.shape[0]):
         z1i = z1[i]
         z2i = z2[i]
@@ -851,7 +848,6 @@ def _dense_output(s, y, cont1, cont2, cont3, out):
     out : ndarray, shape (ny,)
         Receives the state at ``t + s h``.
     """
-    y, cont1, cont2, cont3, out = borrowed((y, cont1, cont2, cont3, out))
     for i in range(y.shape[0]):
         out[i] = y[i] + s * (cont1[i] + (s - C2M1) * (cont2[i] + (s - C1M1) * cont3[i]))
 
@@ -1023,6 +1019,19 @@ def radau5_kernel(sys, sys_smooth, t0, y0, hist, t_out, h0, rtol_user, atol_user
     fdense = np.zeros(ny)  # and its derivative
     yrow = np.zeros(output_width(sys))  # a log row in the absolute layout
     frow = np.zeros(output_width(sys))
+    # The work arrays, borrowed for the rest of the call (mechanics/borrow.py): ``owners``
+    # holds them until the return, and the inlined step helpers, which must not borrow what
+    # they are given, see them borrowed from here. (Y, YD, H, y, hist, stats and the log are
+    # returned and stay counted.)
+    owners = (ws, f0, floors, J, E1, E2, piv1, piv2, work1, work2, z1, z2, z3, w1, w2, w3,
+              cont1, cont2, cont3, r1, rc, fe, ev, ystage, F3, yp, JS, Jsm, scal, g0, g1, gd1,
+              ydense, fdense, yrow, frow)
+    (ws, f0, floors, J, E1, E2, piv1, piv2, work1, work2, z1, z2, z3, w1, w2, w3, cont1, cont2,
+     cont3, r1, rc, fe, ev, ystage, F3, yp, JS, Jsm, scal, g0, g1, gd1, ydense, fdense, yrow,
+     frow) = borrowed(owners)
+    sys, sys_smooth = borrowed((sys, sys_smooth))  # arguments: alive for the call
+    fa = F3[0]
+    fb = F3[1]
     while k < nout:
         if need_jac:
             n_partial = _update_jacobian(t, y, f0, hist, sys, sys_smooth, ws, J, JS, Jsm,
@@ -1193,6 +1202,7 @@ def radau5_kernel(sys, sys_smooth, t0, y0, hist, t_out, h0, rtol_user, atol_user
             need_lu = True
             if not caljac:
                 need_jac = True
+    keep_alive(owners)
     return Y, YD, hist, stats, t, y, log[:nlog], H
 
 

@@ -9,11 +9,24 @@ branches and calls of the right-hand side. On the dry slider-crank, ``perf`` att
 counting"). For an array whose meminfo pointer is null, the same increment and decrement are a
 test for null and nothing else.
 
-The rule. A kernel function takes its arrays borrowed at entry,
-``sys, ws, K = borrowed((sys, ws, K))``: the caller's references (the arguments) keep the
-memory alive for the duration of the call, which is exactly how long the borrowed copies are
-used. A borrowed array must never outlive its owner: never return it, store it in a
-container that outlives the call, or box it to Python.
+The rules.
+
+* A *called* kernel function takes its arrays borrowed at entry,
+  ``sys, ws, K = borrowed((sys, ws, K))``: the caller's references (the arguments) keep the
+  memory alive for the duration of the call, which is exactly how long the borrowed copies are
+  used.
+* A function compiled with ``inline='always'`` does not borrow its arguments. Numba inlines
+  it into its caller's code, where the caller's own reference to an array it allocated dies
+  at its last use, which may be the inlined call: Numba frees the array there, and borrowed
+  copies made inside the inlined body would point into freed memory. (Measured: Radau's
+  Jacobian helper, when it still borrowed, inlined into a wrapper that did not use its work
+  arrays after the call, read freed memory and divided by zero; inside Radau's step loop the
+  same arrays stayed alive only because the loop used them again.)
+* A function that allocates arrays and wants them borrowed keeps the owners alive itself:
+  ``owners = (a, b)``, ``a, b = borrowed(owners)``, and :func:`keep_alive` ``(owners)``
+  where the borrowed copies are last used (before the return).
+* A borrowed array must never outlive its owner: never return it, store it in a container
+  that outlives its owner, or box it to Python.
 """
 
 from __future__ import annotations
@@ -52,3 +65,16 @@ def borrowed(typingctx, value):
         return _borrow(context, builder, sig.args[0], args[0])
 
     return signature(value, value), codegen
+
+
+@intrinsic
+def keep_alive(typingctx, value):
+    """Use ``value`` here and do nothing else: Numba keeps a variable (and the arrays it owns)
+    alive until its last use, so ``keep_alive(owners)`` at the end of a function holds the
+    owners of the arrays borrowed from them until that point (module docstring). It
+    generates no code and no reference counting."""
+
+    def codegen(context, builder, sig, args):
+        return context.get_dummy_value()
+
+    return signature(types.none, value), codegen
