@@ -65,6 +65,7 @@ import mechrel.integrate.radau as radau  # noqa: E402
 from mechrel.integrate.events import (N_STATS, S_JAC, S_LU, S_REJECTED, S_RHS, S_STEPS,  # noqa: E402
                                      new_log, start)
 from mechrel.integrate.radau import reduced_system  # noqa: E402
+from mechrel.mechanics.borrow import borrowed, keep_alive  # noqa: E402
 from mechrel.mechanics.dynamics import N_WORK, make_workspace, rhs_into  # noqa: E402
 from mechrel.mechanics.formulation import evaluate, evaluate_inline, make_work  # noqa: E402
 from mechrel.mechanics.reduced import reduced_coordinates  # noqa: E402
@@ -101,12 +102,14 @@ def _eval_loop(T, Y, hist, sys, reps):
     formulation, inlined as in Radau's Newton iteration) at every state ``reps`` times; returns
     a checksum (keeps the calls)."""
     s = 0.0
-    ws = make_work(sys)
+    owner = make_work(sys)
+    sys, ws = borrowed((sys, owner))  # as the kernels pass them (mechanics/borrow.py)
     out = np.empty(Y.shape[1])
     for _ in range(reps):
         for k in range(Y.shape[0]):
             evaluate_inline(T[k], Y[k], hist, sys, ws, out)
             s += out[0]
+    keep_alive(owner)
     return s
 
 

@@ -64,6 +64,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _common import git_state, module_from_source  # noqa: E402
 
 import mechrel.integrate.radau as radau  # noqa: E402
+from mechrel.mechanics.borrow import borrowed, keep_alive  # noqa: E402
 from mechrel.integrate.events import (CTL_DONE, H_START_FLOOR, S_LU,  # noqa: E402
                                       S_ONSET_REJECTED, S_REJECTED, S_RHS, S_STATUS, S_STEPS,
                                       STATUS_NEWTON, STATUS_NONFINITE, all_finite, new_log,
@@ -214,6 +215,8 @@ def rosenbrock_kernel(TA, TC, Tc, Td, TH, gam, order, err_lo, err_hi, sys, sys_s
     if contacts:
         gaps(t, y, sys, g0, gd1)
     log, nlog = new_log(math.inf, output_width(sys), nh)
+    owner = ws  # sys, sys_smooth and ws borrowed as radau5_kernel does (mechanics/borrow.py)
+    sys, sys_smooth, ws = borrowed((sys, sys_smooth, owner))
     while k < nout:
         if need_jac:  # J and ∂f/∂t at the step's start
             n_partial = _update_jacobian(t, y, f0, hist, sys, sys_smooth, ws, J, JS, Jsm,
@@ -345,6 +348,7 @@ def rosenbrock_kernel(TA, TC, Tc, Td, TH, gam, order, err_lo, err_hi, sys, sys_s
             stats[S_REJECTED] += 1
             reject = True
             h = 0.1 * h if first else hnew
+    keep_alive(owner)
     return Y, YD, hist, stats, t, y, log[:nlog], H
 
 

@@ -239,6 +239,11 @@ def accelerations_into(t, y, hist, sys, ws):
     (:func:`~mechrel.mechanics.constraints.constraint_terms`). The drivers' generalized force
     is ``−Φ_q,dᵀ λ_d``, so their power is ``−Σ λ_d θ̇_d``.
 
+    Inlined, it does not borrow its arguments (:mod:`mechrel.mechanics.borrow`, "The rules");
+    each System and Workspace attribute it reads costs a reference-count pair unless the
+    caller passes them borrowed, as :func:`rhs_into`, Radau's Newton iteration and the
+    explicit stages do.
+
     Parameters
     ----------
     t : float
@@ -272,8 +277,6 @@ def accelerations_into(t, y, hist, sys, ws):
     >>> round(p_in, 4), round(float(ws.acc[0]), 3)
     (51.9267, -6853.892)
     """
-    sys = borrowed(sys)
-    ws = borrowed(ws)
     n = sys.mass.shape[0]
     q = y[:n]
     v = y[n:2 * n]
@@ -345,6 +348,7 @@ def rhs_into(t, y, hist, sys, ws, out):
     >>> bool(np.array_equal(out[:9], v)), round(float(out[18]), 4)
     (True, 51.9267)
     """
+    sys, ws = borrowed((sys, ws))  # arguments: alive for the call (mechanics/borrow.py)
     rhs_inline(t, y, hist, sys, ws, out)
 
 
@@ -433,7 +437,8 @@ def accelerations(t, y, hist, sys):
     ((9,), (7,), 51.9267)
     """
     ws = make_workspace(sys)
-    pin, pcl = accelerations_into(t, y, hist, sys, ws)
+    sys, wb = borrowed((sys, ws))  # ws, used below, keeps wb's arrays alive
+    pin, pcl = accelerations_into(t, y, hist, sys, wb)
     return ws.acc.copy(), ws.lam.copy(), pin, pcl
 
 
