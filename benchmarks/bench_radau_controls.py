@@ -119,6 +119,32 @@ def curve_error(res, ref) -> float:
     return worst
 
 
+def frontier(rows, levels=(3e-3, 1e-3, 3e-4, 1e-4, 3e-5, 1e-5, 3e-6)) -> str:
+    """The error–time frontier as a markdown table: per scene and error level, each variant's
+    kernel time (ms) at its fastest setting whose error is at most the level (its rtol in
+    brackets; "–" where no setting reaches it), and the ratio to the baseline (``copy`` if it
+    ran, else the shipped kernel)."""
+    variants = list(dict.fromkeys(r["variant"] for r in rows))
+    base = "copy" if "copy" in variants else "shipped"
+    others = [v for v in variants if v != base]
+    out = ["", f"| scene | error ≤ | {base} | " + " | ".join(f"{v} | ratio" for v in others)
+           + " |", "|---|---:|---:|" + "---:|---:|" * len(others)]
+    for scene in dict.fromkeys(r["scene"] for r in rows):
+        for level in levels:
+            best = {}
+            for v in variants:
+                ok = [(r["kernel_ms"], r["rtol"]) for r in rows
+                      if r["scene"] == scene and r["variant"] == v and r["error"] <= level]
+                best[v] = min(ok) if ok else None
+            cells = [f"{best[base][0]:.2f} ({best[base][1]:g})" if best[base] else "–"]
+            for v in others:
+                b = best[v]
+                cells.append(f"{b[0]:.2f} ({b[1]:g})" if b else "–")
+                cells.append(f"{b[0] / best[base][0]:.2f}" if b and best[base] else "–")
+            out.append(f"| {scene} | {level:g} | " + " | ".join(cells) + " |")
+    return "\n".join(out)
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--repeats", type=int, default=5)
@@ -167,6 +193,7 @@ def main(argv=None):
     for r in rows:
         print(f"| {r['scene']} | {r['rtol']:g} | {r['variant']} | {r['kernel_ms']:.2f} | "
               f"{r['steps']} | {r['rejected']} | {r['error']:.2g} |")
+    print(frontier(rows))
     print(git_state())
     if args.json:
         Path(args.json).write_text(json.dumps({"rows": rows, "git": git_state()}, indent=1))
