@@ -36,3 +36,20 @@ def module_from_source(src: str, edits, name: str, what: str):
     sys.modules[name] = mod  # so that another such module can import it by name
     spec.loader.exec_module(mod)
     return mod
+
+
+def radau_copy(edits, name: str):
+    """A fresh copy of ``mechrel.integrate.radau`` with ``edits`` applied, imported as the
+    module ``name`` (:func:`module_from_source`): its relative imports made absolute first, so
+    edits anchor on the absolute ones. numba compiles the copy afresh in this process, which
+    makes it the fair baseline for kernel variants (a fresh copy runs a few per cent faster
+    than the kernel loaded from numba's cache; docs/performance.md)."""
+    import inspect
+
+    import mechrel.integrate.radau as radau
+
+    src = inspect.getsource(radau)
+    src = src.replace("from ..", "from mechrel.").replace("from .events",
+                                                          "from mechrel.integrate.events")
+    src = src.replace("from .base import", "from mechrel.integrate.base import")
+    return module_from_source(src, edits, name, "the Radau kernel")

@@ -30,7 +30,6 @@ for _v in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "NUMBA_
     os.environ.setdefault(_v, "1")
 
 import argparse  # noqa: E402
-import inspect  # noqa: E402
 import json  # noqa: E402
 import subprocess  # noqa: E402
 import sys  # noqa: E402
@@ -39,7 +38,7 @@ from pathlib import Path  # noqa: E402
 import numpy as np  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _common import git_state, module_from_source  # noqa: E402
+from _common import git_state, radau_copy  # noqa: E402
 
 MODES = {
     "cached": (),
@@ -65,11 +64,7 @@ def measure(fresh, rounds=7, reps=9) -> dict:
     kw = {"rtol": 1e-5, "atol": 1e-8}
     shipped = radau.Radau._advance
     simulate(scene, **kw)
-    src = inspect.getsource(radau)
-    src = src.replace("from ..", "from mechrel.").replace("from .events",
-                                                          "from mechrel.integrate.events")
-    src = src.replace("from .base import", "from mechrel.integrate.base import")
-    copy = module_from_source(src, [], "radau_cache_load_copy", "the Radau kernel").Radau._advance
+    copy = radau_copy([], "radau_cache_load_copy").Radau._advance
     times = {"shipped": [], "copy": []}
     try:
         radau.Radau._advance = copy

@@ -45,7 +45,6 @@ for _v in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "NUMBA_
     os.environ.setdefault(_v, "1")
 
 import argparse  # noqa: E402
-import inspect  # noqa: E402
 import json  # noqa: E402
 import math  # noqa: E402
 import platform  # noqa: E402
@@ -59,7 +58,7 @@ import scipy.linalg as sla  # noqa: E402
 from numba import njit  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _common import git_state, module_from_source  # noqa: E402
+from _common import git_state, radau_copy  # noqa: E402
 
 import mechrel.integrate.radau as radau  # noqa: E402
 from mechrel.integrate.events import (N_STATS, S_JAC, S_LU, S_REJECTED, S_RHS, S_STEPS,  # noqa: E402
@@ -175,7 +174,7 @@ _RC = ((-5.6688,), (-2.430093356833875, -0.2063599157091915),
        (8.083246795921522, -7.981132988064893, -31.52159432874371, 16.31930543123136,
         -6.058818238834054))
 _RCT = (0.0, 0.386, 0.21, 0.63, 1.0, 1.0)
-_RD = (0.25, -0.1043, 0.1035, -0.0362, 0.0, 0.0)
+_RD = (0.25, -0.1043, 0.1035, -0.3620000000000023e-01, 0.0, 0.0)  # rodas.f's D1 … D4
 _RH = ((10.12623508344586, -7.487995877610167, -34.80091861555747, -7.992771707568823,
         1.025137723295662),
        (-0.6762803392801253, 6.087714651680015, 16.43084320892478, 24.76722511418386,
@@ -311,11 +310,7 @@ def radau_variant(edits, name, formulations=False):
     copy's relative imports are made absolute first, so edits anchor on the absolute ones.
     The variant integrates the absolute equations; with ``formulations`` it is the copy's own
     ``Radau._advance``, which integrates the reduced ones wherever the shipped one does."""
-    src = inspect.getsource(radau)
-    src = src.replace("from ..", "from mechrel.").replace("from .events",
-                                                          "from mechrel.integrate.events")
-    src = src.replace("from .base import", "from mechrel.integrate.base import")
-    mod = module_from_source(src, edits, name, "the Radau kernel")
+    mod = radau_copy(edits, name)
     if formulations:
         advance = mod.Radau._advance
         advance.module = mod

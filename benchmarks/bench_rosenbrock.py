@@ -9,8 +9,10 @@ fixed number of right-hand sides per step and no iteration that can fail. This s
 of them with radau's contract (the same outputs, onsets and statistics; no step log) on the
 reduced equations:
 
-* **RODAS** (Hairer & Wanner's ``rodas.f``, HW II §VI.4: order 4(3), six stages, L-stable, stiffly
-  accurate, dense output of order 3);
+* **RODAS** (Hairer & Wanner's ``rodas.f``, HW II §VI.4: order 4(3), six stages, L-stable,
+  stiffly accurate, dense output of order 3; ``bench_floor.py`` runs the same method in NumPy
+  on the absolute equations, as a bound on the fewest steps, and its coefficients are used
+  here);
 * **Rodas5P** (Steinebach, "Construction of Rosenbrock–Wanner method Rodas5P and numerical
   benchmarks within the Julia Differential Equations package", BIT 63 (2023) 27: order 5(4),
   eight stages, built to keep its order on the Prothero–Robinson problem, i.e. on stiff
@@ -55,7 +57,6 @@ for _v in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "NUMBA_
     os.environ.setdefault(_v, "1")
 
 import argparse  # noqa: E402
-import inspect  # noqa: E402
 import math  # noqa: E402
 import sys  # noqa: E402
 from pathlib import Path  # noqa: E402
@@ -64,7 +65,9 @@ import numpy as np  # noqa: E402
 from numba import njit  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _common import git_state, module_from_source  # noqa: E402
+from _common import git_state, radau_copy  # noqa: E402
+from bench_floor import _RA, _RC, _RCT, _RD, _RG, _RH  # noqa: E402
+from bench_lubricated_ninebar import accuracy  # noqa: E402
 
 import mechrel.integrate.radau as radau  # noqa: E402
 from mechrel.mechanics.borrow import borrowed, keep_alive  # noqa: E402
@@ -88,30 +91,19 @@ SQRT_UROUND = math.sqrt(UROUND)
 
 
 def rodas4():
-    """RODAS (``rodas.f``, METH = 1): A, C, c, d, dense-output rows H, γ, order of the error
-    estimate's exponent."""
+    """RODAS (``rodas.f``, METH = 1; the coefficients of ``bench_floor.py``'s NumPy RODAS): A,
+    C, c, d, dense-output rows H, γ, order of the error estimate's exponent."""
     A = np.zeros((6, 6))
     C = np.zeros((6, 6))
-    A[1, 0] = 1.544
-    A[2, :2] = 0.9466785280815826, 0.2557011698983284
-    A[3, :3] = 3.314825187068521, 2.896124015972201, 0.9986419139977817
-    A[4, :4] = 1.221224509226641, 6.019134481288629, 12.53708332932087, -0.6878860361058950
+    for i, row in enumerate(_RA, start=1):
+        A[i, :i] = row
     A[5, :4] = A[4, :4]
     A[5, 4] = 1.0  # stiffly accurate: stage 6 starts from y + Σ a_5j k_j + k_5
-    C[1, 0] = -5.6688
-    C[2, :2] = -2.430093356833875, -0.2063599157091915
-    C[3, :3] = -0.1073529058151375, -9.594562251023355, -20.47028614809616
-    C[4, :4] = 7.496443313967647, -10.24680431464352, -33.99990352819905, 11.70890893206160
-    C[5, :5] = (8.083246795921522, -7.981132988064893, -31.52159432874371, 16.31930543123136,
-                -6.058818238834054)
-    c = np.array([0.0, 0.386, 0.21, 0.63, 1.0, 1.0])
-    d = np.array([0.25, -0.1043, 0.1035, -0.3620000000000023e-01, 0.0, 0.0])
+    for i, row in enumerate(_RC, start=1):
+        C[i, :i] = row
     H = np.zeros((2, 6))
-    H[0, :5] = (10.12623508344586, -7.487995877610167, -34.80091861555747, -7.992771707568823,
-                1.025137723295662)
-    H[1, :5] = (-0.6762803392801253, 6.087714651680015, 16.43084320892478, 24.76722511418386,
-                -6.594389125716872)
-    return A, C, c, d, H, 0.25, 4.0
+    H[:, :5] = _RH
+    return A, C, np.array(_RCT), np.array(_RD), H, _RG, 4.0
 
 
 def rodas5p():
@@ -356,14 +348,6 @@ def rosenbrock_kernel(TA, TC, Tc, Td, TH, gam, order, err_lo, err_hi, full_jacob
     return Y, YD, hist, stats, t, y, log[:nlog], H
 
 
-def _radau_copy():
-    src = inspect.getsource(radau)
-    src = src.replace("from ..", "from mechrel.").replace("from .events",
-                                                          "from mechrel.integrate.events")
-    src = src.replace("from .base import", "from mechrel.integrate.base import")
-    return module_from_source(src, [], "radau_copy_rosenbrock", "the Radau kernel")
-
-
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--rounds", type=int, default=5)
@@ -372,8 +356,7 @@ def main(argv=None):
     scene = load_scene("nine-bar-lubricated")
     ref = simulate(scene, rtol=1e-11, atol=1e-14)
     e_ref = ref.error("slider", "acceleration")
-    p_ref = float(np.max(np.abs(e_ref[1:])))
-    copy = _radau_copy()
+    copy = radau_copy([], "radau_copy_rosenbrock")
     shipped_kernel = radau.radau5_kernel
 
     def rosenbrock(tab, lo=0, hi=0, full=False):
@@ -402,12 +385,11 @@ def main(argv=None):
     for name, (kernel, tols) in methods.items():
         for tol in tols:
             r = run(kernel, tol)
-            e = r.error("slider", "acceleration")
+            a = accuracy(r.error("slider", "acceleration"), e_ref)
             s = r.stats
             rows[name, tol] = {
                 "steps": s["n_steps"], "rejected": s["n_rejected"], "rhs": s["n_rhs"],
-                "peak": abs(float(np.max(np.abs(e[1:]))) - p_ref) / p_ref,
-                "curve": float(np.max(np.abs(e - e_ref))) / p_ref, "times": []}
+                "peak": a["peak_rel_dev"], "curve": a["curve_rel_dev"], "times": []}
     for rnd in range(args.rounds):
         order = list(methods.items())
         if rnd % 2:
@@ -439,9 +421,9 @@ def main(argv=None):
                           ("the eccentricities", 0, 6), ("the rates and work integrals", 4, 0)):
         for tol in (1e-4, 1e-5, 1e-6):
             r = run(rosenbrock(rodas5p(), lo, hi), tol)
-            e = r.error("slider", "acceleration")
+            curve = accuracy(r.error("slider", "acceleration"), e_ref)["curve_rel_dev"]
             print(f"| {label} | {tol:g} | {r.stats['n_steps']} ({r.stats['n_rejected']}) | "
-                  f"{float(np.max(np.abs(e - e_ref))) / p_ref:.1e} |")
+                  f"{curve:.1e} |")
     print("\nRODAS with a full Jacobian at every step against the fast part refreshed (the "
           "smooth rest kept up to 30 steps):\n")
     print("| rtol | steps (rejected), fast part | steps (rejected), full |\n|---:|---:|---:|")

@@ -28,45 +28,30 @@ for _v in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "NUMBA_
     os.environ.setdefault(_v, "1")
 
 import argparse  # noqa: E402
-import inspect  # noqa: E402
 import sys  # noqa: E402
 from pathlib import Path  # noqa: E402
 
 import numpy as np  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _common import git_state, module_from_source  # noqa: E402
+from _common import git_state, radau_copy  # noqa: E402
 from bench_floor import _CONTROLLER_EDITS  # noqa: E402
+from bench_radau_controls import curve_error  # noqa: E402
 
 import mechrel.integrate.radau as radau  # noqa: E402
 from mechrel.scene import load_scene  # noqa: E402
 from mechrel.simulation import simulate  # noqa: E402
 
 
-def _copy(edits, name):
-    src = inspect.getsource(radau)
-    src = src.replace("from ..", "from mechrel.").replace("from .events",
-                                                          "from mechrel.integrate.events")
-    src = src.replace("from .base import", "from mechrel.integrate.base import")
-    return module_from_source(src, edits, name, "the Radau kernel").Radau._advance
-
-
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--rounds", type=int, default=7)
     args = ap.parse_args(argv)
-    kernels = {"copy of the shipped kernel": _copy([], "radau_copy_theta"),
-               "θ cap 0.2": _copy(_CONTROLLER_EDITS, "radau_theta_cap_only")}
+    kernels = {"copy of the shipped kernel": radau_copy([], "radau_copy_theta").Radau._advance,
+               "θ cap 0.2": radau_copy(_CONTROLLER_EDITS, "radau_theta_cap_only").Radau._advance}
     scene = load_scene("nine-bar-lubricated")
     study = load_scene("nine-bar-lubricated", overrides={"analysis.cycles": 2})
     ref = simulate(scene, rtol=1e-11, atol=1e-14)
-
-    def error(r):
-        worst = 0.0
-        for q in ("displacement", "velocity", "acceleration"):
-            e, er = r.error("slider", q), ref.error("slider", q)
-            worst = max(worst, float(np.max(np.abs(e - er)) / (er.max() - er.min())))
-        return worst
 
     cases = [(f"one cycle, rtol {t:g}", scene, {"rtol": t, "atol": t * 1e-3})
              for t in (3e-2, 1e-3, 1e-5, 1e-7)]
@@ -81,7 +66,7 @@ def main(argv=None):
                 r = simulate(sc, **kw)
                 s = r.stats
                 counts[label, case] = (s["n_steps"], s["n_rejected"], s["n_rhs"],
-                                       error(r) if sc is scene else None)
+                                       curve_error(r, ref) if sc is scene else None)
         for rnd in range(args.rounds):
             order = list(kernels.items())
             if rnd % 2:
