@@ -976,9 +976,7 @@ def radau5_kernel(sys, sys_smooth, t0, y0, hist, t_out, h0, rtol_user, atol_user
     fe = np.zeros(ny)
     ev = np.zeros(ny)
     ystage = np.zeros(ny)
-    F3 = np.zeros((3, ny))  # f at the three stages
-    fa = F3[0]
-    fb = F3[1]
+    F3 = np.zeros((3, ny))  # f at the three stages (fa, fb: its rows, below)
     yp = np.zeros(ny)
 
     use_partial = has_fast_part(sys)  # absolute, with clearance joints: partial updates
