@@ -14,6 +14,7 @@ from __future__ import annotations
 import math
 import tomllib
 from importlib import resources
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -40,6 +41,8 @@ SCENES = ("nine-bar-lubricated", "slider-crank-lubricated", "four-bar", "nine-ba
           "cart-pendulum-lubricated", "block-incline")
 # the double pendulum's middle hinge as a lubricated bearing (0.1 mm, 5 mm radius, 10 mm long,
 # 0.2 Pa s): undriven, so the construction gives both links free angles
+CART_PENDULUM = (Path(__file__).parents[1] / "benchmarks" / "scenes"
+                 / "cart-pendulum-lubricated.toml")
 PENDULUM_LUBRICATED = {"joints.A.model": "lubricated", "joints.A.clearance": 1e-4,
                        "joints.A.bearing_radius": 5e-3, "joints.A.length": 1e-2,
                        "joints.A.lubricant.viscosity": 0.2}
@@ -60,30 +63,12 @@ def cart_pendulum(lubricated=False):
     position on its line (a free position) and the pendulum's angle (a free angle). No
     horizontal force acts, so the horizontal momentum stays zero. With ``lubricated`` the
     hinge is a lubricated bearing (the double pendulum's: 0.1 mm, 5 mm radius, 10 mm long,
-    0.2 Pa s), and the journal's eccentricity adds two coordinates."""
-    raw = {
-        "name": "cart-pendulum", "gravity": [0.0, -9.81],
-        "description": "cart on a horizontal rail with a pendulum hinged on it",
-        "ground": {"points": {"O": [0.0, 0.0]}},
-        "bodies": {
-            "cart": {"mass": 2.0, "inertia": 0.01, "position": [0.0, 0.0], "angle": 0.0,
-                     "points": {"P": [0.0, 0.0]}},
-            # m L² / 12; the hinge plus 0.2 m at −30° (benchmarks/scenes/
-            # cart-pendulum-lubricated.toml has the same numbers)
-            "pendulum": {"mass": 0.5, "inertia": 0.006666666666666667,
-                         "position": [0.17320508075688773, -0.1], "angle": -math.pi / 6,
-                         "points": {"P": [-0.2, 0.0], "B": [0.2, 0.0]}}},
-        "joints": {"rail": {"type": "translational", "connects": ["cart.P", "ground.O"],
-                            "direction": [1.0, 0.0], "angle": 0.0},
-                   "hinge": {"type": "revolute", "connects": ["cart.P", "pendulum.P"]}},
-        "outputs": {"cart": {"point": "cart.P", "axis": [1.0, 0.0]},
-                    "bob": {"point": "pendulum.B", "axis": [0.0, 1.0]}},
-        "analysis": {"duration": 1.0, "sample_step": 1e-3}}
+    0.2 Pa s), and the journal's eccentricity adds two coordinates. The scene is the
+    benchmarks' ``cart-pendulum-lubricated.toml``; without ``lubricated`` its hinge is ideal."""
     if lubricated:
-        raw["name"] = "cart-pendulum-lubricated"
-        raw["joints"]["hinge"].update(model="lubricated", clearance=1e-4, bearing_radius=5e-3,
-                                      length=1e-2, lubricant={"viscosity": 0.2})
-    return load_scene(raw)
+        return load_scene(CART_PENDULUM)
+    return load_scene(CART_PENDULUM, overrides={"name": "cart-pendulum",
+                                                "joints.hinge.model": "ideal"})
 
 
 def block_incline():
