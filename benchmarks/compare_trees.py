@@ -16,7 +16,9 @@ status 1.
 cycle extremes), warm, in alternating processes on the trees (the order reversed every
 round), each process the median of ``--reps`` runs after one warm-up run; prints each
 process's median, the load average, and the median over ``--rounds`` rounds with its ratio to
-the first tree.
+the first tree; then the ratio of the two processes of each round (median and quartiles over
+the rounds) and the ratio of the two trees' fastest runs. On a VM whose speed jumps between
+processes the paired ratio and the fastest runs are steadier than the medians.
 
 Run::
 
@@ -101,7 +103,8 @@ for _ in range(int(sys.argv[2])):
     t0 = time.perf_counter()
     r = simulate(scene, **settings)
     times.append(time.perf_counter() - t0)
-print(json.dumps({"t": sorted(times)[len(times) // 2], "steps": int(r.stats["n_steps"]),
+print(json.dumps({"t": sorted(times)[len(times) // 2], "min": min(times),
+                  "steps": int(r.stats["n_steps"]),
                   "rhs": int(r.stats["n_rhs"])}))
 """
 
@@ -137,17 +140,30 @@ def bitwise(trees) -> int:
 
 def timing(trees, scene: str, rounds: int, reps: int, settings: str = "{}") -> int:
     medians = {str(t): [] for t in trees}
+    minima = {str(t): [] for t in trees}
     for r in range(rounds):
         for tree in (trees if r % 2 == 0 else trees[::-1]):
             d = json.loads(_run(tree, TIMING, scene, str(reps), settings)
                            .strip().splitlines()[-1])
             medians[str(tree)].append(d["t"])
+            minima[str(tree)].append(d["min"])
             print(f"round {r}: {tree}: {d['t'] * 1e3:.2f} ms ({d['steps']} steps, {d['rhs']} "
                   f"right-hand sides), load {os.getloadavg()[0]:.2f}", flush=True)
-    base = statistics.median(medians[str(trees[0])])
+    first, second = (str(t) for t in trees)
+    base = statistics.median(medians[first])
     for tree, ts in medians.items():
         m = statistics.median(ts)
         print(f"{tree}: median {m * 1e3:.2f} ms over {len(ts)} rounds, {m / base:.3f}x the first")
+    # The VM's speed drifts and jumps between processes; the two processes of one round run
+    # back to back, so their ratio cancels what is slow to change, and the fastest run of
+    # each tree is what the code can do when the machine lets it.
+    paired = [b / a for a, b in zip(medians[first], medians[second])]
+    if len(paired) >= 2:
+        q1, _, q3 = statistics.quantiles(paired, n=4, method="inclusive")
+        print(f"second / first, paired by round: median {statistics.median(paired):.3f} "
+              f"(quartiles {q1:.3f}-{q3:.3f}); fastest run {min(minima[second]) * 1e3:.2f} "
+              f"against {min(minima[first]) * 1e3:.2f} ms, "
+              f"{min(minima[second]) / min(minima[first]):.3f}")
     return 0
 
 
