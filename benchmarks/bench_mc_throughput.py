@@ -31,8 +31,9 @@ What is measured
   ``MechanismModel.evaluate`` did before (``simulate`` per sample: an integrator made and a
   provenance recorded per sample), "batch" is ``MechanismModel.evaluate_batch`` on all of them;
   each one's time is split into the Radau kernel, the kinematic analysis (the ideal reference
-  on the output grid and on the solution log) and the rest (Python around the kernels);
-  medians.
+  on the output grid and on the solution log), the sample's scene (``with_overrides``: the
+  study's scene rebuilt and validated with the sample's values), its compilation to arrays
+  (``compile_scene``) and the rest (Python around the kernels); medians.
 
 ``--solver`` selects the integrator settings of the study's scene (the study's own default, or
 the fastest setting of bench_lubricated_ninebar.py that meets the 1 % criterion).
@@ -243,10 +244,12 @@ def main(argv=None):
 def per_sample_split(model, X, rounds):
     """Seconds per sample: row by row through ``simulate`` (as ``evaluate`` was) and in one
     ``evaluate_batch``, interleaved; the batch split into the Radau kernel, the kinematic
-    analysis and the rest. Medians over ``rounds``."""
+    analysis, the sample's scene, its compilation and the rest. Medians over ``rounds``."""
     import numpy as np
 
     import mechrel.integrate.radau as radau
+    import mechrel.scene as scene_api
+    import mechrel.simulation as simulation
     from mechrel.mechanics import kinematics
     from mechrel.uq.problem.allowables import EXTREME_STATS
 
@@ -258,7 +261,9 @@ def per_sample_split(model, X, rounds):
                                for st in EXTREME_STATS]))
         return np.concatenate(parts)
 
-    spent = {"radau": 0.0, "kinematics": 0.0}
+    parts = {"radau": "radau_kernel", "kinematics": "kinematic_analysis",
+             "scene": "scene_with_overrides", "compile": "compile_scene"}
+    spent = dict.fromkeys(parts, 0.0)
 
     def timed(fn, key):
         def run(*a, **kw):
@@ -270,16 +275,19 @@ def per_sample_split(model, X, rounds):
         return run
 
     out = {f"{how}_{part}": [] for how in ("row_by_row", "batch")
-           for part in ("total", "radau_kernel", "kinematic_analysis", "rest")}
+           for part in ("total", *parts.values(), "rest")}
     n = X.shape[0]
     advance, kin, con = radau.Radau._advance, kinematics._kinematics, kinematics._construct
+    overrides, compile_scene = scene_api.with_overrides, simulation.compile_scene
     radau.Radau._advance = timed(advance, "radau")
     kinematics._kinematics = timed(kin, "kinematics")  # by Newton–Raphson …
     kinematics._construct = timed(con, "kinematics")  # … or in closed form
+    scene_api.with_overrides = timed(overrides, "scene")  # the model imports it per call
+    simulation.compile_scene = timed(compile_scene, "compile")
     try:
         for _ in range(rounds):
             for how in ("row_by_row", "batch"):
-                spent.update(radau=0.0, kinematics=0.0)
+                spent.update(dict.fromkeys(parts, 0.0))
                 t0 = time.perf_counter()
                 if how == "row_by_row":
                     old = np.array([row_by_row(x) for x in X])
@@ -287,12 +295,13 @@ def per_sample_split(model, X, rounds):
                     new = model.evaluate_batch(X)
                 wall = time.perf_counter() - t0
                 out[f"{how}_total"].append(wall / n)
-                out[f"{how}_radau_kernel"].append(spent["radau"] / n)
-                out[f"{how}_kinematic_analysis"].append(spent["kinematics"] / n)
-                out[f"{how}_rest"].append((wall - spent["radau"] - spent["kinematics"]) / n)
+                for key, part in parts.items():
+                    out[f"{how}_{part}"].append(spent[key] / n)
+                out[f"{how}_rest"].append((wall - sum(spent.values())) / n)
             assert np.array_equal(old, new)  # the batch changes no number
     finally:
         radau.Radau._advance, kinematics._kinematics, kinematics._construct = advance, kin, con
+        scene_api.with_overrides, simulation.compile_scene = overrides, compile_scene
     rounds_ms = {k: [round(1e3 * x, 2) for x in v] for k, v in out.items()}
     print("per sample (ms), each round: " + json.dumps(rounds_ms), flush=True)
     return {k: statistics_median(v) for k, v in out.items()}
