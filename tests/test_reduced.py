@@ -39,13 +39,11 @@ EPS = np.finfo(float).eps
 SCENES = ("nine-bar-lubricated", "slider-crank-lubricated", "four-bar", "nine-bar-dry",
           "double-pendulum", "pendulum-lubricated", "four-bar-undriven", "cart-pendulum",
           "cart-pendulum-lubricated", "block-incline")
+BENCH_SCENES = Path(__file__).parents[1] / "benchmarks" / "scenes"
+CART_PENDULUM = BENCH_SCENES / "cart-pendulum-lubricated.toml"
 # the double pendulum's middle hinge as a lubricated bearing (0.1 mm, 5 mm radius, 10 mm long,
 # 0.2 Pa s): undriven, so the construction gives both links free angles
-CART_PENDULUM = (Path(__file__).parents[1] / "benchmarks" / "scenes"
-                 / "cart-pendulum-lubricated.toml")
-PENDULUM_LUBRICATED = {"joints.A.model": "lubricated", "joints.A.clearance": 1e-4,
-                       "joints.A.bearing_radius": 5e-3, "joints.A.length": 1e-2,
-                       "joints.A.lubricant.viscosity": 0.2}
+PENDULUM_LUBRICATED = BENCH_SCENES / "double-pendulum-lubricated.toml"
 
 
 def undriven_four_bar():
@@ -97,7 +95,7 @@ def _scene(name):
     if name == "block-incline":
         return block_incline()
     if name == "pendulum-lubricated":
-        return load_scene("double-pendulum", overrides=PENDULUM_LUBRICATED)
+        return load_scene(PENDULUM_LUBRICATED)
     if name == "four-bar-undriven":
         return undriven_four_bar()
     return load_scene(name)

@@ -144,7 +144,7 @@ def _undriven(name):
     if name.startswith("cart-pendulum"):
         return cart_pendulum(lubricated=name.endswith("lubricated")), "cart"
     if name == "pendulum-lubricated":
-        return load_scene("double-pendulum", overrides=PENDULUM_LUBRICATED), "tip_y"
+        return load_scene(PENDULUM_LUBRICATED), "tip_y"
     if name == "four-bar-undriven":
         return undriven_four_bar(), "tip"
     return load_scene(name), "tip_y"
