@@ -24,9 +24,10 @@ Diagnostics (``warnings``): the effective sample size of the failure weights,
 ESS = (Σ v)²/Σ v² with v = 1[g ≤ 0] w; the shape k̂ of a generalised Pareto fit to the largest
 weights (Pareto-smoothed importance sampling's diagnostic: Zhang & Stephens 2009; Vehtari,
 Simpson, Gelman, Yao & Gabry 2024): above 0.7 the variance estimate, hence the c.o.v. and the
-interval, cannot be trusted, above 0.5 it is optimistic; failing samples outside every design
-point's half-space {α_i·u ≥ β_i} carrying more than 5 % of P̂_f (a failure region FORM did not
-find); and failed model samples counted as failures there.
+interval, cannot be trusted, above 0.5 it is optimistic; failing samples where the mixture is
+mostly its defensive part (w > ½/w₀: no design point's component reaches there) carrying more
+than 5 % of P̂_f (a failure region FORM did not find); and failed model samples counted as
+failures there.
 """
 
 from __future__ import annotations
@@ -254,8 +255,11 @@ def importance_sampling(
     cov = se / pf
     ess = float(vals.sum() ** 2 / np.sum(vals**2))
     khat = pareto_khat(vals)
-    outside = ~np.any(U @ alphas.T >= betas[None, :] - 1e-9, axis=1)
-    share_out = float(np.sum((ind * np.exp(logw))[rows & outside]) / (m * pf))
+    # where the mixture is mostly its defensive part (w > ½/w₀), no design point's component
+    # reaches: failing samples there are a failure region FORM did not find
+    w = np.exp(logw)
+    uncovered = (w > 0.5 / defensive) if defensive > 0 else np.zeros(n, dtype=bool)
+    share_out = float(np.sum((ind * w)[rows & uncovered]) / (m * pf))
     notes = []
     if ess < ESS_MIN:
         notes.append(f"importance_sampling: the estimate rests on an effective {ess:.1f} of its {k_fail} failing "
@@ -270,11 +274,12 @@ def importance_sampling(
                      f"{KHAT_OPTIMISTIC}): the c.o.v. {cov:.2f} is likely optimistic; raise n or compare with "
                      "subset_simulation")
     if share_out > OUTSIDE_SHARE:
-        n_out = int(np.sum(ind[rows & outside] > 0))
-        notes.append(f"importance_sampling: {n_out} failing sample(s) lie outside every design point's half-space "
-                     f"and carry {share_out:.0%} of P_f: a failure region FORM did not find, sampled only by the "
-                     "defensive part of the mixture; use subset_simulation")
-    bad_out = int(np.sum(~ok & outside))
+        n_out = int(np.sum(ind[rows & uncovered] > 0))
+        notes.append(f"importance_sampling: {n_out} failing sample(s) lie where no design point's component of the "
+                     f"mixture reaches and carry {share_out:.0%} of P_f: a failure region FORM did not find, "
+                     "sampled only by the defensive part of the mixture (so its share is uncertain); use "
+                     "subset_simulation")
+    bad_out = int(np.sum(~ok & uncovered))
     if failures == "as_failure" and bad_out:
         notes.append(f"importance_sampling: {bad_out} failed model sample(s) away from the design points count as "
                      "failures (failures='as_failure'): the mixture samples that region poorly, so their share of "
@@ -303,8 +308,8 @@ KHAT_UNRELIABLE = 0.7
 """Pareto k̂ thresholds (Vehtari et al. 2024): above 0.5 the weights' variance is infinite in the
 fitted tail (the c.o.v. is optimistic), above 0.7 the estimate's error is not controlled."""
 OUTSIDE_SHARE = 0.05
-"""Failing samples outside every design point's half-space carrying more than this share of
-P̂_f: a failure region FORM did not find."""
+"""Failing samples where the mixture is mostly its defensive part (weight above half of
+1/w₀) carrying more than this share of P̂_f: a failure region FORM did not find."""
 
 
 def mixture_of(fr: FORMResult) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:

@@ -28,12 +28,13 @@ grow from level i's seeds, so adjacent levels are positively correlated (Au & Be
 
 and the lognormal interval P̂_f · exp(±z s), s² = ln(1 + δ²): P̂_f is a product of the level
 probabilities, so its logarithm, a sum, is closer to normal than P̂_f (the normal interval
-P̂_f(1 ± zδ) is symmetric and cut at 0). Measured over 200 seeds each at N = 1000 (β = 3.09
-linear, two design points at 3.5, the β = 4.5 paraboloid, the four-branch system;
-``benchmarks/bench_rare_events.py --coverage``): the observed spread of P̂_f exceeded the
-uncorrelated δ by 4–9 %, whose normal 95 % interval covered the truth in 90–92.5 % of the
-runs and the lognormal one in 92.5–94 %; with ρ_adj = 0.25 the lognormal interval covers
-95.5–98 %, and the full-correlation bound 99–100 %.
+P̂_f(1 ± zδ) is symmetric and cut at 0). Measured over 200 seeds each at N = 1000 (linear
+margins at 1e-3 in 2 inputs and at 1e-6 in 10, two design points at 3.5, the β = 4.5
+paraboloid, the four-branch system; ``python benchmarks/bench_system_reliability.py
+--subset-coverage --seeds 200``): the observed spread of P̂_f exceeded the uncorrelated δ by
+4–9 %, whose normal 95 % interval covered the truth in 90–92.5 % of the runs and the lognormal
+one in 92.5–94 %; with ρ_adj = 0.25 the lognormal interval covers 95.5–98 %, and the
+full-correlation bound 98.5–100 %.
 
 Randomness: level i uses the i-th child of ``seed`` for all its draws, in the parent process;
 the executor only evaluates rows, so the result is identical for any ``n_jobs``.
