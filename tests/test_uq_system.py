@@ -122,8 +122,10 @@ def test_form_on_a_parallel_system_is_exact_for_linear_components():
     assert np.array(r.u_star) == pytest.approx([3.0, 3.0], abs=1e-6)
     with pytest.raises(StudyError, match="parallel system; mechrel has no second-order formula"):
         sorm(model=_model(_two, ("a", "b")), inputs=STD2, limit_state=ls, design_point=r)
+    # centred on the corner of the failure quadrant, the weights are skewed: at n = 1000 the
+    # interval covered the truth in 92 % of 100 seeds, at n = 4000 in 98 % (importance.py)
     coverage = [_covers(_quiet(importance_sampling, model=_model(_two, ("a", "b")), inputs=STD2,
-                               limit_state=ls, design_point=r, n=1000, seed=s, progress=False),
+                               limit_state=ls, design_point=r, n=4000, seed=s, progress=False),
                         special.ndtr(-3.0) ** 2) for s in range(20)]
     assert sum(coverage) >= 18
 
@@ -191,6 +193,21 @@ def test_whole_cycle_form_sees_the_design_points_of_every_peak_and_sign():
     assert one.pf < 0.4 * ref
 
 
+def test_whole_cycle_sampling_methods_within_their_interval():
+    """Three seeds in the default run (the 20-seed coverage is the slow test below): each
+    estimate within 3 of its own c.o.v. of the reference."""
+    model, inputs, states = slider_crank()
+    ls = states["1e-3"]
+    f = _quiet(form, model=model, inputs=inputs, limit_state=ls)
+    ref = REFERENCE["1e-3"]["pf"]
+    for k in range(3):
+        i = _quiet(importance_sampling, model=model, inputs=inputs, limit_state=ls, design_point=f, n=2000,
+                   seed=k, progress=False)
+        s = _quiet(subset_simulation, model=model, inputs=inputs, limit_state=ls, n_per_level=1000, seed=k)
+        assert abs(i.pf - ref) <= 3 * i.cov * i.pf and abs(s.pf - ref) <= 3 * s.cov * s.pf
+
+
+@pytest.mark.slow
 def test_whole_cycle_sampling_methods_cover_the_reference():
     model, inputs, states = slider_crank()
     ls = states["1e-3"]
@@ -264,13 +281,15 @@ def test_fosm_on_a_tie_and_on_cycle_extremes_gives_no_number_from_round_off():
 
 
 def test_importance_sampling_warns_on_too_few_effective_samples_and_missed_regions():
-    """Centred on one of the four-branch system's four design points (FORM with
-    max_design_points=1), the defensive part of the mixture finds the other branches: few
-    effective samples, and failures where no design point's component reaches."""
+    """Centred on one of the four-branch system's four design points (a single search from a
+    start off the origin's tie), the defensive part of the mixture finds the other branches:
+    few effective samples, and failures where no design point's component reaches."""
     model = _model(four_branch)
-    one = _quiet(form, model=model, inputs=STD2, max_design_points=1, search="single")
+    one = _quiet(form, model=model, inputs=STD2, search="single", start=[0.1, 0.1])
+    assert len(one.design_points) == 1
     with pytest.warns(UserWarning) as caught:
-        importance_sampling(model=model, inputs=STD2, design_point=one, n=1000, seed=3, progress=False)
+        # the defensive part (w₀ n = 2000 samples) meets each missed branch (P ≈ 1e-3) a few times
+        importance_sampling(model=model, inputs=STD2, design_point=one, n=20000, seed=3, progress=False)
     text = " ".join(str(w.message) for w in caught)
     assert "no design point's component of the mixture reaches" in text
     assert "effective" in text or "Pareto" in text
@@ -328,34 +347,40 @@ def test_the_verdict_names_disagreements_and_which_estimate_to_trust():
     assert "form gives 0.22× the trusted P_f, outside its interval" in text
     assert "mc saw only 0 failures in 1000 samples (fewer than 10)" in text
     assert "is below the largest single-angle P_f (0.001, mc, displacement at 90°)" in text
-    # only approximations: no estimate to trust, and what to run
-    only = verdict_lines(est[est["method"] == "form"])
-    assert "only approximations ran" in only[0] and "--method subset" in only[0]
+    # only approximations and a Monte Carlo run without failures: nothing to trust, what to run,
+    # and whether the approximation is at least consistent with the Monte Carlo bound
+    weak = verdict_lines(est[est["method"].isin(["form", "mc"])])
+    assert weak[0].startswith("    whole cycle: no estimate to trust at this level: form carry no interval")
+    assert "mc saw 0 failures in 1000 samples" in weak[0] and "--method subset" in weak[0]
+    assert "form's P_f = 0.00011 is inside mc's interval [0, 0.0037]" in weak[1]
 
 
 def test_the_study_shows_warnings_verdict_and_figures_through_the_cli(tmp_path, capsys):
     """The slider-crank with crank and rod tolerances (ideal joints, errors against the nominal
-    design) as a study: FORM, subset simulation and Monte Carlo on the whole cycle."""
+    design) as a study: FORM and Monte Carlo on the whole cycle (16 samples: too few failures
+    to be trusted, which the verdict says)."""
     from mechrel.cli.main import main
 
     study = tmp_path / "study.toml"
     study.write_text(
-        'scene = "slider-crank"\ncycles = 1\nquantities = ["displacement"]\nangle_step = 18.0\n'
+        'scene = "slider-crank"\ncycles = 1\nquantities = ["displacement"]\nangle_step = 45.0\n'
         '[inputs.crank]\npaths = ["bodies.crank.length(O,A)"]\ndistribution = "normal"\n'
         'mean = 0.05\nstd = 0.05e-3\n'
         '[inputs.rod]\npaths = ["bodies.rod.length(A,B)"]\ndistribution = "normal"\n'
         'mean = 0.12\nstd = 0.05e-3\n'
         '[allowable.displacement]\nmean = 0.2e-3\nstd = 0.0\n'
-        '[subset]\nn_per_level = 100\np0 = 0.1\n'
-        '[reliability]\nseed = 3\nn = 64\nmethods = ["form", "subset", "mc"]\n')
+        '[form]\nmax_design_points = 4\n'
+        '[reliability]\nseed = 3\nn = 16\nmethods = ["form", "mc"]\n')
     out = tmp_path / "out"
     assert main(["reliability", str(study), "--jobs", "1", "--out", str(out), "--no-progress"]) == 0
     printed = capsys.readouterr().out
-    assert "warning: form: form: " in printed and "design points" in printed
-    assert "  verdict:" in printed and "    whole cycle: trust" in printed
+    assert "  warning: form: " in printed and "design points (displacement" in printed
+    # no failure in 16 samples: nothing to trust at this level, FORM checked against MC's bound
+    assert "  verdict:" in printed and "    whole cycle: no estimate to trust at this level" in printed
+    assert "whole cycle: form's P_f" in printed and "mc's interval" in printed
     for name in ("whole_cycle.png", "rare_events.png", "cycle_extremes.csv", "design_point.csv"):
         assert (out / name).is_file(), name
     ext = pd.read_csv(out / "cycle_extremes.csv")
-    assert len(ext) == 64 and {"crank", "rod", "displacement.max_abs", "status"} <= set(ext.columns)
+    assert len(ext) == 16 and {"crank", "rod", "displacement.max_abs", "status"} <= set(ext.columns)
     dp = pd.read_csv(out / "design_point.csv")
     assert dp["point"].nunique() >= 2 and dp["member"].str.contains("max").all()

@@ -781,9 +781,8 @@ class WholeCycle(Presenter):
                         "reliabilities); run "
                         "Monte Carlo (--method mc) or a rare-event method (form, sorm, is, subset)"]
             return None
-        names = {m.key: m.name for m in _methods()}
         worst = per_angle_worst(ctx.results, ctx.study.quantities)
-        return verdict_lines(est, worst=worst, names=names)
+        return verdict_lines(est, worst=worst)
 
     def _form(self, ctx):
         from ..uq import FORMResult
@@ -847,12 +846,6 @@ class WholeCycle(Presenter):
                   out / "rare_events.png")
             written.append("rare_events.png")
         return written
-
-
-def _methods():
-    from .study import study_methods
-
-    return list(study_methods().values())
 
 
 def _run_on_study(ctx, method, prefer):

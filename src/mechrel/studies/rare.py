@@ -534,7 +534,7 @@ def verdict_lines(est: pd.DataFrame, *, worst=None, names=None) -> list[str]:
     worst : (float, str), optional
         :func:`per_angle_worst`.
     names : dict, optional
-        Display names of the methods by key.
+        Display names of the methods by key (default: the keys, as in the summary).
 
     Returns
     -------
@@ -558,82 +558,84 @@ def verdict_lines(est: pd.DataFrame, *, worst=None, names=None) -> list[str]:
         return []
 
     def nm(k):
-        return names.get(k, k)
+        return str(names.get(k, k))
 
-    def rank(row):
-        if row["kind"] == "monte_carlo":
-            return 0 if row["n_failures"] >= MIN_FAILURES else 3
-        if row["kind"] == "sampling":
-            return 1 if row["n_warnings"] == 0 else 2
-        return 4 if str(row["method"]).startswith("sorm") else 5
+    def interval(r):
+        return f"[{r['pf_lo']:.3g}, {r['pf_hi']:.3g}]"
 
-    a["rank"] = [rank(r) for _i, r in a.iterrows()]
-    top = a.sort_values("rank", kind="stable").iloc[0]
+    weak = (a["kind"] == "monte_carlo") & (a["n_failures"] < MIN_FAILURES)
+    rank = np.where((a["kind"] == "monte_carlo") & ~weak, 0,
+                    np.where(a["kind"] == "sampling", np.where(a["n_warnings"] == 0, 1, 2), 9))
+    order = np.argsort(rank, kind="stable")
+    top = a.iloc[order[0]] if rank[order[0]] < 9 else None
     lines = []
-    if top["kind"] == "approximation":
-        lines.append(f"    whole cycle: only approximations ran "
-                     f"({', '.join(nm(m) for m in a['method'])}): FORM and SORM "
-                     "carry no interval and see only the failure modes their searches reach; run "
-                     "subset "
-                     "simulation (--method subset) or Monte Carlo to check them")
+    if top is None:
+        parts = []
+        if (a["kind"] == "approximation").any():
+            parts.append(", ".join(nm(m) for m in a.loc[a["kind"] == "approximation", "method"])
+                         + " carry no interval and see only the failure modes their searches reach")
+        for _i, r in a[weak].iterrows():
+            parts.append(f"{nm(r['method'])} saw {int(r['n_failures'])} failures in "
+                         f"{int(r['n_samples'])} samples (fewer than {MIN_FAILURES}), interval "
+                         f"{interval(r)}")
+        lines.append("    whole cycle: no estimate to trust at this level: " + "; ".join(parts)
+                     + "; run subset simulation (--method subset), or Monte Carlo with more "
+                     "samples")
+        ref = a[weak].iloc[0] if weak.any() else None
+        for _i, r in a[a["kind"] == "approximation"].iterrows():
+            if ref is not None:
+                inside = ref["pf_lo"] <= r["pf"] <= ref["pf_hi"]
+                lines.append(f"    whole cycle: {nm(r['method'])}'s P_f = {r['pf']:.3g} is "
+                             f"{'inside' if inside else 'outside'} {nm(ref['method'])}'s "
+                             f"interval {interval(ref)}"
+                             + ("" if inside else ": one of them misses failure modes"))
     else:
         rel = (top["pf_hi"] - top["pf_lo"]) / top["pf"] if top["pf"] > 0 else np.inf
         if top["kind"] == "monte_carlo":
             why = (f"{int(top['n_failures'])} failures in {int(top['n_samples'])} samples: its "
-                   "interval holds "
-                   "whatever the response")
+                   "interval holds whatever the response")
+        elif top["n_warnings"] == 0:
+            why = "a sampling method, unbiased for the whole event, with no warning"
         else:
-            why = ("a sampling method, unbiased for the whole event, with no warning"
-                   if top["n_warnings"] == 0
-                   else "a sampling method, but see its warnings")
-        lines.append(f"    whole cycle: trust {nm(top['method'])} (P_f = {top['pf']:.3g}, interval "
-                     f"[{top['pf_lo']:.3g}, {top['pf_hi']:.3g}], {why}; relative width {rel:.2f})")
-    for _i, r in a.iterrows():
-        if r["method"] == top["method"]:
-            continue
-        if r["kind"] == "monte_carlo" and r["n_failures"] < MIN_FAILURES:
-            span = r["pf_hi"] / r["pf_lo"] if r["pf_lo"] > 0 else np.inf
-            lines.append(f"    whole cycle: {nm(r['method'])} saw only {int(r['n_failures'])} "
-                         "failures in "
-                         f"{int(r['n_samples'])} samples (fewer than {MIN_FAILURES}): its interval "
-                         f"[{r['pf_lo']:.3g}, {r['pf_hi']:.3g}] spans a factor "
-                         f"{'∞' if not np.isfinite(span) else f'{span:.1f}'}, not enough to trust "
-                         "at this level")
-        if top["kind"] == "approximation":
-            continue
-        if r["kind"] in ("sampling", "monte_carlo") and np.isfinite(r["pf_lo"]):
-            if r["pf_hi"] < top["pf_lo"] or r["pf_lo"] > top["pf_hi"]:
-                lines.append(f"    whole cycle: {nm(r['method'])} disagrees with "
-                             f"{nm(top['method'])}: their intervals "
-                             f"[{r['pf_lo']:.3g}, {r['pf_hi']:.3g}] and [{top['pf_lo']:.3g}, "
-                             f"{top['pf_hi']:.3g}] do "
-                             f"not overlap; trust {nm(top['method'])}"
-                             + (" (see the other's warnings)" if r["n_warnings"] else
-                                " (a sampler's interval can be too narrow when it misses a failure "
-                                "region)"))
-            else:
-                lines.append(f"    whole cycle: {nm(r['method'])} agrees (P_f = {r['pf']:.3g}, "
-                             "interval "
-                             f"[{r['pf_lo']:.3g}, {r['pf_hi']:.3g}])")
-        else:
-            ratio = r["pf"] / top["pf"] if top["pf"] > 0 else np.inf
-            if top["pf_lo"] <= r["pf"] <= top["pf_hi"]:
+            why = "a sampling method, but see its warnings"
+        lines.append(f"    whole cycle: trust {nm(top['method'])} (P_f = {top['pf']:.3g}, "
+                     f"interval {interval(top)}, {why}; relative width {rel:.2f})")
+        for _i, r in a.iterrows():
+            if r["method"] == top["method"]:
+                continue
+            if r["kind"] == "monte_carlo" and r["n_failures"] < MIN_FAILURES:
+                lines.append(f"    whole cycle: {nm(r['method'])} saw only {int(r['n_failures'])} "
+                             f"failures in {int(r['n_samples'])} samples (fewer than "
+                             f"{MIN_FAILURES}): its interval {interval(r)} is too wide to check "
+                             "the others at this level")
+                continue
+            if np.isfinite(r["pf_lo"]) and np.isfinite(r["pf_hi"]):
+                if r["pf_hi"] < top["pf_lo"] or r["pf_lo"] > top["pf_hi"]:
+                    why_not = (" (see its warnings)" if r["n_warnings"] else
+                               " (a sampler's interval is too narrow when it misses a failure "
+                               "region)")
+                    lines.append(f"    whole cycle: {nm(r['method'])} disagrees with "
+                                 f"{nm(top['method'])}: their intervals {interval(r)} and "
+                                 f"{interval(top)} do not overlap; trust {nm(top['method'])}"
+                                 + why_not)
+                else:
+                    lines.append(f"    whole cycle: {nm(r['method'])} agrees (P_f = {r['pf']:.3g}, "
+                                 f"interval {interval(r)})")
+            elif top["pf_lo"] <= r["pf"] <= top["pf_hi"]:
                 lines.append(f"    whole cycle: {nm(r['method'])} agrees (P_f = {r['pf']:.3g}, "
                              "inside the interval)")
             else:
+                ratio = r["pf"] / top["pf"] if top["pf"] > 0 else np.inf
                 lines.append(f"    whole cycle: {nm(r['method'])} gives {ratio:.2g}× the trusted "
-                             "P_f, outside its "
-                             "interval: a first-order (FORM) or second-order (SORM) system of the "
-                             "design points "
-                             "it found; the error is the modes' curvature or a mode it did not "
-                             "reach")
+                             "P_f, outside its interval: a first-order (FORM) or second-order "
+                             "(SORM) system of the design points it found, whose error is the "
+                             "modes' curvature or a mode it did not reach")
     if worst is not None:
         for _i, r in a.iterrows():
             upper = r["pf_hi"] if np.isfinite(r["pf_hi"]) else r["pf"]
             if upper < worst[0]:
                 lines.append(f"    whole cycle: {nm(r['method'])}'s P_f ({r['pf']:.3g}) is below "
-                             "the largest "
-                             f"single-angle P_f ({worst[0]:.3g}, {worst[1]}): impossible, the "
-                             "cycle contains "
-                             "every angle; it misses failure modes")
+                             f"the largest single-angle P_f ({worst[0]:.3g}, {worst[1]}): "
+                             "impossible, the cycle contains every angle; it misses failure "
+                             "modes")
     return lines

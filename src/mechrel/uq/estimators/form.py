@@ -298,13 +298,29 @@ larger: it is not differentiable there (the test of :data:`mechrel.uq.estimators
 
 def design_point_search(fn, *, u0: np.ndarray, step: float, scheme: str, tol: float,
                         tol_direction: float, max_iter: int, what: str = "form", count=lambda: 0,
+                        g_scale: float | None = None, notes: list | None = None,
                         armijo: float = 0.25, gamma: float = 2.0,
                         max_halvings: int = 30) -> tuple[np.ndarray, float, np.ndarray, pd.DataFrame, float]:
     """The iHLRF iteration (module docstring) on the scalar margin ``fn(U) -> (G, ok, reasons)``;
-    returns (u*, G*, ∇G*, history, G(u0)). ``count()`` gives the evaluations so far (history)."""
+    returns (u*, G*, ∇G*, history, G(u0)). ``count()`` gives the evaluations so far (history);
+    ``g_scale`` the margin the surface criterion is relative to (default G(u0); a search started
+    near the surface passes the margin at the origin); ``notes`` receives a note when the search
+    stops at the model's noise floor (below)."""
     u = np.array(u0, dtype=float)
     rows = []
     g0 = None
+
+    def at_noise_floor(crit_g, crit_u):
+        # on the surface, and the direction's error changes β by less than the surface tolerance
+        # (β·δ²/2, module docstring): the gradient's noise, not the iteration, limits the direction
+        r = float(np.linalg.norm(u))
+        if crit_g <= tol and 0.5 * r * crit_u**2 <= tol * max(1.0, r):
+            if notes is not None:
+                notes.append(f"{what}: a search stopped at the model's noise floor (|g|/|g0| = {crit_g:.2g}, "
+                             f"direction criterion {crit_u:.2g} > tol_direction = {tol_direction:g}: β changes "
+                             f"by about {0.5 * r * crit_u**2:.1g} from it)")
+            return True
+        return False
 
     def hist() -> pd.DataFrame:
         return pd.DataFrame(rows, columns=["iteration", "beta", "g", "merit_c", "step_length",
@@ -324,11 +340,14 @@ def design_point_search(fn, *, u0: np.ndarray, step: float, scheme: str, tol: fl
                 "a tie of a series/parallel system (min/max of equal branches); allowed: a limit state whose margin "
                 "varies with the inputs, or subset_simulation", hist())
         alpha = -dG / norm
-        crit_g = abs(G) / abs(g0) if g0 != 0 else abs(G)
+        ref = g0 if g_scale is None else g_scale
+        crit_g = abs(G) / abs(ref) if ref != 0 else abs(G)
         crit_u = float(np.linalg.norm(u - (alpha @ u) * alpha)) / max(1.0, float(np.linalg.norm(u)))
         converged = crit_g <= tol and crit_u <= tol_direction
         if converged or k == max_iter:
             rows.append((k, float(np.linalg.norm(u)), G, np.nan, np.nan, crit_g, crit_u, count()))
+            if not converged and at_noise_floor(crit_g, crit_u):
+                return u, G, dG, hist(), g0
             if not converged:
                 raise FORMConvergenceError(
                     f"{what}: design-point search did not converge in max_iter = {max_iter} iterations "
@@ -353,6 +372,8 @@ def design_point_search(fn, *, u0: np.ndarray, step: float, scheme: str, tol: fl
             lam *= 0.5
         else:
             rows.append((k, float(np.linalg.norm(u)), G, c, lam, crit_g, crit_u, count()))
+            if at_noise_floor(crit_g, crit_u):
+                return u, G, dG, hist(), g0
             raise FORMConvergenceError(
                 f"{what}: line search found no step decreasing the merit function at iteration {k} "
                 f"after {max_halvings} halvings (a noisy model, failed model points or a non-smooth limit state); "
@@ -392,14 +413,15 @@ class _Search:
     def __init__(self, problem: Problem, *, step, scheme, tol, tol_direction, max_iter,
                  max_design_points, contribution, what):
         self.problem = problem
+        self.notes: list[str] = []
         self.kw = dict(step=step, scheme=scheme, tol=tol, tol_direction=tol_direction, max_iter=max_iter,
-                       what=what, count=lambda: problem.n_evaluations)
+                       what=what, count=lambda: problem.n_evaluations, notes=self.notes)
+        self.g_start: np.ndarray | None = None
         self.max_points = max_design_points
         self.contribution = contribution
         self.what = what
         self.members = problem.bound.members
         self.points: list[_Point] = []
-        self.notes: list[str] = []
         self.unexplained: list[np.ndarray] = []
 
     def member_fn(self, m: int):
@@ -438,6 +460,7 @@ class _Search:
                 f"{int((~ok).sum())} failed ({'; '.join(bad)}); allowed: a smaller step, or subset_simulation "
                 "(which needs no gradient)")
         g0 = float(problem.bound.system_from_members(Gm[:1])[0])
+        self.g_start = Gm[0]
         lin = []
         proxies = problem.bound.member_proxies()
         scale = np.max(np.abs(Gm), axis=0)
@@ -503,8 +526,9 @@ class _Search:
     def search(self, m: int, u_start: np.ndarray, *, fallback=None) -> _Point | None:
         """A design-point search on member m from u_start; on failure the fallback hyperplane
         (beta, alpha) stands in, with a note, or None."""
+        scale = None if self.g_start is None else float(self.g_start[m])
         try:
-            u, G, dG, hist, g0 = design_point_search(self.member_fn(m), u0=u_start, **self.kw)
+            u, G, dG, hist, g0 = design_point_search(self.member_fn(m), u0=u_start, g_scale=scale, **self.kw)
         except FORMConvergenceError as exc:
             if fallback is None:
                 raise
@@ -810,10 +834,19 @@ def _form(problem: Problem, *, seed: Any, step: float, scheme: str, tol: float, 
         notes.append(f"{problem.what}: {len(S.unexplained)} failing point(s) of the probe sphere lie outside every "
                      f"design point's half-space (e.g. u = {np.round(S.unexplained[0], 3).tolist()}): a failure "
                      "region FORM did not reach, so P_f may be underestimated; use subset_simulation")
-    for p in S.notes:
-        notes.append(p)
+    notes += _merged(S.notes)
     return _result(problem, pts, S, pf=pf, beta=beta, lo=lo, hi=hi, g0=g_start, settings=settings,
                    method=method, notes=notes, system="series", seed=seed)
+
+
+def _merged(notes: list[str]) -> list[str]:
+    """The searches' notes, those of searches stopped at the noise floor merged into one."""
+    noise = [n for n in notes if "noise floor" in n]
+    rest = [n for n in notes if "noise floor" not in n]
+    if len(noise) > 1:
+        noise = [noise[0].replace("a search stopped", f"{len(noise)} searches stopped (the first:", 1)
+                 .replace("from it)", "from it))", 1)]
+    return rest + noise
 
 
 def _system_fn(problem: Problem):
