@@ -497,7 +497,7 @@ def plot_whole_cycle(estimates: pd.DataFrame, *, target: float | None = None, ti
     groups = [g for g in dict.fromkeys(estimates["group"]) if g != "all"] + (
         ["all"] if "all" in set(estimates["group"]) else [])
     methods = list(dict.fromkeys(estimates["method"]))
-    fig, ax = plt.subplots(figsize=(7.5, 1.0 + 0.55 * len(groups) * max(1, len(methods)) ** 0.5))
+    fig, ax = plt.subplots(figsize=(9.0, 1.4 + 0.55 * len(groups) * max(1, len(methods)) ** 0.5))
     colors = plt.rcParams["axes.prop_cycle"].by_key()["color"]
     span = 0.6
     positive = estimates["pf"][estimates["pf"] > 0]
@@ -529,7 +529,8 @@ def plot_whole_cycle(estimates: pd.DataFrame, *, target: float | None = None, ti
     ax.set_ylim(-0.7, len(groups) - 0.3)
     ax.set_xlabel("whole-cycle failure probability P_f (beyond the allowable at any instant)")
     ax.grid(True, axis="x", which="both", alpha=0.3)
-    ax.legend(loc="best", fontsize=8, title="● MC  ■ sampling  ◆ approximation", title_fontsize=7)
+    ax.legend(loc="center left", bbox_to_anchor=(1.01, 0.5), fontsize=8,
+              title="● MC  ■ sampling\n◆ approximation", title_fontsize=7)
     ax.set_title(title or "whole-cycle failure probability by method (bars: intervals)")
     fig.tight_layout()
     return fig
