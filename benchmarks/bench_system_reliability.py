@@ -37,8 +37,16 @@ from pathlib import Path
 import numpy as np
 from scipy import integrate, special
 
-from mechrel.uq import (FunctionModel, LimitState, Normal, UncertainInputs, form,
-                        importance_sampling, sorm, subset_simulation)
+from mechrel.uq import (
+    FunctionModel,
+    LimitState,
+    Normal,
+    UncertainInputs,
+    form,
+    importance_sampling,
+    sorm,
+    subset_simulation,
+)
 from mechrel.uq.problem.allowables import parse_sector
 from mechrel.uq.problem.analytic import slider_crank_tolerance_model
 
@@ -48,28 +56,42 @@ ALLOWABLES = {"1e-3": 0.18e-3, "1e-6": 0.26e-3}
 
 def slider_crank():
     """The whole-cycle test problem: model, inputs, {level: limit state}."""
-    model = slider_crank_tolerance_model(quantities=["displacement"], angle_step=18.0,
-                                         points_per_sector=8)
-    inputs = UncertainInputs.from_specs({"crank": Normal(0.05, 0.02e-3), "rod": Normal(0.12, 0.02e-3),
-                                         "offset": Normal(0.0, 0.1e-3)})
+    model = slider_crank_tolerance_model(
+        quantities=["displacement"], angle_step=18.0, points_per_sector=8
+    )
+    inputs = UncertainInputs.from_specs(
+        {
+            "crank": Normal(0.05, 0.02e-3),
+            "rod": Normal(0.12, 0.02e-3),
+            "offset": Normal(0.0, 0.1e-3),
+        }
+    )
     sectors = [lbl for lbl in model.output_index if parse_sector(lbl[1])]
-    states = {k: LimitState.exceedance(sectors, a, kind="abs", name="displacement")
-              for k, a in ALLOWABLES.items()}
+    states = {
+        k: LimitState.exceedance(sectors, a, kind="abs", name="displacement")
+        for k, a in ALLOWABLES.items()
+    }
     return model, inputs, states
 
 
 def four_branch(X, k=6.0):
     """The four-branch series system (Waarts 2000; Schueremans & Van Gemert 2005), k = 6."""
     x1, x2 = X[:, 0], X[:, 1]
-    return np.minimum.reduce([3 + (x1 - x2) ** 2 / 10 - (x1 + x2) / 2**0.5,
-                              3 + (x1 - x2) ** 2 / 10 + (x1 + x2) / 2**0.5,
-                              (x1 - x2) + k / 2**0.5, (x2 - x1) + k / 2**0.5])
+    return np.minimum.reduce(
+        [
+            3 + (x1 - x2) ** 2 / 10 - (x1 + x2) / 2**0.5,
+            3 + (x1 - x2) ** 2 / 10 + (x1 + x2) / 2**0.5,
+            (x1 - x2) + k / 2**0.5,
+            (x2 - x1) + k / 2**0.5,
+        ]
+    )
 
 
 def four_branch_exact(k=6.0) -> float:
     """P_f of the four-branch system by directional integration in 2-D: along the ray r·(cos t,
     sin t) the failure set is a union of intervals of r (each branch is a quadratic in r), whose
     probability under the χ₂ law of r is Σ (e^{−r_a²/2} − e^{−r_b²/2}); integrated over t."""
+
     def ray(t):
         c, s = math.cos(t), math.sin(t)
         roots = [0.0, 50.0]
@@ -93,8 +115,15 @@ def four_branch_exact(k=6.0) -> float:
             if four_branch(np.array([[mid * c, mid * s]]), k)[0] <= 0:
                 p += math.exp(-lo * lo / 2) - math.exp(-hi * hi / 2)
         return p
-    val, _err = integrate.quad(ray, 0.0, 2 * math.pi, limit=400, epsabs=1e-13, points=[
-        math.pi / 4, 3 * math.pi / 4, 5 * math.pi / 4, 7 * math.pi / 4])
+
+    val, _err = integrate.quad(
+        ray,
+        0.0,
+        2 * math.pi,
+        limit=400,
+        epsabs=1e-13,
+        points=[math.pi / 4, 3 * math.pi / 4, 5 * math.pi / 4, 7 * math.pi / 4],
+    )
     return val / (2 * math.pi)
 
 
@@ -116,13 +145,25 @@ def problems():
     ref = json.loads(REFERENCE.read_text()) if REFERENCE.exists() else {}
     for k, ls in states.items():
         out[f"slider-crank {k}"] = (model, inputs, ls, ref.get(k, {}).get("pf", float("nan")))
-    out["two-points"] = (FunctionModel(_tie, ["x1", "x2"], ["g"], vectorized=True), STD2, None,
-                         2 * special.ndtr(-3.5))
-    out["four-branch"] = (FunctionModel(four_branch, ["x1", "x2"], ["g"], vectorized=True), STD2, None,
-                          four_branch_exact())
+    out["two-points"] = (
+        FunctionModel(_tie, ["x1", "x2"], ["g"], vectorized=True),
+        STD2,
+        None,
+        2 * special.ndtr(-3.5),
+    )
+    out["four-branch"] = (
+        FunctionModel(four_branch, ["x1", "x2"], ["g"], vectorized=True),
+        STD2,
+        None,
+        four_branch_exact(),
+    )
     par = FunctionModel(_parallel, ["x1", "x2"], ["a", "b"], vectorized=True)
-    out["parallel"] = (par, STD2, LimitState.parallel(LimitState.margin("a"), LimitState.margin("b")),
-                       special.ndtr(-3.0) ** 2)
+    out["parallel"] = (
+        par,
+        STD2,
+        LimitState.parallel(LimitState.margin("a"), LimitState.margin("b")),
+        special.ndtr(-3.0) ** 2,
+    )
     return out
 
 
@@ -133,25 +174,43 @@ def reference() -> None:
     t0 = time.perf_counter()
     n, chunk = 4_000_000, 50_000
     X = inputs.sample(n, seed=20261128)
-    m = np.concatenate([model.func(X[i:i + chunk])[:, k] for i in range(0, n, chunk)])
+    m = np.concatenate([model.func(X[i : i + chunk])[:, k] for i in range(0, n, chunk)])
     p = float(np.mean(m >= ALLOWABLES["1e-3"]))
-    out["1e-3"] = {"pf": p, "cov": math.sqrt((1 - p) / (n * p)), "allowable": ALLOWABLES["1e-3"],
-                   "how": f"crude Monte Carlo, {n} samples (seed 20261128)",
-                   "seconds": time.perf_counter() - t0}
+    out["1e-3"] = {
+        "pf": p,
+        "cov": math.sqrt((1 - p) / (n * p)),
+        "allowable": ALLOWABLES["1e-3"],
+        "how": f"crude Monte Carlo, {n} samples (seed 20261128)",
+        "seconds": time.perf_counter() - t0,
+    }
     print("1e-3", out["1e-3"])
     t0 = time.perf_counter()
     ls = states["1e-6"]
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         f = form(model=model, inputs=inputs, limit_state=ls)
-        imp = importance_sampling(model=model, inputs=inputs, limit_state=ls, design_point=f, n=400_000,
-                                  seed=20261128, progress=False)
-        sub = subset_simulation(model=model, inputs=inputs, limit_state=ls, n_per_level=20_000,
-                                seed=20261128)
-    out["1e-6"] = {"pf": imp.pf, "cov": imp.cov, "allowable": ALLOWABLES["1e-6"],
-                   "how": "mixture importance sampling, 400000 samples (seed 20261128), checked by subset "
-                          f"simulation with 20000 per level: {sub.pf:.4g} (c.o.v. {sub.cov:.3f})",
-                   "subset_pf": sub.pf, "subset_cov": sub.cov, "seconds": time.perf_counter() - t0}
+        imp = importance_sampling(
+            model=model,
+            inputs=inputs,
+            limit_state=ls,
+            design_point=f,
+            n=400_000,
+            seed=20261128,
+            progress=False,
+        )
+        sub = subset_simulation(
+            model=model, inputs=inputs, limit_state=ls, n_per_level=20_000, seed=20261128
+        )
+    out["1e-6"] = {
+        "pf": imp.pf,
+        "cov": imp.cov,
+        "allowable": ALLOWABLES["1e-6"],
+        "how": "mixture importance sampling, 400000 samples (seed 20261128), checked by subset "
+        f"simulation with 20000 per level: {sub.pf:.4g} (c.o.v. {sub.cov:.3f})",
+        "subset_pf": sub.pf,
+        "subset_cov": sub.cov,
+        "seconds": time.perf_counter() - t0,
+    }
     print("1e-6", out["1e-6"])
     REFERENCE.write_text(json.dumps(out, indent=1) + "\n")
 
@@ -171,25 +230,50 @@ def run(name, model, inputs, ls, ref, seeds):
             print(f"  sorm: {exc}"[:120])
         rows["form"].append((f.pf, np.nan, np.nan, np.nan, f.n_evaluations, len(f.warnings)))
         for seed in range(seeds):
-            i = importance_sampling(model=model, inputs=inputs, limit_state=ls, design_point=f, n=2000,
-                                    seed=seed, progress=False)
+            i = importance_sampling(
+                model=model,
+                inputs=inputs,
+                limit_state=ls,
+                design_point=f,
+                n=2000,
+                seed=seed,
+                progress=False,
+            )
             t = i.to_frame().iloc[0]
-            rows["is"].append((i.pf, t["pf_lo"], t["pf_hi"], i.cov, i.n_evaluations - f.n_evaluations,
-                               len(i.warnings)))
-            u = subset_simulation(model=model, inputs=inputs, limit_state=ls, n_per_level=1000, seed=seed)
+            rows["is"].append(
+                (
+                    i.pf,
+                    t["pf_lo"],
+                    t["pf_hi"],
+                    i.cov,
+                    i.n_evaluations - f.n_evaluations,
+                    len(i.warnings),
+                )
+            )
+            u = subset_simulation(
+                model=model, inputs=inputs, limit_state=ls, n_per_level=1000, seed=seed
+            )
             t = u.to_frame().iloc[0]
-            rows["subset"].append((u.pf, t["pf_lo"], t["pf_hi"], u.cov, u.n_evaluations, len(u.warnings)))
+            rows["subset"].append(
+                (u.pf, t["pf_lo"], t["pf_hi"], u.cov, u.n_evaluations, len(u.warnings))
+            )
     print(f"{name}: reference P_f = {ref:.4g}")
     for m in METHODS:
         r = np.array(rows[m], dtype=float)
         if not r.size:
             continue
         ratio = r[:, 0] / ref
-        cover = np.mean((r[:, 1] <= ref) & (ref <= r[:, 2])) if np.isfinite(r[:, 1]).all() else np.nan
-        print(f"  {m:6s} median P_f/ref {np.median(ratio):.3f} (q10 {np.quantile(ratio, .1):.3f}, q90 "
-              f"{np.quantile(ratio, .9):.3f}); observed c.o.v. {np.std(r[:, 0]) / ref:.3f}, mean reported "
-              f"{np.nanmean(r[:, 3]):.3f}; coverage {cover:.2f} ({len(r)} runs); evaluations "
-              f"{np.median(r[:, 4]):.0f}; runs with warnings {int(np.sum(r[:, 5] > 0))}")
+        cover = (
+            np.mean((r[:, 1] <= ref) & (ref <= r[:, 2])) if np.isfinite(r[:, 1]).all() else np.nan
+        )
+        print(
+            f"  {m:6s} median P_f/ref {np.median(ratio):.3f} (q10 {np.quantile(ratio, 0.1):.3f}, "
+            "q90 "
+            f"{np.quantile(ratio, 0.9):.3f}); observed c.o.v. {np.std(r[:, 0]) / ref:.3f}, mean "
+            "reported "
+            f"{np.nanmean(r[:, 3]):.3f}; coverage {cover:.2f} ({len(r)} runs); evaluations "
+            f"{np.median(r[:, 4]):.0f}; runs with warnings {int(np.sum(r[:, 5] > 0))}"
+        )
 
 
 def subset_coverage(seeds: int) -> None:
@@ -203,25 +287,52 @@ def subset_coverage(seeds: int) -> None:
 
     def lin(beta, d):
         names = [f"x{i}" for i in range(d)]
-        return (FunctionModel(lambda X: beta * math.sqrt(d) - X.sum(axis=1), names, ["g"], vectorized=True),
-                UncertainInputs.from_specs({n: Normal(0.0, 1.0) for n in names}), special.ndtr(-beta))
+        return (
+            FunctionModel(
+                lambda X: beta * math.sqrt(d) - X.sum(axis=1), names, ["g"], vectorized=True
+            ),
+            UncertainInputs.from_specs({n: Normal(0.0, 1.0) for n in names}),
+            special.ndtr(-beta),
+        )
 
-    parab = integrate.quad(lambda x: math.exp(-x * x / 2) / math.sqrt(2 * math.pi)
-                           * special.ndtr(-(4.5 + 0.1 * x * x)), -12, 12, epsabs=1e-16)[0]
-    cases = {"linear 1e-3, d = 2": lin(3.09, 2), "linear 1e-6, d = 10": lin(4.75, 10),
-             "two design points": (FunctionModel(_tie, ["x1", "x2"], ["g"], vectorized=True), STD2,
-                                   2 * special.ndtr(-3.5)),
-             "paraboloid 4.5": (FunctionModel(lambda X: 4.5 - X[:, 1] + 0.1 * X[:, 0] ** 2, ["x1", "x2"], ["g"],
-                                              vectorized=True), STD2, parab),
-             "four-branch": (FunctionModel(four_branch, ["x1", "x2"], ["g"], vectorized=True), STD2,
-                             four_branch_exact())}
+    parab = integrate.quad(
+        lambda x: (
+            math.exp(-x * x / 2) / math.sqrt(2 * math.pi) * special.ndtr(-(4.5 + 0.1 * x * x))
+        ),
+        -12,
+        12,
+        epsabs=1e-16,
+    )[0]
+    cases = {
+        "linear 1e-3, d = 2": lin(3.09, 2),
+        "linear 1e-6, d = 10": lin(4.75, 10),
+        "two design points": (
+            FunctionModel(_tie, ["x1", "x2"], ["g"], vectorized=True),
+            STD2,
+            2 * special.ndtr(-3.5),
+        ),
+        "paraboloid 4.5": (
+            FunctionModel(
+                lambda X: 4.5 - X[:, 1] + 0.1 * X[:, 0] ** 2, ["x1", "x2"], ["g"], vectorized=True
+            ),
+            STD2,
+            parab,
+        ),
+        "four-branch": (
+            FunctionModel(four_branch, ["x1", "x2"], ["g"], vectorized=True),
+            STD2,
+            four_branch_exact(),
+        ),
+    }
     z = stats.norm.ppf(0.975)
     for name, (model, inputs, ref) in cases.items():
         pf, lv = [], []
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             for seed in range(seeds):
-                r = subset_simulation(model=model, inputs=inputs, n_per_level=1000, seed=1000 + seed)
+                r = subset_simulation(
+                    model=model, inputs=inputs, n_per_level=1000, seed=1000 + seed
+                )
                 pf.append(r.pf)
                 lv.append(r.levels["cov"].to_numpy())
         pf = np.array(pf)
@@ -233,20 +344,37 @@ def subset_coverage(seeds: int) -> None:
             else:
                 lo, hi = np.maximum(pf * (1 - z * delta), 0), pf * (1 + z * delta)
             return np.mean((lo <= ref) & (ref <= hi))
+
         ab = np.array([math.sqrt(np.sum(c**2)) for c in lv])
-        adj = np.array([math.sqrt(np.sum(c**2) + 2 * ADJACENT_CORRELATION * np.sum(c[:-1] * c[1:])) for c in lv])
+        adj = np.array(
+            [
+                math.sqrt(np.sum(c**2) + 2 * ADJACENT_CORRELATION * np.sum(c[:-1] * c[1:]))
+                for c in lv
+            ]
+        )
         full = np.array([np.sum(c) for c in lv])
-        print(f"{name}: P_f {ref:.4g}, mean P̂/P_f {pf.mean() / ref:.3f}, observed c.o.v. {pf.std() / ref:.3f}; "
-              f"uncorrelated δ {ab.mean():.3f} (normal {cover(ab, False):.3f}, lognormal {cover(ab, True):.3f}); "
-              f"adjacent ρ = {ADJACENT_CORRELATION} δ {adj.mean():.3f} (lognormal {cover(adj, True):.3f}, "
-              f"mechrel's); full δ {full.mean():.3f} (lognormal {cover(full, True):.3f}); {seeds} seeds")
+        print(
+            f"{name}: P_f {ref:.4g}, mean P̂/P_f {pf.mean() / ref:.3f}, observed c.o.v. "
+            f"{pf.std() / ref:.3f}; "
+            f"uncorrelated δ {ab.mean():.3f} (normal {cover(ab, False):.3f}, lognormal "
+            f"{cover(ab, True):.3f}); "
+            f"adjacent ρ = {ADJACENT_CORRELATION} δ {adj.mean():.3f} (lognormal "
+            f"{cover(adj, True):.3f}, "
+            f"mechrel's); full δ {full.mean():.3f} (lognormal {cover(full, True):.3f}); {seeds} "
+            "seeds"
+        )
 
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--reference", action="store_true", help="recompute the slider-crank references")
-    ap.add_argument("--subset-coverage", action="store_true",
-                    help="the coverage of subset simulation's intervals on five problems")
+    ap.add_argument(
+        "--reference", action="store_true", help="recompute the slider-crank references"
+    )
+    ap.add_argument(
+        "--subset-coverage",
+        action="store_true",
+        help="the coverage of subset simulation's intervals on five problems",
+    )
     ap.add_argument("--seeds", type=int, default=40)
     ap.add_argument("--only", default=None, help="a problem name (substring)")
     a = ap.parse_args()

@@ -41,17 +41,33 @@ from scipy import special
 
 from mechrel.errors import StudyError
 from mechrel.studies.rare import verdict_lines
-from mechrel.uq import (FunctionModel, LimitState, MechanismModel, Normal, UncertainInputs, fosm,
-                        form, importance_sampling, sorm, subset_simulation)
+from mechrel.uq import (
+    FunctionModel,
+    LimitState,
+    MechanismModel,
+    Normal,
+    UncertainInputs,
+    fosm,
+    form,
+    importance_sampling,
+    sorm,
+    subset_simulation,
+)
 from mechrel.uq.problem.allowables import parse_sector
 from mechrel.uq.problem.analytic import slider_crank_tolerance_model
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
-from bench_system_reliability import (ALLOWABLES, four_branch, four_branch_exact,  # noqa: E402
-                                      slider_crank)
+from bench_system_reliability import (
+    ALLOWABLES,
+    four_branch,
+    four_branch_exact,  # noqa: E402
+    slider_crank,
+)
 
 STD2 = UncertainInputs.from_specs({"x1": Normal(0.0, 1.0), "x2": Normal(0.0, 1.0)})
-REFERENCE = json.loads((Path(__file__).parent / "data" / "slider_crank_whole_cycle.json").read_text())
+REFERENCE = json.loads(
+    (Path(__file__).parent / "data" / "slider_crank_whole_cycle.json").read_text()
+)
 
 
 def _tie(X):
@@ -87,7 +103,7 @@ def _covers(result, ref):
 
 # ---------------------------------------------------------------- FORM and SORM on systems
 def test_form_finds_both_design_points_of_one_opaque_margin():
-    """g = 3.5 − |u₁| in one model output: the search from the origin stalls on the tie (zero
+    """The margin g = 3.5 − |u₁| in one model output: the search from the origin stalls on the tie (zero
     gradient); the probes find both sides; their half-spaces are disjoint, so the union is
     exactly 2Φ(−3.5). A single search from a given start finds one side and says so."""
     with pytest.warns(UserWarning, match="2 design points"):
@@ -106,7 +122,7 @@ def test_form_on_an_asymmetric_tie_and_a_linear_margin():
     r = _quiet(form, model=_model(_asymmetric), inputs=STD2)
     assert r.pf == pytest.approx(special.ndtr(-3.5) + special.ndtr(-3.8), rel=1e-6)
     with warnings.catch_warnings():
-        warnings.simplefilter("error")     # a correct case raises no warning
+        warnings.simplefilter("error")  # a correct case raises no warning
         lin = form(model=_model(_linear), inputs=STD2)
     assert lin.warnings == () and len(lin.design_points) == 1
     assert lin.beta == pytest.approx(3.0, abs=1e-8)
@@ -124,27 +140,59 @@ def test_form_on_a_parallel_system_is_exact_for_linear_components():
         sorm(model=_model(_two, ("a", "b")), inputs=STD2, limit_state=ls, design_point=r)
     # centred on the corner of the failure quadrant, the weights are skewed: at n = 1000 the
     # interval covered the truth in 92 % of 100 seeds, at n = 4000 in 98 % (importance.py)
-    coverage = [_covers(_quiet(importance_sampling, model=_model(_two, ("a", "b")), inputs=STD2,
-                               limit_state=ls, design_point=r, n=4000, seed=s, progress=False),
-                        special.ndtr(-3.0) ** 2) for s in range(20)]
+    coverage = [
+        _covers(
+            _quiet(
+                importance_sampling,
+                model=_model(_two, ("a", "b")),
+                inputs=STD2,
+                limit_state=ls,
+                design_point=r,
+                n=4000,
+                seed=s,
+                progress=False,
+            ),
+            special.ndtr(-3.0) ** 2,
+        )
+        for s in range(20)
+    ]
     assert sum(coverage) >= 18
 
 
 def test_four_branch_system_by_form_sorm_and_sampling():
-    exact = four_branch_exact()                   # 4.4573e-3
+    exact = four_branch_exact()  # 4.4573e-3
     assert exact == pytest.approx(4.46e-3, rel=2e-3)
     model = _model(four_branch)
     f = _quiet(form, model=model, inputs=STD2)
-    assert len(f.design_points) == 4 and f.design_points["beta"].to_numpy() == pytest.approx(3.0, abs=1e-5)
+    assert len(f.design_points) == 4 and f.design_points["beta"].to_numpy() == pytest.approx(
+        3.0, abs=1e-5
+    )
     # the union of four β = 3 half-spaces, opposite pairs disjoint, orthogonal pairs independent
     linear_union = 4 * special.ndtr(-3.0) - 4 * special.ndtr(-3.0) ** 2
     assert f.pf == pytest.approx(linear_union, rel=3 * math.sqrt(4 / 20000))
     s = _quiet(sorm, model=model, inputs=STD2, design_point=f)
     assert s.pf == pytest.approx(exact, rel=2e-2)
-    cov_is = [_covers(_quiet(importance_sampling, model=model, inputs=STD2, design_point=f, n=1000,
-                             seed=k, progress=False), exact) for k in range(20)]
-    cov_ss = [_covers(_quiet(subset_simulation, model=model, inputs=STD2, n_per_level=1000, seed=k), exact)
-              for k in range(20)]
+    cov_is = [
+        _covers(
+            _quiet(
+                importance_sampling,
+                model=model,
+                inputs=STD2,
+                design_point=f,
+                n=1000,
+                seed=k,
+                progress=False,
+            ),
+            exact,
+        )
+        for k in range(20)
+    ]
+    cov_ss = [
+        _covers(
+            _quiet(subset_simulation, model=model, inputs=STD2, n_per_level=1000, seed=k), exact
+        )
+        for k in range(20)
+    ]
     assert sum(cov_is) >= 18 and sum(cov_ss) >= 18
 
 
@@ -153,8 +201,18 @@ def test_importance_sampling_on_two_design_points_covers_the_truth():
     20 runs; the mixture over both covers it."""
     model, exact = _model(_tie), 2 * special.ndtr(-3.5)
     f = _quiet(form, model=model, inputs=STD2)
-    runs = [_quiet(importance_sampling, model=model, inputs=STD2, design_point=f, n=1000, seed=k,
-                   progress=False) for k in range(20)]
+    runs = [
+        _quiet(
+            importance_sampling,
+            model=model,
+            inputs=STD2,
+            design_point=f,
+            n=1000,
+            seed=k,
+            progress=False,
+        )
+        for k in range(20)
+    ]
     assert sum(_covers(r, exact) for r in runs) >= 18
     assert all(r.to_frame()["n_design_points"].iloc[0] == 2 for r in runs)
 
@@ -165,9 +223,13 @@ def test_the_analytic_slider_crank_is_the_simulators():
     crank and rod tolerances against its nominal design (kinematic analysis, 3600 points per
     cycle for the extremes; the analytic model's fine grid of 180 intervals per 18° sector holds
     the same points): every output to 1e-9 of its quantity's largest error."""
-    sim = MechanismModel("slider-crank", {"crank": ["bodies.crank.length(O,A)"],
-                                          "rod": ["bodies.rod.length(A,B)"]},
-                         angle_step=18.0, cycles=1, sectors=True)
+    sim = MechanismModel(
+        "slider-crank",
+        {"crank": ["bodies.crank.length(O,A)"], "rod": ["bodies.rod.length(A,B)"]},
+        angle_step=18.0,
+        cycles=1,
+        sectors=True,
+    )
     ana = slider_crank_tolerance_model(angle_step=18.0, points_per_sector=180)
     assert list(sim.output_index) == list(ana.output_index)
     for x in ([0.0501, 0.1199], [0.04985, 0.12012]):
@@ -201,9 +263,19 @@ def test_whole_cycle_sampling_methods_within_their_interval():
     f = _quiet(form, model=model, inputs=inputs, limit_state=ls)
     ref = REFERENCE["1e-3"]["pf"]
     for k in range(3):
-        i = _quiet(importance_sampling, model=model, inputs=inputs, limit_state=ls, design_point=f, n=2000,
-                   seed=k, progress=False)
-        s = _quiet(subset_simulation, model=model, inputs=inputs, limit_state=ls, n_per_level=1000, seed=k)
+        i = _quiet(
+            importance_sampling,
+            model=model,
+            inputs=inputs,
+            limit_state=ls,
+            design_point=f,
+            n=2000,
+            seed=k,
+            progress=False,
+        )
+        s = _quiet(
+            subset_simulation, model=model, inputs=inputs, limit_state=ls, n_per_level=1000, seed=k
+        )
         assert abs(i.pf - ref) <= 3 * i.cov * i.pf and abs(s.pf - ref) <= 3 * s.cov * s.pf
 
 
@@ -213,10 +285,36 @@ def test_whole_cycle_sampling_methods_cover_the_reference():
     ls = states["1e-3"]
     f = _quiet(form, model=model, inputs=inputs, limit_state=ls)
     ref = REFERENCE["1e-3"]["pf"]
-    cov_is = [_covers(_quiet(importance_sampling, model=model, inputs=inputs, limit_state=ls,
-                             design_point=f, n=2000, seed=k, progress=False), ref) for k in range(20)]
-    cov_ss = [_covers(_quiet(subset_simulation, model=model, inputs=inputs, limit_state=ls,
-                             n_per_level=1000, seed=k), ref) for k in range(20)]
+    cov_is = [
+        _covers(
+            _quiet(
+                importance_sampling,
+                model=model,
+                inputs=inputs,
+                limit_state=ls,
+                design_point=f,
+                n=2000,
+                seed=k,
+                progress=False,
+            ),
+            ref,
+        )
+        for k in range(20)
+    ]
+    cov_ss = [
+        _covers(
+            _quiet(
+                subset_simulation,
+                model=model,
+                inputs=inputs,
+                limit_state=ls,
+                n_per_level=1000,
+                seed=k,
+            ),
+            ref,
+        )
+        for k in range(20)
+    ]
     assert sum(cov_is) >= 18 and sum(cov_ss) >= 18
 
 
@@ -226,10 +324,36 @@ def test_whole_cycle_sampling_methods_cover_the_reference_at_1e_6():
     ls = states["1e-6"]
     f = _quiet(form, model=model, inputs=inputs, limit_state=ls)
     ref = REFERENCE["1e-6"]["pf"]
-    cov_is = [_covers(_quiet(importance_sampling, model=model, inputs=inputs, limit_state=ls,
-                             design_point=f, n=2000, seed=k, progress=False), ref) for k in range(20)]
-    cov_ss = [_covers(_quiet(subset_simulation, model=model, inputs=inputs, limit_state=ls,
-                             n_per_level=1000, seed=k), ref) for k in range(20)]
+    cov_is = [
+        _covers(
+            _quiet(
+                importance_sampling,
+                model=model,
+                inputs=inputs,
+                limit_state=ls,
+                design_point=f,
+                n=2000,
+                seed=k,
+                progress=False,
+            ),
+            ref,
+        )
+        for k in range(20)
+    ]
+    cov_ss = [
+        _covers(
+            _quiet(
+                subset_simulation,
+                model=model,
+                inputs=inputs,
+                limit_state=ls,
+                n_per_level=1000,
+                seed=k,
+            ),
+            ref,
+        )
+        for k in range(20)
+    ]
     assert sum(cov_is) >= 18 and sum(cov_ss) >= 18
 
 
@@ -265,11 +389,14 @@ def test_fosm_on_a_tie_and_on_cycle_extremes_gives_no_number_from_round_off():
     assert math.isnan(r.beta) and math.isnan(r.pf)
     with warnings.catch_warnings():
         warnings.simplefilter("error")
-        ok = fosm(model=_model(_linear), inputs=STD2, limit_state=LimitState.margin(), progress=False)
+        ok = fosm(
+            model=_model(_linear), inputs=STD2, limit_state=LimitState.margin(), progress=False
+        )
     assert ok.beta == pytest.approx(3.0, abs=1e-9) and ok.warnings == ()
     # the tolerance model: zero error at the nominal design; its cycle extremes get no β
     model, inputs, _ = slider_crank()
     from mechrel.uq import Allowable
+
     f = _quiet(fosm, model=model, inputs=inputs, allowable=Allowable(0.18e-3, 0.0), progress=False)
     t = f.to_frame()
     extreme = np.array([isinstance(lbl[1], str) for lbl in t.index])
@@ -289,29 +416,42 @@ def test_importance_sampling_warns_on_too_few_effective_samples_and_missed_regio
     assert len(one.design_points) == 1
     with pytest.warns(UserWarning) as caught:
         # the defensive part (w₀ n = 2000 samples) meets each missed branch (P ≈ 1e-3) a few times
-        importance_sampling(model=model, inputs=STD2, design_point=one, n=20000, seed=3, progress=False)
+        importance_sampling(
+            model=model, inputs=STD2, design_point=one, n=20000, seed=3, progress=False
+        )
     text = " ".join(str(w.message) for w in caught)
     assert "no design point's component of the mixture reaches" in text
     assert "effective" in text or "Pareto" in text
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         f = _quiet(form, model=_model(_linear), inputs=STD2)
-        importance_sampling(model=_model(_linear), inputs=STD2, design_point=f, n=1000, seed=3,
-                            progress=False)
+        importance_sampling(
+            model=_model(_linear), inputs=STD2, design_point=f, n=1000, seed=3, progress=False
+        )
 
 
 def _fails_near_origin(X):
     g = 3.0 - X[:, 0]
-    g[np.hypot(X[:, 0], X[:, 1] + 1.5) < 0.5] = np.nan     # the model fails there
+    g[np.hypot(X[:, 0], X[:, 1] + 1.5) < 0.5] = np.nan  # the model fails there
     return g
 
 
 def test_importance_sampling_warns_on_model_failures_counted_as_failures_away_from_the_points():
     model = _model(_fails_near_origin)
     f = _quiet(form, model=model, inputs=STD2)
-    with pytest.warns(UserWarning, match="failed model sample.* away from the design points count as failures"):
-        importance_sampling(model=model, inputs=STD2, design_point=f, n=2000, seed=1, progress=False,
-                            failures="as_failure", max_failure_fraction=0.5)
+    with pytest.warns(
+        UserWarning, match="failed model sample.* away from the design points count as failures"
+    ):
+        importance_sampling(
+            model=model,
+            inputs=STD2,
+            design_point=f,
+            n=2000,
+            seed=1,
+            progress=False,
+            failures="as_failure",
+            max_failure_fraction=0.5,
+        )
 
 
 def test_subset_warns_when_its_chains_do_not_move():
@@ -319,11 +459,22 @@ def test_subset_warns_when_its_chains_do_not_move():
     move: fine. Modified Metropolis with a huge spread rejects almost every candidate, so the
     chains stay at their seeds: a warning."""
     inputs = UncertainInputs.from_specs({f"x{i}": Normal(0.0, 1.0) for i in range(10)})
-    model = FunctionModel(lambda X: 4.0 * math.sqrt(10) - X.sum(axis=1), inputs.names, ["g"],
-                          vectorized=True, key="ten")
+    model = FunctionModel(
+        lambda X: 4.0 * math.sqrt(10) - X.sum(axis=1),
+        inputs.names,
+        ["g"],
+        vectorized=True,
+        key="ten",
+    )
     with pytest.warns(UserWarning, match="of the chains moved|distinct seeds"):
-        subset_simulation(model=model, inputs=inputs, n_per_level=500, seed=1,
-                          proposal="modified_metropolis", spread=50.0)
+        subset_simulation(
+            model=model,
+            inputs=inputs,
+            n_per_level=500,
+            seed=1,
+            proposal="modified_metropolis",
+            spread=50.0,
+        )
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         subset_simulation(model=_model(_linear), inputs=STD2, n_per_level=500, seed=1)
@@ -331,26 +482,48 @@ def test_subset_warns_when_its_chains_do_not_move():
 
 # ---------------------------------------------------------------- the verdict across methods
 def _est(rows):
-    return pd.DataFrame(rows, columns=["method", "group", "pf", "pf_lo", "pf_hi", "kind", "n_failures",
-                                       "n_samples", "n_warnings"])
+    return pd.DataFrame(
+        rows,
+        columns=[
+            "method",
+            "group",
+            "pf",
+            "pf_lo",
+            "pf_hi",
+            "kind",
+            "n_failures",
+            "n_samples",
+            "n_warnings",
+        ],
+    )
 
 
 def test_the_verdict_names_disagreements_and_which_estimate_to_trust():
-    est = _est([("subset", "all", 5e-4, 3e-4, 8e-4, "sampling", np.nan, np.nan, 0),
-                ("is", "all", 1.4e-4, 1.2e-4, 1.6e-4, "sampling", np.nan, np.nan, 1),
-                ("form", "all", 1.1e-4, np.nan, np.nan, "approximation", np.nan, np.nan, 1),
-                ("mc", "all", 0.0, 0.0, 3.7e-3, "monte_carlo", 0.0, 1000.0, 0)])
+    est = _est(
+        [
+            ("subset", "all", 5e-4, 3e-4, 8e-4, "sampling", np.nan, np.nan, 0),
+            ("is", "all", 1.4e-4, 1.2e-4, 1.6e-4, "sampling", np.nan, np.nan, 1),
+            ("form", "all", 1.1e-4, np.nan, np.nan, "approximation", np.nan, np.nan, 1),
+            ("mc", "all", 0.0, 0.0, 3.7e-3, "monte_carlo", 0.0, 1000.0, 0),
+        ]
+    )
     lines = verdict_lines(est, worst=(1e-3, "mc, displacement at 90°"))
     text = "\n".join(lines)
     assert "trust subset" in lines[0] and "no warning" in lines[0]
-    assert "is disagrees with subset: their intervals [0.00012, 0.00016] and [0.0003, 0.0008] do not overlap" in text
+    assert (
+        "is disagrees with subset: their intervals [0.00012, 0.00016] and [0.0003, 0.0008] do not "
+        "overlap"
+        in text
+    )
     assert "form gives 0.22× the trusted P_f, outside its interval" in text
     assert "mc saw only 0 failures in 1000 samples (fewer than 10)" in text
     assert "is below the largest single-angle P_f (0.001, mc, displacement at 90°)" in text
     # only approximations and a Monte Carlo run without failures: nothing to trust, what to run,
     # and whether the approximation is at least consistent with the Monte Carlo bound
     weak = verdict_lines(est[est["method"].isin(["form", "mc"])])
-    assert weak[0].startswith("    whole cycle: no estimate to trust at this level: form carry no interval")
+    assert weak[0].startswith(
+        "    whole cycle: no estimate to trust at this level: form carry no interval"
+    )
     assert "mc saw 0 failures in 1000 samples" in weak[0] and "--method subset" in weak[0]
     assert "form's P_f = 0.00011 is inside mc's interval [0, 0.0037]" in weak[1]
 
@@ -365,19 +538,38 @@ def test_the_study_shows_warnings_verdict_and_figures_through_the_cli(tmp_path, 
     study.write_text(
         'scene = "slider-crank"\ncycles = 1\nquantities = ["displacement"]\nangle_step = 45.0\n'
         '[inputs.crank]\npaths = ["bodies.crank.length(O,A)"]\ndistribution = "normal"\n'
-        'mean = 0.05\nstd = 0.05e-3\n'
+        "mean = 0.05\nstd = 0.05e-3\n"
         '[inputs.rod]\npaths = ["bodies.rod.length(A,B)"]\ndistribution = "normal"\n'
-        'mean = 0.12\nstd = 0.05e-3\n'
-        '[allowable.displacement]\nmean = 0.2e-3\nstd = 0.0\n'
-        '[form]\nmax_design_points = 4\n'
-        '[reliability]\nseed = 3\nn = 16\n')
+        "mean = 0.12\nstd = 0.05e-3\n"
+        "[allowable.displacement]\nmean = 0.2e-3\nstd = 0.0\n"
+        "[form]\nmax_design_points = 4\n"
+        "[reliability]\nseed = 3\nn = 16\n"
+    )
     out = tmp_path / "out"
-    assert main(["reliability", str(study), "--method", "form", "--method", "mc", "--jobs", "1",
-                 "--out", str(out), "--no-progress"]) == 0
+    assert (
+        main(
+            [
+                "reliability",
+                str(study),
+                "--method",
+                "form",
+                "--method",
+                "mc",
+                "--jobs",
+                "1",
+                "--out",
+                str(out),
+                "--no-progress",
+            ]
+        )
+        == 0
+    )
     printed = capsys.readouterr().out
     assert "  warning: form: " in printed and "design points (displacement" in printed
     # no failure in 16 samples: nothing to trust at this level, FORM checked against MC's bound
-    assert "  verdict:" in printed and "    whole cycle: no estimate to trust at this level" in printed
+    assert (
+        "  verdict:" in printed and "    whole cycle: no estimate to trust at this level" in printed
+    )
     assert "whole cycle: form's P_f" in printed and "mc's interval" in printed
     for name in ("whole_cycle.png", "rare_events.png", "cycle_extremes.csv", "design_point.csv"):
         assert (out / name).is_file(), name
