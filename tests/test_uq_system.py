@@ -103,9 +103,9 @@ def _covers(result, ref):
 
 # ---------------------------------------------------------------- FORM and SORM on systems
 def test_form_finds_both_design_points_of_one_opaque_margin():
-    """The margin g = 3.5 − |u₁| in one model output: the search from the origin stalls on the tie (zero
-    gradient); the probes find both sides; their half-spaces are disjoint, so the union is
-    exactly 2Φ(−3.5). A single search from a given start finds one side and says so."""
+    """The margin g = 3.5 − |u₁| in one model output: the search from the origin stalls on the
+    tie (zero gradient); the probes find both sides; their half-spaces are disjoint, so the
+    union is exactly 2Φ(−3.5). A single search from a given start finds one side and says so."""
     with pytest.warns(UserWarning, match="2 design points"):
         r = form(model=_model(_tie), inputs=STD2)
     assert sorted(r.design_points["beta"]) == pytest.approx([3.5, 3.5], abs=1e-6)
