@@ -397,7 +397,8 @@ def test_fosm_on_a_tie_and_on_cycle_extremes_gives_no_number_from_round_off():
     model, inputs, _ = slider_crank()
     from mechrel.uq import Allowable
 
-    f = _quiet(fosm, model=model, inputs=inputs, allowable=Allowable(0.18e-3, 0.0), progress=False)
+    with pytest.warns(UserWarning, match="cycle extreme.* are not differentiable at the means"):
+        f = fosm(model=model, inputs=inputs, allowable=Allowable(0.18e-3, 0.0), progress=False)
     t = f.to_frame()
     extreme = np.array([isinstance(lbl[1], str) for lbl in t.index])
     assert t.loc[extreme, ["beta", "sigma_i", "reliability"]].isna().all().all()

@@ -495,6 +495,13 @@ def fosm_checks(model, index, Y: np.ndarray, sigma_i: np.ndarray,
                    f"more than {UNRESOLVED:.0%} (a kink, an impact, a chaotic response, or a "
                    "turning point where the first-order term vanishes), so σ_i there is not a "
                    "first-order standard deviation; use Monte Carlo")
+    kinked_ext = np.any((big > floor) & (np.abs(up - down) > UNRESOLVED * big), axis=0) & ~angle
+    flat_ext = (sigma_i <= floor) & ~angle
+    if n_out and (kinked_ext | flat_ext).any():
+        out.append(f"fosm: {int((kinked_ext | flat_ext).sum())} cycle extreme(s) are not differentiable at "
+                   f"the means, e.g. {_labels(index, kinked_ext | flat_ext)} (a kink: the peak moves, or the "
+                   "error is zero there, as for geometric tolerances alone): FOSM gives the cycle extremes "
+                   "no σ, β or R; estimate the whole cycle by Monte Carlo or a rare-event method")
     zero = (sigma_i <= floor) & angle
     fixed = np.zeros(len(index), dtype=bool) if sigma_I is None else (np.asarray(sigma_I) == 0)
     if zero.any():
