@@ -203,24 +203,16 @@ def _normal_image(inputs: UncertainInputs) -> tuple[bool, ...]:
     return tuple(not inputs.independent or m.kind not in OWN_POLYNOMIALS for m in inputs.marginals)
 
 
-def _to_germ(inputs: UncertainInputs, X: np.ndarray) -> np.ndarray:
+def _to_germ(inputs: UncertainInputs, X: np.ndarray, inverse: bool = False) -> np.ndarray:
+    """The germ points of input points X (n, d); with ``inverse``, the input points of germ
+    points."""
     if not inputs.independent:
-        return inputs.to_standard_normal(X)
-    Z = np.array(X, dtype=float)
+        return inputs.from_standard_normal(X) if inverse else inputs.to_standard_normal(X)
+    out = np.array(X, dtype=float)
     for j, (m, image) in enumerate(zip(inputs.marginals, _normal_image(inputs))):
         if image:
-            Z[:, j] = m.to_z(Z[:, j])
-    return Z
-
-
-def _from_germ(inputs: UncertainInputs, Z: np.ndarray) -> np.ndarray:
-    if not inputs.independent:
-        return inputs.from_standard_normal(Z)
-    X = np.array(Z, dtype=float)
-    for j, (m, image) in enumerate(zip(inputs.marginals, _normal_image(inputs))):
-        if image:
-            X[:, j] = m.from_z(X[:, j])
-    return X
+            out[:, j] = m.from_z(out[:, j]) if inverse else m.to_z(out[:, j])
+    return out
 
 
 def _germ_joint(inputs: UncertainInputs):
@@ -296,7 +288,7 @@ def pce_design(
     import chaospy
 
     nodes, weights = chaospy.generate_quadrature(order, _germ_joint(inputs), rule=quadrature_rule, sparse=sparse)
-    return _from_germ(inputs, np.asarray(nodes, dtype=float).T), np.asarray(weights, dtype=float)
+    return _to_germ(inputs, np.asarray(nodes, dtype=float).T, inverse=True), np.asarray(weights, dtype=float)
 
 
 @dataclass(frozen=True, eq=False)
