@@ -42,7 +42,6 @@ from mechrel.uq import (
     Gamma,
     Gumbel,
     LimitState,
-    Normal,
     ScipyMarginal,
     UncertainInputs,
     Weibull,
@@ -239,7 +238,8 @@ def test_unattainable_correlation_is_refused_with_the_attainable_range(a, b, rho
     if closed_form_low is not None:
         assert lo == pytest.approx(closed_form_low, abs=1e-4)
     # just inside the range is accepted
-    UncertainInputs.from_specs({"a": a, "b": b}, correlation={("a", "b"): float(np.clip(rho, lo + 1e-3, hi - 1e-3))})
+    inside = float(np.clip(rho, lo + 1e-3, hi - 1e-3))
+    UncertainInputs.from_specs({"a": a, "b": b}, correlation={("a", "b"): inside})
 
 
 # ---------------------------------------------------------------- round trips (hypothesis)
@@ -294,7 +294,7 @@ def _load(X):
 
 
 def test_form_exact_in_one_dimension_for_gumbel_and_weibull():
-    """g = a − X (Gumbel load) and g = X − a (Weibull strength): a monotone map to z makes the
+    """Margins a − X (Gumbel load) and X − a (Weibull strength): a monotone map to z makes the
     limit state a point, so P_f = Φ(−β) exactly: P(X > a) = 1 − exp(−exp(−(a − μ)/β_G)) and
     P(X < a) = 1 − exp(−((a − lower)/λ)^k)."""
     load = Gumbel(100.0, 15.0)
@@ -325,17 +325,19 @@ def _stress_strength_reference(strength, load, rz=0.0):
         zr = special.ndtri(dR.cdf(s)) if dR.cdf(s) < 0.5 else -special.ndtri(dR.sf(s))
         return special.ndtr((zr - rz * zs) / math.sqrt(1 - rz * rz)) * stats.norm.pdf(zs)
 
-    return integrate.quad(integrand, -12, 12, epsabs=0, epsrel=1e-11, limit=400, points=[0, 2, 4])[0]
+    return integrate.quad(integrand, -12, 12, epsabs=0, epsrel=1e-11, limit=400,
+                          points=[0, 2, 4])[0]
 
 
 def _design_point_by_optimisation(inputs, g):
-    """min ‖u‖ subject to g(x(u)) = 0 by SLSQP from several starts (an independent search)."""
+    """The minimum of ‖u‖ subject to g(x(u)) = 0, by SLSQP from several starts (a search
+    independent of FORM's)."""
     from scipy.optimize import minimize
 
     best = None
     for start in ([1.0, 1.0], [-2.0, 2.0], [-3.0, 1.0]):
-        r = minimize(lambda u: u @ u, start, method="SLSQP", tol=1e-14,
-                     constraints={"type": "eq", "fun": lambda u: g(inputs.from_standard_normal(u[None, :]))[0]})
+        on_surface = {"type": "eq", "fun": lambda u: g(inputs.from_standard_normal(u[None, :]))[0]}
+        r = minimize(lambda u: u @ u, start, method="SLSQP", tol=1e-14, constraints=on_surface)
         if r.success and (best is None or r.fun < best.fun):
             best = r
     return math.sqrt(best.fun)
@@ -432,7 +434,8 @@ def test_pce_in_the_own_polynomials_of_gamma_and_beta_is_exact_on_polynomials(m,
     d = m.scipy()
     for k, name in ((2, "x2"), (3, "x3")):
         assert res.mean[name] == pytest.approx(d.moment(k), rel=1e-11)
-        assert res.std[name] == pytest.approx(math.sqrt(d.moment(2 * k) - d.moment(k) ** 2), rel=1e-10)
+        sd = math.sqrt(d.moment(2 * k) - d.moment(k) ** 2)
+        assert res.std[name] == pytest.approx(sd, rel=1e-10)
 
 
 @pytest.mark.parametrize("key", ["gumbel", "weibull_k0.8", "gev", "t7"])
@@ -479,7 +482,7 @@ def _additive(X):
 
 
 def test_pce_sobol_indices_with_mixed_germs():
-    """y = a + 2b + c, independent: S_j = c_j² Var_j / Var y exactly; a Gumbel and a Weibull
+    """Y = a + 2b + c, independent: S_j = c_j² Var_j / Var y exactly; a Gumbel and a Weibull
     (normal images, regression of order 8 on 2^10 Sobol' points) beside a gamma (Laguerre)."""
     specs = {"a": Gumbel(0.0, 1.0), "b": Weibull(1.5, 1.0), "c": Gamma(2.0, 1.0)}
     inputs = UncertainInputs.from_specs(specs)
@@ -551,8 +554,9 @@ def test_describe_to_frame_and_provenance_name_every_distribution():
             return np.sqrt(q)
 
     m = ScipyMarginal(Tri(a=0.0, b=1.0, name="tri")())
-    assert repr(m.validated("x")) == (f"ScipyMarginal({__name__}.test_describe_to_frame_and_"
-                                      "provenance_name_every_distribution.<locals>.Tri(loc=0.0, scale=1.0))")
+    assert repr(m.validated("x")) == (
+        f"ScipyMarginal({__name__}.test_describe_to_frame_and_provenance_name_every_"
+        "distribution.<locals>.Tri(loc=0.0, scale=1.0))")
     assert UncertainInputs.from_specs({"x": m}).mean[0] == pytest.approx(2 / 3, rel=1e-9)
 
 
@@ -698,8 +702,8 @@ def test_study_file_correlation_out_of_reach_is_refused(tmp_path):
 
     path = tmp_path / "tolerances.toml"
     path.write_text(STUDY.replace('"crank,rod" = 0.3', '"rod,pivot" = -0.99'), encoding="utf-8")
-    with pytest.raises(StudyError, match=r"tolerances\.toml: inputs\.correlation\['rod', 'pivot'\]: "
-                                         r"got -0\.99; these marginals \(weibull, scipy\.logistic\) "
-                                         r"can only reach Pearson correlations in "
-                                         r"\[-0\.9838, 0\.9838\]"):
+    with pytest.raises(StudyError, match=r"tolerances\.toml: inputs\.correlation\['rod', "
+                                         r"'pivot'\]: got -0\.99; these marginals \(weibull, "
+                                         r"scipy\.logistic\) can only reach Pearson "
+                                         r"correlations in \[-0\.9838, 0\.9838\]"):
         load_study(path)

@@ -43,7 +43,7 @@ import pandas as pd
 
 from mechrel.errors import StudyError
 
-from .inputs import MARGINAL_TYPES, Normal
+from .inputs import MARGINAL_TYPES, Normal  # noqa: F401 (Normal: the doctests' allowable)
 
 __all__ = ["LimitState", "Component", "KINDS", "SYSTEMS", "BoundLimitState"]
 
