@@ -308,6 +308,11 @@ def run_reliability(study, *, methods=None, n=None, n_jobs=1, seed=None, out=Non
               "seed": seed, "event": event, "max_failure_fraction": max_failure_fraction}
     lines = [f"study {study.name}: scene {model.scene.name}, inputs {', '.join(inputs.names)}; "
              f"event {event}"]
+    lines += [f"  {name}: {m!r}; mean {mu:.6g}, std {sd:.6g}"
+              for name, m, mu, sd in zip(inputs.names, inputs.marginals, inputs.mean, inputs.std)]
+    if study.correlation:
+        lines.append("  correlation (Pearson): "
+                     + ", ".join(f"{pair} {rho:g}" for pair, rho in study.correlation.items()))
     try:
         for m in chosen:
             presenters[presenter_class(m)].run(ctx, m)

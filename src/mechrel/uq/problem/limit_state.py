@@ -25,8 +25,8 @@ Building blocks
 
 Allowables
 ----------
-A number is a fixed allowable. A marginal (``Normal``, ``LogNormal``, ``Uniform``,
-``TruncNormal`` of :mod:`mechrel.uq.problem.inputs`) is a random allowable: an extra uncertain input,
+A number is a fixed allowable. A marginal (any of :data:`mechrel.uq.problem.inputs.MARGINAL_TYPES`:
+``Normal``, ``LogNormal``, ``Gumbel``, ``Weibull``, ...) is a random allowable: an extra uncertain input,
 independent of the model's inputs (the paper's interference model), named
 ``"allowable[<component name>]"``. The reliability estimators append it to the inputs; it never
 reaches the model, so the model is not re-run for a change of the allowable alone.
@@ -43,13 +43,13 @@ import pandas as pd
 
 from mechrel.errors import StudyError
 
-from .inputs import LogNormal, Normal, TruncNormal, Uniform
+from .inputs import MARGINAL_TYPES, Normal  # noqa: F401 (Normal: the doctests' allowable)
 
 __all__ = ["LimitState", "Component", "KINDS", "SYSTEMS", "BoundLimitState"]
 
 KINDS = ("margin", "abs", "upper", "lower")
 SYSTEMS = ("series", "parallel")
-_MARGINALS = (Normal, TruncNormal, Uniform, LogNormal)
+_MARGINALS = MARGINAL_TYPES
 
 
 def _check_allowable(name: str, allowable: Any):
@@ -58,7 +58,8 @@ def _check_allowable(name: str, allowable: Any):
     if isinstance(allowable, (bool, np.bool_)) or not isinstance(allowable, (int, float, np.integer, np.floating)):
         raise StudyError(
             f"LimitState: allowable[{name}] = {allowable!r}: not a number or a marginal; "
-            "allowed: a finite float (fixed) or Normal/LogNormal/Uniform/TruncNormal (random)"
+            "allowed: a finite float (fixed) or a marginal (random): "
+            + "/".join(t.__name__ for t in _MARGINALS)
         )
     a = float(allowable)
     if not np.isfinite(a):
@@ -196,9 +197,9 @@ class LimitState:
         outputs : hashable or list
             An output label or a list of labels.
         allowable : float or marginal
-            The allowable, in the outputs' unit: a finite float (fixed) or a
-            :class:`~mechrel.uq.Normal`, :class:`~mechrel.uq.LogNormal`, :class:`~mechrel.uq.Uniform`
-            or :class:`~mechrel.uq.TruncNormal` (random, an extra uncertain input).
+            The allowable, in the outputs' unit: a finite float (fixed) or a marginal
+            (:class:`~mechrel.uq.Normal`, :class:`~mechrel.uq.Weibull`, ..., any of
+            :data:`~mechrel.uq.problem.inputs.MARGINAL_TYPES`; random, an extra uncertain input).
         kind : {"abs", "upper", "lower"}, default "abs"
             Failure when max |y| > a, max y > a, or min y < a.
         name : str, optional
