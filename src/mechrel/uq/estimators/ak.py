@@ -91,9 +91,10 @@ DEFENSIVE = 0.1            # α₀: weight of φ in the importance mixture (weig
 N_CENTRES = 200            # centres of the importance mixture
 N_SUBSET = 2000            # samples per level of the subset runs on the surrogate
 REBUILD_EVERY = 10         # iterations between rebuilds of an importance population
-LOO_LIMIT = 3.0            # RMS of standardised leave-one-out residuals near g = 0 that warns
+LOO_LIMIT = 0.2            # leave-one-out RMS error over RMS |g| near g = 0 that warns
 FREEZE_U = 8.0             # points whose every unit has |μ| ≥ FREEZE_U σ are not re-predicted
 REFRESH_EVERY = 10         # iterations between full passes over the population
+FRESH_EVERY = 3            # Kriging refits between fits that also start afresh (not only warm)
 
 
 # ----------------------------------------------------------------------------- units
@@ -240,6 +241,7 @@ class _Surrogates:
     def __init__(self, trend: str):
         self.trend = trend
         self.gps: list = []
+        self.fits = 0
 
     def fit(self, U: np.ndarray, G: np.ndarray) -> None:
         from threadpoolctl import threadpool_limits
@@ -255,8 +257,9 @@ class _Surrogates:
                     gps.append(_Constant(y[0], U.shape[1]))
                     continue
                 warm = old[c] if c < len(old) and not isinstance(old[c], _Constant) else None
-                gps.append(fit_kriging(U, y, trend=self.trend, warm=warm))
+                gps.append(fit_kriging(U, y, trend=self.trend, warm=warm, fresh=self.fits % FRESH_EVERY == 0))
         self.gps = gps
+        self.fits += 1
 
     def predict(self, U: np.ndarray, std: bool = True):
         """μ (m, c) and σ (m, c) of every unit (σ None with ``std=False``)."""
@@ -532,6 +535,8 @@ def active_learning(
     it = 0
     since_rebuild = 0
     since_refresh = 0
+    rebuild_now = refresh_now = False
+    pop_fit = full_fit = -1
     # per population point: μ, σ of each unit; frozen rows are not re-predicted
     MU = SD = None
     frozen = current = None
@@ -566,17 +571,21 @@ def active_learning(
         if fitted != Ut.shape[0]:
             sur.fit(Ut, Gt)
             fitted = Ut.shape[0]
-        if pop is None or (pop.kind == "importance" and since_rebuild >= REBUILD_EVERY):
+        if pop is None or (pop.kind == "importance" and (since_rebuild >= REBUILD_EVERY or rebuild_now)):
             pop = build_population(population if pop is None else "importance")
+            pop_fit = fitted
             MU = SD = frozen = None
             since_rebuild = 0
+            rebuild_now = False
         # ---- predict on the population: rows not yet predicted by this surrogate and not frozen
-        if MU is None or since_refresh >= REFRESH_EVERY:
+        if MU is None or since_refresh >= REFRESH_EVERY or refresh_now:
             MU = np.empty((pop.n, n_units))
             SD = np.empty((pop.n, n_units))
             frozen = np.zeros(pop.n, dtype=bool)
             current = np.zeros(pop.n, dtype=bool)
             since_refresh = 0
+            full_fit = fitted
+            refresh_now = False
         if MU.shape[0] < pop.n:  # grown: new rows
             extra = pop.n - MU.shape[0]
             MU = np.vstack([MU, np.empty((extra, n_units))])
@@ -591,8 +600,6 @@ def active_learning(
             MU[act], SD[act] = sur.predict(pop.U[act])
             current[act] = True
             frozen[act] = np.all(np.abs(MU[act]) >= FREEZE_U * SD[act], axis=1)
-        since_refresh += 1
-        since_rebuild += 1
         # ---- estimates
         w = np.exp(pop.logw)
         hat = system(MU) <= 0
@@ -613,6 +620,7 @@ def active_learning(
             want = pop.n * (samp / (0.9 * tol / 2)) ** 2
             if population == "auto" and pop.kind == "monte_carlo" and want > n_pop_max:
                 pop = build_population("importance")
+                pop_fit = fitted
                 MU = SD = frozen = None
                 since_rebuild = 0
             else:
@@ -622,16 +630,18 @@ def active_learning(
         done = pf > 0 and half <= tol * pf
         if pf == 0 and pp == 0:
             done = True
-        if done and since_refresh > 1:  # confirm on a full pass over the population
-            since_refresh = REFRESH_EVERY
+        if done and pop.kind == "importance" and pop_fit != fitted:
+            rebuild_now = True   # confirm on a population drawn for this surrogate
             continue
-        if done and pop.kind == "importance" and since_rebuild > 1:
-            since_rebuild = REBUILD_EVERY  # confirm on a population of this surrogate
+        if done and full_fit != fitted:
+            refresh_now = True   # confirm on a full pass over the population
             continue
         if done:
             probe = _unexplored(MU, w, Gt, problem.limit_state.system, pop.U, explored, pf, failed_u)
             if probe is not None and problem.n_evaluations + probe.shape[0] <= budget:
                 it += 1
+                since_refresh += 1
+                since_rebuild += 1
                 run(probe)
                 continue
             converged = True
@@ -643,6 +653,8 @@ def active_learning(
         pts, best = _select(sur, pop.U, MU, SD, w, frozen, learning, k, failed_u, problem.limit_state.system)
         history[-1]["score"] = best
         it += 1
+        since_refresh += 1
+        since_rebuild += 1
         run(pts)
 
     # ---- diagnostics
@@ -664,7 +676,7 @@ def active_learning(
         "max_population": n_pop_max, "trend": trend, "confidence_level": confidence_level,
         "max_failure_fraction": max_failure_fraction, "units": names,
         "interval": "surrogate bounds at ±z σ plus the population's sampling error"})
-    return AKResult(table, pd.DataFrame(history).set_index("iteration", drop=False), units,
+    return AKResult(table, pd.DataFrame(history), units,
                     tuple(sur.gps), problem.all_evaluations(), prov, warnings_)
 
 
@@ -744,14 +756,24 @@ def _unit_table(names, sur, Gt, MU, SD, w, z, system, pf, system_kind):
     for c, name in enumerate(names):
         gp = sur.gps[c]
         near = _near_zero(Gt[:, c])
-        e, s = gp.loo()
-        rms = float(np.sqrt(np.mean((e[near] / s[near]) ** 2))) if e.size else 0.0
+        rms = _loo_near_zero(gp)
         share = float(np.sum(w * (hat & (gov == c))) / n) / pf if pf > 0 else np.nan
         upper = float(np.sum(w * (MU[:, c] - z * SD[:, c] <= 0)) / n)
         rows.append({"unit": name, "n_failed_observed": int(np.sum(Gt[:, c] <= 0)), "share": share,
-                     "pf_plus": upper, "loo_rms_near_zero": rms, "nugget": float(gp.nugget),
+                     "pf_plus": upper, "loo_error_near_zero": rms, "nugget": float(gp.nugget),
                      "lengths": np.round(gp.lengths, 4).tolist()})
     return pd.DataFrame(rows).set_index("unit")
+
+
+def _loo_near_zero(gp) -> float:
+    """RMS leave-one-out error over RMS |g| on the training points nearest g = 0 (0 for a
+    constant unit): how well the surrogate predicts, out of sample, where the sign is decided."""
+    e, _ = gp.loo()
+    if e.size == 0:
+        return 0.0
+    near = _near_zero(gp.y)
+    scale = float(np.sqrt(np.mean(gp.y[near] ** 2)))
+    return float(np.sqrt(np.mean(e[near] ** 2))) / scale if scale > 0 else math.inf
 
 
 def _near_zero(g: np.ndarray) -> np.ndarray:
@@ -780,16 +802,12 @@ def _diagnose(problem, names, sur, Gt, MU, SD, w, z, pf, pp, converged, budget, 
                    "or chaotic response is not trustworthy; use subset simulation or Monte Carlo")
     n = MU.shape[0]
     for c, name in enumerate(names):
-        gp = sur.gps[c]
-        e, s = gp.loo()
-        if e.size:
-            near = _near_zero(Gt[:, c])
-            rms = float(np.sqrt(np.mean((e[near] / s[near]) ** 2)))
-            if rms > LOO_LIMIT:
-                out.append(f"active_learning: unit {name!r}: the leave-one-out errors near g = 0 are {rms:.1f} "
-                           f"times the surrogate's own σ (RMS of the standardised residuals; > {LOO_LIMIT:g}): "
-                           "the surrogate is overconfident there and the interval too narrow (a kink, a jump "
-                           "or noise the kernel does not describe)")
+        rms = _loo_near_zero(sur.gps[c])
+        if rms > LOO_LIMIT:
+            out.append(f"active_learning: unit {name!r}: the leave-one-out error near g = 0 is {rms:.2g} of the "
+                       f"margins there (RMS over the half of the runs nearest g = 0; > {LOO_LIMIT:g}): the "
+                       "surrogate does not predict the sign of g where it matters (a kink, a jump or noise the "
+                       "kernel does not describe); its interval rests on its own σ")
         upper = float(np.sum(w * (MU[:, c] - z * SD[:, c] <= 0)) / n)
         if int(np.sum(Gt[:, c] <= 0)) == 0 and upper > 0.01 * max(pf, pp):
             out.append(f"active_learning: unit {name!r} may fail on {upper:.2g} of the population by its "
