@@ -1,5 +1,5 @@
 #!/usr/bin/env python
-"""Which Kriging library for active learning: fit time and accuracy for 50–500 points in 3–10 inputs.
+"""Which Kriging library for active learning: fit time and accuracy, 50–500 points, 3–10 inputs.
 
 Each library fits an anisotropic Matérn-5/2 Gaussian process with a constant or linear trend
 by maximum likelihood on n points of a smooth limit state in d standard-normal inputs,
@@ -43,8 +43,8 @@ def fit_sklearn(X, y):
     from sklearn.gaussian_process.kernels import ConstantKernel, Matern, WhiteKernel
 
     d = X.shape[1]
-    k = ConstantKernel(1.0, (1e-3, 1e3)) * Matern(np.ones(d), (1e-2, 1e3), nu=2.5) + \
-        WhiteKernel(1e-8, (1e-10, 1e-1))
+    k = (ConstantKernel(1.0, (1e-3, 1e3)) * Matern(np.ones(d), (1e-2, 1e3), nu=2.5)
+         + WhiteKernel(1e-8, (1e-10, 1e-1)))
     gp = GaussianProcessRegressor(k, normalize_y=True, n_restarts_optimizer=0, random_state=0)
     gp.fit(X, y)
     return gp.predict
@@ -71,7 +71,8 @@ def fit_smt(X, y):
     return lambda Z: sm.predict_values(Z)[:, 0]
 
 
-LIBS = {"mechrel": fit_mechrel, "scikit-learn": fit_sklearn, "openturns": fit_openturns, "smt": fit_smt}
+LIBS = {"mechrel": fit_mechrel, "scikit-learn": fit_sklearn, "openturns": fit_openturns,
+        "smt": fit_smt}
 
 
 def main(argv=None):
@@ -114,7 +115,8 @@ def main(argv=None):
                     q2[name] = 1.0 - np.mean((pred(Xt) - yt) ** 2) / np.var(yt)
             for name in libs:
                 if not times[name]:
-                    print(f"{name},{d},{n},,,,  # skipped: a fit took > {a.give_up:g} s at n = {slow[name]}")
+                    print(f"{name},{d},{n},,,,  # skipped: a fit took > {a.give_up:g} s "
+                          f"at n = {slow[name]}")
                     continue
                 t = np.array(times[name])
                 if t.max() > a.give_up:

@@ -64,7 +64,8 @@ def test_a_linear_limit_state_converges_with_the_exact_value_in_its_interval():
     model = FunctionModel(linear_rows, INPUTS2.names, ["g"], key="lin")
     with warnings.catch_warnings():
         warnings.simplefilter("error", EstimateWarning)   # a good case raises no warning
-        r = active_learning(model=model, inputs=INPUTS2, seed=4, tolerance=0.3, confidence_level=0.999)
+        r = active_learning(model=model, inputs=INPUTS2, seed=4, tolerance=0.3,
+                            confidence_level=0.999)
     exact = special.ndtr(-2.5)
     t = r.to_frame().iloc[0]
     assert t["converged"] and r.warnings == ()
@@ -128,7 +129,8 @@ class _Interrupting:
 
 def test_an_interrupted_run_resumes_from_the_cache_with_the_same_result(tmp_path):
     kw = dict(inputs=INPUTS2, limit_state=FOUR_LS, seed=6, tolerance=0.5, batch_size=2)
-    whole = quiet(model=FunctionModel(_four_rows, INPUTS2.names, ["g1", "g2", "g3", "g4"], key="fb-i"), **kw)
+    outs = ["g1", "g2", "g3", "g4"]
+    whole = quiet(model=FunctionModel(_four_rows, INPUTS2.names, outs, key="fb-i"), **kw)
     f = _Interrupting(stop=15)
     model = FunctionModel(f, INPUTS2.names, ["g1", "g2", "g3", "g4"], key="fb-i")
     with pytest.raises(KeyboardInterrupt):
@@ -144,8 +146,8 @@ def test_the_budget_warning_and_an_unexplored_branch():
     # no learning at all (the budget is the initial design): neither the stopping rule nor every
     # branch can be reached, and the result says both
     with pytest.warns(EstimateWarning) as rec:
-        r = active_learning(model=FOUR, inputs=INPUTS2, limit_state=FOUR_LS, seed=2, max_evaluations=10,
-                            tolerance=0.5)
+        r = active_learning(model=FOUR, inputs=INPUTS2, limit_state=FOUR_LS, seed=2,
+                            max_evaluations=10, tolerance=0.5)
     text = " ".join(str(w.message) for w in rec)
     assert "stopping rule not reached within max_evaluations = 10" in text
     assert "no model run has failed it: that branch is extrapolated, not explored" in text
@@ -172,7 +174,8 @@ class _Dry:
 
 
 def test_a_non_smooth_model_is_flagged():
-    with pytest.warns(EstimateWarning, match=r"the model is not smooth \(joint C1 is dry \(impacts\)\)"):
+    with pytest.warns(EstimateWarning,
+                      match=r"the model is not smooth \(joint C1 is dry \(impacts\)\)"):
         active_learning(model=_Dry(), inputs=INPUTS2, seed=1, tolerance=0.3)
 
 
@@ -204,7 +207,8 @@ def test_the_study_runs_it_as_a_rare_event_method():
 @pytest.mark.parametrize("setting, value, message", [
     ("batch_size", 0, r"batch_size: got 0; allowed: an integer > 0"),
     ("learning", "V", r'learning = "V": unknown value; allowed: one of U, EFF'),
-    ("population", "sobol", r'population = "sobol": unknown value; allowed: one of auto, monte_carlo, importance'),
+    ("population", "sobol",
+     r'population = "sobol": unknown value; allowed: one of auto, monte_carlo, importance'),
     ("tolerance", -1.0, r"tolerance: got -1.0; allowed: a number > 0"),
     ("n_initial", 50, r"n_initial = 50 > max_evaluations = 20"),
 ])
@@ -232,7 +236,7 @@ def test_kriging_leave_one_out_equals_refitting_without_the_point():
 
 
 def _refit_fixed(gp, X, y):
-    """Kriging fields for (X, y) at gp's hyperparameters, with gp's σ² (the LOO formula keeps it)."""
+    """Kriging fields for (X, y) at gp's hyperparameters and σ² (the LOO formula keeps both)."""
     from scipy import linalg
 
     n = X.shape[0]

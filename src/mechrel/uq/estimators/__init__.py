@@ -351,6 +351,7 @@ for _m in (
            "active learning (AK-MCS / multi-point AK-IS): Kriging surrogates of the components, "
            "refined where they decide the sign of g",
            {"n_initial": Setting(None, _pos_int(2), "model runs of the initial design (default max(10, 2(d + 2)))"),
+            "initial": Setting(None, None, "an earlier AKResult whose runs join the initial design (Python only)"),
             "batch_size": Setting(2, _pos_int(1), "points per iteration (one executor call)"),
             "max_evaluations": Setting(300, _pos_int(2), "model-run budget"),
             "tolerance": Setting(0.1, _pos_float, "stop when the interval's half-width <= tolerance * P_f"),

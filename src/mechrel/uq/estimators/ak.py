@@ -378,6 +378,7 @@ def active_learning(
     limit_state: Any = None,
     seed: Any = None,
     n_initial: int | None = None,
+    initial: Any = None,
     batch_size: int = 2,
     max_evaluations: int = 300,
     tolerance: float = 0.1,
@@ -405,6 +406,11 @@ def active_learning(
         Precomputed evaluations cannot be used (the method chooses its points as it goes).
     seed
         Seed of every draw (initial design, populations).
+    initial : AKResult, optional
+        An earlier result on the same model and inputs (e.g. at another allowable): its
+        evaluated points join the initial design, so that a curve of P_f against the allowable
+        learns each point from the last one's runs (free with the same ``cache=``: the model
+        is not run again).
     n_initial : int, optional
         Model runs of the initial design (a Latin hypercube in standard normal space); default
         max(10, 2(d + 2)) with d the number of inputs and random allowables.
@@ -521,7 +527,15 @@ def active_learning(
     from scipy.stats import qmc
 
     lhs = qmc.LatinHypercube(d=d, seed=np.random.default_rng(child_seed(ss, 1))).random(n0)
-    run(special.ndtri(np.clip(lhs, 1e-12, 1 - 1e-12)))
+    U0 = special.ndtri(np.clip(lhs, 1e-12, 1 - 1e-12))
+    if initial is not None:
+        if not isinstance(initial, AKResult) or not initial.surrogates or \
+                tuple(initial.provenance["settings"].get("inputs_names", ())) != problem.names or \
+                initial.surrogates[0].X.shape[1] != d:
+            raise StudyError(f"active_learning: initial = {type(initial).__name__}: not an AKResult of inputs "
+                             f"{list(problem.names)}; allowed: None or active_learning(...) of the same inputs")
+        U0 = np.vstack([initial.surrogates[0].X, U0])
+    run(U0)
     if Ut.shape[0] < p_trend + 2:
         raise StudyError(f"active_learning: {Ut.shape[0]} usable initial runs of {n0}; allowed: at least "
                          f"{p_trend + 2} (a larger n_initial, or fewer model failures)")
@@ -611,7 +625,6 @@ def active_learning(
         lo, hi = max(pm - z * sm, 0.0), pp + z * sp
         half = (hi - lo) / 2
         samp = z * se / pf if pf > 0 else math.inf
-        surr = (pp - pm) / pf if pf > 0 else (0.0 if pp == 0 else math.inf)
         history.append({"iteration": it, "n_evaluations": problem.n_evaluations, "pf": pf, "pf_minus": pm,
                         "pf_plus": pp, "cov_sampling": se / pf if pf > 0 else np.nan,
                         "n_population": pop.n, "population": pop.kind})
@@ -674,7 +687,8 @@ def active_learning(
         "n_initial": n0, "batch_size": batch, "max_evaluations": budget, "tolerance": tol,
         "learning": learning, "population": population, "n_population": n_pop0,
         "max_population": n_pop_max, "trend": trend, "confidence_level": confidence_level,
-        "max_failure_fraction": max_failure_fraction, "units": names,
+        "max_failure_fraction": max_failure_fraction, "units": names, "inputs_names": list(problem.names),
+        "initial": None if initial is None else int(initial.surrogates[0].X.shape[0]),
         "interval": "surrogate bounds at ±z σ plus the population's sampling error"})
     return AKResult(table, pd.DataFrame(history), units,
                     tuple(sur.gps), problem.all_evaluations(), prov, warnings_)
@@ -755,7 +769,6 @@ def _unit_table(names, sur, Gt, MU, SD, w, z, system, pf, system_kind):
     hat = system(MU) <= 0
     for c, name in enumerate(names):
         gp = sur.gps[c]
-        near = _near_zero(Gt[:, c])
         rms = _loo_near_zero(gp)
         share = float(np.sum(w * (hat & (gov == c))) / n) / pf if pf > 0 else np.nan
         upper = float(np.sum(w * (MU[:, c] - z * SD[:, c] <= 0)) / n)
