@@ -188,7 +188,19 @@ class Kriging:
 
     @property
     def n(self) -> int:
-        """The number of training points."""
+        """The number of training points.
+
+        Returns
+        -------
+        int
+            Rows of ``X``.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> fit_kriging(np.linspace(0.0, 1.0, 6)[:, None], np.arange(6.0) ** 2).n
+        6
+        """
         return int(self.X.shape[0])
 
     def predict(self, X: np.ndarray, std: bool = False, chunk: int = 4096):
