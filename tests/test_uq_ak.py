@@ -181,14 +181,15 @@ def test_a_non_smooth_model_is_flagged():
 
 def test_leave_one_out_errors_near_the_limit_state_are_flagged():
     # a jump across the failure boundary: the kernel cannot describe it, and out of sample the
-    # surrogate misses the margin near g = 0 by as much as the margin itself (smooth problems:
-    # below 0.01, benchmarks/bench_ak.py)
+    # surrogate misses the margin near g = 0 by about the jump (on the four-branch, two-point
+    # and paraboloid problems of benchmarks/bench_ak.py this error is at most 0.012 of the
+    # spread of g; the limit is 0.05)
     model = FunctionModel(lambda X: np.where(X[:, 0] < 1.0, 1.0, -1.0) + 0.05 * X[:, 1],
                           INPUTS2.names, ["g"], vectorized=True, key="jump")
     with pytest.warns(EstimateWarning, match=r"unit 'g': the leave-one-out error near g = 0 is "
-                                             r"[\d.]+ of the margins there"):
+                                             r"[\d.]+ of the spread of g"):
         r = active_learning(model=model, inputs=INPUTS2, seed=1, tolerance=0.5, max_evaluations=40)
-    assert r.units.loc["g", "loo_error_near_zero"] > 0.2
+    assert r.units.loc["g", "loo_error_near_zero"] > 0.5
 
 
 def test_the_study_runs_it_as_a_rare_event_method():

@@ -91,7 +91,7 @@ DEFENSIVE = 0.1            # α₀: weight of φ in the importance mixture (weig
 N_CENTRES = 200            # centres of the importance mixture
 N_SUBSET = 2000            # samples per level of the subset runs on the surrogate
 REBUILD_EVERY = 10         # iterations between rebuilds of an importance population
-LOO_LIMIT = 0.2            # leave-one-out RMS error over RMS |g| near g = 0 that warns
+LOO_LIMIT = 0.05           # leave-one-out RMS error near g = 0 over the spread of g that warns
 FREEZE_U = 8.0             # points whose every unit has |μ| ≥ FREEZE_U σ are not re-predicted
 REFRESH_EVERY = 10         # iterations between full passes over the population
 FRESH_EVERY = 3            # Kriging refits between fits that also start afresh (not only warm)
@@ -779,13 +779,14 @@ def _unit_table(names, sur, Gt, MU, SD, w, z, system, pf, system_kind):
 
 
 def _loo_near_zero(gp) -> float:
-    """RMS leave-one-out error over RMS |g| on the training points nearest g = 0 (0 for a
-    constant unit): how well the surrogate predicts, out of sample, where the sign is decided."""
+    """RMS leave-one-out error on the training points nearest g = 0 over the standard deviation
+    of g over all of them (0 for a constant unit): how well the surrogate predicts, out of
+    sample, where the sign is decided, on the scale of the unit's margin."""
     e, _ = gp.loo()
     if e.size == 0:
         return 0.0
     near = _near_zero(gp.y)
-    scale = float(np.sqrt(np.mean(gp.y[near] ** 2)))
+    scale = float(np.std(gp.y))
     return float(np.sqrt(np.mean(e[near] ** 2))) / scale if scale > 0 else math.inf
 
 
@@ -818,7 +819,7 @@ def _diagnose(problem, names, sur, Gt, MU, SD, w, z, pf, pp, converged, budget, 
         rms = _loo_near_zero(sur.gps[c])
         if rms > LOO_LIMIT:
             out.append(f"active_learning: unit {name!r}: the leave-one-out error near g = 0 is {rms:.2g} of the "
-                       f"margins there (RMS over the half of the runs nearest g = 0; > {LOO_LIMIT:g}): the "
+                       f"spread of g (RMS over the half of the runs nearest g = 0; > {LOO_LIMIT:g}): the "
                        "surrogate does not predict the sign of g where it matters (a kink, a jump or noise the "
                        "kernel does not describe); its interval rests on its own σ")
         upper = float(np.sum(w * (MU[:, c] - z * SD[:, c] <= 0)) / n)
