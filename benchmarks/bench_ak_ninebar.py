@@ -81,7 +81,8 @@ def main(argv=None):
                         str(20221014 + seed), "--out", str(ak_dir), *ov])
             r = pd.read_csv(ak_dir / "rare_events.csv").set_index("method").loc["ak"]
             rows.append({"scale": scale, "seed": seed, "pf_mc": pf_mc, "pf_mc_lo": lo_mc,
-                         "pf_mc_hi": hi_mc, "mc_wall_s": t_mc, "pf_ak": r["pf"], "pf_ak_lo": r["pf_lo"],
+                         "pf_mc_hi": hi_mc, "mc_wall_s": t_mc, "pf_ak": r["pf"],
+                         "pf_ak_lo": r["pf_lo"],
                          "pf_ak_hi": r["pf_hi"], "simulations_ak": int(r["n_evaluations"]),
                          "ak_wall_s": t_ak, "ak_estimator_s": r["wall_time"],
                          "inside_mc_interval": bool(lo_mc <= r["pf"] <= hi_mc)})
