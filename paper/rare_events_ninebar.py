@@ -237,7 +237,10 @@ def plot(curve_t, angle_t, quantity, path):
     import matplotlib.pyplot as plt
 
     unit = UNITS[quantity]
-    fig, (a1, a2) = plt.subplots(1, 2, figsize=(12, 4.6))
+    per_angle_ran = len(angle_t) > 0
+    fig, axes = plt.subplots(1, 2 if per_angle_ran else 1,
+                             figsize=(12 if per_angle_ran else 6.5, 4.6))
+    a1, a2 = (axes if per_angle_ran else (axes, None))
     c = curve_t
     if "pf_subset" in c:
         a1.errorbar(c["allowable"], c["pf_subset"],
@@ -247,7 +250,7 @@ def plot(curve_t, angle_t, quantity, path):
         a1.errorbar(c["allowable"], c["pf_ak"],
                     yerr=[c["pf_ak"] - c["pf_ak_lo"], c["pf_ak_hi"] - c["pf_ak"]],
                     fmt="D--", capsize=3, mfc="none",
-                    label=f"active learning (95 % interval), {int(c['n_evaluations_ak'].max())} "
+                    label=f"active learning (95 % interval), {int(c['new_simulations_ak'].sum())} "
                           "simulations for the curve")
     m = c["k_mc"] > 0
     a1.errorbar(c["allowable"][m], c["pf_mc"][m],
@@ -261,6 +264,11 @@ def plot(curve_t, angle_t, quantity, path):
     a1.grid(True, which="both", alpha=0.3)
     a1.legend(fontsize=8)
     t = angle_t
+    if a2 is None:
+        fig.tight_layout()
+        fig.savefig(path, dpi=130)
+        plt.close(fig)
+        return
     a2.errorbar(t["crank_angle"], t["pf_mc"],
                 yerr=[t["pf_mc"] - t["pf_mc_lo"], t["pf_mc_hi"] - t["pf_mc"]], fmt="s", capsize=3,
                 label="Monte Carlo (Wilson 95 %)")
@@ -381,7 +389,8 @@ def run(args) -> int:
     def overlap(m):
         if f"pf_{m}" not in both:
             return None
-        return int(((both["pf_mc_lo"] <= both[f"pf_{m}_hi"]) & (both[f"pf_{m}_lo"] <= both["pf_mc_hi"])).sum())
+        return int(((both["pf_mc_lo"] <= both[f"pf_{m}_hi"])
+                    & (both[f"pf_{m}_lo"] <= both["pf_mc_hi"])).sum())
     for c in ("pf_form", "pf_sorm", "n_evaluations_form", "n_evaluations_sorm"):
         if c not in angle_t:
             angle_t[c] = np.nan
