@@ -205,6 +205,19 @@ def test_the_study_runs_it_as_a_rare_event_method():
     assert row["pf_lo"] <= special.ndtr(-2 * 2**0.5) <= row["pf_hi"] and notes == []
 
 
+def test_a_study_file_sets_it_in_its_ak_table():
+    from mechrel.studies.study import load_study
+
+    raw = {"scene": "nine-bar-lubricated", "quantities": ["velocity"],
+           "inputs": {"x1": {"distribution": "normal", "mean": 0.0, "std": 1.0}},
+           "ak": {"batch_size": 4, "tolerance": 0.05}}
+    assert load_study(raw).method_settings["ak"] == {"batch_size": 4, "tolerance": 0.05}
+    raw["ak"] = {"batch": 4}
+    with pytest.raises(StudyError, match=r"ak\.batch = 4: unknown field 'batch' for \[ak\] "
+                                         r"\(active_learning\) \(did you mean 'batch_size'\?\)"):
+        load_study(raw)
+
+
 @pytest.mark.parametrize("setting, value, message", [
     ("batch_size", 0, r"batch_size: got 0; allowed: an integer > 0"),
     ("learning", "V", r'learning = "V": unknown value; allowed: one of U, EFF'),
