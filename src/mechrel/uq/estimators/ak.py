@@ -505,7 +505,9 @@ def active_learning(
     def run(U: np.ndarray) -> None:
         nonlocal Ut, Gt, n_bad
         X = problem.to_x(U)
-        ev = evaluate(problem.model, X[:, : problem.d_model], **problem.executor)
+        # a progress bar for the initial design only, not one per batch of a few points
+        ev = evaluate(problem.model, X[:, : problem.d_model],
+                      **{**problem.executor, "progress": problem.executor["progress"] and U.shape[0] > batch})
         problem.evaluations.append(ev)
         A = X[:, problem.d_model:] if X.shape[1] > problem.d_model else None
         ok = ev.ok.copy()
