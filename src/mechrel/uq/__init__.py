@@ -55,6 +55,8 @@ _EXPORTS = {
     "estimators.importance": ["importance_sampling", "ImportanceSamplingResult"],
     "estimators.subset": ["subset_simulation", "SubsetSimulationResult"],
     "surrogates.pce": ["polynomial_chaos", "PCEResult", "pce_design", "multi_indices"],
+    "inverse": ["INVERSE_METHODS"],
+    "inverse.quantile": ["inverse_reliability", "InverseResult"],
 }
 _WHERE = {name: mod for mod, names in _EXPORTS.items() for name in names}
 __all__ = list(_WHERE)
