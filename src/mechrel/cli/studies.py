@@ -7,7 +7,7 @@ import contextlib
 import warnings
 
 from ..errors import StudyError
-from .args import add_set_option, fraction, jobs, sample_count, seed
+from .args import add_set_option, fraction, jobs, probability, sample_count, seed
 
 SET_HELP = ("override a value (repeatable): a study field by its dotted path "
             "(reliability.n=512, inputs.clearance.std=2e-5, allowable.velocity.mean=0.2, "
@@ -145,7 +145,8 @@ def _cmd_reliability(args) -> int:
                                    seed=args.seed, out=args.out, backend=backend,
                                    progress=not args.no_progress,
                                    max_failure_fraction=args.max_failure_fraction,
-                                   cache=not args.no_cache)
+                                   cache=not args.no_cache,
+                                   target_reliability=args.target_reliability)
     print("\n".join(lines))
     return 0
 
@@ -224,6 +225,13 @@ def register_reliability(sub) -> None:
     p.add_argument("--method", choices=tuple(study_methods()) + ("all",),
                    help="estimator (default: the study's reliability.methods; all: every "
                         "method; --n sets Monte Carlo's samples only)")
+    p.add_argument("--target-reliability", type=probability, metavar="R",
+                   help="also answer the inverse question: the allowable of each quantity, "
+                        "and the common factor on the study's allowables for the whole cycle, "
+                        "at which the whole-cycle reliability is R, with its interval "
+                        "(OUT/inverse.csv; methods: the study's inverse.methods, default auto: "
+                        "Monte Carlo when n (1 - R) >= 10, else subset simulation); default: "
+                        "the study's inverse.target")
     p.set_defaults(func=_cmd_reliability)
 
 

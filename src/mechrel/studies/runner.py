@@ -42,10 +42,11 @@ def reliability_results() -> tuple[str, ...]:
     >>> {"reliability.csv", "whole_cycle.csv", "rare_events.csv"} <= set(reliability_results())
     True
     """
-    from .presenters import files_of
+    from .presenters import COMBINED, files_of
     from .study import study_methods
 
-    return RELIABILITY_FILES + files_of(study_methods().values())
+    combined = tuple(f for cls in COMBINED for f in cls.files)
+    return RELIABILITY_FILES + files_of(study_methods().values()) + combined
 
 
 def _output_folder(out, names=()):
@@ -207,7 +208,8 @@ def _verdict(ctx, by_rank) -> list[str]:
 @_holds_output_folder(lambda: reliability_results()
                       + ("failures.csv", "summary.json", "evaluations.sqlite"))
 def run_reliability(study, *, methods=None, n=None, n_jobs=1, seed=None, out=None,
-                    progress=True, cache=True, backend="loky", max_failure_fraction=None):
+                    progress=True, cache=True, backend="loky", max_failure_fraction=None,
+                    target_reliability=None):
     """Run the study's reliability methods and write their results to ``out``.
 
     The methods are those of the registry (:data:`mechrel.uq.estimators.METHODS`), each run
@@ -236,13 +238,18 @@ def run_reliability(study, *, methods=None, n=None, n_jobs=1, seed=None, out=Non
         row per rare-event method) and ``design_point.csv`` (with a design point).
     cache : bool
         Cache the model evaluations in ``out/evaluations.sqlite``.
+    target_reliability : float, optional
+        Ask the inverse question too: the allowables at which the whole-cycle reliability is
+        this, in (0, 1) (:mod:`mechrel.studies.inverse`; ``inverse.csv``, the summary's
+        ``allowable for`` lines, ``summary.json``'s ``inverse``). Default: the study's
+        ``inverse.target`` (None: not asked).
 
     Returns
     -------
     lines : list of str
         The printable summary.
     results : dict
-        The estimators' results by method.
+        The estimators' results by method (the inverse ones as ``inverse_KEY``).
 
     Raises
     ------
@@ -282,6 +289,9 @@ def run_reliability(study, *, methods=None, n=None, n_jobs=1, seed=None, out=Non
     max_failure_fraction = (cfg["max_failure_fraction"] if max_failure_fraction is None
                             else max_failure_fraction)
     event = cfg["event"]
+    target = (study.inverse["target"] if target_reliability is None else
+              ARGS.fraction("target_reliability", target_reliability, open_lo=True,
+                            open_hi=True))
     model = study.model()
     inputs = study.uncertain_inputs()
     presenters = {}
@@ -298,7 +308,7 @@ def run_reliability(study, *, methods=None, n=None, n_jobs=1, seed=None, out=Non
                   seed=seed, n=n, max_failure_fraction=max_failure_fraction,
                   max_failure_fraction_given=given_fraction,
                   common=dict(n_jobs=n_jobs, backend=backend, cache=cache_path,
-                              progress=progress))
+                              progress=progress), target=target)
     ctx.presenters = list(presenters.values()) + [cls() for cls in COMBINED]
     record = {"study": study.name, "source": study.source, "methods": list(keys), "n": n,
               "seed": seed, "event": event, "max_failure_fraction": max_failure_fraction}
@@ -307,13 +317,13 @@ def run_reliability(study, *, methods=None, n=None, n_jobs=1, seed=None, out=Non
     try:
         for m in chosen:
             presenters[presenter_class(m)].run(ctx, m)
+        for p in ctx.presenters:
+            p.finish(ctx)
     except SampleFailuresError as exc:
         record.update(wall_time=time.perf_counter() - start, summary=lines,
                       provenance={k: dict(v.provenance) for k, v in ctx.results.items()})
         raise _refusal(exc, ctx.evaluations, out, ("failures.csv", "summary.json"), record,
                        "reliability", reliability_results()) from None
-    for p in ctx.presenters:
-        p.finish(ctx)
     frames = [f for p in ctx.presenters for f in p.frames(ctx)]
     table = pd.concat(frames, axis=1) if frames else None
     for p in ctx.presenters:
@@ -354,7 +364,9 @@ def run_reliability(study, *, methods=None, n=None, n_jobs=1, seed=None, out=Non
         write_json({**record, "wall_time": wall, "failures": _failure_counts(ctx.evaluations),
                     "provenance": {k: dict(v.provenance) for k, v in ctx.results.items()},
                     "warnings": notes, "verdict": [v.strip() for v in verdict[1:]],
-                    "summary": lines}, out / "summary.json")
+                    "summary": lines, **{k: v for p in ctx.presenters
+                                         for k, v in p.record(ctx).items()}},
+                   out / "summary.json")
         written += ["failures.csv", "summary.json"]
         lines.append(f"  wrote {out}/{', '.join(written)}")
     lines += verdict  # the summary ends with it

@@ -24,6 +24,7 @@ smaller, k s_q >= a_q, since Z >= Y_q/s_q in every sample.
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
@@ -232,6 +233,11 @@ class Extremes:
         """The forward event at fixed allowables: failure when a quantity's extreme exceeds its
         allowable (a series system of the quantities given).
 
+        One quantity: g = a − Y_q (its unit). Several: each component in units of its
+        reference allowable, g_q = (a_q − Y_q)/s_q, so that the system's margin
+        g = min_q g_q = k − Z at a_q = k s_q orders the samples as Z does (subset simulation
+        on it then walks the chains of the inverse run with the same seed).
+
         Parameters
         ----------
         allowables : mapping
@@ -242,7 +248,7 @@ class Extremes:
         Returns
         -------
         LimitState
-            g = min_q (a_q − Y_q); failure g ≤ 0.
+            Failure g ≤ 0.
 
         Examples
         --------
@@ -251,6 +257,21 @@ class Extremes:
         [-0.25]
         """
         kind = "abs" if self.event == "two-sided" else "upper"
-        parts = [LimitState.exceedance(self.labels(q), float(a), kind=kind, name=q)
-                 for q, a in allowables.items()]
-        return parts[0] if len(parts) == 1 else LimitState.series(*parts, name=name)
+        if len(allowables) == 1:
+            (q, a), = allowables.items()
+            return LimitState.exceedance(self.labels(q), float(a), kind=kind, name=q)
+        parts = []
+        for q, a in allowables.items():
+            i = self.groups.index(q)
+            func = functools.partial(_normalised_margin, self.positions[i], self.event,
+                                     float(a), self.reference[i])
+            parts.append(LimitState.from_function(func, name=q))
+        return LimitState.series(*parts, name=name)
+
+
+def _normalised_margin(positions: tuple, event: str, a: float, s: float, Y: np.ndarray
+                       ) -> np.ndarray:
+    """(a − Y_q)/s: a quantity's margin in units of its reference allowable."""
+    sub = Y[:, list(positions)]
+    y = (np.abs(sub) if event == "two-sided" else sub).max(axis=1)
+    return (a - y) / s

@@ -200,7 +200,7 @@ def inverse_monte_carlo(*, model: Any, inputs: Any, extremes: Any, scalars: tupl
         notes.append(
             f"inverse (mc): target beyond what {m} samples resolve: n (1 − R_t) = "
             f"{expected:.3g} < {MC_RESOLUTION:g} samples are expected beyond the allowable, so "
-            f"it is the {k}-th of {m} sorted extremes; use n ≥ "
+            f"it is the sorted extreme of rank {k} of {m}; use n ≥ "
             f"{math.ceil(MC_RESOLUTION / (1 - target))} or subset simulation")
     if u > m:
         need = math.ceil(math.log((1 - confidence_level) / 2) / math.log(target))

@@ -237,29 +237,30 @@ def _table(ex: Extremes, q: pd.DataFrame) -> pd.DataFrame:
     quantity's when there is one)."""
     rows, index = [], []
 
-    def row(value, lo, hi, s, quantity, basis, scaled):
-        k = (lambda v: v) if scaled else (lambda v: v / s)
-        a = (lambda v: v * s) if scaled else (lambda v: v)
+    def row(a, k, s, quantity, basis):
+        """A row from the allowable (value, lo, hi) and the factor (value, lo, hi)."""
         unit = QUANTITY_INFO[quantity].unit if quantity in QUANTITY_INFO else ""
-        return {"allowable": a(value), "allowable_lo": a(lo), "allowable_hi": a(hi),
-                "reference": s, "factor": k(value), "factor_lo": k(lo), "factor_hi": k(hi),
-                "unit": unit, "basis": basis}
+        return {"allowable": a[0], "allowable_lo": a[1], "allowable_hi": a[2], "reference": s,
+                "factor": k[0], "factor_lo": k[1], "factor_hi": k[2], "unit": unit,
+                "basis": basis}
 
+    own = {}
     for g, s, b in zip(ex.groups, ex.reference, ex.basis):
-        v = q.loc[g]
-        rows.append(row(v["value"], v["lo"], v["hi"], s, g, b, scaled=False))
+        a = tuple(float(q.loc[g, c]) for c in ("value", "lo", "hi"))
+        own[g] = a
+        rows.append(row(a, tuple(v / s for v in a), s, g, b))
         index.append((g, g))
     if WHOLE_CYCLE in ex.names and WHOLE_CYCLE not in ex.groups:
-        if WHOLE_CYCLE in q.index:
-            v = q.loc[WHOLE_CYCLE]
-            k = (v["value"], v["lo"], v["hi"])
-        else:  # one quantity: Z = Y_q/s_q, its quantile the quantity's scaled
-            g, s = ex.groups[0], ex.reference[0]
-            k = tuple(q.loc[g, c] / s for c in ("value", "lo", "hi"))
         bases = set(ex.basis)
+        basis = bases.pop() if len(bases) == 1 else "mixed"
         for g, s in zip(ex.groups, ex.reference):
-            rows.append(row(*k, s, g, bases.pop() if len(bases) == 1 else "mixed", scaled=True))
-            bases = set(ex.basis)
+            if WHOLE_CYCLE in q.index:
+                k = tuple(float(q.loc[WHOLE_CYCLE, c]) for c in ("value", "lo", "hi"))
+                a = tuple(v * s for v in k)
+            else:  # one quantity: Z = Y_q/s_q, the quantity's own allowable
+                a = own[g]
+                k = tuple(v / s for v in a)
+            rows.append(row(a, k, s, g, basis))
             index.append((WHOLE_CYCLE, g))
     table = pd.DataFrame(rows, index=pd.MultiIndex.from_tuples(index, names=["group", "quantity"]))
     return table[list(TABLE_COLUMNS)]
@@ -270,7 +271,7 @@ def _caveats(table: pd.DataFrame, method: str) -> list[str]:
     allowable, an allowable that is not > 0."""
     notes = []
     per_group = table.groupby(level="group", sort=False).first()
-    width = (per_group["factor_hi"] - per_group["factor_lo"]) / per_group["factor"].abs()
+    width = (per_group["allowable_hi"] - per_group["allowable_lo"]) / per_group["allowable"].abs()
     wide = [f"{g} [{r['allowable_lo']:.4g}, {r['allowable_hi']:.4g}] around {r['allowable']:.4g}"
             for g, r in per_group.iterrows()
             if np.isfinite(width[g]) and width[g] > WIDE]

@@ -12,13 +12,20 @@ q = p_t/P_j of the level's samples at or above it (the mean of the two samples a
 thresholds' own rule). A forward :func:`~mechrel.uq.subset_simulation` with the same seed at
 the allowable found walks the same chains and returns P_f = p_t (to one sample in N).
 
-Interval: the estimate P̂(z) = P_j q̂(z) has the Au–Beck coefficient of variation δ² =
-Σ_{i<j} (1 − p₀)/(N p₀)(1 + γ_i) + (1 − q)/(N q)(1 + γ_j) (γ from the correlation of the
-indicator along each level's chains, as in the forward method; the levels treated as
-uncorrelated, which underestimates δ). The interval of the quantile is the set of z at which
-p_t lies in P̂(z)'s lognormal interval P̂ exp(±z_α σ), σ² = ln(1 + δ²): z between the values
-read off the levels' samples at p_t exp(±z_α σ) (positive, so the interval is bounded
-wherever the samples reach).
+Interval: the estimate P̂(z) = P_j q̂(z) has, per level, the Au–Beck coefficient of variation
+δ_i² = (1 − p_i)/(N p_i)(1 + γ_i) (γ_i from the correlation of the indicator along the level's
+chains, as in the forward method; p_i = p₀ for the levels passed, q at the last). The levels
+are positively correlated, so the forward method's δ² = Σ δ_i² (levels independent) is a lower
+bound; this method takes Au & Beck's upper bound δ = Σ δ_i (levels fully correlated; Au & Beck
+2001, "Estimation of small failure probabilities in high dimensions by subset simulation",
+Probab. Eng. Mech. 16(4), eq. 29). The interval of the quantile is the set of z at which p_t
+lies in P̂(z)'s lognormal interval P̂ exp(±z_α σ), σ² = ln(1 + δ²): z between the values read
+off the levels' samples at p_t exp(±z_α σ) (positive, so the interval is bounded wherever the
+samples reach). Measured over 100 seeds (N = 500, p₀ = 0.1, R_t = 0.9999, four levels, the
+analytic model of ``tests/test_uq_inverse.py``): the true quantile lay inside the 95 %
+interval in 98–100 % of the runs with the upper bound and in 87–91 % with the lower one; the
+standard deviation of ln P̂ at the true quantile was 0.44–0.53, between the bounds' 0.40 and
+0.71.
 """
 
 from __future__ import annotations
@@ -123,8 +130,8 @@ def inverse_subset(*, model: Any, inputs: Any, extremes: Any, scalars: tuple[str
     InverseEstimate
         ``details["levels"]``: per scalar and level, ``threshold`` (the value exceeded with
         probability ``P``; the last row the quantile), ``p`` (conditional), ``P``, ``gamma``,
-        ``cov`` (the level's δ_i), ``cov_total`` (δ up to that level; the last row's is the
-        quantile's), ``acceptance``, ``n_evaluations``.
+        ``cov`` (the level's δ_i), ``cov_total`` (Σ δ_i up to that level; the last row's is
+        the quantile's), ``acceptance``, ``n_evaluations``.
 
     Raises
     ------
@@ -198,7 +205,7 @@ def inverse_subset(*, model: Any, inputs: Any, extremes: Any, scalars: tuple[str
         keep = ~np.isnan(G)
         U, G = U0[keep], G[keep]
         levels = _Levels()
-        P, delta2, chains, acc, n_prev = 1.0, 0.0, None, math.nan, 0
+        P, delta, chains, acc, n_prev = 1.0, 0.0, None, math.nan, 0
         b_prev = math.inf
         for level in range(max_levels + 1):
             n_here = G.shape[0]
@@ -209,10 +216,10 @@ def inverse_subset(*, model: Any, inputs: Any, extremes: Any, scalars: tuple[str
                 value = read_quantile(levels.desc[-1], q * n_here)
                 gamma = 0.0 if chains is None else _gamma(
                     (chains <= -value).astype(float), float(np.mean(chains <= -value)))
-                d2 = (1 - q) / (n_here * q) * (1 + gamma)
-                delta2 += d2
-                rows.append((name, level, value, q, P * q, gamma, math.sqrt(d2),
-                             math.sqrt(delta2), acc, n_evaluations() - n_prev))
+                dl = math.sqrt((1 - q) / (n_here * q) * (1 + gamma))
+                delta += dl
+                rows.append((name, level, value, q, P * q, gamma, dl, delta, acc,
+                             n_evaluations() - n_prev))
                 break
             m = int(round(n_here * p0))
             if m < 1 or m >= n_here:
@@ -228,10 +235,10 @@ def inverse_subset(*, model: Any, inputs: Any, extremes: Any, scalars: tuple[str
                     "allowed: a target the extreme reaches continuously")
             gamma = 0.0 if chains is None else _gamma((chains <= b).astype(float),
                                                       float(np.mean(chains <= b)))
-            d2 = (1 - p0) / (n_here * p0) * (1 + gamma)
-            delta2 += d2
-            rows.append((name, level, -b, p0, P * p0, gamma, math.sqrt(d2), math.sqrt(delta2),
-                         acc, n_evaluations() - n_prev))
+            dl = math.sqrt((1 - p0) / (n_here * p0) * (1 + gamma))
+            delta += dl
+            rows.append((name, level, -b, p0, P * p0, gamma, dl, delta, acc,
+                         n_evaluations() - n_prev))
             n_prev = n_evaluations()
             b_prev = b
             P *= p0
@@ -258,7 +265,7 @@ def inverse_subset(*, model: Any, inputs: Any, extremes: Any, scalars: tuple[str
             chains = np.stack(chain_g, axis=1)  # (chains, states)
             U = np.stack(chain_u, axis=1).reshape(-1, d)
             G = chains.reshape(-1)
-        sigma = math.sqrt(math.log1p(delta2))
+        sigma = math.sqrt(math.log1p(delta * delta))
         lo = levels.quantile(p_t * math.exp(z_a * sigma))
         hi = levels.quantile(p_t * math.exp(-z_a * sigma))
         out.append((name, value, lo, hi))
@@ -267,7 +274,7 @@ def inverse_subset(*, model: Any, inputs: Any, extremes: Any, scalars: tuple[str
                          "samples of the last level lie beyond the allowable; raise n_per_level")
         if math.isinf(hi):
             notes.append(f"inverse (subset): {name}: the interval's upper end lies beyond the "
-                         f"deepest sample (c.o.v. {math.sqrt(delta2):.2f}); raise n_per_level")
+                         f"deepest sample (c.o.v. {delta:.2f}); raise n_per_level")
     quantiles = pd.DataFrame([r[1:4] for r in out], columns=["value", "lo", "hi"],
                              index=pd.Index(scalars, name="scalar"))
     details = pd.DataFrame(rows, columns=["scalar", "level", "threshold", "p", "P", "gamma",
@@ -275,5 +282,6 @@ def inverse_subset(*, model: Any, inputs: Any, extremes: Any, scalars: tuple[str
                            ).set_index(["scalar", "level"])
     settings = {"n_per_level": N, "p0": p0, "proposal": proposal, "rho": rho, "spread": spread,
                 "max_levels": max_levels, "seed": seed_record(ss),
-                "cov": "Au & Beck (2001), levels treated as uncorrelated; interval lognormal"}
+                "cov": "Au & Beck (2001) upper bound, sum of the levels' c.o.v. (levels fully "
+                       "correlated); interval lognormal"}
     return InverseEstimate(quantiles, tuple(calls), {"levels": details}, tuple(notes), settings)
