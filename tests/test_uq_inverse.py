@@ -6,7 +6,8 @@ Two quantities of three standard-normal inputs, with their cycle extremes:
 velocity e(θ) = A1 x1 cos θ + A2 x2 sin θ, whose largest |e| (and largest e) over the whole
 cycle is V = √(A1² x1² + A2² x2²); acceleration 3 + x3 at every angle, extreme A = |3 + x3|.
 Closed forms: P(A ≤ r) = Φ(r − 3) − Φ(−r − 3); P(V ≤ r) by one-dimensional quadrature,
-∫ φ(x1) [2Φ(√(r² − A1² x1²)/A2) − 1] dx1 over |x1| ≤ r/A1 (checked against the Rayleigh law at A1 = A2); the
+∫ φ(x1) [2Φ(√(r² − A1² x1²)/A2) − 1] dx1 over |x1| ≤ r/A1 (checked against the Rayleigh law
+at A1 = A2); the
 whole cycle's factor k solves P(V ≤ k s_v) P(A ≤ k s_a) = R_t (V and A independent). Quantiles
 by Brent's method to 1e-14.
 
@@ -39,9 +40,9 @@ from hypothesis import strategies as st
 from scipy import integrate, optimize, special, stats
 
 from mechrel.errors import EstimateWarning, StudyError
-from mechrel.uq import (INVERSE_METHODS, Allowable, FORMConvergenceError, FunctionModel, LimitState, Normal,
-                        SampleFailuresError, UncertainInputs, evaluate, form, inverse_reliability,
-                        linear_model, monte_carlo, subset_simulation)
+from mechrel.uq import (INVERSE_METHODS, Allowable, FORMConvergenceError, FunctionModel,
+                        LimitState, Normal, SampleFailuresError, UncertainInputs, evaluate, form,
+                        inverse_reliability, linear_model, monte_carlo, subset_simulation)
 from mechrel.uq.inverse import choose_method
 from mechrel.uq.inverse.extremes import Extremes
 from mechrel.uq.inverse.order_statistics import order_statistic_ranks, quantile_interval
@@ -75,7 +76,8 @@ def cdf_v(r):
 
     def f(phi):  # φ(x1) (2Φ(y) − 1) dx1, 2Φ(y) − 1 = erf(y/√2)
         x, y = c * math.sin(phi), r * math.cos(phi) / A2
-        return math.exp(-0.5 * x * x) / math.sqrt(2 * math.pi) * math.erf(y / math.sqrt(2)) * c * math.cos(phi)
+        density = math.exp(-0.5 * x * x) / math.sqrt(2 * math.pi)
+        return density * math.erf(y / math.sqrt(2)) * c * math.cos(phi)
     return integrate.quad(f, -math.pi / 2, math.pi / 2, epsabs=1e-14, epsrel=1e-12)[0]
 
 
@@ -212,7 +214,8 @@ def test_monte_carlo_warns_when_the_target_is_beyond_its_samples():
     assert "no upper end" in text and "needs n ≥ 3688" in text
     assert r.warnings and np.isinf(r.table["allowable_hi"]).all()
     # the estimate is the largest sample: nothing above it is seen
-    assert r.table.loc[("velocity", "velocity"), "allowable"] == r.extremes.values(r.evaluations.Y)[:, 0].max()
+    largest = r.extremes.values(r.evaluations.Y)[:, 0].max()
+    assert r.table.loc[("velocity", "velocity"), "allowable"] == largest
 
 
 def test_a_wide_interval_is_warned_about():
@@ -241,9 +244,10 @@ def test_subset_levels_contain_the_closed_form_and_replay_forward():
                                 seed=3, n_per_level=500)
         assert fwd.pf == pytest.approx(1 - target, abs=2 * 1e-3 * 1e-3 / 0.5)
         z = lv.loc[g, "threshold"].to_numpy()
-        a = r.table.loc[(g, g), "allowable"] if g != "all" else r.table.loc[("all", "velocity"), "factor"]
-        scale = 1.0 if g != "all" else 1.0  # the system's margin is k − Z (reference units)
-        np.testing.assert_allclose(fwd.levels["threshold"].to_numpy()[:-1], scale * (a - z[:-1]),
+        # the system's margin is k − Z (in units of the reference allowables)
+        a = (r.table.loc[(g, g), "allowable"] if g != "all"
+             else r.table.loc[("all", "velocity"), "factor"])
+        np.testing.assert_allclose(fwd.levels["threshold"].to_numpy()[:-1], a - z[:-1],
                                    rtol=1e-12, atol=1e-15)
 
 
@@ -299,7 +303,7 @@ def test_form_warns_about_a_second_design_point_and_another_quantity():
                                 allowable=1.0, progress=False)
     a = r.table.loc[("all", "all"), "allowable"]
     assert a == pytest.approx(0.1 + special.ndtri(0.99), abs=1e-8)
-    true = optimize.brentq(lambda x: stats.norm.cdf(x - 0.1) - stats.norm.cdf(-x - 0.1) - 0.99, 0, 9)
+    true = optimize.brentq(lambda x: special.ndtr(x - 0.1) - special.ndtr(-x - 0.1) - 0.99, 0, 9)
     assert a < true  # unconservative, as warned
     # the whole cycle of two quantities with the same weight: the factor is set by one, the
     # other adds as much
@@ -317,7 +321,8 @@ def test_form_warns_about_a_second_design_point_and_another_quantity():
         warnings.simplefilter("error", EstimateWarning)
         r = inverse_reliability(model=two, inputs=inputs2, target=0.99, method="form",
                                 allowable={"velocity": 1.0, "acceleration": 200.0}, progress=False)
-    assert r.table.loc[("all", "velocity"), "factor"] == pytest.approx(1 + 0.02 * special.ndtri(0.99), abs=1e-8)
+    k = r.table.loc[("all", "velocity"), "factor"]
+    assert k == pytest.approx(1 + 0.02 * special.ndtri(0.99), abs=1e-8)
 
 
 def test_form_refuses_a_kink_at_the_mean():
@@ -341,7 +346,8 @@ def test_the_forward_run_at_the_allowable_found_meets_the_target():
         assert abs(fq.whole_cycle.loc[q, "reliability"] - target) <= bound
     # and the true reliability at the allowables found (the closed form)
     k = r.table.loc[("all", "velocity"), "factor"]
-    assert abs(cdf_v(k * SV) * cdf_a(k * SA) - target) <= 3.29 * math.sqrt(target * (1 - target) / n_inv)
+    true = cdf_v(k * SV) * cdf_a(k * SA)
+    assert abs(true - target) <= 3.29 * math.sqrt(target * (1 - target) / n_inv)
     # the rare target: subset simulation, checked by an independent subset run
     t2 = 0.9999
     r2 = _run(t2, "subset", n_per_level=1000, seed=1)
@@ -364,7 +370,8 @@ def test_a_model_without_quantities_and_a_single_quantity():
     t = r1.table
     assert t.index.tolist() == [("velocity", "velocity"), ("all", "velocity")]
     assert t.loc[("all", "velocity"), "allowable"] == t.loc[("velocity", "velocity"), "allowable"]
-    assert t.loc[("all", "velocity"), "factor"] == pytest.approx(t.loc[("all", "velocity"), "allowable"] / 0.3)
+    row = t.loc[("all", "velocity")]
+    assert row["factor"] == pytest.approx(row["allowable"] / 0.3)
 
 
 def test_failed_samples_are_counted_left_out_or_beyond_every_allowable():
@@ -390,7 +397,6 @@ def test_failed_samples_are_counted_left_out_or_beyond_every_allowable():
 def test_auto_takes_monte_carlo_where_it_resolves_the_target_else_subset():
     assert choose_method(0.99, 1000) == "mc" and choose_method(0.991, 1000) == "subset"
     assert _run(0.9, "auto", n=200, seed=1).method == "mc"
-    r = _run(0.999, "auto", n=200, seed=1, **{}) if False else None  # noqa: F841
     with pytest.raises(StudyError, match="settings \\['n'\\]: unknown"):
         _run(0.999, "auto", n=200, seed=1)  # n = 200 does not resolve 0.999: subset, no n
     assert _run(0.999, "auto", seed=1, n_per_level=200).method == "subset"
@@ -400,12 +406,14 @@ def test_auto_takes_monte_carlo_where_it_resolves_the_target_else_subset():
 @pytest.mark.parametrize("kwargs, message", [
     ({"target": 1.0}, "target = 1.0: must be < 1"),
     ({"target": 0.0}, "target = 0.0: must be > 0"),
-    ({"target": 0.9, "method": "ml"}, 'method = "ml": unknown value; allowed: one of mc, subset, form, auto'),
+    ({"target": 0.9, "method": "ml"},
+     'method = "ml": unknown value; allowed: one of mc, subset, form, auto'),
     ({"target": 0.9, "method": "mc", "n_per_level": 10}, "settings \\['n_per_level'\\]: unknown"),
     ({"target": 0.9, "method": "mc", "n": 1}, "n = 1"),
     ({"target": 0.9, "event": "both"}, "event: got 'both'"),
     ({"target": 0.9, "failures": "drop"}, 'failures = "drop".*exclude, as_failure'),
-    ({"target": 0.9, "allowable": {"velocity": 0.3}}, "no reference allowable for quantity \\['acceleration'\\]"),
+    ({"target": 0.9, "allowable": {"velocity": 0.3}},
+     "no reference allowable for quantity \\['acceleration'\\]"),
     ({"target": 0.9, "method": "subset", "p0": 0.3}, "1/p0 and n_per_level·p0 integers"),
     ({"target": 0.99, "method": "subset", "p0": 0.5, "n_per_level": 10, "max_levels": 2},
      "needs more than max_levels = 2 levels of p0 = 0.5"),
@@ -420,12 +428,15 @@ def test_the_result_gives_forward_allowables_and_limit_states():
     r = _run(0.9, "mc", n=1000, seed=2)
     allow = r.allowables()
     assert set(allow) == {"velocity", "acceleration"} and all(a.std == 0 for a in allow.values())
-    assert r.allowables("velocity")["velocity"].mean == r.table.loc[("velocity", "velocity"), "allowable"]
+    own = r.table.loc[("velocity", "velocity"), "allowable"]
+    assert r.allowables("velocity")["velocity"].mean == own
     ls = r.limit_state()
-    assert isinstance(ls, LimitState) and [c.name for c in ls.components] == ["velocity", "acceleration"]
+    assert isinstance(ls, LimitState)
+    assert [c.name for c in ls.components] == ["velocity", "acceleration"]
     with pytest.raises(StudyError, match="group: got 'speed'"):
         r.allowables("speed")
     p = r.provenance
     assert p["settings"]["target"] == 0.9 and p["settings"]["method"] == "mc"
-    assert p["settings"]["allowable_std"].startswith("not used") and p["n_model_evaluations"] == 1000
+    assert p["settings"]["allowable_std"].startswith("not used")
+    assert p["n_model_evaluations"] == 1000
     assert r.to_frame() is not r.table and r.to_frame().equals(r.table)
