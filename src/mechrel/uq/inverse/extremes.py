@@ -143,7 +143,8 @@ class Extremes:
         groups_of = output_groups(output_index)
         angle = per_angle_mask(output_index)
         groups = tuple(dict.fromkeys(groups_of.tolist()))
-        positions, basis = [], []
+        positions: list[tuple[int, ...]] = []
+        basis: list[str] = []
         for g in groups:
             col = whole_cycle_column(output_index, g, event)
             if col is not None:

@@ -103,8 +103,9 @@ def most_probable_target_point(problem: Problem, *, beta: float, u0: np.ndarray,
     ([1.2, 1.6], 10.0)
     """
     u = np.array(u0, dtype=float)
-    rows, normals = [], []
-    prev = None
+    rows: list[tuple] = []
+    normals: list[np.ndarray] = []
+    prev: float | None = None
 
     def hist() -> pd.DataFrame:
         return pd.DataFrame(rows, columns=["iteration", "value", "direction_criterion",
@@ -213,13 +214,14 @@ def inverse_form(*, model: Any, inputs: Any, extremes: Any, scalars: tuple[str, 
         ls = LimitState.from_function(functools.partial(_scalar, extremes, j), name=g)
         problem = Problem(model=model, inputs=inputs, limit_state=ls, what="inverse_form",
                           **executor)
-        kw = dict(beta=beta, step=step, scheme=scheme, tol=tol, tol_direction=tol_direction,
-                  max_iter=max_iter)
-        u, y, dy, h = most_probable_target_point(problem, u0=np.zeros(problem.d), **kw)
+        search = functools.partial(most_probable_target_point, problem, beta=beta, step=step,
+                                   scheme=scheme, tol=tol, tol_direction=tol_direction,
+                                   max_iter=max_iter)
+        u, y, dy, h = search(u0=np.zeros(problem.d))
         n_first = problem.n_evaluations
         searches.append((g, "origin", y, p_t, len(h), n_first, ""))
         try:
-            v, yv, dv, hv = most_probable_target_point(problem, u0=-u, **kw)
+            v, yv, dv, hv = search(u0=-u)
         except FORMConvergenceError as exc:
             searches.append((g, "opposite", math.nan, math.nan, len(exc.history),
                              problem.n_evaluations - n_first, "did not converge"))

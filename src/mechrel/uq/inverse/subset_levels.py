@@ -91,7 +91,7 @@ def read_quantile(desc: np.ndarray, m: float) -> float:
 class _Levels:
     """The levels of one scalar: per level its cumulative probability P_j and its samples."""
 
-    def __init__(self):
+    def __init__(self) -> None:
         self.P: list[float] = []
         self.desc: list[np.ndarray] = []
 
@@ -184,9 +184,10 @@ def inverse_subset(*, model: Any, inputs: Any, extremes: Any, scalars: tuple[str
         n_all = sum(e.n for e in calls)
         if n_bad > max_failure_fraction * n_all and n_all >= N:
             allev = concat_evaluations(calls)
+            assert allev is not None  # at least one call
             raise SampleFailuresError(
                 f"inverse_reliability (subset): {n_bad} of {n_all} samples failed "
-                f"({allev.failure_counts() if allev is not None else {}}), more than "
+                f"({allev.failure_counts()}), more than "
                 f"max_failure_fraction={max_failure_fraction}; allowed: fix the model or raise "
                 "max_failure_fraction", allev)
         V = extremes.values(ev.Y)
