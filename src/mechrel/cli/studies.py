@@ -129,6 +129,15 @@ def _load(args):
     return study
 
 
+def _target(text: str):
+    """``--target-reliability``: a probability in (0, 1), or ``none`` (False: the study's
+    ``inverse.target`` is not asked)."""
+    return False if text.strip().lower() == "none" else probability(text)
+
+
+_target.__name__ = "probability"  # argparse names the type in its messages
+
+
 def _jobs(args) -> int:
     if args.jobs is not None:
         return args.jobs
@@ -225,13 +234,13 @@ def register_reliability(sub) -> None:
     p.add_argument("--method", choices=tuple(study_methods()) + ("all",),
                    help="estimator (default: the study's reliability.methods; all: every "
                         "method; --n sets Monte Carlo's samples only)")
-    p.add_argument("--target-reliability", type=probability, metavar="R",
+    p.add_argument("--target-reliability", type=_target, metavar="R",
                    help="also answer the inverse question: the allowable of each quantity, "
                         "and the common factor on the study's allowables for the whole cycle, "
                         "at which the whole-cycle reliability is R, with its interval "
                         "(OUT/inverse.csv; methods: the study's inverse.methods, default auto: "
                         "Monte Carlo when n (1 - R) >= 10, else subset simulation); default: "
-                        "the study's inverse.target")
+                        "the study's inverse.target; none: not asked")
     p.set_defaults(func=_cmd_reliability)
 
 

@@ -238,11 +238,11 @@ def run_reliability(study, *, methods=None, n=None, n_jobs=1, seed=None, out=Non
         row per rare-event method) and ``design_point.csv`` (with a design point).
     cache : bool
         Cache the model evaluations in ``out/evaluations.sqlite``.
-    target_reliability : float, optional
+    target_reliability : float or False, optional
         Ask the inverse question too: the allowables at which the whole-cycle reliability is
         this, in (0, 1) (:mod:`mechrel.studies.inverse`; ``inverse.csv``, the summary's
-        ``allowable for`` lines, ``summary.json``'s ``inverse``). Default: the study's
-        ``inverse.target`` (None: not asked).
+        ``allowable for`` lines, ``summary.json``'s ``inverse``). Default (None): the study's
+        ``inverse.target``, if it has one; False: not asked.
 
     Returns
     -------
@@ -289,9 +289,13 @@ def run_reliability(study, *, methods=None, n=None, n_jobs=1, seed=None, out=Non
     max_failure_fraction = (cfg["max_failure_fraction"] if max_failure_fraction is None
                             else max_failure_fraction)
     event = cfg["event"]
-    target = (study.inverse["target"] if target_reliability is None else
-              ARGS.fraction("target_reliability", target_reliability, open_lo=True,
-                            open_hi=True))
+    if target_reliability is None:
+        target = study.inverse["target"]
+    elif target_reliability is False:
+        target = None
+    else:
+        target = ARGS.fraction("target_reliability", target_reliability, open_lo=True,
+                               open_hi=True)
     model = study.model()
     inputs = study.uncertain_inputs()
     presenters = {}
