@@ -207,6 +207,20 @@ def test_an_inverse_run_that_refuses_keeps_its_failed_samples(tmp_path, capsys):
     assert json.loads((out / "summary.json").read_text())["refused"]["method"] == "inverse_mc"
 
 
+def test_the_studys_target_can_be_left_out_on_the_command_line(tmp_path, capsys):
+    f = tmp_path / "study.toml"
+    f.write_text(STUDY_TOML.replace('methods = ["mc"]', 'methods = ["fosm"]')
+                 + "[inverse]\ntarget = 0.9\nmethods = [\"form\"]\n", encoding="utf-8")
+    out = tmp_path / "out"
+    assert main(["reliability", str(f), "--target-reliability", "none", "--jobs", "1",
+                 "--out", str(out), "--no-progress"]) == 0
+    assert "allowable for" not in capsys.readouterr().out
+    assert not (out / "inverse.csv").exists()
+    assert main(["reliability", str(f), "--jobs", "1", "--out", str(out), "--no-progress"]) == 0
+    assert "allowable for whole-cycle R = 0.9 (form:" in capsys.readouterr().out
+    assert (out / "inverse.csv").exists()
+
+
 def test_methods_of_resolves_auto_with_the_runs_sample_count():
     s = load_study({**STUDY, "inverse": {"methods": ["auto", "subset", "form"]}})
     assert inverse.methods_of(s, 0.9, 128) == ["mc", "subset", "form"]

@@ -271,6 +271,8 @@ def _caveats(table: pd.DataFrame, method: str) -> list[str]:
     allowable, an allowable that is not > 0."""
     notes = []
     per_group = table.groupby(level="group", sort=False).first()
+    if len(per_group) == 2 and WHOLE_CYCLE in per_group.index:  # one quantity: "all" repeats it
+        per_group = per_group.drop(WHOLE_CYCLE)
     width = (per_group["allowable_hi"] - per_group["allowable_lo"]) / per_group["allowable"].abs()
     wide = [f"{g} [{r['allowable_lo']:.4g}, {r['allowable_hi']:.4g}] around {r['allowable']:.4g}"
             for g, r in per_group.iterrows()
