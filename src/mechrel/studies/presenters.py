@@ -891,13 +891,14 @@ class Inverse(Presenter):
         if not self.keys:
             return None
         results = self._results(ctx)
-        clean = [k for k, r in results.items() if k != "form" and not r.warnings]
-        pick = clean[0] if clean else next(iter(results))
+        # an answer without warnings before one with; FORM (no interval) last
+        pick = min(results, key=lambda k: (bool(results[k].warnings), k == "form"))
         why = ("its interval holds whatever the error's distribution" if pick == "mc" else
                "its interval from the levels' Au–Beck c.o.v. (upper bound)" if pick == "subset"
                else "an approximation without an interval" if pick == "form" else
-               "the only answer")
-        caveat = "" if clean else "; every answer carries a warning (above)"
+               "a registered method")
+        warned = all(r.warnings for r in results.values())
+        caveat = "; every answer carries a warning (above)" if warned else ""
         return (f"    allowable for R = {ctx.target:g}: {pick} ({why}){caveat}")
 
     def write(self, ctx, out):
