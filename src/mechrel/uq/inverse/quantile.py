@@ -168,7 +168,9 @@ class InverseResult(CountedByProvenance):
         -------
         dict
             ``{quantity: Allowable(a, 0)}``, for :func:`~mechrel.uq.monte_carlo`'s
-            ``allowable=``.
+            ``allowable=`` (which needs one for every quantity of the model: for one quantity
+            of several, give the others one out of reach, or check with
+            :meth:`limit_state`).
 
         Raises
         ------
