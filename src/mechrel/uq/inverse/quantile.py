@@ -4,9 +4,10 @@ the whole cycle, by a registered inverse method (:data:`mechrel.uq.inverse.INVER
 The allowable asked for is deterministic: a tolerance as it is written on a drawing. A
 study's random allowable I ~ N(μ_I, σ_I²) models the uncertainty of the specification itself;
 its σ_I is no part of this question and is not used (its mean μ_I is the reference s_q of the
-whole cycle's common factor, :mod:`mechrel.uq.inverse.extremes`). With σ_I > 0 no allowable
-mean gives a reliability above Φ(μ_I/σ_I), so the forward check of an allowable found here uses
-``Allowable(a, 0)`` (:meth:`InverseResult.allowables`).
+whole cycle's common factor, :mod:`mechrel.uq.inverse.extremes`). A random allowable caps the
+reliability at Φ(μ_I/σ_I) (a mechanism without error): 0.99865 for the paper's allowables
+(σ_I = μ_I/3). The forward check of an allowable found here uses ``Allowable(a, 0)``
+(:meth:`InverseResult.allowables`).
 """
 
 from __future__ import annotations
