@@ -58,6 +58,8 @@ _EXPORTS = {
     "estimators.ak": ["active_learning", "AKResult"],
     "surrogates.pce": ["polynomial_chaos", "PCEResult", "pce_design", "multi_indices"],
     "surrogates.kriging": ["Kriging", "fit_kriging"],
+    "inverse": ["INVERSE_METHODS"],
+    "inverse.quantile": ["inverse_reliability", "InverseResult"],
 }
 _WHERE = {name: mod for mod, names in _EXPORTS.items() for name in names}
 __all__ = list(_WHERE)
