@@ -17,6 +17,10 @@ The package has four parts, one folder each:
     command line loop over.
 ``surrogates/``
     :func:`polynomial_chaos` and :func:`fit_kriging` (the Kriging model of :func:`active_learning`).
+``inverse/``, ``design/``
+    The inverse question (:func:`inverse_reliability`: the allowable for a target reliability)
+    and design for reliability (:func:`design_for_reliability`: the cheapest design that meets
+    it).
 
 Every estimator takes keyword arguments only, accepts either ``model=`` (it evaluates its own
 design through :func:`evaluate`) or precomputed ``evaluations=``, and returns a frozen result
@@ -60,6 +64,9 @@ _EXPORTS = {
     "surrogates.kriging": ["Kriging", "fit_kriging"],
     "inverse": ["INVERSE_METHODS"],
     "inverse.quantile": ["inverse_reliability", "InverseResult"],
+    "design": ["DESIGN_METHODS"],
+    "design.core": ["design_for_reliability", "DesignResult"],
+    "design.space": ["DesignVariable", "ReliabilityConstraint"],
 }
 _WHERE = {name: mod for mod, names in _EXPORTS.items() for name in names}
 __all__ = list(_WHERE)
