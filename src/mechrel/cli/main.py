@@ -25,6 +25,7 @@ COMMANDS = (
     pictures.register_animate,
     studies.register_reliability,
     studies.register_sensitivity,
+    studies.register_design,
     accuracy.register,
 )
 """The subcommands' registration functions, in the order of the help."""

@@ -1,5 +1,6 @@
-"""``mechrel reliability`` and ``mechrel sensitivity``: a study file run by the estimators of
-:mod:`mechrel.uq` (:mod:`mechrel.studies.runner`)."""
+"""``mechrel reliability``, ``mechrel sensitivity`` and ``mechrel design``: a study file run by
+the estimators of :mod:`mechrel.uq` (:mod:`mechrel.studies.runner`,
+:mod:`mechrel.studies.design`)."""
 
 from __future__ import annotations
 
@@ -173,7 +174,20 @@ def _cmd_sensitivity(args) -> int:
     return 0
 
 
-def _study_args(p, section):
+def _cmd_design(args) -> int:
+    from ..studies.design import run_design
+
+    study = _load(args)
+    with dask_backend(args.scheduler) as backend, _warnings_in_summary():
+        lines, _ = run_design(study, method=args.method, n_jobs=_jobs(args), seed=args.seed,
+                              out=args.out, backend=backend, progress=not args.no_progress,
+                              max_failure_fraction=args.max_failure_fraction,
+                              cache=not args.no_cache)
+    print("\n".join(lines))
+    return 0
+
+
+def _study_args(p, section, n=True):
     p.add_argument("study", nargs="?", default="nine-bar-lubricated", metavar="STUDY",
                    help="embedded study name or path to a study .toml "
                         "(default: nine-bar-lubricated)")
@@ -181,7 +195,9 @@ def _study_args(p, section):
                    help="embedded scene name or scene file to use instead of the study's "
                         "scene (a file the study names must be in the study file's folder)")
     add_set_option(p, SET_HELP)
-    p.add_argument("--n", type=sample_count, help="number of samples (default: the study's)")
+    if n:
+        p.add_argument("--n", type=sample_count,
+                       help="number of samples (default: the study's)")
     p.add_argument("--jobs", type=jobs, default=None,
                    help="parallel workers (default 2; with --scheduler: all the cluster's)")
     p.add_argument("--scheduler", metavar="ADDRESS",
@@ -269,3 +285,39 @@ def register_sensitivity(sub) -> None:
                     "written to OUT/sensitivity_failures.csv.")
     _study_args(p, "sensitivity")
     p.set_defaults(func=_cmd_sensitivity)
+
+
+def register_design(sub) -> None:
+    """Add the ``mechrel design`` subcommand (one entry of :data:`mechrel.cli.main.COMMANDS`).
+
+    Parameters
+    ----------
+    sub : argparse._SubParsersAction
+        What ``parser.add_subparsers()`` returned.
+
+    Examples
+    --------
+    >>> import argparse
+    >>> parser = argparse.ArgumentParser(prog="mechrel")
+    >>> register_design(parser.add_subparsers(dest="command"))
+    >>> args = parser.parse_args(["design", "my-study.toml", "--method", "mc"])
+    >>> args.command, args.study, args.method
+    ('design', 'my-study.toml', 'mc')
+    """
+    from ..uq.design import DESIGN_METHODS
+
+    p = sub.add_parser(
+        "design", help="design for reliability: the cheapest design (loosest tolerances, "
+                       "largest clearance) whose whole-cycle reliability meets its target",
+        description="Minimise the study's [design] cost over its design variables (an "
+                    "input's mean, std or tolerance half-width, a scene value) subject to "
+                    "whole-cycle (or per-angle) reliability constraints R >= target; the "
+                    "optimum is verified by an independent Monte Carlo or subset simulation "
+                    "run, and the trade-off curve of cost against reliability is drawn "
+                    "(OUT/design*.csv, design_tradeoff.png, design.json). Methods: "
+                    + ", ".join(f"{k} ({m.summary})" for k, m in DESIGN_METHODS.items())
+                    + ". Simulations are cached in OUT/evaluations.sqlite.")
+    _study_args(p, "design", n=False)
+    p.add_argument("--method", choices=tuple(DESIGN_METHODS),
+                   help="design method (default: the study's design.method)")
+    p.set_defaults(func=_cmd_design)

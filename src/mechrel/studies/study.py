@@ -104,8 +104,8 @@ def study_fields() -> tuple[str, ...]:
     True
     """
     return tuple(sorted(("allowable", "angle_step", "correlation", "cycles", "description",
-                         "inputs", "inverse", "name", "output", "quantities", "reference",
-                         "reliability", "scene", "scene_overrides", "sensitivity")
+                         "design", "inputs", "inverse", "name", "output", "quantities",
+                         "reference", "reliability", "scene", "scene_overrides", "sensitivity")
                         + tuple(_method_tables())))
 
 
@@ -114,6 +114,10 @@ _RENAMED = {"form": "event"}
 """Keys of ``[reliability]`` renamed: old -> new (an old key is an error naming the new)."""
 _SENSITIVITY = ("max_failure_fraction", "n", "seed")
 _INVERSE = ("methods", "target")
+_DESIGN = ("constraints", "cost", "method", "seed", "sense", "tradeoff", "variables", "verify",
+           "max_failure_fraction")
+_DESIGN_VARIABLE = ("kind", "input", "paths", "lower", "upper", "start")
+_VERIFY = ("method", "n", "n_per_level", "p0")
 
 
 @dataclass(frozen=True)
@@ -160,6 +164,13 @@ class Study:
         ``[inverse]``: ``target`` (the target reliability whose allowables ``mechrel
         reliability`` reports, or None) and ``methods`` (keys of
         :data:`mechrel.uq.inverse.INVERSE_METHODS`, or ``"auto"``).
+    design : mapping or None, optional
+        ``[design]`` (None: the study has none): ``variables`` (``{name: {kind, input, lower,
+        upper, start}}``; a ``"scene"`` variable has ``paths`` instead of ``input``), ``cost``,
+        ``sense``, ``constraints`` (``[{reliability, quantity, basis}]``), ``method`` (a key of
+        :data:`mechrel.uq.design.DESIGN_METHODS`), ``settings`` (its table
+        ``[design.KEY]``), ``verify``, ``tradeoff``, ``seed``, ``max_failure_fraction``
+        (:mod:`mechrel.studies.design`).
     source : str, optional
         Where the study was read from.
 
@@ -188,6 +199,7 @@ class Study:
     method_settings: Mapping[str, Mapping[str, Any]] = field(default_factory=dict)
     inverse: Mapping[str, Any] = field(default_factory=lambda: {"target": None,
                                                                 "methods": ("auto",)})
+    design: Mapping[str, Any] | None = None
     source: str | None = field(default=None, compare=False)
 
     def model(self, sectors: bool = False):
@@ -484,6 +496,130 @@ def _inverse(c: _Checker, table: Any) -> dict:
                                  tuple(INVERSE_METHODS) + ("auto",))}
 
 
+def _design(c: _Checker, table: Any, inputs: Mapping) -> dict | None:
+    """``[design]``: design variables, cost, constraints, method and its settings (absent:
+    None). The fields are checked here (names, types, ranges, the cost's language, the method's
+    settings); what needs the model (a constraint's quantity, a variable's input kind) is
+    checked by :func:`mechrel.uq.design_for_reliability` when it runs."""
+    from ..uq.design import DESIGN_METHODS
+    from ..uq.design.core import VERIFY_METHODS
+    from ..uq.design.expression import CostExpression
+    from ..uq.design.space import BASES, KINDS, SENSES
+
+    if table is None or (isinstance(table, Mapping) and not table):
+        return None
+    t = c.table("design", table, "a table with variables, cost and constraints")
+    c.keys("design", t, _DESIGN + tuple(DESIGN_METHODS), required=("variables", "cost",
+                                                                    "constraints"),
+           what="[design]")
+    variables = {}
+    vt = c.table("design.variables", t["variables"], "[design.variables.NAME] tables")
+    if not vt:
+        c.fail("design.variables", vt, "no design variable", "[design.variables.NAME] tables "
+               "with kind, input (or paths for kind 'scene'), lower and upper")
+    for name, spec in vt.items():
+        where = join("design.variables", name)
+        if not str(name).isidentifier():
+            c.fail(where, name, "not a name usable in the cost expression", "letters, digits "
+                   "and _, not starting with a digit")
+        spec = c.table(where, spec, "a table with kind, input, lower, upper and start")
+        c.keys(where, spec, _DESIGN_VARIABLE, required=("kind", "lower", "upper"),
+               what="a design variable")
+        kind = c.choice(join(where, "kind"), spec["kind"], KINDS)
+        v = {"kind": kind, "lower": c.number(join(where, "lower"), spec["lower"]),
+             "upper": c.number(join(where, "upper"), spec["upper"])}
+        if not v["upper"] > v["lower"]:
+            c.fail(join(where, "upper"), spec["upper"], f"not above lower ({v['lower']!r})",
+                   "upper > lower")
+        if "start" in spec:
+            v["start"] = c.number(join(where, "start"), spec["start"], ge=v["lower"],
+                                  le=v["upper"])
+        if kind == "scene":
+            if "input" in spec or "paths" not in spec:
+                c.fail(join(where, "paths" if "paths" not in spec else "input"),
+                       spec.get("input", _MISSING), "a scene variable sets scene values, not an "
+                       "uncertain input", "paths = [dotted scene paths] (e.g. "
+                       "[\"joints.C1.lubricant.viscosity\"]) and no input")
+            paths = spec["paths"]
+            if isinstance(paths, str):
+                paths = [paths]
+            if not isinstance(paths, list) or not paths or \
+                    not all(isinstance(p, str) and p for p in paths):
+                c.fail(join(where, "paths"), spec["paths"], "not a list of scene paths",
+                       "a non-empty list of dotted scene paths")
+            if name in inputs:
+                c.fail(where, name, "the name of an uncertain input", "a name of its own for a "
+                       "scene variable")
+            v["paths"] = tuple(paths)
+            v["input"] = str(name)
+        else:
+            if "paths" in spec:
+                c.fail(join(where, "paths"), spec["paths"], f"kind {kind!r} sets an uncertain "
+                       "input's distribution, not scene paths", "input = NAME of [inputs.NAME]")
+            if "input" not in spec:
+                c.fail(join(where, "input"), _MISSING, "missing required field",
+                       "the name of an uncertain input: " + ", ".join(inputs))
+            v["input"] = c.choice(join(where, "input"), spec["input"], tuple(inputs))
+        variables[str(name)] = v
+    try:
+        cost = CostExpression(t["cost"], tuple(variables), where="design.cost").text
+    except StudyError as exc:
+        c.fail("design.cost", t["cost"], str(exc).split(": ", 1)[1].split("; allowed: ")[0],
+               str(exc).partition("; allowed: ")[2])
+    cons = t["constraints"]
+    if isinstance(cons, (int, float)) and not isinstance(cons, bool):
+        cons = [{"reliability": cons}]
+    if isinstance(cons, Mapping):
+        cons = [cons]
+    if not isinstance(cons, list) or not cons:
+        c.fail("design.constraints", cons, "no constraint", "a target reliability, or "
+               "[[design.constraints]] tables with reliability, quantity and basis")
+    constraints = []
+    for i, con in enumerate(cons):
+        where = f"design.constraints[{i}]"
+        con = c.table(where, con, "a table with reliability, quantity and basis")
+        c.keys(where, con, ("reliability", "quantity", "basis"), required=("reliability",),
+               what="a constraint")
+        constraints.append({
+            "reliability": c.fraction(join(where, "reliability"), con["reliability"],
+                                      open_lo=True, open_hi=True),
+            "quantity": c.string(join(where, "quantity"), con.get("quantity", "all")),
+            "basis": c.choice(join(where, "basis"), con.get("basis", "whole-cycle"), BASES)})
+    method = c.choice("design.method", t.get("method", "ak"), tuple(DESIGN_METHODS))
+    settings = {}
+    for key, entry in DESIGN_METHODS.items():
+        st = c.table(join("design", key), t.get(key, {}),
+                     f"a table of {entry.name} settings: " + ", ".join(entry.settings))
+        known = {k: v for k, v in entry.settings.items() if v.check is not None}
+        c.keys(join("design", key), st, tuple(known), what=f"[design.{key}] ({entry.name})")
+        given = {}
+        for k, v in st.items():
+            try:
+                given[k] = known[k].check(join(join("design", key), k), v)
+            except StudyError as exc:
+                c.fail(join(join("design", key), k), v, f"not a valid {entry.name} setting "
+                       f"({known[k].doc})", str(exc).partition("; allowed: ")[2] or None)
+        settings[key] = given
+    verify = t.get("verify", "auto")
+    if isinstance(verify, str):
+        verify = {"method": verify}
+    verify = dict(c.table("design.verify", verify, "a method name or a table with method, n, "
+                          "n_per_level, p0"))
+    c.keys("design.verify", verify, _VERIFY, what="[design.verify]")
+    if "method" in verify:
+        verify["method"] = c.choice("design.verify.method", verify["method"], VERIFY_METHODS)
+    if "n" in verify:
+        verify["n"] = c.sample_count("design.verify.n", verify["n"])
+    return {"variables": variables, "cost": cost,
+            "sense": c.choice("design.sense", t.get("sense", "minimize"), SENSES),
+            "constraints": constraints, "method": method, "settings": settings,
+            "verify": verify,
+            "tradeoff": c.integer("design.tradeoff", t.get("tradeoff", 7), ge=0),
+            "seed": c.seed("design.seed", t.get("seed")),
+            "max_failure_fraction": c.fraction("design.max_failure_fraction",
+                                               t.get("max_failure_fraction", 0.1))}
+
+
 def load_study(source, *, overrides: Mapping[str, Any] | None = None,
                scene_overrides: Mapping[str, Any] | None = None) -> Study:
     """Load and validate a study.
@@ -560,6 +696,7 @@ def load_study(source, *, overrides: Mapping[str, Any] | None = None,
         reference=c.choice("reference", raw.get("reference", "nominal"), REFERENCES),
         method_settings=_method_settings(c, raw),
         inverse=_inverse(c, raw.get("inverse", {})),
+        design=_design(c, raw.get("design"), specs),
         source=label)
     try:  # the distributions, checked by chaospy/scipy with the input's name
         study.uncertain_inputs()

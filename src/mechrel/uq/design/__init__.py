@@ -108,8 +108,8 @@ for _m in (
            "design.core:DesignEstimate", "design",
            "Kriging of the cycle extremes in the model's input space, learnt where the current "
            "optimum's constraints are decided (common random numbers across designs)",
-           {"n_initial": Setting(None, None, "model runs of the initial design (default "
-                                             "max(10, 2 (dimension + 2)))"),
+           {"n_initial": Setting(None, _count(3, "model runs"), "model runs of the initial "
+                                 "design (default max(10, 2 (inputs + design variables + 2)))"),
             "batch_size": Setting(2, _count(1, "model runs per iteration"),
                                   "model runs per iteration"),
             "max_evaluations": Setting(200, _count(2, "a model-run budget"),
@@ -131,7 +131,8 @@ for _m in (
            "numbers), the constraint from its order statistics",
            {"n": Setting(10_000, _count(2, "a sample count"), "samples per design"),
             "rule": Setting("random", _rule, "sampling rule"),
-            "max_designs": Setting(None, None, "designs the optimiser may try")},
+            "max_designs": Setting(None, _count(1, "a design count"),
+                                   "designs the optimiser may try")},
            short="mc"),
 ):
     register_design(_m)

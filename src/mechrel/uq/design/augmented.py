@@ -307,8 +307,8 @@ def design_active_learning(*, problem, seed, confidence_level: float, failures: 
         As passed by :func:`~mechrel.uq.design_for_reliability` (``failures`` must be
         ``"exclude"``: a failed run has no margin to learn).
     n_initial : int, optional
-        Model runs of the initial design; default max(10, 2 (dimension + 2)), the dimension
-        being the model's inputs plus the design variables.
+        Model runs of the initial design; default max(10, 2 (d + m + 2)), d the model's
+        inputs and m the design variables.
     batch_size : int, default 2
         Model runs per iteration (one executor call: ``n_jobs`` workers run them at once).
     max_evaluations : int, default 200
