@@ -47,8 +47,7 @@ __all__ = ["CostExpression", "FUNCTIONS"]
 FUNCTIONS: Mapping[str, int | None] = {"sqrt": 1, "log": 1, "exp": 1, "abs": 1, "min": None,
                                        "max": None}
 
-_BINARY = {ast.Add: "+", ast.Sub: "-", ast.Mult: "*", ast.Div: "/", ast.Pow: "**",
-           ast.BitXor: "**"}
+_BINARY = {ast.Add: "+", ast.Sub: "-", ast.Mult: "*", ast.Div: "/", ast.Pow: "**"}
 _UNARY = {ast.USub: "neg", ast.UAdd: "pos"}
 _ALLOWED = ("numbers, the design variables {names}, + - * / ** (or ^), unary -, parentheses "
             "and the functions " + ", ".join(f"{f}()" for f in FUNCTIONS))
@@ -166,6 +165,8 @@ class CostExpression:
     >>> c = CostExpression("2/crank + 1/rod**2", ["crank", "rod"])
     >>> float(c({"crank": 0.5, "rod": 2.0})), sorted(c.variables)
     (4.25, ['crank', 'rod'])
+    >>> CostExpression("rod^2 - 1", ["rod"])({"rod": 3.0})     # ^ is a power, as in **
+    8.0
     >>> CostExpression("__import__('os')", ["t"])
     Traceback (most recent call last):
     ...
@@ -183,7 +184,9 @@ class CostExpression:
             raise StudyError(f"{where} = {text!r}: not an expression; allowed: "
                              + _ALLOWED.format(names="(" + ", ".join(names) + ")"))
         try:
-            node = ast.parse(text.strip(), mode="eval")
+            # ``^`` is read as ``**`` before parsing, so that it binds as a power does
+            # (Python's ``^`` would bind below + and −: b^2 − 1 would be b^(2 − 1))
+            node = ast.parse(text.strip().replace("^", "**"), mode="eval")
         except SyntaxError as exc:
             raise _fail(where, text, f"not an expression ({exc.msg})", names) from None
         object.__setattr__(self, "text", text)
