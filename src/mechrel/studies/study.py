@@ -79,8 +79,9 @@ def study_settings(method) -> dict:
 
     Examples
     --------
-    >>> sorted(study_settings(study_methods()["sorm"]))
-    ['curvature_step', 'formula', 'max_iter', 'scheme', 'step', 'tol']
+    >>> sorted(study_settings(study_methods()["sorm"]))  # doctest: +NORMALIZE_WHITESPACE
+    ['contribution', 'curvature_step', 'formula', 'max_design_points', 'max_iter', 'scheme',
+     'search', 'step', 'tol']
     """
     return {k: s for k, s in method.settings.items() if s.check is not None}
 

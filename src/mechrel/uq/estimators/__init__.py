@@ -179,7 +179,7 @@ class Method:
         Examples
         --------
         >>> sorted(METHODS["form"].settings)
-        ['max_iter', 'scheme', 'start', 'step', 'tol', 'tol_direction']
+        ['contribution', 'max_design_points', 'max_iter', 'scheme', 'search', 'start', 'step', 'tol', 'tol_direction']
         """
         if self.declared_settings is not None:
             return MappingProxyType(dict(self.declared_settings))
@@ -214,7 +214,7 @@ class Method:
         >>> METHODS["form"].validate({"iterations": 5})
         Traceback (most recent call last):
         ...
-        mechrel.errors.StudyError: form: settings ['iterations']: unknown; allowed: ['max_iter', 'scheme', 'start', 'step', 'tol', 'tol_direction']
+        mechrel.errors.StudyError: form: settings ['iterations']: unknown; allowed: ['contribution', 'max_design_points', 'max_iter', 'scheme', 'search', 'start', 'step', 'tol', 'tol_direction']
         """
         given = dict(settings or {})
         known = self.settings
