@@ -264,10 +264,9 @@ def _slot_span(scene: Scene, joint, Q: np.ndarray, margin: float) -> tuple[float
     ``margin`` at each end."""
     origin, u = _line_frame(scene, joint, Q)
     pos = point_positions(scene, Q)
-    along = [np.einsum("ij,ij->i", pos[str(joint.points[0])] - origin, u)]
-    for name in scene.bodies[joint.points[1].body].points:
-        along.append(np.einsum("ij,ij->i", pos[f"{joint.points[1].body}.{name}"] - origin, u))
-    along = np.concatenate(along)
+    body = joint.points[1].body
+    points = [str(joint.points[0])] + [f"{body}.{name}" for name in scene.bodies[body].points]
+    along = np.concatenate([np.einsum("ij,ij->i", pos[p] - origin, u) for p in points])
     return float(along.min()) - margin, float(along.max()) + margin
 
 
@@ -558,7 +557,7 @@ def animation_output(scene: Scene, output: str | None = None,
     from ..outputs import quantities_of
 
     output = output if output is not None else next(iter(scene.outputs), None)
-    if output not in scene.outputs:
+    if output is None or output not in scene.outputs:
         raise MechrelError(f"animate: output = {output!r}: not an output of scene "
                            f"{scene.name!r}; allowed: {', '.join(scene.outputs) or 'none'}")
     kinds = quantities_of(scene.outputs[output])
