@@ -347,3 +347,26 @@ def test_the_accuracy_study_measures_every_kind(kind):
     assert list(_curves(res, "o")) == [q.name for q in OUTPUT_KINDS[kind].quantities]
     run = run_ensemble(perturbed_scenes(scene, 2), "dopri5", {"rtol": 1e-6, "atol": 1e-9})
     assert run.statistics.shape == (2, len(OUTPUT_KINDS[kind].quantities), 3)
+
+
+def test_a_path_against_a_reference_design_is_its_distance_from_the_reference_path():
+    # an ideal four-bar with a longer crank against the nominal design: the coupler point's
+    # path deviation is its distance from the nominal path (it read 0, the deviation of a point
+    # from its own path, so a study of path tolerances on an ideal mechanism found nothing)
+    from mechrel.outputs import distance_to_path, ideal_path
+    over = {"joints.A.model": "ideal", "joints.B.model": "ideal",
+            "outputs.curve": EXAMPLES["path"], "outputs.mx": {"point": "coupler.M",
+                                                              "axis": [1.0, 0.0]},
+            "outputs.my": {"point": "coupler.M", "axis": [0.0, 1.0]}, **COUPLER_M}
+    nominal = load_scene("four-bar", overrides=over)
+    longer = load_scene("four-bar", overrides={**over, "bodies.crank.length(O,A)": 0.0502})
+    res = simulate(longer, reference=nominal, extremes=True)
+    mx, my = res.outputs["mx"]["displacement"], res.outputs["my"]["displacement"]
+    path = ideal_path(nominal, nominal.outputs["curve"].point)
+    dev = res.outputs["curve"]["path_deviation"]
+    assert np.array_equal(dev, distance_to_path(mx, my, path))
+    assert 1e-5 < dev.max() < 1e-3  # 0.2 mm longer crank: the curve moves by a fraction of it
+    assert np.array_equal(res.error("curve", "path_deviation"), dev)  # the reference's is 0
+    assert res.extremes["curve"]["path_deviation"]["max_abs"] >= dev[-361:].max() - 1e-12
+    # without a reference the ideal point lies on its own path
+    assert np.all(simulate(nominal).outputs["curve"]["path_deviation"] == 0.0)

@@ -56,9 +56,13 @@ def test_a_scene_from_joint_positions_is_the_same_mechanism():
     exact = load_scene("slider-crank")
     placed = load_scene(_slider_crank_from_positions())
     for name, body in placed.bodies.items():
-        # the body frame: points relative to the centre of mass (one subtraction each)
+        # the body frame at angle 0: each point is g − position, one rounded subtraction; the
+        # decimal literals of the two forms then differ by the binary representation errors of
+        # g and position (≤ ulp/2 each: 1.4e-17 at 0.17, 7e-18 at 0.11) and that rounding
         for p, s in body.points.items():
-            assert s == pytest.approx(exact.bodies[name].points[p], abs=1e-17)
+            g, c = body.global_points[p], body.position
+            assert s == (g[0] - c[0], g[1] - c[1])
+            assert s == pytest.approx(exact.bodies[name].points[p], abs=3e-17)
         assert body.global_points is not None and exact.bodies[name].global_points is None
     a, b = simulate(exact), simulate(placed)
     for q in ("displacement", "velocity", "acceleration"):
@@ -104,8 +108,8 @@ def test_a_frame_at_an_angle():
     raw["drivers"]["crank"]["angle0"] = th
     raw["outputs"]["crank"] = {"kind": "body", "body": "crank"}
     scene = load_scene(raw)
-    for p, x in (("O", -0.025), ("A", 0.025)):
-        assert scene.bodies["crank"].points[p] == pytest.approx((x, 0.0), abs=1e-17)
+    for p, x in (("O", -0.025), ("A", 0.025)):  # a rotation: a few ulps of 0.025 (3.5e-18)
+        assert scene.bodies["crank"].points[p] == pytest.approx((x, 0.0), abs=2e-17)
     c = compile_scene(scene)
     q, _ = assemble(c.ideal, c.q_guess, 0.0)
     assert q[:3] == pytest.approx([0.02, 0.015, th], abs=1e-12)
