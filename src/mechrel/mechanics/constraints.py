@@ -29,7 +29,7 @@ from numba import njit
 
 from .borrow import borrowed
 from .drivers import driver_law
-from .joints import _rot, body_trig, point_state
+from .joints import _rot, body_trig
 
 
 @njit(cache=True)
@@ -144,12 +144,17 @@ def constraints(q, t, sys):
         # (A_j n̄)·(r_P − r_Q): P = r_i + A_i s_i on the line through Q = r_j + A_j s_j
         i = sys.ln_i[k]
         j = sys.ln_j[k]
-        px, py, _, _ = point_state(q, q, i, sys.ln_si[k, 0], sys.ln_si[k, 1])
-        qx, qy, _, _ = point_state(q, q, j, sys.ln_sj[k, 0], sys.ln_sj[k, 1])
-        nx, ny, _, _ = _rot(q[3 * j + 2] if j >= 0 else 0.0, sys.ln_n[k, 0], sys.ln_n[k, 1])
+        ax, ay, _, _ = _rot(q[3 * i + 2] if i >= 0 else 0.0, sys.ln_si[k, 0], sys.ln_si[k, 1])
+        px = ax + (q[3 * i] if i >= 0 else 0.0)  # a ground point's s is global
+        py = ay + (q[3 * i + 1] if i >= 0 else 0.0)
+        th = q[3 * j + 2] if j >= 0 else 0.0
+        qx, qy, _, _ = _rot(th, sys.ln_sj[k, 0], sys.ln_sj[k, 1])
+        if j >= 0:
+            qx += q[3 * j]
+            qy += q[3 * j + 1]
+        nx, ny, _, _ = _rot(th, sys.ln_n[k, 0], sys.ln_n[k, 1])
         phi[r] = nx * (px - qx) + ny * (py - qy)
         if i >= 0:
-            ax, ay, _, _ = _rot(q[3 * i + 2], sys.ln_si[k, 0], sys.ln_si[k, 1])
             J[r, 3 * i] = nx
             J[r, 3 * i + 1] = ny
             J[r, 3 * i + 2] = ny * ax - nx * ay  # n·(B_i s_i)

@@ -3,8 +3,10 @@
 Most machines are built from the cranks their motors turn and, added one after another,
 groups of two links whose two outer joints are already placed: Assur groups of class II
 (Artobolevsky 1977, ch. 2). Such a group's inner joint is where two circles meet (the RRR
-dyad: two links pinned to placed points and to each other) or where a circle meets a line (the
-RRP dyad: a link and a slider on a fixed guide). Its position is then a closed form with one
+dyad: two links pinned to placed points and to each other), where a circle meets a line (the
+RRP dyad: a link and a slider on a fixed guide), or it is a slider on a turning link (the RPR
+dyad: a link pivoted at a placed point whose line must pass through a placed pin or a block
+pinned at a placed point: a Whitworth quick-return, a slotted lever, a hydraulic cylinder). Its position is then a closed form with one
 square root, and its velocity and acceleration two linear equations each, so the kinematic
 analysis needs no Newton iteration and no factorisation of Φ_q (Hartenberg & Denavit 1964,
 ch. 8; Nikravesh 1988, §5.5 calls these "kinematic modules").
@@ -13,7 +15,8 @@ ch. 8; Nikravesh 1988, §5.5 calls these "kinematic modules").
 (the points where revolute joints pin bodies together: a body point and every point pinned to
 it, transitively, are one node; the ground's points are placed) and finds an order of steps
 that places every body, or returns None when the mechanism is not built that way (a class-III
-group, a slider guided by a moving body, a prescribed offset in a revolute joint). The steps:
+group, a slider on a moving body other than the RPR dyad's, a prescribed offset in a revolute
+joint). The steps:
 
 ``POSE_ANGLE``
     a body whose angle is known (a driver, a fixed angle) and one of whose nodes is placed;
@@ -36,8 +39,18 @@ group, a slider guided by a moving body, a prescribed offset in a revolute joint
     around those nodes meet at ``N = N₁ + (a/L) D ± (h/L) D⊥`` with ``D = N₂ − N₁``,
     ``a = (d₁² − d₂² + L²)/(2L)``, ``h = √(d₁² − a²)``;
 ``CIRCLE_LINE``
-    a node that an unplaced body (one other node placed) shares with a slider on a fixed line:
-    ``N = P₀ + (w·u ± √(d₁² − (u × w)²)) u`` with ``w = N₁ − P₀``.
+    a node that an unplaced body (one other node placed) shares with a slider on a fixed line,
+    or the pin of a pin-in-slot joint in a ground slot:
+    ``N = P₀ + (w·u ± √(d₁² − (u × w)²)) u`` with ``w = N₁ − P₀``;
+``TURN``
+    an unplaced body *j* with one placed node ``N₁`` whose line (a translational or pin-in-slot
+    joint's, unit normal ``n = A_j n̄``) must pass through a placed pin ``N₂`` (pin in slot),
+    or through the sliding point of a block with one placed node ``N₂`` whose angle is *j*'s
+    plus the joint's (translational): ``n·w = h`` with ``w = N₂ − N₁`` and ``h`` constant
+    (the line's offset from ``N₁``, less the sliding point's from ``N₂``), so
+    ``n = (h w ± √(|w|² − h²) w⊥)/|w|²``; the block is then posed by ``POSE_ANGLE`` with its
+    angle ``ANGLE_RELATIVE`` to *j*'s. Velocity ``ω = −n·ẇ/(n × w)``, acceleration
+    ``α = −(n·ẅ + 2 ω n × ẇ − ω² n·w)/(n × w)`` (docs/mechanics.md).
 
 Each step that builds a node is followed by placing the bodies it used, so every constraint
 equation is used exactly once. A free coordinate is taken only when the construction is
@@ -87,10 +100,12 @@ class Construction(NamedTuple):
     op : ndarray of int, shape (n_steps, 9)
         One row per step, ``(code, a, b, c, d, j1, s1, j2, s2)``:
 
-        - ``POSE_ANGLE``: body, node, angle source (``ANGLE_DRIVER``, ``ANGLE_CONSTANT`` or
-          ``ANGLE_FREE``), the row of the angle in the passes' ``drv`` array (the drivers
-          first, then the free coordinates), and for ``ANGLE_FREE`` the free coordinate's
+        - ``POSE_ANGLE``: body, node, angle source (``ANGLE_DRIVER``, ``ANGLE_CONSTANT``,
+          ``ANGLE_FREE`` or ``ANGLE_RELATIVE``), the row of the angle in the passes' ``drv``
+          array (the drivers first, then the free coordinates) or, for ``ANGLE_RELATIVE``,
+          the body whose angle it adds to, and for ``ANGLE_FREE`` the free coordinate's
           index (in column 5);
+        - ``TURN``: body, its placed node, the placed pin or block node, branch slot;
         - ``POSE_TWO``: body, node 1, node 2;
         - ``LOCATE``: node, body;
         - ``OFFSET``: node, node 1, clearance joint, sign: the node is node 1 plus sign × the
@@ -106,11 +121,12 @@ class Construction(NamedTuple):
         that makes the circle.
     par : ndarray, shape (n_steps, 5)
         The step's numbers (m, rad; unused entries zero): ``POSE_ANGLE`` the node in the
-        body's frame and the constant angle; ``POSE_TWO`` node 1 in the body's frame and the
-        angle φ₀ of node 1 → node 2 in it; ``LOCATE`` the node in the body's frame; ``CIRCLES``
-        the radii d₁, d₂ around nodes 1 and 2; ``CIRCLE_LINE`` the radius d₁, a point P₀ of
-        the line and its unit direction u; ``SLIDE`` the node's position P₀ at ``s = 0`` and
-        the line's unit direction u (columns 0–3).
+        body's frame and the constant (or relative) angle; ``POSE_TWO`` node 1 in the body's
+        frame and the angle φ₀ of node 1 → node 2 in it; ``LOCATE`` the node in the body's
+        frame; ``CIRCLES`` the radii d₁, d₂ around nodes 1 and 2; ``CIRCLE_LINE`` the radius
+        d₁, a point P₀ of the line and its unit direction u; ``SLIDE`` the node's position P₀
+        at ``s = 0`` and the line's unit direction u (columns 0–3); ``TURN`` the placed node
+        in the body's frame, h and the line's unit normal n̄ in the body's frame.
     node_body : ndarray of int, shape (n_nodes,)
         A body each node is a point of (−1: the ground).
     node_s : ndarray, shape (n_nodes, 2)
@@ -120,7 +136,7 @@ class Construction(NamedTuple):
         Each clearance joint's bearing node and journal node (a mechanism with clearance
         joints as force elements, ``compiled.dynamic``; empty for an ideal one).
     n_branches : int
-        The number of square roots (``CIRCLES`` and ``CIRCLE_LINE`` steps).
+        The number of square roots (``CIRCLES``, ``CIRCLE_LINE`` and ``TURN`` steps).
     n_free : int
         The number of free coordinates: free angles (``POSE_ANGLE`` steps with
         ``ANGLE_FREE``) and free positions (``SLIDE`` steps), the mechanism's undriven
@@ -312,6 +328,11 @@ def _plan(nb, rev_i, rev_j, rev_si, rev_sj, tr_i, tr_si, tr_p0, tr_n, tr_angle, 
         s1, s2 = on_body[b][n1], on_body[b][n2]
         return math.hypot(s2[0] - s1[0], s2[1] - s1[1])
 
+    def one_placed(b):
+        """Body b's placed node, if it has exactly one (else None)."""
+        here = [n for n in on_body[b] if n in placed]
+        return here[0] if len(here) == 1 else None
+
     def turn(k):
         """The RPR group of ride k, if it can be placed now: its line body j turns about
         its one placed node N₁ until the line passes through the placed pin (pin in slot)
@@ -321,10 +342,9 @@ def _plan(nb, rev_i, rev_j, rev_si, rev_sj, tr_i, tr_si, tr_p0, tr_n, tr_angle, 
         i, si, j, sj, nbar, rel = rides[k]
         if j < 0 or j in posed or j in angle or j == i:
             return False
-        here = [n for n in on_body[j] if n in placed]
-        if len(here) != 1:
+        n1 = one_placed(j)
+        if n1 is None:
             return False
-        n1 = here[0]
         s1 = on_body[j][n1]
         h = nbar[0] * (sj[0] - s1[0]) + nbar[1] * (sj[1] - s1[1])  # n̄·(s_Q − s₁)
         if rel is None:
@@ -334,10 +354,9 @@ def _plan(nb, rev_i, rev_j, rev_si, rev_sj, tr_i, tr_si, tr_p0, tr_n, tr_angle, 
         else:
             if i < 0 or i in posed or i in angle:
                 return False
-            there = [n for n in on_body[i] if n in placed]
-            if len(there) != 1:
+            n2 = one_placed(i)
+            if n2 is None:
                 return False
-            n2 = there[0]
             s2 = on_body[i][n2]
             c, sn_ = math.cos(rel), math.sin(rel)
             dx, dy = si[0] - s2[0], si[1] - s2[1]  # the sliding point from N₂, block frame
@@ -473,7 +492,8 @@ def construction(system) -> Construction | None:
     -------
     Construction or None
         None when the mechanism is not built of driven or fixed-angle bodies and class-II
-        groups (two circles, a circle and a fixed line), when a revolute joint holds a
+        groups (two circles, a circle and a fixed line, a line turning through a placed pin
+        or block), when a revolute joint holds a
         prescribed offset, when some constraint would be left unused (a closed loop the
         order does not solve, a redundant constraint), when a clearance joint's
         eccentricity is not free (both its points placed by other joints), or when the
@@ -488,7 +508,8 @@ def construction(system) -> Construction | None:
     >>> from mechrel.mechanics.system import compile_scene
     >>> from mechrel.scene import load_scene
     >>> plan = construction(compile_scene(load_scene("slider-crank")).ideal)
-    >>> names = ("POSE_ANGLE", "POSE_TWO", "LOCATE", "CIRCLES", "CIRCLE_LINE", "OFFSET")
+    >>> names = ("POSE_ANGLE", "POSE_TWO", "LOCATE", "CIRCLES", "CIRCLE_LINE", "OFFSET",
+    ...          "SLIDE", "TURN")
     >>> [names[c] for c in plan.op[:, 0]]
     ['POSE_ANGLE', 'LOCATE', 'CIRCLE_LINE', 'POSE_TWO', 'POSE_ANGLE']
 
@@ -505,6 +526,15 @@ def construction(system) -> Construction | None:
     >>> plan = construction(compile_scene(load_scene("double-pendulum")).ideal)
     >>> [names[c] for c in plan.op[:, 0]], plan.n_free, plan.op[[0, 2], 3:6].tolist()
     (['POSE_ANGLE', 'LOCATE', 'POSE_ANGLE'], 2, [[2, 0, 0], [2, 1, 1]])
+
+    The Whitworth: the crank, then its pin; the lever turns about its pivot until its slot
+    passes through the block on the pin (the block at the lever's angle); the ram where the
+    rod's circle meets its guide:
+
+    >>> plan = construction(compile_scene(load_scene("whitworth")).ideal)
+    >>> [names[c] for c in plan.op[:, 0]]  # doctest: +NORMALIZE_WHITESPACE
+    ['POSE_ANGLE', 'LOCATE', 'TURN', 'LOCATE', 'POSE_ANGLE', 'CIRCLE_LINE', 'POSE_TWO',
+     'POSE_ANGLE']
     """
     s = system
     if np.any(s.rev_off != 0.0) or np.any(s.rev_offdot != 0.0):
