@@ -6,10 +6,11 @@ groups of two links whose two outer joints are already placed: Assur groups of c
 dyad: two links pinned to placed points and to each other), where a circle meets a line (the
 RRP dyad: a link and a slider on a fixed guide), or it is a slider on a turning link (the RPR
 dyad: a link pivoted at a placed point whose line must pass through a placed pin or a block
-pinned at a placed point: a Whitworth quick-return, a slotted lever, a hydraulic cylinder). Its position is then a closed form with one
-square root, and its velocity and acceleration two linear equations each, so the kinematic
-analysis needs no Newton iteration and no factorisation of Φ_q (Hartenberg & Denavit 1964,
-ch. 8; Nikravesh 1988, §5.5 calls these "kinematic modules").
+pinned at a placed point: a Whitworth quick-return, a slotted lever, a hydraulic cylinder).
+Its position is then a closed form with one square root, and its velocity and acceleration
+two linear equations each, so the kinematic analysis needs no Newton iteration and no
+factorisation of Φ_q (Hartenberg & Denavit 1964, ch. 8; Nikravesh 1988, §5.5 calls these
+"kinematic modules").
 
 :func:`construction` reads a :class:`~mechrel.mechanics.system.System` as a graph of *nodes*
 (the points where revolute joints pin bodies together: a body point and every point pinned to
