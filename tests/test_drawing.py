@@ -157,7 +157,9 @@ def test_animate_errors(monkeypatch):
     with pytest.raises(MechrelError, match="output = 'rocker': not an output of scene "
                                            "'slider-crank'; allowed: slider"):
         drawing.animate(res, output="rocker")
-    with pytest.raises(MechrelError, match="quantity = 'jerk': unknown; allowed: displacement"):
+    with pytest.raises(MechrelError, match=r"quantity = 'jerk': not a quantity of output "
+                       r"'slider' \(kind 'point'\); allowed: displacement, velocity, "
+                       r"acceleration"):
         drawing.animate(res, quantity="jerk")
     with pytest.raises(MechrelError, match="frames = 1: too few; allowed: an integer >= 2"):
         drawing.animate(res, frames=1)

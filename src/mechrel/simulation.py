@@ -946,7 +946,11 @@ def _simulate(scene: Scene, *, reference: Scene | None, method: str, integrator:
     if driven and (has_clearance or method in ("auto", "kinematics")):
         Qi, Vi, Ai, viol_i = kinematic_analysis(compiled.ideal, q0, times, tol=tol,
                                                 labels=compiled.labels["ideal"])
-        ideal = _outputs(scene, compiled, times, Qi, Vi, Ai, ideal=True)
+        # against a reference design, the scene's ideal mechanism is not the one the errors
+        # are measured against: its outputs by their formulas (a path output's distance from
+        # the reference's path, not the 0 of a point on its own path)
+        ideal = _outputs(scene, compiled, times, Qi, Vi, Ai, ideal=reference is None,
+                         counterpart=reference)
     # the ideal counterpart the errors are measured against: the reference design's, or the
     # scene's own ideal mechanism
     counterpart = ideal if reference is None else _reference_outputs(reference, times, scene)
@@ -964,7 +968,7 @@ def _simulate(scene: Scene, *, reference: Scene | None, method: str, integrator:
             m = lead.size
             ext, sec = _extremes_of(scene, compiled, T,
                                     _outputs(scene, compiled, T, Qf[m:], Vf[m:], Af[m:],
-                                             ideal=True),
+                                             ideal=reference is None, counterpart=reference),
                                     _ideal_at(scene, compiled, reference, q0, solver, T, lead),
                                     sectors)
         wall = time.perf_counter() - start

@@ -38,13 +38,14 @@ def _cmd_animate(args) -> int:
 
     matplotlib.use("Agg")
     from .._kernel_cache import warm_up
-    from ..io.drawing import animate, check_animation_path, save_animation
+    from ..io.drawing import animate, animation_output, check_animation_path, save_animation
     from ..scene import load_scene
     from ..simulation import simulate
     from .simulate import _summary_lines
 
     scene = load_scene(args.scene, overrides=args.overrides)
     check_animation_path(args.out)  # before the simulation, not after it
+    animation_output(scene, args.output, args.quantity)
     warm_up(scene, progress=not args.no_progress)  # announces a cold cache's compilation
     result = simulate(scene, progress=not args.no_progress)
     print("\n".join(_summary_lines(result)))
@@ -113,9 +114,10 @@ def register_animate(sub) -> None:
     p.add_argument("--frames", type=int, default=120, help="number of frames (default 120)")
     p.add_argument("--fps", type=int, default=20, help="frames per second (default 20)")
     p.add_argument("--output", help="output whose error is traced (default: the first)")
-    p.add_argument("--quantity", default="displacement",
-                   choices=("displacement", "velocity", "acceleration"),
-                   help="which error of the output (default displacement)")
+    p.add_argument("--quantity",
+                   help="which error of the output: one of its kind's quantities (a point's "
+                        "displacement, velocity, acceleration; a body's angle, ...; default: "
+                        "the first)")
     p.add_argument("--magnify", type=float, help="draw a clearance circle of radius c with "
                                                  "radius MAGNIFY·c (default: 8 %% of the "
                                                  "mechanism's size)")

@@ -30,6 +30,7 @@ from .model import (
 )
 
 COINCIDENT_TOL = 1e-9  # m: two joint points closer than this on one body form a zero-length link
+_LINE_JOINTS = ("translational", "pin-in-slot")  # a point on a line of another body
 
 
 class Checker(_Checker):
@@ -45,6 +46,16 @@ class Checker(_Checker):
 
 
 # ----------------------------------------------------------------------------- builder
+
+def _to_body_frame(g, position, angle) -> tuple[float, float]:
+    """A point given in ground coordinates at the initial configuration, ``g``, in the frame of
+    a body whose centre of mass is at ``position`` with angle ``angle`` there:
+    ``s = A(angle)ᵀ (g − position)`` (m); for angle 0 (cos 1, sin 0 exactly) simply
+    ``g − position``."""
+    dx, dy = g[0] - position[0], g[1] - position[1]
+    c, sn = math.cos(angle), math.sin(angle)
+    return (c * dx + sn * dy, -sn * dx + c * dy)
+
 
 _REQUIRED_HINTS = {
     "name": "a string naming the scene",
@@ -125,13 +136,25 @@ class _Builder(Checker):
                           "any other identifier (letters, digits and underscores, no dots)")
             self.table(p, b)
             self.keys(p, b, BODY_KEYS, required=("mass", "inertia", "position"), what="a body")
+            position = self.vec2(p + ".position", b["position"], unit="m")
+            angle = self.number(p + ".angle", b.get("angle", 0.0), unit="rad")
+            placed = None
+            if "global_points" in b:
+                if "points" in b:
+                    self.fail(p, {"points": b["points"], "global_points": b["global_points"]},
+                              "both points and global_points are given",
+                              "exactly one of points (body frame, m) or global_points (ground "
+                              "coordinates at the initial configuration, m)")
+                placed = self._points(p + ".global_points", b["global_points"], "point")
+                points = {k: _to_body_frame(v, position, angle) for k, v in placed.items()}
+            else:
+                points = self._points(p + ".points", b.get("points", {}), "point")
             out[name] = Body(
                 name=name,
                 mass=self.number(p + ".mass", b["mass"], gt=0, unit="kg"),
                 inertia=self.number(p + ".inertia", b["inertia"], gt=0, unit="kg m^2"),
-                position=self.vec2(p + ".position", b["position"], unit="m"),
-                angle=self.number(p + ".angle", b.get("angle", 0.0), unit="rad"),
-                points=MappingProxyType(self._points(p + ".points", b.get("points", {}), "point")),
+                position=position, angle=angle, points=MappingProxyType(points),
+                global_points=None if placed is None else MappingProxyType(placed),
             )
         return out
 
@@ -185,8 +208,11 @@ class _Builder(Checker):
                 self.fail(p + ".type", _MISSING, "missing required field", _one_of(JOINT_TYPES))
             jtype = self.choice(p + ".type", j["type"], JOINT_TYPES)
             what = f"a {jtype} joint"
-            required = ("type", "connects") + (("direction", "angle") if jtype == "translational"
-                                               else ("angle",) if jtype == "fixed-angle" else ())
+            required = ("type", "connects") + {"translational": ("direction", "angle"),
+                                               "pin-in-slot": ("direction",),
+                                               "fixed-angle": ("angle",)}.get(jtype, ())
+            if jtype in _LINE_JOINTS:
+                self._no_clearance(p, j, jtype)
             hints = {k: f" ('{k}' belongs to "
                         f"{' or '.join(t for t, ks in JOINT_KEYS_BY_TYPE.items() if k in ks)} "
                         "joints)"
@@ -194,21 +220,49 @@ class _Builder(Checker):
             self.keys(p, j, JOINT_KEYS_BY_TYPE[jtype], required=required, what=what, hints=hints)
             if jtype == "revolute":
                 out[name] = self._revolute(p, name, j, bodies, ground)
-            elif jtype == "translational":
-                c = self._refs(p + ".connects", j["connects"], 2, "a translational joint")
-                a = self._ref(p + ".connects[0]", c[0], bodies, ground, ground_ok=False)
-                b = self._ref(p + ".connects[1]", c[1], bodies, ground, body_ok=False)
-                d = self.vec2(p + ".direction", j["direction"], nonzero=True)
-                norm = math.hypot(*d)
-                out[name] = Joint(name=name, type="translational", points=(a, b),
-                                  direction=(d[0] / norm, d[1] / norm),
-                                  angle=self.number(p + ".angle", j["angle"], unit="rad"))
+            elif jtype in _LINE_JOINTS:
+                out[name] = self._line_joint(p, name, jtype, j, bodies, ground)
             else:
                 c = self._refs(p + ".connects", j["connects"], 1, "a fixed-angle joint")
                 a = self._ref(p + ".connects[0]", c[0], bodies, ground, ground_ok=False)
                 out[name] = Joint(name=name, type="fixed-angle", points=(a,),
                                   angle=self.number(p + ".angle", j["angle"], unit="rad"))
         return out
+
+    def _no_clearance(self, p: str, j: Mapping, jtype: str) -> None:
+        """A clearance field on a translational or pin-in-slot joint: one error saying that
+        clearance there is not supported (docs/scenes.md, "Clearance joints")."""
+        asked = [k for k in ("model", "clearance", "bearing_radius", "length",
+                             "initial_eccentricity", "initial_eccentricity_rate", "contact",
+                             "friction", "lubricant", "transition") if k in j]
+        if asked:
+            k = asked[0]
+            self.fail(f"{p}.{k}", j[k],
+                      f"clearance in a {jtype} joint is not supported: the clearance models "
+                      f"({', '.join(MODELS)}) are force laws of a journal in a circular "
+                      "bearing, and a slider's play in its guide (two guide faces, the block's "
+                      "corners, its tilt) is none of them",
+                      f"an ideal {jtype} joint (no {', '.join(asked)}); put the clearance in a "
+                      "revolute joint, e.g. the pin of the slider or of the slotted link")
+
+    def _line_joint(self, p: str, name: str, jtype: str, j: Mapping, bodies, ground) -> Joint:
+        """A translational or pin-in-slot joint: the point ``connects[0]`` on the line through
+        ``connects[1]`` along ``direction`` (written in the frame of ``connects[1]``'s body,
+        as that body's points are)."""
+        c = self._refs(p + ".connects", j["connects"], 2, f"a {jtype} joint")
+        a = self._ref(p + ".connects[0]", c[0], bodies, ground)
+        b = self._ref(p + ".connects[1]", c[1], bodies, ground)
+        if a.body == b.body:
+            what = "the ground to itself" if a.body == GROUND else f"body '{a.body}' to itself"
+            self.fail(p + ".connects", c, f"the joint connects {what}",
+                      "a point of one body and a point on the line of another (or of the "
+                      "ground)")
+        d = self.vec2(p + ".direction", j["direction"], nonzero=True)
+        norm = math.hypot(*d)
+        angle = (self.number(p + ".angle", j["angle"], unit="rad")
+                 if jtype == "translational" else None)
+        return Joint(name=name, type=cast(Any, jtype), points=(a, b),
+                     direction=(d[0] / norm, d[1] / norm), angle=angle)
 
     def _revolute(self, p: str, name: str, j: Mapping, bodies, ground) -> Joint:
         c = self._refs(p + ".connects", j["connects"], 2, "a revolute joint")
@@ -358,7 +412,10 @@ class _Builder(Checker):
             for i, p1 in enumerate(names):
                 for p2 in names[i + 1:]:
                     if math.dist(coords[p1], coords[p2]) < COINCIDENT_TOL:
-                        self.fail(f"bodies.{body}.points.{p2}", coords[p2],
+                        placed = bodies[body].global_points
+                        table = "points" if placed is None else "global_points"
+                        self.fail(f"bodies.{body}.{table}.{p2}",
+                                  coords[p2] if placed is None else placed[p2],
                                   f"coincides with point '{p1}' while both carry revolute joints "
                                   f"(joints.{pts[p1]}, joints.{pts[p2]}): a zero-length link",
                                   f"distinct positions (at least {COINCIDENT_TOL:g} m apart), or "
@@ -594,7 +651,8 @@ def scene_to_raw(scene: Scene) -> dict:
         else:
             if j.direction is not None:
                 d["direction"] = _pair(j.direction)
-            d["angle"] = float(cast(float, j.angle))  # every non-revolute joint holds an angle
+            if j.angle is not None:  # all but pin-in-slot joints hold an angle
+                d["angle"] = float(j.angle)
         joints[n] = d
     drivers = {}
     for n, dr in scene.drivers.items():
@@ -607,15 +665,25 @@ def scene_to_raw(scene: Scene) -> dict:
         "description": scene.description,
         "gravity": _pair(scene.gravity),
         "ground": {"points": {k: _pair(v) for k, v in scene.ground.items()}},
-        "bodies": {n: {"mass": b.mass, "inertia": b.inertia, "position": _pair(b.position),
-                       "angle": b.angle, "points": {k: _pair(v) for k, v in b.points.items()}}
-                   for n, b in scene.bodies.items()},
+        "bodies": {n: _body_raw(b) for n, b in scene.bodies.items()},
         "joints": joints,
         "drivers": drivers,
         "outputs": {n: _output_raw(o) for n, o in scene.outputs.items()},
         "analysis": {k: v for k, v in _dc(scene.analysis).items() if v is not None},
         "solver": {k: v for k, v in _dc(scene.solver).items() if v is not None},
     }
+
+
+def _body_raw(b: Body) -> dict:
+    """The canonical raw table of a body: its points as written, in the body frame
+    (``points``) or in ground coordinates (``global_points``, only when the body was written
+    that way, so the scenes written before it keep their hash)."""
+    if b.global_points is None:
+        table = {"points": {k: _pair(v) for k, v in b.points.items()}}
+    else:
+        table = {"global_points": {k: _pair(v) for k, v in b.global_points.items()}}
+    return {"mass": b.mass, "inertia": b.inertia, "position": _pair(b.position),
+            "angle": b.angle, **table}
 
 
 def _output_raw(o: Output) -> dict:

@@ -503,8 +503,12 @@ def _is_number(v: Any) -> bool:
 
 
 def _length_points(raw: Mapping, m: re.Match, source: str | None):
-    """``(points table path, P, Q)`` of a matched ``OWNER.length(P,Q)`` path."""
+    """``(points table path, P, Q)`` of a matched ``OWNER.length(P,Q)`` path: the body's
+    ``global_points`` where it is written by them (a distance is the same in either frame)."""
     table = f"{m['owner']}.points"
+    owner = raw.get("bodies", {}).get(m["owner"][7:]) if m["owner"] != "ground" else None
+    if isinstance(owner, Mapping) and "global_points" in owner and "points" not in owner:
+        table = f"{m['owner']}.global_points"
     return (table, get_value(raw, f"{table}.{m['fixed']}", source=source),
             get_value(raw, f"{table}.{m['moved']}", source=source))
 

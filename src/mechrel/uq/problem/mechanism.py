@@ -54,14 +54,15 @@ REFERENCES = ("nominal", "same-geometry")
 """What the error is measured against: the ideal motion of the nominal geometry, or of the
 sample's own geometry (see the module docstring)."""
 
-_GEOMETRY = re.compile(r"-?(ground\.points\.|bodies\.[A-Za-z_]\w*\.points\.|"
+_GEOMETRY = re.compile(r"-?(ground\.points\.|bodies\.[A-Za-z_]\w*\.(global_)?points\.|"
                        r"(ground|bodies\.[A-Za-z_]\w*)\.length\()")
 
 
 def is_geometric(path: str) -> bool:
     """Whether a scene path sets the mechanism's geometry.
 
-    Geometric paths are a point's coordinates (whole or one component) and a length between two
+    Geometric paths are a point's coordinates (whole or one component; a body's ``points`` or,
+    for a body written from joint positions, its ``global_points``) and a length between two
     points of a body or of the ground.
 
     Parameters
@@ -78,6 +79,8 @@ def is_geometric(path: str) -> bool:
     --------
     >>> is_geometric("bodies.crank.points.B"), is_geometric("joints.C.clearance")
     (True, False)
+    >>> is_geometric("bodies.lever.global_points.B[0]")
+    True
     """
     return bool(_GEOMETRY.match(path))
 
