@@ -17,7 +17,8 @@ import pytest
 from mechrel.errors import StudyError
 from mechrel.studies.study import load_study
 from mechrel.uq import FunctionModel, ModelFailure
-from mechrel.uq.execution.executor import evaluate, evaluate_rows
+from mechrel.uq.execution.executor import evaluate
+from mechrel.uq.problem.model import evaluate_rows
 from mechrel.uq.problem.mechanism import MechanismModel
 from mechrel.uq.problem.model import RowFailures
 from mechrel.uq.problem.allowables import EXTREME_STATS
