@@ -73,6 +73,12 @@ _REQUIRED_HINTS = {
 class _Builder(Checker):
     required_hints = _REQUIRED_HINTS
 
+    def __init__(self, *args, **kwargs):
+        super().__init__(*args, **kwargs)
+        # the packed force-law parameters of each clearance joint validated, by joint name
+        # (pack_joint is the force law's check: its product is kept for the compiled scene)
+        self.packed: dict[str, Any] = {}
+
     def build(self, raw: Any) -> Scene:
         top = self.table("", raw)
         self.keys("", top, TOP_KEYS, required=("name", "bodies", "analysis"), what="a scene",
@@ -115,25 +121,25 @@ class _Builder(Checker):
         bt = self.table("bodies", v, "a [bodies.NAME] table per moving body")
         if not bt:
             self.fail("bodies", v, "no bodies defined", "at least one [bodies.NAME] table")
-        out = {}
-        for name, b in bt.items():
-            p = join("bodies", name)
-            self.name(p, name, "body")
-            if name == GROUND:
-                self.fail(p, b, f"the body name '{GROUND}' is reserved for the frame "
-                                "(its points go in [ground.points])",
-                          "any other identifier (letters, digits and underscores, no dots)")
-            self.table(p, b)
-            self.keys(p, b, BODY_KEYS, required=("mass", "inertia", "position"), what="a body")
-            out[name] = Body(
-                name=name,
-                mass=self.number(p + ".mass", b["mass"], gt=0, unit="kg"),
-                inertia=self.number(p + ".inertia", b["inertia"], gt=0, unit="kg m^2"),
-                position=self.vec2(p + ".position", b["position"], unit="m"),
-                angle=self.number(p + ".angle", b.get("angle", 0.0), unit="rad"),
-                points=MappingProxyType(self._points(p + ".points", b.get("points", {}), "point")),
-            )
-        return out
+        return {name: self._body(name, b) for name, b in bt.items()}
+
+    def _body(self, name: str, b: Any) -> Body:
+        p = join("bodies", name)
+        self.name(p, name, "body")
+        if name == GROUND:
+            self.fail(p, b, f"the body name '{GROUND}' is reserved for the frame "
+                            "(its points go in [ground.points])",
+                      "any other identifier (letters, digits and underscores, no dots)")
+        self.table(p, b)
+        self.keys(p, b, BODY_KEYS, required=("mass", "inertia", "position"), what="a body")
+        return Body(
+            name=name,
+            mass=self.number(p + ".mass", b["mass"], gt=0, unit="kg"),
+            inertia=self.number(p + ".inertia", b["inertia"], gt=0, unit="kg m^2"),
+            position=self.vec2(p + ".position", b["position"], unit="m"),
+            angle=self.number(p + ".angle", b.get("angle", 0.0), unit="rad"),
+            points=MappingProxyType(self._points(p + ".points", b.get("points", {}), "point")),
+        )
 
     def _ref(self, path: str, v: Any, bodies: Mapping[str, Body], ground: Mapping,
              *, ground_ok: bool = True, body_ok: bool = True) -> PointRef:
@@ -176,39 +182,38 @@ class _Builder(Checker):
     # -- joints
     def _joints(self, v: Any, bodies: Mapping[str, Body], ground: Mapping) -> dict[str, Joint]:
         jt = self.table("joints", v, "a [joints.NAME] table per joint")
-        out = {}
-        for name, j in jt.items():
-            p = join("joints", name)
-            self.name(p, name, "joint")
-            self.table(p, j)
-            if "type" not in j:
-                self.fail(p + ".type", _MISSING, "missing required field", _one_of(JOINT_TYPES))
-            jtype = self.choice(p + ".type", j["type"], JOINT_TYPES)
-            what = f"a {jtype} joint"
-            required = ("type", "connects") + (("direction", "angle") if jtype == "translational"
-                                               else ("angle",) if jtype == "fixed-angle" else ())
-            hints = {k: f" ('{k}' belongs to "
-                        f"{' or '.join(t for t, ks in JOINT_KEYS_BY_TYPE.items() if k in ks)} "
-                        "joints)"
-                     for k in JOINT_KEYS if k not in JOINT_KEYS_BY_TYPE[jtype]}
-            self.keys(p, j, JOINT_KEYS_BY_TYPE[jtype], required=required, what=what, hints=hints)
-            if jtype == "revolute":
-                out[name] = self._revolute(p, name, j, bodies, ground)
-            elif jtype == "translational":
-                c = self._refs(p + ".connects", j["connects"], 2, "a translational joint")
-                a = self._ref(p + ".connects[0]", c[0], bodies, ground, ground_ok=False)
-                b = self._ref(p + ".connects[1]", c[1], bodies, ground, body_ok=False)
-                d = self.vec2(p + ".direction", j["direction"], nonzero=True)
-                norm = math.hypot(*d)
-                out[name] = Joint(name=name, type="translational", points=(a, b),
-                                  direction=(d[0] / norm, d[1] / norm),
-                                  angle=self.number(p + ".angle", j["angle"], unit="rad"))
-            else:
-                c = self._refs(p + ".connects", j["connects"], 1, "a fixed-angle joint")
-                a = self._ref(p + ".connects[0]", c[0], bodies, ground, ground_ok=False)
-                out[name] = Joint(name=name, type="fixed-angle", points=(a,),
-                                  angle=self.number(p + ".angle", j["angle"], unit="rad"))
-        return out
+        return {name: self._joint(name, j, bodies, ground) for name, j in jt.items()}
+
+    def _joint(self, name: str, j: Any, bodies: Mapping[str, Body], ground: Mapping) -> Joint:
+        p = join("joints", name)
+        self.name(p, name, "joint")
+        self.table(p, j)
+        if "type" not in j:
+            self.fail(p + ".type", _MISSING, "missing required field", _one_of(JOINT_TYPES))
+        jtype = self.choice(p + ".type", j["type"], JOINT_TYPES)
+        what = f"a {jtype} joint"
+        required = ("type", "connects") + (("direction", "angle") if jtype == "translational"
+                                           else ("angle",) if jtype == "fixed-angle" else ())
+        hints = {k: f" ('{k}' belongs to "
+                    f"{' or '.join(t for t, ks in JOINT_KEYS_BY_TYPE.items() if k in ks)} "
+                    "joints)"
+                 for k in JOINT_KEYS if k not in JOINT_KEYS_BY_TYPE[jtype]}
+        self.keys(p, j, JOINT_KEYS_BY_TYPE[jtype], required=required, what=what, hints=hints)
+        if jtype == "revolute":
+            return self._revolute(p, name, j, bodies, ground)
+        if jtype == "translational":
+            c = self._refs(p + ".connects", j["connects"], 2, "a translational joint")
+            a = self._ref(p + ".connects[0]", c[0], bodies, ground, ground_ok=False)
+            b = self._ref(p + ".connects[1]", c[1], bodies, ground, body_ok=False)
+            d = self.vec2(p + ".direction", j["direction"], nonzero=True)
+            norm = math.hypot(*d)
+            return Joint(name=name, type="translational", points=(a, b),
+                         direction=(d[0] / norm, d[1] / norm),
+                         angle=self.number(p + ".angle", j["angle"], unit="rad"))
+        c = self._refs(p + ".connects", j["connects"], 1, "a fixed-angle joint")
+        a = self._ref(p + ".connects[0]", c[0], bodies, ground, ground_ok=False)
+        return Joint(name=name, type="fixed-angle", points=(a,),
+                     angle=self.number(p + ".angle", j["angle"], unit="rad"))
 
     def _revolute(self, p: str, name: str, j: Mapping, bodies, ground) -> Joint:
         c = self._refs(p + ".connects", j["connects"], 2, "a revolute joint")
@@ -269,7 +274,7 @@ class _Builder(Checker):
         :func:`mechrel.forces.params.pack_params`, the one validator, and reported with the
         scene path of the field."""
         try:
-            pack_joint(joint)
+            self.packed[joint.name] = pack_joint(joint)
         except SceneError as err:
             field = cast(str, err.path)  # pack_params names the parameter of every error
             # a derived value (the contact stiffness) is named with what it is computed from
@@ -575,47 +580,55 @@ def _dc(obj) -> dict:
 def scene_to_raw(scene: Scene) -> dict:
     """The canonical raw mapping of a scene: every field explicit (defaults filled in, floats,
     normalised directions), ``None`` fields omitted. Loading it gives back an equal scene."""
-    joints = {}
-    for n, j in scene.joints.items():
-        d: dict[str, Any] = {"type": j.type, "connects": [str(r) for r in j.points]}
-        if j.type == "revolute":
-            d["model"] = j.model
-            d["clearance"] = float(j.clearance)
-            if j.bearing_radius is not None:
-                d["bearing_radius"] = float(j.bearing_radius)
-            if j.length is not None:
-                d["length"] = float(j.length)
-            d["initial_eccentricity"] = _pair(j.initial_eccentricity)
-            d["initial_eccentricity_rate"] = _pair(j.initial_eccentricity_rate)
-            for k in ("contact", "friction", "lubricant", "transition"):
-                sub = getattr(j, k)
-                if sub is not None:
-                    d[k] = _dc(sub)
-        else:
-            if j.direction is not None:
-                d["direction"] = _pair(j.direction)
-            d["angle"] = float(cast(float, j.angle))  # every non-revolute joint holds an angle
-        joints[n] = d
-    drivers = {}
-    for n, dr in scene.drivers.items():
-        d = {"body": dr.body, "law": dr.law, "angle0": float(dr.angle0)}
-        for k in DRIVER_KEYS_BY_LAW[dr.law][3:]:
-            d[k] = float(getattr(dr, k))
-        drivers[n] = d
     return {
         "name": scene.name,
         "description": scene.description,
         "gravity": _pair(scene.gravity),
         "ground": {"points": {k: _pair(v) for k, v in scene.ground.items()}},
-        "bodies": {n: {"mass": b.mass, "inertia": b.inertia, "position": _pair(b.position),
-                       "angle": b.angle, "points": {k: _pair(v) for k, v in b.points.items()}}
-                   for n, b in scene.bodies.items()},
-        "joints": joints,
-        "drivers": drivers,
+        "bodies": {n: body_to_raw(b) for n, b in scene.bodies.items()},
+        "joints": {n: joint_to_raw(j) for n, j in scene.joints.items()},
+        "drivers": {n: driver_to_raw(dr) for n, dr in scene.drivers.items()},
         "outputs": {n: _output_raw(o) for n, o in scene.outputs.items()},
         "analysis": {k: v for k, v in _dc(scene.analysis).items() if v is not None},
         "solver": {k: v for k, v in _dc(scene.solver).items() if v is not None},
     }
+
+
+def body_to_raw(b: Body) -> dict:
+    """One body's table of :func:`scene_to_raw`."""
+    return {"mass": b.mass, "inertia": b.inertia, "position": _pair(b.position),
+            "angle": b.angle, "points": {k: _pair(v) for k, v in b.points.items()}}
+
+
+def joint_to_raw(j: Joint) -> dict:
+    """One joint's table of :func:`scene_to_raw`."""
+    d: dict[str, Any] = {"type": j.type, "connects": [str(r) for r in j.points]}
+    if j.type == "revolute":
+        d["model"] = j.model
+        d["clearance"] = float(j.clearance)
+        if j.bearing_radius is not None:
+            d["bearing_radius"] = float(j.bearing_radius)
+        if j.length is not None:
+            d["length"] = float(j.length)
+        d["initial_eccentricity"] = _pair(j.initial_eccentricity)
+        d["initial_eccentricity_rate"] = _pair(j.initial_eccentricity_rate)
+        for k in ("contact", "friction", "lubricant", "transition"):
+            sub = getattr(j, k)
+            if sub is not None:
+                d[k] = _dc(sub)
+    else:
+        if j.direction is not None:
+            d["direction"] = _pair(j.direction)
+        d["angle"] = float(cast(float, j.angle))  # every non-revolute joint holds an angle
+    return d
+
+
+def driver_to_raw(dr: Driver) -> dict:
+    """One driver's table of :func:`scene_to_raw`."""
+    d = {"body": dr.body, "law": dr.law, "angle0": float(dr.angle0)}
+    for k in DRIVER_KEYS_BY_LAW[dr.law][3:]:
+        d[k] = float(getattr(dr, k))
+    return d
 
 
 def _output_raw(o: Output) -> dict:
