@@ -521,19 +521,69 @@ def _provenance(scene: Scene, wall: float, reference: Scene | None = None) -> di
     return out
 
 
-def _reference_outputs(reference: Scene, times: np.ndarray, actual: Scene):
+class ReferenceDesign:
+    """The ideal mechanism of a reference design (:func:`simulate`'s ``reference``), compiled
+    and assembled once, its kinematic analysis kept for the last few sets of instants: the
+    samples of a study measured against one nominal design share it
+    (:meth:`mechrel.uq.problem.mechanism.MechanismModel.evaluate_batch`), and each sample's
+    outputs are still computed from it (they may read the simulated scene, e.g. a joint's
+    clearance). The numbers are those of a reference made anew, bitwise.
+
+    Parameters
+    ----------
+    scene : Scene
+        The reference design.
+
+    Examples
+    --------
+    >>> from mechrel.scene import load_scene
+    >>> nominal = load_scene("slider-crank")
+    >>> longer = load_scene("slider-crank", overrides=["bodies.crank.length(O,A)=0.0501"])
+    >>> ref = ReferenceDesign(nominal)
+    >>> a = simulate_sample(longer, make_integrator(longer), reference=ref)
+    >>> b = simulate(longer, reference=nominal)
+    >>> bool((a.error("slider", "displacement") == b.error("slider", "displacement")).all())
+    True
+    """
+
+    KEEP = 4  # sets of instants kept (a sample's output grid and its extremes' window points)
+
+    def __init__(self, scene: Scene):
+        self.scene = scene
+        self._compiled: CompiledScene | None = None
+        self._q0: np.ndarray | None = None
+        self._kinematics: dict[bytes, tuple] = {}
+
+    def outputs(self, times: np.ndarray, actual: Scene):
+        """The outputs of the ideal mechanism at ``times`` (kinematic analysis), or None when it
+        is not fully driven (:func:`_ideal_by_dynamics` then)."""
+        scene = self.scene
+        if self._compiled is None:
+            self._compiled = compile_scene(scene)
+        compiled = self._compiled
+        if compiled.ideal.n_constraints != compiled.q_guess.size:
+            return None
+        tol = scene.solver.assembly_tolerance
+        key = np.ascontiguousarray(times, dtype=float).tobytes()
+        got = self._kinematics.get(key)
+        if got is None:
+            if self._q0 is None:
+                self._q0, _ = assemble(compiled.ideal, compiled.q_guess, 0.0, tol=tol,
+                                       labels=compiled.labels["ideal"])
+            Q, V, A, _ = kinematic_analysis(compiled.ideal, self._q0, times, tol=tol,
+                                            labels=compiled.labels["ideal"])
+            for a in (Q, V, A):
+                a.setflags(write=False)  # shared by the samples
+            if len(self._kinematics) >= self.KEEP:
+                self._kinematics.pop(next(iter(self._kinematics)))
+            got = self._kinematics[key] = (Q, V, A)
+        return _outputs(scene, compiled, times, *got, ideal=True, actual=actual)
+
+
+def _reference_outputs(reference: ReferenceDesign, times: np.ndarray, actual: Scene):
     """The outputs of ``reference``'s ideal mechanism at ``times`` (kinematic analysis when it
-    is fully driven, forward dynamics otherwise)."""
-    compiled = compile_scene(reference)
-    n = compiled.q_guess.size
-    if compiled.ideal.n_constraints != n:
-        return None
-    tol = reference.solver.assembly_tolerance
-    q0, _ = assemble(compiled.ideal, compiled.q_guess, 0.0, tol=tol,
-                     labels=compiled.labels["ideal"])
-    Q, V, A, _ = kinematic_analysis(compiled.ideal, q0, times, tol=tol,
-                                    labels=compiled.labels["ideal"])
-    return _outputs(reference, compiled, times, Q, V, A, ideal=True, actual=actual)
+    is fully driven; None otherwise: forward dynamics then)."""
+    return reference.outputs(times, actual)
 
 
 def _ideal_by_dynamics(source: Scene, solver, times: np.ndarray, actual: Scene):
@@ -653,7 +703,7 @@ def _ideal_at(scene, compiled, reference, q0, solver, T, lead):
     if reference is not None:
         got = _reference_outputs(reference, TT, scene)
         if got is None:
-            return _ideal_by_dynamics(reference, solver, T, scene)
+            return _ideal_by_dynamics(reference.scene, solver, T, scene)
     elif compiled.ideal.n_constraints == compiled.q_guess.size:
         Qi, Vi, Ai, _ = kinematic_analysis(compiled.ideal, q0, TT,
                                            tol=scene.solver.assembly_tolerance,
@@ -794,8 +844,9 @@ def simulate(scene: Scene, *, reference: Scene | None = None, method: str = "aut
                       solver_settings=solver_settings)
 
 
-def simulate_sample(scene: Scene, solver, *, reference: Scene | None = None,
-                    extremes: bool = False) -> SimulationResult:
+def simulate_sample(scene: Scene, solver, *, reference: Scene | ReferenceDesign | None = None,
+                    extremes: bool = False, compiled: CompiledScene | None = None
+                    ) -> SimulationResult:
     """:func:`simulate` (``reference``, ``extremes``) with an integrator made beforehand and
     without the provenance record: the inner call of a batch of samples
     (:meth:`mechrel.uq.problem.mechanism.MechanismModel.evaluate_batch`), where the integrator
@@ -803,11 +854,17 @@ def simulate_sample(scene: Scene, solver, *, reference: Scene | None = None,
 
     Parameters
     ----------
-    scene, reference, extremes
+    scene, extremes
         As for :func:`simulate`.
+    reference : Scene or ReferenceDesign, optional
+        As for :func:`simulate`; a :class:`ReferenceDesign` is the same design prepared once
+        for the samples that share it.
     solver : Integrator
         ``make_integrator(scene)`` or an equal one (made from a scene with the same ``solver``
         table and :func:`scene_kind`): the numbers are then those of ``simulate``, bitwise.
+    compiled : CompiledScene, optional
+        ``compile_scene(scene)`` or equal arrays (a
+        :class:`~mechrel._prepared.PreparedScene`'s); compiled here when not given.
 
     Returns
     -------
@@ -829,7 +886,7 @@ def simulate_sample(scene: Scene, solver, *, reference: Scene | None = None,
     """
     return _explained(scene, reference=reference, method="auto", integrator=None,
                       progress=False, extremes=extremes, dense_points=DENSE_POINTS,
-                      solver=solver, provenance=False)
+                      solver=solver, provenance=False, compiled=compiled)
 
 
 def _explained(scene, **kwargs) -> SimulationResult:
@@ -849,19 +906,25 @@ def _explained(scene, **kwargs) -> SimulationResult:
                         f"(SI, below {EXTREME_MAGNITUDE:g}) (the failure: {exc})") from None
 
 
-def _simulate(scene: Scene, *, reference: Scene | None, method: str, integrator: str | None,
-              progress: bool, extremes: bool, dense_points: int, solver=None,
-              provenance: bool = True, solver_settings=None) -> SimulationResult:
+def _simulate(scene: Scene, *, reference: Scene | ReferenceDesign | None, method: str,
+              integrator: str | None, progress: bool, extremes: bool, dense_points: int,
+              solver=None, provenance: bool = True, solver_settings=None,
+              compiled: CompiledScene | None = None) -> SimulationResult:
     start = time.perf_counter()
     if not isinstance(scene, Scene):
         raise TypeError(f"simulate: scene must be a Scene, got {type(scene).__name__} "
                         f"{scene!r:.60}; load it first: simulate(load_scene(...))")
+    ref = None  # the reference design, prepared (its ideal mechanism compiled once)
+    if isinstance(reference, ReferenceDesign):
+        ref, reference = reference, reference.scene
     if reference is not None:
         _check_reference(scene, reference)
+        ref = ref or ReferenceDesign(reference)
     # made (and so checked) even when kinematic analysis needs no integrator
     if solver is None:
         solver = make_integrator(scene, integrator, **(solver_settings or {}))
-    compiled = compile_scene(scene)
+    if compiled is None:
+        compiled = compile_scene(scene)
     n = compiled.q_guess.size
     if compiled.ideal.n_constraints > n:
         # more equations than coordinates: the constraint Jacobian cannot have full row rank,
@@ -902,7 +965,7 @@ def _simulate(scene: Scene, *, reference: Scene | None, method: str, integrator:
         ideal = _outputs(scene, compiled, times, Qi, Vi, Ai, ideal=True)
     # the ideal counterpart the errors are measured against: the reference design's, or the
     # scene's own ideal mechanism
-    counterpart = ideal if reference is None else _reference_outputs(reference, times, scene)
+    counterpart = ideal if ref is None else _reference_outputs(ref, times, scene)
 
     if not has_clearance and driven and method != "dynamics":
         assert ideal is not None  # driven, method "auto" or "kinematics": computed above
@@ -918,7 +981,7 @@ def _simulate(scene: Scene, *, reference: Scene | None, method: str, integrator:
             ext = _extremes_of(scene, compiled, T,
                                _outputs(scene, compiled, T, Qf[m:], Vf[m:], Af[m:],
                                         ideal=True),
-                               _ideal_at(scene, compiled, reference, q0, solver, T, lead))
+                               _ideal_at(scene, compiled, ref, q0, solver, T, lead))
         wall = time.perf_counter() - start
         stats = {"integrator": "kinematic-analysis", "n_steps": times.size,
                  "max_position_violation": float(viol_i), "wall_time": wall, "status": "ok"}
@@ -965,7 +1028,7 @@ def _simulate(scene: Scene, *, reference: Scene | None, method: str, integrator:
         Hl = np.concatenate([res.hist_out[sel], log[:, 1 + 2 * ny:]])[first]
         ext = _extremes_of(scene, compiled, T,
                            _outputs(scene, compiled, T, Ql, Vl, Al, H=Hl, counterpart=reference),
-                           _ideal_at(scene, compiled, reference, q0, solver, T, times[~sel]))
+                           _ideal_at(scene, compiled, ref, q0, solver, T, times[~sel]))
     wall = time.perf_counter() - start
     stats = res.stats.as_dict()
     stats["total_wall_time"] = wall
