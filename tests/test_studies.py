@@ -237,7 +237,7 @@ def test_reliability_command_writes_tables_figure_and_provenance(tmp_path, capsy
         assert abs(float(beta) - ndtri(float(row["fosm.reliability"].iloc[0]))) <= 5e-4
     summary = json.loads((out / "summary.json").read_text())
     prov = summary["provenance"]["fosm"]
-    assert prov["n_model_evaluations"] == 3 and "model_cache_key" in prov
+    assert prov["n_evaluations"] == 3 and "model_cache_key" in prov
     # the scene it ran: its name, source and the hash of the scene with the study's overrides
     scene = load_scene("nine-bar-lubricated",
                        overrides={"solver.rtol": 1e-5, "solver.atol": 1e-8})

@@ -41,7 +41,7 @@ _EXPORTS = {
     "problem.limit_state": ["LimitState"],
     "problem.analytic": ["linear_model", "ishigami", "ishigami_model", "ishigami_inputs",
                          "ishigami_indices"],
-    "execution.executor": ["evaluate", "Evaluations", "BACKENDS"],
+    "execution.executor": ["evaluate", "Evaluations", "EvaluationCount", "BACKENDS"],
     "execution.cache": ["EvaluationCache"],
     "_common": ["SampleFailuresError"],
     "estimators": ["METHODS"],

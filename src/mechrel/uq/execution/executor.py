@@ -41,7 +41,7 @@ from .cache import as_cache
 from ..problem.model import (RowFailures, as_output_index, check_model, describe_model,
                              evaluate_rows)
 
-__all__ = ["Evaluations", "evaluate", "BACKENDS", "combined_cache_key"]
+__all__ = ["Evaluations", "EvaluationCount", "evaluate", "BACKENDS", "combined_cache_key"]
 
 BACKENDS = ("loky", "dask", "sequential")
 STATUS_OK = "ok"
@@ -57,6 +57,97 @@ def _readonly(a: np.ndarray) -> np.ndarray:
     a = np.array(a, copy=True)
     a.setflags(write=False)
     return a
+
+
+@dataclass(frozen=True)
+class EvaluationCount:
+    """How many model evaluations an estimate rests on, and where they came from: the one
+    count that every line and file of a study reports (:attr:`Evaluations.count`).
+
+    Parameters
+    ----------
+    evaluations : int
+        Rows of inputs the estimate rests on (``Evaluations.n``; a result's ``n_evaluations``).
+    computed : int
+        Of them, evaluated by the model in this run (simulated, for the mechanism model).
+    cached : int
+        Of them, read from the evaluation cache.
+    failed : int
+        Of them, failed samples (computed or cached).
+
+    Rows neither computed nor cached were given precomputed (``evaluations=``).
+
+    Examples
+    --------
+    >>> EvaluationCount(71, 66, 5, 0).text()
+    '71 model evaluations (66 computed, 5 from the cache)'
+    >>> (EvaluationCount(13, 12, 1, 0) - EvaluationCount(11, 10, 1, 0)).text()
+    '2 model evaluations (2 computed)'
+    """
+
+    evaluations: int = 0
+    computed: int = 0
+    cached: int = 0
+    failed: int = 0
+
+    def __add__(self, other: EvaluationCount) -> EvaluationCount:
+        return EvaluationCount(*(a + b for a, b in zip(self.as_tuple(), other.as_tuple())))
+
+    def __sub__(self, other: EvaluationCount) -> EvaluationCount:
+        return EvaluationCount(*(a - b for a, b in zip(self.as_tuple(), other.as_tuple())))
+
+    def as_tuple(self) -> tuple[int, int, int, int]:
+        """``(evaluations, computed, cached, failed)``.
+
+        Returns
+        -------
+        tuple of int
+            The four counts.
+
+        Examples
+        --------
+        >>> EvaluationCount(3, 2, 1, 0).as_tuple()
+        (3, 2, 1, 0)
+        """
+        return (self.evaluations, self.computed, self.cached, self.failed)
+
+    def as_dict(self) -> dict[str, int]:
+        """The counts under the names of the files (``summary.json``, the provenance).
+
+        Returns
+        -------
+        dict
+            ``n_evaluations``, ``n_computed``, ``n_cached``, ``n_failed``.
+
+        Examples
+        --------
+        >>> EvaluationCount(3, 2, 1, 0).as_dict()
+        {'n_evaluations': 3, 'n_computed': 2, 'n_cached': 1, 'n_failed': 0}
+        """
+        return dict(zip(("n_evaluations", "n_computed", "n_cached", "n_failed"),
+                        self.as_tuple()))
+
+    def text(self) -> str:
+        """The count in words, as the summaries print it.
+
+        Returns
+        -------
+        str
+            ``"N model evaluations (C computed, K from the cache, F failed)"``, leaving out
+            the parts that are zero.
+
+        Examples
+        --------
+        >>> EvaluationCount(10, 8, 2, 1).text()
+        '10 model evaluations (8 computed, 2 from the cache, 1 failed)'
+        """
+        given = self.evaluations - self.computed - self.cached
+        parts = [f"{k} {what}" for k, what in ((self.computed, "computed"),
+                                               (self.cached, "from the cache"),
+                                               (given, "precomputed"),
+                                               (self.failed, "failed")) if k]
+        return (f"{self.evaluations} model evaluation{'' if self.evaluations == 1 else 's'}"
+                + (f" ({', '.join(parts)})" if parts else ""))
 
 
 @dataclass(frozen=True, eq=False)
@@ -80,9 +171,10 @@ class Evaluations:
     cache_key : str, optional
         The model's cache key (None for precomputed evaluations).
     n_model_calls : int, default 0
-        Calls actually made in this run (cache hits excluded).
+        Rows the model evaluated in this run (cache hits excluded; :attr:`count`'s
+        ``computed``).
     n_cached : int, default 0
-        Cache hits.
+        Rows read from the evaluation cache.
     wall_time : float, default 0.0
         Seconds spent in :func:`evaluate`.
     settings : dict
@@ -292,6 +384,23 @@ class Evaluations:
         1
         """
         return self.n - self.n_ok
+
+    @property
+    def count(self) -> EvaluationCount:
+        """How many rows, computed in this run, read from the cache, failed.
+
+        Returns
+        -------
+        EvaluationCount
+            ``(n, n_model_calls, n_cached, n_failed)``.
+
+        Examples
+        --------
+        >>> Evaluations.from_arrays([[0.0], [1.0]], [1.0, float("nan")]).count.text()
+        '2 model evaluations (2 precomputed, 1 failed)'
+        """
+        return EvaluationCount(self.n, int(self.n_model_calls), int(self.n_cached),
+                               self.n_failed)
 
     def failure_counts(self) -> dict[str, int]:
         """Count the failed rows by reason, most frequent first.
