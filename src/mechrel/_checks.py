@@ -18,6 +18,7 @@ import difflib
 import math
 import re
 from collections.abc import Iterable, Mapping, Sequence
+from types import MappingProxyType
 from typing import Any, NoReturn
 
 import numpy as np
@@ -195,7 +196,7 @@ class Checker:
 
     # -- structure
     def table(self, path: str, v: Any, allowed: str = "a table") -> Mapping:
-        if not isinstance(v, Mapping):
+        if not isinstance(v, (dict, MappingProxyType)) and not isinstance(v, Mapping):
             self.fail(path, v, f"expected a table, got {_typename(v)}", allowed)
         for k in v:
             if not isinstance(k, str):
@@ -272,6 +273,8 @@ class Checker:
         return v
 
     def choice(self, path: str, v: Any, choices: Sequence[str]) -> str:
+        if isinstance(v, str) and v in choices:  # allowed: no message to word
+            return v
         allowed = _one_of(choices)
         s = self.string(path, v, allowed)
         if s not in choices:

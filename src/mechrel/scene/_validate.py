@@ -7,6 +7,7 @@ Every problem raises one :class:`~mechrel.errors.SceneError` whose message reads
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import fields
@@ -45,6 +46,12 @@ class Checker(_Checker):
 
 
 # ----------------------------------------------------------------------------- builder
+
+@functools.lru_cache(maxsize=None)
+def _defaults(cls) -> dict[str, Any]:
+    """``{field: default}`` of a sub-table's dataclass, in field order (read per joint)."""
+    return {f.name: f.default for f in fields(cls)}
+
 
 _REQUIRED_HINTS = {
     "name": "a string naming the scene",
@@ -291,21 +298,21 @@ class _Builder(Checker):
 
     def _sub(self, path: str, v: Any, cls, specs: Mapping[str, dict]) -> dict:
         t = self.table(path, v)
-        keys = tuple(f.name for f in fields(cls))
-        self.keys(path, t, keys, what=f"[{path.rsplit('.', 1)[-1]}]")
+        defaults = _defaults(cls)
+        self.keys(path, t, tuple(defaults), what=f"[{path.rsplit('.', 1)[-1]}]")
         out: dict[str, Any] = {}
-        for f in fields(cls):
-            spec = specs[f.name]
-            val = t.get(f.name, f.default)
+        for name, default in defaults.items():
+            spec = specs[name]
+            val = t.get(name, default)
             if "choices" in spec:
-                out[f.name] = self.choice(join(path, f.name), val, spec["choices"])
+                out[name] = self.choice(join(path, name), val, spec["choices"])
             elif spec.get("boolean"):
                 if not isinstance(val, bool):
-                    self.fail(join(path, f.name), val, f"expected true or false, got "
+                    self.fail(join(path, name), val, f"expected true or false, got "
                               f"{_typename(val)}", "true or false")
-                out[f.name] = val
+                out[name] = val
             else:
-                out[f.name] = self.number(join(path, f.name), val, **spec)
+                out[name] = self.number(join(path, name), val, **spec)
         return out
 
     @staticmethod

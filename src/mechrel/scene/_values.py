@@ -132,6 +132,20 @@ class SceneValues:
         self.incremental = bool(scene.raw) and all(
             t is not None and (t[0] != "joint" or t[1] in scene.joints)
             and (t[0] != "body" or t[1] in scene.bodies) for t in tables)
+        # a plain path (not PATH[i] or OWNER.length(P,Q)) to a number of the scene: what
+        # apply_override checks of it does not depend on the value (the schema, the tables on
+        # the way), so it is checked once here and a value is then set at its place directly
+        self._leaves: dict[str, tuple[str, ...]] = {}
+        for path in paths if self.incremental else ():
+            if _LENGTH_RE.match(path) or _COMPONENT_RE.match(path):
+                continue
+            parts = tuple(path.split("."))
+            node: Any = scene.raw
+            for part in parts:
+                node = node.get(part) if isinstance(node, Mapping) else None
+            if isinstance(node, float):
+                apply_override(_spine(scene.raw, path), path, node, source=self.label)
+                self._leaves[path] = parts
         self.joints = tuple(n for n in scene.joints if ("joint", n) in tables)
         self.bodies = tuple(n for n in scene.bodies if ("body", n) in tables)
         self.ground = ("ground",) in tables
@@ -169,7 +183,14 @@ class SceneValues:
         overrides = [(str(p), v, f"{p}={fmt_value(v)}") for p, v in values.items()]
         for path, value, text in overrides:
             raw = _spine(raw, path)
-            apply_override(raw, path, value, text=text, source=self.label)
+            parts = self._leaves.get(path)
+            if parts is not None and isinstance(value, float):
+                node = raw
+                for part in parts[:-1]:
+                    node = node[part]
+                node[parts[-1]] = value
+            else:
+                apply_override(raw, path, value, text=text, source=self.label)
         b = _Builder(self.label, [(p, t) for p, _, t in overrides])
         new_raw = dict(scene.raw)
         changed: dict[str, Any] = {}

@@ -632,7 +632,7 @@ def _evaluate_chunk(model: Any, X: np.ndarray, n_out: int, chunk_id: int):
     reasons)``), so that the in-process loop can cache them."""
     watch_parent()
     if getattr(model, "vectorized", False) and X.shape[0]:
-        Y, ok, failed = _batch(model, np.array(X), n_out)
+        Y, ok, failed = _batch(model, X, n_out)  # X: the chunk's own copy of its rows
     else:
         Y, ok, reasons = evaluate_rows(model.evaluate, X, n_out)
         failed = tuple((int(i), reasons[i]) for i in np.flatnonzero(~ok))
@@ -677,6 +677,8 @@ def _batch(model: Any, X: np.ndarray, n_out: int):
     ok = fin.all(axis=1)
     if given is not None:
         ok &= np.fromiter((r is None for r in given), dtype=bool, count=m)
+    elif ok.all():
+        return Y, ok, ()
     bad = np.flatnonzero(~ok)
     if not bad.size:
         return Y, ok, ()
