@@ -5,7 +5,8 @@ value the scene refuses, the same error message; ``PreparedScene`` gives the arr
 a study can sample (points, lengths, joint and driver values), alone and in random groups,
 good values and bad ones.
 
-Cost: a few thousand validations and compilations of small scenes (milliseconds each).
+Cost: about a thousand validations and compilations of small scenes (milliseconds each); the
+test of every numeric path is marked slow (a quarter of them run by default).
 """
 
 from __future__ import annotations
@@ -18,7 +19,7 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from mechrel._prepared import PreparedScene, locate_point
+from mechrel.simulation import PreparedScene, locate_point
 from mechrel.errors import SceneError
 from mechrel.mechanics.system import compile_scene
 from mechrel.scene import embedded_names, load_scene, with_overrides
@@ -96,10 +97,9 @@ def _same_compiled(a, b, why):
             assert x == y, (why, field)
 
 
-@pytest.mark.parametrize("name", sorted(SCENES))
-def test_one_value_at_every_numeric_path(name):
+def _one_value_at_each_path(name, paths):
     scene = SCENES[name]
-    for path in PATHS[name]:
+    for path in paths:
         x0 = _value_at(scene, path)
         prepared = PreparedScene(scene, [path])
         # the value nudged (a sample), zero, its negative and a huge one (most are refused by
@@ -108,7 +108,19 @@ def test_one_value_at_every_numeric_path(name):
             _compare(scene, {path: value}, prepared)
 
 
-@settings(max_examples=100, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@pytest.mark.parametrize("name", sorted(SCENES))
+def test_one_value_at_every_fourth_numeric_path(name):
+    # every kind of path (points, lengths, joint, sub-table and driver values) is among them
+    _one_value_at_each_path(name, PATHS[name][::4])
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", sorted(SCENES))
+def test_one_value_at_every_numeric_path(name):
+    _one_value_at_each_path(name, PATHS[name])
+
+
+@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(data=st.data())
 def test_groups_of_values_alone_or_refused_as_a_full_validation_refuses_them(data):
     name = data.draw(st.sampled_from(sorted(SCENES)))

@@ -71,11 +71,10 @@ def ensure_fresh_kernel_cache(package: Path = _PACKAGE) -> bool:
 
 def simulator_digest() -> str:
     """Hash of every source that determines a simulation's numbers (the kernels, the
-    simulation driver, a sample's compiled scene and the mechanism model): part of the UQ
-    evaluation-cache key, so that
+    simulation driver and the mechanism model): part of the UQ evaluation-cache key, so that
     cached evaluations are never reused across a change of the simulator's code."""
     h = hashlib.sha256(_sources_digest(_PACKAGE).encode())
-    for rel in ("simulation.py", "_prepared.py", "uq/problem/mechanism.py"):
+    for rel in ("simulation.py", "uq/problem/mechanism.py"):
         h.update((_PACKAGE / rel).read_bytes())
     return h.hexdigest()
 

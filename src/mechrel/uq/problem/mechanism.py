@@ -607,7 +607,7 @@ class MechanismModel:
 
 class _Samples:
     """What the samples of one :class:`MechanismModel` share, in one process (not pickled):
-    the scene prepared for the inputs' paths (:class:`~mechrel._prepared.PreparedScene`: a
+    the scene prepared for the inputs' paths (:class:`~mechrel.simulation.PreparedScene`: a
     sample's values are set in the compiled scene, validated by the scene's own rules on the
     tables they sit in), the integrators by solver table and scene kind, and the nominal
     reference design by the sample's non-geometric values (with geometric inputs only: one,
@@ -617,7 +617,7 @@ class _Samples:
     KEEP = 8  # reference designs kept (one per set of non-geometric values)
 
     def __init__(self, model: MechanismModel):
-        from ..._prepared import PreparedScene
+        from ...simulation import PreparedScene
         from ...scene._values import SceneValues
 
         self.model = model
