@@ -57,6 +57,8 @@ from pathlib import Path  # noqa: E402
 
 import numpy as np  # noqa: E402
 
+from _common import timed  # noqa: E402  (benchmarks/ is sys.path[0])
+
 CASES = ("tolerance", "lubricated", "vectorised")
 HERE = Path(__file__).resolve()
 
@@ -143,18 +145,9 @@ def case_lubricated() -> dict:
     model.evaluate_batch(X[:2])
     spent = {"radau": 0.0, "kinematics": 0.0}
 
-    def timed(fn, key):
-        def run(*a, **kw):
-            t0 = time.perf_counter()
-            try:
-                return fn(*a, **kw)
-            finally:
-                spent[key] += time.perf_counter() - t0
-        return run
-
-    radau.Radau._advance = timed(radau.Radau._advance, "radau")
-    kinematics._kinematics = timed(kinematics._kinematics, "kinematics")
-    kinematics._construct = timed(kinematics._construct, "kinematics")
+    radau.Radau._advance = timed(radau.Radau._advance, spent, "radau")
+    kinematics._kinematics = timed(kinematics._kinematics, spent, "kinematics")
+    kinematics._construct = timed(kinematics._construct, spent, "kinematics")
     rounds = []
     for _ in range(3):
         spent.update(radau=0.0, kinematics=0.0)

@@ -32,7 +32,7 @@ from .mechanics.dynamics import N_WORK
 from .mechanics.kinematics import assemble, kinematic_analysis
 from .mechanics.post import post_process
 from .mechanics.system import CompiledScene, System, _driver_row, compile_scene
-from .scene._values import SceneValues, table_of
+from .scene._values import SceneValues, table_of, value_path
 from .scene.model import GROUND, Scene
 
 # Default integrator per scene kind: "ideal" here, each clearance model's from its row of the
@@ -1114,14 +1114,7 @@ _PROBE = (12345.678901234567, -8765.4321098765)  # no coordinate of a mechanism:
 
 def _point_path(path: str) -> tuple[str, str] | None:
     """``(owner, point)`` of the point a geometric path sets (owner: a body or ``ground``)."""
-    from .scene.loader import _COMPONENT_RE, _LENGTH_RE
-
-    m = _LENGTH_RE.match(path)
-    if m:
-        owner = m["owner"]
-        return (GROUND if owner == "ground" else owner.split(".", 1)[1]), m["moved"]
-    m = _COMPONENT_RE.match(path)
-    parts = (m["base"] if m else path).split(".")
+    parts = value_path(path).split(".")
     if len(parts) == 3 and parts[:2] == ["ground", "points"]:
         return GROUND, parts[2]
     if len(parts) == 4 and parts[0] == "bodies" and parts[2] == "points":

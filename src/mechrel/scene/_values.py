@@ -38,7 +38,33 @@ from .loader import (_COMPONENT_RE, _LENGTH_RE, _MAPPING_LABEL, apply_override, 
                      with_overrides)
 from .model import Scene
 
-__all__ = ["SceneValues", "table_of"]
+__all__ = ["SceneValues", "table_of", "value_path"]
+
+
+def value_path(path: str) -> str:
+    """The plain dotted path a value is set at: a derived path ``PATH[i]`` sets PATH,
+    ``OWNER.length(P,Q)`` the point ``OWNER.points.Q``; another path is itself.
+
+    Parameters
+    ----------
+    path : str
+        A dotted scene path (without a leading ``-``).
+
+    Returns
+    -------
+    str
+        The plain path.
+
+    Examples
+    --------
+    >>> value_path("bodies.crank.length(O,A)"), value_path("ground.points.O[1]")
+    ('bodies.crank.points.A', 'ground.points.O')
+    """
+    m = _LENGTH_RE.match(path)
+    if m:
+        return f"{m['owner']}.points.{m['moved']}"
+    m = _COMPONENT_RE.match(path)
+    return m["base"] if m else path
 
 
 def table_of(path: str) -> tuple[str, ...] | None:
@@ -65,13 +91,7 @@ def table_of(path: str) -> tuple[str, ...] | None:
     >>> table_of("drivers.crank.speed"), table_of("solver.rtol") is None
     (('drivers',), True)
     """
-    m = _LENGTH_RE.match(path)
-    if m:
-        path = f"{m['owner']}.points.{m['moved']}"
-    m = _COMPONENT_RE.match(path)
-    if m:
-        path = m["base"]
-    parts = path.split(".")
+    parts = value_path(path).split(".")
     if len(parts) == 3 and parts[:2] == ["ground", "points"]:
         return ("ground",)
     if len(parts) >= 3 and parts[0] == "bodies":
@@ -86,15 +106,9 @@ def table_of(path: str) -> tuple[str, ...] | None:
 def _spine(raw: Mapping, path: str) -> dict:
     """A copy of ``raw`` in which the tables on the way to ``path`` are dicts of their own (the
     others are shared, frozen), so that :func:`apply_override` writes into copies only."""
-    m = _LENGTH_RE.match(path)
-    if m:
-        path = f"{m['owner']}.points.{m['moved']}"
-    m = _COMPONENT_RE.match(path)
-    if m:
-        path = m["base"]
     top = raw if isinstance(raw, dict) else dict(raw)
     cur = top
-    for seg in path.split(".")[:-1]:
+    for seg in value_path(path).split(".")[:-1]:
         child = cur.get(seg)
         if not isinstance(child, Mapping):
             break  # missing or not a table: apply_override creates it or refuses the path

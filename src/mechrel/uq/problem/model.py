@@ -66,7 +66,7 @@ class ModelFailure(MechrelError, RuntimeError):
 
 class RowFailures(ModelFailure):
     """Some rows of a batch failed: raised by a model's ``evaluate_batch`` that records its
-    rows' failures itself (instead of letting the executor re-run the batch row by row).
+    rows' failures itself (the executor keeps the other rows, and evaluates none again).
 
     Parameters
     ----------
@@ -374,11 +374,13 @@ class FunctionModel:
     vectorized
         ``True``: ``func`` takes a batch ``X`` (m, d) and returns (m, n_out) (or (m,) for one
         output), and the executor calls it once per chunk instead of once per row (saving the
-        per-call Python overhead). Failures stay per row: a row with a non-finite output is a
-        failure with its reason; if the batch call raises :class:`ModelFailure` (or another
-        per-sample ``MechrelError``), the executor re-evaluates that chunk row by row so that only
-        the rows that raise are failures. Not part of the cache key: a vectorised and a row-wise
-        function computing the same numbers share cached results.
+        per-call Python overhead). Failures stay per row, reported by ``func`` itself: a row with
+        a non-finite output (a NaN row) is a failure with its reason, and ``func`` may raise
+        :class:`RowFailures` with every row's outputs and the failed rows' reasons; the other
+        rows are kept. If the batch call raises :class:`ModelFailure` (or another per-sample
+        ``MechrelError``), the executor evaluates the chunk's halves again until the rows that
+        raise stand alone (docs/uq.md, "Vectorised models"). Not part of the cache key: a
+        vectorised and a row-wise function computing the same numbers share cached results.
 
     Examples
     --------
