@@ -191,7 +191,10 @@ class _Builder(Checker):
         jt = self.table("joints", v, "a [joints.NAME] table per joint")
         return {name: self._joint(name, j, bodies, ground) for name, j in jt.items()}
 
-    def _joint(self, name: str, j: Any, bodies: Mapping[str, Body], ground: Mapping) -> Joint:
+    def _joint(self, name: str, j: Any, bodies: Mapping[str, Body], ground: Mapping,
+               keep: Mapping[str, Any] | None = None) -> Joint:
+        """One joint; ``keep``: sub-tables of a revolute joint validated before with the same
+        content and model, taken as they are (:class:`~mechrel.scene._values.SceneValues`)."""
         p = join("joints", name)
         self.name(p, name, "joint")
         self.table(p, j)
@@ -207,7 +210,7 @@ class _Builder(Checker):
                  for k in JOINT_KEYS if k not in JOINT_KEYS_BY_TYPE[jtype]}
         self.keys(p, j, JOINT_KEYS_BY_TYPE[jtype], required=required, what=what, hints=hints)
         if jtype == "revolute":
-            return self._revolute(p, name, j, bodies, ground)
+            return self._revolute(p, name, j, bodies, ground, keep or {})
         if jtype == "translational":
             c = self._refs(p + ".connects", j["connects"], 2, "a translational joint")
             a = self._ref(p + ".connects[0]", c[0], bodies, ground, ground_ok=False)
@@ -222,7 +225,8 @@ class _Builder(Checker):
         return Joint(name=name, type="fixed-angle", points=(a,),
                      angle=self.number(p + ".angle", j["angle"], unit="rad"))
 
-    def _revolute(self, p: str, name: str, j: Mapping, bodies, ground) -> Joint:
+    def _revolute(self, p: str, name: str, j: Mapping, bodies, ground,
+                  keep: Mapping[str, Any]) -> Joint:
         c = self._refs(p + ".connects", j["connects"], 2, "a revolute joint")
         a = self._ref(p + ".connects[0]", c[0], bodies, ground)
         b = self._ref(p + ".connects[1]", c[1], bodies, ground)
@@ -267,8 +271,11 @@ class _Builder(Checker):
         subs: dict[str, Any] = {}
         for k, check in (("contact", self._contact), ("friction", self._friction),
                          ("lubricant", self._lubricant), ("transition", self._transition)):
-            subs[k] = (check(join(p, k), j.get(k, {}), model) if k in j or k in needs
-                       else None)
+            if k in keep:  # its content passed these checks before (the model unchanged)
+                subs[k] = keep[k] if k in j or k in needs else None
+            else:
+                subs[k] = (check(join(p, k), j.get(k, {}), model) if k in j or k in needs
+                           else None)
         joint = Joint(name=name, type="revolute", points=(a, b), model=model,
                       clearance=clearance, bearing_radius=bearing_radius, length=length,
                       initial_eccentricity=ecc, initial_eccentricity_rate=ecc_rate, **subs)

@@ -11,7 +11,9 @@ values sit in, not on the whole scene:
   as overrides do (so derived paths ``PATH[i]`` and ``OWNER.length(P,Q)`` and their checks are
   the same), copying only the tables on their way;
 * a joint, a body or the ground points whose table holds a value is validated again by the
-  builder's own method for one joint, one body or the ground; a change of a joint or of the
+  builder's own method for one joint, one body or the ground (a joint's sub-tables that hold
+  none of the values, its model unchanged, are the scene's: they passed the same checks with
+  the same content); a change of a joint or of the
   points also runs the check of zero-length links, a change of a joint the outputs' (they
   name joints), a change of a driver the drivers' table and the analysis' (which reads the
   cycle driver's speed);
@@ -39,6 +41,8 @@ from .loader import (_COMPONENT_RE, _LENGTH_RE, _MAPPING_LABEL, apply_override, 
 from .model import Scene
 
 __all__ = ["SceneValues", "table_of", "value_path"]
+
+_SUBTABLES = ("contact", "friction", "lubricant", "transition")  # a revolute joint's
 
 
 def value_path(path: str) -> str:
@@ -103,12 +107,13 @@ def table_of(path: str) -> tuple[str, ...] | None:
     return None
 
 
-def _spine(raw: Mapping, path: str) -> dict:
-    """A copy of ``raw`` in which the tables on the way to ``path`` are dicts of their own (the
-    others are shared, frozen), so that :func:`apply_override` writes into copies only."""
+def _spine(raw: Mapping, path: str | tuple[str, ...]) -> dict:
+    """A copy of ``raw`` in which the tables on the way to ``path`` (or to the plain path
+    ``value_path(path)`` split at its dots) are dicts of their own (the others are shared,
+    frozen), so that :func:`apply_override` writes into copies only."""
     top = raw if isinstance(raw, dict) else dict(raw)
     cur = top
-    for seg in value_path(path).split(".")[:-1]:
+    for seg in (value_path(path).split(".") if isinstance(path, str) else path)[:-1]:
         child = cur.get(seg)
         if not isinstance(child, Mapping):
             break  # missing or not a table: apply_override creates it or refuses the path
@@ -150,6 +155,7 @@ class SceneValues:
         # apply_override checks of it does not depend on the value (the schema, the tables on
         # the way), so it is checked once here and a value is then set at its place directly
         self._leaves: dict[str, tuple[str, ...]] = {}
+        self._parts = {p: tuple(value_path(p).split(".")) for p in paths}
         for path in paths if self.incremental else ():
             if _LENGTH_RE.match(path) or _COMPONENT_RE.match(path):
                 continue
@@ -161,6 +167,16 @@ class SceneValues:
                 apply_override(_spine(scene.raw, path), path, node, source=self.label)
                 self._leaves[path] = parts
         self.joints = tuple(n for n in scene.joints if ("joint", n) in tables)
+        # per joint, its sub-tables no value sits in (and the model not among the values):
+        # their content and the model are the scene's, so their validation is the scene's
+        self._keep: dict[str, dict[str, Any]] = {}
+        for name in self.joints:
+            fields = {value_path(p).split(".")[2] for p in paths
+                      if table_of(p) == ("joint", name)}
+            joint = scene.joints[name]
+            if "model" not in fields and joint.type == "revolute":
+                self._keep[name] = {k: getattr(joint, k) for k in _SUBTABLES
+                                    if k not in fields}
         self.bodies = tuple(n for n in scene.bodies if ("body", n) in tables)
         self.ground = ("ground",) in tables
         self.drivers = ("drivers",) in tables
@@ -196,7 +212,7 @@ class SceneValues:
         raw: Any = scene.raw
         overrides = [(str(p), v, f"{p}={fmt_value(v)}") for p, v in values.items()]
         for path, value, text in overrides:
-            raw = _spine(raw, path)
+            raw = _spine(raw, self._parts.get(path) or path)
             parts = self._leaves.get(path)
             if parts is not None and isinstance(value, float):
                 node = raw
@@ -226,7 +242,8 @@ class SceneValues:
             joints = dict(joints)
             table = dict(new_raw["joints"])
             for name in self.joints:
-                joints[name] = b._joint(name, raw["joints"][name], bodies, ground)
+                joints[name] = b._joint(name, raw["joints"][name], bodies, ground,
+                                        self._keep.get(name))
                 table[name] = freeze(joint_to_raw(joints[name]))
             joints = changed["joints"] = MappingProxyType(joints)
             new_raw["joints"] = MappingProxyType(table)
