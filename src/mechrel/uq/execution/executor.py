@@ -221,22 +221,22 @@ class Evaluations:
         if status.dtype != np.dtype("<U6"):
             status = status.astype("<U6")
         ok = status == STATUS_OK
-        if status.shape != (X.shape[0],) or not np.all(ok | (status == STATUS_FAILED)):
+        if status.shape != (X.shape[0],) or not (ok.all() or np.all(ok | (status == STATUS_FAILED))):
             raise StudyError("evaluations.status: one of 'ok'/'failed' per row required")
         reasons = tuple(self.reasons)
         if len(reasons) != X.shape[0]:
             raise StudyError("evaluations.reasons: one entry per row required")
-        finite = np.isfinite(Y).all(axis=1)
-        if not np.all(finite | ~ok):
-            raise StudyError(
-                "evaluations: rows marked 'ok' contain non-finite outputs; mark them 'failed' with a reason"
-            )
         # per failed row (only): NaN outputs and a reason; an ok row has none (vectorised: no
         # Python loop over the rows unless a row needs mending)
         failed = np.flatnonzero(~ok)
         if failed.size and not np.all(np.isnan(Y[failed])):
             Y = np.array(Y)
             Y[failed] = np.nan
+        # the failed rows are NaN now: any other non-finite entry is in an ok row
+        if Y.size - np.count_nonzero(np.isfinite(Y)) != failed.size * Y.shape[1]:
+            raise StudyError(
+                "evaluations: rows marked 'ok' contain non-finite outputs; mark them 'failed' with a reason"
+            )
         missing = [i for i in failed if reasons[i] is None]
         if missing or reasons.count(None) != ok.sum() + len(missing):
             reasons = tuple(None if o else (r if r is not None else "unknown")
@@ -674,17 +674,18 @@ def _batch(model: Any, X: np.ndarray, n_out: int):
         raise StudyError(f"model.evaluate_batch returned shape {Y.shape} for {m} rows; "
                          f"expected ({m}, {n_out})")
     fin = np.isfinite(Y)
+    if given is None and fin.all():  # the usual chunk: one reduction, no per-row work
+        return Y, np.ones(m, dtype=bool), ()
     ok = fin.all(axis=1)
     if given is not None:
         ok &= np.fromiter((r is None for r in given), dtype=bool, count=m)
-    elif ok.all():
-        return Y, ok, ()
     bad = np.flatnonzero(~ok)
     if not bad.size:
         return Y, ok, ()
+    n_bad = n_out - np.count_nonzero(fin[bad], axis=1)  # non-finite entries per failed row
     failed = tuple((int(i), (given[i] if given is not None else None)
-                    or f"non-finite output ({int((~fin[i]).sum())} of {n_out} entries)")
-                   for i in bad)
+                    or f"non-finite output ({int(k)} of {n_out} entries)")
+                   for i, k in zip(bad, n_bad))
     Y = np.array(Y)  # the model's array is not ours to write into
     Y[bad] = np.nan
     return Y, ok, failed
@@ -862,6 +863,15 @@ def evaluate(
     todo = np.flatnonzero(~done)
     cs = int(chunk_size) if chunk_size is not None else default_chunk_size(len(todo))
     chunks = [todo[s : s + cs] for s in range(0, len(todo), cs)]
+    # a chunk of consecutive rows (all of them when nothing is cached) is read and written as a
+    # slice: a block copy instead of a gather and a scatter by index
+    spans = [slice(int(r[0]), int(r[-1]) + 1) if r[-1] - r[0] + 1 == len(r) else r
+             for r in chunks]
+
+    def rows_of(cid: int) -> np.ndarray:
+        """The chunk's rows of ``X``, the chunk's own copy (a model may write into it)."""
+        span = spans[cid]
+        return X[span].copy() if isinstance(span, slice) else X[span]
 
     from tqdm.auto import tqdm
 
@@ -876,8 +886,8 @@ def evaluate(
         nonlocal n_calls, n_done, n_failed
         cid, Yk, okk, failed, ncalls = result
         rows = chunks[cid]
-        Y[rows] = Yk
-        ok[rows] = okk
+        Y[spans[cid]] = Yk
+        ok[spans[cid]] = okk
         for i, r in failed:
             reasons[rows[i]] = r
         n_calls += ncalls
@@ -886,11 +896,12 @@ def evaluate(
             rk: list[str | None] = [None] * len(rows)
             for i, r in failed:
                 rk[i] = r
-            cache.store(key, X[rows], Yk, okk, rk)
+            cache.store(key, X[spans[cid]], Yk, okk, rk)
         bar.update(len(rows))
         if failed:
             n_failed += len(failed)
-            bar.set_postfix(failed=n_failed, refresh=False)
+            if progress:
+                bar.set_postfix(failed=n_failed, refresh=False)
         if callback is not None:
             callback(n_done, len(todo))
 
@@ -899,7 +910,7 @@ def evaluate(
             if backend == "sequential" or n_jobs == 1:
                 for cid, rows in enumerate(chunks):
                     try:
-                        result = _evaluate_chunk(model, X[rows], n_out, cid)
+                        result = _evaluate_chunk(model, rows_of(cid), n_out, cid)
                     except KeyboardInterrupt as exc:  # keep the samples finished in this chunk
                         k, Yk, okk, rk = getattr(exc, "finished", (0, None, None, None))
                         if cache is not None and k:
@@ -909,7 +920,8 @@ def evaluate(
             else:
                 import joblib
 
-                tasks = (joblib.delayed(_evaluate_chunk)(model, X[rows], n_out, cid) for cid, rows in enumerate(chunks))
+                tasks = (joblib.delayed(_evaluate_chunk)(model, rows_of(cid), n_out, cid)
+                         for cid in range(len(chunks)))
                 if backend == "dask":
                     with joblib.parallel_config(backend="dask"):
                         gen = joblib.Parallel(n_jobs=n_jobs, return_as="generator_unordered")(tasks)
@@ -925,7 +937,8 @@ def evaluate(
     # the arrays are this call's own: frozen in place, not copied again by Evaluations
     X.setflags(write=False)
     Y.setflags(write=False)
-    status = np.where(ok, STATUS_OK, STATUS_FAILED)
+    status = np.full(n, STATUS_OK, dtype="<U6")
+    status[~ok] = STATUS_FAILED
     return Evaluations(
         X, Y, status, tuple(reasons), input_names, output_index,
         cache_key=str(model.cache_key()), n_model_calls=n_calls, n_cached=n_cached,
