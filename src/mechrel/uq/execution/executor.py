@@ -678,7 +678,7 @@ def _batch(model: Any, X: np.ndarray, n_out: int):
         return Y, np.ones(m, dtype=bool), ()
     ok = fin.all(axis=1)
     if given is not None:
-        ok &= np.fromiter((r is None for r in given), dtype=bool, count=m)
+        ok[[i for i, r in enumerate(given) if r is not None]] = False
     bad = np.flatnonzero(~ok)
     if not bad.size:
         return Y, ok, ()

@@ -85,10 +85,11 @@ class RowFailures(ModelFailure):
 
     def __init__(self, Y, reasons):
         self.Y = np.asarray(Y, dtype=float)
-        self.reasons = [None if r is None else str(r) for r in reasons]
-        failed = [r for r in self.reasons if r is not None]
-        super().__init__(f"{len(failed)} of {len(self.reasons)} rows failed"
-                         + (f", the first: {failed[0]}" if failed else ""))
+        self.reasons = [r if r is None or type(r) is str else str(r) for r in reasons]
+        n_failed = len(self.reasons) - self.reasons.count(None)
+        first = next((r for r in self.reasons if r is not None), None)
+        super().__init__(f"{n_failed} of {len(self.reasons)} rows failed"
+                         + (f", the first: {first}" if n_failed else ""))
 
     def __reduce__(self):  # picklable across process boundaries with its rows
         return (type(self), (self.Y, self.reasons))
