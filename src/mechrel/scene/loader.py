@@ -29,6 +29,8 @@ _MAPPING_LABEL = "<mapping>"
 
 # ----------------------------------------------------------------------------- freezing
 
+_LEAVES = frozenset((float, int, str, bool, type(None)))  # the types TOML leaves have
+
 def freeze(v: Any) -> Any:
     """Read-only deep copy: tables → ``MappingProxyType``, arrays → tuples.
 
@@ -52,6 +54,8 @@ def freeze(v: Any) -> Any:
     ...
     TypeError: 'mappingproxy' object does not support item assignment
     """
+    if type(v) in _LEAVES:  # most values (and no Mapping ABC check for them)
+        return v
     if isinstance(v, Mapping):
         return MappingProxyType({k: freeze(x) for k, x in v.items()})
     if isinstance(v, (list, tuple)):
@@ -77,6 +81,8 @@ def thaw(v: Any) -> Any:
     >>> thaw(freeze({"points": {"A": [0.05, 0.0]}}))
     {'points': {'A': [0.05, 0.0]}}
     """
+    if type(v) in _LEAVES:
+        return v
     if isinstance(v, Mapping):
         return {k: thaw(x) for k, x in v.items()}
     if isinstance(v, (list, tuple)):

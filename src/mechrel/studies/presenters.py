@@ -923,8 +923,10 @@ class Generic(Presenter):
         _run_on_study(ctx, method, prefer="limit_state")
 
     def tail_lines(self, ctx):
-        return [f"  {k}: {ctx.results[k].n_evaluations} model evaluations, table in {k}.csv"
-                for k in self.keys]
+        # the count of its evaluations (computed, from the cache), as every line gives it
+        counts = {k: ctx.evaluations[k].count.text() if k in ctx.evaluations
+                  else f"{ctx.results[k].n_evaluations} model evaluations" for k in self.keys}
+        return [f"  {k}: {counts[k]}, table in {k}.csv" for k in self.keys]
 
     def write(self, ctx, out):
         from ..io import write_table

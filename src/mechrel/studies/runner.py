@@ -274,6 +274,7 @@ def run_reliability(study, *, methods=None, n=None, n_jobs=1, seed=None, out=Non
     (['fosm'], 3)
     """
     from .presenters import COMBINED, Context, presenter_class, warnings_of
+    from .rare import evaluation_counts
     from .study import study_methods
 
     start = time.perf_counter()
@@ -355,8 +356,8 @@ def run_reliability(study, *, methods=None, n=None, n_jobs=1, seed=None, out=Non
         lines += p.tail_lines(ctx)
     lines += _failure_lines(ctx.evaluations, out / "failures.csv" if out else None)
     wall = time.perf_counter() - start
-    n_calls = sum(ev.n_model_calls for ev in ctx.evaluations.values())
-    lines.append(f"  {n_calls} model evaluations in {wall:.1f} s (n_jobs = {n_jobs})")
+    per_method, total = evaluation_counts(ctx.results, ctx.evaluations)
+    lines.append(f"  {total.text()} in {wall:.1f} s (n_jobs = {n_jobs})")
     notes = warnings_of(ctx.results) + ctx.notes
     lines += [f"  warning: {w}" for w in notes]
     verdict = _verdict(ctx, by_rank)
@@ -379,6 +380,9 @@ def run_reliability(study, *, methods=None, n=None, n_jobs=1, seed=None, out=Non
         _remove_stale(out, [f for f in reliability_results() if f not in written])
         _write_failures(ctx.evaluations, out / "failures.csv")
         write_json({**record, "wall_time": wall, "failures": _failure_counts(ctx.evaluations),
+                    "evaluations": {**{k: {**c.as_dict(), "includes": shared}
+                                       for k, (c, shared) in per_method.items()},
+                                    "total": total.as_dict()},
                     "provenance": {k: dict(v.provenance) for k, v in ctx.results.items()},
                     "warnings": notes, "verdict": [v.strip() for v in verdict[1:]],
                     "summary": lines, **{k: v for p in ctx.presenters
@@ -487,8 +491,7 @@ def run_sensitivity(study, *, n=None, n_jobs=1, seed=None, out=None, progress=Tr
     table = res.to_frame().reset_index()
     table = table.sort_values([table.columns[0], "ST"], ascending=[True, False])
     lines = [f"study {study.name}: Sobol indices of the peak |error| over the cycle "
-             f"(N = {n}, {res.evaluations.n} model runs, "
-             f"{res.n_blocks_dropped} Saltelli blocks dropped for failures)"]
+             f"(N = {n}, {res.n_blocks_dropped} Saltelli blocks dropped for failures)"]
     for out_name, grp in table.groupby(table.columns[0], sort=False):
         ranked = ", ".join(f"{r[table.columns[1]]} ST={r['ST']:.3f}±{r['ST_conf']:.3f} "
                            f"S1={r['S1']:.3f}" for _, r in grp.iterrows())
@@ -496,7 +499,8 @@ def run_sensitivity(study, *, n=None, n_jobs=1, seed=None, out=None, progress=Tr
     lines += _failure_lines(evaluations, out / "sensitivity_failures.csv" if out else None)
     lines += [f"  warning: {w}" for w in res.warnings]
     wall = time.perf_counter() - start
-    lines.append(f"  wall time {wall:.1f} s (n_jobs = {n_jobs})")
+    count = res.evaluations.count
+    lines.append(f"  {count.text()} in {wall:.1f} s (n_jobs = {n_jobs})")
     if out:
         write_table(table, out / "sensitivity.csv")
         from ..uq.plots import plot_sobol
@@ -506,6 +510,7 @@ def run_sensitivity(study, *, n=None, n_jobs=1, seed=None, out=None, progress=Tr
               out / "sensitivity.png")
         _write_failures(evaluations, out / "sensitivity_failures.csv")
         write_json({**record, "wall_time": wall, "failures": _failure_counts(evaluations),
+                    "evaluations": {"sobol": count.as_dict(), "total": count.as_dict()},
                     "provenance": dict(res.provenance), "warnings": list(res.warnings),
                     "summary": lines}, out / "sensitivity.json")
         lines.append(f"  wrote {out}/sensitivity.csv, sensitivity.png, "

@@ -83,11 +83,12 @@ def watch_parent() -> None:
     ``MECHREL_PARENT_PID``): start (once per process) a daemon thread that ends the process
     when its parent ends. Elsewhere: nothing."""
     global _watching
-    if _watching:
+    if _watching is not False:  # watching, or not a worker (decided once per process)
         return
     parent = os.environ.get(PARENT_ENV, "")
     if not parent.isdigit() or int(parent) == os.getpid() or os.getppid() != int(parent):
-        return  # not a worker of this backend (e.g. a process a worker started itself)
+        _watching = None  # not a worker of this backend (e.g. a process a worker started)
+        return
     _watching = True
     threading.Thread(target=_watch, args=(int(parent),), name="mechrel-watch-parent",
                      daemon=True).start()
