@@ -136,7 +136,9 @@ def test_refused_run_leaves_no_earlier_results_beside_its_summary(tmp_path, caps
     assert "samples failed" in capsys.readouterr().err
     assert json.loads((out / "summary.json").read_text())["refused"]["method"] == "mc"
     names = sorted(p.name for p in out.iterdir())
-    assert names == [LOCK_NAME, "evaluations.sqlite", "failures.csv", "summary.json"]
+    # the refusal's set (its manifest names it); the lock is gone with the run
+    assert names == [".mechrel-set-reliability.json", "evaluations.sqlite", "failures.csv",
+                     "summary.json"]
 
 
 def test_second_run_on_a_held_folder_is_refused_at_once(tmp_path, capsys):
@@ -150,7 +152,7 @@ def test_second_run_on_a_held_folder_is_refused_at_once(tmp_path, capsys):
     assert capsys.readouterr().err == (
         f"mechrel: error: out = '{out}': another run (pid {os.getpid()}) holds {out}; allowed: "
         "wait for it to finish, or give this run another output folder\n")
-    assert sorted(p.name for p in out.iterdir()) == [LOCK_NAME]  # nothing evaluated
+    assert sorted(p.name for p in out.iterdir()) == []  # nothing evaluated; no lock left
     with hold_folder(out):  # released: it can be taken again
         pass
 

@@ -59,6 +59,10 @@ class Setting:
         setting, the value and what is allowed (None: the estimator checks it itself).
     doc : str, default ""
         A one-line description (shown by the command line).
+    samples : bool, default False
+        The setting is a number of model runs the method holds in memory at once (a sample
+        count): the study runner checks it against the machine's memory before any method
+        runs.
 
     Examples
     --------
@@ -70,6 +74,7 @@ class Setting:
     default: Any
     check: Callable[[str, Any], Any] | None = None
     doc: str = ""
+    samples: bool = False
 
 
 @dataclass(frozen=True)
@@ -336,12 +341,12 @@ for _m in (
     Method("importance_sampling", "estimators.importance:importance_sampling",
            "estimators.importance:ImportanceSamplingResult", "rare_event",
            "importance sampling centred on the FORM design point",
-           _FORM_SETTINGS | _FAILURES | {"n": Setting(1000, _pos_int(2)), "design_point": Setting(None)},
+           _FORM_SETTINGS | _FAILURES | {"n": Setting(1000, _pos_int(2), samples=True), "design_point": Setting(None)},
            short="is"),
     Method("subset_simulation", "estimators.subset:subset_simulation",
            "estimators.subset:SubsetSimulationResult", "rare_event",
            "subset simulation (Au & Beck) with conditional sampling or modified Metropolis",
-           _FAILURES | {"n_per_level": Setting(1000, _pos_int(10)), "p0": Setting(0.1, _fraction),
+           _FAILURES | {"n_per_level": Setting(1000, _pos_int(10), samples=True), "p0": Setting(0.1, _fraction),
                         "proposal": Setting("conditional", _choice(("conditional", "modified_metropolis"))),
                         "rho": Setting(0.8, _correlation), "spread": Setting(1.0, _pos_float),
                         "max_levels": Setting(20, _pos_int(1))},

@@ -144,7 +144,9 @@ class EvaluationCache:
 
     def _fail(self, problem: str, exc: BaseException | None = None, todo: str = _WHAT_TO_DO):
         why = f" ({type(exc).__name__}: {exc})" if exc is not None else ""
-        raise CacheError(f"cache: {str(self.path)!r}: {problem}{why}; allowed: {todo}") from None
+        # one line: sqlite's reports (quick_check's, for one) span several
+        text = " ".join(f"{problem}{why}".split())
+        raise CacheError(f"cache: {str(self.path)!r}: {text}; allowed: {todo}") from None
 
     def _open(self) -> None:
         """Check the file (a sqlite database that passes ``quick_check``, holding only a table
