@@ -175,21 +175,32 @@ def main(argv=None) -> int:
         with warnings.catch_warnings():
             warnings.showwarning = _show_warning
             return args.func(args)
-    except MechrelError as exc:
-        say(f"mechrel: error: {exc}", file=sys.stderr)
-        return 2
-    except (KeyboardInterrupt, SystemError) as exc:
-        # a SystemError is an interrupt raised inside a numba callback (errors.interrupt_of)
+    except (KeyboardInterrupt, Exception) as exc:
+        # an interrupt, or an error raised while one was handled (a SystemError from a numba
+        # callback, errors.interrupt_of; a RuntimeError from joblib's abort of a worker pool
+        # whose manager thread Ctrl-C caught starting): the interrupt's one line
         interrupt = interrupt_of(exc)
-        if interrupt is None:
-            raise
-        say(_interrupted_line(interrupt, args), file=sys.stderr)
-        return 128 + (interrupt.signum if isinstance(interrupt, Interrupted) else signal.SIGINT)
-    except BrokenPipeError:  # e.g. `mechrel simulate ... | head`: the reader has gone
-        import os
-        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())  # no error at exit
-        return 128 + signal.SIGPIPE
+        if interrupt is not None:
+            say(_interrupted_line(interrupt, args), file=sys.stderr)
+            return 128 + (interrupt.signum if isinstance(interrupt, Interrupted)
+                          else signal.SIGINT)
+        if isinstance(exc, MechrelError):
+            say(f"mechrel: error: {exc}", file=sys.stderr)
+            return 2
+        if isinstance(exc, BrokenPipeError):  # `mechrel simulate ... | head`: the reader left
+            import os
+            os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())  # no error at exit
+            return 128 + signal.SIGPIPE
+        raise
     finally:
+        # the command's worker pool ends with it, its resources unregistered (a signal now is
+        # held and dropped: the command's work and its lines are done)
+        if "joblib" in sys.modules:
+            from .._signals import signals_held
+            from ..uq.execution._workers import end_pool
+
+            with signals_held(deliver=False):
+                end_pool()
         if on_main:
             signal.signal(signal.SIGTERM, old_term)
 

@@ -31,13 +31,12 @@ import hashlib
 import json
 import os
 import shutil
-import signal
 import tempfile
-import threading
 import time
 import uuid
 from pathlib import Path
 
+from .._signals import signals_held
 from ..errors import OutputError
 
 MANIFEST = ".mechrel-set-{name}.json"
@@ -64,36 +63,6 @@ def _alive(pid: int) -> bool:
     except OSError:  # exists, another user's
         return True
     return True
-
-
-@contextlib.contextmanager
-def signals_deferred():
-    """Hold Ctrl-C and SIGTERM for the ``with`` block (a few renames): a signal that arrives
-    meanwhile acts, with its own handler, right after the block. Elsewhere than on the main
-    thread (where no handler can be set) the block runs as it is.
-
-    Examples
-    --------
-    >>> with signals_deferred():
-    ...     pass
-    """
-    if threading.current_thread() is not threading.main_thread():
-        yield
-        return
-    caught: list[int] = []
-    signums = (signal.SIGINT, signal.SIGTERM)
-    old = {s: signal.getsignal(s) for s in signums}
-    for s in signums:
-        if old[s] not in (signal.SIG_IGN, None):
-            signal.signal(s, lambda signum, frame: caught.append(signum))
-    try:
-        yield
-    finally:
-        for s in signums:
-            if old[s] not in (signal.SIG_IGN, None):
-                signal.signal(s, old[s])
-        for s in dict.fromkeys(caught):
-            signal.raise_signal(s)
 
 
 def _read_manifest(path: Path) -> dict:
@@ -176,7 +145,7 @@ def _commit(folder: Path, name: str, stage: Path, known, what: str) -> list[str]
         with contextlib.suppress(FileNotFoundError):
             os.chmod(stage / f, (folder / f).stat().st_mode & 0o7777)
     journal = folder / _JOURNAL.format(name=name)
-    with signals_deferred():
+    with signals_held():
         os.replace(stage, journal)  # committed: a run killed from here on is rolled forward
         _roll_forward(folder, name, journal)
     return files

@@ -204,11 +204,31 @@ def worker_died(exc: BaseException, rows: list, cache) -> Exception:
     from ...errors import WorkerError
 
     codes = re.search(r"exit codes of the workers are \{([^}]*)\}", str(exc))
-    how = f" ({codes.group(1)})" if codes else ""
+    how = f" (exit code {codes.group(1)})" if codes else ""
     spans = [f"{r[0]}" if len(r) == 1 else f"{r[0]}–{r[-1]}" for r in rows if len(r)]
-    where = (f" while evaluating design row(s) {' or '.join(spans)}" if spans else "")
+    where = (f" while evaluating samples {' or '.join(spans)}" if spans else "")
     kept = (f"the finished model evaluations are kept in {cache.path}: the same command "
             "resumes from them" if cache is not None else
             "without a cache (cache=...), a rerun evaluates every sample again")
     return WorkerError(f"a worker process ended without its result{how}{where}: killed by the "
                        "system (out of memory?) or from outside; " + kept)
+
+
+def end_pool() -> None:
+    """End loky's reusable worker pool of this process, if it has one, and remove the
+    temporary folders joblib keeps with it. The command line calls it when a command ends:
+    otherwise the pool is ended by the interpreter's exit, and a SIGTERM at that moment (the
+    default action: the process ends at once) left loky's resource tracker to print
+    "leaked semlock/folder objects" warnings."""
+    import sys
+
+    module = sys.modules.get("joblib.externals.loky.reusable_executor")
+    pool = getattr(module, "_executor", None)
+    if pool is not None:
+        # a pool left half-started by an interrupt cannot be joined ("cannot join thread
+        # before it is started"): the command has ended, nothing is left to save
+        with contextlib.suppress(Exception):
+            if hasattr(pool, "terminate"):  # joblib's: also its temporary folders
+                pool.terminate(kill_workers=True)
+            else:
+                pool.shutdown(wait=True, kill_workers=True)
