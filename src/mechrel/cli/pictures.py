@@ -48,7 +48,7 @@ def _cmd_draw(args) -> int:
     out = _checked_out(args.out, DRAWING_FORMATS)
     fig = draw_scene(scene, t=args.time)
     try:
-        with result_set(out.parent, out.name, what="--out") as stage:
+        with result_set(out.parent, out.name, what="--out", manifest=False) as stage:
             save_figure(fig, stage / out.name, dpi=args.dpi)
     finally:
         plt.close(fig)
@@ -81,7 +81,7 @@ def _cmd_animate(args) -> int:
     say(*_summary_lines(result))
     anim = animate(result, output=args.output, quantity=args.quantity, frames=args.frames,
                    magnify=args.magnify)
-    with result_set(out.parent, out.name, what="--out") as stage:
+    with result_set(out.parent, out.name, what="--out", manifest=False) as stage:
         save_animation(anim, stage / out.name, fps=args.fps)
     say(f"wrote {out}")
     return 0

@@ -96,7 +96,8 @@ def _roll_forward(folder: Path, name: str, journal: Path) -> None:
     for f in _names(data, "removes"):
         with contextlib.suppress(FileNotFoundError, IsADirectoryError):
             (folder / f).unlink()
-    os.replace(journal / _MANIFEST_IN_STAGE, folder / MANIFEST.format(name=name))
+    if data.get("manifest", True):
+        os.replace(journal / _MANIFEST_IN_STAGE, folder / MANIFEST.format(name=name))
     shutil.rmtree(journal, ignore_errors=True)
 
 
@@ -129,17 +130,17 @@ def _check_targets(folder: Path, files, what: str) -> None:
                               "or rename it)")
 
 
-def _commit(folder: Path, name: str, stage: Path, known, what: str) -> list[str]:
+def _commit(folder: Path, name: str, stage: Path, known, what: str, manifest: bool) -> list[str]:
     files = sorted(p.name for p in stage.iterdir() if p.is_file() and p.name != _MANIFEST_IN_STAGE)
     _check_targets(folder, files, what)
-    manifest = folder / MANIFEST.format(name=name)
-    previous = _names(_read_manifest(manifest), "files") + [k for k in known if k]
+    previous = _names(_read_manifest(folder / MANIFEST.format(name=name)), "files") \
+        + [k for k in known if k]
     removes = sorted({f for f in previous if f not in files and (folder / f).is_file()})
     data = {"set": name, "run": uuid.uuid4().hex, "pid": os.getpid(),
             "written": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
             "files": [{"name": f, "bytes": (stage / f).stat().st_size,
                        "sha256": _sha256(stage / f)} for f in files],
-            "removes": removes}
+            "removes": removes, "manifest": manifest}
     (stage / _MANIFEST_IN_STAGE).write_text(json.dumps(data, indent=2) + "\n", encoding="utf-8")
     for f in files:  # a replaced file keeps its permissions (a shared file stays shared)
         with contextlib.suppress(FileNotFoundError):
@@ -204,7 +205,7 @@ def check_folder(out, names=(), *, what: str = "out"):
 
 
 @contextlib.contextmanager
-def result_set(folder, name: str, *, known=(), what: str = "out"):
+def result_set(folder, name: str, *, known=(), what: str = "out", manifest: bool = True):
     """Write a run's result files as one set into ``folder`` (see the module docstring).
 
     Parameters
@@ -220,6 +221,9 @@ def result_set(folder, name: str, *, known=(), what: str = "out"):
         written by a version without manifests): removed when this run does not write them.
     what : str, default "out"
         What named the folder (the option or field), for messages.
+    manifest : bool, default True
+        Leave the set's manifest in the folder (False for a set of one file, a picture: the
+        rename of that file is the whole commit, and the user's folder gets no hidden file).
 
     Yields
     ------
@@ -254,7 +258,7 @@ def result_set(folder, name: str, *, known=(), what: str = "out"):
     try:
         yield stage
         try:
-            _commit(folder, name, stage, tuple(known), what)
+            _commit(folder, name, stage, tuple(known), what, manifest)
         except OSError as exc:
             then = ("the next run on the folder finishes moving them"
                     if (folder / _JOURNAL.format(name=name)).is_dir() else
