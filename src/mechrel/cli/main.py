@@ -123,14 +123,18 @@ def _interrupted_line(exc: KeyboardInterrupt, args) -> str:
 
 def _show_warning(message, category, filename, lineno, file=None, line=None):
     """Mechrel's own warnings as one line ``mechrel: warning: ...``; others as Python shows
-    them."""
+    them (where, category, message; then the source line), their control characters escaped
+    as well (matplotlib's "Glyph 27 (\\x1b) missing" quotes a name's escape character)."""
+    out = sys.stderr if file is None else file
     if issubclass(category, MechrelWarning):
-        say(f"mechrel: warning: {message}", file=sys.stderr if file is None else file)
-    else:
-        _python_showwarning(message, category, filename, lineno, file, line)
+        say(f"mechrel: warning: {message}", file=out)
+        return
+    import linecache
 
-
-_python_showwarning = warnings.showwarning
+    say(f"{filename}:{lineno}: {category.__name__}: {message}", file=out)
+    source = (line if line is not None else linecache.getline(filename, lineno)).strip()
+    if source:
+        say(f"  {source}", file=out)
 
 
 def main(argv=None) -> int:

@@ -422,7 +422,7 @@ def parse_value(text: str) -> Any:
     try:
         doc = tomllib.loads(f"__value__ = {s}")
         if set(doc) == {"__value__"}:
-            check_depth(doc["__value__"], "", _value_too_deep(s))
+            check_depth(doc, "", _value_too_deep(s))  # the value one level down, as in a file
             return doc["__value__"]
     except tomllib.TOMLDecodeError:
         pass

@@ -156,8 +156,12 @@ class EvaluationCache:
             with self._connect() as con:
                 check = con.execute("PRAGMA quick_check").fetchall()
                 if check != [("ok",)]:
-                    self._fail("the file is damaged (sqlite quick_check: "
-                               f"{'; '.join(str(r[0]) for r in check[:3])})")
+                    # its report: a line per problem (hundreds, for a page), under a header
+                    found = [line.strip() for row in check for line in str(row[0]).splitlines()
+                             if line.strip() and not line.startswith("***")]
+                    more = f", and {len(found) - 1} more" if len(found) > 1 else ""
+                    self._fail(f"the file is damaged (sqlite quick_check: "
+                               f"{found[0] if found else 'not ok'}{more})")
                 tables = {r[0] for r in con.execute(
                     "SELECT name FROM sqlite_master WHERE type = 'table'")}
                 if tables - {"evaluations"}:
