@@ -233,7 +233,7 @@ def test_a_failure_before_the_set_is_complete_leaves_the_previous_set(tmp_path):
 
 
 def test_a_run_killed_while_staging_or_committing_is_cleaned_up_or_finished(tmp_path):
-    """kill -9 (nothing runs at exit): while staging, the next run removes the staging folder
+    """Kill -9 (nothing runs at exit): while staging, the next run removes the staging folder
     of the dead process (the previous set stands); during the renames of the commit, the next
     run on the set rolls the journal forward (the new set stands)."""
     import subprocess
@@ -332,7 +332,7 @@ def test_summary_holds_no_path_of_this_machine(tmp_path, capsys):
 
 
 def test_a_refusal_after_the_folder_was_locked_leaves_nothing_behind(tmp_path, capsys):
-    """n = 1e12 is refused after the output folder is created and locked: the folder (made
+    """N = 1e12 is refused after the output folder is created and locked: the folder (made
     by this run) and its lock file are gone again; an existing folder keeps no lock file."""
     study = tmp_path / "study.toml"
     study.write_text(STUDY_FOSM)

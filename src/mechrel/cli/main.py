@@ -54,7 +54,7 @@ def registrations():
 
 
 def _parser_class():
-    """argparse's parser whose error line is one line with its control characters escaped
+    """Argparse's parser whose error line is one line with its control characters escaped
     (argparse quotes an unrecognised argument as it was typed)."""
     import argparse
 

@@ -5,14 +5,11 @@ from __future__ import annotations
 
 import contextlib
 import functools
-import os
-import tempfile
 import time
 from pathlib import Path
 
 import pandas as pd
 
-from ..errors import OutputError, StudyError
 from ..io import save_figure, write_json, write_table
 from ..io.lock import hold_folder
 from ..io.results import check_folder, result_set
@@ -122,8 +119,8 @@ def _refusal(exc, evaluations, out, files, record, section, known=()):
     """The error for an estimator's refusal (a :class:`SampleFailuresError`), after writing
     ``files`` = (failures table, summary) to ``out`` as the run's set of results
     (:func:`mechrel.io.results.result_set`, the set named ``section``, as a finished run's;
-    ``known``: the other files of the set): the failed samples are never lost, and no earlier run's table or figure
-    is left beside the refusal."""
+    ``known``: the other files of the set): the failed samples are never lost, and no earlier
+    run's table or figure is left beside the refusal."""
     method = next(reversed(evaluations))  # the refusing estimator recorded its evaluations last
     msg = str(exc).rstrip(".")
     if out:

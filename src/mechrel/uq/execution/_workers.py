@@ -89,7 +89,7 @@ def safe_path_environment():
 
 
 def _fork_exec_without_sigint(fork_exec):
-    """loky's ``fork_exec`` (how it starts a worker) with SIGINT blocked in the calling thread
+    """Loky's ``fork_exec`` (how it starts a worker) with SIGINT blocked in the calling thread
     for the call: the worker inherits the blocked signal through ``exec`` and keeps it blocked
     all its life. A terminal's Ctrl-C goes to every process of its foreground group, workers
     included, which then printed a ``KeyboardInterrupt`` traceback each (7-40 lines, also from
