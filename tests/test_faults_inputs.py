@@ -211,17 +211,24 @@ def test_derived_contact_stiffness_names_the_joint():
 
 
 # ---------------------------------------------------------------- workers and the cwd
-def test_workers_do_not_import_modules_from_the_current_folder(tmp_path):
-    """Files named like standard modules in the folder a run starts in are not executed by
-    the worker processes (nor by loky's helper processes)."""
+def _trap_folder(tmp_path, names):
+    """A folder ``cwd`` with a module for each of ``names`` (standard modules' names) that, if
+    imported, leaves a file in ``markers``; returns (cwd, markers)."""
     cwd = tmp_path / "cwd"
     cwd.mkdir()
     markers = tmp_path / "markers"
     markers.mkdir()
-    for name in ("pickle", "signal", "struct", "runpy"):
+    for name in names:
         (cwd / f"{name}.py").write_text(
             f"import os\nopen(os.path.join({str(markers)!r}, '{name}-%d' % os.getpid()), 'w')"
             ".close()\n")
+    return cwd, markers
+
+
+def test_workers_do_not_import_modules_from_the_current_folder(tmp_path):
+    """Files named like standard modules in the folder a run starts in are not executed by
+    the worker processes (nor by loky's helper processes)."""
+    cwd, markers = _trap_folder(tmp_path, ("pickle", "signal", "struct", "runpy"))
     script = tmp_path / "run.py"
     script.write_text(textwrap.dedent("""
         import numpy as np
@@ -399,14 +406,7 @@ def test_the_compile_helper_does_not_import_modules_from_the_current_folder(tmp_
     """The helper process of a cold Radau compilation (mechrel._kernel_cache.split_compile,
     ``python -c``) started with the current folder first on its import path; it runs here on
     a warm cache (it loads what it would compile), which starts it all the same."""
-    cwd = tmp_path / "cwd"
-    cwd.mkdir()
-    markers = tmp_path / "markers"
-    markers.mkdir()
-    for name in ("pickle", "json", "struct", "signal"):
-        (cwd / f"{name}.py").write_text(
-            f"import os\nopen(os.path.join({str(markers)!r}, '{name}-%d' % os.getpid()), 'w')"
-            ".close()\n")
+    cwd, markers = _trap_folder(tmp_path, ("pickle", "json", "struct", "signal"))
     script = tmp_path / "run.py"
     script.write_text(textwrap.dedent("""
         from mechrel._kernel_cache import split_compile

@@ -272,10 +272,14 @@ def test_simulate_writes_table_figure_and_provenance_as_one_set(tmp_path, capsys
     import matplotlib.figure
 
     out = tmp_path / "r.csv"
+    assert main(["simulate", "slider-crank-lubricated", "--no-progress", "--out", str(out),
+                 "--set", "analysis.cycles=0.25"]) == 0
+    assert (tmp_path / "r-orbits.csv").is_file()
+    # a later run without clearance joints leaves no orbits of the earlier one beside its table
     assert main(["simulate", "slider-crank", "--no-progress", "--out", str(out)]) == 0
     capsys.readouterr()
     first = _set(tmp_path)
-    assert {"r.csv", "r.png", "r.json"} <= set(first)
+    assert sorted(first) == [".mechrel-set-r.csv.json", "r.csv", "r.json", "r.png"]
 
     def half_then_full(self, fname, **kwargs):  # the disk fills up while the figure is saved
         Path(fname).write_bytes(b"\x89PNG half")
@@ -336,12 +340,12 @@ def test_a_refusal_after_the_folder_was_locked_leaves_nothing_behind(tmp_path, c
     by this run) and its lock file are gone again; an existing folder keeps no lock file."""
     study = tmp_path / "study.toml"
     study.write_text(STUDY_FOSM)
-    out = tmp_path / "new"
+    out = tmp_path / "new" / "run"
     assert main(["reliability", str(study), "--method", "mc", "--n", "1000000000000", "--out",
                  str(out), "--no-progress"]) == 2
     assert "model runs of" in capsys.readouterr().err
-    assert not out.exists()
-    out.mkdir()
+    assert not (tmp_path / "new").exists()  # nor the parent it made
+    out.mkdir(parents=True)
     assert main(["reliability", str(study), "--method", "mc", "--n", "1000000000000", "--out",
                  str(out), "--no-progress"]) == 2
     assert list(out.iterdir()) == []

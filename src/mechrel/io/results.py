@@ -152,6 +152,39 @@ def _commit(folder: Path, name: str, stage: Path, known, what: str, manifest: bo
     return files
 
 
+@contextlib.contextmanager
+def removed_if_left_empty(folder):
+    """For the ``with`` block: the folders of ``folder``'s path that do not exist yet (it and
+    any missing parents) are removed again at its end if the block left them empty (a run
+    refused or interrupted before it wrote anything leaves no empty folder behind).
+
+    Parameters
+    ----------
+    folder : str or os.PathLike or None
+        The output folder (None: nothing to do).
+
+    Examples
+    --------
+    >>> with tempfile.TemporaryDirectory() as base:
+    ...     with removed_if_left_empty(Path(base) / "a" / "b") as _:
+    ...         (Path(base) / "a" / "b").mkdir(parents=True)
+    ...     os.listdir(base)
+    []
+    """
+    missing = []
+    if folder:
+        path = Path(folder).absolute()
+        while not path.exists() and path != path.parent:
+            missing.append(path)
+            path = path.parent
+    try:
+        yield
+    finally:
+        for path in missing:  # innermost first; rmdir refuses a folder that is not empty
+            with contextlib.suppress(OSError):
+                path.rmdir()
+
+
 def check_folder(out, names=(), *, what: str = "out"):
     """``out`` as a created, writable output folder in which none of the files ``names`` is a
     folder (None when ``out`` is empty: no output); called before a run computes anything, so

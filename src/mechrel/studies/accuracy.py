@@ -51,12 +51,10 @@ compiled kernels), and ``wall_total`` is the whole ensemble's time.
 
 from __future__ import annotations
 
-import contextlib
 import math
 import time
 from dataclasses import dataclass, field
 from numbers import Integral
-from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -932,18 +930,12 @@ def run_accuracy(scene, *, target=0.01, quick=False, out=None, progress=True, en
     ...
     mechrel.errors.StudyError: target: 0.0 is not a positive relative error
     """
-    from ..io.results import check_folder, result_set
+    from ..io.results import check_folder, removed_if_left_empty, result_set
 
-    created = bool(out) and not Path(out).exists()
-    folder = check_folder(out, FILES)  # before the run (minutes), not after it
-    try:
+    with removed_if_left_empty(out):  # refused or interrupted: no empty folder left behind
+        folder = check_folder(out, FILES)  # before the run (minutes), not after it
         rep = accuracy_report(scene, target=target, quick=quick, progress=progress,
                               ensemble=ensemble, seed=seed)
-    except BaseException:
-        if created:  # refused or interrupted: no empty folder left behind
-            with contextlib.suppress(OSError):
-                folder.rmdir()
-        raise
     cols = ["integrator", "setting", "wall_time", "n_steps", "n_rhs", "measure"]
     if rep.ensemble > 1:
         cols += ["floor", "bound"]

@@ -3,16 +3,14 @@ the estimators of :mod:`mechrel.uq`, write tables and figures, return a printabl
 
 from __future__ import annotations
 
-import contextlib
 import functools
 import time
-from pathlib import Path
 
 import pandas as pd
 
 from ..io import save_figure, write_json, write_table
 from ..io.lock import hold_folder
-from ..io.results import check_folder, result_set
+from ..io.results import check_folder, removed_if_left_empty, result_set
 from ..outputs import QUANTITY_INFO
 from .._checks import ARGS
 from ..uq._common import SampleFailuresError, failure_message
@@ -59,17 +57,12 @@ def _holds_output_folder(names):
     def decorate(run):
         @functools.wraps(run)
         def wrapper(study, *, out=None, **kwargs):
-            existed = bool(out) and Path(out).exists()
-            folder = check_folder(out, names() if callable(names) else names)
-            if folder is None:
-                return run(study, out=None, **kwargs)
-            try:
+            with removed_if_left_empty(out):
+                folder = check_folder(out, names() if callable(names) else names)
+                if folder is None:
+                    return run(study, out=None, **kwargs)
                 with hold_folder(folder):
                     return run(study, out=folder, **kwargs)
-            finally:
-                if not existed:
-                    with contextlib.suppress(OSError):
-                        folder.rmdir()  # only if empty
         return wrapper
     return decorate
 
