@@ -528,13 +528,12 @@ def save_animation(anim, path: Any, *, fps: int = 20) -> Path:
     import matplotlib.pyplot as plt
     from matplotlib import animation
 
-    from .._checks import Checker
+    from .._checks import ARGS
     from .tables import atomic_path
 
     path = check_animation_path(path)
-    fps = Checker(error=MechrelError).integer("fps", fps, ge=1, le=100,
-                                              what="frames per second; a GIF stores each "
-                                                   "frame's duration in 1/100 s")
+    fps = ARGS.integer("fps", fps, ge=1, le=100,
+                       what="frames per second; a GIF stores each frame's duration in 1/100 s")
     path.parent.mkdir(parents=True, exist_ok=True)
     suffix = path.suffix.lower()
     try:

@@ -107,9 +107,9 @@ def _recover(folder: Path, name: str) -> None:
     commit another live process is making."""
     prefix = _STAGE.format(name=name)
     for stage in folder.iterdir():
-        pid = stage.name[len(prefix):].split("-", 1)[0]
-        if stage.name.startswith(prefix) and stage.is_dir() and pid.isdigit() \
-                and not _alive(int(pid)):
+        owner = stage.name[len(prefix):].split("-", 1)[0]
+        if stage.name.startswith(prefix) and stage.is_dir() and owner.isdigit() \
+                and not _alive(int(owner)):
             shutil.rmtree(stage, ignore_errors=True)
     journal = folder / _JOURNAL.format(name=name)
     deadline = time.monotonic() + _WAIT

@@ -213,12 +213,16 @@ def check_cost(d: int, order: int, max_evaluations: int | None, *, method: str =
                            q_norm=q_norm)
     max_evaluations = ARGS.integer(names[1], max_evaluations, ge=1)
     cap = int(max_evaluations / max(float(oversampling), 1.0)) + 1
-    kw = dict(method=method, oversampling=oversampling, rule=rule, q_norm=q_norm, cap=cap)
-    n = design_size(d, order, **kw)
+
+    def size(k: int) -> int:
+        return design_size(d, k, method=method, oversampling=oversampling, rule=rule,
+                           q_norm=q_norm, cap=cap)
+
+    n = size(order)
     if n <= max_evaluations:
         return n
     fits = order
-    while fits > 0 and design_size(d, fits, **kw) > max_evaluations:
+    while fits > 0 and size(fits) > max_evaluations:
         fits -= 1
     if method == "quadrature":
         how = f"a Gauss grid of {order + 1} points per input: {n} model evaluations"
