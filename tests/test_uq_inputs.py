@@ -101,8 +101,8 @@ def test_two_normals_keep_their_correlation_exactly():
         ({"a": {"distribution": "normal", "mean": 1.0, "std": -0.1}}, None,
          r"inputs\.a\.std: must be > 0, got -0\.1"),
         ({"a": {"distribution": "gauss", "mean": 1.0, "std": 0.1}}, None,
-         r"inputs\.a\.distribution: got 'gauss'; allowed: "
-         r"\['lognormal', 'normal', 'truncnormal', 'uniform'\]"),
+         r"inputs\.a\.distribution: got 'gauss'; allowed: \['beta', 'gamma', 'gumbel', "
+         r"'lognormal', 'normal', 'truncnormal', 'uniform', 'weibull'\], or 'scipy\.NAME'"),
         ({"a": {"distribution": "uniform", "lower": 2, "upper": 1}}, None,
          r"inputs\.a\.lower/upper: need lower < upper, got lower=2\.0, upper=1\.0"),
         ({"a": {"distribution": "normal", "mean": 1.0}}, None,

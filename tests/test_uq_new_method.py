@@ -127,7 +127,8 @@ def test_a_registered_method_runs_through_the_cli_with_its_study_settings(study_
                  "--out", str(out), "--no-progress"]) == 0
     printed = capsys.readouterr().out
     assert "  crude (crude_sampling): whole-cycle P_f" in printed
-    assert "whole cycle: crude estimates it" in printed
+    # the verdict treats it like any sampling method: trusted (the only estimate), with why
+    assert "whole cycle: trust crude" in printed and "a sampling method" in printed
     table = pd.read_csv(out / "rare_events.csv", index_col="method")
     assert list(table.index) == ["crude"]
     row = table.loc["crude"]

@@ -99,7 +99,7 @@ def test_basis_is_orthonormal_for_every_marginal():
                                                           2.0), "l": LogNormal(1.0, 0.3)})
     order = 4
     alphas = multi_indices(4, order)
-    rec = _recurrences(inputs, "inputs", order)
+    rec = _recurrences(inputs, order)
     nodes, w = chaospy.generate_quadrature(8, inputs.joint, rule="gaussian")
     Psi = _basis(np.asarray(nodes).T, alphas, rec, order)
     gram = (Psi * w[:, None]).T @ Psi

@@ -368,9 +368,11 @@ def test_sorm_formulas_closed_forms_and_error():
 
 # ---------------------------------------------------------------- importance sampling
 def test_importance_sampling_parabolic_within_its_interval():
+    """The classic estimator (one design point, no defensive component: ``defensive=0`` draws
+    the samples of the earlier single-centre version, sample for sample)."""
     exact = _exact_parabola(4.5, 0.2)
     res = importance_sampling(model=_vec(_parabola, STD2), inputs=STD2, n=1000, seed=11,
-                              progress=False)
+                              progress=False, defensive=0.0)
     assert isinstance(res, ImportanceSamplingResult)
     assert res.n_evaluations <= 2000
     assert res.cov <= 0.1

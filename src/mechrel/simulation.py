@@ -295,6 +295,12 @@ class SimulationResult:
         driver) where it occurs. Found on the integrator's solution (every accepted step's end
         and ``dense_points`` points of its continuous extension inside it, plus the output
         instants), not on the output grid (docs/mechanics.md, "Cycle extremes").
+    sector_extremes : dict or None
+        With ``simulate(..., extremes=True, sectors=step)``: ``sector_extremes[output][quantity]``
+        = ``(max, min)``, arrays of the largest and smallest signed error over each closed
+        sector [k·step, (k + 1)·step] of the analysed cycle's crank angle (degrees from its
+        start), found on the same points as the cycle extremes: the members of the whole cycle's
+        series system (docs/uq.md, "The whole cycle as a series system").
 
     See Also
     --------
@@ -324,6 +330,7 @@ class SimulationResult:
     orbits: Mapping[str, Mapping[str, np.ndarray]] = field(default_factory=dict)
     energy: Mapping[str, np.ndarray] = field(default_factory=dict)
     extremes: Mapping[str, Mapping[str, Mapping[str, float]]] | None = None
+    sector_extremes: Mapping[str, Mapping[str, tuple]] | None = None
 
     def extremes_frame(self):
         """The cycle extremes as a :class:`pandas.DataFrame`: one row per ``(output,
@@ -621,10 +628,14 @@ def _window_points(times: np.ndarray, t_lo: float, extra_t: np.ndarray):
     return T, sel, first
 
 
-def _extremes_of(scene, compiled, T, outputs, ideal):
-    """``{output: {quantity: {field: value}}}`` of the error ``outputs − ideal`` at ``T``."""
+def _extremes_of(scene, compiled, T, outputs, ideal, sectors=None):
+    """``({output: {quantity: {field: value}}}, sector extremes or None)`` of the error
+    ``outputs − ideal`` at ``T``; with ``sectors`` (degrees), per output and quantity the
+    largest and smallest error over each closed sector [k·sectors, (k + 1)·sectors] of the
+    window's crank angle (:func:`_sector_extremes`)."""
     angles = _crank_angle(scene, compiled, T)
     out = {}
+    by_sector = {} if sectors else None
     for name, quantities in outputs.items():
         out[name] = {}
         for qty, values in quantities.items():
@@ -639,7 +650,33 @@ def _extremes_of(scene, compiled, T, outputs, ideal):
                 d[f"{key}_time"] = float(T[i])
                 d[f"{key}_angle"] = float(angles[i]) if angles is not None else math.nan
             out[name][qty] = {k: d[k] for k in EXTREME_FIELDS}
-    return out
+            if sectors:
+                by_sector.setdefault(name, {})[qty] = _sector_extremes(err, angles, sectors)
+    return out, by_sector
+
+
+def _sector_extremes(err: np.ndarray, angles: np.ndarray, step: float):
+    """``(max, min)`` of ``err`` over the closed sectors [k·step, (k + 1)·step] of the crank
+    angle since the window's start (degrees), k = 0 … 360/step − 1: the whole cycle is their
+    union, so the cycle's extremes are the sectors' extremes (a point on a boundary counts in
+    both sectors)."""
+    n = int(round(360.0 / step))
+    rel = (angles - angles[0]) / step
+    k = np.clip(np.floor(rel + 1e-9).astype(int), 0, n - 1)
+    smax = np.full(n, -np.inf)
+    smin = np.full(n, np.inf)
+    np.maximum.at(smax, k, err)
+    np.minimum.at(smin, k, err)
+    edge = np.abs(rel - np.round(rel)) <= 1e-9
+    prev = np.round(rel).astype(int) - 1
+    on = edge & (prev >= 0) & (prev < n)
+    np.maximum.at(smax, prev[on], err[on])
+    np.minimum.at(smin, prev[on], err[on])
+    if not (np.all(np.isfinite(smax)) and np.all(np.isfinite(smin))):
+        raise SimulationError(f"sector extremes: a sector of {step:g}° holds no point of the "
+                              "solution "
+                              "log; allowed: sectors no finer than the output grid")
+    return smax, smin
 
 
 def _ideal_at(scene, compiled, reference, q0, solver, T, lead):
@@ -726,7 +763,8 @@ def extreme_values(scene: Scene) -> list[str]:
 
 def simulate(scene: Scene, *, reference: Scene | None = None, method: str = "auto",
              integrator: str | None = None, progress: bool = False, extremes: bool = False,
-             dense_points: int = DENSE_POINTS, **solver_settings) -> SimulationResult:
+             dense_points: int = DENSE_POINTS, sectors: float | None = None,
+             **solver_settings) -> SimulationResult:
     """Simulate a scene over its analysis span.
 
     Parameters
@@ -754,6 +792,10 @@ def simulate(scene: Scene, *, reference: Scene | None = None, method: str = "aut
     dense_points : int
         Points of the integrator's continuous extension evaluated inside each step for the
         extremes (besides the step's end), ≥ 0.
+    sectors : float, optional
+        With ``extremes``: also the extremes over each sector of this many degrees of the
+        analysed cycle (:attr:`SimulationResult.sector_extremes`); a divisor of 360 and a
+        multiple of the output grid's crank-angle step.
     **solver_settings
         ``step``, ``rtol``, ``atol`` overrides.
 
@@ -791,11 +833,11 @@ def simulate(scene: Scene, *, reference: Scene | None = None, method: str = "aut
     # (solver=, provenance=) is then refused by name with the allowed ones, not taken for it
     return _explained(scene, reference=reference, method=method, integrator=integrator,
                       progress=progress, extremes=extremes, dense_points=dense_points,
-                      solver_settings=solver_settings)
+                      sectors=sectors, solver_settings=solver_settings)
 
 
 def simulate_sample(scene: Scene, solver, *, reference: Scene | None = None,
-                    extremes: bool = False) -> SimulationResult:
+                    extremes: bool = False, sectors: float | None = None) -> SimulationResult:
     """:func:`simulate` (``reference``, ``extremes``) with an integrator made beforehand and
     without the provenance record: the inner call of a batch of samples
     (:meth:`mechrel.uq.problem.mechanism.MechanismModel.evaluate_batch`), where the integrator
@@ -803,7 +845,7 @@ def simulate_sample(scene: Scene, solver, *, reference: Scene | None = None,
 
     Parameters
     ----------
-    scene, reference, extremes
+    scene, reference, extremes, sectors
         As for :func:`simulate`.
     solver : Integrator
         ``make_integrator(scene)`` or an equal one (made from a scene with the same ``solver``
@@ -829,7 +871,7 @@ def simulate_sample(scene: Scene, solver, *, reference: Scene | None = None,
     """
     return _explained(scene, reference=reference, method="auto", integrator=None,
                       progress=False, extremes=extremes, dense_points=DENSE_POINTS,
-                      solver=solver, provenance=False)
+                      sectors=sectors, solver=solver, provenance=False)
 
 
 def _explained(scene, **kwargs) -> SimulationResult:
@@ -850,8 +892,8 @@ def _explained(scene, **kwargs) -> SimulationResult:
 
 
 def _simulate(scene: Scene, *, reference: Scene | None, method: str, integrator: str | None,
-              progress: bool, extremes: bool, dense_points: int, solver=None,
-              provenance: bool = True, solver_settings=None) -> SimulationResult:
+              progress: bool, extremes: bool, dense_points: int, sectors: float | None = None,
+              solver=None, provenance: bool = True, solver_settings=None) -> SimulationResult:
     start = time.perf_counter()
     if not isinstance(scene, Scene):
         raise TypeError(f"simulate: scene must be a Scene, got {type(scene).__name__} "
@@ -888,6 +930,11 @@ def _simulate(scene: Scene, *, reference: Scene | None, method: str, integrator:
             f"simulate: extremes = True: scene {scene.name!r} has no clearance joints and no "
             "reference design, so its outputs have no error whose extremes could be found; "
             "allowed: extremes with a clearance joint or a reference")
+    if sectors is not None and not (extremes and isinstance(sectors, (int, float))
+                                    and not isinstance(sectors, bool) and sectors > 0
+                                    and abs(360.0 / sectors - round(360.0 / sectors)) < 1e-9):
+        raise SimulationError(f"simulate: sectors = {sectors!r}: allowed: with extremes=True, a "
+                              "divisor of 360 degrees (e.g. 18)")
     if isinstance(dense_points, bool) or not isinstance(dense_points, (int, np.integer)) \
             or dense_points < 0:
         raise SimulationError(f"simulate: dense_points = {dense_points!r}: not an integer >= 0; "
@@ -906,7 +953,7 @@ def _simulate(scene: Scene, *, reference: Scene | None, method: str, integrator:
 
     if not has_clearance and driven and method != "dynamics":
         assert ideal is not None  # driven, method "auto" or "kinematics": computed above
-        ext = None
+        ext = sec = None
         if extremes:  # no integrator steps: a fine uniform sampling of the window
             t_win = analysis_window(compiled, times)
             fine = np.linspace(t_win, float(times[-1]), KINEMATIC_POINTS + 1)
@@ -915,10 +962,11 @@ def _simulate(scene: Scene, *, reference: Scene | None, method: str, integrator:
             Qf, Vf, Af, _ = kinematic_analysis(compiled.ideal, q0, np.concatenate([lead, T]),
                                                tol=tol, labels=compiled.labels["ideal"])
             m = lead.size
-            ext = _extremes_of(scene, compiled, T,
-                               _outputs(scene, compiled, T, Qf[m:], Vf[m:], Af[m:],
-                                        ideal=True),
-                               _ideal_at(scene, compiled, reference, q0, solver, T, lead))
+            ext, sec = _extremes_of(scene, compiled, T,
+                                    _outputs(scene, compiled, T, Qf[m:], Vf[m:], Af[m:],
+                                             ideal=True),
+                                    _ideal_at(scene, compiled, reference, q0, solver, T, lead),
+                                    sectors)
         wall = time.perf_counter() - start
         stats = {"integrator": "kinematic-analysis", "n_steps": times.size,
                  "max_position_violation": float(viol_i), "wall_time": wall, "status": "ok"}
@@ -927,7 +975,7 @@ def _simulate(scene: Scene, *, reference: Scene | None, method: str, integrator:
                                 outputs=ideal, ideal=None if reference is None else counterpart,
                                 q=Qi, v=Vi, a=Ai, method="kinematics", stats=stats,
                                 provenance=_provenance(scene, wall, reference)
-                                if provenance else {}, extremes=ext)
+                                if provenance else {}, extremes=ext, sector_extremes=sec)
 
     sys = compiled.dynamic
     qa, va = assemble(compiled.assembly, q0, 0.0, tol=tol,
@@ -953,7 +1001,7 @@ def _simulate(scene: Scene, *, reference: Scene | None, method: str, integrator:
         counterpart = _ideal_by_dynamics(reference or scene, solver, times, scene)
     orbits, energy = _orbits_and_energy(compiled, res)
     _check_orbits(scene, times, orbits)
-    ext = None
+    ext = sec = None
     if extremes:
         assert t_lo is not None  # set above when extremes
         ny = Y.shape[1]
@@ -963,9 +1011,11 @@ def _simulate(scene: Scene, *, reference: Scene | None, method: str, integrator:
         Vl = np.concatenate([Y[sel, n:2 * n], log[:, 1 + n:1 + 2 * n]])[first]
         Al = np.concatenate([YD[sel, n:2 * n], log[:, 1 + ny + n:1 + ny + 2 * n]])[first]
         Hl = np.concatenate([res.hist_out[sel], log[:, 1 + 2 * ny:]])[first]
-        ext = _extremes_of(scene, compiled, T,
-                           _outputs(scene, compiled, T, Ql, Vl, Al, H=Hl, counterpart=reference),
-                           _ideal_at(scene, compiled, reference, q0, solver, T, times[~sel]))
+        ext, sec = _extremes_of(scene, compiled, T,
+                                _outputs(scene, compiled, T, Ql, Vl, Al, H=Hl,
+                                         counterpart=reference),
+                                _ideal_at(scene, compiled, reference, q0, solver, T, times[~sel]),
+                                sectors)
     wall = time.perf_counter() - start
     stats = res.stats.as_dict()
     stats["total_wall_time"] = wall
@@ -979,4 +1029,4 @@ def _simulate(scene: Scene, *, reference: Scene | None, method: str, integrator:
                             q=Q, v=V, a=A, method="dynamics", stats=stats,
                             provenance=_provenance(scene, wall, reference)
                             if provenance else {},
-                            orbits=orbits, energy=energy, extremes=ext)
+                            orbits=orbits, energy=energy, extremes=ext, sector_extremes=sec)

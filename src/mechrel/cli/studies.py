@@ -186,7 +186,7 @@ def _cmd_reliability(args) -> int:
     from ..studies.runner import run_reliability
 
     study = _load(args)
-    methods = None if args.method is None else (args.method,)
+    methods = None if args.method is None else tuple(args.method)
     with dask_backend(args.scheduler) as backend, _warnings_in_summary():
         lines, _ = run_reliability(study, methods=methods, n=args.n, n_jobs=_jobs(args),
                                    seed=args.seed, out=args.out, backend=backend,
@@ -252,7 +252,7 @@ def register_reliability(sub) -> None:
     >>> register_reliability(parser.add_subparsers(dest="command"))
     >>> args = parser.parse_args(["reliability", "slider-crank-lubricated", "--method", "fosm"])
     >>> args.command, args.method, args.n
-    ('reliability', 'fosm', None)
+    ('reliability', ['fosm'], None)
     """
     from ..studies.study import rare_event_methods, study_methods
 
@@ -268,8 +268,9 @@ def register_reliability(sub) -> None:
                     "cached in OUT/evaluations.sqlite, so an interrupted run resumes where it "
                     "stopped. Failed samples are written to OUT/failures.csv.")
     _study_args(p, "reliability")
-    p.add_argument("--method", choices=tuple(study_methods()) + ("all",),
-                   help="estimator (default: the study's reliability.methods; all: every "
+    p.add_argument("--method", choices=tuple(study_methods()) + ("all",), action="append",
+                   help="estimator, repeatable to run and cross-check several (--method form "
+                        "--method subset; default: the study's reliability.methods; all: every "
                         "method; --n sets Monte Carlo's samples only)")
     p.set_defaults(func=_cmd_reliability)
 

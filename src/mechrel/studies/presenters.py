@@ -670,12 +670,6 @@ class MonteCarlo(Presenter):
                 f"{level} intervals that hold whatever the error's distribution)"
                 + ("; " + "; ".join(reasons) if reasons else ""))
 
-    def whole_cycle_verdict(self, ctx):
-        if any(isinstance(p, RareEvents) for p in ctx.presenters):
-            return None  # the rare-event methods' line names Monte Carlo too
-        return ("    whole cycle: only Monte Carlo estimates it (FOSM and PCE give per-angle "
-                "reliabilities)")
-
     def write(self, ctx, out):
         from ..io import write_table
 
@@ -800,14 +794,6 @@ class RareEvents(Presenter):
         return (["  whole cycle, any quantity beyond its allowable (rare-event methods):"]
                 + rare.summary_lines(self._results(ctx)))
 
-    def whole_cycle_verdict(self, ctx):
-        mc = "mc" in ctx.results
-        who = ", ".join(self.keys) + (" and Monte Carlo" if mc else "")
-        verb = "estimates" if who == self.keys[0] else "estimate"
-        return (f"    whole cycle: {who} {verb} it (FOSM and PCE give per-angle "
-                "reliabilities); FORM and SORM are approximations, the sampling methods "
-                "carry an interval")
-
     def write(self, ctx, out):
         from ..io import write_table
         from . import rare
@@ -819,6 +805,99 @@ class RareEvents(Presenter):
         if dp is not None:
             write_table(dp.reset_index(), out / "design_point.csv")
             written.append("design_point.csv")
+        return written
+
+
+class WholeCycle(Presenter):
+    """The whole cycle across methods (no method of its own; the runner adds it after the
+    methods' presenters): the verdict's whole-cycle lines (which estimate to trust, whether the
+    others agree, :func:`.rare.verdict_lines`), the headline figure ``whole_cycle.png`` (every
+    method's whole-cycle P_f side by side, :func:`mechrel.uq.plots.plot_whole_cycle`), the
+    rare-event figure ``rare_events.png`` (design points, importance factors and, with Monte
+    Carlo, P_f against the allowable, :func:`mechrel.uq.plots.plot_design_points`), and
+    ``cycle_extremes.csv`` (each Monte Carlo sample's inputs and cycle extremes per quantity)."""
+
+    files = ("whole_cycle.png", "rare_events.png", "cycle_extremes.csv")
+
+    def finish(self, ctx):
+        from .rare import whole_cycle_estimates
+
+        ctx.shared["whole_cycle"] = whole_cycle_estimates(ctx.results)
+
+    def whole_cycle_verdict(self, ctx):
+        from .rare import per_angle_worst, verdict_lines
+
+        est = ctx.shared.get("whole_cycle")
+        if est is None or est.empty:
+            if any(k in ctx.results for k in ("fosm", "pce")):
+                return ["    whole cycle: not estimated (FOSM and PCE give per-angle "
+                        "reliabilities); run "
+                        "Monte Carlo (--method mc) or a rare-event method (form, sorm, is, subset)"]
+            return None
+        worst = per_angle_worst(ctx.results, ctx.study.quantities)
+        return verdict_lines(est, worst=worst)
+
+    def _form(self, ctx):
+        from ..uq import FORMResult
+
+        for r in ctx.results.values():
+            fr = r if isinstance(r, FORMResult) else getattr(r, "form", None)
+            if (isinstance(fr, FORMResult) and fr.design_points is not None
+                    and fr.system == "series"):
+                return fr
+        return None
+
+    def extremes(self, ctx):
+        """Each Monte Carlo sample's inputs and its cycle extremes per quantity (NaN for a failed
+        sample, with its reason), or None."""
+        from ..uq.problem.allowables import EXTREME_STATS
+
+        ev = ctx.evaluations.get("mc")
+        if ev is None or not isinstance(ev.output_index, pd.MultiIndex) \
+                or "crank_angle" not in ev.output_index.names:
+            return None
+        labels = [lbl for lbl in ev.output_index if lbl[1] in EXTREME_STATS]
+        if not labels:
+            return None
+        pos = [ev.output_index.get_loc(lbl) for lbl in labels]
+        cols = pd.MultiIndex.from_tuples(labels, names=["quantity", "statistic"])
+        frame = pd.DataFrame(ev.Y[:, pos], columns=cols)
+        frame[~ev.ok] = float("nan")
+        return frame
+
+    def write(self, ctx, out):
+        from ..io import write_table
+        from ..uq.plots import plot_design_points, plot_whole_cycle
+        from .runner import _agg, _save
+
+        written = []
+        est = ctx.shared.get("whole_cycle")
+        if est is not None and not est.empty:
+            _agg()
+            _save(plot_whole_cycle(est, title=f"{ctx.study.name}: whole-cycle P_f ({ctx.event}) by "
+                                              "method"),
+                  out / "whole_cycle.png")
+            written.append("whole_cycle.png")
+        ext = self.extremes(ctx)
+        if ext is not None:
+            ev = ctx.evaluations["mc"]
+            table = pd.DataFrame(ev.X, columns=list(ev.input_names))
+            for (q, stat) in ext.columns:
+                table[f"{q}.{stat}"] = ext[(q, stat)].to_numpy()
+            table["status"] = ["ok" if ok else "failed" for ok in ev.ok]
+            table["reason"] = [r or "" for r in ev.reasons]
+            table.index.name = "sample"
+            write_table(table.reset_index(), out / "cycle_extremes.csv")
+            written.append("cycle_extremes.csv")
+        fr = self._form(ctx)
+        if fr is not None:
+            _agg()
+            means = ({q: a.mean for q, a in ctx.allowables.items()}
+                     if isinstance(ctx.allowables, dict) else None)
+            _save(plot_design_points(fr, extremes=ext, allowables=means,
+                                     title=f"{ctx.study.name}: whole-cycle design points"),
+                  out / "rare_events.png")
+            written.append("rare_events.png")
         return written
 
 
@@ -892,7 +971,7 @@ KIND_PRESENTERS: dict[str, type[Presenter]] = {"rare_event": RareEvents, "reliab
 """Registry kind → the presenter class of a method without its own (:class:`Generic` for
 other kinds)."""
 
-COMBINED: tuple[type[Presenter], ...] = (Normality,)
+COMBINED: tuple[type[Presenter], ...] = (Normality, WholeCycle)
 """Presenters of estimates that combine methods; the runner adds them after the methods'."""
 
 

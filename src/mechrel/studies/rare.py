@@ -10,7 +10,11 @@ The limit state is the whole cycle: failure when any of the study's quantities l
 allowable anywhere in the cycle, a series system of one component per quantity,
 ``g_q = I_q − max_cycle |error_q|`` (two-sided event; ``I_q − max_cycle error_q`` one-sided),
 on the cycle extremes the model reports (found on the integrator's solution, not only at the
-analysis angles). ``I_q`` is the study's allowable: ``Normal(mean, std)``, an extra
+analysis angles). A run with rare-event methods builds the model with sector extremes
+(:class:`~mechrel.uq.MechanismModel` ``sectors=True``), and each component is then written over
+the sectors' largest and smallest errors: the same margin, whose members (quantity × sector ×
+sign) are the failure modes FORM searches one by one (docs/uq.md, "The whole cycle as a series
+system"). ``I_q`` is the study's allowable: ``Normal(mean, std)``, an extra
 standard-normal coordinate of the search, or the fixed ``mean`` when ``std = 0``. This is the
 event whose probability Monte Carlo's ``whole_cycle.csv`` row ``all`` reports (1 − reliability).
 """
@@ -82,20 +86,27 @@ def whole_cycle_limit_state(study, model):
     """
     from ..uq import LimitState
     from ..uq.problem.inputs import Normal
-    from ..uq.problem.allowables import whole_cycle_column
+    from ..uq.problem.allowables import parse_sector, whole_cycle_column
 
     event = study.reliability["event"]
     kind = "abs" if event == "two-sided" else "upper"
+    index = model.output_index
     parts = []
     for q in study.quantities:
-        col = whole_cycle_column(model.output_index, q, event)
+        mean, std = study.allowable[q]
+        allowable = Normal(mean, std) if std > 0 else mean
+        # the sectors' extremes, when the model reports them: the same margin (the cycle's
+        # extreme is the largest sector's), with one member per sector and sign for FORM
+        sectors = [lbl for lbl in index if lbl[0] == q and (sec := parse_sector(lbl[1])) is not None
+                   and (kind == "abs" or sec[0] == "max")]
+        if sectors:
+            parts.append(LimitState.exceedance(sectors, allowable, kind=kind, name=q))
+            continue
+        col = whole_cycle_column(index, q, event)
         if col is None:
             raise StudyError(f"{study.source}: quantities = {q!r}: the model reports no cycle "
                              f"extreme of it; allowed: quantities with cycle extremes")
-        mean, std = study.allowable[q]
-        allowable = Normal(mean, std) if std > 0 else mean
-        parts.append(LimitState.exceedance([model.output_index[col]], allowable, kind=kind,
-                                           name=q))
+        parts.append(LimitState.exceedance([index[col]], allowable, kind=kind, name=q))
     return parts[0] if len(parts) == 1 else LimitState.series(*parts, name="whole cycle")
 
 
@@ -104,7 +115,8 @@ def estimate_one(ctx, method):
     :class:`~mechrel.studies.presenters.Context`): its settings from the study file's table
     (:meth:`~mechrel.studies.presenters.Context.settings`), the whole-cycle limit state, and,
     for a method with a ``design_point`` setting, an earlier FORM result of this run (same
-    model, inputs and limit state) instead of a new search. The result goes to
+    model, inputs and limit state), else FORM run with the study's ``[form]`` settings (the
+    FORM settings of the method's own table over them). The result goes to
     ``ctx.results[method.key]``; the warnings the estimator raised (a limit state never or
     always violated on the samples, a c.o.v. above its target, ...) to ``ctx.notes``, each
     prefixed with the method's key.
@@ -148,6 +160,8 @@ def estimate_one(ctx, method):
         found = [r for r in ctx.results.values() if isinstance(r, FORMResult)]
         if found:
             settings["design_point"] = found[0]
+        elif "form" in rare_event_methods() and key != "form":
+            settings["design_point"] = _design_points(ctx, method)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         try:
@@ -167,6 +181,38 @@ def estimate_one(ctx, method):
                          f"{'never' if r.pf == 0 else 'always'} violated on this method's "
                          "samples; tighten or loosen the allowables, or add samples")
     return r
+
+
+def _design_points(ctx, method):
+    """FORM's design points for a method that starts from them (``design_point``) when the run
+    has no FORM result: with the study's ``[form]`` settings, over which the FORM settings
+    written in the method's own table (``[is]``, ``[sorm]``) take precedence."""
+    from ..uq.estimators import METHODS
+
+    form_method = rare_event_methods()["form"]
+    given = dict(ctx.study.method_settings.get(form_method.key, {}))
+    own = ctx.study.method_settings.get(method.key, {})
+    given.update({k: v for k, v in own.items() if k in form_method.settings})
+    try:
+        settings = form_method.validate(given)
+    except StudyError as exc:
+        raise StudyError(f"{ctx.study.source}: [{form_method.key}] {exc}") from None
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        try:
+            fr = METHODS[form_method.name].function(
+                model=ctx.model, inputs=ctx.inputs, limit_state=ctx.shared["limit_state"],
+                seed=ctx.seed, **settings, **ctx.common)
+        except StudyError as exc:
+            if isinstance(exc, SampleFailuresError):
+                raise
+            raise StudyError(f"{ctx.study.source}: {method.key} ({method.name}): its design points "
+                             f"(FORM with the study's [form] settings): {exc}") from exc
+    for w in caught:
+        text = f"{method.key}: {w.message}"
+        if text not in ctx.notes:
+            ctx.notes.append(text)
+    return fr
 
 
 def estimate(study, model, inputs, keys, *, seed, common, max_failure_fraction=None):
@@ -275,10 +321,10 @@ def _form_of(result):
 
 
 def design_points(results) -> pd.DataFrame | None:
-    """``design_point.csv``: per method with a design point (FORM, and SORM and importance
-    sampling through theirs), per input: ``u`` (standard normal), ``x`` (physical, SI: the
-    inputs' own units; an allowable in its quantity's unit), ``alpha`` and ``importance``
-    (α², summing to 1).
+    """``design_point.csv``: per method with design points (FORM, and SORM and importance
+    sampling through theirs), per design point (``point``, its failure mode in ``member``, its
+    ``beta``) and input: ``u`` (standard normal), ``x`` (physical, SI: the inputs' own units; an
+    allowable in its quantity's unit), ``alpha`` and ``importance`` (α², summing to 1 per point).
 
     Parameters
     ----------
@@ -288,7 +334,7 @@ def design_points(results) -> pd.DataFrame | None:
     Returns
     -------
     pandas.DataFrame or None
-        Indexed by (method, input); None when no method has a design point.
+        Indexed by (method, point, input); None when no method has a design point.
 
     Examples
     --------
@@ -303,12 +349,24 @@ def design_points(results) -> pd.DataFrame | None:
     frames, keys = [], []
     for key, r in results.items():
         fr = _form_of(r)
-        if fr is not None:
-            frames.append(fr.design_point[["u", "x", "alpha", "importance"]])
-            keys.append(key)
+        if fr is None:
+            continue
+        if fr.points is not None and fr.system == "series":
+            pts = fr.points[["u", "x", "alpha", "importance"]].copy()
+            dps = fr.design_points
+            pts.insert(0, "beta", [float(dps.loc[k, "beta"]) for k, _i in pts.index])
+            pts.insert(0, "member", [str(dps.loc[k, "member"]) for k, _i in pts.index])
+        else:
+            pts = pd.concat([fr.design_point[["u", "x", "alpha", "importance"]]], keys=[0],
+                            names=["point", "input"])
+            pts.insert(0, "beta", fr.beta)
+            pts.insert(0, "member", "joint design point" if fr.system == "parallel"
+                       else fr.to_frame().index[0])
+        frames.append(pts)
+        keys.append(key)
     if not frames:
         return None
-    return pd.concat(frames, keys=keys, names=["method", "input"])
+    return pd.concat(frames, keys=keys, names=["method", "point", "input"])
 
 
 def summary_lines(results) -> list[str]:
@@ -347,4 +405,237 @@ def summary_lines(results) -> list[str]:
             imp = fr.importance.sort_values(ascending=False)
             text += "; α² " + ", ".join(f"{k} {v:.2f}" for k, v in imp.iloc[:3].items())
         lines.append(text)
+    return lines
+
+
+MIN_FAILURES = 10
+"""Monte Carlo is trusted for the whole cycle when it saw at least this many failures (below,
+its interval spans a factor of about 2 or more: e.g. [0.5, 1.8]× at 10 failures)."""
+
+TRUST_ORDER = ("monte_carlo", "sampling", "approximation")
+
+
+def whole_cycle_estimates(results) -> pd.DataFrame:
+    """Every estimate of the whole cycle's failure probability in a run, one row per method and
+    group (a quantity, or ``"all"``: any quantity beyond its allowable).
+
+    Monte Carlo gives every group (``whole_cycle``: 1 − reliability, with its binomial
+    interval); a rare-event method gives ``"all"`` (its limit state is the series system of the
+    quantities), FORM also each quantity (the union of its design points of that quantity).
+
+    Parameters
+    ----------
+    results : dict
+        ``{key: result}`` of a run (``ctx.results``).
+
+    Returns
+    -------
+    pandas.DataFrame
+        Columns ``method``, ``group``, ``pf``, ``pf_lo``, ``pf_hi`` (NaN without an interval),
+        ``kind`` (``"monte_carlo"``, ``"sampling"``: an interval from its samples,
+        ``"approximation"``: FORM, SORM), ``n_failures`` and ``n_samples`` (Monte Carlo; NaN
+        otherwise) and ``n_warnings``.
+
+    Examples
+    --------
+    >>> study, model = _demo()
+    >>> results, _ = estimate(study, model, study.uncertain_inputs(), ["form"], seed=7,
+    ...                       common={"n_jobs": 1, "cache": None, "progress": False})
+    >>> whole_cycle_estimates(results)[["method", "group", "kind"]].values.tolist()
+    [['form', 'all', 'approximation']]
+    """
+    from ..uq import FORMResult, MonteCarloResult
+    from ..uq.estimators._problem import RareEventResult
+    from ..uq.estimators._system import union_probability
+
+    rows = []
+    for key, r in results.items():
+        nw = len(getattr(r, "warnings", ()))
+        if isinstance(r, MonteCarloResult) and r.whole_cycle is not None:
+            for g, row in r.whole_cycle.iterrows():
+                n = float(row["n"])
+                rows.append((key, str(g), 1.0 - float(row["reliability"]),
+                             1.0 - float(row["reliability_hi"]), 1.0 - float(row["reliability_lo"]),
+                             "monte_carlo", n - float(row["n_inside"]), n, nw))
+        elif isinstance(r, RareEventResult) and hasattr(r, "table"):
+            t = r.to_frame().iloc[0]
+            lo, hi = float(t.get("pf_lo", np.nan)), float(t.get("pf_hi", np.nan))
+            kind = "sampling" if np.isfinite(lo) and np.isfinite(hi) else "approximation"
+            rows.append((key, "all", float(t["pf"]), lo, hi, kind, np.nan, np.nan, nw))
+            if isinstance(r, FORMResult) and r.system == "series" and r.design_points is not None:
+                comps = r.design_points["component"]
+                if comps.nunique() > 1:
+                    for q in pd.unique(comps):
+                        idx = r.design_points.index[comps == q]
+                        betas = r.design_points.loc[idx, "beta"].to_numpy(dtype=float)
+                        alphas = np.array([r.points.loc[k]["alpha"].to_numpy() for k in idx])
+                        pq = union_probability(betas, alphas)[0]
+                        rows.append((key, str(q), pq, np.nan, np.nan, "approximation", np.nan,
+                                     np.nan, nw))
+    return pd.DataFrame(rows, columns=["method", "group", "pf", "pf_lo", "pf_hi", "kind",
+                                       "n_failures",
+                                       "n_samples", "n_warnings"])
+
+
+def per_angle_worst(results, quantities) -> tuple[float, str] | None:
+    """The largest single-angle failure probability any per-angle method gives (its lower
+    bound where it has an interval), and where: the whole cycle contains every angle, so no
+    whole-cycle P_f can be smaller.
+
+    Parameters
+    ----------
+    results : dict
+        ``{key: result}`` of a run.
+    quantities : sequence of str
+        The study's quantities.
+
+    Returns
+    -------
+    (float, str) or None
+        The probability and a description (``"fosm, velocity at 90°"``), or None without a
+        per-angle estimate.
+
+    Examples
+    --------
+    >>> per_angle_worst({}, ["velocity"]) is None
+    True
+    """
+    from ..uq.problem.allowables import per_angle_mask
+
+    best = None
+    for key, r in results.items():
+        t = getattr(r, "table", None)
+        if not isinstance(t, pd.DataFrame) or "reliability" not in t.columns or len(t) < 2:
+            continue
+        if not isinstance(t.index, pd.MultiIndex) or "quantity" not in t.index.names:
+            continue
+        t = t[per_angle_mask(t.index)]
+        t = t[t.index.get_level_values("quantity").isin(list(quantities))]
+        lower = 1.0 - (t["reliability_hi"] if "reliability_hi" in t.columns else t["reliability"])
+        lower = lower.dropna()
+        if lower.empty:
+            continue
+        i = lower.idxmax()
+        if best is None or lower[i] > best[0]:
+            best = (float(lower[i]), f"{key}, {i[0]} at {float(i[1]):g}°")
+    return best
+
+
+def verdict_lines(est: pd.DataFrame, *, worst=None, names=None) -> list[str]:
+    """The verdict on the whole cycle (``"all"``): which estimate to trust and why, whether the
+    others agree with it (two intervals that do not overlap, an approximation outside the
+    trusted interval), Monte Carlo with too few failures to be trusted, and a whole-cycle
+    P_f below the largest single-angle P_f (impossible: a method that misses failure modes).
+
+    Parameters
+    ----------
+    est : pandas.DataFrame
+        :func:`whole_cycle_estimates`.
+    worst : (float, str), optional
+        :func:`per_angle_worst`.
+    names : dict, optional
+        Display names of the methods by key (default: the keys, as in the summary).
+
+    Returns
+    -------
+    list of str
+        The verdict's whole-cycle lines (indented for the summary).
+
+    Examples
+    --------
+    >>> est = pd.DataFrame({"method": ["mc", "form"], "group": ["all", "all"], "pf": [0.02, 0.004],
+    ...                     "pf_lo": [0.015, np.nan], "pf_hi": [0.026, np.nan],
+    ...                     "kind": ["monte_carlo", "approximation"], "n_failures": [40.0, np.nan],
+    ...                     "n_samples": [2000.0, np.nan], "n_warnings": [0, 0]})
+    >>> for line in verdict_lines(est):
+    ...     print(line[:71])
+        whole cycle: trust mc (P_f = 0.02, interval [0.015, 0.026], 40 fail
+        whole cycle: form gives 0.2× the trusted P_f, outside its interval:
+    """
+    names = names or {}
+    a = est[est["group"] == "all"].reset_index(drop=True)
+    if a.empty:
+        return []
+
+    def nm(k):
+        return str(names.get(k, k))
+
+    def interval(r):
+        return f"[{r['pf_lo']:.3g}, {r['pf_hi']:.3g}]"
+
+    weak = (a["kind"] == "monte_carlo") & (a["n_failures"] < MIN_FAILURES)
+    rank = np.where((a["kind"] == "monte_carlo") & ~weak, 0,
+                    np.where(a["kind"] == "sampling", np.where(a["n_warnings"] == 0, 1, 2), 9))
+    order = np.argsort(rank, kind="stable")
+    top = a.iloc[order[0]] if rank[order[0]] < 9 else None
+    lines = []
+    if top is None:
+        parts = []
+        if (a["kind"] == "approximation").any():
+            parts.append(", ".join(nm(m) for m in a.loc[a["kind"] == "approximation", "method"])
+                         + " carry no interval and see only the failure modes their searches reach")
+        for _i, r in a[weak].iterrows():
+            parts.append(f"{nm(r['method'])} saw {int(r['n_failures'])} failures in "
+                         f"{int(r['n_samples'])} samples (fewer than {MIN_FAILURES}), interval "
+                         f"{interval(r)}")
+        lines.append("    whole cycle: no estimate to trust at this level: " + "; ".join(parts)
+                     + "; run subset simulation (--method subset), or Monte Carlo with more "
+                     "samples")
+        ref = a[weak].iloc[0] if weak.any() else None
+        for _i, r in a[a["kind"] == "approximation"].iterrows():
+            if ref is not None:
+                inside = ref["pf_lo"] <= r["pf"] <= ref["pf_hi"]
+                lines.append(f"    whole cycle: {nm(r['method'])}'s P_f = {r['pf']:.3g} is "
+                             f"{'inside' if inside else 'outside'} {nm(ref['method'])}'s "
+                             f"interval {interval(ref)}"
+                             + ("" if inside else ": one of them misses failure modes"))
+    else:
+        rel = (top["pf_hi"] - top["pf_lo"]) / top["pf"] if top["pf"] > 0 else np.inf
+        if top["kind"] == "monte_carlo":
+            why = (f"{int(top['n_failures'])} failures in {int(top['n_samples'])} samples: its "
+                   "interval holds whatever the response")
+        elif top["n_warnings"] == 0:
+            why = "a sampling method, unbiased for the whole event, with no warning"
+        else:
+            why = "a sampling method, but see its warnings"
+        lines.append(f"    whole cycle: trust {nm(top['method'])} (P_f = {top['pf']:.3g}, "
+                     f"interval {interval(top)}, {why}; relative width {rel:.2f})")
+        for _i, r in a.iterrows():
+            if r["method"] == top["method"]:
+                continue
+            if r["kind"] == "monte_carlo" and r["n_failures"] < MIN_FAILURES:
+                lines.append(f"    whole cycle: {nm(r['method'])} saw only {int(r['n_failures'])} "
+                             f"failures in {int(r['n_samples'])} samples (fewer than "
+                             f"{MIN_FAILURES}): its interval {interval(r)} is too wide to check "
+                             "the others at this level")
+                continue
+            if np.isfinite(r["pf_lo"]) and np.isfinite(r["pf_hi"]):
+                if r["pf_hi"] < top["pf_lo"] or r["pf_lo"] > top["pf_hi"]:
+                    why_not = (" (see its warnings)" if r["n_warnings"] else
+                               " (a sampler's interval is too narrow when it misses a failure "
+                               "region)")
+                    lines.append(f"    whole cycle: {nm(r['method'])} disagrees with "
+                                 f"{nm(top['method'])}: their intervals {interval(r)} and "
+                                 f"{interval(top)} do not overlap; trust {nm(top['method'])}"
+                                 + why_not)
+                else:
+                    lines.append(f"    whole cycle: {nm(r['method'])} agrees (P_f = {r['pf']:.3g}, "
+                                 f"interval {interval(r)})")
+            elif top["pf_lo"] <= r["pf"] <= top["pf_hi"]:
+                lines.append(f"    whole cycle: {nm(r['method'])} agrees (P_f = {r['pf']:.3g}, "
+                             "inside the interval)")
+            else:
+                ratio = r["pf"] / top["pf"] if top["pf"] > 0 else np.inf
+                lines.append(f"    whole cycle: {nm(r['method'])} gives {ratio:.2g}× the trusted "
+                             "P_f, outside its interval: a first-order (FORM) or second-order "
+                             "(SORM) system of the design points it found, whose error is the "
+                             "modes' curvature or a mode it did not reach")
+    if worst is not None:
+        for _i, r in a.iterrows():
+            upper = r["pf_hi"] if np.isfinite(r["pf_hi"]) else r["pf"]
+            if upper < worst[0]:
+                lines.append(f"    whole cycle: {nm(r['method'])}'s P_f ({r['pf']:.3g}) is below "
+                             f"the largest single-angle P_f ({worst[0]:.3g}, {worst[1]}): "
+                             "impossible, the cycle contains every angle; it misses failure "
+                             "modes")
     return lines

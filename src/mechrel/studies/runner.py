@@ -40,10 +40,11 @@ def reliability_results() -> tuple[str, ...]:
     >>> {"reliability.csv", "whole_cycle.csv", "rare_events.csv"} <= set(reliability_results())
     True
     """
-    from .presenters import files_of
+    from .presenters import COMBINED, files_of
     from .study import study_methods
 
-    return RELIABILITY_FILES + files_of(study_methods().values())
+    return (RELIABILITY_FILES + files_of(study_methods().values())
+            + tuple(f for cls in COMBINED for f in cls.files))
 
 
 def _holds_output_folder(names):
@@ -166,7 +167,9 @@ def _verdict(ctx, by_rank) -> list[str]:
             if line:
                 lines.append(line)
                 break
-    lines += [w for p in ctx.presenters for w in [p.whole_cycle_verdict(ctx)] if w]
+    for p in ctx.presenters:
+        w = p.whole_cycle_verdict(ctx)
+        lines += [w] if isinstance(w, str) else list(w or [])
     return lines
 
 
@@ -248,7 +251,8 @@ def run_reliability(study, *, methods=None, n=None, n_jobs=1, seed=None, out=Non
     max_failure_fraction = (cfg["max_failure_fraction"] if max_failure_fraction is None
                             else max_failure_fraction)
     event = cfg["event"]
-    model = study.model()
+    # the rare-event methods search the whole cycle's failure modes sector by sector
+    model = study.model(sectors=any(m.kind == "rare_event" for m in chosen))
     inputs = study.uncertain_inputs()
     presenters = {}
     for m in chosen:
@@ -272,6 +276,11 @@ def run_reliability(study, *, methods=None, n=None, n_jobs=1, seed=None, out=Non
               "seed": seed, "event": event, "max_failure_fraction": max_failure_fraction}
     lines = [f"study {study.name}: scene {model.scene.name}, inputs {', '.join(inputs.names)}; "
              f"event {event}"]
+    lines += [f"  {name}: {m!r}; mean {mu:.6g}, std {sd:.6g}"
+              for name, m, mu, sd in zip(inputs.names, inputs.marginals, inputs.mean, inputs.std)]
+    if study.correlation:
+        lines.append("  correlation (Pearson): "
+                     + ", ".join(f"{pair} {rho:g}" for pair, rho in study.correlation.items()))
     try:
         for m in chosen:
             presenters[presenter_class(m)].run(ctx, m)
@@ -284,6 +293,11 @@ def run_reliability(study, *, methods=None, n=None, n_jobs=1, seed=None, out=Non
         p.finish(ctx)
     frames = [f for p in ctx.presenters for f in p.frames(ctx)]
     table = pd.concat(frames, axis=1) if frames else None
+    # the sector extremes are the rare-event methods' members, not rows of the per-angle table
+    if table is not None:
+        from ..uq.problem.allowables import parse_sector
+        keep = [not (isinstance(lbl, tuple) and parse_sector(lbl[-1])) for lbl in table.index]
+        table = table[keep]
     for p in ctx.presenters:
         lines += p.head_lines(ctx)
     by_rank = sorted(ctx.presenters, key=lambda p: p.rank)

@@ -184,8 +184,14 @@ class Study:
     method_settings: Mapping[str, Mapping[str, Any]] = field(default_factory=dict)
     source: str | None = field(default=None, compare=False)
 
-    def model(self):
+    def model(self, sectors: bool = False):
         """The mechanism model of this study.
+
+        Parameters
+        ----------
+        sectors : bool
+            Also report each quantity's extremes per sector of the cycle (the members of the
+            whole cycle's series system, for the rare-event methods).
 
         Returns
         -------
@@ -209,7 +215,7 @@ class Study:
         return MechanismModel(self.scene, dict(self.paths), output=self.output,
                               quantities=self.quantities, angle_step=self.angle_step,
                               cycles=self.cycles, overrides=dict(self.scene_overrides),
-                              reference=self.reference)
+                              reference=self.reference, sectors=sectors)
 
     def uncertain_inputs(self):
         """The uncertain inputs of this study.

@@ -35,6 +35,7 @@ _EXPORTS = {
     "problem.model": ["Model", "ModelFailure", "RowFailures", "FunctionModel"],
     "problem.mechanism": ["MechanismModel"],
     "problem.inputs": ["UncertainInputs", "Normal", "TruncNormal", "Uniform", "LogNormal",
+                       "Gumbel", "Weibull", "Gamma", "Beta", "ScipyMarginal",
                        "SAMPLING_RULES", "child_seed"],
     "problem.allowables": ["Allowable", "DEFAULT_ALLOWABLES", "EVENTS", "reliability_one_sided",
                            "reliability_two_sided", "bivariate_normal_cdf", "binomial_interval"],

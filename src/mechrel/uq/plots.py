@@ -14,7 +14,8 @@ import pandas as pd
 from mechrel.errors import StudyError
 from mechrel.outputs import QUANTITY_INFO
 
-__all__ = ["plot_reliability", "reliability_panels", "plot_qq", "plot_sobol"]
+__all__ = ["plot_reliability", "reliability_panels", "plot_qq", "plot_sobol", "plot_whole_cycle",
+           "plot_design_points"]
 
 # SI unit of every quantity, from the output kinds' table
 UNITS = {name: q.unit for name, q in QUANTITY_INFO.items()}
@@ -446,4 +447,202 @@ def plot_sobol(result: Any, output: Any = None, *, title: str | None = None):
     axes[0][0].set_ylabel("Sobol' index (share of variance)")
     if title:
         fig.suptitle(title)
+    return fig
+
+
+_MARKERS = {"monte_carlo": "o", "sampling": "s", "approximation": "D"}
+
+
+def plot_whole_cycle(estimates: pd.DataFrame, *, target: float | None = None, title: str | None = None,
+                     min_failures: int = 10):
+    """The whole-cycle failure probability, every method side by side: the headline figure of a
+    reliability study (``whole_cycle.png``).
+
+    One row per group (each quantity, then ``all``: any quantity beyond its allowable anywhere in
+    the cycle); per method a marker at its P_f (log scale) with its interval where it has one:
+    ● Monte Carlo (open when it saw fewer than ``min_failures`` failures; ◀ at its upper bound
+    when it saw none), ■ a sampling rare-event method, ◆ an approximation without an interval
+    (FORM, SORM). A dashed line marks the target, if given.
+
+    Parameters
+    ----------
+    estimates : pandas.DataFrame
+        :func:`mechrel.studies.rare.whole_cycle_estimates`: ``method``, ``group``, ``pf``,
+        ``pf_lo``, ``pf_hi``, ``kind``, ``n_failures``.
+    target : float, optional
+        The largest acceptable P_f (1 − the target reliability).
+    title : str, optional
+        The figure's title.
+    min_failures : int, default 10
+        Monte Carlo with fewer failures is drawn open (its interval is wide).
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+
+    Examples
+    --------
+    >>> import matplotlib
+    >>> matplotlib.use("Agg")
+    >>> est = pd.DataFrame({"method": ["mc", "mc", "form"], "group": ["velocity", "all", "all"],
+    ...                     "pf": [0.02, 0.03, 0.02], "pf_lo": [0.015, 0.024, np.nan],
+    ...                     "pf_hi": [0.026, 0.037, np.nan],
+    ...                     "kind": ["monte_carlo", "monte_carlo", "approximation"],
+    ...                     "n_failures": [40.0, 60.0, np.nan]})
+    >>> fig = plot_whole_cycle(est, target=1e-2)
+    >>> fig.axes[0].get_xscale(), [t.get_text() for t in fig.axes[0].get_yticklabels()]  # from the bottom
+    ('log', ['all', 'velocity'])
+    """
+    plt = _plt()
+    groups = [g for g in dict.fromkeys(estimates["group"]) if g != "all"] + (
+        ["all"] if "all" in set(estimates["group"]) else [])
+    methods = list(dict.fromkeys(estimates["method"]))
+    fig, ax = plt.subplots(figsize=(9.0, 1.4 + 0.55 * len(groups) * max(1, len(methods)) ** 0.5))
+    colors = plt.rcParams["axes.prop_cycle"].by_key()["color"]
+    span = 0.6
+    positive = estimates["pf"][estimates["pf"] > 0]
+    floor = float(positive.min()) / 10 if len(positive) else 1e-6
+    for j, m in enumerate(methods):
+        color = colors[j % len(colors)]
+        off = (j - (len(methods) - 1) / 2) * span / max(1, len(methods))
+        first = True
+        for _i, r in estimates[estimates["method"] == m].iterrows():
+            y = len(groups) - 1 - groups.index(r["group"]) + off
+            pf, lo, hi = float(r["pf"]), float(r["pf_lo"]), float(r["pf_hi"])
+            weak = r["kind"] == "monte_carlo" and float(r["n_failures"]) < min_failures
+            marker = _MARKERS.get(r["kind"], "o")
+            face = "none" if weak or r["kind"] == "approximation" else color
+            label = m if first else None
+            first = False
+            if pf <= 0 and np.isfinite(hi):
+                ax.plot([hi], [y], marker="<", color=color, ls="none", label=label)
+                ax.plot([max(floor, 1e-300), hi], [y, y], color=color, lw=1, ls=":")
+                continue
+            if np.isfinite(lo) and np.isfinite(hi):
+                ax.plot([max(lo, floor), hi], [y, y], color=color, lw=2, alpha=0.7)
+            ax.plot([pf], [y], marker=marker, color=color, markerfacecolor=face, ls="none", ms=7, label=label)
+    if target is not None:
+        ax.axvline(target, color="k", ls="--", lw=1, label=f"target P_f = {target:.3g}")
+    ax.set_xscale("log")
+    ax.set_yticks(range(len(groups)))
+    ax.set_yticklabels(list(reversed(groups)))
+    ax.set_ylim(-0.7, len(groups) - 0.3)
+    ax.set_xlabel("whole-cycle failure probability P_f (beyond the allowable at any instant)")
+    ax.grid(True, axis="x", which="both", alpha=0.3)
+    ax.legend(loc="center left", bbox_to_anchor=(1.01, 0.5), fontsize=8,
+              title="● MC  ■ sampling\n◆ approximation", title_fontsize=7)
+    ax.set_title(title or "whole-cycle failure probability by method (bars: intervals)")
+    fig.tight_layout()
+    return fig
+
+
+def plot_design_points(form_result: Any, *, extremes: pd.DataFrame | None = None,
+                       allowables: dict | None = None, title: str | None = None):
+    """Where the whole cycle's risk sits and what drives it: the rare-event figure of a study
+    (``rare_events.png``).
+
+    Left: each design point of FORM's system (:attr:`~mechrel.uq.FORMResult.design_points`) at
+    the middle of its cycle sector (or in order, for members without a sector), its β on the y
+    axis, ▲ for an error beyond +allowable, ▼ beyond −allowable, one colour per quantity.
+    Middle: the importance factors α² of each design point, stacked per input. Right (with
+    ``extremes``, the Monte Carlo samples' cycle extremes): P_f against the allowable, the
+    fraction of samples whose largest |error| over the cycle exceeds a fixed allowable a, per
+    quantity, a in units of the study's allowable ``allowables[q]``.
+
+    Parameters
+    ----------
+    form_result : FORMResult
+        FORM's result (or SORM's or importance sampling's ``.form``).
+    extremes : pandas.DataFrame, optional
+        One row per sample, a column ``(quantity, "max_abs")`` per quantity.
+    allowables : dict, optional
+        ``{quantity: allowable (mean)}``, the unit of the right panel's x axis.
+    title : str, optional
+        The figure's title.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+
+    Examples
+    --------
+    >>> import matplotlib
+    >>> matplotlib.use("Agg")
+    >>> from mechrel.uq import FunctionModel, Normal, UncertainInputs, form
+    >>> inputs = UncertainInputs.from_specs({"x1": Normal(0.0, 1.0), "x2": Normal(0.0, 1.0)})
+    >>> tie = FunctionModel(lambda X: 3.5 - abs(X[:, 0]), ["x1", "x2"], ["g"], vectorized=True)
+    >>> import warnings
+    >>> with warnings.catch_warnings():
+    ...     warnings.simplefilter("ignore")
+    ...     fig = plot_design_points(form(model=tie, inputs=inputs))
+    >>> len(fig.axes)
+    2
+    """
+    from .problem.allowables import parse_sector
+
+    plt = _plt()
+    dps = form_result.design_points
+    panels = 3 if extremes is not None else 2
+    fig, axs = plt.subplots(1, panels, figsize=(4.2 * panels, 3.8))
+    ax = axs[0]
+    colors = plt.rcParams["axes.prop_cycle"].by_key()["color"]
+    comps = list(dict.fromkeys(dps["component"]))
+    xs = []
+    for k, r in dps.iterrows():
+        out = r["output"]
+        sec = parse_sector(out[-1]) if isinstance(out, tuple) else None
+        x = 0.5 * (sec[1] + sec[2]) if sec else float(k)
+        xs.append(x)
+        marker = "^" if r["sign"] == "+" else ("v" if r["sign"] == "-" else "o")
+        c = colors[comps.index(r["component"]) % len(colors)]
+        ax.plot([x], [r["beta"]], marker=marker, color=c, ls="none", ms=8,
+                label=str(r["component"]) if comps.index(r["component"]) == comps.index(r["component"])
+                and r["component"] not in [lbl.get_label() for lbl in ax.lines[:-1]] else None)
+        ax.annotate(f"{r['pf_mode']:.1e}", (x, r["beta"]), textcoords="offset points", xytext=(4, 4), fontsize=7)
+    sectors = any(isinstance(o, tuple) and parse_sector(o[-1]) for o in dps["output"])
+    ax.set_xlabel("crank angle of the sector (deg)" if sectors else "design point")
+    if sectors:
+        ax.set_xlim(0, 360)
+        ax.set_xticks(range(0, 361, 90))
+    ax.set_ylabel("β of the design point (P_mode annotated)")
+    ax.set_title("design points (▲ +allowable, ▼ −allowable)", fontsize=9)
+    ax.grid(True, alpha=0.3)
+    if len(comps) > 1:
+        ax.legend(fontsize=7)
+    ax = axs[1]
+    imp = form_result.points["importance"].unstack("input")
+    bottom = np.zeros(len(imp))
+    for j, name in enumerate(imp.columns):
+        ax.bar(np.arange(len(imp)), imp[name].to_numpy(), bottom=bottom, label=str(name),
+               color=colors[j % len(colors)])
+        bottom += imp[name].to_numpy()
+    ax.set_xticks(np.arange(len(imp)))
+    ax.set_xticklabels([f"{x:g}°" if sectors else str(k) for k, x in zip(imp.index, xs)], fontsize=7,
+                       rotation=45)
+    ax.set_ylabel("importance α²")
+    ax.set_ylim(0, 1)
+    ax.set_title("what drives each design point", fontsize=9)
+    ax.legend(fontsize=6, loc="upper right")
+    if extremes is not None:
+        ax = axs[2]
+        for j, q in enumerate(dict.fromkeys(c[0] for c in extremes.columns)):
+            if (q, "max_abs") not in extremes.columns:
+                continue
+            v = np.sort(extremes[(q, "max_abs")].dropna().to_numpy())
+            if v.size == 0:
+                continue
+            unit = float((allowables or {}).get(q, 1.0)) or 1.0
+            p = 1.0 - np.arange(1, v.size + 1) / v.size
+            keep = p > 0
+            ax.step(v[keep] / unit, p[keep], where="post", color=colors[j % len(colors)], label=q)
+        ax.axvline(1.0, color="k", ls="--", lw=1, label="study allowable")
+        ax.set_yscale("log")
+        ax.set_xlabel("fixed allowable a / the study's allowable" if allowables else "fixed allowable a")
+        ax.set_ylabel("P(max over the cycle |error| > a)")
+        ax.set_title(f"P_f against the allowable ({len(extremes)} MC samples)", fontsize=9)
+        ax.grid(True, which="both", alpha=0.3)
+        ax.legend(fontsize=7)
+    if title:
+        fig.suptitle(title, fontsize=10)
+    fig.tight_layout()
     return fig

@@ -77,6 +77,7 @@ class Problem:
         self.executor = {"n_jobs": n_jobs, "backend": backend, "cache": cache, "progress": progress,
                          "chunk_size": chunk_size}
         self.evaluations: list[Evaluations] = []
+        self._memo: dict = {}
         self.t0 = time.perf_counter()
 
     @property
@@ -111,6 +112,53 @@ class Problem:
         ok &= ~bad
         G[~ok] = np.nan
         return G, ok, tuple(reasons)
+
+    def members(self, U: np.ndarray) -> tuple[np.ndarray, np.ndarray, tuple, np.ndarray, np.ndarray | None]:
+        """The members' margins (:attr:`BoundLimitState.members`) at the rows of U (n, d).
+
+        Returns ``(Gm (n, n_members), ok (n,), reasons, Y (n, n_out), A)``: failed rows have
+        NaN margins; ``Y`` the model outputs and ``A`` the random allowables (or None). The
+        system margin is ``self.bound.system_from_members(Gm)``, bitwise :meth:`g`'s. A point
+        this problem evaluated before is taken from its memory, not evaluated again (FORM's
+        searches meet their own stencils and line-search points again).
+        """
+        U = np.atleast_2d(np.asarray(U, dtype=float))
+        memo = self._memo
+        keys = [u.tobytes() for u in U]
+        new = [i for i, k in enumerate(keys) if k not in memo]
+        # a point evaluated before in this run (the searches' stencils and line searches meet
+        # again) is not sent to the executor again
+        new = [i for j, i in enumerate(new) if keys[i] not in {keys[n] for n in new[:j]}]
+        if new:
+            X = self.to_x(U[new])
+            ev = evaluate(self.model, X[:, : self.d_model], **self.executor)
+            self.evaluations.append(ev)
+            A = X[:, self.d_model:] if X.shape[1] > self.d_model else None
+            Gm = np.full((X.shape[0], self.n_members), np.nan)
+            ok = ev.ok.copy()
+            reasons = list(ev.reasons)
+            if ok.any():
+                Gm[ok] = self.bound.member_values(ev.Y[ok], None if A is None else A[ok])
+            bad = ok & ~np.all(np.isfinite(Gm), axis=1)
+            for i in np.flatnonzero(bad):
+                reasons[i] = "non-finite limit-state value"
+            ok &= ~bad
+            Gm[~ok] = np.nan
+            for j, i in enumerate(new):
+                memo[keys[i]] = (Gm[j], bool(ok[j]), reasons[j], ev.Y[j], None if A is None else A[j])
+        rows = [memo[k] for k in keys]
+        Gm = np.array([r[0] for r in rows])
+        ok = np.array([r[1] for r in rows], dtype=bool)
+        Y = np.array([r[3] for r in rows])
+        A = None if rows[0][4] is None else np.array([r[4] for r in rows])
+        return Gm, ok, tuple(r[2] for r in rows), Y, A
+
+    @property
+    def n_members(self) -> int:
+        """The number of members (elementary failure modes) of the limit state."""
+        if not hasattr(self, "_n_members"):
+            self._n_members = len(self.bound.members)
+        return self._n_members
 
     @property
     def n_evaluations(self) -> int:

@@ -441,7 +441,13 @@ def fosm(
                   "noise": noise, "steps": h.tolist(), "allowable": repr(allowable) if allowable is not None else "paper defaults",
                   "gradient": "central differences, 2d+1 evaluations"},
     )
-    notes = emit_warnings(fosm_warnings(model, ev.output_index, Y, sigma_i))
+    checks, blank = fosm_checks(model, ev.output_index, Y, sigma_i, sd_I)
+    # not estimates: the cycle extremes (not differentiable) and, against a fixed allowable, a
+    # zero gradient (β = ±∞ from round-off)
+    table.loc[blank, ["beta", "R_one_sided", "beta_minus", "R_two_sided", "reliability",
+                      "beta_generalized"]] = np.nan
+    table.loc[~per_angle_mask(ev.output_index), "sigma_i"] = np.nan
+    notes = emit_warnings(checks)
     return FOSMResult(table, grad, event, readonly(h), readonly(inputs.std), readonly(inputs.pearson_correlation),
                       allowable, ev, prov, notes)
 
@@ -457,9 +463,13 @@ fraction of the largest |output| of its quantity (about ten thousand times the r
 double)."""
 
 
-def fosm_warnings(model, index, Y: np.ndarray, sigma_i: np.ndarray) -> list[str]:
+def fosm_checks(model, index, Y: np.ndarray, sigma_i: np.ndarray,
+                sigma_I: np.ndarray | None = None) -> tuple[list[str], np.ndarray]:
     """Why a FOSM result from the stencil outputs ``Y`` (rows: μ, then μ ± h_j per input) may
-    not be trustworthy (see :class:`FOSMResult`)."""
+    not be trustworthy (see :class:`FOSMResult`), and which outputs get no β or R: the cycle
+    extremes (a maximum over the cycle is not differentiable where its instant jumps or the
+    error is zero: a σ there is a secant or round-off), and, against a fixed allowable
+    (``sigma_I`` = 0), the outputs whose gradient is zero (β = ±∞ from round-off)."""
     out = []
     reason = getattr(model, "nonsmooth", None)
     if reason:
@@ -471,10 +481,12 @@ def fosm_warnings(model, index, Y: np.ndarray, sigma_i: np.ndarray) -> list[str]
     up = Y[1::2] - Y[0]          # (d, n_out) forward changes
     down = Y[0] - Y[2::2]        # backward changes
     big = np.maximum(np.abs(up), np.abs(down))
-    # over the analysis angles: a cycle extreme is a maximum over the cycle (its instant jumps
-    # with the inputs, a kink by construction), and only Monte Carlo estimates the whole cycle
     angle = per_angle_mask(index)
     n_out = int(angle.sum())
+    if n_out == 0:
+        out.append("fosm: every output is a cycle extreme (max, min, max_abs): a maximum over the cycle is "
+                   "not differentiable where its instant jumps or the error is zero, so FOSM gives no σ, β "
+                   "or R for it; estimate the whole cycle by Monte Carlo or a rare-event method")
     unresolved = np.any((big > floor) & (np.abs(up - down) > UNRESOLVED * big), axis=0) & angle
     if unresolved.any():
         out.append(f"fosm: the finite-difference step does not resolve the response at "
@@ -483,14 +495,24 @@ def fosm_warnings(model, index, Y: np.ndarray, sigma_i: np.ndarray) -> list[str]
                    f"more than {UNRESOLVED:.0%} (a kink, an impact, a chaotic response, or a "
                    "turning point where the first-order term vanishes), so σ_i there is not a "
                    "first-order standard deviation; use Monte Carlo")
-    zero = (sigma_i <= floor) & (scale > 0) & angle
+    kinked_ext = np.any((big > floor) & (np.abs(up - down) > UNRESOLVED * big), axis=0) & ~angle
+    flat_ext = (sigma_i <= floor) & ~angle
+    if n_out and (kinked_ext | flat_ext).any():
+        out.append(f"fosm: {int((kinked_ext | flat_ext).sum())} cycle extreme(s) are not differentiable at "
+                   f"the means, e.g. {_labels(index, kinked_ext | flat_ext)} (a kink: the peak moves, or the "
+                   "error is zero there, as for geometric tolerances alone): FOSM gives the cycle extremes "
+                   "no σ, β or R; estimate the whole cycle by Monte Carlo or a rare-event method")
+    zero = (sigma_i <= floor) & angle
+    fixed = np.zeros(len(index), dtype=bool) if sigma_I is None else (np.asarray(sigma_I) == 0)
     if zero.any():
         out.append(f"fosm: the finite-difference gradient is zero at {int(zero.sum())} of "
-                   f"{n_out} outputs, e.g. {_labels(index, zero)}: σ_i = 0 gives β = ±∞ "
-                   "and R ∈ {0, 1} there, which is not an estimate (a flat response, a kink "
-                   "between the stencil points, or a step below the model's resolution); "
-                   "use Monte Carlo there")
-    return out
+                   f"{n_out} outputs, e.g. {_labels(index, zero)}: σ_i = 0 (a flat response, a kink "
+                   "between the stencil points, or a step below the model's resolution)"
+                   + (", so β and R are left empty (NaN) where the allowable is fixed"
+                      if (zero & fixed).any() else "")
+                   + "; use Monte Carlo there")
+    blank = ~angle | (zero & fixed)
+    return out, blank
 
 
 @dataclass(frozen=True, eq=False)
@@ -512,7 +534,9 @@ class FOSMPfResult(RareEventResult):
     provenance : dict
         How the result was made (with the limit state's description).
     warnings : tuple of str, default ()
-        Caveats of the estimate (none are issued today).
+        Caveats of the estimate, also issued as :class:`~mechrel.errors.EstimateWarning`: a
+        non-smooth model, a limit state on cycle extremes, a kink of g at the means, a zero
+        gradient (then ``beta`` and ``pf`` are NaN: they would only reflect round-off).
 
     Examples
     --------
@@ -550,8 +574,38 @@ def _limit_state_fosm(*, model, inputs, limit_state, step, noise, executor) -> F
     grad = (G[1::2] - G[2::2]) / dx
     sigma_g = float(np.sqrt(max(float(grad @ problem.inputs.covariance @ grad), 0.0)))
     mu_g = float(G[0])
-    with np.errstate(divide="ignore"):
-        beta = mu_g / sigma_g if sigma_g > 0 else math.copysign(math.inf, mu_g)
+    notes = []
+    reason = getattr(model, "nonsmooth", None)
+    if reason:
+        notes.append(f"fosm: the model is not smooth ({reason}): its finite-difference gradient is a secant "
+                     "across impacts, not a derivative; use subset_simulation or Monte Carlo")
+    # g's own resolution: a change below ZERO of its size is round-off, and forward and backward
+    # slopes that disagree are a kink (a tie of failure modes: min/max of equal branches)
+    up, down = G[1::2] - G[0], G[0] - G[2::2]
+    big = np.maximum(np.abs(up), np.abs(down))
+    floor = ZERO * float(np.max(np.abs(G)))
+    kink = bool(np.any((big > floor) & (np.abs(up - down) > UNRESOLVED * big)))
+    members = problem.bound.members
+    extremes = [o for o in members["output"] if isinstance(o, tuple) and o and isinstance(o[-1], str)]
+    if extremes:
+        notes.append(f"fosm: the limit state uses cycle extremes ({extremes[0]}{', ...' if len(extremes) > 1 else ''}): "
+                     "a maximum over the cycle is not differentiable where its instant jumps or the error is zero, "
+                     "so mean-value FOSM does not apply; use form (search='system'), subset_simulation or "
+                     "Monte Carlo")
+    if kink:
+        notes.append("fosm: g is not differentiable at the means (its forward and backward slopes differ by more "
+                     f"than {UNRESOLVED:.0%}: a kink, e.g. a tie of several failure modes, min/max of equal "
+                     "branches): σ_g is not a first-order standard deviation; use form (search='system') or "
+                     "subset_simulation")
+    if not sigma_g > ZERO * max(abs(mu_g), float(np.max(np.abs(G)))):
+        notes.append(f"fosm: the gradient of g is zero at the means (σ_g = {sigma_g:.3g}, round-off of g = "
+                     f"{mu_g:.6g}): β = ±∞ and P_f ∈ {{0, 1}} would only reflect round-off, so they are left "
+                     "empty (NaN); the means may sit on a tie of several failure modes: use form "
+                     "(search='system') or subset_simulation")
+        beta = math.nan
+    else:
+        beta = mu_g / sigma_g
+    caveats = emit_warnings(notes, stacklevel=4)
     table = pd.DataFrame({"pf": [float(special.ndtr(-beta))], "beta": [beta], "mu_g": [mu_g],
                           "sigma_g": [sigma_g], "n_evaluations": [problem.n_evaluations]},
                          index=pd.Index([problem.limit_state.name], name="limit_state"))
@@ -560,4 +614,4 @@ def _limit_state_fosm(*, model, inputs, limit_state, step, noise, executor) -> F
                                         else list(map(float, step)), "noise": noise,
                                         "gradient": "central differences, 2d+1 evaluations, at the means"})
     return FOSMPfResult(table, pd.Series(grad, index=list(problem.names), name="dg_dx"),
-                        problem.all_evaluations(), prov)
+                        problem.all_evaluations(), prov, caveats)

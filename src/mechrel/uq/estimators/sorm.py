@@ -41,7 +41,9 @@ from mechrel.errors import StudyError
 from ..._checks import ARGS
 from ..execution.executor import Evaluations
 from ..problem.inputs import seed_record
+from .._common import emit_warnings
 from ._problem import Problem, RareEventResult, concat_evaluations, refuse_evaluations
+from ._system import union_probability
 from .form import FORMResult, _form, check_positive
 
 __all__ = ["sorm", "SORMResult", "sorm_probabilities", "FORMULAS"]
@@ -59,7 +61,7 @@ class SORMResult(RareEventResult):
         One row: ``pf`` (by ``formula``), ``beta`` (= −Φ⁻¹(pf)), ``beta_form``, ``pf_form``,
         ``pf_breitung``, ``pf_hohenbichler``, ``pf_tvedt``, ``n_evaluations`` (FORM's included).
     curvatures : ndarray
-        The principal curvatures κ_i at the design point.
+        The principal curvatures κ_i at the (most important) design point.
     form : FORMResult
         The FORM result the curvatures are taken at.
     formula : str
@@ -69,7 +71,12 @@ class SORMResult(RareEventResult):
     provenance : dict
         How the result was made.
     warnings : tuple of str, default ()
-        Caveats of the estimate (none are issued today).
+        Caveats of the estimate (FORM's when FORM ran here, several design points combined,
+        a design point represented by its linearisation); also issued as
+        :class:`~mechrel.errors.EstimateWarning`.
+    modes : DataFrame, optional
+        One row per design point of FORM's system: ``member``, ``beta``, ``pf_form``,
+        ``pf_sorm`` (by ``formula``) and its ``curvatures``.
 
     Examples
     --------
@@ -90,6 +97,15 @@ class SORMResult(RareEventResult):
     evaluations: Evaluations | None
     provenance: dict = field(repr=False)
     warnings: tuple[str, ...] = ()
+    modes: pd.DataFrame | None = None
+
+
+def _member_fn(problem: Problem, m: int):
+    """The margin of member m (−1: the system margin) at standard-normal points."""
+    def fn(U):
+        Gm, ok, reasons, _Y, _A = problem.members(U)
+        return (problem.bound.system_from_members(Gm) if m < 0 else Gm[:, m]), ok, reasons
+    return fn
 
 
 def sorm_probabilities(beta: float, kappa: Any) -> dict:
@@ -150,8 +166,9 @@ def sorm_probabilities(beta: float, kappa: Any) -> dict:
     return {"breitung": breitung, "hohenbichler": hr, "tvedt": tvedt}
 
 
-def curvatures(problem: Problem, u: np.ndarray, dG: np.ndarray, g_star: float, *, step: float) -> np.ndarray:
-    """Principal curvatures at u* by central second differences in the tangent plane."""
+def curvatures(fn, u: np.ndarray, dG: np.ndarray, g_star: float, *, step: float) -> np.ndarray:
+    """Principal curvatures at u* of the margin ``fn(U) -> (G, ok, reasons)`` by central second
+    differences in the tangent plane."""
     d = u.shape[0]
     if d == 1:
         return np.empty(0)
@@ -167,7 +184,7 @@ def curvatures(problem: Problem, u: np.ndarray, dG: np.ndarray, g_star: float, *
     for i, j in pairs:
         for si, sj in ((1, 1), (1, -1), (-1, 1), (-1, -1)):
             pts.append(u + step * (si * T[:, i] + sj * T[:, j]))
-    G, ok, reasons = problem.g(np.array(pts))
+    G, ok, reasons = fn(np.array(pts))
     if not ok.all():
         bad = [reasons[i] for i in np.flatnonzero(~ok)][:3]
         raise StudyError(f"sorm: {int((~ok).sum())} of the {len(pts)} curvature points failed ({bad}); "
@@ -197,6 +214,9 @@ def sorm(
     scheme: str = "central",
     tol: float = 1e-6,
     max_iter: int = 100,
+    search: str = "system",
+    max_design_points: int = 8,
+    contribution: float = 0.01,
     n_jobs: int = 1,
     backend: str = "loky",
     cache: Any = None,
@@ -225,7 +245,7 @@ def sorm(
     curvature_step : float, default 1e-2
         Second-difference step in standard normal units (its truncation error is O(step²) times
         the fourth derivative; its round-off ≈ ε|G|/step²: enlarge it for a noisy model).
-    step, scheme, tol, max_iter
+    step, scheme, tol, max_iter, search, max_design_points, contribution
         FORM's settings, when FORM runs here (:func:`form`).
     n_jobs, backend, cache, progress, chunk_size
         Passed to :func:`mechrel.uq.evaluate`.
@@ -262,7 +282,8 @@ def sorm(
                       cache=cache, progress=progress, chunk_size=chunk_size, what="sorm")
     extra = []
     if design_point is None:
-        fr = _form(problem, seed=seed, step=step, scheme=scheme, tol=tol, max_iter=max_iter, start=None)
+        fr = _form(problem, seed=seed, step=step, scheme=scheme, tol=tol, max_iter=max_iter, start=None,
+                   search=search, max_design_points=max_design_points, contribution=contribution)
     else:
         if not isinstance(design_point, FORMResult):
             raise StudyError(f"sorm: design_point = {design_point!r}: not a FORMResult; allowed: None or form(...)")
@@ -272,9 +293,44 @@ def sorm(
         fr = design_point
         if fr.evaluations is not None:
             extra = [fr.evaluations]
-    beta = fr.beta
-    kappa = curvatures(problem, np.array(fr.u_star), np.array(fr.grad_u), fr.g_star, step=curvature_step)
-    probs = sorm_probabilities(beta, kappa)
+    if fr.system == "parallel":
+        raise StudyError(
+            "sorm: the limit state is a parallel system; mechrel has no second-order formula for the joint "
+            "design point of several components; allowed: form (its first-order parallel estimate), "
+            "importance_sampling or subset_simulation")
+    dps = fr.design_points
+    modes, notes = [], []
+    for k, row in dps.iterrows():
+        m = int(row["member_index"])
+        fn = _member_fn(problem, m)
+        pt = fr.points.loc[k]
+        u, grad = pt["u"].to_numpy(), pt["dg_du"].to_numpy()
+        if row["how"] == "linearised":
+            kappa = np.zeros(max(problem.d - 1, 0))
+            notes.append(f"sorm: design point {k} ({row['member']}) is a linearisation (its search did not "
+                         "converge): its curvatures are taken as 0")
+        else:
+            g_star = float(fn(u[None, :])[0][0])
+            kappa = curvatures(fn, u, grad, g_star, step=curvature_step)
+        modes.append((float(row["beta"]), kappa, -grad / np.linalg.norm(grad)))
+    per_mode = [sorm_probabilities(b, kap) for b, kap, _a in modes]
+    if len(modes) == 1:
+        probs = per_mode[0]
+    else:
+        alphas = np.array([a for _b, _k, a in modes])
+        probs = {}
+        for f in FORMULAS:
+            ps = [pm[f] for pm in per_mode]
+            if any(p is None for p in ps):
+                probs[f] = None
+                continue
+            beq = -special.ndtri(np.array(ps))
+            probs[f] = union_probability(beq, alphas)[0]
+        notes.append(f"sorm: {len(modes)} design points: P_f combines each mode's second-order probability "
+                     "as the union of equivalent hyperplanes (β_i = −Φ⁻¹(P_i), FORM's normals; Hohenbichler & "
+                     "Rackwitz 1983): compare with a sampling method")
+    kappa = modes[0][1]
+    beta = float(dps["beta"].iloc[0])
     pf = probs[formula]
     if pf is None:
         defined = [f for f in FORMULAS if probs[f] is not None]
@@ -283,15 +339,25 @@ def sorm(
             f"β = {beta:.4g} (a factor 1 + cκ ≤ 0); allowed here: {defined}")
     probs = {f: (np.nan if v is None else v) for f, v in probs.items()}  # undefined: NaN in the table, documented
     n_ev = problem.n_evaluations + (fr.n_evaluations if design_point is not None else 0)
-    table = pd.DataFrame({"pf": [pf], "beta": [float(-special.ndtri(pf))], "beta_form": [beta],
+    table = pd.DataFrame({"pf": [pf], "beta": [float(-special.ndtri(pf))], "beta_form": [fr.beta],
                           "pf_form": [fr.pf], "pf_breitung": [probs["breitung"]],
                           "pf_hohenbichler": [probs["hohenbichler"]], "pf_tvedt": [probs["tvedt"]],
-                          "n_evaluations": [n_ev]},
+                          "n_design_points": [len(modes)], "n_evaluations": [n_ev]},
                          index=pd.Index([problem.limit_state.name], name="limit_state"))
+    mode_table = pd.DataFrame({"member": dps["member"], "beta": [b for b, _k, _a in modes],
+                               "pf_form": [float(special.ndtr(-b)) for b, _k, _a in modes],
+                               "pf_sorm": [np.nan if pm[formula] is None else pm[formula] for pm in per_mode],
+                               "curvatures": [np.round(k_, 6).tolist() for _b, k_, _a in modes]},
+                              index=dps.index)
     prov = problem.provenance(method="sorm", seed=seed_record(seed), extra_evaluations=extra,
                               settings={"formula": formula, "curvature_step": curvature_step,
                                         "form": "given" if design_point is not None else
-                                        {"step": step, "scheme": scheme, "tol": tol, "max_iter": max_iter}})
+                                        {"step": step, "scheme": scheme, "tol": tol, "max_iter": max_iter,
+                                         "search": search, "max_design_points": max_design_points,
+                                         "contribution": contribution},
+                                        "system": "union of equivalent hyperplanes" if len(modes) > 1 else None})
     kap = np.array(kappa)
     kap.setflags(write=False)
-    return SORMResult(table, kap, fr, formula, concat_evaluations(extra + problem.evaluations), prov)
+    caveats = emit_warnings(list(fr.warnings if design_point is None else ()) + notes, stacklevel=3)
+    return SORMResult(table, kap, fr, formula, concat_evaluations(extra + problem.evaluations), prov, caveats,
+                      mode_table)

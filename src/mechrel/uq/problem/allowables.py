@@ -38,6 +38,8 @@ __all__ = [
     "resolve_allowables",
     "output_groups",
     "EXTREME_STATS",
+    "sector_label",
+    "parse_sector",
     "per_angle_mask",
     "whole_cycle_column",
     "reliability_one_sided",
@@ -123,6 +125,63 @@ def output_groups(index: pd.Index) -> np.ndarray:
 #: analysis angles): the largest and smallest signed error and the largest |error| over the
 #: analysed cycle, found on the integrator's solution (:class:`~mechrel.uq.MechanismModel`).
 EXTREME_STATS = ("max", "min", "max_abs")
+
+
+def sector_label(stat: str, lo: float, hi: float) -> str:
+    """The label of a sector extreme: the largest (``"max"``) or smallest (``"min"``) signed
+    error over the crank angles [lo, hi] of the analysed cycle (degrees; a closed sector, so
+    a peak on a boundary belongs to both neighbours).
+
+    The whole cycle is the union of its sectors, so its event is the series system of the
+    sector extremes (per quantity, sector and sign): the members whose design points the
+    rare-event methods search (docs/uq.md, "The whole cycle as a series system").
+
+    Parameters
+    ----------
+    stat : {"max", "min"}
+        The statistic.
+    lo, hi : float
+        The sector's crank angles, degrees.
+
+    Returns
+    -------
+    str
+        ``"max[lo,hi]"`` or ``"min[lo,hi]"``.
+
+    Examples
+    --------
+    >>> sector_label("max", 0.0, 18.0)
+    'max[0,18]'
+    """
+    return f"{stat}[{lo:g},{hi:g}]"
+
+
+def parse_sector(label) -> tuple[str, float, float] | None:
+    """``(stat, lo, hi)`` of a sector-extreme label (:func:`sector_label`), else None.
+
+    Parameters
+    ----------
+    label : object
+        A ``crank_angle`` label.
+
+    Returns
+    -------
+    tuple or None
+        The statistic and the sector's crank angles (degrees).
+
+    Examples
+    --------
+    >>> parse_sector("min[18,36]"), parse_sector("max"), parse_sector(18.0)
+    (('min', 18.0, 36.0), None, None)
+    """
+    if not isinstance(label, str) or not label.endswith("]") or "[" not in label:
+        return None
+    stat, _, rest = label.partition("[")
+    lo, _, hi = rest[:-1].partition(",")
+    try:
+        return stat, float(lo), float(hi)
+    except ValueError:
+        return None
 
 
 def per_angle_mask(index: pd.Index) -> np.ndarray:

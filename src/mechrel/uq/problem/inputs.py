@@ -18,6 +18,23 @@ Marginals
     Given by the mean m and standard deviation s *of X itself* (what a drawing tolerance gives),
     converted to the parameters of ln X ~ N(μ_ln, σ_ln²) by
     σ_ln² = ln(1 + (s/m)²),  μ_ln = ln m − σ_ln²/2, so that E[X] = m and Std[X] = s exactly.
+``gumbel(mean, std)``
+    Gumbel for maxima (extreme value type I, largest) with E[X] = mean and Std[X] = std:
+    F(x) = exp(−exp(−(x − μ)/β)), β = std √6/π, μ = mean − γ β (γ Euler's constant).
+``weibull(shape, scale, lower=0)``
+    F(x) = 1 − exp(−((x − lower)/scale)^shape), x >= lower: the Weibull modulus, the scale (the
+    63.2 % quantile above ``lower``) and the location (three-parameter Weibull).
+``gamma(mean, std)``
+    Gamma with E[X] = mean and Std[X] = std: shape k = (mean/std)², scale θ = std²/mean.
+``beta(alpha, beta, lower, upper)``
+    lower + (upper − lower) B, B ~ Beta(alpha, beta) on [0, 1].
+``scipy.NAME(shapes..., loc, scale)``
+    Any frozen continuous ``scipy.stats`` distribution (:class:`ScipyMarginal`), given in a
+    study file by its scipy name and parameters; it must have a finite mean and variance.
+
+Every marginal maps to and from the standard normal germ z (``from_z``/``to_z``: x = F⁻¹(Φ(z)),
+through the nearer tail so that the upper tail keeps its relative accuracy, in closed form
+where there is one) and gives its SciPy (``scipy()``) and chaospy (``chaospy()``) distributions.
 
 Correlation
 -----------
@@ -27,6 +44,12 @@ Z ~ N(0, R_z). For two normal marginals R_z = R_x; otherwise each R_z entry is s
 Nataf integral equation ρ_x = E[g_i(Z_i) g_j(Z_j)] (g = standardised F⁻¹∘Φ) by 2-D Gauss–Hermite
 quadrature and root finding. ``UncertainInputs.gaussian_correlation`` exposes R_z and
 ``.joint`` is ``chaospy.Nataf(J(marginals), R_z)``.
+
+Limits: a pair of marginals reaches only the Pearson correlations between those of its
+countermonotonic and comonotonic couplings (R_z = ∓1; e.g. two identical Gumbels cannot be
+correlated below −0.886, two exponentials below 1 − π²/6 = −0.645, two lognormals of
+coefficient of variation 1 below −0.5); a request outside is refused with the attainable range. The Pearson correlation needs finite variances, which every marginal
+has (a ``ScipyMarginal`` without them is refused).
 """
 
 from __future__ import annotations
@@ -50,7 +73,13 @@ __all__ = [
     "TruncNormal",
     "Uniform",
     "LogNormal",
+    "Gumbel",
+    "Weibull",
+    "Gamma",
+    "Beta",
+    "ScipyMarginal",
     "Marginal",
+    "MARGINAL_TYPES",
     "UncertainInputs",
     "SAMPLING_RULES",
     "as_seed_sequence",
@@ -208,6 +237,26 @@ class Normal:
         """
         return self.mean + self.std * z
 
+    def to_z(self, x: np.ndarray) -> np.ndarray:
+        """Map values of this marginal to the standard-normal germ (inverse of :meth:`from_z`).
+
+        Parameters
+        ----------
+        x : ndarray
+            Values, in the input's unit.
+
+        Returns
+        -------
+        ndarray
+            ``(x − mean)/std``.
+
+        Examples
+        --------
+        >>> Normal(1.0, 2.0).to_z(np.array([3.0])).tolist()
+        [1.0]
+        """
+        return (x - self.mean) / self.std
+
 
 @dataclass(frozen=True)
 class TruncNormal:
@@ -336,6 +385,26 @@ class TruncNormal:
         """
         return self.scipy().ppf(np.clip(special.ndtr(z), _U_EPS, 1 - _U_EPS))
 
+    def to_z(self, x: np.ndarray) -> np.ndarray:
+        """Map values of this marginal to the standard-normal germ (inverse of :meth:`from_z`).
+
+        Parameters
+        ----------
+        x : ndarray
+            Values, in the input's unit.
+
+        Returns
+        -------
+        ndarray
+            ``Φ⁻¹(F(x))``, F clipped to [2⁻⁵³, 1 − 2⁻⁵³] (|z| <= 8.2).
+
+        Examples
+        --------
+        >>> TruncNormal(0.0, 1.0, -1.0, 1.0).to_z(np.array([0.0])).round(12).tolist()
+        [0.0]
+        """
+        return special.ndtri(np.clip(self.scipy().cdf(x), _U_EPS, 1 - _U_EPS))
+
 
 @dataclass(frozen=True)
 class Uniform:
@@ -437,6 +506,26 @@ class Uniform:
         [2.0]
         """
         return self.lower + (self.upper - self.lower) * special.ndtr(z)
+
+    def to_z(self, x: np.ndarray) -> np.ndarray:
+        """Map values of this marginal to the standard-normal germ (inverse of :meth:`from_z`).
+
+        Parameters
+        ----------
+        x : ndarray
+            Values, in the input's unit.
+
+        Returns
+        -------
+        ndarray
+            ``Φ⁻¹((x − lower)/(upper − lower))``, the fraction clipped to [2⁻⁵³, 1 − 2⁻⁵³].
+
+        Examples
+        --------
+        >>> Uniform(0.0, 4.0).to_z(np.array([2.0])).tolist()
+        [0.0]
+        """
+        return special.ndtri(np.clip(self.scipy().cdf(x), _U_EPS, 1 - _U_EPS))
 
 
 @dataclass(frozen=True)
@@ -568,40 +657,930 @@ class LogNormal:
         mu, s = self.log_params
         return np.exp(mu + s * z)
 
+    def to_z(self, x: np.ndarray) -> np.ndarray:
+        """Map values of this marginal to the standard-normal germ (inverse of :meth:`from_z`).
 
-Marginal = Normal | TruncNormal | Uniform | LogNormal
+        Parameters
+        ----------
+        x : ndarray
+            Values (> 0), in the input's unit.
+
+        Returns
+        -------
+        ndarray
+            ``(ln x − mu_ln)/sigma_ln``.
+
+        Examples
+        --------
+        >>> m = LogNormal(1.0, 1.0)
+        >>> m.to_z(m.from_z(np.array([1.5]))).round(12).tolist()
+        [1.5]
+        """
+        mu, s = self.log_params
+        return (np.log(x) - mu) / s
+
+
+_P_TAIL = 1e-30
+"""Smallest tail probability the SciPy-backed maps between z and x use (|z| <= 11.4): beyond
+it, several ``scipy.stats`` inverse CDFs lose their accuracy or return NaN/∞ (e.g. ``beta.isf``
+at 1e-200, ``t.ppf`` at 1e-250), so the map is held constant there."""
+_Z_MAX = 37.5  # |z| beyond which Φ(-|z|) underflows: the closed-form maps clip there
+
+
+def _x_of_z(dist, z: np.ndarray) -> np.ndarray:
+    """F⁻¹(Φ(z)) through the nearer tail: ``ppf(Φ(z))`` for z <= 0, ``isf(Φ(−z))`` for z > 0.
+
+    The upper tail keeps its relative accuracy (Φ(z) itself rounds to 1 beyond z ≈ 8.3); the
+    tail probability is clipped at :data:`_P_TAIL`.
+    """
+    z = np.asarray(z, dtype=float)
+    p = np.maximum(special.ndtr(-np.abs(z)), _P_TAIL)
+    out = np.empty_like(p)
+    low = z <= 0
+    out[low] = dist.ppf(p[low])
+    out[~low] = dist.isf(p[~low])
+    return out
+
+
+def _z_of_x(dist, x: np.ndarray) -> np.ndarray:
+    """Φ⁻¹(F(x)) through the nearer tail (the inverse of :func:`_x_of_z`): ``Φ⁻¹(cdf(x))``
+    below the median, ``−Φ⁻¹(sf(x))`` above it; the tail probability clipped at
+    :data:`_P_TAIL`, so that a point outside the support maps to |z| = 11.4, not ∞."""
+    x = np.asarray(x, dtype=float)
+    p = np.asarray(dist.cdf(x), dtype=float)
+    out = np.empty_like(p)
+    low = p <= 0.5
+    out[low] = special.ndtri(np.maximum(p[low], _P_TAIL))
+    out[~low] = -special.ndtri(np.maximum(np.minimum(dist.sf(x[~low]), 0.5), _P_TAIL))
+    return out
+
+
+@dataclass(frozen=True)
+class Gumbel:
+    """X Gumbel for maxima (extreme value type I, largest), given by its mean and std.
+
+    F(x) = exp(−exp(−(x − μ)/β)), with the scale β = std √6/π and the mode μ = mean − γ β
+    (γ = 0.5772… Euler's constant), so that E[X] = mean and Std[X] = std exactly
+    (``scipy.stats.gumbel_r(μ, β)``). The law of the largest of many independent loads or
+    deviations; its upper tail is exponential, its lower tail double-exponential.
+
+    Parameters
+    ----------
+    mean : float
+        Mean of X, in the input's unit (SI).
+    std : float
+        Standard deviation of X (> 0), same unit.
+
+    Examples
+    --------
+    The largest crank speed of a shift, mean 9.6 rad/s, std 0.2 rad/s:
+
+    >>> u = UncertainInputs.from_specs({"w": Gumbel(9.6, 0.2)})
+    >>> round(float(u.mean[0]), 12), round(float(u.std[0]), 12)
+    (9.6, 0.2)
+    """
+
+    mean: float
+    std: float
+    kind = "gumbel"
+
+    def validated(self, name: str) -> Gumbel:
+        """The marginal with its parameters checked and converted to float.
+
+        Parameters
+        ----------
+        name : str
+            The input's name, for the error message.
+
+        Returns
+        -------
+        Gumbel
+            The same distribution with float parameters.
+
+        Raises
+        ------
+        StudyError
+            If the mean is not a finite number or the standard deviation is not > 0.
+
+        Examples
+        --------
+        >>> Gumbel(1, 2).validated("x")
+        Gumbel(mean=1.0, std=2.0)
+        """
+        return Gumbel(_finite(name, "mean", self.mean), _finite(name, "std", self.std, positive=True))
+
+    @property
+    def params(self) -> tuple[float, float]:
+        """The mode μ and the scale β of the Gumbel distribution.
+
+        β = std √6/π (Var X = π² β²/6) and μ = mean − γ β (E[X] = μ + γ β, γ Euler's constant).
+
+        Returns
+        -------
+        tuple of float
+            ``(mu, beta)``, in the input's unit.
+
+        Examples
+        --------
+        >>> mu, beta = Gumbel(0.0, math.pi / math.sqrt(6)).params
+        >>> round(beta, 12), round(mu, 12) == round(-np.euler_gamma, 12)
+        (1.0, True)
+        """
+        beta = self.std * math.sqrt(6.0) / math.pi
+        return self.mean - np.euler_gamma * beta, beta
+
+    def scipy(self):
+        """The frozen SciPy distribution of this marginal.
+
+        Returns
+        -------
+        scipy.stats.rv_continuous
+            ``scipy.stats.gumbel_r(mu, beta)``.
+
+        Examples
+        --------
+        >>> round(float(Gumbel(2.0, 0.5).scipy().mean()), 12)
+        2.0
+        """
+        mu, beta = self.params
+        return stats.gumbel_r(mu, beta)
+
+    def chaospy(self):
+        """The chaospy distribution of this marginal.
+
+        Returns
+        -------
+        chaospy.Distribution
+            ``chaospy.LogWeibull(scale=beta, shift=mu)`` (chaospy's name for the Gumbel law).
+
+        Examples
+        --------
+        >>> round(float(Gumbel(2.0, 0.5).chaospy().mom(1)), 6)
+        2.0
+        """
+        import chaospy
+
+        mu, beta = self.params
+        return chaospy.LogWeibull(scale=beta, shift=mu)
+
+    def from_z(self, z: np.ndarray) -> np.ndarray:
+        """Map standard-normal germ values to this marginal.
+
+        Parameters
+        ----------
+        z : ndarray
+            Standard-normal values.
+
+        Returns
+        -------
+        ndarray
+            ``mu − beta ln(−ln Φ(z))``, in the input's unit (ln Φ by ``scipy.special.log_ndtr``,
+            accurate in both tails).
+
+        Examples
+        --------
+        The median, z = 0, is mu − beta ln ln 2:
+
+        >>> g = Gumbel(0.0, 1.0)
+        >>> bool(np.isclose(g.from_z(np.array([0.0]))[0], g.scipy().median()))
+        True
+        """
+        mu, beta = self.params
+        z = np.clip(np.asarray(z, dtype=float), -_Z_MAX, _Z_MAX)
+        return mu - beta * np.log(-special.log_ndtr(z))
+
+    def to_z(self, x: np.ndarray) -> np.ndarray:
+        """Map values of this marginal to the standard-normal germ (inverse of :meth:`from_z`).
+
+        Parameters
+        ----------
+        x : ndarray
+            Values, in the input's unit.
+
+        Returns
+        -------
+        ndarray
+            ``Φ⁻¹(exp(−exp(−(x − mu)/beta)))``, by ``scipy.special.ndtri_exp`` (accurate in
+            both tails).
+
+        Examples
+        --------
+        >>> g = Gumbel(0.0, 1.0)
+        >>> g.to_z(g.from_z(np.array([-3.0, 0.5, 7.0]))).round(12).tolist()
+        [-3.0, 0.5, 7.0]
+        """
+        mu, beta = self.params
+        t = -np.exp(-(np.asarray(x, dtype=float) - mu) / beta)  # ln F(x)
+        return np.clip(special.ndtri_exp(t), -_Z_MAX, _Z_MAX)
+
+
+@dataclass(frozen=True)
+class Weibull:
+    """X = lower + W, W Weibull (two-parameter, ``shape`` k and ``scale`` λ).
+
+    F(x) = 1 − exp(−((x − lower)/λ)^k) for x >= lower (``scipy.stats.weibull_min(k, lower, λ)``):
+    the law of a strength or a life governed by its weakest link; k is the Weibull modulus.
+    E[X] = lower + λ Γ(1 + 1/k), Var X = λ² (Γ(1 + 2/k) − Γ(1 + 1/k)²).
+
+    Parameters
+    ----------
+    shape : float
+        The Weibull modulus k (> 0, dimensionless): k = 1 is the exponential law, k ≈ 3.6
+        nearly symmetric, large k a narrow spread.
+    scale : float
+        λ (> 0), in the input's unit (SI): the 63.2 % quantile of X − lower.
+    lower : float, default 0.0
+        The location, the lower end of the support (the three-parameter Weibull), same unit.
+
+    Examples
+    --------
+    A fatigue life with modulus 2 and characteristic life 1e6 cycles:
+
+    >>> u = UncertainInputs.from_specs({"N": Weibull(shape=2.0, scale=1e6)})
+    >>> round(float(u.mean[0]) / (1e6 * math.gamma(1.5)), 12)
+    1.0
+    """
+
+    shape: float
+    scale: float
+    lower: float = 0.0
+    kind = "weibull"
+
+    def validated(self, name: str) -> Weibull:
+        """The marginal with its parameters checked and converted to float.
+
+        Parameters
+        ----------
+        name : str
+            The input's name, for the error message.
+
+        Returns
+        -------
+        Weibull
+            The same distribution with float parameters.
+
+        Raises
+        ------
+        StudyError
+            If ``shape`` or ``scale`` is not a finite number > 0, or ``lower`` is not finite.
+
+        Examples
+        --------
+        >>> Weibull(2, 3).validated("x")
+        Weibull(shape=2.0, scale=3.0, lower=0.0)
+        """
+        return Weibull(_finite(name, "shape", self.shape, positive=True),
+                       _finite(name, "scale", self.scale, positive=True),
+                       _finite(name, "lower", self.lower))
+
+    def scipy(self):
+        """The frozen SciPy distribution of this marginal.
+
+        Returns
+        -------
+        scipy.stats.rv_continuous
+            ``scipy.stats.weibull_min(shape, lower, scale)``.
+
+        Examples
+        --------
+        >>> float(Weibull(1.0, 2.0).scipy().mean())  # k = 1: exponential, mean = scale
+        2.0
+        """
+        return stats.weibull_min(self.shape, self.lower, self.scale)
+
+    def chaospy(self):
+        """The chaospy distribution of this marginal.
+
+        Returns
+        -------
+        chaospy.Distribution
+            ``chaospy.Weibull(shape, scale, shift=lower)``.
+
+        Examples
+        --------
+        >>> round(float(Weibull(1.0, 2.0).chaospy().mom(1)), 6)
+        2.0
+        """
+        import chaospy
+
+        return chaospy.Weibull(self.shape, self.scale, self.lower)
+
+    def from_z(self, z: np.ndarray) -> np.ndarray:
+        """Map standard-normal germ values to this marginal.
+
+        Parameters
+        ----------
+        z : ndarray
+            Standard-normal values.
+
+        Returns
+        -------
+        ndarray
+            ``lower + scale (−ln Φ(−z))^(1/shape)``, in the input's unit (ln Φ by
+            ``scipy.special.log_ndtr``, accurate in both tails).
+
+        Examples
+        --------
+        >>> w = Weibull(1.0, 1.0)
+        >>> bool(np.isclose(w.from_z(np.array([0.0]))[0], math.log(2.0)))  # the median
+        True
+        """
+        z = np.clip(np.asarray(z, dtype=float), -_Z_MAX, _Z_MAX)
+        return self.lower + self.scale * (-special.log_ndtr(-z)) ** (1.0 / self.shape)
+
+    def to_z(self, x: np.ndarray) -> np.ndarray:
+        """Map values of this marginal to the standard-normal germ (inverse of :meth:`from_z`).
+
+        Parameters
+        ----------
+        x : ndarray
+            Values, in the input's unit (below ``lower``: the lower end, z = −37.5).
+
+        Returns
+        -------
+        ndarray
+            ``−Φ⁻¹(exp(−((x − lower)/scale)^shape))`` (by ``scipy.special.ndtri_exp``).
+
+        Examples
+        --------
+        >>> w = Weibull(1.5, 2.0, 1.0)
+        >>> w.to_z(w.from_z(np.array([-4.0, 0.0, 6.0]))).round(12).tolist()
+        [-4.0, 0.0, 6.0]
+        """
+        t = np.maximum((np.asarray(x, dtype=float) - self.lower) / self.scale, 0.0)
+        return np.clip(-special.ndtri_exp(-(t**self.shape)), -_Z_MAX, _Z_MAX)
+
+
+@dataclass(frozen=True)
+class Gamma:
+    """X gamma with E[X] = mean and Std[X] = std.
+
+    The shape k = (mean/std)² and the scale θ = std²/mean (E[X] = k θ, Var X = k θ²;
+    ``scipy.stats.gamma(k, scale=θ)``): a positive quantity given by its mean and coefficient of
+    variation, with a lighter upper tail than the lognormal of the same moments.
+
+    Parameters
+    ----------
+    mean : float
+        Mean of X (> 0), in the input's unit (SI).
+    std : float
+        Standard deviation of X (> 0), same unit.
+
+    Examples
+    --------
+    >>> u = UncertainInputs.from_specs({"mu": Gamma(0.1, 0.015)})
+    >>> round(float(u.mean[0]), 12), round(float(u.std[0]), 12)
+    (0.1, 0.015)
+    """
+
+    mean: float
+    std: float
+    kind = "gamma"
+
+    def validated(self, name: str) -> Gamma:
+        """The marginal with its parameters checked and converted to float.
+
+        Parameters
+        ----------
+        name : str
+            The input's name, for the error message.
+
+        Returns
+        -------
+        Gamma
+            The same distribution with float parameters.
+
+        Raises
+        ------
+        StudyError
+            If the mean or the standard deviation is not a finite number > 0.
+
+        Examples
+        --------
+        >>> Gamma(2, 1).validated("x")
+        Gamma(mean=2.0, std=1.0)
+        """
+        return Gamma(_finite(name, "mean", self.mean, positive=True),
+                     _finite(name, "std", self.std, positive=True))
+
+    @property
+    def params(self) -> tuple[float, float]:
+        """The shape k = (mean/std)² and the scale θ = std²/mean.
+
+        Returns
+        -------
+        tuple of float
+            ``(k, theta)``: k dimensionless, θ in the input's unit.
+
+        Examples
+        --------
+        >>> Gamma(2.0, 1.0).params
+        (4.0, 0.5)
+        """
+        return (self.mean / self.std) ** 2, self.std**2 / self.mean
+
+    def scipy(self):
+        """The frozen SciPy distribution of this marginal.
+
+        Returns
+        -------
+        scipy.stats.rv_continuous
+            ``scipy.stats.gamma(k, scale=theta)``.
+
+        Examples
+        --------
+        >>> round(float(Gamma(2.0, 1.0).scipy().std()), 12)
+        1.0
+        """
+        k, theta = self.params
+        return stats.gamma(k, scale=theta)
+
+    def chaospy(self):
+        """The chaospy distribution of this marginal.
+
+        Returns
+        -------
+        chaospy.Distribution
+            ``chaospy.Gamma(k, scale=theta)``.
+
+        Examples
+        --------
+        >>> round(float(Gamma(2.0, 1.0).chaospy().mom(1)), 12)
+        2.0
+        """
+        import chaospy
+
+        k, theta = self.params
+        return chaospy.Gamma(k, scale=theta)
+
+    def from_z(self, z: np.ndarray) -> np.ndarray:
+        """Map standard-normal germ values to this marginal.
+
+        Parameters
+        ----------
+        z : ndarray
+            Standard-normal values.
+
+        Returns
+        -------
+        ndarray
+            ``F⁻¹(Φ(z))`` through the nearer tail (``ppf`` below the median, ``isf`` above),
+            the tail probability clipped at 1e-30 (|z| <= 11.4), in the input's unit.
+
+        Examples
+        --------
+        >>> g = Gamma(2.0, 2.0)  # k = 1: exponential with mean 2
+        >>> bool(np.isclose(g.from_z(np.array([0.0]))[0], 2.0 * math.log(2.0)))
+        True
+        """
+        return _x_of_z(self.scipy(), z)
+
+    def to_z(self, x: np.ndarray) -> np.ndarray:
+        """Map values of this marginal to the standard-normal germ (inverse of :meth:`from_z`).
+
+        Parameters
+        ----------
+        x : ndarray
+            Values, in the input's unit.
+
+        Returns
+        -------
+        ndarray
+            ``Φ⁻¹(F(x))`` through the nearer tail (|z| <= 11.4).
+
+        Examples
+        --------
+        >>> g = Gamma(2.0, 0.5)
+        >>> g.to_z(g.from_z(np.array([-4.0, 1.0, 6.0]))).round(10).tolist()
+        [-4.0, 1.0, 6.0]
+        """
+        return _z_of_x(self.scipy(), x)
+
+
+@dataclass(frozen=True)
+class Beta:
+    """X = lower + (upper − lower) B, B ~ Beta(alpha, beta) on [0, 1].
+
+    f(x) ∝ (x − lower)^(alpha − 1) (upper − x)^(beta − 1) on [lower, upper]
+    (``scipy.stats.beta(alpha, beta, lower, upper − lower)``): a bounded quantity whose
+    distribution within its tolerance band may be skewed (alpha ≠ beta) or peaked
+    (alpha, beta > 1). E[X] = lower + (upper − lower) alpha/(alpha + beta).
+
+    Parameters
+    ----------
+    alpha, beta : float
+        The shape parameters (> 0, dimensionless).
+    lower, upper : float
+        The bounds of the support (lower < upper), in the input's unit (SI).
+
+    Examples
+    --------
+    A clearance within [0.45, 0.55] mm, skewed towards the lower end:
+
+    >>> u = UncertainInputs.from_specs({"c": Beta(2.0, 3.0, 0.45e-3, 0.55e-3)})
+    >>> round(float(u.mean[0]) * 1e3, 12)
+    0.49
+    """
+
+    alpha: float
+    beta: float
+    lower: float
+    upper: float
+    kind = "beta"
+
+    def validated(self, name: str) -> Beta:
+        """The marginal with its parameters checked and converted to float.
+
+        Parameters
+        ----------
+        name : str
+            The input's name, for the error message.
+
+        Returns
+        -------
+        Beta
+            The same distribution with float parameters.
+
+        Raises
+        ------
+        StudyError
+            If ``alpha`` or ``beta`` is not a finite number > 0, a bound is not finite, or
+            ``lower < upper`` fails.
+
+        Examples
+        --------
+        >>> Beta(2, 3, 0, 1).validated("x")
+        Beta(alpha=2.0, beta=3.0, lower=0.0, upper=1.0)
+        """
+        a = _finite(name, "alpha", self.alpha, positive=True)
+        b = _finite(name, "beta", self.beta, positive=True)
+        lo = _finite(name, "lower", self.lower)
+        hi = _finite(name, "upper", self.upper)
+        if not lo < hi:
+            raise StudyError(f"inputs.{name}.lower/upper: need lower < upper, got lower={lo!r}, upper={hi!r}")
+        return Beta(a, b, lo, hi)
+
+    def scipy(self):
+        """The frozen SciPy distribution of this marginal.
+
+        Returns
+        -------
+        scipy.stats.rv_continuous
+            ``scipy.stats.beta(alpha, beta, lower, upper − lower)``.
+
+        Examples
+        --------
+        >>> round(float(Beta(1.0, 1.0, 0.0, 4.0).scipy().std() ** 2), 12)  # uniform: 16/12
+        1.333333333333
+        """
+        return stats.beta(self.alpha, self.beta, self.lower, self.upper - self.lower)
+
+    def chaospy(self):
+        """The chaospy distribution of this marginal.
+
+        Returns
+        -------
+        chaospy.Distribution
+            ``chaospy.Beta(alpha, beta, lower, upper)``.
+
+        Examples
+        --------
+        >>> round(float(Beta(2.0, 3.0, 0.0, 1.0).chaospy().mom(1)), 12)
+        0.4
+        """
+        import chaospy
+
+        return chaospy.Beta(self.alpha, self.beta, self.lower, self.upper)
+
+    def from_z(self, z: np.ndarray) -> np.ndarray:
+        """Map standard-normal germ values to this marginal.
+
+        Parameters
+        ----------
+        z : ndarray
+            Standard-normal values.
+
+        Returns
+        -------
+        ndarray
+            ``F⁻¹(Φ(z))`` through the nearer tail, within ``[lower, upper]`` (|z| <= 11.4).
+
+        Examples
+        --------
+        >>> Beta(2.0, 2.0, -1.0, 1.0).from_z(np.array([0.0])).round(12).tolist()  # symmetric
+        [0.0]
+        """
+        return _x_of_z(self.scipy(), z)
+
+    def to_z(self, x: np.ndarray) -> np.ndarray:
+        """Map values of this marginal to the standard-normal germ (inverse of :meth:`from_z`).
+
+        Parameters
+        ----------
+        x : ndarray
+            Values, in the input's unit.
+
+        Returns
+        -------
+        ndarray
+            ``Φ⁻¹(F(x))`` through the nearer tail (|z| <= 11.4; the bounds map to ∓11.4).
+
+        Examples
+        --------
+        >>> b = Beta(2.0, 5.0, 0.0, 1.0)
+        >>> b.to_z(b.from_z(np.array([-3.0, 0.0, 3.0]))).round(10).tolist()
+        [-3.0, 0.0, 3.0]
+        """
+        return _z_of_x(self.scipy(), x)
+
+
+def _scipy_label(dist) -> str:
+    """``scipy.stats.NAME(p=v, ...)`` (or the class's dotted name for a distribution defined
+    outside scipy.stats), every shape parameter, ``loc`` and ``scale`` by keyword."""
+    gen = dist.dist
+    where = getattr(stats, gen.name, None) if isinstance(getattr(gen, "name", None), str) else None
+    head = (f"scipy.stats.{gen.name}" if where is not None and type(where) is type(gen)
+            else f"{type(gen).__module__}.{type(gen).__qualname__}")
+    return f"{head}({', '.join(f'{k}={v!r}' for k, v in _scipy_params(dist).items())})"
+
+
+def _scipy_params(dist) -> dict:
+    """The parameters of a frozen scipy distribution by keyword, shapes first, then loc, scale."""
+    shapes = [s.strip() for s in (dist.dist.shapes or "").split(",") if s.strip()]
+    names = shapes + ["loc", "scale"]
+    params = dict(zip(names, dist.args))
+    params.update(dist.kwds)
+    params.setdefault("loc", 0.0)
+    params.setdefault("scale", 1.0)
+    return {k: params[k] for k in names if k in params}
+
+
+@dataclass(frozen=True, eq=False)
+class ScipyMarginal:
+    """Any frozen continuous ``scipy.stats`` distribution as a marginal.
+
+    Sampling, the Nataf transform, FORM, SORM, importance and subset sampling go through its
+    ``ppf``/``isf``/``cdf``/``sf`` (the nearer tail of each, the tail probability clipped at
+    1e-30, |z| <= 11.4), FOSM and the reported moments through its ``mean()``/``std()``, a
+    polynomial chaos through Hermite polynomials of its standard-normal image. It must have a
+    finite mean and variance: one without (Cauchy, Student's t with df <= 2, Pareto with
+    b <= 2) is refused.
+
+    In a study file: ``distribution = "scipy.NAME"`` and the distribution's parameters by
+    their scipy names (its shapes, ``loc`` and ``scale``; the last two default to 0 and 1).
+
+    Parameters
+    ----------
+    distribution : scipy.stats frozen distribution
+        E.g. ``scipy.stats.genextreme(c=-0.1, loc=1.0, scale=0.2)``, in the input's unit (SI).
+
+    Examples
+    --------
+    A generalised extreme value (Fréchet-type, c < 0) load:
+
+    >>> m = ScipyMarginal(stats.genextreme(c=-0.1, loc=1.0, scale=0.2))
+    >>> m
+    ScipyMarginal(scipy.stats.genextreme(c=-0.1, loc=1.0, scale=0.2))
+    >>> u = UncertainInputs.from_specs({"F": m})
+    >>> bool(np.isclose(u.mean[0], stats.genextreme(-0.1, 1.0, 0.2).mean()))
+    True
+    """
+
+    distribution: Any
+
+    def __repr__(self) -> str:
+        return f"ScipyMarginal({_scipy_label(self.distribution)})"
+
+    def __eq__(self, other) -> bool:
+        return isinstance(other, ScipyMarginal) and repr(self) == repr(other)
+
+    def __hash__(self) -> int:
+        return hash(repr(self))
+
+    @property
+    def kind(self) -> str:
+        """``"scipy.NAME"``: the distribution's name (its class's name outside scipy.stats).
+
+        Returns
+        -------
+        str
+
+        Examples
+        --------
+        >>> ScipyMarginal(stats.logistic(0.0, 1.0)).kind
+        'scipy.logistic'
+        """
+        return "scipy." + str(getattr(self.distribution.dist, "name", type(self.distribution.dist).__name__))
+
+    def validated(self, name: str) -> ScipyMarginal:
+        """The marginal with its distribution checked: continuous, valid parameters, finite
+        mean and variance.
+
+        Parameters
+        ----------
+        name : str
+            The input's name, for the error message.
+
+        Returns
+        -------
+        ScipyMarginal
+            The same distribution, frozen again with float parameters by keyword.
+
+        Raises
+        ------
+        StudyError
+            If ``distribution`` is not a frozen continuous scipy.stats distribution, a parameter
+            is not a finite number or outside the distribution's domain, or the mean or the
+            variance is not finite.
+
+        Examples
+        --------
+        >>> ScipyMarginal(stats.t(2)).validated("x")
+        Traceback (most recent call last):
+        ...
+        mechrel.errors.StudyError: inputs.x: scipy.stats.t(df=2.0, loc=0.0, scale=1.0) has no finite variance (variance inf); allowed: a distribution with a finite mean and variance (the reported moments, FOSM and the Nataf correlation need them)
+        """
+        d = self.distribution
+        if not (hasattr(d, "dist") and isinstance(d.dist, stats.rv_continuous)):
+            raise StudyError(
+                f"inputs.{name}: got {d!r}; allowed: a frozen continuous scipy.stats distribution "
+                "(the distribution called with its parameters, e.g. scipy.stats.gamma(2.0, scale=0.1))"
+            )
+        params = {k: _finite(name, k, v) for k, v in _scipy_params(d).items()}
+        try:
+            frozen = d.dist(**params)
+            lo, hi = (float(v) for v in frozen.support())
+            mean, var = (float(v) for v in frozen.stats("mv"))
+        except Exception as exc:  # noqa: BLE001 (a third-party distribution's own failure)
+            raise StudyError(f"inputs.{name}: {_scipy_label(d)}: {exc}; allowed: parameters "
+                             "the distribution accepts") from None
+        if math.isnan(lo) or math.isnan(hi):
+            shapes = [k for k in params if k not in ("loc", "scale")]
+            raise StudyError(
+                f"inputs.{name}: {_scipy_label(frozen)}: parameters outside the distribution's "
+                f"domain; allowed: scale > 0 and shape parameters {shapes} that scipy.stats."
+                f"{d.dist.name} accepts"
+            )
+        if not (math.isfinite(mean) and math.isfinite(var)):
+            raise StudyError(
+                f"inputs.{name}: {_scipy_label(frozen)} has no finite "
+                f"{'mean' if not math.isfinite(mean) else 'variance'} "
+                f"({'mean' if not math.isfinite(mean) else 'variance'} "
+                f"{mean if not math.isfinite(mean) else var}); allowed: a distribution with a "
+                "finite mean and variance (the reported moments, FOSM and the Nataf correlation "
+                "need them)"
+            )
+        return ScipyMarginal(frozen)
+
+    def scipy(self):
+        """The frozen SciPy distribution of this marginal (the one given).
+
+        Returns
+        -------
+        scipy.stats.rv_continuous
+            ``distribution``.
+
+        Examples
+        --------
+        >>> float(ScipyMarginal(stats.logistic(2.0, 1.0)).scipy().median())
+        2.0
+        """
+        return self.distribution
+
+    def chaospy(self):
+        """The chaospy distribution of this marginal.
+
+        Returns
+        -------
+        chaospy.Distribution
+            ``chaospy.ScipyStatsDist(distribution)`` (its recurrence coefficients come from
+            chaospy's discretised Stieltjes procedure, not accurate for every distribution:
+            :func:`~mechrel.uq.polynomial_chaos` uses the standard-normal image instead).
+
+        Examples
+        --------
+        >>> round(float(ScipyMarginal(stats.logistic(2.0, 1.0)).chaospy().mom(1)), 12)
+        2.0
+        """
+        import chaospy
+
+        return chaospy.ScipyStatsDist(self.distribution)
+
+    def from_z(self, z: np.ndarray) -> np.ndarray:
+        """Map standard-normal germ values to this marginal.
+
+        Parameters
+        ----------
+        z : ndarray
+            Standard-normal values.
+
+        Returns
+        -------
+        ndarray
+            ``F⁻¹(Φ(z))`` through the nearer tail (``ppf`` below the median, ``isf`` above),
+            the tail probability clipped at 1e-30 (|z| <= 11.4), in the input's unit.
+
+        Examples
+        --------
+        >>> ScipyMarginal(stats.logistic(2.0, 1.0)).from_z(np.array([0.0])).tolist()
+        [2.0]
+        """
+        return _x_of_z(self.distribution, z)
+
+    def to_z(self, x: np.ndarray) -> np.ndarray:
+        """Map values of this marginal to the standard-normal germ (inverse of :meth:`from_z`).
+
+        Parameters
+        ----------
+        x : ndarray
+            Values, in the input's unit.
+
+        Returns
+        -------
+        ndarray
+            ``Φ⁻¹(F(x))`` through the nearer tail (|z| <= 11.4).
+
+        Examples
+        --------
+        >>> m = ScipyMarginal(stats.logistic(2.0, 1.0))
+        >>> m.to_z(m.from_z(np.array([-5.0, 1.0]))).round(10).tolist()
+        [-5.0, 1.0]
+        """
+        return _z_of_x(self.distribution, x)
+
+
+Marginal = Normal | TruncNormal | Uniform | LogNormal | Gumbel | Weibull | Gamma | Beta | ScipyMarginal
+MARGINAL_TYPES = (Normal, TruncNormal, Uniform, LogNormal, Gumbel, Weibull, Gamma, Beta, ScipyMarginal)
+"""The marginal classes: what an input's spec or a random allowable may be."""
 _KINDS: dict[str, tuple[type, tuple[str, ...]]] = {
     "normal": (Normal, ("mean", "std")),
     "truncnormal": (TruncNormal, ("mean", "std", "lower", "upper")),
     "uniform": (Uniform, ("lower", "upper")),
     "lognormal": (LogNormal, ("mean", "std")),
+    "gumbel": (Gumbel, ("mean", "std")),
+    "weibull": (Weibull, ("shape", "scale", "lower")),
+    "gamma": (Gamma, ("mean", "std")),
+    "beta": (Beta, ("alpha", "beta", "lower", "upper")),
 }
+_OPTIONAL = {"weibull": ("lower",)}  # fields with a default (the class's)
+_SCIPY = "scipy."  # the prefix of a study file's generic scipy.stats distribution
+
+
+def _allowed_kinds() -> str:
+    return (f"{sorted(_KINDS)}, or 'scipy.NAME' with NAME a continuous scipy.stats "
+            "distribution (e.g. 'scipy.genextreme')")
+
+
+def _scipy_spec(name: str, kind: str, spec: dict) -> ScipyMarginal:
+    """``{"distribution": "scipy.NAME", shape: …, "loc": …, "scale": …}`` → ScipyMarginal."""
+    dist_name = kind[len(_SCIPY):]
+    gen = getattr(stats, dist_name, None)
+    if not isinstance(gen, stats.rv_continuous):
+        what = ("a discrete distribution" if isinstance(gen, stats.rv_discrete)
+                else "not a scipy.stats distribution")
+        raise StudyError(f"inputs.{name}.distribution: got {kind!r}: {what}; allowed: "
+                         f"{_allowed_kinds()}")
+    shapes = [s.strip() for s in (gen.shapes or "").split(",") if s.strip()]
+    fields = shapes + ["loc", "scale"]
+    missing = [f for f in shapes if f not in spec]
+    extra = sorted(set(spec) - set(fields))
+    if missing or extra:
+        raise StudyError(
+            f"inputs.{name}: distribution {kind!r} takes fields {fields} (loc and scale optional, "
+            f"default 0 and 1); missing {missing}, unknown {extra}"
+        )
+    params = {f: _finite(name, f, spec[f]) for f in fields if f in spec}
+    return ScipyMarginal(gen(**params)).validated(name)
 
 
 def _parse_marginal(name: str, spec: Any) -> Marginal:
-    if isinstance(spec, (Normal, TruncNormal, Uniform, LogNormal)):
+    if isinstance(spec, MARGINAL_TYPES):
         return spec.validated(name)
     if not isinstance(spec, Mapping):
         raise StudyError(
             f"inputs.{name}: expected a mapping like {{'distribution': 'normal', 'mean': ..., 'std': ...}} "
-            f"or a Normal/TruncNormal/Uniform/LogNormal, got {type(spec).__name__}"
+            f"or a marginal ({'/'.join(t.__name__ for t in MARGINAL_TYPES)}), got {type(spec).__name__}"
         )
     spec = dict(spec)
     kind = spec.pop("distribution", spec.pop("dist", None))
     if kind is None:
-        raise StudyError(f"inputs.{name}.distribution: missing; allowed: {sorted(_KINDS)}")
+        raise StudyError(f"inputs.{name}.distribution: missing; allowed: {_allowed_kinds()}")
+    if isinstance(kind, str) and kind.lower().startswith(_SCIPY):
+        return _scipy_spec(name, _SCIPY + kind[len(_SCIPY):], spec)
     kind_key = str(kind).lower().replace("_", "").replace("-", "")
     if kind_key not in _KINDS:
-        raise StudyError(f"inputs.{name}.distribution: got {kind!r}; allowed: {sorted(_KINDS)}")
+        raise StudyError(f"inputs.{name}.distribution: got {kind!r}; allowed: {_allowed_kinds()}")
     cls, fields = _KINDS[kind_key]
-    missing = [f for f in fields if f not in spec]
+    optional = _OPTIONAL.get(kind_key, ())
+    missing = [f for f in fields if f not in spec and f not in optional]
     extra = sorted(set(spec) - set(fields))
     if missing or extra:
         raise StudyError(
-            f"inputs.{name}: distribution {kind_key!r} takes fields {list(fields)}; "
-            f"missing {missing}, unknown {extra}"
+            f"inputs.{name}: distribution {kind_key!r} takes fields {list(fields)}"
+            + (f" ({', '.join(optional)} optional)" if optional else "")
+            + f"; missing {missing}, unknown {extra}"
         )
-    return cls(**{f: spec[f] for f in fields}).validated(name)
+    return cls(**{f: spec[f] for f in fields if f in spec}).validated(name)
 
 
 def as_seed_sequence(seed: Any) -> np.random.SeedSequence:
@@ -710,8 +1689,9 @@ class UncertainInputs:
     names : tuple of str
         The inputs' names.
     marginals : tuple
-        One :class:`Normal`, :class:`TruncNormal`, :class:`Uniform` or :class:`LogNormal`
-        per input (SI units).
+        One marginal per input (:class:`Normal`, :class:`TruncNormal`, :class:`Uniform`,
+        :class:`LogNormal`, :class:`Gumbel`, :class:`Weibull`, :class:`Gamma`, :class:`Beta`,
+        :class:`ScipyMarginal`; SI units).
     correlation : ndarray, shape (d, d)
         Pearson correlation of the physical inputs (the identity when independent).
 
@@ -783,8 +1763,12 @@ class UncertainInputs:
         specs : mapping of str to marginal or mapping
             ``{name: spec}``; a spec is a marginal object (``Normal(mean, std)``,
             ``TruncNormal(mean, std, lower, upper)``, ``Uniform(lower, upper)``,
-            ``LogNormal(mean, std)``) or a mapping such as
-            ``{"distribution": "normal", "mean": 1.0, "std": 0.1}``, in SI units.
+            ``LogNormal(mean, std)``, ``Gumbel(mean, std)``, ``Weibull(shape, scale, lower=0)``,
+            ``Gamma(mean, std)``, ``Beta(alpha, beta, lower, upper)``,
+            ``ScipyMarginal(scipy.stats.NAME(...))``) or a mapping such as
+            ``{"distribution": "normal", "mean": 1.0, "std": 0.1}`` or
+            ``{"distribution": "scipy.genextreme", "c": -0.1, "loc": 1.0, "scale": 0.2}``,
+            in SI units.
         correlation : None, array_like or mapping, optional
             Pearson correlation of the physical inputs: ``None`` (independent), a d×d matrix in the
             order of ``specs``, or ``{(name_a, name_b): rho}`` (unlisted pairs 0).
@@ -1199,13 +2183,7 @@ class UncertainInputs:
             raise StudyError(f"to_standard_normal: expected shape (n, {self.d}), got {x.shape}")
         z = np.empty_like(x)
         for j, m in enumerate(self.marginals):
-            if isinstance(m, Normal):
-                z[:, j] = (x[:, j] - m.mean) / m.std
-            elif isinstance(m, LogNormal):
-                mu, s = m.log_params
-                z[:, j] = (np.log(x[:, j]) - mu) / s
-            else:
-                z[:, j] = special.ndtri(np.clip(m.scipy().cdf(x[:, j]), _U_EPS, 1 - _U_EPS))
+            z[:, j] = m.to_z(x[:, j])
         if self._chol is not None:
             z = np.linalg.solve(self._chol, z.T).T
         return z

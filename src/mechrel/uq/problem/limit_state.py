@@ -25,8 +25,8 @@ Building blocks
 
 Allowables
 ----------
-A number is a fixed allowable. A marginal (``Normal``, ``LogNormal``, ``Uniform``,
-``TruncNormal`` of :mod:`mechrel.uq.problem.inputs`) is a random allowable: an extra uncertain input,
+A number is a fixed allowable. A marginal (any of :data:`mechrel.uq.problem.inputs.MARGINAL_TYPES`:
+``Normal``, ``LogNormal``, ``Gumbel``, ``Weibull``, ...) is a random allowable: an extra uncertain input,
 independent of the model's inputs (the paper's interference model), named
 ``"allowable[<component name>]"``. The reliability estimators append it to the inputs; it never
 reaches the model, so the model is not re-run for a change of the allowable alone.
@@ -43,13 +43,13 @@ import pandas as pd
 
 from mechrel.errors import StudyError
 
-from .inputs import LogNormal, Normal, TruncNormal, Uniform
+from .inputs import MARGINAL_TYPES, Normal  # noqa: F401 (Normal: the doctests' allowable)
 
 __all__ = ["LimitState", "Component", "KINDS", "SYSTEMS", "BoundLimitState"]
 
 KINDS = ("margin", "abs", "upper", "lower")
 SYSTEMS = ("series", "parallel")
-_MARGINALS = (Normal, TruncNormal, Uniform, LogNormal)
+_MARGINALS = MARGINAL_TYPES
 
 
 def _check_allowable(name: str, allowable: Any):
@@ -58,7 +58,8 @@ def _check_allowable(name: str, allowable: Any):
     if isinstance(allowable, (bool, np.bool_)) or not isinstance(allowable, (int, float, np.integer, np.floating)):
         raise StudyError(
             f"LimitState: allowable[{name}] = {allowable!r}: not a number or a marginal; "
-            "allowed: a finite float (fixed) or Normal/LogNormal/Uniform/TruncNormal (random)"
+            "allowed: a finite float (fixed) or a marginal (random): "
+            + "/".join(t.__name__ for t in _MARGINALS)
         )
     a = float(allowable)
     if not np.isfinite(a):
@@ -196,9 +197,9 @@ class LimitState:
         outputs : hashable or list
             An output label or a list of labels.
         allowable : float or marginal
-            The allowable, in the outputs' unit: a finite float (fixed) or a
-            :class:`~mechrel.uq.Normal`, :class:`~mechrel.uq.LogNormal`, :class:`~mechrel.uq.Uniform`
-            or :class:`~mechrel.uq.TruncNormal` (random, an extra uncertain input).
+            The allowable, in the outputs' unit: a finite float (fixed) or a marginal
+            (:class:`~mechrel.uq.Normal`, :class:`~mechrel.uq.Weibull`, ..., any of
+            :data:`~mechrel.uq.problem.inputs.MARGINAL_TYPES`; random, an extra uncertain input).
         kind : {"abs", "upper", "lower"}, default "abs"
             Failure when max |y| > a, max y > a, or min y < a.
         name : str, optional
@@ -389,7 +390,7 @@ class LimitState:
                     )
                 p.extend(np.atleast_1d(loc).tolist())
             pos.append(np.array(p, dtype=int))
-        return BoundLimitState(self, tuple(pos))
+        return BoundLimitState(self, tuple(pos), output_index)
 
     def describe(self) -> dict:
         """A JSON-friendly description of the limit state, for provenance.
@@ -440,6 +441,8 @@ class BoundLimitState:
         The limit state.
     positions : tuple
         Per component, the output positions (None for a function component).
+    output_index : pandas.Index, optional
+        The model's output labels (for :meth:`member_proxies`).
 
     Examples
     --------
@@ -450,6 +453,7 @@ class BoundLimitState:
 
     state: LimitState
     positions: tuple
+    output_index: Any = None
 
     def components(self, Y: np.ndarray, A: np.ndarray | None = None) -> np.ndarray:
         """The component margins.
@@ -510,3 +514,240 @@ class BoundLimitState:
         G = self.components(Y, A)
         with np.errstate(invalid="ignore"):
             return G.min(axis=1) if self.state.system == "series" else G.max(axis=1)
+
+    @property
+    def members(self) -> pd.DataFrame:
+        """The elementary failure modes (members) of the limit state, one row each.
+
+        A component over a group of outputs is the series system of its outputs, and a
+        two-sided (``"abs"``) one is the series system of an upper and a lower exceedance, so
+        that every component margin is the minimum of its members' margins:
+
+        ========  =====================  ============================
+        kind      members per output y   member margin
+        ========  =====================  ============================
+        margin    one                    y
+        upper     one (sign ``+``)       a − y
+        lower     one (sign ``−``)       y − a
+        abs       two (``+`` and ``−``)  a − y  and  y + a
+        function  one for the component  func(Y)
+        ========  =====================  ============================
+
+        The system margin is then ``min`` over every member (series), or ``max`` over
+        components of the ``min`` over each component's members (parallel), bitwise equal to
+        :meth:`__call__`. The rare-event methods search a design point per member that matters
+        (:func:`~mechrel.uq.form`): the whole cycle of a mechanism is a series system of many
+        such members (per quantity, cycle sector and sign).
+
+        Returns
+        -------
+        pandas.DataFrame
+            Columns ``component`` (its position), ``name`` (component name), ``output`` (the
+            output label, None for a function), ``sign`` (``"+"``: failure when y is large,
+            ``"−"``: when y is small, ``""``: a margin), and ``opaque`` (True when the member's
+            margin is a whole function or model output: its structure is hidden, so it may hide
+            several design points).
+
+        Examples
+        --------
+        >>> ls = LimitState.exceedance(["a", "b"], 1.0, kind="abs", name="q")
+        >>> ls.bind(pd.Index(["a", "b"])).members[["output", "sign"]].values.tolist()
+        [['a', '+'], ['a', '-'], ['b', '+'], ['b', '-']]
+        """
+        return self._members()[0]
+
+    def _members(self):
+        rows, spec = [], []
+        for k, (c, p) in enumerate(zip(self.state.components, self.positions)):
+            if c.func is not None:
+                rows.append((k, c.name, None, "", True))
+                spec.append((k, -1, 0.0))
+                continue
+            labels = c.outputs if c.outputs != (None,) else (None,)
+            if len(labels) != len(p):  # a partial label (a quantity) selects several outputs
+                labels = tuple([None] * len(p))
+            for lbl, pos in zip(labels, p):
+                signs = {"margin": ("",), "upper": ("+",), "lower": ("-",), "abs": ("+", "-")}[c.kind]
+                for sg in signs:
+                    rows.append((k, c.name, lbl, sg, c.kind == "margin"))
+                    spec.append((k, int(pos), {"": 0.0, "+": 1.0, "-": -1.0}[sg]))
+        frame = pd.DataFrame(rows, columns=["component", "name", "output", "sign", "opaque"])
+        return frame, spec
+
+    def member_values(self, Y: np.ndarray, A: np.ndarray | None = None,
+                      index: pd.Index | None = None) -> np.ndarray:
+        """The margins of the members (:attr:`members`).
+
+        Parameters
+        ----------
+        Y : ndarray, shape (n, n_out)
+            The model's outputs.
+        A : ndarray, shape (n, n_random), optional
+            The random allowables, in the order of :attr:`LimitState.random_allowables`.
+        index : pandas.Index, optional
+            Not used; accepted for symmetry with :meth:`bind`.
+
+        Returns
+        -------
+        ndarray, shape (n, n_members)
+            Each member's margin (failure: ≤ 0), in its output's unit.
+
+        Raises
+        ------
+        StudyError
+            If a function component returns a wrong shape.
+
+        Examples
+        --------
+        >>> b = LimitState.exceedance(["a", "b"], 1.0, kind="abs").bind(pd.Index(["a", "b"]))
+        >>> b.member_values(np.array([[0.25, -2.0]])).tolist()
+        [[0.75, 1.25, 3.0, -1.0]]
+        """
+        Y = np.asarray(Y, dtype=float)
+        n = Y.shape[0]
+        frame, spec = self._members()
+        out = np.empty((n, len(spec)))
+        # the allowable of each random component, in order
+        col, ia = {}, 0
+        for k, c in enumerate(self.state.components):
+            if c.random:
+                col[k] = ia
+                ia += 1
+        for m, (k, pos, sign) in enumerate(spec):
+            c = self.state.components[k]
+            if pos < 0:
+                g = np.asarray(c.func(Y), dtype=float).reshape(-1)
+                if g.shape != (n,):
+                    raise StudyError(f"LimitState {c.name!r}: func returned shape {g.shape} for {n} rows; "
+                                     f"allowed: ({n},)")
+                out[:, m] = g
+                continue
+            y = Y[:, pos]
+            a = A[:, col[k]] if c.random else c.allowable
+            if sign == 0.0:
+                out[:, m] = y
+            elif c.kind == "lower":
+                out[:, m] = y - a
+            elif sign > 0:
+                out[:, m] = a - y
+            else:
+                out[:, m] = y + a
+        return out
+
+    def member_proxies(self) -> list[np.ndarray]:
+        """Per member, the outputs whose margins stand in for its own in a linearisation.
+
+        A sector extreme (``(quantity, "max[lo,hi]")``, :func:`~mechrel.uq.problem.allowables.sector_label`)
+        is a maximum over the sector: where the error is zero at the nominal design (geometric
+        tolerances alone), the maximum has a kink there and its finite-difference gradient is
+        not a derivative. The errors at the analysis angles of the same quantity in [lo, hi]
+        are smooth and bound it from below, so their linearisations stand in for the member's
+        when the rare-event methods rank the members (:func:`~mechrel.uq.form`).
+
+        Returns
+        -------
+        list of ndarray of int
+            Output positions per member (empty: no proxy).
+
+        Examples
+        --------
+        >>> idx = pd.MultiIndex.from_tuples([("v", 0.0), ("v", 18.0), ("v", 36.0),
+        ...                                  ("v", "max[0,18]"), ("v", "max[18,36]")],
+        ...                                 names=["quantity", "crank_angle"])
+        >>> b = LimitState.exceedance([("v", "max[0,18]"), ("v", "max[18,36]")], 1.0,
+        ...                           kind="upper").bind(idx)
+        >>> [p.tolist() for p in b.member_proxies()]
+        [[0, 1], [1, 2]]
+        """
+        from .allowables import parse_sector
+
+        frame, spec = self._members()
+        idx = self.output_index
+        out = [np.empty(0, dtype=int) for _ in spec]
+        if not (isinstance(idx, pd.MultiIndex) and "crank_angle" in idx.names
+                and "quantity" in idx.names):
+            return out
+        qs = idx.get_level_values("quantity")
+        angles = idx.get_level_values("crank_angle")
+        for m, (_k, pos, _sign) in enumerate(spec):
+            if pos < 0:
+                continue
+            sec = parse_sector(angles[pos])
+            if sec is None:
+                continue
+            _stat, lo, hi = sec
+            out[m] = np.array([i for i in range(len(idx)) if qs[i] == qs[pos]
+                               and not isinstance(angles[i], str)
+                               and lo - 1e-9 <= float(angles[i]) <= hi + 1e-9], dtype=int)
+        return out
+
+    def proxy_values(self, Y: np.ndarray, A: np.ndarray | None, member: int,
+                     positions: np.ndarray) -> np.ndarray:
+        """The margin of ``member`` with each output of ``positions`` in place of its own.
+
+        Parameters
+        ----------
+        Y : ndarray, shape (n, n_out)
+            The model's outputs.
+        A : ndarray, shape (n, n_random), optional
+            The random allowables.
+        member : int
+            The member (a row of :attr:`members`).
+        positions : array of int
+            Output positions (:meth:`member_proxies`).
+
+        Returns
+        -------
+        ndarray, shape (n, len(positions))
+            The margins.
+
+        Examples
+        --------
+        >>> b = LimitState.exceedance(["a"], 1.0, kind="upper").bind(pd.Index(["a", "b"]))
+        >>> b.proxy_values(np.array([[0.25, 0.5]]), None, 0, np.array([1])).tolist()
+        [[0.5]]
+        """
+        _frame, spec = self._members()
+        k, _pos, sign = spec[member]
+        c = self.state.components[k]
+        y = np.asarray(Y, dtype=float)[:, np.asarray(positions, dtype=int)]
+        if c.random:
+            col = sum(1 for j in range(k) if self.state.components[j].random)
+            a = np.asarray(A)[:, col][:, None]
+        else:
+            a = c.allowable
+        if sign == 0.0:
+            return y
+        if c.kind == "lower":
+            return y - a
+        return a - y if sign > 0 else y + a
+
+    def system_from_members(self, Gm: np.ndarray) -> np.ndarray:
+        """The system margin from the members' margins (:meth:`member_values`).
+
+        Parameters
+        ----------
+        Gm : ndarray, shape (n, n_members)
+            The members' margins.
+
+        Returns
+        -------
+        ndarray, shape (n,)
+            ``min`` over members (series), or ``max`` over components of their members'
+            ``min`` (parallel): equal to :meth:`__call__` on the same outputs.
+
+        Examples
+        --------
+        >>> b = LimitState.exceedance(["a", "b"], 1.0, kind="abs").bind(pd.Index(["a", "b"]))
+        >>> Y = np.array([[0.25, -2.0]])
+        >>> b.system_from_members(b.member_values(Y)).tolist() == b(Y).tolist()
+        True
+        """
+        Gm = np.asarray(Gm, dtype=float)
+        comp = self._members()[0]["component"].to_numpy()
+        with np.errstate(invalid="ignore"):
+            if self.state.system == "series":
+                return Gm.min(axis=1)
+            per = np.column_stack([Gm[:, comp == k].min(axis=1)
+                                   for k in range(len(self.state.components))])
+            return per.max(axis=1)

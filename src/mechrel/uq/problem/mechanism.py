@@ -46,7 +46,9 @@ from ..._checks import ARGS
 from ...errors import MechrelError, SceneError, StudyError
 from ...outputs import quantities_of
 from .model import ModelFailure, RowFailures
-from .allowables import EXTREME_STATS
+from .allowables import EXTREME_STATS, sector_label
+
+SECTOR_STATS = ("max", "min")
 
 REFERENCES = ("nominal", "same-geometry")
 """What the error is measured against: the ideal motion of the nominal geometry, or of the
@@ -114,6 +116,12 @@ class MechanismModel:
     extremes : bool
         Append the cycle extremes of each quantity to the outputs (default). Without them
         the outputs are the analysis angles only and whole-cycle estimates fall back on them.
+    sectors : bool
+        With ``extremes``, also append each quantity's largest and smallest error over every
+        sector between consecutive analysis angles (``(quantity, "max[lo,hi]")``,
+        :func:`~mechrel.uq.problem.allowables.sector_label`): the members of the whole cycle's
+        series system, whose design points FORM searches one by one (docs/uq.md, "The whole
+        cycle as a series system"). Default False (the outputs of earlier versions).
 
     Examples
     --------
@@ -129,7 +137,7 @@ class MechanismModel:
     def __init__(self, scene, inputs: Sequence[str], *, output: str | None = None,
                  quantities: Sequence[str] | None = None, angle_step: float = 18.0,
                  cycles: float | None = None, overrides=None, reference: str = "nominal",
-                 extremes: bool = True):
+                 extremes: bool = True, sectors: bool = False):
         from ...scene import load_scene, scene_hash
         from ...scene.loader import thaw
 
@@ -217,9 +225,16 @@ class MechanismModel:
         if not isinstance(extremes, bool):
             raise StudyError(f"extremes: {extremes!r} is not a boolean; allowed: True, False")
         self.with_extremes = extremes
+        if not isinstance(sectors, bool) or (sectors and not extremes):
+            raise StudyError(f"sectors: {sectors!r}; allowed: True (with extremes=True) or False")
+        self.with_sectors = sectors
         labels = [(q, float(a)) for q in self.quantities for a in angles]
         if extremes:
             labels += [(q, stat) for q in self.quantities for stat in EXTREME_STATS]
+        if sectors:
+            for q in self.quantities:
+                for stat in SECTOR_STATS:
+                    labels += [(q, sector_label(stat, lo, hi)) for lo, hi in zip(angles[:-1], angles[1:])]
         self.output_index = pd.MultiIndex.from_tuples(labels, names=["quantity", "crank_angle"])
 
     # pickling: ship the raw mapping, rebuild the scene in the worker
@@ -332,7 +347,8 @@ class MechanismModel:
                 "scene_source": self.scene_source, "solver": dict(self._raw.get("solver", {})),
                 "output": self.output, "quantities": list(self.quantities),
                 "angle_step": self.angle_step, "cycles": self.cycles,
-                "reference": self.reference, "extremes": self.with_extremes}
+                "reference": self.reference, "extremes": self.with_extremes,
+                "sectors": getattr(self, "with_sectors", False)}
 
     def cache_key(self) -> str:
         """A SHA-256 hash of what determines the outputs besides ``x``.
@@ -363,6 +379,7 @@ class MechanismModel:
                               "angle_step": self.angle_step, "cycles": self.cycles,
                               **({"reference": "nominal"} if self.nominal_reference else {}),
                               "extremes": self.with_extremes, "dense_points": DENSE_POINTS,
+                              **({"sectors": True} if getattr(self, "with_sectors", False) else {}),
                               "mechrel": __version__, "code": simulator_digest()},
                              sort_keys=True)
         return hashlib.sha256(payload.encode()).hexdigest()
@@ -453,13 +470,15 @@ class MechanismModel:
             # the nominal geometry with the sample's other values (a speed, a clearance)
             other = {p: v for p, v in values.items() if not is_geometric(p)}
             reference = with_overrides(self.scene, other) if other else self.scene
+        sectors = self.angle_step if getattr(self, "with_sectors", False) else None
         if solvers is None:
-            return simulate(scene, reference=reference, extremes=self.with_extremes)
+            return simulate(scene, reference=reference, extremes=self.with_extremes, sectors=sectors)
         key = (scene.solver, scene_kind(scene))
         solver = solvers.get(key)
         if solver is None:
             solver = solvers[key] = make_integrator(scene)
-        return simulate_sample(scene, solver, reference=reference, extremes=self.with_extremes)
+        return simulate_sample(scene, solver, reference=reference, extremes=self.with_extremes,
+                               sectors=sectors)
 
     def extremes(self, x) -> pd.DataFrame:
         """Where the cycle extremes occur at input vector ``x``.
@@ -601,6 +620,8 @@ class MechanismModel:
         if self.with_extremes:
             parts.append(np.array([res.extremes[self.output][q][stat]
                                    for q in self.quantities for stat in EXTREME_STATS]))
+        if getattr(self, "with_sectors", False):
+            parts += [v for q in self.quantities for v in res.sector_extremes[self.output][q]]
         out = np.concatenate(parts)
         if not np.all(np.isfinite(out)):
             raise ModelFailure("non-finite response error")
