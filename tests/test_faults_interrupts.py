@@ -19,6 +19,7 @@ from pathlib import Path
 import pytest
 
 from mechrel._kernel_cache import warm_up
+from mechrel.cli.main import main
 from mechrel.scene import load_scene
 
 pytestmark = pytest.mark.skipif(not Path("/proc/self/stat").exists(),
@@ -374,7 +375,8 @@ def test_no_cache_is_named_before_there_is_one(tmp_path):
     assert not (out / "evaluations.sqlite").exists()
 
 
-@pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM])
+@pytest.mark.parametrize("sig", [signal.SIGINT,
+                                 pytest.param(signal.SIGTERM, marks=pytest.mark.slow)])
 def test_ctrl_c_while_the_workers_start_is_one_line(sig, tmp_path):
     """A terminal's Ctrl-C reaches the whole foreground group: the workers too, while they
     start (import their modules). They start with SIGINT blocked, and the parent ends them:
@@ -432,15 +434,14 @@ def _fosm(tmp_path, std):
             str(tmp_path / "out"), "--set", f"inputs.clearance.std={std}"]
 
 
-@pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM])
+@pytest.mark.parametrize("sig", [pytest.param(signal.SIGINT, marks=pytest.mark.slow),
+                                 signal.SIGTERM])
 def test_an_interrupt_while_results_are_written_keeps_the_earlier_set(sig, tmp_path):
     """Interrupted after some of its files are written (the summary is written last): the
     folder holds the earlier run's complete set, not a mix, and no staging folder."""
     code, name = NAMES[sig]
     out = tmp_path / "out"
-    done = subprocess.run(CLI + _fosm(tmp_path, 1e-5), capture_output=True, text=True,
-                          timeout=300)
-    assert done.returncode == 0, done.stderr
+    assert main(_fosm(tmp_path, 1e-5)) == 0  # the earlier run, in-process
     earlier = _files(out)
     assert {"reliability.csv", "reliability.png", "summary.json"} <= set(earlier)
     rc, err = _at("call:mechrel.studies.runner.write_json", _fosm(tmp_path, 2e-5), sig, tmp_path)
@@ -459,9 +460,7 @@ def test_an_interrupt_while_the_set_is_moved_into_place_waits_for_it(tmp_path):
     import json
 
     out = tmp_path / "out"
-    done = subprocess.run(CLI + _fosm(tmp_path, 1e-5), capture_output=True, text=True,
-                          timeout=300)
-    assert done.returncode == 0, done.stderr
+    assert main(_fosm(tmp_path, 1e-5)) == 0  # the earlier run, in-process
     earlier = _files(out)
     rc, err = _at("call:mechrel.io.results._roll_forward", _fosm(tmp_path, 2e-5),
                   signal.SIGTERM, tmp_path)
