@@ -14,6 +14,11 @@ cycle, max over the cycle |e| > I (the cycle extreme found on the integrator's s
   the runs for every I of the grid cost one run to the deepest I plus each run's last level.
   The grid's deepest allowable is found from the first run's levels (log P_f linear in I,
   extrapolated), then refined.
+* The same curve by active learning (``active_learning``, ``--method ak``): one Kriging
+  surrogate of the cycle extreme, refined near each allowable's level set; each allowable's run
+  starts from the runs of the one before (``initial=``), so the curve costs the simulations of
+  the first run plus the few each further level adds (its own cache, OUT/ak_evaluations.sqlite,
+  so that its count is its own).
 * Per crank angle: FORM and SORM (Hohenbichler–Rackwitz) on g = I_θ − |e(θ)|, with I_θ the
   Monte Carlo 1 − ``--angle-pf`` quantile of |e(θ)| (so that Monte Carlo resolves P_f there),
   against the Monte Carlo estimate with its interval, and each method's model evaluations.
@@ -37,6 +42,7 @@ import numpy as np
 import pandas as pd
 
 from mechrel.cli.args import jobs, positive_integer, report_errors, sample_count
+from mechrel.errors import StudyError
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from reliability_paper import _md  # noqa: E402
@@ -156,6 +162,27 @@ def curve(model, inputs, quantity, Y_mc, deepest, *, n_points, n_per_level, seed
     return pd.DataFrame(rows)
 
 
+def ak_curve(model, inputs, quantity, grid, *, seed, common, tolerance=0.1, batch_size=4):
+    """P_f(I) by active learning at each allowable of ``grid`` (loosest first), each run seeded
+    with the previous run's simulations."""
+    from mechrel.uq import LimitState, active_learning
+
+    rows, prev = [], None
+    for allowable in sorted(grid):
+        ls = LimitState.exceedance([(quantity, "max_abs")], float(allowable), kind="abs")
+        t0 = time.perf_counter()
+        r = active_learning(model=model, inputs=inputs, limit_state=ls, seed=seed, initial=prev,
+                            tolerance=tolerance, batch_size=batch_size, **common)
+        t = r.to_frame().iloc[0]
+        rows.append({"allowable": allowable, "pf_ak": t["pf"], "pf_ak_lo": t["pf_lo"],
+                     "pf_ak_hi": t["pf_hi"], "converged_ak": bool(t["converged"]),
+                     "population_ak": t["population"], "n_evaluations_ak": int(t["n_evaluations"]),
+                     "new_simulations_ak": _new(r), "wall_time_ak": time.perf_counter() - t0,
+                     "warnings_ak": len(r.warnings)})
+        prev = r
+    return pd.DataFrame(rows)
+
+
 def cached_simulations(path) -> int:
     """Simulations in the evaluation cache: every distinct sample this study ran."""
     import sqlite3
@@ -210,11 +237,21 @@ def plot(curve_t, angle_t, quantity, path):
     import matplotlib.pyplot as plt
 
     unit = UNITS[quantity]
-    fig, (a1, a2) = plt.subplots(1, 2, figsize=(12, 4.6))
+    per_angle_ran = len(angle_t) > 0
+    fig, axes = plt.subplots(1, 2 if per_angle_ran else 1,
+                             figsize=(12 if per_angle_ran else 6.5, 4.6))
+    a1, a2 = (axes if per_angle_ran else (axes, None))
     c = curve_t
-    a1.errorbar(c["allowable"], c["pf_subset"],
-                yerr=[c["pf_subset"] - c["pf_subset_lo"], c["pf_subset_hi"] - c["pf_subset"]],
-                fmt="o-", capsize=3, label="subset simulation (±1.96 c.o.v.)")
+    if "pf_subset" in c:
+        a1.errorbar(c["allowable"], c["pf_subset"],
+                    yerr=[c["pf_subset"] - c["pf_subset_lo"], c["pf_subset_hi"] - c["pf_subset"]],
+                    fmt="o-", capsize=3, label="subset simulation (±1.96 c.o.v.)")
+    if "pf_ak" in c:
+        a1.errorbar(c["allowable"], c["pf_ak"],
+                    yerr=[c["pf_ak"] - c["pf_ak_lo"], c["pf_ak_hi"] - c["pf_ak"]],
+                    fmt="D--", capsize=3, mfc="none",
+                    label=f"active learning (95 % interval), {int(c['new_simulations_ak'].sum())} "
+                          "simulations for the curve")
     m = c["k_mc"] > 0
     a1.errorbar(c["allowable"][m], c["pf_mc"][m],
                 yerr=[c["pf_mc"][m] - c["pf_mc_lo"][m], c["pf_mc_hi"][m] - c["pf_mc"][m]],
@@ -227,6 +264,11 @@ def plot(curve_t, angle_t, quantity, path):
     a1.grid(True, which="both", alpha=0.3)
     a1.legend(fontsize=8)
     t = angle_t
+    if a2 is None:
+        fig.tight_layout()
+        fig.savefig(path, dpi=130)
+        plt.close(fig)
+        return
     a2.errorbar(t["crank_angle"], t["pf_mc"],
                 yerr=[t["pf_mc"] - t["pf_mc_lo"], t["pf_mc_hi"] - t["pf_mc"]], fmt="s", capsize=3,
                 label="Monte Carlo (Wilson 95 %)")
@@ -260,6 +302,12 @@ def main(argv=None) -> int:
                     help="every k-th analysis angle for FORM/SORM (default all 20)")
     ap.add_argument("--deepest", type=float, default=None,
                     help=f"smallest P_f of the curve (default {DEEPEST:g}; --quick 1e-3)")
+    ap.add_argument("--methods", nargs="+", default=["subset", "form", "ak"],
+                    choices=("subset", "form", "ak"),
+                    help="what to run besides Monte Carlo (default all)")
+    ap.add_argument("--allowable-max", type=float, default=None,
+                    help="the curve's tightest allowable when subset simulation does not run "
+                         "(then required; the quantity's unit)")
     ap.add_argument("--seed", type=int, default=SEED)
     ap.add_argument("--quick", action="store_true")
     ap.add_argument("--jobs", type=int, default=2)
@@ -291,33 +339,58 @@ def run(args) -> int:
     y = Y_mc[(q, "max_abs")].to_numpy()
 
     sims_of = {"monte_carlo": cached_simulations(common["cache"])}
-    t0 = time.perf_counter()
-    deepest, deep_res, tries = find_deepest(model, inputs, q, float(np.quantile(y, 0.99)),
-                                            n_per_level=args.n_per_level, seed=s_subset,
-                                            common=common, target=args.deepest)
-    timings["subset_deepest"] = time.perf_counter() - t0
-    sims_of["subset_search"] = cached_simulations(common["cache"]) - sum(sims_of.values())
-    t0 = time.perf_counter()
-    curve_t = curve(model, inputs, q, Y_mc, deepest, n_points=args.points,
-                    n_per_level=args.n_per_level, seed=s_subset, common=common)
-    timings["subset_grid"] = time.perf_counter() - t0
-    sims_of["subset_grid"] = cached_simulations(common["cache"]) - sum(sims_of.values())
+    if "subset" in args.methods:
+        t0 = time.perf_counter()
+        deepest, deep_res, tries = find_deepest(model, inputs, q, float(np.quantile(y, 0.99)),
+                                                n_per_level=args.n_per_level, seed=s_subset,
+                                                common=common, target=args.deepest)
+        timings["subset_deepest"] = time.perf_counter() - t0
+        sims_of["subset_search"] = cached_simulations(common["cache"]) - sum(sims_of.values())
+        t0 = time.perf_counter()
+        curve_t = curve(model, inputs, q, Y_mc, deepest, n_points=args.points,
+                        n_per_level=args.n_per_level, seed=s_subset, common=common)
+        timings["subset_grid"] = time.perf_counter() - t0
+        sims_of["subset_grid"] = cached_simulations(common["cache"]) - sum(sims_of.values())
+    else:
+        if args.allowable_max is None:
+            raise StudyError("--allowable-max: required when subset simulation does not run; "
+                             "allowed: the curve's tightest allowable (e.g. 0.1 for velocity)")
+        deepest, deep_res, tries = args.allowable_max, None, []
+        grid = np.linspace(np.quantile(y, 0.9), deepest, args.points)
+        k = np.array([int((y > a).sum()) for a in grid])
+        lo, hi = wilson(k, len(y))
+        curve_t = pd.DataFrame({"allowable": grid, "pf_mc": k / len(y), "pf_mc_lo": lo,
+                                "pf_mc_hi": hi, "k_mc": k, "n_mc": len(y)})
+    if "ak" in args.methods:
+        t0 = time.perf_counter()
+        ak_cache = out / "ak_evaluations.sqlite"
+        ak_t = ak_curve(model, inputs, q, curve_t["allowable"].to_numpy(), seed=s_subset,
+                        common={**common, "cache": ak_cache, "progress": False})
+        timings["ak_curve"] = time.perf_counter() - t0
+        sims_of["ak_curve"] = cached_simulations(ak_cache)
+        curve_t = curve_t.merge(ak_t, on="allowable")
 
     angles = [a for a in model.output_index.get_level_values("crank_angle")
               if not isinstance(a, str) and a < 360.0][:: args.angle_stride]
     t0 = time.perf_counter()
-    angle_t = per_angle(model, inputs, q, Y_mc, angle_pf=args.angle_pf, angles=angles,
-                        common={**common, "progress": False})
+    angle_t = (per_angle(model, inputs, q, Y_mc, angle_pf=args.angle_pf, angles=angles,
+                         common={**common, "progress": False}) if "form" in args.methods
+               else pd.DataFrame({"crank_angle": [], "pf_mc": [], "pf_mc_lo": [], "pf_mc_hi": []}))
     timings["form_sorm_per_angle"] = time.perf_counter() - t0
-    sims_of["form_sorm_per_angle"] = cached_simulations(common["cache"]) - sum(sims_of.values())
+    sims_of["form_sorm_per_angle"] = (cached_simulations(common["cache"])
+                                      - sum(v for k, v in sims_of.items() if k != "ak_curve"))
     wall = time.perf_counter() - t_start
 
     curve_t.to_csv(out / "curve.csv", index=False)
     angle_t.to_csv(out / "per_angle.csv", index=False)
     plot(curve_t, angle_t, q, out / "rare_events_ninebar.png")
     both = curve_t[curve_t["k_mc"] >= 5]
-    agree = ((both["pf_mc_lo"] <= both["pf_subset_hi"])
-             & (both["pf_subset_lo"] <= both["pf_mc_hi"]))
+
+    def overlap(m):
+        if f"pf_{m}" not in both:
+            return None
+        return int(((both["pf_mc_lo"] <= both[f"pf_{m}_hi"])
+                    & (both[f"pf_{m}_lo"] <= both["pf_mc_hi"])).sum())
     for c in ("pf_form", "pf_sorm", "n_evaluations_form", "n_evaluations_sorm"):
         if c not in angle_t:
             angle_t[c] = np.nan
@@ -330,14 +403,17 @@ def run(args) -> int:
     summary = {
         "quantity": q, "unit": UNITS[q], "seed": args.seed, "n_mc": args.n_mc,
         "n_per_level": args.n_per_level, "p0": P0, "mc": mc_info,
-        "deepest_allowable": deepest, "deepest_pf": deep_res.pf, "deepest_cov": deep_res.cov,
-        "deepest_levels": int(len(deep_res.levels)),
-        "deepest_n_evaluations": deep_res.n_evaluations,
+        "deepest_allowable": deepest, "deepest_pf": deep_res.pf if deep_res else None,
+        "deepest_cov": deep_res.cov if deep_res else None,
+        "deepest_levels": int(len(deep_res.levels)) if deep_res else None,
+        "deepest_n_evaluations": deep_res.n_evaluations if deep_res else None,
+        "ak_simulations": sims_of.get("ak_curve"),
         "search": [list(t) for t in tries],
         "simulations": sims, "simulations_by_step": sims_of, "timings_s": timings,
         "wall_time_s": wall,
         "subset_vs_mc": {"points_with_5_mc_failures": int(len(both)),
-                         "intervals_overlap": int(agree.sum())},
+                         "intervals_overlap": overlap("subset"),
+                         "ak_intervals_overlap": overlap("ak")},
         "per_angle": {"angles": len(angle_t), "form_converged": int(len(ok_a)),
                       "form_inside_mc_interval": int(in_form.sum()),
                       "sorm_inside_mc_interval": int(in_sorm.sum()),
@@ -352,12 +428,15 @@ def run(args) -> int:
     (out / "summary.json").write_text(json.dumps(summary, indent=2, default=str))
     lines = [f"# Whole-cycle P_f of the lubricated nine-bar ({q} error)", "",
              f"Monte Carlo: {args.n_mc} iid samples ({mc_info['n_failed']} failed), "
-             f"{timings['monte_carlo']:.0f} s. Subset simulation: N = {args.n_per_level} per "
-             f"level, p0 = {P0}; deepest allowable {deepest:.4g} {UNITS[q]}: P_f = "
-             f"{deep_res.pf:.3g} (c.o.v. {deep_res.cov:.2f}, {len(deep_res.levels)} levels, "
-             f"{deep_res.n_evaluations} model evaluations); the whole grid "
-             f"{timings['subset_grid']:.0f} s after the search "
-             f"({timings['subset_deepest']:.0f} s).",
+             f"{timings['monte_carlo']:.0f} s."
+             + (f" Subset simulation: N = {args.n_per_level} per "
+                f"level, p0 = {P0}; deepest allowable {deepest:.4g} {UNITS[q]}: P_f = "
+                f"{deep_res.pf:.3g} (c.o.v. {deep_res.cov:.2f}, {len(deep_res.levels)} levels, "
+                f"{deep_res.n_evaluations} model evaluations); the whole grid "
+                f"{timings['subset_grid']:.0f} s after the search "
+                f"({timings['subset_deepest']:.0f} s)." if deep_res else "")
+             + (f" Active learning: the whole curve {sims_of['ak_curve']} simulations, "
+                f"{timings['ak_curve']:.0f} s." if "ak_curve" in sims_of else ""),
              "",
              _md(curve_t, ".3g"), "",
              f"Per angle (I_θ at Monte Carlo's {1 - args.angle_pf:g} quantile), "

@@ -59,7 +59,7 @@ def test_default_study_loads_and_builds_its_model():
 
 @pytest.mark.parametrize("raw, message", [
     (_raw(sensitivty={}), r"sensitivty = \{\}: unknown field 'sensitivty' for a study \(did you "
-                          r"mean 'sensitivity'\?\); allowed: fields allowable, angle_step"),
+                          r"mean 'sensitivity'\?\); allowed: fields (\w+, )*allowable, angle_step"),
     (_raw(quantities=["jerk"]), r"quantities\[0\] = \"jerk\": unknown value; allowed: one of "
                                 r"displacement, velocity, acceleration"),
     (_raw(angle_step=-18), r"angle_step = -18: must be > 0; allowed: a finite number > 0"),

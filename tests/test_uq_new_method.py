@@ -204,7 +204,8 @@ def test_every_registered_estimator_returns_a_result_with_its_evaluation_count()
              "polynomial_chaos": {"order": 1},
              "sobol_indices": {"n": 64},
              "form": {}, "sorm": {}, "importance_sampling": {"n": 100},
-             "subset_simulation": {"n_per_level": 100}}
+             "subset_simulation": {"n_per_level": 100},
+             "active_learning": {"tolerance": 0.5}}
     assert set(calls) <= set(METHODS)
     for name, settings in calls.items():
         r = METHODS[name](model=model, inputs=inputs, seed=1, progress=False, **settings)
@@ -219,7 +220,8 @@ def test_every_registered_estimator_returns_a_result_with_its_evaluation_count()
     assert isinstance(r, Result) and r.n_evaluations == 5
 
 
-@pytest.mark.parametrize("name", ["form", "sorm", "importance_sampling", "subset_simulation"])
+@pytest.mark.parametrize("name", ["form", "sorm", "importance_sampling", "subset_simulation",
+                                  "active_learning"])
 def test_the_rare_event_methods_refuse_precomputed_evaluations(name):
     # the shared interface has evaluations=; a method that chooses its points as it goes says
     # why it cannot use them instead of a TypeError

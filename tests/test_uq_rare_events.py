@@ -538,7 +538,8 @@ def test_registry_lists_every_method_and_validates_settings():
     with pytest.raises(StudyError,
                        match=r"subset_simulation.n_per_level: got 5; allowed: an integer > 9"):
         get_method("subset_simulation").validate({"n_per_level": 5})
-    with pytest.raises(StudyError, match=r"method: got 'mcmc'; allowed: \['form', 'fosm'"):
+    with pytest.raises(StudyError,
+                       match=r"method: got 'mcmc'; allowed: \['active_learning', 'form'"):
         get_method("mcmc")
     for name, meth in METHODS.items():
         assert callable(meth.function) and isinstance(meth.result_type, type), name

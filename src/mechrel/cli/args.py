@@ -93,6 +93,15 @@ fraction = _rule(_CLI.fraction, _number, name="fraction", what="a number in [0, 
                  good="0.25", bad="1.5")
 
 
+def _probability(path, value):
+    return _CLI.fraction(path, value, open_lo=True, open_hi=True)
+
+
+probability = _rule(_probability, _number, name="probability",
+                    what="a probability in (0, 1), e.g. a target reliability", good="0.999",
+                    bad="1", rule="fraction")
+
+
 def _positive_integer(path, value):
     return _CLI.integer(path, value, ge=1)
 

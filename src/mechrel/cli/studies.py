@@ -7,7 +7,7 @@ import contextlib
 import warnings
 
 from ..errors import StudyError
-from .args import add_set_option, fraction, jobs, sample_count, seed
+from .args import add_set_option, fraction, jobs, probability, sample_count, seed
 from .terminal import say
 
 SET_HELP = ("override a value (repeatable): a study field by its dotted path "
@@ -176,6 +176,15 @@ def _load(args):
     return study
 
 
+def _target(text: str):
+    """``--target-reliability``: a probability in (0, 1), or ``none`` (False: the study's
+    ``inverse.target`` is not asked)."""
+    return False if text.strip().lower() == "none" else probability(text)
+
+
+_target.__name__ = "probability"  # argparse names the type in its messages
+
+
 def _jobs(args) -> int:
     if args.jobs is not None:
         return args.jobs
@@ -192,7 +201,8 @@ def _cmd_reliability(args) -> int:
                                    seed=args.seed, out=args.out, backend=backend,
                                    progress=not args.no_progress,
                                    max_failure_fraction=args.max_failure_fraction,
-                                   cache=not args.no_cache)
+                                   cache=not args.no_cache,
+                                   target_reliability=args.target_reliability)
     say(*lines)
     return 0
 
@@ -272,6 +282,13 @@ def register_reliability(sub) -> None:
                    help="estimator, repeatable to run and cross-check several (--method form "
                         "--method subset; default: the study's reliability.methods; all: every "
                         "method; --n sets Monte Carlo's samples only)")
+    p.add_argument("--target-reliability", type=_target, metavar="R",
+                   help="also answer the inverse question: the allowable of each quantity, "
+                        "and the common factor on the study's allowables for the whole cycle, "
+                        "at which the whole-cycle reliability is R, with its interval "
+                        "(OUT/inverse.csv; methods: the study's inverse.methods, default auto: "
+                        "Monte Carlo when n (1 - R) >= 10, else subset simulation); default: "
+                        "the study's inverse.target; none: not asked")
     p.set_defaults(func=_cmd_reliability)
 
 

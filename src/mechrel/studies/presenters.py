@@ -36,7 +36,7 @@ import pandas as pd
 from ..errors import StudyError
 from ..uq._common import SampleFailuresError
 
-__all__ = ["Context", "Presenter", "PRESENTERS", "KIND_PRESENTERS", "presenter_class"]
+__all__ = ["Context", "Presenter", "PRESENTERS", "KIND_PRESENTERS", "presenter_class", "COMBINED"]
 
 
 @dataclass
@@ -75,6 +75,8 @@ class Context:
         The presenters of the run.
     shared : dict, optional
         Objects built once per run (the whole-cycle limit state).
+    target : float, optional
+        The target reliability of the inverse question (None: not asked).
 
     Examples
     --------
@@ -102,6 +104,7 @@ class Context:
     notes: list = field(default_factory=list)
     presenters: list = field(default_factory=list)
     shared: dict = field(default_factory=dict)
+    target: float | None = None
 
     def estimate(self, name, estimator, *, result_name=None, **kwargs):
         """Run an estimator and record its evaluations and result.
@@ -569,6 +572,26 @@ class Presenter:
         """
         return []
 
+    def record(self, ctx: Context) -> dict:
+        """What this presenter adds to ``summary.json``, beside the run's record.
+
+        Parameters
+        ----------
+        ctx : Context
+            The run.
+
+        Returns
+        -------
+        dict
+            Top-level keys and their JSON-friendly values (default: none).
+
+        Examples
+        --------
+        >>> Presenter().record(None)
+        {}
+        """
+        return {}
+
 
 def _min_reliability(ctx, result, quantity):
     t = ctx.angles(result.table).xs(quantity, level="quantity")
@@ -874,8 +897,10 @@ class WholeCycle(Presenter):
         est = ctx.shared.get("whole_cycle")
         if est is not None and not est.empty:
             _agg()
-            _save(plot_whole_cycle(est, title=f"{ctx.study.name}: whole-cycle P_f ({ctx.event}) by "
-                                              "method"),
+            target = None if ctx.target is None else 1.0 - ctx.target
+            _save(plot_whole_cycle(est, target=target,
+                                   title=f"{ctx.study.name}: whole-cycle P_f ({ctx.event}) by "
+                                         "method"),
                   out / "whole_cycle.png")
             written.append("whole_cycle.png")
         ext = self.extremes(ctx)
@@ -971,7 +996,64 @@ KIND_PRESENTERS: dict[str, type[Presenter]] = {"rare_event": RareEvents, "reliab
 """Registry kind → the presenter class of a method without its own (:class:`Generic` for
 other kinds)."""
 
-COMBINED: tuple[type[Presenter], ...] = (Normality, WholeCycle)
+class Inverse(Presenter):
+    """The inverse question (``--target-reliability``, ``[inverse] target``): the allowables
+    for the target, by the study's inverse methods (:mod:`.inverse`), after the forward
+    methods (it reuses the forward Monte Carlo's samples); ``inverse.csv``. It is no method of
+    its own; the runner adds it after the methods' presenters."""
+
+    files = ("inverse.csv",)
+
+    def finish(self, ctx):
+        from . import inverse
+
+        if ctx.target is None:
+            return
+        for key in inverse.methods_of(ctx.study, ctx.target, ctx.n):
+            if inverse.estimate_one(ctx, key) is not None:
+                self.keys.append(key)
+
+    def _results(self, ctx):
+        return {k: ctx.results[f"inverse_{k}"] for k in self.keys}
+
+    def tail_lines(self, ctx):
+        from . import inverse
+
+        return inverse.summary_lines(ctx, self._results(ctx))
+
+    def whole_cycle_verdict(self, ctx):
+        if not self.keys:
+            return None
+        results = self._results(ctx)
+        # an answer without warnings before one with; FORM (no interval) last
+        pick = min(results, key=lambda k: (bool(results[k].warnings), k == "form"))
+        why = ("its interval holds whatever the error's distribution" if pick == "mc" else
+               "its interval from the levels' Au–Beck c.o.v. (upper bound)" if pick == "subset"
+               else "an approximation without an interval" if pick == "form" else
+               "a registered method")
+        warned = all(r.warnings for r in results.values())
+        caveat = "; every answer carries a warning (above)" if warned else ""
+        return (f"    allowable for R = {ctx.target:g}: {pick} ({why}){caveat}")
+
+    def write(self, ctx, out):
+        from ..io import write_table
+        from . import inverse
+
+        if not self.keys:
+            return []
+        write_table(inverse.table(self._results(ctx)), out / "inverse.csv")
+        return ["inverse.csv"]
+
+    def record(self, ctx):
+        from . import inverse
+
+        if ctx.target is None:
+            return {}
+        return {"target_reliability": ctx.target,
+                "inverse": inverse.record(self._results(ctx))}
+
+
+COMBINED: tuple[type[Presenter], ...] = (Normality, WholeCycle, Inverse)
 """Presenters of estimates that combine methods; the runner adds them after the methods'."""
 
 

@@ -43,8 +43,8 @@ def reliability_results() -> tuple[str, ...]:
     from .presenters import COMBINED, files_of
     from .study import study_methods
 
-    return (RELIABILITY_FILES + files_of(study_methods().values())
-            + tuple(f for cls in COMBINED for f in cls.files))
+    combined = tuple(f for cls in COMBINED for f in cls.files)
+    return RELIABILITY_FILES + files_of(study_methods().values()) + combined
 
 
 def _holds_output_folder(names):
@@ -176,7 +176,8 @@ def _verdict(ctx, by_rank) -> list[str]:
 @_holds_output_folder(lambda: reliability_results()
                       + ("failures.csv", "summary.json", "evaluations.sqlite"))
 def run_reliability(study, *, methods=None, n=None, n_jobs=1, seed=None, out=None,
-                    progress=True, cache=True, backend="loky", max_failure_fraction=None):
+                    progress=True, cache=True, backend="loky", max_failure_fraction=None,
+                    target_reliability=None):
     """Run the study's reliability methods and write their results to ``out``.
 
     The methods are those of the registry (:data:`mechrel.uq.estimators.METHODS`), each run
@@ -205,13 +206,18 @@ def run_reliability(study, *, methods=None, n=None, n_jobs=1, seed=None, out=Non
         row per rare-event method) and ``design_point.csv`` (with a design point).
     cache : bool
         Cache the model evaluations in ``out/evaluations.sqlite``.
+    target_reliability : float or False, optional
+        Ask the inverse question too: the allowables at which the whole-cycle reliability is
+        this, in (0, 1) (:mod:`mechrel.studies.inverse`; ``inverse.csv``, the summary's
+        ``allowable for`` lines, ``summary.json``'s ``inverse``). Default (None): the study's
+        ``inverse.target``, if it has one; False: not asked.
 
     Returns
     -------
     lines : list of str
         The printable summary.
     results : dict
-        The estimators' results by method.
+        The estimators' results by method (the inverse ones as ``inverse_KEY``).
 
     Raises
     ------
@@ -251,6 +257,13 @@ def run_reliability(study, *, methods=None, n=None, n_jobs=1, seed=None, out=Non
     max_failure_fraction = (cfg["max_failure_fraction"] if max_failure_fraction is None
                             else max_failure_fraction)
     event = cfg["event"]
+    if target_reliability is None:
+        target = study.inverse["target"]
+    elif target_reliability is False:
+        target = None
+    else:
+        target = ARGS.fraction("target_reliability", target_reliability, open_lo=True,
+                               open_hi=True)
     # the rare-event methods search the whole cycle's failure modes sector by sector
     model = study.model(sectors=any(m.kind == "rare_event" for m in chosen))
     inputs = study.uncertain_inputs()
@@ -267,7 +280,7 @@ def run_reliability(study, *, methods=None, n=None, n_jobs=1, seed=None, out=Non
                   seed=seed, n=n, max_failure_fraction=max_failure_fraction,
                   max_failure_fraction_given=given_fraction,
                   common=dict(n_jobs=n_jobs, backend=backend, cache=cache_path,
-                              progress=progress))
+                              progress=progress), target=target)
     ctx.presenters = list(presenters.values()) + [cls() for cls in COMBINED]
     for m in chosen:  # every method's settings and sizes, before the first one runs
         presenters[presenter_class(m)].check(ctx, m)
@@ -284,13 +297,13 @@ def run_reliability(study, *, methods=None, n=None, n_jobs=1, seed=None, out=Non
     try:
         for m in chosen:
             presenters[presenter_class(m)].run(ctx, m)
+        for p in ctx.presenters:
+            p.finish(ctx)
     except SampleFailuresError as exc:
         record.update(wall_time=time.perf_counter() - start, summary=lines,
                       provenance={k: dict(v.provenance) for k, v in ctx.results.items()})
         raise _refusal(exc, ctx.evaluations, out, ("failures.csv", "summary.json"), record,
                        "reliability", reliability_results()) from None
-    for p in ctx.presenters:
-        p.finish(ctx)
     frames = [f for p in ctx.presenters for f in p.frames(ctx)]
     table = pd.concat(frames, axis=1) if frames else None
     # the sector extremes are the rare-event methods' members, not rows of the per-angle table
@@ -338,7 +351,9 @@ def run_reliability(study, *, methods=None, n=None, n_jobs=1, seed=None, out=Non
                         "failures": _failure_counts(ctx.evaluations),
                         "provenance": {k: dict(v.provenance) for k, v in ctx.results.items()},
                         "warnings": notes, "verdict": [v.strip() for v in verdict[1:]],
-                        "summary": lines}, stage / "summary.json", relative_to=out)
+                        "summary": lines, **{k: v for p in ctx.presenters
+                                             for k, v in p.record(ctx).items()}},
+                       stage / "summary.json", relative_to=out)
             written += ["failures.csv", "summary.json"]
         lines.append(f"  wrote {out}/{', '.join(written)}")
     lines += verdict  # the summary ends with it

@@ -105,8 +105,9 @@ def study_fields() -> tuple[str, ...]:
     True
     """
     return tuple(sorted(("allowable", "angle_step", "correlation", "cycles", "description",
-                         "inputs", "name", "output", "quantities", "reference", "reliability",
-                         "scene", "scene_overrides", "sensitivity") + tuple(_method_tables())))
+                         "inputs", "inverse", "name", "output", "quantities", "reference",
+                         "reliability", "scene", "scene_overrides", "sensitivity")
+                        + tuple(_method_tables())))
 
 
 _RELIABILITY = ("event", "max_failure_fraction", "methods", "n", "pce_max_evaluations",
@@ -114,6 +115,7 @@ _RELIABILITY = ("event", "max_failure_fraction", "methods", "n", "pce_max_evalua
 _RENAMED = {"form": "event"}
 """Keys of ``[reliability]`` renamed: old -> new (an old key is an error naming the new)."""
 _SENSITIVITY = ("max_failure_fraction", "n", "seed")
+_INVERSE = ("methods", "target")
 
 
 @dataclass(frozen=True)
@@ -156,6 +158,10 @@ class Study:
     method_settings : mapping, optional
         Each method with settings (:func:`study_settings`) → those its table in the file gives,
         checked; the registry's defaults fill the rest when it runs.
+    inverse : mapping, optional
+        ``[inverse]``: ``target`` (the target reliability whose allowables ``mechrel
+        reliability`` reports, or None) and ``methods`` (keys of
+        :data:`mechrel.uq.inverse.INVERSE_METHODS`, or ``"auto"``).
     source : str, optional
         Where the study was read from.
 
@@ -182,6 +188,8 @@ class Study:
     sensitivity: Mapping[str, Any]
     reference: str = "nominal"
     method_settings: Mapping[str, Mapping[str, Any]] = field(default_factory=dict)
+    inverse: Mapping[str, Any] = field(default_factory=lambda: {"target": None,
+                                                                "methods": ("auto",)})
     source: str | None = field(default=None, compare=False)
 
     def model(self, sectors: bool = False):
@@ -476,6 +484,19 @@ def _sensitivity(c: _Checker, table: Any) -> dict:
                                                t.get("max_failure_fraction", 0.05))}
 
 
+def _inverse(c: _Checker, table: Any) -> dict:
+    """``[inverse]``: the target reliability (absent: no inverse question) and its methods."""
+    from ..uq.inverse import INVERSE_METHODS
+
+    t = c.table("inverse", table, "a table with target (a reliability in (0, 1)) and methods")
+    c.keys("inverse", t, _INVERSE, what="[inverse]")
+    target = t.get("target")
+    return {"target": None if target is None else c.fraction("inverse.target", target,
+                                                              open_lo=True, open_hi=True),
+            "methods": c.choices("inverse.methods", t.get("methods", ["auto"]),
+                                 tuple(INVERSE_METHODS) + ("auto",))}
+
+
 def load_study(source, *, overrides: Mapping[str, Any] | None = None,
                scene_overrides: Mapping[str, Any] | None = None) -> Study:
     """Load and validate a study.
@@ -551,6 +572,7 @@ def load_study(source, *, overrides: Mapping[str, Any] | None = None,
         sensitivity=_sensitivity(c, raw.get("sensitivity", {})),
         reference=c.choice("reference", raw.get("reference", "nominal"), REFERENCES),
         method_settings=_method_settings(c, raw),
+        inverse=_inverse(c, raw.get("inverse", {})),
         source=label)
     try:  # the distributions, checked by chaospy/scipy with the input's name
         study.uncertain_inputs()

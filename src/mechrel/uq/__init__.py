@@ -13,10 +13,10 @@ The package has four parts, one folder each:
 ``estimators/``
     One module per method (:func:`fosm`, :func:`monte_carlo`, :func:`sobol_indices`,
     :func:`normality_check`, :func:`form`, :func:`sorm`, :func:`importance_sampling`,
-    :func:`subset_simulation`) and :data:`METHODS`, the registry the study runner and the
+    :func:`subset_simulation`, :func:`active_learning`) and :data:`METHODS`, the registry the study runner and the
     command line loop over.
 ``surrogates/``
-    :func:`polynomial_chaos`.
+    :func:`polynomial_chaos` and :func:`fit_kriging` (the Kriging model of :func:`active_learning`).
 
 Every estimator takes keyword arguments only, accepts either ``model=`` (it evaluates its own
 design through :func:`evaluate`) or precomputed ``evaluations=``, and returns a frozen result
@@ -55,7 +55,11 @@ _EXPORTS = {
     "estimators.sorm": ["sorm", "SORMResult"],
     "estimators.importance": ["importance_sampling", "ImportanceSamplingResult"],
     "estimators.subset": ["subset_simulation", "SubsetSimulationResult"],
+    "estimators.ak": ["active_learning", "AKResult"],
     "surrogates.pce": ["polynomial_chaos", "PCEResult", "pce_design", "multi_indices"],
+    "surrogates.kriging": ["Kriging", "fit_kriging"],
+    "inverse": ["INVERSE_METHODS"],
+    "inverse.quantile": ["inverse_reliability", "InverseResult"],
 }
 _WHERE = {name: mod for mod, names in _EXPORTS.items() for name in names}
 __all__ = list(_WHERE)

@@ -4,7 +4,8 @@ Methods: :func:`~mechrel.uq.fosm` (``fosm.py``), :func:`~mechrel.uq.monte_carlo`
 (``monte_carlo.py``), :func:`~mechrel.uq.sobol_indices` (``sobol.py``),
 :func:`~mechrel.uq.normality_check` (``normality.py``), :func:`~mechrel.uq.form` (``form.py``),
 :func:`~mechrel.uq.sorm` (``sorm.py``), :func:`~mechrel.uq.importance_sampling`
-(``importance.py``), :func:`~mechrel.uq.subset_simulation` (``subset.py``); the polynomial
+(``importance.py``), :func:`~mechrel.uq.subset_simulation` (``subset.py``),
+:func:`~mechrel.uq.active_learning` (``ak.py``); the polynomial
 chaos is in ``mechrel.uq.surrogates``, the limit states in ``mechrel.uq.problem``. They share
 one keyword-only interface::
 
@@ -357,6 +358,23 @@ for _m in (
                         "rho": Setting(0.8, _correlation), "spread": Setting(1.0, _pos_float),
                         "max_levels": Setting(20, _pos_int(1))},
            short="subset"),
+    Method("active_learning", "estimators.ak:active_learning", "estimators.ak:AKResult", "rare_event",
+           "active learning (AK-MCS / multi-point AK-IS): Kriging surrogates of the components, "
+           "refined where they decide the sign of g",
+           {"n_initial": Setting(None, _pos_int(2), "model runs of the initial design (default max(10, 2(d + 2)))"),
+            "initial": Setting(None, None, "an earlier AKResult whose runs join the initial design (Python only)"),
+            "batch_size": Setting(2, _pos_int(1), "points per iteration (one executor call)"),
+            "max_evaluations": Setting(300, _pos_int(2), "model-run budget"),
+            "tolerance": Setting(0.1, _pos_float, "stop when the interval's half-width <= tolerance * P_f"),
+            "learning": Setting("U", _choice(("U", "EFF")), "learning function"),
+            "population": Setting("auto", _choice(("auto", "monte_carlo", "importance")),
+                                  "Monte Carlo or importance-sampling population"),
+            "n_population": Setting(10_000, _pos_int(100), "initial population size"),
+            "max_population": Setting(1_000_000, _pos_int(100), "largest population"),
+            "trend": Setting("linear", _choice(("linear", "constant")), "Kriging trend"),
+            "max_failure_fraction": _FAILURES["max_failure_fraction"],
+            "confidence_level": _FAILURES["confidence_level"]},
+           short="ak"),
 ):
     register(_m)
 
