@@ -170,6 +170,7 @@ def test_study_settings_are_filled_in_when_loaded():
     study = load_study(_raw(reliability={"methods": ["mc"], "max_failure_fraction": 0.25}))
     assert study.reliability == {"methods": ("mc",), "event": "two-sided", "n": 256,
                                  "rule": "sobol", "seed": None, "pce_order": 2,
+                                 "pce_max_evaluations": 100_000,
                                  "max_failure_fraction": 0.25}
     assert study.sensitivity == {"n": 256, "seed": None, "max_failure_fraction": 0.05}
 

@@ -36,11 +36,20 @@ def fmt_value(v: Any, limit: int = 80) -> str:
     return s if len(s) <= limit else s[: limit - 3] + "..."
 
 
+# TOML's escapes in a basic string; other control characters (and the bidirectional-text
+# controls, which reorder what a terminal shows) as \uXXXX: a value in a message is one line
+_STRING_ESCAPES = {c: f"\\u{c:04x}" for c in (*range(0x20), *range(0x7f, 0xa0), 0x061c, 0x200e,
+                                                0x200f, *range(0x202a, 0x202f),
+                                                *range(0x2066, 0x206a))}
+_STRING_ESCAPES.update({ord("\\"): "\\\\", ord('"'): '\\"', ord("\b"): "\\b", ord("\t"): "\\t",
+                        ord("\n"): "\\n", ord("\f"): "\\f", ord("\r"): "\\r"})
+
+
 def _fmt(v: Any) -> str:
     if isinstance(v, bool):
         return "true" if v else "false"
     if isinstance(v, str):
-        return '"' + v.replace("\\", "\\\\").replace('"', '\\"') + '"'
+        return '"' + v.translate(_STRING_ESCAPES) + '"'
     if isinstance(v, float):
         if math.isnan(v):
             return "nan"

@@ -602,7 +602,7 @@ def save_animation(anim, path: Any, *, fps: int = 20) -> Path:
         Ends in ``.gif`` (Pillow), ``.html`` (a self-contained page with playback controls,
         matplotlib's ``to_jshtml``) or ``.mp4`` (ffmpeg).
     fps : int, default 20
-        Frames per second.
+        Frames per second, 1 to 100.
 
     Returns
     -------
@@ -612,7 +612,8 @@ def save_animation(anim, path: Any, *, fps: int = 20) -> Path:
     Raises
     ------
     mechrel.errors.MechrelError
-        See :func:`check_animation_path`.
+        See :func:`check_animation_path`; ``fps`` outside 1 to 100; or the file cannot be
+        written (:class:`~mechrel.errors.OutputError`: the previous file, if any, is unchanged).
 
     Examples
     --------
@@ -628,17 +629,25 @@ def save_animation(anim, path: Any, *, fps: int = 20) -> Path:
     import matplotlib.pyplot as plt
     from matplotlib import animation
 
+    from .._checks import ARGS
+    from .tables import atomic_path
+
     path = check_animation_path(path)
+    fps = ARGS.integer("fps", fps, ge=1, le=100,
+                       what="frames per second; a GIF stores each frame's duration in 1/100 s")
     path.parent.mkdir(parents=True, exist_ok=True)
     suffix = path.suffix.lower()
     try:
-        if suffix == ".gif":
-            anim.save(path, writer=animation.PillowWriter(fps=fps), dpi=80)
-        elif suffix == ".mp4":
-            anim.save(path, writer=animation.FFMpegWriter(fps=fps), dpi=100)
-        else:
-            anim._interval = 1000.0 / fps
-            path.write_text(anim.to_jshtml(fps=fps, default_mode="loop"), encoding="utf-8")
+        # into a temporary file renamed over path when complete: an interrupt or a full disk
+        # leaves no truncated file that looks valid
+        with atomic_path(path) as tmp:
+            if suffix == ".gif":
+                anim.save(tmp, writer=animation.PillowWriter(fps=fps), dpi=80)
+            elif suffix == ".mp4":
+                anim.save(tmp, writer=animation.FFMpegWriter(fps=fps), dpi=100)
+            else:
+                anim._interval = 1000.0 / fps
+                tmp.write_text(anim.to_jshtml(fps=fps, default_mode="loop"), encoding="utf-8")
     finally:
         plt.close(anim._fig)
     return path

@@ -428,12 +428,24 @@ def parse_value(text: str) -> Any:
     try:
         doc = tomllib.loads(f"__value__ = {s}")
         if set(doc) == {"__value__"}:
+            check_depth(doc, "", _value_too_deep(s))  # the value one level down, as in a file
             return doc["__value__"]
     except tomllib.TOMLDecodeError:
         pass
+    except RecursionError:  # the parser recurses per level: thousands of levels exhaust it
+        raise _value_too_deep(s)("") from None
     if _NUMBER_RE.match(s):
         return float(s)
     return s
+
+
+def _value_too_deep(text: str):
+    """The error class :func:`check_depth` raises for an override value: one message naming
+    the (shortened) value."""
+    def error(message, source=None):
+        return SceneError(f"override value {fmt_value(text)}: tables and arrays nested more "
+                          f"than {MAX_DEPTH} levels deep; allowed: at most {MAX_DEPTH} levels")
+    return error
 
 
 def parse_override(text: str) -> tuple[str, Any]:
@@ -467,7 +479,10 @@ def parse_override(text: str) -> tuple[str, Any]:
         raise SceneError(f"override {fmt_value(text)}: expected PATH=VALUE; allowed: e.g. "
                          "joints.C1.clearance=0.3e-3 or joints.C1.model=dry")
     path, _, value = text.partition("=")
-    return path.strip(), parse_value(value)
+    try:
+        return path.strip(), parse_value(value)
+    except SceneError as exc:  # a value nested too deeply: say which path it was for
+        raise SceneError(f"{path.strip()}: {exc}", path=path.strip()) from None
 
 
 def _normalise_overrides(overrides: Any) -> list[tuple[str, Any, str]]:

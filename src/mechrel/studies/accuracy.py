@@ -57,7 +57,6 @@ import math
 import time
 from dataclasses import dataclass, field
 from numbers import Integral
-from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -77,6 +76,8 @@ DEFAULT_PERTURBATION = 1e-6
 far below any manufacturing tolerance, yet well above the assembly tolerance (1e-12 m by
 default; a smaller offset would not survive assembly, which stops when |Φ| <= tolerance)."""
 
+FILES = ("accuracy.csv", "accuracy.png")
+"""What ``mechrel accuracy`` writes into its output folder (one set, :mod:`mechrel.io.results`)."""
 CHAOTIC_KINDS = tuple(m.name for m in MODELS.values() if m.chaotic)
 """Scene kinds measured by ensemble statistics (impacts make their trajectories chaotic):
 the clearance models marked ``chaotic`` in the table of models."""
@@ -942,8 +943,12 @@ def run_accuracy(scene, *, target=0.01, quick=False, out=None, progress=True, en
     ...
     mechrel.errors.StudyError: target: 0.0 is not a positive relative error
     """
-    rep = accuracy_report(scene, target=target, quick=quick, progress=progress,
-                          ensemble=ensemble, seed=seed)
+    from ..io.results import check_folder, removed_if_left_empty, result_set
+
+    with removed_if_left_empty(out):  # refused or interrupted: no empty folder left behind
+        folder = check_folder(out, FILES)  # before the run (minutes), not after it
+        rep = accuracy_report(scene, target=target, quick=quick, progress=progress,
+                              ensemble=ensemble, seed=seed)
     cols = ["integrator", "setting", "wall_time", "n_steps", "n_rhs", "measure"]
     if rep.ensemble > 1:
         cols += ["floor", "bound"]
@@ -961,16 +966,17 @@ def run_accuracy(scene, *, target=0.01, quick=False, out=None, progress=True, en
             f"meets the target when error + t·floor <= target (t = "
             f"{student_t(rep.confidence, rep.ensemble):.2f}, {rep.confidence:.0%} one-sided); "
             "wall time = median per run")
-    lines.append(t.to_string(index=False, float_format=lambda v: f"{v:.3g}"))
+    # the table's lines one by one: each element of ``lines`` is one line on the terminal
+    lines += t.to_string(index=False, float_format=lambda v: f"{v:.3g}").splitlines()
     lines.append(rep.conclusion)
     total = float(rep.table["wall_total"].sum()) if "wall_total" in rep.table else float("nan")
     lines.append(f"total wall time {rep.provenance.get('wall_time', float('nan')):.3g} s "
                  f"({total:.3g} s in the timed candidate runs)")
-    if out:
-        out = Path(out)
-        out.mkdir(parents=True, exist_ok=True)
+    if folder is not None:
         from ..io import write_table
-        write_table(rep.table, out / "accuracy.csv")
-        rep.plot(out / "accuracy.png")
-        lines.append(f"wrote {out}/accuracy.csv, accuracy.png")
+
+        with result_set(folder, "accuracy", known=FILES) as stage:  # one set
+            write_table(rep.table, stage / "accuracy.csv")
+            rep.plot(stage / "accuracy.png")
+        lines.append(f"wrote {folder}/accuracy.csv, accuracy.png")
     return lines, rep

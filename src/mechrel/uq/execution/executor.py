@@ -36,7 +36,8 @@ import pandas as pd
 from mechrel._checks import ARGS
 from mechrel.errors import MechrelError, StudyError
 
-from ._workers import register_backend, safe_path_environment, watch_parent
+from ._workers import (chunk_ledger, register_backend, safe_path_environment, starting_chunk,
+                       worker_died)
 from .cache import as_cache
 from ..problem.model import (RowFailures, as_output_index, check_model, describe_model,
                              evaluate_rows)
@@ -630,7 +631,7 @@ def _evaluate_chunk(model: Any, X: np.ndarray, n_out: int, chunk_id: int):
     by row (:func:`~mechrel.uq.problem.model.evaluate_rows`). On an interrupt the rows finished
     so far ride on the ``KeyboardInterrupt`` as ``.finished`` (``(n_finished, Y, ok,
     reasons)``), so that the in-process loop can cache them."""
-    watch_parent()
+    starting_chunk(chunk_id)
     if getattr(model, "vectorized", False) and X.shape[0]:
         Y, ok, failed = _batch(model, X, n_out)  # X: the chunk's own copy of its rows
     else:
@@ -927,10 +928,16 @@ def evaluate(
                         gen = joblib.Parallel(n_jobs=n_jobs, return_as="generator_unordered")(tasks)
                         _consume(gen, _collect)
                 else:
-                    with safe_path_environment():
+                    from joblib.externals.loky.process_executor import TerminatedWorkerError
+
+                    with safe_path_environment(), chunk_ledger() as ledger:
                         gen = joblib.Parallel(n_jobs=n_jobs, backend=register_backend(),
                                               return_as="generator_unordered")(tasks)
-                        _consume(gen, _collect)
+                        try:
+                            _consume(gen, ledger.collecting(_collect))
+                        except TerminatedWorkerError as exc:  # one line, not 40
+                            raise worker_died(exc, [chunks[c] for c in ledger.running()],
+                                              cache) from None
     finally:
         bar.close()
 
