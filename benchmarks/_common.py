@@ -53,3 +53,16 @@ def radau_copy(edits, name: str):
                                                           "from mechrel.integrate.events")
     src = src.replace("from .base import", "from mechrel.integrate.base import")
     return module_from_source(src, edits, name, "the Radau kernel")
+
+
+def timed(fn, spent: dict, key: str):
+    """``fn`` wrapped to add the seconds each call takes to ``spent[key]`` (wall clock)."""
+    import time
+
+    def run(*a, **kw):
+        t0 = time.perf_counter()
+        try:
+            return fn(*a, **kw)
+        finally:
+            spent[key] += time.perf_counter() - t0
+    return run

@@ -195,8 +195,24 @@ class Baseline:
             tr=[(int(s.tr_i[k]), s.tr_si[k].copy(), s.tr_p0[k].copy(), s.tr_n[k].copy(),
                  float(s.tr_angle[k])) for k in range(s.tr_i.shape[0])],
             fa=[(int(s.fa_i[k]), float(s.fa_angle[k])) for k in range(s.fa_i.shape[0])],
+            ln=[(int(s.ln_i[k]), s.ln_si[k].copy(), int(s.ln_j[k]), s.ln_sj[k].copy(),
+                 s.ln_n[k].copy()) for k in range(s.ln_i.shape[0])],
+            ra=[(int(s.ra_i[k]), int(s.ra_j[k]), float(s.ra_angle[k]))
+                for k in range(s.ra_i.shape[0])],
             dr=drivers,
         )
+
+    @staticmethod
+    def _rows(cset):
+        return (2 * len(cset["rev"]) + 2 * len(cset["tr"]) + len(cset["fa"]) + len(cset["ln"])
+                + len(cset["ra"]) + len(cset["dr"]))
+
+    def _on_body(self, q, b, s):
+        """(A s, B s) of body b, or (s, 0) for the ground (s then global)."""
+        if b < 0:
+            return np.asarray(s, dtype=float), np.zeros(2)
+        ax, ay, bx, by = self._rot(q[3 * b + 2], s[0], s[1])
+        return np.array([ax, ay]), np.array([bx, by])
 
     @staticmethod
     def _rot(th, sx, sy):
@@ -207,7 +223,7 @@ class Baseline:
     def constraints(self, q, t, cset=None):
         """Φ, Φ_t and Φ_q (Nikravesh's absolute-coordinate constraints)."""
         cset = self.dyn if cset is None else cset
-        m = 2 * len(cset["rev"]) + 2 * len(cset["tr"]) + len(cset["fa"]) + len(cset["dr"])
+        m = self._rows(cset)
         phi = np.zeros(m)
         phit = np.zeros(m)
         J = np.zeros((m, self.n))
@@ -247,6 +263,31 @@ class Baseline:
             phi[r] = q[3 * i + 2] - ang
             J[r, 3 * i + 2] = 1.0
             r += 1
+        for i, si, j, sj, nbar in cset["ln"]:
+            # P = r_i + A_i s_i on the line through Q = r_j + A_j s_j, normal n = A_j n̄:
+            # Φ = n·(P − Q); ∂Φ/∂r_i = n, ∂Φ/∂θ_i = n·B_i s_i, ∂Φ/∂r_j = −n,
+            # ∂Φ/∂θ_j = (B_j n̄)·(P − Q) − n·B_j s_j (docs/mechanics.md)
+            zi = np.zeros(2) if i < 0 else q[3 * i:3 * i + 2]
+            zj = np.zeros(2) if j < 0 else q[3 * j:3 * j + 2]
+            a_i, b_i = self._on_body(q, i, si)
+            a_j, b_j = self._on_body(q, j, sj)
+            n, dn = self._on_body(q, j, nbar) if j >= 0 else (nbar, np.zeros(2))
+            P, Q = zi + a_i, zj + a_j
+            phi[r] = n @ (P - Q)
+            if i >= 0:
+                J[r, 3 * i:3 * i + 2] = n
+                J[r, 3 * i + 2] = n @ b_i
+            if j >= 0:
+                J[r, 3 * j:3 * j + 2] = -n
+                J[r, 3 * j + 2] = dn @ (P - Q) - n @ b_j
+            r += 1
+        for i, j, ang in cset["ra"]:
+            phi[r] = (q[3 * i + 2] if i >= 0 else 0.0) - (q[3 * j + 2] if j >= 0 else 0.0) - ang
+            if i >= 0:
+                J[r, 3 * i + 2] = 1.0
+            if j >= 0:
+                J[r, 3 * j + 2] = -1.0
+            r += 1
         for i, law, par in cset["dr"]:
             th, w, _ = driver(law, par, t)
             phi[r] = q[3 * i + 2] - th
@@ -258,7 +299,7 @@ class Baseline:
     def gamma(self, q, v, t, cset=None):
         """γ = −(Φ_q q̇)_q q̇ − 2Φ_qt q̇ − Φ_tt."""
         cset = self.dyn if cset is None else cset
-        m = 2 * len(cset["rev"]) + 2 * len(cset["tr"]) + len(cset["fa"]) + len(cset["dr"])
+        m = self._rows(cset)
         g = np.zeros(m)
         r = 0
         for i, j, si, sj, _, _ in cset["rev"]:
@@ -277,6 +318,26 @@ class Baseline:
             g[r] = (nrm[0] * ax + nrm[1] * ay) * v[3 * i + 2] ** 2
             r += 2
         r += len(cset["fa"])
+        for i, si, j, sj, nbar in cset["ln"]:
+            # Φ̈ = n̈·D + 2 ṅ·Ḋ + n·D̈ with D = P − Q = r_i + A_i s_i − r_j − A_j s_j,
+            # ṅ = ω_j B_j n̄, n̈ = α_j B_j n̄ − ω_j² n: its part without accelerations is
+            # −n·A_i s_i ω_i² + n·A_j s_j ω_j² + 2 ω_j (B_j n̄)·Ḋ − ω_j² n·D; γ is its negative
+            zi = np.zeros(2) if i < 0 else q[3 * i:3 * i + 2]
+            zj = np.zeros(2) if j < 0 else q[3 * j:3 * j + 2]
+            vi = np.zeros(2) if i < 0 else v[3 * i:3 * i + 2]
+            vj = np.zeros(2) if j < 0 else v[3 * j:3 * j + 2]
+            wi = 0.0 if i < 0 else v[3 * i + 2]
+            wj = 0.0 if j < 0 else v[3 * j + 2]
+            a_i, b_i = self._on_body(q, i, si)
+            a_j, b_j = self._on_body(q, j, sj)
+            n, dn = self._on_body(q, j, nbar) if j >= 0 else (nbar, np.zeros(2))
+            d = zi + a_i - zj - a_j
+            dd = vi + b_i * wi - vj - b_j * wj
+            quad = (-n @ a_i * wi ** 2 + n @ a_j * wj ** 2 + 2 * wj * (dn @ dd)
+                    - wj ** 2 * (n @ d))
+            g[r] = -quad
+            r += 1
+        r += len(cset["ra"])
         for _, law, par in cset["dr"]:
             g[r] = driver(law, par, t)[2]
             r += 1

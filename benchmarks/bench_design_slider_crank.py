@@ -69,7 +69,7 @@ def main() -> None:
                      "whole_cycle_pf": f"{c['whole_cycle_pf']:.2e} "
                                        f"[{c['whole_cycle_pf_lo']:.2e}, "
                                        f"{c['whole_cycle_pf_hi']:.2e}]",
-                     "model_rows": r.provenance["n_model_evaluations"],
+                     "model_rows": r.provenance["n_evaluations"],
                      "designs": r.provenance["settings"].get("n_designs"),
                      "wall_s": round(wall, 1), "warnings": len(caught)})
         for w in caught:

@@ -256,11 +256,11 @@ def main(argv=None):
     rows = []
 
     def record(method, setting, res_prov, n_evals, seed, extra_time=0.0, **m):
-        analysis = res_prov["wall_time"] if res_prov.get("n_model_calls", 0) == 0 else None
+        analysis = res_prov["wall_time"] if res_prov.get("n_computed", 0) == 0 else None
         row = {"method": method, "setting": setting, "seed": seed, "n_evals": n_evals,
                "wall_est": n_evals * per_eval + (analysis or 0.0) + extra_time,
                "wall_provenance": res_prov["wall_time"], "computed": res_prov.get(
-                   "n_model_calls", 0), **metrics(ref, **m)}
+                   "n_computed", 0), **metrics(ref, **m)}
         rows.append(row)
         print(row, flush=True)
         pd.DataFrame(rows).to_csv(out / "estimators.csv", index=False)
@@ -273,7 +273,7 @@ def main(argv=None):
 
     # ---------------- FOSM (deterministic: one run)
     f = analysed(lambda: fosm(model=model, inputs=inputs, allowable=allow, **kw))
-    record("FOSM", "2d+1", f.provenance, f.provenance["n_model_evaluations"], seed=None,
+    record("FOSM", "2d+1", f.provenance, f.provenance["n_evaluations"], seed=None,
            R=f.table["reliability"], mean=f.table["mu_i"], std=f.table["sigma_i"])
     seeds = [EST_SEED + r for r in range(a.replicates)]
 
@@ -299,7 +299,7 @@ def main(argv=None):
                                   order=k, progress=False)
             extra = time.perf_counter() - t0
             pf = p.to_frame()
-            record("PCE", f"order {k}", p.provenance, p.provenance["n_model_evaluations"],
+            record("PCE", f"order {k}", p.provenance, p.provenance["n_evaluations"],
                    seed=sd, extra_time=extra, R=pr.table["reliability"],
                    Rcycle={q: float(pr.whole_cycle.loc[q, "reliability"]) for q in qs},
                    mean=pf["mean"], std=pf["std"], S=pce_indices(pp, names))
@@ -308,7 +308,7 @@ def main(argv=None):
         for sd in seeds_for((len(names) + 2) * n):
             s = analysed(lambda: sobol_indices(model=model, inputs=inputs, n=n, seed=sd,
                                                reducer=peak_abs, **kw))
-            record("Sobol", f"N={n}", s.provenance, s.provenance["n_model_evaluations"],
+            record("Sobol", f"N={n}", s.provenance, s.provenance["n_evaluations"],
                    seed=sd, S=sobol_frame(s, names))
     table = pd.DataFrame(rows)
     table.to_csv(out / "estimators.csv", index=False)

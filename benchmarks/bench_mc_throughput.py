@@ -85,7 +85,7 @@ print(json.dumps({"import": t1 - t0, "first_eval": t3 - t2, "second_eval": t4 - 
 """
 
 
-from _common import git_state  # noqa: E402  (benchmarks/ is sys.path[0])
+from _common import git_state, timed as _timed  # noqa: E402  (benchmarks/ is sys.path[0])
 
 def study_model(solver_over: dict):
     s = load_study(STUDY)
@@ -266,13 +266,7 @@ def per_sample_split(model, X, rounds):
     spent = dict.fromkeys(parts, 0.0)
 
     def timed(fn, key):
-        def run(*a, **kw):
-            t0 = time.perf_counter()
-            try:
-                return fn(*a, **kw)
-            finally:
-                spent[key] += time.perf_counter() - t0
-        return run
+        return _timed(fn, spent, key)
 
     out = {f"{how}_{part}": [] for how in ("row_by_row", "batch")
            for part in ("total", *parts.values(), "rest")}

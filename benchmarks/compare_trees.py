@@ -7,9 +7,10 @@ before it, e.g. ``git archive main | tar -x -C /tmp/before``, and compare it wit
 cases (every embedded scene with its default solver; radau, dopri5, rk4 and scipy-radau on the
 lubricated, dry and transition scenes; radau in fixed-step mode and at a loose and a tight
 tolerance; with and without cycle extremes) and saves every array of each result and every
-solver count (``np.savez``); then every saved array is compared with ``np.array_equal``
-(NaN equal to NaN). Wall times are left out. Any difference is printed and makes the exit
-status 1.
+solver count (``np.savez``); then every saved array of the cases both trees ran is compared
+with ``np.array_equal`` (NaN equal to NaN); an embedded scene only one tree has (a scene added
+since) is listed and not compared. Wall times are left out. Any difference is printed and
+makes the exit status 1.
 
 ``timing``: one ``simulate`` of a scene (default the lubricated nine-bar at its own settings;
 ``--settings`` adds keyword arguments as JSON, e.g. the default study's tolerances and the
@@ -82,7 +83,7 @@ def flat(prefix, obj, out):
 out = {}
 for i, (name, overrides, settings, extremes) in enumerate(CASES):
     r = simulate(load_scene(name, overrides=overrides), extremes=extremes, **settings)
-    p = f"{i:02d} {name} {settings} {'transition' if overrides else ''}"
+    p = f"{name} {settings} {'transition' if overrides else ''}"
     for f in ("time", "crank_angle", "q", "v", "a", "method", "outputs", "ideal", "orbits",
               "energy", "extremes"):
         flat(f"{p}/{f}", getattr(r, f), out)
@@ -127,14 +128,20 @@ def bitwise(trees) -> int:
             files.append(Path(tmp) / f"{k}.npz")
             _run(tree, SNAPSHOT, str(files[-1]))
         a, b = np.load(files[0]), np.load(files[1])
-        keys = sorted(set(a.files) | set(b.files))
+        cases = [{k.split("/")[0] for k in f.files} for f in (a, b)]
+        common = cases[0] & cases[1]
+        keys = sorted(k for k in set(a.files) | set(b.files) if k.split("/")[0] in common)
         differ = [k for k in keys if k not in a.files or k not in b.files
                   or a[k].shape != b[k].shape
                   or not np.array_equal(a[k], b[k], equal_nan=a[k].dtype.kind in "fc")]
-        values = sum(a[k].size for k in a.files)
+        values = sum(a[k].size for k in keys if k in a.files)
+    for k, tree in enumerate(trees):  # an embedded scene one tree does not have
+        for case in sorted(cases[k] - common):
+            print(f"only in {tree}: {case} (not compared)")
     for k in differ:
         print("differs:", k)
-    print(f"{len(keys)} arrays ({values} values) compared, {len(differ)} differ")
+    print(f"{len(keys)} arrays ({values} values) of {len(common)} cases compared, "
+          f"{len(differ)} differ")
     return 1 if differ else 0
 
 

@@ -554,7 +554,7 @@ def run(args) -> int:
 
     from mechrel.uq._common import package_versions
     prov = {k: {"model_cache_key": r.provenance["model_cache_key"], "inputs": r.provenance["inputs"],
-                "settings": r.provenance["settings"], "n_model_calls": r.provenance["n_model_calls"]}
+                "settings": r.provenance["settings"], "n_model_calls": r.provenance["n_computed"]}
             for k, r in results.items()}
     (out / "summary.json").write_text(json.dumps(
         {"argv": sys.argv, "cases": keys, "wall_time": wall, "versions": package_versions(),

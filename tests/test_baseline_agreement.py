@@ -57,6 +57,9 @@ SCENES = {
     "nine-bar transition": ("nine-bar", {"joints.C1.model": "transition",
                                          "joints.C2.model": "transition"}),
     "slider-crank transition": ("slider-crank", {"joints.C.model": "transition"}),
+    # a translational joint between moving bodies (the block in the turning lever)
+    "whitworth lubricated": ("whitworth", {}),
+    "whitworth dry": ("whitworth", {"joints.A.model": "dry"}),
 }
 
 

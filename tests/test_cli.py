@@ -144,13 +144,14 @@ def test_every_command_module_is_registered_explicitly():
     import pkgutil
 
     import mechrel.cli
-    from mechrel.cli.main import COMMANDS
+    from mechrel.cli.main import registrations
 
     found = set()
     for info in pkgutil.iter_modules(mechrel.cli.__path__):
         module = importlib.import_module(f"mechrel.cli.{info.name}")
-        found |= {getattr(module, n) for n in dir(module) if n.startswith("register")}
-    assert found == set(COMMANDS)
+        found |= {getattr(module, n) for n in dir(module)
+                  if n.startswith("register") and n != "registrations"}
+    assert found == set(registrations())
 
 
 STUDY = """\
@@ -263,8 +264,13 @@ def test_set_on_sensitivity_and_its_warnings_in_the_json(tmp_path, capsys):
                  "solver.assembly_tolerance=1e-13", "--jobs", "1", "--out", str(out),
                  "--no-progress"]) == 0
     text = capsys.readouterr().out
-    assert "N = 8, 32 model runs" in text
+    assert "(N = 8, 0 Saltelli blocks dropped for failures)" in text
+    # the one count of model evaluations, the same in the summary and the file
+    assert "  32 model evaluations (32 computed) in " in text
     record = json.loads((out / "sensitivity.json").read_text())
+    assert record["evaluations"]["total"] == {"n_evaluations": 32, "n_computed": 32,
+                                              "n_cached": 0, "n_failed": 0}
+    assert record["provenance"]["n_computed"] == 32
     assert record["provenance"]["model"]["solver"]["assembly_tolerance"] == 1e-13
     assert any("too few samples" in w for w in record["warnings"])
     assert "  warning: sobol:" in text

@@ -3,6 +3,7 @@ clear error (or a warning for single rows), never in a used damaged row, and kee
 
 from __future__ import annotations
 
+import re
 import sqlite3
 import warnings
 
@@ -109,6 +110,22 @@ def test_truncated_file_is_one_clear_error(tmp_path):
     with pytest.raises(CacheError, match=rf"^cache: '{db}': (the file is damaged|not a readable "
                                          rf"mechrel cache).*; {TODO}$"):
         evaluate(MODEL, Xbig, cache=tmp_path, progress=False)
+
+
+def test_a_damaged_page_is_one_line(tmp_path):
+    # sqlite's quick_check reports a damaged page as a header and a line per cell, which the
+    # message embedded verbatim (4 lines and more); now: the first problem and how many more
+    Xbig = np.random.default_rng(0).normal(size=(400, 2))
+    evaluate(MODEL, Xbig, cache=tmp_path, progress=False)
+    db = tmp_path / EvaluationCache.FILENAME
+    data = bytearray(db.read_bytes())
+    data[3 * 4096 + 8: 3 * 4096 + 40] = b"\x7f" * 32  # the cell pointers of the fourth page
+    db.write_bytes(bytes(data))
+    with pytest.raises(CacheError) as info:
+        evaluate(MODEL, Xbig, cache=tmp_path, progress=False)
+    assert re.fullmatch(rf"cache: '{re.escape(str(db))}': the file is damaged \(sqlite "
+                        r"quick_check: On tree page \d+ cell \d+: [^;]+, and \d+ more\); "
+                        + TODO, str(info.value)), str(info.value)
 
 
 def test_database_of_another_layout_is_refused_and_left_alone(tmp_path):

@@ -211,17 +211,24 @@ def test_derived_contact_stiffness_names_the_joint():
 
 
 # ---------------------------------------------------------------- workers and the cwd
-def test_workers_do_not_import_modules_from_the_current_folder(tmp_path):
-    """Files named like standard modules in the folder a run starts in are not executed by
-    the worker processes (nor by loky's helper processes)."""
+def _trap_folder(tmp_path, names):
+    """A folder ``cwd`` with a module for each of ``names`` (standard modules' names) that, if
+    imported, leaves a file in ``markers``; returns (cwd, markers)."""
     cwd = tmp_path / "cwd"
     cwd.mkdir()
     markers = tmp_path / "markers"
     markers.mkdir()
-    for name in ("pickle", "signal", "struct", "runpy"):
+    for name in names:
         (cwd / f"{name}.py").write_text(
             f"import os\nopen(os.path.join({str(markers)!r}, '{name}-%d' % os.getpid()), 'w')"
             ".close()\n")
+    return cwd, markers
+
+
+def test_workers_do_not_import_modules_from_the_current_folder(tmp_path):
+    """Files named like standard modules in the folder a run starts in are not executed by
+    the worker processes (nor by loky's helper processes)."""
+    cwd, markers = _trap_folder(tmp_path, ("pickle", "signal", "struct", "runpy"))
     script = tmp_path / "run.py"
     script.write_text(textwrap.dedent("""
         import numpy as np
@@ -235,3 +242,244 @@ def test_workers_do_not_import_modules_from_the_current_folder(tmp_path):
     assert done.returncode == 0, done.stderr
     assert done.stdout.split() == ["8", "loky"]
     assert sorted(p.name for p in markers.iterdir()) == []
+
+
+# ---------------------------------------------------------------- sizes
+@pytest.mark.parametrize("setting, what", [("subset.n_per_level", "subset.n_per_level"),
+                                           ("is.n", "is.n")])
+def test_huge_rare_event_sample_counts_are_refused_before_any_evaluation(setting, what,
+                                                                         tmp_path, capsys):
+    # they ended in a MemoryError traceback (the study's n was checked, these were not); now
+    # every chosen method's settings are checked before the first one runs (IS runs FORM)
+    study = tmp_path / "study.toml"
+    study.write_text(STUDY.format(scene="slider-crank-lubricated"))
+    out = tmp_path / "o"
+    method = setting.split(".")[0]
+    assert main(["reliability", str(study), "--method", method, "--set",
+                 f"{setting}=1000000000000", "--out", str(out), "--no-progress"]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith(f"mechrel: error: {what} = 1000000000000: 1e+12 model runs of "), err
+    assert err.count("\n") == 1 and "allowed: " + what + " up to about" in err
+    assert not out.exists()  # nothing evaluated, no folder left
+    # and from Python
+    from mechrel.uq import Normal, UncertainInputs, linear_model
+    from mechrel.uq.estimators import METHODS
+
+    inputs = UncertainInputs.from_specs({"a": Normal(0, 1), "b": Normal(0, 1)})
+    model = linear_model([3.0], [[1.0, 1.0]], inputs.names)
+    name = "subset_simulation" if method == "subset" else "importance_sampling"
+    key = setting.split(".")[1]
+    with pytest.raises(StudyError, match=rf"^{key} = 1000000000000: 1e\+12 model runs of 3 "
+                                         "inputs and outputs"):
+        METHODS[name].function(model=model, inputs=inputs, **{key: 10**12}, progress=False,
+                               design_point=None) if name == "importance_sampling" else \
+            METHODS[name].function(model=model, inputs=inputs, **{key: 10**12},
+                                   progress=False)
+
+
+def test_a_costly_polynomial_chaos_says_what_it_costs_and_is_refused(tmp_path, capsys):
+    from mechrel.uq import Normal, UncertainInputs, linear_model, polynomial_chaos
+    from mechrel.uq.surrogates.pce import MAX_EVALUATIONS, design_size
+
+    study = tmp_path / "study.toml"
+    study.write_text(STUDY.format(scene="slider-crank-lubricated")
+                     + "[inputs.mass]\npaths = ['bodies.rod.mass']\ndistribution = 'normal'\n"
+                       "mean = 0.2\nstd = 0.01\n"
+                       "[inputs.length]\npaths = ['bodies.crank.length(O,A)']\n"
+                       "distribution = 'normal'\nmean = 0.05\nstd = 1e-5\n")
+    out = tmp_path / "o"
+    assert main(["reliability", str(study), "--method", "pce", "--set",
+                 "reliability.pce_order=200", "--out", str(out), "--no-progress"]) == 2
+    err = capsys.readouterr().err
+    # C(203, 3) = 1 373 701 terms, 2 per term, rounded up to 2^22 Sobol' points
+    assert err == (f"mechrel: error: {study}: reliability.pce_order = 200: an expansion of "
+                   "order 200 in 3 inputs has 1373701 terms, 4194304 model evaluations (2 per "
+                   "term, rounded up to a power of 2 for Sobol' points), more than "
+                   f"reliability.pce_max_evaluations = {MAX_EVALUATIONS}; allowed: "
+                   "reliability.pce_order <= 56 for 3 inputs, or "
+                   "reliability.pce_max_evaluations = 4194304 (or more) to run them "
+                   "knowingly\n")
+    assert not out.exists()
+    assert design_size(3, 56) <= MAX_EVALUATIONS < design_size(3, 57)
+    inputs = UncertainInputs.from_specs({k: Normal(0, 1) for k in "abc"})
+    model = linear_model([0.0], [[1.0, 1.0, 1.0]], inputs.names)
+    with pytest.raises(StudyError, match=r"^order = 200: .* more than max_evaluations = 100000"):
+        polynomial_chaos(model=model, inputs=inputs, order=200, progress=False)
+    # asked for knowingly: allowed (a small limit shows it without running millions)
+    r = polynomial_chaos(model=model, inputs=inputs, order=1, max_evaluations=None,
+                         progress=False)
+    assert r.n_evaluations == design_size(3, 1)
+    with pytest.raises(StudyError, match=r"order <= 0 for 3 inputs, or max_evaluations = 8"):
+        polynomial_chaos(model=model, inputs=inputs, order=1, max_evaluations=7,
+                         progress=False)
+
+
+# ---------------------------------------------------------------- a scheduler that is not one
+@pytest.fixture
+def server():
+    """A local TCP server that answers as a web server (as a Dask dashboard does) or never
+    answers; yields a function of the mode returning its tcp:// address."""
+    import socket
+    import threading
+
+    sockets = []
+
+    def start(mode):
+        srv = socket.socket()
+        srv.bind(("127.0.0.1", 0))
+        srv.listen(5)
+        sockets.append(srv)
+
+        def serve():
+            while True:
+                try:
+                    conn, _ = srv.accept()
+                except OSError:
+                    return
+                sockets.append(conn)
+                if mode == "http":
+                    conn.recv(65536)
+                    conn.sendall(b"HTTP/1.1 400 Bad Request\r\nContent-Length: 0\r\n\r\n")
+        threading.Thread(target=serve, daemon=True).start()
+        return f"tcp://127.0.0.1:{srv.getsockname()[1]}"
+    yield start
+    for s in sockets:
+        s.close()
+
+
+def test_a_dashboard_port_is_not_taken_for_a_scheduler(server, tmp_path, capsys):
+    pytest.importorskip("distributed")
+    address = server("http")
+    study = tmp_path / "study.toml"
+    study.write_text(STUDY.format(scene="slider-crank-lubricated"))
+    assert main(["reliability", str(study), "--method", "fosm", "--scheduler", address,
+                 "--out", str(tmp_path / "o"), "--no-progress"]) == 2
+    err = capsys.readouterr().err
+    assert err == (f"mechrel: error: --scheduler = '{address}': what answers there does not "
+                   "speak Dask's protocol (a web page, e.g. the dashboard, or another server: "
+                   "MemoryError); allowed: the address of a running Dask scheduler, e.g. "
+                   "tcp://127.0.0.1:8786 (port 8786; 8787 is its dashboard's)\n")
+
+
+def test_a_scheduler_that_never_answers_times_out_with_one_line(server):
+    pytest.importorskip("distributed")
+    import time
+
+    from mechrel.cli.studies import dask_backend
+
+    address = server("silent")
+    t0 = time.monotonic()
+    with pytest.raises(StudyError, match=rf"^--scheduler = '{address}': no answer within 1 s; "
+                                         r"allowed: the address of a running Dask scheduler"):
+        with dask_backend(address, timeout=1.0):
+            pass
+    assert time.monotonic() - t0 < 30  # waited for ever before
+
+
+# ---------------------------------------------------------------- names, depth, terminal
+def test_a_bare_scene_name_is_looked_up_beside_the_study_not_in_the_current_folder(
+        tmp_path, monkeypatch):
+    cwd = tmp_path / "cwd"
+    cwd.mkdir()
+    (cwd / "mine").write_text('name = "TOP-SECRET-VALUE"\ngravity = "TOP-SECRET-VALUE"\n')
+    studies = tmp_path / "studies"
+    studies.mkdir()
+    study = studies / "study.toml"
+    study.write_text(STUDY.format(scene="mine"))
+    monkeypatch.chdir(cwd)
+    with pytest.raises(StudyError) as info:
+        load_study(study)
+    assert str(info.value) == (
+        f"{study}: scene = \"mine\": not an embedded scene, nor a file in '{studies}', the "
+        "folder of the study file; allowed: an embedded scene name (double-pendulum, four-bar, "
+        "nine-bar, nine-bar-dry, nine-bar-lubricated, slider-crank, slider-crank-dry, "
+        "slider-crank-lubricated) or a scene file in the study file's folder or below it")
+    (studies / "mine").write_text('extends = "slider-crank-lubricated"\nname = "mine"\n')
+    assert load_study(study).scene == str(studies / "mine")  # the one beside the study
+    study.write_text(STUDY.format(scene="slider-crnk"))
+    with pytest.raises(StudyError, match=r"not an embedded scene \(did you mean "
+                                         r"'slider-crank'\?\)"):
+        load_study(study)
+
+
+def test_the_compile_helper_does_not_import_modules_from_the_current_folder(tmp_path):
+    """The helper process of a cold Radau compilation (mechrel._kernel_cache.split_compile,
+    ``python -c``) started with the current folder first on its import path; it runs here on
+    a warm cache (it loads what it would compile), which starts it all the same."""
+    cwd, markers = _trap_folder(tmp_path, ("pickle", "json", "struct", "signal"))
+    script = tmp_path / "run.py"
+    script.write_text(textwrap.dedent("""
+        from mechrel._kernel_cache import split_compile
+        from mechrel.scene import load_scene
+        scene = load_scene("slider-crank-lubricated",
+                           overrides=["solver.rtol=1e-5", "solver.atol=1e-8"])
+        print(" ".join(sorted(split_compile(scene))))
+    """))
+    done = subprocess.run([sys.executable, str(script)], cwd=cwd, capture_output=True,
+                          text=True, timeout=600, check=False)
+    assert done.returncode == 0, done.stderr
+    assert {"rhs", "start"} <= set(done.stdout.split())  # it ran: the jobs waited for
+    assert sorted(p.name for p in markers.iterdir()) == []
+
+
+def test_set_values_nested_too_deeply_are_one_line(capsys):
+    for depth in (MAX_DEPTH + 1, 1000):
+        value = "[" * depth + "]" * depth
+        assert main(["simulate", "slider-crank", "--set", f"gravity={value}"]) == 2
+        err = capsys.readouterr().err
+        assert err.startswith('mechrel: error: gravity: override value "[[[[')
+        assert err.endswith(f": tables and arrays nested more than {MAX_DEPTH} levels deep; "
+                            f"allowed: at most {MAX_DEPTH} levels\n") and err.count("\n") == 1
+
+
+FORGED = "x\nmechrel: error: forged"
+CLI = [sys.executable, "-c", "import sys; from mechrel.cli.main import main; sys.exit(main())"]
+ESCAPE = "\x1b[2J\x1b]0;title\x07"
+
+
+@pytest.mark.parametrize("case", ["study name", "scene name", "--set key", "--set value",
+                                  "unrecognised argument", "output folder", "warning"])
+def test_control_characters_reach_the_terminal_escaped(case, tmp_path, capsys):
+    """Names, keys, values and paths with control characters: no escape sequence reaches the
+    terminal (one cleared the screen), and a newline cannot forge a line of its own."""
+    import json
+
+    study = tmp_path / "study.toml"
+    study.write_text(f'name = {json.dumps("s" + ESCAPE + FORGED)}\n'
+                     + STUDY.format(scene="slider-crank-lubricated")
+                     + '[reliability]\nmethods = ["fosm"]\n')
+    argv = {
+        "study name": ["reliability", str(study), "--jobs", "1", "--no-progress", "--out",
+                       str(tmp_path / "o")],
+        "scene name": ["scenes", "a" + ESCAPE + FORGED],
+        "--set key": ["simulate", "slider-crank", "--set", f"joints.C{ESCAPE}{FORGED}=1"],
+        "--set value": ["simulate", "slider-crank", "--set",
+                        f"joints.C.clearance={ESCAPE}{FORGED}"],
+        "unrecognised argument": ["simulate", "slider-crank", "extra" + ESCAPE + FORGED],
+        "output folder": ["reliability", str(study), "--jobs", "1", "--no-progress", "--out",
+                          str(tmp_path / ("o" + ESCAPE + FORGED))],
+        "warning": None,
+    }[case]
+    if argv is None:  # mechrel's warnings, as the command line shows them
+        from mechrel.cli.main import _show_warning
+        from mechrel.errors import EstimateWarning
+        _show_warning(EstimateWarning(f"input {ESCAPE}{FORGED}"), EstimateWarning, "f.py", 1)
+    elif case == "study name":  # as a terminal gets it: matplotlib's warnings included
+        done = subprocess.run(CLI + argv, capture_output=True, text=True, timeout=300)
+        assert done.returncode == 0, done.stderr
+        capsys.readouterr()
+        print(done.stdout, end="")
+        print(done.stderr, end="", file=sys.stderr)
+    else:
+        try:
+            main(argv)
+        except SystemExit as exc:  # argparse's own errors
+            assert exc.code == 2
+    captured = capsys.readouterr()
+    for stream in (captured.out, captured.err):
+        assert "\x1b" not in stream and "\x07" not in stream, stream
+        assert not any(line.startswith("mechrel: error: forged") for line in stream.splitlines())
+    assert "\\x1b" in captured.out + captured.err or "\\u001b" in captured.out + captured.err
+    if case == "study name":
+        summary = (tmp_path / "o" / "summary.json").read_text()
+        assert "\x1b" not in summary and json.loads(summary)["study"] == "s" + ESCAPE + FORGED

@@ -19,6 +19,7 @@ from pathlib import Path
 import pytest
 
 from mechrel._kernel_cache import warm_up
+from mechrel.cli.main import main
 from mechrel.scene import load_scene
 
 pytestmark = pytest.mark.skipif(not Path("/proc/self/stat").exists(),
@@ -268,3 +269,247 @@ def test_an_interrupt_raised_inside_a_numba_callback_is_an_interrupt(tmp_path):
         evaluate(model, X, cache=tmp_path, progress=False, chunk_size=6)
     with sqlite3.connect(tmp_path / "evaluations.sqlite") as con:
         assert con.execute("SELECT COUNT(*) FROM evaluations").fetchone() == (3,)
+
+
+# ---------------------------------------------------------------- at the ordinary moments
+# A driver that runs the command line as the ``mechrel`` script does, and stops at a named
+# moment until the test has sent its signal: it creates MARKER, then waits (sleeping 10 ms at
+# a time) for MARKER.sent, which the test creates right after its kill(). By then the signal's
+# C-level handler has run, so the Python handler acts at the driver's next bytecode: within
+# the wait (a handler that raises), or after it (a signal held by the code around the
+# moment). No timing is guessed.
+DRIVER = r"""
+import os, sys, time
+marker, moment, *argv = sys.argv[1:]
+
+def wait_here():
+    open(marker, "w").close()
+    deadline = time.monotonic() + 120
+    while not os.path.exists(marker + ".sent") and time.monotonic() < deadline:
+        time.sleep(0.01)
+
+if moment.startswith("import:"):  # inside the first import of a module
+    name = moment[len("import:"):]
+
+    class Stop:
+        @classmethod
+        def find_spec(cls, fullname, path=None, target=None):
+            if fullname == name:
+                sys.meta_path.remove(cls)
+                wait_here()
+            return None
+
+    sys.meta_path.insert(0, Stop)
+elif moment == "parse":  # inside argparse's parsing of the command line
+    import argparse
+    parse = argparse.ArgumentParser.parse_known_args
+
+    def parse_known_args(self, *args, **kwargs):
+        if self.prog == "mechrel":
+            wait_here()
+        return parse(self, *args, **kwargs)
+
+    argparse.ArgumentParser.parse_known_args = parse_known_args
+elif moment.startswith("call:"):  # at the start of module.function
+    import importlib
+    where, name = moment[len("call:"):].rsplit(".", 1)
+    module = importlib.import_module(where)
+    function = getattr(module, name)
+
+    def wrapped(*args, **kwargs):
+        wait_here()
+        return function(*args, **kwargs)
+
+    setattr(module, name, wrapped)
+sys.argv = ["mechrel", *argv]
+from mechrel.cli.main import main
+code = main()
+if moment == "exit":  # main() has returned: the interpreter's exit is next
+    wait_here()
+sys.exit(code)
+"""
+FOSM_STUDY = STUDY.replace('methods = ["mc"]', 'methods = ["fosm"]')
+NAMES = {signal.SIGINT: (130, "Ctrl-C"), signal.SIGTERM: (143, "SIGTERM")}
+
+
+def _at(moment, argv, sig, tmp_path, *, group=False):
+    """Run ``mechrel ARGV`` through DRIVER, send ``sig`` at ``moment`` (to the process group
+    when ``group``: a terminal's Ctrl-C reaches every process of the foreground group) and
+    return (exit code, stderr)."""
+    marker = tmp_path / "at-moment"
+    proc = _popen([sys.executable, "-c", DRIVER, str(marker), moment, *argv],
+                  start_new_session=True)
+    try:
+        _wait(lambda: marker.exists() or proc.poll() is not None, 300, f"the moment {moment}")
+        assert proc.poll() is None, proc.communicate()
+        (os.killpg if group else os.kill)(proc.pid, sig)
+        Path(f"{marker}.sent").touch()
+        _, err = proc.communicate(timeout=120)
+    finally:
+        if proc.poll() is None:
+            os.killpg(proc.pid, signal.SIGKILL)
+            proc.communicate()
+    return proc.returncode, err
+
+
+@pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM])
+@pytest.mark.parametrize("moment", ["import:numpy", "parse"])
+def test_an_interrupt_while_the_command_starts_is_one_line(moment, sig, tmp_path):
+    # the first imports (numpy, pandas, scipy, numba: seconds) and the parsing happen inside
+    # main()'s handlers; there was a KeyboardInterrupt traceback, and SIGTERM ended it silently
+    code, name = NAMES[sig]
+    rc, err = _at(moment, ["simulate", "slider-crank", "--no-progress"], sig, tmp_path)
+    assert (rc, err) == (code, f"mechrel: interrupted ({name})\n")
+
+
+def test_no_cache_is_named_before_there_is_one(tmp_path):
+    # the arguments are parsed, the run's modules are being imported: no evaluations.sqlite
+    # exists yet, so the line does not send the user to one
+    study = tmp_path / "study.toml"
+    study.write_text(FOSM_STUDY)
+    out = tmp_path / "out"
+    rc, err = _at("import:mechrel.studies.runner",
+                  ["reliability", str(study), "--jobs", "1", "--no-progress", "--out", str(out)],
+                  signal.SIGINT, tmp_path)
+    assert (rc, err) == (130, "mechrel: interrupted (Ctrl-C)\n")
+    assert not (out / "evaluations.sqlite").exists()
+
+
+@pytest.mark.parametrize("sig", [signal.SIGINT,
+                                 pytest.param(signal.SIGTERM, marks=pytest.mark.slow)])
+def test_ctrl_c_while_the_workers_start_is_one_line(sig, tmp_path):
+    """A terminal's Ctrl-C reaches the whole foreground group: the workers too, while they
+    start (import their modules). They start with SIGINT blocked, and the parent ends them:
+    one line, no worker traceback, no resource tracker's 'leaked' warning."""
+    code, name = NAMES[sig]
+    study = tmp_path / "study.toml"
+    study.write_text(STUDY)
+    out = tmp_path / "out"
+    proc = _popen(CLI + ["reliability", str(study), "--jobs", "2", "--no-progress", "--out",
+                         str(out)], start_new_session=True)
+    try:
+        # a worker whose interpreter has set up its signal handling (Python's SIGINT handler,
+        # in /proc's SigCgt) and now imports its modules, for a second or more: a Ctrl-C then
+        # was a KeyboardInterrupt traceback of 26-81 lines per worker
+        _wait(lambda: any(_catches_sigint(c) for c in _children(proc.pid)
+                          if "popen_loky" in _cmdline(c))
+              or proc.poll() is not None, 300, "a worker process to start")
+        assert proc.poll() is None, proc.communicate()
+        os.killpg(proc.pid, sig)
+        _, err = proc.communicate(timeout=120)
+    finally:
+        if proc.poll() is None:
+            os.killpg(proc.pid, signal.SIGKILL)
+            proc.communicate()
+    assert proc.returncode == code, err
+    assert err.startswith(f"mechrel: interrupted ({name})") and err.count("\n") == 1, err
+
+
+def _catches_sigint(pid: int) -> bool:
+    try:
+        status = Path(f"/proc/{pid}/status").read_text()
+    except OSError:
+        return False
+    caught = next((line.split()[1] for line in status.splitlines()
+                   if line.startswith("SigCgt:")), "0")
+    return bool(int(caught, 16) & (1 << (signal.SIGINT - 1)))
+
+
+def _cmdline(pid: int) -> str:
+    try:
+        return Path(f"/proc/{pid}/cmdline").read_text().replace("\0", " ")
+    except OSError:
+        return ""
+
+
+def _files(folder: Path) -> dict:
+    return {p.name: p.read_bytes() for p in sorted(folder.iterdir()) if p.is_file()
+            and p.name != "evaluations.sqlite"}
+
+
+def _fosm(tmp_path, std):
+    study = tmp_path / "study.toml"
+    study.write_text(FOSM_STUDY)
+    return ["reliability", str(study), "--jobs", "1", "--no-progress", "--out",
+            str(tmp_path / "out"), "--set", f"inputs.clearance.std={std}"]
+
+
+@pytest.mark.parametrize("sig", [pytest.param(signal.SIGINT, marks=pytest.mark.slow),
+                                 signal.SIGTERM])
+def test_an_interrupt_while_results_are_written_keeps_the_earlier_set(sig, tmp_path):
+    """Interrupted after some of its files are written (the summary is written last): the
+    folder holds the earlier run's complete set, not a mix, and no staging folder."""
+    code, name = NAMES[sig]
+    out = tmp_path / "out"
+    assert main(_fosm(tmp_path, 1e-5)) == 0  # the earlier run, in-process
+    earlier = _files(out)
+    assert {"reliability.csv", "reliability.png", "summary.json"} <= set(earlier)
+    rc, err = _at("call:mechrel.studies.runner.write_json", _fosm(tmp_path, 2e-5), sig, tmp_path)
+    assert rc == code, err
+    assert err == (f"mechrel: interrupted ({name}); the finished model evaluations are kept in "
+                   f"{out / 'evaluations.sqlite'}: the same command resumes from them\n")
+    assert _files(out) == earlier
+    assert sorted(p.name for p in out.iterdir() if p.is_dir()) == []
+
+
+def test_an_interrupt_while_the_set_is_moved_into_place_waits_for_it(tmp_path):
+    """Interrupted during the renames that put the new set in place (held for their
+    milliseconds): the folder holds the new complete set, which its manifest describes, and
+    the run then stops with its one line."""
+    import hashlib
+    import json
+
+    out = tmp_path / "out"
+    assert main(_fosm(tmp_path, 1e-5)) == 0  # the earlier run, in-process
+    earlier = _files(out)
+    rc, err = _at("call:mechrel.io.results._roll_forward", _fosm(tmp_path, 2e-5),
+                  signal.SIGTERM, tmp_path)
+    assert (rc, err.splitlines()[0]) == (143, "mechrel: interrupted (SIGTERM); the finished "
+                                               f"model evaluations are kept in "
+                                               f"{out / 'evaluations.sqlite'}: the same command "
+                                               "resumes from them")
+    now = _files(out)
+    manifest = json.loads(now.pop(".mechrel-set-reliability.json"))
+    assert {f["name"]: f["sha256"] for f in manifest["files"]} == \
+        {k: hashlib.sha256(v).hexdigest() for k, v in now.items()}
+    assert now["reliability.csv"] != earlier["reliability.csv"]  # the new run's
+    assert sorted(p.name for p in out.iterdir() if p.is_dir()) == []
+
+
+def test_a_killed_worker_is_one_line_and_the_finished_chunks_are_kept(tmp_path):
+    """A worker killed outright (as by the kernel's out-of-memory killer): one line naming the
+    samples being evaluated and that the same command resumes; the chunks stored before are
+    in the cache."""
+    import re
+
+    proc, workers = _start_parallel(tmp_path)
+    db = tmp_path / "out" / "evaluations.sqlite"
+    try:
+        # a worker (not loky's resource tracker, also a child)
+        os.kill(min(w for w in workers if "popen_loky" in _cmdline(w)), signal.SIGKILL)
+        _, err = proc.communicate(timeout=120)
+    finally:
+        if proc.poll() is None:
+            os.killpg(proc.pid, signal.SIGKILL)
+            proc.communicate()
+    assert proc.returncode == 2, err
+    assert re.fullmatch(r"mechrel: error: a worker process ended without its result \(exit "
+                        r"code SIGKILL\(-9\)\)( while evaluating samples [0-9–]+( or [0-9–]+)*)?: "
+                        r"killed by the system \(out of memory\?\) or from outside; the "
+                        rf"finished model evaluations are kept in {re.escape(str(db))}: the "
+                        r"same command resumes from them\n", err), err
+    assert 1 <= _rows(db) < 4096
+
+
+def test_sigterm_as_a_parallel_run_ends_leaves_no_leaked_resources(tmp_path):
+    """SIGTERM just after a parallel run has printed its summary, as the interpreter exits
+    (the default action: the process ends at once): the command ended its worker pool
+    itself, so loky's resource tracker finds nothing 'leaked' to warn about (it printed four
+    lines of leaked semaphores and folders)."""
+    study = tmp_path / "study.toml"
+    study.write_text(STUDY)
+    rc, err = _at("exit", ["reliability", str(study), "--n", "16", "--jobs", "2",
+                           "--no-progress", "--out", str(tmp_path / "out")],
+                  signal.SIGTERM, tmp_path, group=True)
+    assert rc == -signal.SIGTERM, err
+    assert "leaked" not in err and "Traceback" not in err, err

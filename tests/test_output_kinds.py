@@ -213,3 +213,160 @@ def test_reaction_forces():
     assert dyn.ideal["pin_b"]["reaction_force"].min() > 0
     assert dyn.extremes["pin_b"]["reaction_force"]["max_abs"] >= np.abs(
         dyn.error("pin_b", "reaction_force")[-361:]).max()
+
+
+# --------------------------------------------------------------------------- every kind, everywhere
+# One output of each kind of the table on the four-bar (a new kind must add its example here:
+# the first test fails until it does). The coupler gets a point M for the path.
+EXAMPLES = {
+    "point": {"point": "rocker.B", "axis": [1.0, 0.0]},
+    "body": {"kind": "body", "body": "rocker"},
+    "joint": {"kind": "joint", "joint": "A"},
+    "path": {"kind": "path", "point": "coupler.M"},
+}
+COUPLER_M = {"bodies.coupler.points.M": [0.0, 0.03]}
+
+
+def test_every_output_kind_has_an_example():
+    assert set(EXAMPLES) == set(OUTPUT_KINDS)
+
+
+def _allowables(kind):
+    """A [allowable.QUANTITY] table for every quantity of the kind (the default allowables
+    cover only the point's): means of the order of the quantities' errors."""
+    return "".join(f"[allowable.{q.name}]\nmean = {1e-3 * (1 + k)}\nstd = {1e-4 * (1 + k)}\n"
+                   for k, q in enumerate(OUTPUT_KINDS[kind].quantities))
+
+
+def test_simulate_prints_and_plots_every_kind(tmp_path, capsys):
+    from mechrel.cli.main import main
+
+    sets = [f"outputs.o_{k}={_toml(t)}" for k, t in EXAMPLES.items()]
+    sets += [f"{p}={_toml(v)}" for p, v in COUPLER_M.items()]
+    out = tmp_path / "fb.csv"
+    args = ["simulate", "four-bar", "--set", "analysis.cycles=0.05", "--no-progress",
+            "--out", str(out)]
+    for s in sets:
+        args += ["--set", s]
+    assert main(args) == 0
+    text = capsys.readouterr().out
+    for kind in EXAMPLES:
+        assert f"output o_{kind} ({kind}):" in text
+        for q in OUTPUT_KINDS[kind].quantities:
+            assert f"    {q.name} error " in text
+    assert out.with_suffix(".png").stat().st_size > 0
+
+
+def _toml(value):
+    """A scene value as the TOML literal of a --set."""
+    if isinstance(value, dict):
+        return "{" + ", ".join(f"{k} = {_toml(v)}" for k, v in value.items()) + "}"
+    if isinstance(value, list):
+        return "[" + ", ".join(_toml(v) for v in value) + "]"
+    return f'"{value}"' if isinstance(value, str) else repr(value)
+
+
+@pytest.mark.parametrize("kind", list(EXAMPLES))
+def test_animate_draws_every_kind(kind, tmp_path, capsys):
+    # the crash of the issue: `mechrel animate --output rocker` raised KeyError 'displacement'
+    # after simulating (the default quantity was a point's); now every kind's quantities, the
+    # first by default and each one by --quantity, and a wrong one before anything runs
+    from mechrel.cli.main import main
+
+    base = ["animate", "four-bar", "--set", "analysis.cycles=0.05", "--no-progress",
+            "--frames", "2", "--output", f"o_{kind}",
+            "--set", f"outputs.o_{kind}={_toml(EXAMPLES[kind])}"]
+    for p, v in COUPLER_M.items():
+        base += ["--set", f"{p}={_toml(v)}"]
+    html = tmp_path / f"{kind}.html"
+    assert main(base + ["--out", str(html)]) == 0
+    assert html.stat().st_size > 0
+    last = OUTPUT_KINDS[kind].quantities[-1].name
+    assert main(base + ["--quantity", last, "--out", str(html)]) == 0
+    capsys.readouterr()
+    assert main(base + ["--quantity", "jerk", "--out", str(html)]) == 2
+    err = capsys.readouterr()
+    assert f"quantity = 'jerk': not a quantity of output 'o_{kind}' (kind '{kind}')" in err.err
+    assert "scene four-bar" not in err.out  # refused before simulating
+
+
+def test_draw_shows_the_scene_whatever_its_outputs(tmp_path):
+    from mechrel.cli.main import main
+
+    args = ["draw", "four-bar", "--out", str(tmp_path / "fb.png")]
+    for k, t in EXAMPLES.items():
+        args += ["--set", f"outputs.o_{k}={_toml(t)}"]
+    for p, v in COUPLER_M.items():
+        args += ["--set", f"{p}={_toml(v)}"]
+    assert main(args) == 0 and (tmp_path / "fb.png").stat().st_size > 0
+
+
+@pytest.mark.parametrize("kind", list(EXAMPLES))
+def test_studies_and_their_figures_take_every_kind(kind, tmp_path, capsys):
+    # FOSM reliability (2 d + 1 = 5 runs) and Sobol sensitivity (N (d + 2) = 32 runs) of the
+    # ideal four-bar (kinematic analysis: milliseconds a run; every 20° of the crank) with two
+    # link-length tolerances, on an output of each kind: tables, figures and the summary
+    from mechrel.cli.main import main
+
+    study = tmp_path / "study.toml"
+    overrides = {"joints.A.model": "ideal", "joints.B.model": "ideal",
+                 "analysis.sample_step_angle": math.radians(20.0),
+                 f"outputs.o_{kind}": EXAMPLES[kind], **COUPLER_M}
+    study.write_text(
+        f'scene = "four-bar"\noutput = "o_{kind}"\ncycles = 1\n[scene_overrides]\n'
+        + "".join(f'"{p}" = {_toml(v)}\n' for p, v in overrides.items())
+        + '[inputs.crank]\npaths = ["bodies.crank.length(O,A)"]\ndistribution = "normal"\n'
+          'mean = 0.05\nstd = 1e-4\n'
+          '[inputs.rocker]\npaths = ["bodies.rocker.length(O,B)"]\ndistribution = "normal"\n'
+          'mean = 0.12\nstd = 1e-4\n'
+        + _allowables(kind), encoding="utf-8")
+    out = tmp_path / "out"
+    assert main(["reliability", str(study), "--method", "fosm", "--jobs", "1", "--out",
+                 str(out), "--no-progress"]) == 0
+    text = capsys.readouterr().out
+    for q in OUTPUT_KINDS[kind].quantities:
+        assert f"  {q.name}: " in text
+    for name in ("reliability.csv", "reliability.png", "summary.json"):
+        assert (out / name).stat().st_size > 0
+    assert main(["sensitivity", str(study), "--n", "8", "--jobs", "1", "--out", str(out),
+                 "--no-progress"]) == 0
+    figures = [p for p in out.iterdir() if p.name.startswith("sensitivity")
+               and p.suffix == ".png"]
+    assert figures and all(p.stat().st_size > 0 for p in figures)
+
+
+@pytest.mark.parametrize("kind", list(EXAMPLES))
+def test_the_accuracy_study_measures_every_kind(kind):
+    # the first output's own quantities (the accuracy study measured a point's three, and a
+    # scene whose first output was a body failed with KeyError 'displacement')
+    from mechrel.studies.accuracy import _curves, perturbed_scenes, run_ensemble
+
+    scene = load_scene("four-bar", overrides={
+        "analysis.cycles": 0.05, "outputs": {"o": EXAMPLES[kind]}, **COUPLER_M})
+    res = simulate(scene)
+    assert list(_curves(res, "o")) == [q.name for q in OUTPUT_KINDS[kind].quantities]
+    run = run_ensemble(perturbed_scenes(scene, 2), "dopri5", {"rtol": 1e-6, "atol": 1e-9})
+    assert run.statistics.shape == (2, len(OUTPUT_KINDS[kind].quantities), 3)
+
+
+def test_a_path_against_a_reference_design_is_its_distance_from_the_reference_path():
+    # an ideal four-bar with a longer crank against the nominal design: the coupler point's
+    # path deviation is its distance from the nominal path (it read 0, the deviation of a point
+    # from its own path, so a study of path tolerances on an ideal mechanism found nothing)
+    from mechrel.outputs import distance_to_path, ideal_path
+    over = {"joints.A.model": "ideal", "joints.B.model": "ideal",
+            "outputs.curve": EXAMPLES["path"], "outputs.mx": {"point": "coupler.M",
+                                                              "axis": [1.0, 0.0]},
+            "outputs.my": {"point": "coupler.M", "axis": [0.0, 1.0]}, **COUPLER_M}
+    nominal = load_scene("four-bar", overrides=over)
+    longer = load_scene("four-bar", overrides={**over, "bodies.crank.length(O,A)": 0.0502})
+    res = simulate(longer, reference=nominal, extremes=True)
+    mx, my = res.outputs["mx"]["displacement"], res.outputs["my"]["displacement"]
+    path = ideal_path(nominal, nominal.outputs["curve"].point)
+    dev = res.outputs["curve"]["path_deviation"]
+    assert np.array_equal(dev, distance_to_path(mx, my, path))
+    assert 1e-5 < dev.max() < 1e-3  # 0.2 mm longer crank: the curve moves by a fraction of it
+    assert np.array_equal(res.error("curve", "path_deviation"), dev)  # the reference's is 0
+    assert res.extremes["curve"]["path_deviation"]["max_abs"] >= dev[-361:].max() - 1e-12
+    # without a reference the ideal point lies on its own path
+    assert np.all(simulate(nominal).outputs["curve"]["path_deviation"] == 0.0)

@@ -17,6 +17,7 @@ from mechrel.scene import (
 EXPECTED = {
     "slider-crank", "slider-crank-dry", "slider-crank-lubricated",
     "nine-bar", "nine-bar-dry", "nine-bar-lubricated", "double-pendulum", "four-bar",
+    "whitworth", "inverted-slider-crank",
 }
 
 
@@ -34,16 +35,29 @@ def _point(scene, q, index, ref):
     return np.array([x + c * sx - s * sy, y + s * sx + c * sy])
 
 
+def _angle(q, index, body):
+    return 0.0 if body == GROUND else q[3 * index[body] + 2]
+
+
 def _residual(scene, q, t, index):
     r = []
     for j in scene.joints.values():
         if j.type == "revolute":
             r.extend(_point(scene, q, index, j.points[1]) - _point(scene, q, index, j.points[0]))
-        elif j.type == "translational":
+        elif j.type in ("translational", "pin-in-slot"):
+            # points[0] on the line through points[1]; the direction is written like the line
+            # body's points (ground axes at t = 0 for a body written by global_points)
+            line = j.points[1].body
             d = _point(scene, q, index, j.points[0]) - _point(scene, q, index, j.points[1])
             ux, uy = j.direction
+            if line != GROUND:
+                placed = scene.bodies[line].global_points is not None
+                th = _angle(q, index, line) - (scene.bodies[line].angle if placed else 0.0)
+                ux, uy = (math.cos(th) * ux - math.sin(th) * uy,
+                          math.sin(th) * ux + math.cos(th) * uy)
             r.append(-uy * d[0] + ux * d[1])
-            r.append(q[3 * index[j.points[0].body] + 2] - j.angle)
+            if j.type == "translational":
+                r.append(_angle(q, index, j.points[0].body) - _angle(q, index, line) - j.angle)
         else:
             r.append(q[3 * index[j.points[0].body] + 2] - j.angle)
     for d in scene.drivers.values():

@@ -170,6 +170,7 @@ def test_study_settings_are_filled_in_when_loaded():
     study = load_study(_raw(reliability={"methods": ["mc"], "max_failure_fraction": 0.25}))
     assert study.reliability == {"methods": ("mc",), "event": "two-sided", "n": 256,
                                  "rule": "sobol", "seed": None, "pce_order": 2,
+                                 "pce_max_evaluations": 100_000,
                                  "max_failure_fraction": 0.25}
     assert study.sensitivity == {"n": 256, "seed": None, "max_failure_fraction": 0.05}
 
@@ -237,7 +238,7 @@ def test_reliability_command_writes_tables_figure_and_provenance(tmp_path, capsy
         assert abs(float(beta) - ndtri(float(row["fosm.reliability"].iloc[0]))) <= 5e-4
     summary = json.loads((out / "summary.json").read_text())
     prov = summary["provenance"]["fosm"]
-    assert prov["n_model_evaluations"] == 3 and "model_cache_key" in prov
+    assert prov["n_evaluations"] == 3 and "model_cache_key" in prov
     # the scene it ran: its name, source and the hash of the scene with the study's overrides
     scene = load_scene("nine-bar-lubricated",
                        overrides={"solver.rtol": 1e-5, "solver.atol": 1e-8})
@@ -247,8 +248,9 @@ def test_reliability_command_writes_tables_figure_and_provenance(tmp_path, capsy
     # a second run resumes from the evaluation cache: no simulation at all
     main(["reliability", str(study_file), "--method", "fosm", "--jobs", "1",
           "--out", str(out), "--no-progress"])
-    assert "0 model evaluations" in capsys.readouterr().out
+    assert "  3 model evaluations (3 from the cache) in " in capsys.readouterr().out
     again = json.loads((out / "summary.json").read_text())["provenance"]["fosm"]
+    assert (again["n_evaluations"], again["n_computed"], again["n_cached"]) == (3, 0, 3)
     assert again["model"] == prov["model"]  # from the cache, the same account of the model
 
 
@@ -338,7 +340,7 @@ def test_refused_monte_carlo_writes_the_failures_and_says_how_to_proceed(tmp_pat
     text = capsys.readouterr().out
     assert (f"failed samples (mc, left out of its estimate): {failing.sum()} of 16 samples "
             f"failed ({failing.sum()}× SceneError:") in text
-    assert "0 model evaluations" in text
+    assert f"  16 model evaluations (16 from the cache, {failing.sum()} failed) in " in text
     assert len(pd.read_csv(out / "failures.csv")) == failing.sum()
     summary = json.loads((out / "summary.json").read_text())
     assert summary["max_failure_fraction"] == 0.5 and "refused" not in summary

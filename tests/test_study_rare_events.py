@@ -98,6 +98,18 @@ def test_linear_whole_cycle_margin_is_exact_by_form_and_sorm_and_sampled_within_
     lines = rare.summary_lines(results)
     assert len(lines) == 4 and lines[0].startswith("  form (form): whole-cycle P_f = 3.17e-05")
     assert "c.o.v." in lines[3] and "α² x1 0.50" in lines[0]
+    # one count: a line gives the rows its estimate rests on, SORM's and IS's include FORM's
+    # (and say so), the run's total counts each row once
+    per, total = rare.evaluation_counts(results, {k: r.evaluations for k, r in results.items()})
+    n = {k: c.evaluations for k, (c, _) in per.items()}
+    assert [per[k][1] for k in ("form", "sorm", "is", "subset")] == [None, "form", "form", None]
+    assert n == {k: int(table.loc[k, "n_evaluations"]) for k in n}
+    assert total.evaluations == n["form"] + (n["sorm"] - n["form"]) + (n["is"] - n["form"]) \
+        + n["subset"]
+    assert total.computed + total.cached == total.evaluations  # no cache: all computed
+    for line, k in zip(lines, ("form", "sorm", "is", "subset")):
+        assert f"; {per[k][0].text()}" in line
+    assert f"{n['form']} of them form's" in lines[1] and "form's" not in lines[3]
 
 
 def test_random_allowables_and_series_systems_over_quantities():
@@ -234,6 +246,19 @@ def test_reliability_command_runs_form_and_subset_on_the_mechanism(tmp_path, cap
     summary = json.loads((out / "summary.json").read_text())
     assert summary["provenance"]["subset"]["method"] == "subset_simulation"
     assert summary["methods"] == ["form", "subset"]
+    # one count of model evaluations: the methods' lines, the total line, the file agree
+    counts = summary["evaluations"]
+    for k in ("form", "subset"):
+        c = counts[k]
+        assert c["n_evaluations"] == table.loc[k, "n_evaluations"] == \
+            summary["provenance"][k]["n_evaluations"]
+        assert c["n_computed"] + c["n_cached"] == c["n_evaluations"]
+        assert f"; {c['n_evaluations']} model evaluations ({c['n_computed']} computed" in printed
+    total = counts["total"]
+    assert total["n_evaluations"] == counts["form"]["n_evaluations"] + \
+        counts["subset"]["n_evaluations"]
+    assert f"  {total['n_evaluations']} model evaluations ({total['n_computed']} computed" in \
+        printed
 
 
 def test_nine_bar_script_finds_its_deepest_allowable_and_reads_the_levels():

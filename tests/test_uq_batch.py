@@ -14,11 +14,12 @@ import pickle
 import numpy as np
 import pytest
 
-from mechrel.errors import StudyError
+from mechrel.errors import SceneError, StudyError
 from mechrel.studies.study import load_study
 from mechrel.uq import FunctionModel, ModelFailure
-from mechrel.uq.execution.executor import evaluate, evaluate_rows
-from mechrel.uq.problem.mechanism import MechanismModel
+from mechrel.uq.execution.executor import evaluate
+from mechrel.uq.problem.model import evaluate_rows
+from mechrel.uq.problem.mechanism import MechanismModel, _stable_reason
 from mechrel.uq.problem.model import RowFailures
 from mechrel.uq.problem.allowables import EXTREME_STATS
 
@@ -171,3 +172,172 @@ def test_evaluate_rows_hands_the_finished_rows_to_an_interrupt():
     assert k == 2 and calls == [0.0, 1.0, 2.0]
     assert Y[0, 0] == 0.0 and np.isnan(Y[1, 0]) and list(ok) == [True, False]
     assert reasons == [None, "one is refused"]
+
+
+# ----------------------------------------------------------------------------- issue 35
+# A vectorised model's chunk is handled as a chunk: one call, its failed rows reported by the
+# model (a row mask of NaN, RowFailures) and recorded as they are, never a re-run; a batch
+# that raises is split in halves until the raising rows stand alone. The numbers are the same
+# for any chunk size and worker count, bitwise, and those of row-by-row evaluation.
+
+def _sums(X):
+    """Exact arithmetic (sums and products of small binary fractions): the same bits whether
+    evaluated on one row or a batch, by NumPy's vector loop or its scalar tail."""
+    return np.column_stack([X[:, 0] + X[:, 1], X[:, 0] * X[:, 1]])
+
+
+CALLS: list[int] = []
+
+
+def _sums_masked(X):
+    CALLS.append(X.shape[0])
+    Y = _sums(X)
+    Y[X[:, 0] < 0] = np.nan  # a row mask: these rows failed
+    return Y
+
+
+def _sums_raising(X):
+    CALLS.append(X.shape[0])
+    if (X[:, 0] < 0).any():
+        raise ModelFailure("x0 < 0")
+    return _sums(X)
+
+
+def _design(n=257, seed=3):
+    rng = np.random.default_rng(seed)
+    X = np.round(rng.uniform(-1, 8, size=(n, 2)) * 8) / 8  # multiples of 1/8: exact sums
+    X[:, 0] = np.abs(X[:, 0])
+    X[rng.choice(n, size=5, replace=False), 0] = -1.0  # 5 failing rows (2 %)
+    return X
+
+
+def test_a_masked_batch_is_called_once_per_chunk_and_its_rows_kept():
+    X = _design()
+    model = FunctionModel(_sums_masked, ["a", "b"], ["s", "p"], key="masked", vectorized=True)
+    CALLS.clear()
+    ev = evaluate(model, X, chunk_size=64, progress=False)
+    assert CALLS == [64, 64, 64, 64, 1]  # no row evaluated twice
+    bad = X[:, 0] < 0
+    assert list(ev.status == "failed") == list(bad)
+    assert set(ev.failure_counts()) == {"non-finite output (2 of 2 entries)"}
+    assert np.array_equal(ev.Y[~bad], _sums(X[~bad]))
+    assert ev.count.as_tuple() == (257, 257, 0, 5)
+
+
+def test_a_raising_batch_isolates_its_failing_rows_by_halves():
+    X = _design()
+    model = FunctionModel(_sums_raising, ["a", "b"], ["s", "p"], key="raising",
+                          vectorized=True)
+    CALLS.clear()
+    ev = evaluate(model, X, chunk_size=64, progress=False)
+    bad = X[:, 0] < 0
+    assert list(ev.status == "failed") == list(bad)
+    assert all(r == "x0 < 0" for r in ev.reasons if r is not None)
+    assert np.array_equal(ev.Y[~bad], _sums(X[~bad]))
+    # 5 failing rows: far fewer rows evaluated again than row by row would (2 x 257 + ...)
+    assert sum(CALLS) < 4 * X.shape[0] and len(CALLS) < X.shape[0]
+    assert ev.n_model_calls == X.shape[0]  # rows computed, each counted once
+
+
+@pytest.mark.parametrize("func", [_sums_masked, _sums_raising, _rows_with_failures],
+                         ids=["mask", "raising", "RowFailures"])
+def test_vectorised_results_do_not_depend_on_chunks_workers_or_batching(func):
+    X = _design()
+    vec = FunctionModel(func, ["a", "b"], ["s", "p"], key=func.__name__, vectorized=True)
+    runs = {(cs, jobs): evaluate(vec, X, n_jobs=jobs, chunk_size=cs, progress=False)
+            for cs in (1, 7, 64, None) for jobs in (1, 2)}
+    # row by row: the same function on one row at a time (a row-wise model)
+    one = FunctionModel(lambda x: func(x[None, :])[0], ["a", "b"], ["s", "p"],
+                        key=func.__name__ + "-rows")
+    first = evaluate(one, X, progress=False)
+    assert first.n_failed == 5
+    for key, ev in runs.items():
+        assert ev.Y.tobytes() == first.Y.tobytes(), key
+        assert list(ev.status) == list(first.status), key
+        assert ev.count.as_tuple() == first.count.as_tuple(), key
+        if func is not _rows_with_failures:  # that one words its reason per row
+            assert ev.reasons == first.reasons, key
+
+
+def test_cache_writes_and_progress_come_once_per_chunk(tmp_path, monkeypatch):
+    from mechrel.uq.execution.cache import EvaluationCache
+
+    stored = []
+    store = EvaluationCache.store
+    monkeypatch.setattr(EvaluationCache, "store",
+                        lambda self, key, X, *a: (stored.append(len(X)), store(self, key, X, *a)))
+    done = []
+    X = _design(n=100)
+    model = FunctionModel(_sums_masked, ["a", "b"], ["s", "p"], key="cached", vectorized=True)
+    ev = evaluate(model, X, chunk_size=32, cache=tmp_path, progress=False,
+                  callback=lambda k, n: done.append((k, n)))
+    assert stored == [32, 32, 32, 4] and done == [(32, 100), (64, 100), (96, 100), (100, 100)]
+    again = evaluate(model, X, chunk_size=32, cache=tmp_path, progress=False)
+    assert again.count.as_tuple() == (100, 0, 100, ev.n_failed)
+    assert again.Y.tobytes() == ev.Y.tobytes() and again.reasons == ev.reasons
+
+
+def test_an_interrupt_in_the_second_half_keeps_the_first_half():
+    from mechrel.uq.execution.executor import _batch
+
+    class Model:
+        vectorized = True
+
+        def evaluate_batch(self, X):
+            if (X[:, 0] < 0).any():
+                raise ModelFailure("x0 < 0")
+            if (X[:, 0] == 9.0).any():  # Ctrl-C while the second half runs
+                raise KeyboardInterrupt
+            return _sums(X)
+
+    X = np.array([[1.0, 2.0], [-1.0, 2.0], [3.0, 4.0], [9.0, 1.0]])
+    with pytest.raises(KeyboardInterrupt) as info:
+        _batch(Model(), X, 2)
+    k, Y, ok, reasons = info.value.finished
+    assert k == 2 and list(ok) == [True, False] and reasons == [None, "x0 < 0"]
+    assert np.array_equal(Y[0], [3.0, 2.0])
+
+
+def test_the_mechanism_sample_path_is_bitwise_the_full_path_with_mixed_inputs():
+    # a clearance and a length tolerance: the sample's compiled scene is patched (its
+    # clearance row, the crank pin's coordinates), the nominal reference is prepared once per
+    # clearance; every row equals the full path (scene rebuilt, simulate with provenance)
+    model = MechanismModel("slider-crank-lubricated",
+                           {"c": ["joints.C.clearance"], "r": ["bodies.crank.length(O,A)"]},
+                           quantities=["velocity"], angle_step=90.0, cycles=1,
+                           overrides={"solver.rtol": 1e-5, "solver.atol": 1e-8})
+    assert model.nominal_reference
+    c0, r0 = model.nominal
+    X = np.array([[c0, r0], [c0, r0 + 1e-4], [1.2 * c0, r0 - 1e-4], [c0, -0.05]])
+    with pytest.raises(RowFailures) as info:
+        model.evaluate_batch(X)
+    got = info.value
+    with pytest.raises(SceneError) as full:  # the full path's own message (numbers as '#')
+        model.simulate(X[3])
+    assert "a length must be a number > 0" in str(full.value)
+    assert got.reasons[3] == _stable_reason(full.value)
+    for i in range(3):
+        assert got.Y[i].tobytes() == _reference_row(model, X[i]).tobytes(), i
+    assert model._samples.prepared.patchable
+    assert len(model._samples.references) == 2  # one per clearance value met
+
+
+def test_the_nominal_reference_of_geometric_samples_is_analysed_once(monkeypatch):
+    import mechrel.simulation as simulation
+
+    model = MechanismModel("slider-crank", ["bodies.crank.length(O,A)",
+                                            "bodies.rod.length(A,B)"], angle_step=30.0)
+    seen = []
+    kin = simulation.kinematic_analysis
+    monkeypatch.setattr(simulation, "kinematic_analysis",
+                        lambda system, *a, **kw: (seen.append(id(system)), kin(system, *a,
+                                                                              **kw))[1])
+    L = model.nominal
+    X = L + np.array([[1e-5, 0.0], [0.0, -2e-5], [3e-5, 1e-5], [-1e-5, 1e-5]])
+    Y = model.evaluate_batch(X)
+    ref = next(iter(model._samples.references.values()))
+    n_ref = sum(1 for s in seen if s == id(ref._compiled.ideal))
+    # the reference at the output grid and at the extremes' window, once each, for 4 samples
+    assert n_ref == 2
+    for i in range(4):
+        assert Y[i].tobytes() == _reference_row(model, X[i]).tobytes(), i

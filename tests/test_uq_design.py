@@ -98,7 +98,7 @@ def test_a_tolerance_allocation_with_a_known_optimum(method, kw):
     assert t.loc[t["f"] == 1.0, "cost"].iloc[0] == pytest.approx(r.cost)
     # the counts: every model run, the method's and the verification's
     prov = r.provenance
-    assert prov["n_model_evaluations"] == (prov["counts"]["design"]["n_evaluations"]
+    assert prov["n_evaluations"] == (prov["counts"]["design"]["n_evaluations"]
                                            + prov["counts"]["verification"]["n_evaluations"])
     assert prov["counts"]["verification"]["n_evaluations"] == 40_000
     if method == "ak":  # the surrogate needs few runs of the model
@@ -352,7 +352,7 @@ def test_mechrel_design_runs_a_study_file(tmp_path, capsys):
                  "design_tradeoff.png", "design_history.csv", "design.json"):
         assert (out / name).is_file(), name
     record = json.loads((out / "design.json").read_text())
-    n = record["provenance"]["n_model_evaluations"]
+    n = record["provenance"]["n_evaluations"]
     assert 10 <= n <= 30 and record["method"] == "mc"
     table = pd.read_csv(out / "design.csv")
     assert table["variable"].tolist() == ["c"]
@@ -360,7 +360,7 @@ def test_mechrel_design_runs_a_study_file(tmp_path, capsys):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", EstimateWarning)
         lines, r = run_design(load_study(str(f)), out=out, progress=False)
-    assert r.provenance["n_cached"] == r.provenance["n_model_evaluations"] == n
+    assert r.provenance["n_cached"] == r.provenance["n_evaluations"] == n
     assert r.design == pytest.approx(record["optimum"])
 
 

@@ -67,7 +67,7 @@ def test_linear_model_fosm_is_exact():
     # the paper's form: R = Φ(β) exactly and "reliability" follows the event
     assert np.array_equal(t["reliability"], t["R_one_sided"])
     assert res.evaluations.n == 2 * 3 + 1
-    assert res.provenance["n_model_evaluations"] == 7
+    assert res.provenance["n_evaluations"] == 7
     assert res.provenance["model_cache_key"] == model.cache_key()
     np.testing.assert_allclose(res.steps, EPS ** (1 / 3) * np.maximum(np.abs(MU), SD))
 

@@ -226,7 +226,7 @@ def test_seed_none_is_recorded_and_replayable():
     entropy = a.provenance["seed"]["entropy"]
     b = monte_carlo(model=_model(), inputs=INPUTS, n=300, allowable=ALLOW, seed=entropy)
     pd.testing.assert_frame_equal(a.table, b.table)
-    assert set(a.provenance) >= {"seed", "n_model_evaluations", "wall_time", "versions",
+    assert set(a.provenance) >= {"seed", "n_evaluations", "wall_time", "versions",
                                  "model_cache_key", "settings"}
 
 

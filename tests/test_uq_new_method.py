@@ -153,7 +153,7 @@ def test_a_method_of_a_new_kind_gets_its_table_written(study_file, tmp_path):
     table = pd.read_csv(tmp_path / "o" / "crude_table.csv")
     assert table["pf"].iloc[0] == results["crude_table"].pf
     assert table["n_evaluations"].iloc[0] == 64  # the registry's default: no [crude_table]
-    assert "  crude_table: 64 model evaluations, table in crude_table.csv" in lines
+    assert "  crude_table: 64 model evaluations (64 computed), table in crude_table.csv" in lines
 
 
 def test_a_per_angle_method_joins_the_reliability_table(study_file, tmp_path):

@@ -308,7 +308,7 @@ def test_form_history_and_convergence_errors():
     assert list(res.history.columns)[:3] == ["beta", "g", "merit_c"]
     assert res.history["beta"].iloc[-1] == pytest.approx(4.5, abs=1e-10)
     assert (res.provenance["method"] == "form"
-            and res.provenance["n_model_evaluations"] == res.n_evaluations)
+            and res.provenance["n_evaluations"] == res.n_evaluations)
     with pytest.raises(FORMConvergenceError,
                        match="did not converge in max_iter = 1 iterations") as e:
         form(model=_vec(_r_minus_s, UncertainInputs.from_specs({"R": LogNormal(10, 1.5),
@@ -514,11 +514,11 @@ def test_same_seed_same_result_any_n_jobs_and_resume_from_cache(tmp_path):
     pd.testing.assert_frame_equal(a.table, b.table, check_exact=True)
     c = subset_simulation(**kw, n_jobs=1, cache=tmp_path)
     pd.testing.assert_frame_equal(a.table, c.table, check_exact=True)
-    assert c.provenance["n_model_calls"] == 0 and c.provenance["n_cached"] == c.n_evaluations
+    assert c.provenance["n_computed"] == 0 and c.provenance["n_cached"] == c.n_evaluations
     # FORM's stencils and line-search points are cached rows too
     f1 = form(model=model, inputs=STD2, cache=tmp_path / "form")
     f2 = form(model=model, inputs=STD2, cache=tmp_path / "form")
-    assert f2.beta == f1.beta and f2.provenance["n_model_calls"] == 0
+    assert f2.beta == f1.beta and f2.provenance["n_computed"] == 0
     assert f1.provenance["limit_state"]["components"][0]["kind"] == "margin"
 
 

@@ -37,7 +37,7 @@ def test_ishigami_first_and_total_order():
     np.testing.assert_allclose(res.total.to_numpy()[0], ref["total"], atol=0.02)
     assert np.all(res.first_conf.to_numpy() > 0) and np.all(res.total_conf.to_numpy() < 0.05)
     assert res.n_blocks_dropped == 0 and res.n_blocks_used == 2**13
-    assert res.provenance["n_model_evaluations"] == 5 * 2**13
+    assert res.provenance["n_evaluations"] == 5 * 2**13
     long = res.to_frame()
     assert list(long.columns) == ["S1", "S1_conf", "ST", "ST_conf"] and len(long) == 3
 

@@ -16,7 +16,9 @@ from __future__ import annotations
 
 import difflib
 import math
+import re
 from collections.abc import Iterable, Mapping, Sequence
+from types import MappingProxyType
 from typing import Any, NoReturn
 
 import numpy as np
@@ -34,11 +36,20 @@ def fmt_value(v: Any, limit: int = 80) -> str:
     return s if len(s) <= limit else s[: limit - 3] + "..."
 
 
+# TOML's escapes in a basic string; other control characters (and the bidirectional-text
+# controls, which reorder what a terminal shows) as \uXXXX: a value in a message is one line
+_STRING_ESCAPES = {c: f"\\u{c:04x}" for c in (*range(0x20), *range(0x7f, 0xa0), 0x061c, 0x200e,
+                                                0x200f, *range(0x202a, 0x202f),
+                                                *range(0x2066, 0x206a))}
+_STRING_ESCAPES.update({ord("\\"): "\\\\", ord('"'): '\\"', ord("\b"): "\\b", ord("\t"): "\\t",
+                        ord("\n"): "\\n", ord("\f"): "\\f", ord("\r"): "\\r"})
+
+
 def _fmt(v: Any) -> str:
     if isinstance(v, bool):
         return "true" if v else "false"
     if isinstance(v, str):
-        return '"' + v.replace("\\", "\\\\").replace('"', '\\"') + '"'
+        return '"' + v.translate(_STRING_ESCAPES) + '"'
     if isinstance(v, float):
         if math.isnan(v):
             return "nan"
@@ -124,10 +135,13 @@ def _one_of(choices: Sequence[str]) -> str:
     return "one of " + ", ".join(str(c) for c in choices) if choices else "none defined"
 
 
+_BARE_KEY = re.compile(r"[A-Za-z0-9_-]+")
+
+
 def join(prefix: str, key: str) -> str:
     """``prefix.key``; a key that is not a bare TOML key is quoted as TOML does."""
     key = str(key)
-    if not key or not all(c.isalnum() or c in "_-" for c in key) or not key.isascii():
+    if not _BARE_KEY.fullmatch(key):  # ASCII letters, digits, '_' and '-', at least one
         key = '"' + key.replace("\\", "\\\\").replace('"', '\\"') + '"'
     return f"{prefix}.{key}" if prefix else key
 
@@ -191,7 +205,7 @@ class Checker:
 
     # -- structure
     def table(self, path: str, v: Any, allowed: str = "a table") -> Mapping:
-        if not isinstance(v, Mapping):
+        if not isinstance(v, (dict, MappingProxyType)) and not isinstance(v, Mapping):
             self.fail(path, v, f"expected a table, got {_typename(v)}", allowed)
         for k in v:
             if not isinstance(k, str):
@@ -221,27 +235,29 @@ class Checker:
     # -- leaves
     def number(self, path: str, v: Any, *, gt=None, ge=None, lt=None, le=None,
                unit: str | None = None) -> float:
-        allowed = describe_number(gt, ge, lt, le, unit)
+        def fail(problem: str) -> NoReturn:  # the range is described only for a message
+            self.fail(path, v, problem, describe_number(gt, ge, lt, le, unit))
+
         if v is _MISSING:
-            self.fail(path, v, "missing required field", allowed)
+            fail("missing required field")
         if isinstance(v, bool):
-            self.fail(path, v, "expected a number, got a boolean", allowed)
+            fail("expected a number, got a boolean")
         if not isinstance(v, (int, float)):
-            self.fail(path, v, f"expected a number, got {_typename(v)}", allowed)
+            fail(f"expected a number, got {_typename(v)}")
         try:
             x = float(v)
         except OverflowError:
             x = math.inf
         if not math.isfinite(x):
-            self.fail(path, v, "not a finite number", allowed)
+            fail("not a finite number")
         if gt is not None and not x > gt:
-            self.fail(path, v, f"must be > {_bound(gt)}", allowed)
+            fail(f"must be > {_bound(gt)}")
         if ge is not None and not x >= ge:
-            self.fail(path, v, f"must be >= {_bound(ge)}", allowed)
+            fail(f"must be >= {_bound(ge)}")
         if lt is not None and not x < lt:
-            self.fail(path, v, f"must be < {_bound(lt)}", allowed)
+            fail(f"must be < {_bound(lt)}")
         if le is not None and not x <= le:
-            self.fail(path, v, f"must be <= {_bound(le)}", allowed)
+            fail(f"must be <= {_bound(le)}")
         return x
 
     def integer(self, path: str, v: Any, *, gt=None, ge=None, le=None,
@@ -266,6 +282,8 @@ class Checker:
         return v
 
     def choice(self, path: str, v: Any, choices: Sequence[str]) -> str:
+        if isinstance(v, str) and v in choices:  # allowed: no message to word
+            return v
         allowed = _one_of(choices)
         s = self.string(path, v, allowed)
         if s not in choices:

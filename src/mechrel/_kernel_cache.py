@@ -467,6 +467,10 @@ def split_compile(scene) -> set[str]:
 
     env = dict(os.environ)
     env[PARENT_ENV] = str(os.getpid())  # the helper ends itself when this process ends
+    # ``python -c`` puts the current folder first on the import path: a pickle.py or json.py
+    # in the folder a user runs mechrel from would be executed by the helper (as by loky's
+    # workers, uq/execution/_workers.py)
+    env["PYTHONSAFEPATH"] = "1"
     env["PYTHONPATH"] = os.pathsep.join([str(_PACKAGE.parent)]
                                         + ([env["PYTHONPATH"]] if env.get("PYTHONPATH") else []))
     shares = _shares(scene)
@@ -523,13 +527,14 @@ def _helper() -> None:
     the job names as arguments; prints each job's name when it is done. It ends itself when
     the process that started it ends (interrupted, or killed), instead of compiling on for
     nobody (:func:`mechrel.uq.execution._workers.watch_parent`)."""
+    from .uq.execution._workers import watch_parent
+
+    watch_parent()  # first: its parent may be gone before the imports below are done
+
     import json
     import sys
 
     from .scene import load_scene
-    from .uq.execution._workers import watch_parent
-
-    watch_parent()
 
     scene = load_scene(json.loads(sys.stdin.read()))
     for name in sys.argv[1:]:

@@ -181,6 +181,18 @@ class OutputError(StudyError):
     """
 
 
+class WorkerError(MechrelError, RuntimeError):
+    """A worker process of a parallel run ended without its result: killed by the system (out
+    of memory) or from outside (``kill -9``). The finished chunks are cached; a rerun resumes.
+
+    Examples
+    --------
+    >>> err = WorkerError("a worker process ended without a word (SIGKILL)")
+    >>> isinstance(err, MechrelError), isinstance(err, RuntimeError)
+    (True, True)
+    """
+
+
 class Interrupted(KeyboardInterrupt):
     """A run stopped by a signal (SIGTERM; Ctrl-C raises :class:`KeyboardInterrupt`).
 

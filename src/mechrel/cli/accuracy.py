@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from .args import add_set_option, seed
+from .terminal import say
 
 
 def _cmd_accuracy(args) -> int:
@@ -13,7 +14,7 @@ def _cmd_accuracy(args) -> int:
     lines, _ = run_accuracy(scene, target=args.target, quick=args.quick, out=args.out,
                             progress=not args.no_progress, ensemble=args.ensemble,
                             seed=args.seed)
-    print("\n".join(lines))
+    say(*lines)
     return 0
 
 

@@ -111,6 +111,46 @@ positive_integer = _rule(_positive_integer, _number, name="positive_integer",
                               "a number of points)", good="5", bad="0", rule="integer")
 
 
+MIN_DPI, MAX_DPI = 10, 1200
+"""The resolutions ``mechrel draw`` accepts: below 10 dots per inch FreeType cannot render the
+labels; at 1200 a drawing (7 × 6 in) is 8400 × 7200 pixels, about 250 MB of memory."""
+MAX_FPS = 100
+"""The frame rate ``mechrel animate`` accepts at most: a GIF stores each frame's duration in
+hundredths of a second."""
+
+
+def _dpi(path, value):
+    return _CLI.integer(path, value, ge=MIN_DPI, le=MAX_DPI, what="dots per inch")
+
+
+def _fps(path, value):
+    return _CLI.integer(path, value, ge=1, le=MAX_FPS, what="frames per second")
+
+
+def _frames(path, value):
+    return _CLI.integer(path, value, ge=2, what="a number of frames")
+
+
+def _positive(path, value):
+    return _CLI.number(path, value, gt=0)
+
+
+def _finite(path, value):
+    return _CLI.number(path, value)
+
+
+dpi = _rule(_dpi, _number, name="dpi", what="a resolution of a figure", good="120", bad="0",
+            rule="integer")
+fps = _rule(_fps, _number, name="fps", what="a frame rate of an animation", good="20",
+            bad="1000000000", rule="integer")
+frames = _rule(_frames, _number, name="frames", what="a number of frames", good="120", bad="1",
+               rule="integer")
+positive = _rule(_positive, _number, name="positive", what="a finite number > 0", good="8",
+                 bad="-1", rule="number")
+finite = _rule(_finite, _number, name="finite", what="a finite number", good="0.01",
+               bad="inf", rule="number")
+
+
 def report_errors(run, args, prog: str) -> int:
     """``run(args)`` for a study script; a :class:`~mechrel.errors.MechrelError` (a wrong
     argument or input) is one line ``PROG: error: ...`` on stderr and exit code 2.
@@ -139,10 +179,12 @@ def report_errors(run, args, prog: str) -> int:
     >>> code, err.getvalue()
     (2, 'study.py: error: n = 1: must be >= 2; allowed: an integer >= 2\\n')
     """
+    from .terminal import printable
+
     try:
         return run(args)
     except MechrelError as exc:
-        print(f"{prog}: error: {exc}", file=sys.stderr)
+        print(printable(f"{prog}: error: {exc}"), file=sys.stderr)
         return 2
 
 

@@ -1,14 +1,35 @@
-"""``mechrel draw`` and ``mechrel animate``: pictures of a scene (:mod:`mechrel.io.drawing`)."""
+"""``mechrel draw`` and ``mechrel animate``: pictures of a scene (:mod:`mechrel.io.drawing`).
+
+Every argument and the output file are checked before anything is assembled or simulated
+(a wrong ``--fps`` must not surface after a minute of rendering), and the picture is written as
+a set of one file (:func:`mechrel.io.results.result_set`): an interrupt, a full disk or a
+read-only folder leaves the previous file as it was, never a truncated GIF that looks valid.
+"""
 
 from __future__ import annotations
 
 from pathlib import Path
 
-from ..errors import MechrelError
-from .args import add_set_option
+from ..errors import OutputError
+from .args import add_set_option, dpi, finite, fps, frames, positive
 
 _SET_HELP = "override a scene value by its dotted path, e.g. joints.C1.clearance=0.3e-3 " \
             "(repeatable)"
+DRAWING_FORMATS = (".png", ".pdf", ".svg")
+"""The file types of ``mechrel draw``."""
+
+
+def _checked_out(text: str, suffixes) -> Path:
+    """``--out`` as a file of one of ``suffixes`` in a folder that exists or can be created,
+    is writable and holds no folder of that name; before anything runs."""
+    from ..io.results import check_folder
+
+    out = Path(text)
+    if out.suffix.lower() not in suffixes:
+        raise OutputError(f"--out = {text!r}: unknown file type {out.suffix or '(none)'!r}; "
+                          f"allowed: {', '.join(suffixes)}")
+    check_folder(out.parent, [out.name], what="--out")
+    return out
 
 
 def _cmd_draw(args) -> int:
@@ -17,19 +38,21 @@ def _cmd_draw(args) -> int:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
+    from ..io import save_figure
     from ..io.drawing import draw_scene
+    from ..io.results import result_set
     from ..scene import load_scene
+    from .terminal import say
 
     scene = load_scene(args.scene, overrides=args.overrides)
-    out = Path(args.out)
-    if out.suffix.lower() not in (".png", ".pdf", ".svg"):
-        raise MechrelError(f"draw: --out = {args.out!r}: unknown file type; allowed: .png, "
-                           ".pdf, .svg")
+    out = _checked_out(args.out, DRAWING_FORMATS)
     fig = draw_scene(scene, t=args.time)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(out, dpi=args.dpi)
-    plt.close(fig)
-    print(f"wrote {out}")
+    try:
+        with result_set(out.parent, out.name, what="--out", manifest=False) as stage:
+            save_figure(fig, stage / out.name, dpi=args.dpi)
+    finally:
+        plt.close(fig)
+    say(f"wrote {out}")
     return 0
 
 
@@ -38,19 +61,28 @@ def _cmd_animate(args) -> int:
 
     matplotlib.use("Agg")
     from .._kernel_cache import warm_up
-    from ..io.drawing import animate, check_animation_path, save_animation
+    from ..io.drawing import (ANIMATION_FORMATS, animate, animation_output,
+                              check_animation_path, save_animation)
+    from ..io.results import result_set
     from ..scene import load_scene
     from ..simulation import simulate
     from .simulate import _summary_lines
+    from .terminal import say
 
     scene = load_scene(args.scene, overrides=args.overrides)
-    check_animation_path(args.out)  # before the simulation, not after it
+    # before the simulation, not after it: the file type (and ffmpeg for MP4), the folder,
+    # the output and its quantity
+    out = _checked_out(args.out, ANIMATION_FORMATS)
+    check_animation_path(out)
+    animation_output(scene, args.output, args.quantity)
     warm_up(scene, progress=not args.no_progress)  # announces a cold cache's compilation
     result = simulate(scene, progress=not args.no_progress)
-    print("\n".join(_summary_lines(result)))
+    say(*_summary_lines(result))
     anim = animate(result, output=args.output, quantity=args.quantity, frames=args.frames,
                    magnify=args.magnify)
-    print(f"wrote {save_animation(anim, args.out, fps=args.fps)}")
+    with result_set(out.parent, out.name, what="--out", manifest=False) as stage:
+        save_animation(anim, stage / out.name, fps=args.fps)
+    say(f"wrote {out}")
     return 0
 
 
@@ -78,9 +110,10 @@ def register_draw(sub) -> None:
     p.add_argument("scene", metavar="SCENE", help="embedded scene name or path to a .toml file")
     add_set_option(p, _SET_HELP)
     p.add_argument("--out", required=True, metavar="FIG.png|.pdf|.svg", help="figure file")
-    p.add_argument("--time", type=float, default=0.0, help="time (s) the drivers are set to "
-                                                           "(default 0)")
-    p.add_argument("--dpi", type=int, default=120, help="resolution of a .png (default 120)")
+    p.add_argument("--time", type=finite, default=0.0, help="time (s) the drivers are set to "
+                                                            "(default 0)")
+    p.add_argument("--dpi", type=dpi, default=120,
+                   help="resolution of a .png, 10 to 1200 dots per inch (default 120)")
     p.set_defaults(func=_cmd_draw)
 
 
@@ -110,13 +143,16 @@ def register_animate(sub) -> None:
     p.add_argument("scene", metavar="SCENE", help="embedded scene name or path to a .toml file")
     add_set_option(p, _SET_HELP)
     p.add_argument("--out", required=True, metavar="ANIM.gif|.html|.mp4", help="animation file")
-    p.add_argument("--frames", type=int, default=120, help="number of frames (default 120)")
-    p.add_argument("--fps", type=int, default=20, help="frames per second (default 20)")
+    p.add_argument("--frames", type=frames, default=120,
+                   help="number of frames, >= 2 (default 120)")
+    p.add_argument("--fps", type=fps, default=20,
+                   help="frames per second, 1 to 100 (default 20)")
     p.add_argument("--output", help="output whose error is traced (default: the first)")
-    p.add_argument("--quantity", default="displacement",
-                   choices=("displacement", "velocity", "acceleration"),
-                   help="which error of the output (default displacement)")
-    p.add_argument("--magnify", type=float, help="draw a clearance circle of radius c with "
+    p.add_argument("--quantity",
+                   help="which error of the output: one of its kind's quantities (a point's "
+                        "displacement, velocity, acceleration; a body's angle, ...; default: "
+                        "the first)")
+    p.add_argument("--magnify", type=positive, help="draw a clearance circle of radius c with "
                                                  "radius MAGNIFY·c (default: 8 %% of the "
                                                  "mechanism's size)")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")

@@ -5,21 +5,23 @@ from __future__ import annotations
 
 def _cmd_scenes(args) -> int:
     from ..scene import list_scenes, load_scene
+    from .terminal import say
 
     if args.name:
         scene = load_scene(args.name)
-        print(f"{scene.name}: {scene.description}")
-        print(f"  bodies:  {', '.join(scene.bodies)}")
-        print("  joints:  " + ", ".join(
-            f"{j.name} ({j.type}{', ' + j.model + ' clearance' if j.is_clearance else ''})"
-            for j in scene.joints.values()))
-        print("  drivers: " + (", ".join(
-            f"{d.name} ({d.law}, {d.speed:g} rad/s)" for d in scene.drivers.values()) or "none"))
-        print(f"  outputs: {', '.join(scene.outputs)}")
+        say(f"{scene.name}: {scene.description}",
+            f"  bodies:  {', '.join(scene.bodies)}",
+            "  joints:  " + ", ".join(
+                f"{j.name} ({j.type}{', ' + j.model + ' clearance' if j.is_clearance else ''})"
+                for j in scene.joints.values()),
+            "  drivers: " + (", ".join(
+                f"{d.name} ({d.law}, {d.speed:g} rad/s)" for d in scene.drivers.values())
+                or "none"),
+            f"  outputs: {', '.join(scene.outputs)}")
         return 0
     for name, description in list_scenes().items():
         first = description.strip().splitlines()[0] if description.strip() else ""
-        print(f"{name:28s} {first}")
+        say(f"{name:28s} {first}")
     return 0
 
 

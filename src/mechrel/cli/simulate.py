@@ -73,18 +73,25 @@ def _summary_lines(result) -> list[str]:
     return lines
 
 
+def _siblings(out: Path) -> tuple[Path, ...]:
+    """The files a run writes beside its table ``out``: figure, provenance, orbits."""
+    return (out.with_suffix(".png"), out.with_suffix(".json"),
+            out.with_name(out.stem + "-orbits" + out.suffix))
+
+
 def _cmd_simulate(args) -> int:
     from ..io import write_json, write_table
     from ..io.figures import plot_simulation
+    from ..io.results import result_set
     from ..io.tables import check_table_path
     from ..scene import load_scene
     from ..simulation import simulate
+    from .terminal import say
 
     scene = load_scene(args.scene, overrides=args.overrides)
     if args.out:
         out = check_table_path(args.out)  # before the simulation, not after it
-        for sibling in (out.with_suffix(".png"), out.with_suffix(".json"),
-                        out.with_name(out.stem + "-orbits" + out.suffix)):
+        for sibling in _siblings(out):
             if sibling.is_dir():
                 raise OutputError(f"--out: {str(sibling)!r}, which this run writes beside "
                                   f"{out.name}, is a folder; allowed: a file name (remove or "
@@ -95,20 +102,26 @@ def _cmd_simulate(args) -> int:
     warm_up(scene, integrator=args.integrator, progress=not args.no_progress)
     result = simulate(scene, integrator=args.integrator, progress=not args.no_progress,
                       extremes=bool(scene.clearance_joints))
-    print("\n".join(_summary_lines(result)))
+    say(*_summary_lines(result))
     if args.out:
         out = Path(args.out)
-        write_table(result.to_frame(), out)
-        plot_simulation(result, out.with_suffix(".png"))
-        meta = {"provenance": dict(result.provenance), "stats": dict(result.stats),
-                "overrides": list(args.overrides)}
-        if result.extremes is not None:
-            meta["extremes"] = {o: {qty: dict(d) for qty, d in qs.items()}
-                                for o, qs in result.extremes.items()}
-        write_json(meta, out.with_suffix(".json"))
-        if result.orbits:
-            write_table(result.orbits_frame(), out.with_name(out.stem + "-orbits" + out.suffix))
-        print(f"wrote {out}, {out.with_suffix('.png')}, {out.with_suffix('.json')}")
+        png, meta_json, orbits = _siblings(out)
+        # one set: table, figure, provenance and orbits replace an earlier run's together
+        with result_set(out.parent, out.name, known=[p.name for p in _siblings(out)],
+                        what="--out") as stage:
+            write_table(result.to_frame(), stage / out.name)
+            plot_simulation(result, stage / png.name)
+            meta = {"provenance": dict(result.provenance), "stats": dict(result.stats),
+                    "overrides": list(args.overrides)}
+            if result.extremes is not None:
+                meta["extremes"] = {o: {qty: dict(d) for qty, d in qs.items()}
+                                    for o, qs in result.extremes.items()}
+            write_json(meta, stage / meta_json.name, relative_to=out.parent)
+            written = [out, png, meta_json]
+            if result.orbits:
+                write_table(result.orbits_frame(), stage / orbits.name)
+                written.append(orbits)
+        say(f"wrote {', '.join(map(str, written))}")
     return 0
 
 

@@ -9,6 +9,7 @@ import warnings
 
 from ..errors import StudyError
 from .args import add_set_option, fraction, jobs, probability, sample_count, seed
+from .terminal import say
 
 SET_HELP = ("override a value (repeatable): a study field by its dotted path "
             "(reliability.n=512, inputs.clearance.std=2e-5, allowable.velocity.mean=0.2, "
@@ -62,14 +63,41 @@ def split_overrides(texts) -> tuple[dict, dict]:
     return study, scene
 
 
+SCHEDULER_TIMEOUT = 10.0
+"""Seconds ``--scheduler`` waits for a Dask scheduler's answer before it gives up."""
+_ALLOWED_SCHEDULER = ("allowed: the address of a running Dask scheduler, e.g. "
+                      "tcp://127.0.0.1:8786 (port 8786; 8787 is its dashboard's)")
+
+
+def _identify(address: str, timeout: float) -> dict:
+    """The reply of whatever listens at ``address`` to Dask's ``identity`` request, within
+    ``timeout`` s (distributed's own connect waits for ever for a server that accepts and
+    never answers, and reads a web server's reply as a message of exabytes)."""
+    import asyncio
+
+    from distributed.comm import connect
+
+    async def ask():
+        comm = await asyncio.wait_for(connect(address, timeout=timeout), timeout)
+        try:
+            await asyncio.wait_for(comm.write({"op": "identity", "reply": True}), timeout)
+            return await asyncio.wait_for(comm.read(), timeout)
+        finally:
+            comm.abort()
+
+    return asyncio.run(ask())
+
+
 @contextlib.contextmanager
-def dask_backend(address: str | None):
+def dask_backend(address: str | None, *, timeout: float = SCHEDULER_TIMEOUT):
     """The executor backend for ``--scheduler``, as a context manager.
 
     Parameters
     ----------
     address : str or None
         The address of a running Dask scheduler (e.g. ``tcp://10.0.0.5:8786``), or None.
+    timeout : float, default SCHEDULER_TIMEOUT
+        Seconds to wait for the scheduler's answer.
 
     Yields
     ------
@@ -80,7 +108,9 @@ def dask_backend(address: str | None):
     Raises
     ------
     StudyError
-        If dask.distributed is not installed, or no scheduler answers at ``address``.
+        If dask.distributed is not installed, nothing accepts a connection at ``address``,
+        what answers is not a Dask scheduler (its dashboard, a worker, another server), or
+        nothing answers within ``timeout`` s.
 
     Examples
     --------
@@ -96,12 +126,29 @@ def dask_backend(address: str | None):
     except ImportError:
         raise StudyError(f"--scheduler = {address!r}: dask.distributed is not installed; "
                          "allowed: pip install 'mechrel[dask]', or leave out --scheduler") from None
+    where = f"--scheduler = {address!r}"
     try:
-        client = Client(address, timeout="10s")
+        reply = _identify(address, timeout)
+    except TimeoutError:
+        raise StudyError(f"{where}: no answer within {timeout:g} s; {_ALLOWED_SCHEDULER}") from None
+    except OSError as exc:  # refused, unreachable (distributed's CommClosedError included)
+        raise StudyError(f"{where}: cannot connect to a Dask scheduler there "
+                         f"({type(exc).__name__}: {' '.join(str(exc).split())}); "
+                         f"{_ALLOWED_SCHEDULER}") from None
+    except Exception as exc:  # noqa: BLE001 - any other failure to speak Dask's protocol
+        raise StudyError(f"{where}: what answers there does not speak Dask's protocol (a web "
+                         f"page, e.g. the dashboard, or another server: {type(exc).__name__}); "
+                         f"{_ALLOWED_SCHEDULER}") from None
+    kind = reply.get("type") if isinstance(reply, dict) else None
+    if kind != "Scheduler":
+        raise StudyError(f"{where}: a Dask {kind or 'server'} answers there, not a scheduler; "
+                         f"{_ALLOWED_SCHEDULER}")
+    try:
+        client = Client(address, timeout=f"{timeout}s")
     except (OSError, TimeoutError, ValueError, TypeError) as exc:
-        raise StudyError(f"--scheduler = {address!r}: cannot connect to a Dask scheduler there "
-                         f"({type(exc).__name__}: {exc}); allowed: the address of a running "
-                         "scheduler, e.g. tcp://127.0.0.1:8786") from None
+        raise StudyError(f"{where}: cannot connect to a Dask scheduler there "
+                         f"({type(exc).__name__}: {' '.join(str(exc).split())}); "
+                         f"{_ALLOWED_SCHEDULER}") from None
     try:
         yield "dask"
     finally:
@@ -157,7 +204,7 @@ def _cmd_reliability(args) -> int:
                                    max_failure_fraction=args.max_failure_fraction,
                                    cache=not args.no_cache,
                                    target_reliability=args.target_reliability)
-    print("\n".join(lines))
+    say(*lines)
     return 0
 
 
@@ -170,7 +217,7 @@ def _cmd_sensitivity(args) -> int:
                                    out=args.out, backend=backend, progress=not args.no_progress,
                                    max_failure_fraction=args.max_failure_fraction,
                                    cache=not args.no_cache)
-    print("\n".join(lines))
+    say(*lines)
     return 0
 
 
@@ -183,7 +230,7 @@ def _cmd_design(args) -> int:
                               out=args.out, backend=backend, progress=not args.no_progress,
                               max_failure_fraction=args.max_failure_fraction,
                               cache=not args.no_cache)
-    print("\n".join(lines))
+    say(*lines)
     return 0
 
 

@@ -1445,6 +1445,8 @@ def _advance_reduced(red, radau, t0, y0, hist, t_out, ctl, log_from, n_dense):
     ny = 2 * n + 2
     ya, yda = np.empty((1, ny)), np.empty((1, ny))
     fr = np.zeros((1, y.shape[0]))  # the final state's z'' is not needed: q, q' only
-    expand_rows(np.array([t]), y.reshape(1, -1), fr, system, con,
-                make_reduced_work(system, con, red.q_ref), ya, yda)
+    rw = make_reduced_work(system, con, red.q_ref)
+    if done and np.all(np.isfinite(Y[done[-1], :n])):  # angles continue the last output's
+        rw.th_ref[:] = Y[done[-1], 2:n:3]
+    expand_rows(np.array([t]), y.reshape(1, -1), fr, system, con, rw, ya, yda)
     return Y, YD, hist, stats, t, ya[0], log, H

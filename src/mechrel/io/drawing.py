@@ -10,9 +10,11 @@ output's error traced beside it; :func:`save_animation` writes it as GIF (Pillow
 
 Conventions: a body with three or more points is drawn as the polygon through them (in angular
 order about their centroid), a body with two points as a bar, a body with one point as a block
-(a slider); ideal revolute joints are small open circles, clearance joints larger red circles;
-ground points of joints carry a hatched ground symbol; a translational joint draws its guide
-line. Coordinates are plotted in millimetres.
+(a slider); ideal revolute joints are small open circles, clearance joints larger red circles,
+the pin of a pin-in-slot joint a small open circle too; ground points of joints carry a hatched
+ground symbol; a translational or pin-in-slot joint on a ground line draws that guide line, one
+on a moving body's line draws the slot on that body (outlined in its colour, moving with it,
+long enough for the point's travel along it). Coordinates are plotted in millimetres.
 """
 
 from __future__ import annotations
@@ -24,10 +26,10 @@ from typing import Any
 import numpy as np
 
 from ..errors import MechrelError
-from ..scene.model import GROUND, QUANTITIES, Scene
+from ..scene.model import GROUND, Scene
 
-__all__ = ["ANIMATION_FORMATS", "animate", "assembled_configuration", "draw_scene",
-           "point_positions", "save_animation"]
+__all__ = ["ANIMATION_FORMATS", "animate", "animation_output", "assembled_configuration",
+           "draw_scene", "point_positions", "save_animation"]
 
 ANIMATION_FORMATS = (".gif", ".html", ".mp4")
 """File types :func:`save_animation` writes (MP4 only where ffmpeg is installed)."""
@@ -128,7 +130,7 @@ class _Painter:
     """The artists of one drawn mechanism, updated in place for each frame."""
 
     def __init__(self, ax, scene: Scene, q: np.ndarray, *, ghost: bool = False,
-                 labels: bool = True, extent: float = 1.0):
+                 labels: bool = True, extent: float = 1.0, travel: np.ndarray | None = None):
         from matplotlib.patches import Polygon
 
         self.scene = scene
@@ -151,11 +153,26 @@ class _Painter:
                                    ls="--" if ghost else "-", alpha=0.5 if ghost else 0.9,
                                    solid_capstyle="round", zorder=1 if ghost else 2)
             self.bodies[name] = patch
+        # slots: the lines of translational and pin-in-slot joints on moving bodies, over
+        # the point's travel along them in ``travel`` (configurations, default q alone)
+        self.slots = {}
+        colors = {name: ("0.6" if ghost else _BODY_COLORS[k % len(_BODY_COLORS)])
+                  for k, name in enumerate(scene.bodies)}
+        for joint in scene.joints.values():
+            if joint.type in ("translational", "pin-in-slot") and joint.points[1].body != GROUND:
+                span = _slot_span(scene, joint, np.atleast_2d(q if travel is None else travel),
+                                  0.1 * extent)
+                patch = Polygon(np.zeros((4, 2)), closed=True, fill=False,
+                                edgecolor=colors[joint.points[1].body], lw=1.0 if ghost else 1.5,
+                                ls="--" if ghost else "-", zorder=1 if ghost else 3)
+                ax.add_patch(patch)
+                self.slots[joint.name] = (joint, span, 0.012 * extent, patch)
         self.joints = {}
         if ghost:
+            self.update(q)
             return
         for joint in scene.joints.values():
-            if joint.type != "revolute":
+            if joint.type not in ("revolute", "pin-in-slot"):
                 continue
             where = str(joint.points[0])
             if joint.is_clearance:
@@ -177,7 +194,7 @@ class _Painter:
             at: dict[str, list] = {}
             first_q = point_positions(scene, q)
             for joint in scene.joints.values():
-                if joint.type == "revolute":
+                if joint.type != "fixed-angle":  # at its (first) point: pin, sliding point
                     p = first_q[str(joint.points[0])]
                     key = f"{p[0]:.6f},{p[1]:.6f}"
                     at.setdefault(key, [str(joint.points[0]), [], False])
@@ -210,6 +227,8 @@ class _Painter:
                 artist.set_xy(xy)
             else:
                 artist.set_data(xy[:, 0], xy[:, 1])
+        for joint, span, half, patch in self.slots.values():
+            patch.set_xy(_slot_outline(self.scene, joint, q, span, half) * MM)
         for where, m in self.joints.values():
             m.set_data([pos[where][0] * MM], [pos[where][1] * MM])
         for name, text in getattr(self, "labels", []):
@@ -219,18 +238,59 @@ class _Painter:
         off = 0.35 * self.block * MM
         for where, text in getattr(self, "joint_labels", []):
             text.set_position((pos[where][0] * MM + off, pos[where][1] * MM + off))
-        return [*self.bodies.values(), *(m for _, m in self.joints.values())]
+        return [*self.bodies.values(), *(m for _, m in self.joints.values()),
+                *(patch for *_, patch in self.slots.values())]
+
+
+def _line_frame(scene: Scene, joint, q: np.ndarray):
+    """World position (m) of the line's point ``points[1]`` and the line's unit direction, of a
+    translational or pin-in-slot joint, at the configurations ``q`` (rows)."""
+    from ..mechanics.system import _line_direction
+
+    ref = joint.points[1]
+    q = np.atleast_2d(q)
+    origin = point_positions(scene, q)[str(ref)]
+    u = _line_direction(scene, joint)
+    if ref.body == GROUND:
+        return origin, np.broadcast_to(u, origin.shape)
+    th = q[:, 3 * list(scene.bodies).index(ref.body) + 2]
+    c, s = np.cos(th), np.sin(th)
+    return origin, np.stack([c * u[0] - s * u[1], s * u[0] + c * u[1]], axis=-1)
+
+
+def _slot_span(scene: Scene, joint, Q: np.ndarray, margin: float) -> tuple[float, float]:
+    """The stretch (m, along the line from its point ``points[1]``) a slot is drawn over: the
+    line body's own points and the sliding point at every configuration in ``Q``, plus
+    ``margin`` at each end."""
+    origin, u = _line_frame(scene, joint, Q)
+    pos = point_positions(scene, Q)
+    body = joint.points[1].body
+    points = [str(joint.points[0])] + [f"{body}.{name}" for name in scene.bodies[body].points]
+    along = np.concatenate([np.einsum("ij,ij->i", pos[p] - origin, u) for p in points])
+    return float(along.min()) - margin, float(along.max()) + margin
+
+
+def _slot_outline(scene: Scene, joint, q: np.ndarray, span, half: float) -> np.ndarray:
+    """The slot's rectangle (4 × 2, m) at the configuration ``q``: ``span`` along the line,
+    ``half`` to either side."""
+    origin, u = _line_frame(scene, joint, q)
+    o, u = origin[0], u[0]
+    n = np.array([-u[1], u[0]]) * half
+    a, b = o + span[0] * u, o + span[1] * u
+    return np.array([a - n, b - n, b + n, a + n])
 
 
 def _ground_and_guides(ax, scene: Scene, pos: dict, extent: float, span=None):
-    """Hatched ground symbols at the ground points of joints, and translational guides."""
+    """Hatched ground symbols at the ground points of joints, and the ground lines of
+    translational and pin-in-slot joints (guides)."""
     from matplotlib.patches import Polygon
 
     size = 0.02 * extent
-    used = {str(p) for j in scene.joints.values() if j.type == "revolute" for p in j.points
-            if p.body == GROUND}
+    used = {str(p) for j in scene.joints.values() if j.type in ("revolute", "pin-in-slot")
+            for p in j.points[:2 if j.type == "revolute" else 1] if p.body == GROUND}
     for joint in scene.joints.values():
-        if joint.type != "translational":
+        if joint.type not in ("translational", "pin-in-slot") \
+                or joint.points[1].body != GROUND:
             continue
         g = np.asarray(scene.ground[joint.points[1].point], dtype=float)
         d = np.asarray(joint.direction, dtype=float)
@@ -339,7 +399,7 @@ def _ideal_coordinates(result) -> np.ndarray | None:
     return Q
 
 
-def animate(result, *, output: str | None = None, quantity: str = "displacement",
+def animate(result, *, output: str | None = None, quantity: str | None = None,
             frames: int = 120, magnify: float | None = None, interval: float = 50.0):
     """Animate a simulation: mechanism, ideal ghost, magnified orbits, output error.
 
@@ -349,8 +409,10 @@ def animate(result, *, output: str | None = None, quantity: str = "displacement"
         From :func:`mechrel.simulation.simulate`.
     output : str, optional
         Output whose error is traced (default: the scene's first output).
-    quantity : {"displacement", "velocity", "acceleration"}
-        Which error of ``output``.
+    quantity : str, optional
+        Which error of ``output``: one of its kind's quantities
+        (:data:`mechrel.outputs.OUTPUT_KINDS`; a point's ``displacement``, a body's
+        ``angle``, ...). Default: the kind's first.
     frames : int, default 120
         Number of frames, spread evenly over the result's instants.
     magnify : float, optional
@@ -379,14 +441,10 @@ def animate(result, *, output: str | None = None, quantity: str = "displacement"
     import matplotlib.pyplot as plt
     from matplotlib.animation import FuncAnimation
 
+    from ..outputs import display
+
     scene = result.scene
-    output = output if output is not None else next(iter(scene.outputs), None)
-    if output not in scene.outputs:
-        raise MechrelError(f"animate: output = {output!r}: not an output of scene "
-                           f"{scene.name!r}; allowed: {', '.join(scene.outputs) or 'none'}")
-    if quantity not in QUANTITIES:
-        raise MechrelError(f"animate: quantity = {quantity!r}: unknown; allowed: "
-                           f"{', '.join(QUANTITIES)}")
+    output, quantity = animation_output(scene, output, quantity)
     if not (isinstance(frames, int) and frames >= 2):
         raise MechrelError(f"animate: frames = {frames!r}: too few; allowed: an integer >= 2")
     n = result.time.size
@@ -399,9 +457,10 @@ def animate(result, *, output: str | None = None, quantity: str = "displacement"
     pos_all = point_positions(scene, Q)
     extent = _extent(pos_all)
     _ground_and_guides(ax, scene, pos_all, extent)
-    ghost = _Painter(ax, scene, Qi[idx[0]], ghost=True, extent=extent) if Qi is not None else None
+    ghost = (_Painter(ax, scene, Qi[idx[0]], ghost=True, extent=extent, travel=Qi)
+             if Qi is not None else None)
     # no name labels: they would hide the magnified orbits (mechrel draw shows the names)
-    painter = _Painter(ax, scene, Q[idx[0]], extent=extent, labels=False)
+    painter = _Painter(ax, scene, Q[idx[0]], extent=extent, labels=False, travel=Q)
     _finish_axes(ax, pos_all, extent, pad=0.2)
 
     # orbits: the clearance circle magnified to radius R on the drawing, at the bearing
@@ -429,16 +488,15 @@ def animate(result, *, output: str | None = None, quantity: str = "displacement"
     if orbit_art or ghost is not None:
         ax.legend(fontsize=8, loc="upper left")
 
-    unit, scale = {"displacement": ("mm", 1e3), "velocity": ("m/s", 1.0),
-                   "acceleration": ("m/s²", 1.0)}[quantity]
+    unit, scale = display(quantity)
     x = result.crank_angle if result.crank_angle is not None else result.time
     xlabel = "crank angle (°)" if result.crank_angle is not None else "time (s)"
     if result.ideal is not None:
         y = result.error(output, quantity) * scale
-        ylabel = f"{output} {quantity} error ({unit})"
+        ylabel = f"{output} {quantity} error" + (f" ({unit})" if unit else "")
     else:
         y = result.outputs[output][quantity] * scale
-        ylabel = f"{output} {quantity} ({unit})"
+        ylabel = f"{output} {quantity}" + (f" ({unit})" if unit else "")
     ax2.plot(x, y, color="0.8", lw=1)
     (line,) = ax2.plot([], [], color="tab:blue", lw=1.5)
     (mark,) = ax2.plot([], [], "o", color="tab:blue", ms=5)
@@ -466,6 +524,49 @@ def animate(result, *, output: str | None = None, quantity: str = "displacement"
 
     frame(0)
     return FuncAnimation(fig, frame, frames=len(idx), interval=interval, blit=False)
+
+
+def animation_output(scene: Scene, output: str | None = None,
+                     quantity: str | None = None) -> tuple[str, str]:
+    """The output and quantity :func:`animate` traces, checked against the scene (before any
+    simulation is run): the scene's first output and its kind's first quantity by default.
+
+    Parameters
+    ----------
+    scene : Scene
+        The scene to animate.
+    output, quantity : str, optional
+        As for :func:`animate`.
+
+    Returns
+    -------
+    tuple of str
+        ``(output, quantity)``.
+
+    Raises
+    ------
+    mechrel.errors.MechrelError
+        The scene has no such output, or the output's kind no such quantity.
+
+    Examples
+    --------
+    >>> from mechrel.scene import load_scene
+    >>> animation_output(load_scene("four-bar"), "rocker")
+    ('rocker', 'angle')
+    """
+    from ..outputs import quantities_of
+
+    output = output if output is not None else next(iter(scene.outputs), None)
+    if output is None or output not in scene.outputs:
+        raise MechrelError(f"animate: output = {output!r}: not an output of scene "
+                           f"{scene.name!r}; allowed: {', '.join(scene.outputs) or 'none'}")
+    kinds = quantities_of(scene.outputs[output])
+    quantity = kinds[0] if quantity is None else quantity
+    if quantity not in kinds:
+        raise MechrelError(f"animate: quantity = {quantity!r}: not a quantity of output "
+                           f"{output!r} (kind '{scene.outputs[output].kind}'); allowed: "
+                           f"{', '.join(kinds)}")
+    return output, quantity
 
 
 def check_animation_path(path: Any) -> Path:
@@ -501,7 +602,7 @@ def save_animation(anim, path: Any, *, fps: int = 20) -> Path:
         Ends in ``.gif`` (Pillow), ``.html`` (a self-contained page with playback controls,
         matplotlib's ``to_jshtml``) or ``.mp4`` (ffmpeg).
     fps : int, default 20
-        Frames per second.
+        Frames per second, 1 to 100.
 
     Returns
     -------
@@ -511,7 +612,8 @@ def save_animation(anim, path: Any, *, fps: int = 20) -> Path:
     Raises
     ------
     mechrel.errors.MechrelError
-        See :func:`check_animation_path`.
+        See :func:`check_animation_path`; ``fps`` outside 1 to 100; or the file cannot be
+        written (:class:`~mechrel.errors.OutputError`: the previous file, if any, is unchanged).
 
     Examples
     --------
@@ -527,17 +629,25 @@ def save_animation(anim, path: Any, *, fps: int = 20) -> Path:
     import matplotlib.pyplot as plt
     from matplotlib import animation
 
+    from .._checks import ARGS
+    from .tables import atomic_path
+
     path = check_animation_path(path)
+    fps = ARGS.integer("fps", fps, ge=1, le=100,
+                       what="frames per second; a GIF stores each frame's duration in 1/100 s")
     path.parent.mkdir(parents=True, exist_ok=True)
     suffix = path.suffix.lower()
     try:
-        if suffix == ".gif":
-            anim.save(path, writer=animation.PillowWriter(fps=fps), dpi=80)
-        elif suffix == ".mp4":
-            anim.save(path, writer=animation.FFMpegWriter(fps=fps), dpi=100)
-        else:
-            anim._interval = 1000.0 / fps
-            path.write_text(anim.to_jshtml(fps=fps, default_mode="loop"), encoding="utf-8")
+        # into a temporary file renamed over path when complete: an interrupt or a full disk
+        # leaves no truncated file that looks valid
+        with atomic_path(path) as tmp:
+            if suffix == ".gif":
+                anim.save(tmp, writer=animation.PillowWriter(fps=fps), dpi=80)
+            elif suffix == ".mp4":
+                anim.save(tmp, writer=animation.FFMpegWriter(fps=fps), dpi=100)
+            else:
+                anim._interval = 1000.0 / fps
+                tmp.write_text(anim.to_jshtml(fps=fps, default_mode="loop"), encoding="utf-8")
     finally:
         plt.close(anim._fig)
     return path

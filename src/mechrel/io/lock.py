@@ -4,8 +4,10 @@ everything (the last writer winning): the second is refused at once, naming the 
 The lock is an advisory OS lock (``fcntl.flock`` on POSIX, ``msvcrt.locking`` on Windows) on
 the file ``.mechrel.lock`` in the folder, which holds the process id of its holder. The OS
 drops the lock when its holder ends, however it ends (``kill -9`` included), so a stale lock
-file never blocks a later run; the file itself stays (removing it would race with a run that
-has just opened it).
+file never blocks a later run. On POSIX the holder removes the file before it lets go of the
+lock, and a run that locked a file checks that it is still the one in the folder (else it
+opened it just before its removal, and starts again with a new one): no lock file is left
+behind by a run that ended normally, refused or interrupted.
 """
 
 from __future__ import annotations
@@ -30,6 +32,8 @@ try:  # POSIX
 
     def _unlock(fd: int) -> None:
         fcntl.flock(fd, fcntl.LOCK_UN)
+
+    _REMOVABLE = True  # an open file can be removed, and a lock follows the file, not its name
 except ImportError:  # pragma: no cover - Windows
     import msvcrt
 
@@ -44,6 +48,8 @@ except ImportError:  # pragma: no cover - Windows
     def _unlock(fd: int) -> None:
         os.lseek(fd, 0, os.SEEK_SET)
         msvcrt.locking(fd, msvcrt.LK_UNLCK, 1)  # type: ignore[attr-defined]  # Windows
+
+    _REMOVABLE = False  # an open file cannot be removed there: the lock file stays
 
 
 def _holder(fd: int) -> str:
@@ -80,10 +86,45 @@ def hold_folder(folder, *, what: str = "out"):
     >>> with tempfile.TemporaryDirectory() as folder:
     ...     with hold_folder(folder) as held:
     ...         print((Path(held) / LOCK_NAME).read_text().strip() == str(os.getpid()))
+    ...     print(sorted(os.listdir(folder)))   # released: the lock file is removed
     True
+    []
     """
     folder = Path(folder)
     path = folder / LOCK_NAME
+    while True:
+        fd = _locked(path, folder, what)
+        if _REMOVABLE and not _same_file(fd, path):
+            os.close(fd)  # removed by its previous holder as we locked it: take a new one
+            continue
+        break
+    try:
+        os.ftruncate(fd, 0)
+        os.lseek(fd, 0, os.SEEK_SET)
+        os.write(fd, f"{os.getpid()}\n".encode("ascii"))
+        yield folder
+    finally:
+        if _REMOVABLE:
+            with contextlib.suppress(OSError):
+                path.unlink()
+        try:
+            _unlock(fd)
+        finally:
+            os.close(fd)
+
+
+def _same_file(fd: int, path: Path) -> bool:
+    try:
+        st = os.stat(path)
+    except OSError:
+        return False
+    own = os.fstat(fd)
+    return (st.st_dev, st.st_ino) == (own.st_dev, own.st_ino)
+
+
+def _locked(path: Path, folder: Path, what: str) -> int:
+    """An open descriptor of ``path`` holding its lock, or the error for a held or unusable
+    lock file."""
     try:
         fd = os.open(path, os.O_RDWR | os.O_CREAT, 0o644)
     except OSError as exc:
@@ -100,12 +141,7 @@ def hold_folder(folder, *, what: str = "out"):
             raise OutputError(f"{what} = {str(folder)!r}: another run (pid {_holder(fd)}) holds "
                               f"{folder}; allowed: wait for it to finish, or give this run "
                               "another output folder")
-        try:
-            os.ftruncate(fd, 0)
-            os.lseek(fd, 0, os.SEEK_SET)
-            os.write(fd, f"{os.getpid()}\n".encode("ascii"))
-            yield folder
-        finally:
-            _unlock(fd)
-    finally:
+    except BaseException:
         os.close(fd)
+        raise
+    return fd

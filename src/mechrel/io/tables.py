@@ -10,10 +10,12 @@ complete file, never a truncated one; a failed write removes its temporary file 
 from __future__ import annotations
 
 import contextlib
+import errno
 import json
 import math
 import os
-import tempfile
+import re
+import secrets
 from pathlib import Path
 
 import numpy as np
@@ -112,17 +114,16 @@ def atomic_path(path, *, what: str = "--out"):
         raise OutputError(f"{what}: {str(path)!r} is a folder; allowed: a file name (remove or "
                           "rename the folder)")
     try:
-        fd, tmp_name = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp" + path.suffix,
-                                        dir=path.parent)
-        os.close(fd)
+        tmp = _new_file_beside(path)
     except OSError as exc:
         raise OutputError(f"{what}: cannot write into the folder {str(path.parent)!r} "
                           f"({exc.strerror or exc}); allowed: a writable folder") from None
-    tmp = Path(tmp_name)
     try:
         yield tmp
         with open(tmp, "rb+") as fh:
             os.fsync(fh.fileno())
+        with contextlib.suppress(FileNotFoundError):  # a replaced file keeps its permissions
+            os.chmod(tmp, path.stat().st_mode & 0o7777)
         os.replace(tmp, path)
     except OSError as exc:
         raise OutputError(f"{what}: cannot write {str(path)!r} ({exc.strerror or exc}); the "
@@ -131,6 +132,20 @@ def atomic_path(path, *, what: str = "--out"):
     finally:
         with contextlib.suppress(OSError):
             tmp.unlink()
+
+
+def _new_file_beside(path: Path) -> Path:
+    """A new, empty file ``.NAME.RANDOM.tmpSUFFIX`` beside ``path``, created with the mode a
+    new file gets (0666 less the umask; ``tempfile.mkstemp`` makes every file 0600, so that
+    results renamed into place were unreadable to the user's group whatever the umask)."""
+    for _ in range(100):
+        tmp = path.with_name(f".{path.name}.{secrets.token_hex(4)}.tmp{path.suffix}")
+        try:
+            os.close(os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666))
+        except FileExistsError:
+            continue
+        return tmp
+    raise FileExistsError(errno.EEXIST, "no free temporary file name", str(path.parent))
 
 
 def write_table(frame, path) -> Path:
@@ -228,7 +243,24 @@ def _jsonable(x):
     return x
 
 
-def write_json(data: dict, path) -> Path:
+def _relative(x, folder: str, prefixes: tuple[str, ...]):
+    """``x`` with every string that is an absolute path made relative to ``folder``, and the
+    folder's own name (as given, and absolute) dropped where a string names a file in it."""
+    if isinstance(x, dict):
+        return {k: _relative(v, folder, prefixes) for k, v in x.items()}
+    if isinstance(x, list):
+        return [_relative(v, folder, prefixes) for v in x]
+    if not isinstance(x, str):
+        return x
+    if os.path.isabs(x):
+        with contextlib.suppress(ValueError):  # another drive (Windows): kept as it is
+            return os.path.relpath(x, folder)
+    for prefix in prefixes:  # where a path starts: at the start, after a space or a quote
+        x = re.sub(r"(?:^|(?<=[\s'\"(]))" + re.escape(prefix), "", x)
+    return x
+
+
+def write_json(data: dict, path, *, relative_to=None) -> Path:
     """Write a dict (numpy values allowed; non-finite floats as strings) as indented JSON,
     atomically.
 
@@ -238,6 +270,10 @@ def write_json(data: dict, path) -> Path:
         The content.
     path : str or os.PathLike
         The file; its folder is created.
+    relative_to : str or os.PathLike, optional
+        The folder the file is for (its folder, unless it is written into a staging folder
+        first): absolute paths in ``data`` are written relative to it, and ``FOLDER/`` before a
+        file's name is dropped, so that the file holds no path of this machine.
 
     Returns
     -------
@@ -260,10 +296,25 @@ def write_json(data: dict, path) -> Path:
       "beta": "inf"
     }
     <BLANKLINE>
+    >>> with tempfile.TemporaryDirectory() as folder:
+    ...     data = {"cache": f"{folder}/evaluations.sqlite", "note": f"see {folder}/x.csv"}
+    ...     path = write_json(data, Path(folder) / "s.json", relative_to=folder)
+    ...     print(path.read_text(encoding="utf-8"))
+    {
+      "cache": "evaluations.sqlite",
+      "note": "see x.csv"
+    }
+    <BLANKLINE>
     """
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    text = json.dumps(_jsonable(data), indent=2) + "\n"
+    data = _jsonable(data)
+    if relative_to is not None:
+        given = os.fspath(relative_to)
+        folder = os.path.abspath(given)
+        prefixes = tuple(dict.fromkeys(f.rstrip(os.sep) + os.sep for f in (folder, given)))
+        data = _relative(data, folder, prefixes)
+    text = json.dumps(data, indent=2) + "\n"
     with atomic_path(path) as tmp:
         tmp.write_text(text, encoding="utf-8")
     return path

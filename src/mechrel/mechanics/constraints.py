@@ -1,7 +1,10 @@
 """The ideal joints and drivers as constraint equations: Φ, Φ_t, Φ_q, γ and their violation.
 
 Owns the constraint rows of a :class:`~mechrel.mechanics.system.System`, in the row order
-revolute (2 rows), translational (2), fixed angle (1), driver (1): :func:`n_constraints`;
+revolute (2 rows), translational on a ground line (2), fixed angle (1), point on a line (1:
+the on-line equation of a translational joint between moving bodies and of a pin-in-slot
+joint), relative angle (1: the second equation of such a translational joint), driver (1):
+:func:`n_constraints`;
 ``Φ(q, t)``, ``Φ_t`` and the Jacobian ``Φ_q`` as dense arrays for the assembly
 (:func:`constraints`); the same terms and γ in the sparse, allocation-free form of the
 right-hand side and the kinematic analysis (:func:`constraint_terms`: each row of Φ_q acts on
@@ -41,7 +44,8 @@ def n_constraints(sys):
     Returns
     -------
     int
-        2 per revolute and translational joint, 1 per fixed angle and driver.
+        2 per revolute and translational joint, 1 per fixed angle, pin-in-slot joint and
+        driver.
 
     Examples
     --------
@@ -55,7 +59,7 @@ def n_constraints(sys):
     (7, 9)
     """
     return (2 * sys.rev_i.shape[0] + 2 * sys.tr_i.shape[0] + sys.fa_i.shape[0]
-            + sys.dr_i.shape[0])
+            + sys.ln_i.shape[0] + sys.ra_i.shape[0] + sys.dr_i.shape[0])
 
 
 @njit(cache=True)
@@ -136,6 +140,42 @@ def constraints(q, t, sys):
         phi[r] = q[3 * i + 2] - sys.fa_angle[k]
         J[r, 3 * i + 2] = 1.0
         r += 1
+    for k in range(sys.ln_i.shape[0]):
+        # (A_j n̄)·(r_P − r_Q): P = r_i + A_i s_i on the line through Q = r_j + A_j s_j
+        i = sys.ln_i[k]
+        j = sys.ln_j[k]
+        ax, ay, _, _ = _rot(q[3 * i + 2] if i >= 0 else 0.0, sys.ln_si[k, 0], sys.ln_si[k, 1])
+        px = ax + (q[3 * i] if i >= 0 else 0.0)  # a ground point's s is global
+        py = ay + (q[3 * i + 1] if i >= 0 else 0.0)
+        th = q[3 * j + 2] if j >= 0 else 0.0
+        qx, qy, _, _ = _rot(th, sys.ln_sj[k, 0], sys.ln_sj[k, 1])
+        if j >= 0:
+            qx += q[3 * j]
+            qy += q[3 * j + 1]
+        nx, ny, _, _ = _rot(th, sys.ln_n[k, 0], sys.ln_n[k, 1])
+        phi[r] = nx * (px - qx) + ny * (py - qy)
+        if i >= 0:
+            J[r, 3 * i] = nx
+            J[r, 3 * i + 1] = ny
+            J[r, 3 * i + 2] = ny * ax - nx * ay  # n·(B_i s_i)
+        if j >= 0:
+            dx = px - q[3 * j]
+            dy = py - q[3 * j + 1]
+            J[r, 3 * j] = -nx
+            J[r, 3 * j + 1] = -ny
+            J[r, 3 * j + 2] = nx * dy - ny * dx  # n × (r_P − r_j)
+        r += 1
+    for k in range(sys.ra_i.shape[0]):
+        i = sys.ra_i[k]
+        j = sys.ra_j[k]
+        phi[r] = -sys.ra_angle[k]
+        if i >= 0:
+            phi[r] += q[3 * i + 2]
+            J[r, 3 * i + 2] = 1.0
+        if j >= 0:
+            phi[r] -= q[3 * j + 2]
+            J[r, 3 * j + 2] = -1.0
+        r += 1
     for k in range(sys.dr_i.shape[0]):
         i = sys.dr_i[k]
         th, w, _ = driver_law(sys.dr_law[k], sys.dr_par[k], t)
@@ -154,9 +194,11 @@ def constraint_terms(t, q, v, sys, ws):
     (``sys.row_body[r]``) with the coefficients ``ws.coef[6 r:6 r + 6]``. With ``A s`` the
     body-fixed vector s in global axes, ``B s = ∂(A s)/∂θ = (−(A s)_y, (A s)_x)``, and
     ``γ = −(Φ_q q̇)_q q̇ − 2 Φ_qt q̇ − Φ_tt`` (Nikravesh 1988, §6.2): for a revolute joint
-    ``(A_i s_i) ω_i² − (A_j s_j) ω_j²``, for a point on a line ``n·(A_i s_i) ω_i²``, for a driver
-    its angular acceleration, zero for fixed angles. The Baumgarte combination
-    ``c = γ − 2α Φ̇ − β² Φ`` is formed here too.
+    ``(A_i s_i) ω_i² − (A_j s_j) ω_j²``, for a point on a ground line ``n·(A_i s_i) ω_i²``, for
+    a point P of body i on the line of body j (normal ``n = A_j n̄``, ``d = r_P − r_j``)
+    ``n·(A_i s_i) ω_i² − 2 ω_j n × ḋ + ω_j² n·d`` (docs/mechanics.md, "Joints between moving
+    bodies"), for a driver its angular acceleration, zero for fixed and relative angles. The
+    Baumgarte combination ``c = γ − 2α Φ̇ − β² Φ`` is formed here too.
 
     Parameters
     ----------
@@ -196,6 +238,14 @@ def constraint_terms(t, q, v, sys, ws):
     dr_par = sys.dr_par
     fa_angle = sys.fa_angle
     fa_i = sys.fa_i
+    ln_i = sys.ln_i
+    ln_j = sys.ln_j
+    ln_n = sys.ln_n
+    ln_si = sys.ln_si
+    ln_sj = sys.ln_sj
+    ra_angle = sys.ra_angle
+    ra_i = sys.ra_i
+    ra_j = sys.ra_j
     rev_i = sys.rev_i
     rev_j = sys.rev_j
     rev_off = sys.rev_off
@@ -288,6 +338,87 @@ def constraint_terms(t, q, v, sys, ws):
         co[6 * r] = 0.0
         co[6 * r + 1] = 0.0
         co[6 * r + 2] = 1.0
+        r += 1
+    for k in range(ln_i.shape[0]):
+        # P = r_i + A_i s_i on the line through Q = r_j + A_j s_j with normal n = A_j n̄:
+        # Φ = n·(P − Q), Φ_q = (n, n·(B_i s_i)) on i and (−n, n × d) on j, d = P − r_j
+        i = ln_i[k]
+        j = ln_j[k]
+        nx = ln_n[k, 0]
+        ny = ln_n[k, 1]
+        qx = ln_sj[k, 0]
+        qy = ln_sj[k, 1]
+        rjx = 0.0
+        rjy = 0.0
+        vjx = 0.0
+        vjy = 0.0
+        wj = 0.0
+        if j >= 0:
+            bx = nx
+            nx = cs[j] * bx - sn[j] * ny
+            ny = sn[j] * bx + cs[j] * ny
+            rjx = q[3 * j]
+            rjy = q[3 * j + 1]
+            vjx = v[3 * j]
+            vjy = v[3 * j + 1]
+            wj = v[3 * j + 2]
+            sx = qx
+            qx = rjx + cs[j] * sx - sn[j] * qy
+            qy = rjy + sn[j] * sx + cs[j] * qy
+        px = ln_si[k, 0]
+        py = ln_si[k, 1]
+        ax = 0.0
+        ay = 0.0
+        wi = 0.0
+        vpx = 0.0
+        vpy = 0.0
+        if i >= 0:
+            ax = cs[i] * px - sn[i] * py
+            ay = sn[i] * px + cs[i] * py
+            wi = v[3 * i + 2]
+            px = q[3 * i] + ax
+            py = q[3 * i + 1] + ay
+            vpx = v[3 * i] - ay * wi
+            vpy = v[3 * i + 1] + ax * wi
+        dx = px - rjx
+        dy = py - rjy
+        ddx = vpx - vjx
+        ddy = vpy - vjy
+        cross = nx * dy - ny * dx  # n × d
+        phi[r] = nx * (px - qx) + ny * (py - qy)
+        pd[r] = nx * ddx + ny * ddy + wj * cross
+        g[r] = ((nx * ax + ny * ay) * wi * wi - 2.0 * wj * (nx * ddy - ny * ddx)
+                + wj * wj * (nx * dx + ny * dy))
+        o = 6 * r
+        if i >= 0:
+            co[o] = nx
+            co[o + 1] = ny
+            co[o + 2] = ny * ax - nx * ay  # n·(B_i s_i)
+            o += 3
+        co[o] = -nx
+        co[o + 1] = -ny
+        co[o + 2] = cross
+        r += 1
+    for k in range(ra_i.shape[0]):  # θ_i − θ_j − angle
+        i = ra_i[k]
+        j = ra_j[k]
+        o = 6 * r
+        phi[r] = -ra_angle[k]
+        pd[r] = 0.0
+        if i >= 0:
+            phi[r] += q[3 * i + 2]
+            pd[r] += v[3 * i + 2]
+            co[o] = 0.0
+            co[o + 1] = 0.0
+            co[o + 2] = 1.0
+            o += 3
+        if j >= 0:
+            phi[r] -= q[3 * j + 2]
+            pd[r] -= v[3 * j + 2]
+            co[o] = 0.0
+            co[o + 1] = 0.0
+            co[o + 2] = -1.0
+        g[r] = 0.0
         r += 1
     for k in range(dr_i.shape[0]):
         i = dr_i[k]

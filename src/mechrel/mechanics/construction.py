@@ -3,17 +3,21 @@
 Most machines are built from the cranks their motors turn and, added one after another,
 groups of two links whose two outer joints are already placed: Assur groups of class II
 (Artobolevsky 1977, ch. 2). Such a group's inner joint is where two circles meet (the RRR
-dyad: two links pinned to placed points and to each other) or where a circle meets a line (the
-RRP dyad: a link and a slider on a fixed guide). Its position is then a closed form with one
-square root, and its velocity and acceleration two linear equations each, so the kinematic
-analysis needs no Newton iteration and no factorisation of Φ_q (Hartenberg & Denavit 1964,
-ch. 8; Nikravesh 1988, §5.5 calls these "kinematic modules").
+dyad: two links pinned to placed points and to each other), where a circle meets a line (the
+RRP dyad: a link and a slider on a fixed guide), or it is a slider on a turning link (the RPR
+dyad: a link pivoted at a placed point whose line must pass through a placed pin or a block
+pinned at a placed point: a Whitworth quick-return, a slotted lever, a hydraulic cylinder).
+Its position is then a closed form with one square root, and its velocity and acceleration
+two linear equations each, so the kinematic analysis needs no Newton iteration and no
+factorisation of Φ_q (Hartenberg & Denavit 1964, ch. 8; Nikravesh 1988, §5.5 calls these
+"kinematic modules").
 
 :func:`construction` reads a :class:`~mechrel.mechanics.system.System` as a graph of *nodes*
 (the points where revolute joints pin bodies together: a body point and every point pinned to
 it, transitively, are one node; the ground's points are placed) and finds an order of steps
 that places every body, or returns None when the mechanism is not built that way (a class-III
-group, a slider guided by a moving body, a prescribed offset in a revolute joint). The steps:
+group, a slider on a moving body other than the RPR dyad's, a prescribed offset in a revolute
+joint). The steps:
 
 ``POSE_ANGLE``
     a body whose angle is known (a driver, a fixed angle) and one of whose nodes is placed;
@@ -36,8 +40,18 @@ group, a slider guided by a moving body, a prescribed offset in a revolute joint
     around those nodes meet at ``N = N₁ + (a/L) D ± (h/L) D⊥`` with ``D = N₂ − N₁``,
     ``a = (d₁² − d₂² + L²)/(2L)``, ``h = √(d₁² − a²)``;
 ``CIRCLE_LINE``
-    a node that an unplaced body (one other node placed) shares with a slider on a fixed line:
-    ``N = P₀ + (w·u ± √(d₁² − (u × w)²)) u`` with ``w = N₁ − P₀``.
+    a node that an unplaced body (one other node placed) shares with a slider on a fixed line,
+    or the pin of a pin-in-slot joint in a ground slot:
+    ``N = P₀ + (w·u ± √(d₁² − (u × w)²)) u`` with ``w = N₁ − P₀``;
+``TURN``
+    an unplaced body *j* with one placed node ``N₁`` whose line (a translational or pin-in-slot
+    joint's, unit normal ``n = A_j n̄``) must pass through a placed pin ``N₂`` (pin in slot),
+    or through the sliding point of a block with one placed node ``N₂`` whose angle is *j*'s
+    plus the joint's (translational): ``n·w = h`` with ``w = N₂ − N₁`` and ``h`` constant
+    (the line's offset from ``N₁``, less the sliding point's from ``N₂``), so
+    ``n = (h w ± √(|w|² − h²) w⊥)/|w|²``; the block is then posed by ``POSE_ANGLE`` with its
+    angle ``ANGLE_RELATIVE`` to *j*'s. Velocity ``ω = −n·ẇ/(n × w)``, acceleration
+    ``α = −(n·ẅ + 2 ω n × ẇ − ω² n·w)/(n × w)`` (docs/mechanics.md).
 
 Each step that builds a node is followed by placing the bodies it used, so every constraint
 equation is used exactly once. A free coordinate is taken only when the construction is
@@ -74,9 +88,9 @@ from .drivers import driver_law
 __all__ = ["Construction", "construction"]
 
 # Step codes (column 0 of Construction.op).
-POSE_ANGLE, POSE_TWO, LOCATE, CIRCLES, CIRCLE_LINE, OFFSET, SLIDE = range(7)
+POSE_ANGLE, POSE_TWO, LOCATE, CIRCLES, CIRCLE_LINE, OFFSET, SLIDE, TURN = range(8)
 # Where a POSE_ANGLE step's angle comes from (its op[:, 3]).
-ANGLE_DRIVER, ANGLE_CONSTANT, ANGLE_FREE = 0, 1, 2
+ANGLE_DRIVER, ANGLE_CONSTANT, ANGLE_FREE, ANGLE_RELATIVE = 0, 1, 2, 3
 
 
 class Construction(NamedTuple):
@@ -87,10 +101,12 @@ class Construction(NamedTuple):
     op : ndarray of int, shape (n_steps, 9)
         One row per step, ``(code, a, b, c, d, j1, s1, j2, s2)``:
 
-        - ``POSE_ANGLE``: body, node, angle source (``ANGLE_DRIVER``, ``ANGLE_CONSTANT`` or
-          ``ANGLE_FREE``), the row of the angle in the passes' ``drv`` array (the drivers
-          first, then the free coordinates), and for ``ANGLE_FREE`` the free coordinate's
+        - ``POSE_ANGLE``: body, node, angle source (``ANGLE_DRIVER``, ``ANGLE_CONSTANT``,
+          ``ANGLE_FREE`` or ``ANGLE_RELATIVE``), the row of the angle in the passes' ``drv``
+          array (the drivers first, then the free coordinates) or, for ``ANGLE_RELATIVE``,
+          the body whose angle it adds to, and for ``ANGLE_FREE`` the free coordinate's
           index (in column 5);
+        - ``TURN``: body, its placed node, the placed pin or block node, branch slot;
         - ``POSE_TWO``: body, node 1, node 2;
         - ``LOCATE``: node, body;
         - ``OFFSET``: node, node 1, clearance joint, sign: the node is node 1 plus sign × the
@@ -106,11 +122,12 @@ class Construction(NamedTuple):
         that makes the circle.
     par : ndarray, shape (n_steps, 5)
         The step's numbers (m, rad; unused entries zero): ``POSE_ANGLE`` the node in the
-        body's frame and the constant angle; ``POSE_TWO`` node 1 in the body's frame and the
-        angle φ₀ of node 1 → node 2 in it; ``LOCATE`` the node in the body's frame; ``CIRCLES``
-        the radii d₁, d₂ around nodes 1 and 2; ``CIRCLE_LINE`` the radius d₁, a point P₀ of
-        the line and its unit direction u; ``SLIDE`` the node's position P₀ at ``s = 0`` and
-        the line's unit direction u (columns 0–3).
+        body's frame and the constant (or relative) angle; ``POSE_TWO`` node 1 in the body's
+        frame and the angle φ₀ of node 1 → node 2 in it; ``LOCATE`` the node in the body's
+        frame; ``CIRCLES`` the radii d₁, d₂ around nodes 1 and 2; ``CIRCLE_LINE`` the radius
+        d₁, a point P₀ of the line and its unit direction u; ``SLIDE`` the node's position P₀
+        at ``s = 0`` and the line's unit direction u (columns 0–3); ``TURN`` the placed node
+        in the body's frame, h and the line's unit normal n̄ in the body's frame.
     node_body : ndarray of int, shape (n_nodes,)
         A body each node is a point of (−1: the ground).
     node_s : ndarray, shape (n_nodes, 2)
@@ -120,7 +137,7 @@ class Construction(NamedTuple):
         Each clearance joint's bearing node and journal node (a mechanism with clearance
         joints as force elements, ``compiled.dynamic``; empty for an ideal one).
     n_branches : int
-        The number of square roots (``CIRCLES`` and ``CIRCLE_LINE`` steps).
+        The number of square roots (``CIRCLES``, ``CIRCLE_LINE`` and ``TURN`` steps).
     n_free : int
         The number of free coordinates: free angles (``POSE_ANGLE`` steps with
         ``ANGLE_FREE``) and free positions (``SLIDE`` steps), the mechanism's undriven
@@ -152,7 +169,8 @@ class _Refuse(Exception):
 
 
 def _plan(nb, rev_i, rev_j, rev_si, rev_sj, tr_i, tr_si, tr_p0, tr_n, tr_angle, fa_i,
-          fa_angle, dr_i, cl_b, cl_sb, cl_j, cl_sj):
+          fa_angle, ln_i, ln_si, ln_j, ln_sj, ln_n, ra_i, ra_j, ra_angle, dr_i, cl_b, cl_sb,
+          cl_j, cl_sj):
     # Nodes: the revolute joints' end points, keyed by (body, x, y) (ground: global x, y),
     # joined transitively by union-find.
     keys: dict[tuple, int] = {}
@@ -180,11 +198,16 @@ def _plan(nb, rev_i, rev_j, rev_si, rev_sj, tr_i, tr_si, tr_p0, tr_n, tr_angle, 
     for t, b in enumerate(tr_i):
         if int(b) not in pinned:
             key_of(b, tr_si[t])
+    # the pin of a pin-in-slot joint (a point on a line, no relative angle): a node
+    pins = {int(k): key_of(ln_i[k], ln_si[k]) for k in range(len(ln_i))
+            if not any(int(ra_i[a]) == int(ln_i[k]) and int(ra_j[a]) == int(ln_j[k])
+                       for a in range(len(ra_i)))}
     # a clearance joint's bearing and journal points: two nodes, e = journal − bearing apart
     ends = [(key_of(cl_b[c], cl_sb[c]), key_of(cl_j[c], cl_sj[c])) for c in range(len(cl_b))]
     roots = sorted({find(k) for k in keys.values()})
     node_of = {r: n for n, r in enumerate(roots)}
     ends = [(node_of[find(kb)], node_of[find(kj)]) for kb, kj in ends]
+    pins = {k: node_of[find(key)] for k, key in pins.items()}
     if any(nb_ == nj_ for nb_, nj_ in ends):
         raise _Refuse  # the joint's two points pinned together by revolute joints
     n_nodes = len(roots)
@@ -219,6 +242,21 @@ def _plan(nb, rev_i, rev_j, rev_si, rev_sj, tr_i, tr_si, tr_p0, tr_n, tr_angle, 
             raise _Refuse
         angle[int(b)] = (ANGLE_CONSTANT, 0, float(tr_angle[t]))
         line[int(b)] = t
+    # points on lines: (point body, point, line body, line point, unit normal, relative angle
+    # or None for a pin in a slot); a pin in a ground slot is a line for CIRCLE_LINE
+    rides = {}
+    for k in range(len(ln_i)):
+        rel = [float(ra_angle[a]) for a in range(len(ra_i))
+               if int(ra_i[a]) == int(ln_i[k]) and int(ra_j[a]) == int(ln_j[k])]
+        rides[k] = (int(ln_i[k]), tuple(map(float, ln_si[k])), int(ln_j[k]),
+                    tuple(map(float, ln_sj[k])), tuple(map(float, ln_n[k])),
+                    rel[0] if rel else None)
+    if len(ra_i) != sum(r[5] is not None for r in rides.values()):
+        raise _Refuse  # a relative angle without its line (not a joint this builds)
+    slots: dict[int, list[int]] = {}  # pin node -> the ground slots it rides in
+    for k, (i, _, j, _, _, rel) in rides.items():
+        if j < 0 and rel is None and i >= 0:
+            slots.setdefault(pins[k], []).append(k)
 
     placed = set(ground)
     posed: set[int] = set()
@@ -227,6 +265,13 @@ def _plan(nb, rev_i, rev_j, rev_si, rev_sj, tr_i, tr_si, tr_p0, tr_n, tr_angle, 
     par: list[tuple] = []
     n_branches = 0
     free: list[int] = []  # the bodies with a free coordinate (angle or position), in order
+    turns = [k for k, r in rides.items() if r[2] >= 0]  # rides on moving lines, not placed yet
+
+    def riding():
+        """The bodies whose angle a ride still to be placed sets: its line body, and the
+        block of a translational one."""
+        return {rides[k][2] for k in turns} | {rides[k][0] for k in turns
+                                               if rides[k][5] is not None}
 
     def locate_rest(b, used):
         for n, s in on_body[b].items():
@@ -284,6 +329,50 @@ def _plan(nb, rev_i, rev_j, rev_si, rev_sj, tr_i, tr_si, tr_p0, tr_n, tr_angle, 
         s1, s2 = on_body[b][n1], on_body[b][n2]
         return math.hypot(s2[0] - s1[0], s2[1] - s1[1])
 
+    def one_placed(b):
+        """Body b's placed node, if it has exactly one (else None)."""
+        here = [n for n in on_body[b] if n in placed]
+        return here[0] if len(here) == 1 else None
+
+    def turn(k):
+        """The RPR group of ride k, if it can be placed now: its line body j turns about
+        its one placed node N₁ until the line passes through the placed pin (pin in slot)
+        or through the sliding point of a block with one placed node N₂ (translational),
+        ``n·(N₂ − N₁) = h`` with ``n = A_j n̄``; then the block is posed at θ_j + angle.
+        True when the steps were added."""
+        i, si, j, sj, nbar, rel = rides[k]
+        if j < 0 or j in posed or j in angle or j == i:
+            return False
+        n1 = one_placed(j)
+        if n1 is None:
+            return False
+        s1 = on_body[j][n1]
+        h = nbar[0] * (sj[0] - s1[0]) + nbar[1] * (sj[1] - s1[1])  # n̄·(s_Q − s₁)
+        if rel is None:
+            n2 = pins[k]
+            if n2 not in placed or (i >= 0 and i not in posed):
+                return False
+        else:
+            if i < 0 or i in posed or i in angle:
+                return False
+            n2 = one_placed(i)
+            if n2 is None:
+                return False
+            s2 = on_body[i][n2]
+            c, sn_ = math.cos(rel), math.sin(rel)
+            dx, dy = si[0] - s2[0], si[1] - s2[1]  # the sliding point from N₂, block frame
+            h -= nbar[0] * (c * dx - sn_ * dy) + nbar[1] * (sn_ * dx + c * dy)
+        op.append((TURN, j, n1, n2, n_branches, -1, 0, -1, 0))
+        par.append((s1[0], s1[1], h, nbar[0], nbar[1]))
+        posed.add(j)
+        locate_rest(j, (n1,))
+        if rel is not None:  # the block, at the line body's angle plus the joint's
+            op.append((POSE_ANGLE, i, n2, ANGLE_RELATIVE, j, -1, 0, -1, 0))
+            par.append((s2[0], s2[1], rel, 0.0, 0.0))
+            posed.add(i)
+            locate_rest(i, (n2,))
+        return True
+
     while len(posed) < nb:
         progress = False
         for b in range(nb):
@@ -322,9 +411,10 @@ def _plan(nb, rev_i, rev_j, rev_si, rev_sj, tr_i, tr_si, tr_p0, tr_n, tr_angle, 
                     here = [k for k in on_body[b] if k in placed]
                     if b in line and not here and c < 0:
                         lines.append(b)
-                    elif b not in angle and len(here) == 1:
+                    elif b not in angle and len(here) == 1 and b not in riding():
                         circles.append((b, here[0], m, c, sg))
             slider = -1  # the body on a line, if a circle meets its line
+            slot = slots.get(n, [])  # ground slots the pin node n rides in
             if len(circles) >= 2:
                 (b1, n1, m1, c1, s1), (b2, n2, m2, c2, s2) = circles[:2]
                 op.append((CIRCLES, n, n1, n2, n_branches, c1, s1, c2, s2))
@@ -337,6 +427,12 @@ def _plan(nb, rev_i, rev_j, rev_si, rev_sj, tr_i, tr_si, tr_p0, tr_n, tr_angle, 
                 par.append((dist(b1, n1, m1), p0[0], p0[1], u[0], u[1]))
                 used = ((b1, n1, m1, c1, s1),)
                 slider = b2
+            elif circles and slot:  # a pin in a ground slot: N = P0 + s u, u ⊥ the normal
+                (b1, n1, m1, c1, s1), (_, _, _, p0, nrm, _) = circles[0], rides[slot[0]]
+                op.append((CIRCLE_LINE, n, n1, 0, n_branches, c1, s1, -1, 0))
+                par.append((dist(b1, n1, m1), p0[0], p0[1], nrm[1], -nrm[0]))
+                used = ((b1, n1, m1, c1, s1),)
+                del slots[n]
             else:
                 continue
             n_branches += 1
@@ -351,8 +447,14 @@ def _plan(nb, rev_i, rev_j, rev_si, rev_sj, tr_i, tr_si, tr_p0, tr_n, tr_angle, 
             if slider >= 0:
                 pose_angle(slider, n)
             progress = True
+        for k in list(turns):
+            if turn(k):
+                turns.remove(k)
+                n_branches += 1
+                progress = True
         if not progress:  # stuck: the first undriven body pinned at one placed node swings
-            for b in range(nb):  # freely (a free angle: module docstring)
+            # freely (a free angle: module docstring), one whose angle no ride sets first
+            for b in sorted(range(nb), key=lambda b: b in riding()):
                 here = [n for n in on_body[b] if n in placed]
                 if b not in posed and b not in angle and len(here) == 1:
                     pose_free(b, here[0])
@@ -367,8 +469,8 @@ def _plan(nb, rev_i, rev_j, rev_si, rev_sj, tr_i, tr_si, tr_p0, tr_n, tr_angle, 
                     break
         if not progress:
             raise _Refuse
-    if len(placed) < n_nodes or len(used_offsets) < len(ends):
-        raise _Refuse  # a node left over, or a clearance joint whose offset is not free
+    if len(placed) < n_nodes or len(used_offsets) < len(ends) or turns or slots:
+        raise _Refuse  # a node, a clearance joint's offset or a ride on a line left over
     return Construction(np.array(op, dtype=np.int64).reshape(-1, 9),
                         np.array(par, dtype=float).reshape(-1, 5), node_body, node_s,
                         np.array(ends, dtype=np.int64).reshape(-1, 2), n_branches, len(free))
@@ -391,7 +493,8 @@ def construction(system) -> Construction | None:
     -------
     Construction or None
         None when the mechanism is not built of driven or fixed-angle bodies and class-II
-        groups (two circles, a circle and a fixed line), when a revolute joint holds a
+        groups (two circles, a circle and a fixed line, a line turning through a placed pin
+        or block), when a revolute joint holds a
         prescribed offset, when some constraint would be left unused (a closed loop the
         order does not solve, a redundant constraint), when a clearance joint's
         eccentricity is not free (both its points placed by other joints), or when the
@@ -406,7 +509,8 @@ def construction(system) -> Construction | None:
     >>> from mechrel.mechanics.system import compile_scene
     >>> from mechrel.scene import load_scene
     >>> plan = construction(compile_scene(load_scene("slider-crank")).ideal)
-    >>> names = ("POSE_ANGLE", "POSE_TWO", "LOCATE", "CIRCLES", "CIRCLE_LINE", "OFFSET")
+    >>> names = ("POSE_ANGLE", "POSE_TWO", "LOCATE", "CIRCLES", "CIRCLE_LINE", "OFFSET",
+    ...          "SLIDE", "TURN")
     >>> [names[c] for c in plan.op[:, 0]]
     ['POSE_ANGLE', 'LOCATE', 'CIRCLE_LINE', 'POSE_TWO', 'POSE_ANGLE']
 
@@ -423,12 +527,22 @@ def construction(system) -> Construction | None:
     >>> plan = construction(compile_scene(load_scene("double-pendulum")).ideal)
     >>> [names[c] for c in plan.op[:, 0]], plan.n_free, plan.op[[0, 2], 3:6].tolist()
     (['POSE_ANGLE', 'LOCATE', 'POSE_ANGLE'], 2, [[2, 0, 0], [2, 1, 1]])
+
+    The Whitworth: the crank, then its pin; the lever turns about its pivot until its slot
+    passes through the block on the pin (the block at the lever's angle); the ram where the
+    rod's circle meets its guide:
+
+    >>> plan = construction(compile_scene(load_scene("whitworth")).ideal)
+    >>> [names[c] for c in plan.op[:, 0]]  # doctest: +NORMALIZE_WHITESPACE
+    ['POSE_ANGLE', 'LOCATE', 'TURN', 'LOCATE', 'POSE_ANGLE', 'CIRCLE_LINE', 'POSE_TWO',
+     'POSE_ANGLE']
     """
     s = system
     if np.any(s.rev_off != 0.0) or np.any(s.rev_offdot != 0.0):
         return None
     parts = (s.rev_i, s.rev_j, s.rev_si, s.rev_sj, s.tr_i, s.tr_si, s.tr_p0, s.tr_n,
-             s.tr_angle, s.fa_i, s.fa_angle, s.dr_i, s.cl_b, s.cl_sb, s.cl_j, s.cl_sj)
+             s.tr_angle, s.fa_i, s.fa_angle, s.ln_i, s.ln_si, s.ln_j, s.ln_sj, s.ln_n,
+             s.ra_i, s.ra_j, s.ra_angle, s.dr_i, s.cl_b, s.cl_sb, s.cl_j, s.cl_sj)
     key = (s.mass.shape[0],) + tuple((a.shape, np.ascontiguousarray(a).tobytes())
                                      for a in parts)
     if key not in _PLANS:
@@ -507,7 +621,26 @@ def _branch_signs(q0, con):
             x1, y1 = _at(G, op[o, 2], E, op[o, 5], op[o, 6])
             if (G[k, 0] - x1) * par[o, 3] + (G[k, 1] - y1) * par[o, 4] < 0.0:
                 sign[op[o, 4]] = -1.0
+        elif op[o, 0] == TURN:  # the root's sign is −sign(n × w), n the guess's normal
+            b = op[o, 1]
+            k = op[o, 2]
+            c = math.cos(q0[3 * b + 2])
+            s = math.sin(q0[3 * b + 2])
+            nx = c * par[o, 3] - s * par[o, 4]
+            ny = s * par[o, 3] + c * par[o, 4]
+            wx = G[op[o, 3], 0] - G[k, 0]
+            wy = G[op[o, 3], 1] - G[k, 1]
+            if nx * wy - ny * wx > 0.0:
+                sign[op[o, 4]] = -1.0
     return sign
+
+
+@njit(cache=True, inline='always')
+def _normal(con, o, b, q):
+    """The unit normal ``n = A_j n̄`` of ``TURN`` step ``o``'s line, on its body ``b`` at ``q``."""
+    c = math.cos(q[3 * b + 2])
+    s = math.sin(q[3 * b + 2])
+    return (c * con.par[o, 3] - s * con.par[o, 4], s * con.par[o, 3] + c * con.par[o, 4])
 
 
 @njit(cache=True, inline='always')
@@ -543,7 +676,7 @@ def _place(con, sign, sys, t, e, N, q, cs, sn, drv, th_prev):
         drv[d, 2] = al
     for o in range(op.shape[0]):
         code = op[o, 0]
-        if code == POSE_ANGLE or code == POSE_TWO:
+        if code == POSE_ANGLE or code == POSE_TWO or code == TURN:
             b = op[o, 1]
             k = op[o, 2]
             if code == POSE_TWO:
@@ -553,8 +686,25 @@ def _place(con, sign, sys, t, e, N, q, cs, sn, drv, th_prev):
                 th = math.atan2(dy, dx) - par[o, 2]
                 th += twopi * round((th_prev[b] - th) / twopi)  # the branch of the angle
                 th_prev[b] = th                                # nearest the last one
+            elif code == TURN:  # the unit n with n·w = h: n = (h w ± √(|w|² − h²) w⊥)/|w|²
+                k2 = op[o, 3]
+                wx = N[k2, 0] - N[k, 0]
+                wy = N[k2, 1] - N[k, 1]
+                w2 = wx * wx + wy * wy
+                h = par[o, 2]
+                disc = w2 - h * h
+                if not (disc >= 0.0 and w2 > 0.0):  # the line cannot reach the point
+                    return False
+                root = sign[op[o, 4]] * math.sqrt(disc)
+                nx = (h * wx - root * wy) / w2
+                ny = (h * wy + root * wx) / w2
+                th = math.atan2(par[o, 3] * ny - par[o, 4] * nx, par[o, 3] * nx + par[o, 4] * ny)
+                th += twopi * round((th_prev[b] - th) / twopi)
+                th_prev[b] = th
             elif op[o, 3] == ANGLE_CONSTANT:
                 th = par[o, 2]
+            elif op[o, 3] == ANGLE_RELATIVE:  # the line body's angle and the joint's
+                th = q[3 * op[o, 4] + 2] + par[o, 2]
             else:  # a driver's or a free angle
                 th = drv[op[o, 4], 0]
             # the orientation from the angle itself, as every consumer of q computes it
@@ -637,7 +787,7 @@ def _velocities(con, drv, e, N, q, X, x):
     dr = m - 1  # the drivers' column
     for o in range(op.shape[0]):
         code = op[o, 0]
-        if code == POSE_ANGLE or code == POSE_TWO:
+        if code == POSE_ANGLE or code == POSE_TWO or code == TURN:
             b = op[o, 1]
             k = op[o, 2]
             px = N[k, 0] - q[3 * b]  # A s: from the body's centre to the node
@@ -647,9 +797,19 @@ def _velocities(con, drv, e, N, q, X, x):
                 dx = N[k2, 0] - N[k, 0]
                 dy = N[k2, 1] - N[k, 1]
                 d2 = dx * dx + dy * dy
+            elif code == TURN:  # n·w = h differentiated: ω (n × w) + n·ẇ = 0
+                k2 = op[o, 3]
+                nx, ny = _normal(con, o, b, q)
+                nw = nx * (N[k2, 1] - N[k, 1]) - ny * (N[k2, 0] - N[k, 0])
+                if not abs(nw) > 0.0:  # the line square to the pivot's reach: a dead centre
+                    return False
             for c in range(m):
                 if code == POSE_TWO:
                     wa = (dx * (X[c, k2, 1] - X[c, k, 1]) - dy * (X[c, k2, 0] - X[c, k, 0])) / d2
+                elif code == TURN:
+                    wa = -(nx * (X[c, k2, 0] - X[c, k, 0]) + ny * (X[c, k2, 1] - X[c, k, 1])) / nw
+                elif op[o, 3] == ANGLE_RELATIVE:
+                    wa = x[c, 3 * op[o, 4] + 2]
                 elif op[o, 3] == ANGLE_DRIVER and c == dr:
                     wa = drv[op[o, 4], 1]
                 elif op[o, 3] == ANGLE_FREE and c == 2 * e.shape[0] + op[o, 5]:
@@ -749,7 +909,7 @@ def _accelerations(con, drv, e, edot, dE, N, q, Nv, v, X, x):
     par = con.par
     for o in range(op.shape[0]):
         code = op[o, 0]
-        if code == POSE_ANGLE or code == POSE_TWO:
+        if code == POSE_ANGLE or code == POSE_TWO or code == TURN:
             b = op[o, 1]
             k = op[o, 2]
             if code == POSE_TWO:
@@ -758,8 +918,23 @@ def _accelerations(con, drv, e, edot, dE, N, q, Nv, v, X, x):
                 dy = N[k2, 1] - N[k, 1]
                 wa = (dx * (X[k2, 1] - X[k, 1]) - dy * (X[k2, 0] - X[k, 0])) / (
                     dx * dx + dy * dy)
+            elif code == TURN:  # twice: α (n × w) + n·ẅ + 2 ω n × ẇ − ω² n·w = 0
+                k2 = op[o, 3]
+                nx, ny = _normal(con, o, b, q)
+                wx = N[k2, 0] - N[k, 0]
+                wy = N[k2, 1] - N[k, 1]
+                vx = Nv[k2, 0] - Nv[k, 0]
+                vy = Nv[k2, 1] - Nv[k, 1]
+                nw = nx * wy - ny * wx
+                if not abs(nw) > 0.0:
+                    return False
+                w = v[3 * b + 2]
+                wa = -(nx * (X[k2, 0] - X[k, 0]) + ny * (X[k2, 1] - X[k, 1])
+                       + 2.0 * w * (nx * vy - ny * vx) - w * w * (nx * wx + ny * wy)) / nw
             elif op[o, 3] == ANGLE_CONSTANT:
                 wa = 0.0
+            elif op[o, 3] == ANGLE_RELATIVE:
+                wa = x[3 * op[o, 4] + 2]
             else:  # a driver's or a free angle's acceleration
                 wa = drv[op[o, 4], 2]
             w2 = v[3 * b + 2] * v[3 * b + 2]

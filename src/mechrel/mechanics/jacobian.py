@@ -157,6 +157,76 @@ def force_law_derivatives(s, impact, p, F, dF):
         dF[3, i] = (f3_ - F[3]) / d
 
 
+@njit(cache=True, inline='always')
+def _line_geometry_share(sys, q, cs, sn, lam, acc, r0, g0, nb, G, E):
+    """The constraint geometry's share (:func:`clearance_jacobian`) of the points on moving
+    bodies' lines, rows ``r0 …`` of Φ_q: with ``n = A_j n̄``, ``a = A_i s_i`` and
+    ``d = r_i + a − r_j``, the coefficients ``(n, n·(B_i s_i))`` on body i and
+    ``(−n, n × d)`` on body j change with θ_i by ``(0, −n·a)`` and ``(0, n·a)``, with θ_j by
+    ``(n⊥, n·a)`` and ``(−n⊥, −n·d)`` (``n⊥ = (−n_y, n_x)``), and the last one with x_i, y_i,
+    x_j, y_j by ``−n_y, n_x, n_y, −n_x``. Each adds ``−δΦ_qᵀ λ`` to the response's
+    generalized force (``G``) and ``δΦ_q q̈`` to its constraint change (``E``): the rows
+    ``g0 + b`` (θ of body b) and ``g0 + nb + 2 b + {0, 1}`` (its x, y)."""
+    ln_i = sys.ln_i
+    ln_j = sys.ln_j
+    ln_si = sys.ln_si
+    ln_n = sys.ln_n
+    for k in range(ln_i.shape[0]):
+        r = r0 + k
+        i = ln_i[k]
+        j = ln_j[k]
+        lr = lam[r]
+        nx = ln_n[k, 0]
+        ny = ln_n[k, 1]
+        if j >= 0:
+            bx = nx
+            nx = cs[j] * bx - sn[j] * ny
+            ny = sn[j] * bx + cs[j] * ny
+        ax = 0.0
+        ay = 0.0
+        px = ln_si[k, 0]
+        py = ln_si[k, 1]
+        if i >= 0:
+            ax = cs[i] * px - sn[i] * py
+            ay = sn[i] * px + cs[i] * py
+            px = q[3 * i] + ax
+            py = q[3 * i + 1] + ay
+        na = nx * ax + ny * ay
+        if i >= 0:  # θ_i: (0, −n·a) on i, (0, n·a) on j
+            row = g0 + i
+            G[row, 3 * i + 2] += na * lr
+            E[row, r] -= na * acc[3 * i + 2]
+            if j >= 0:
+                G[row, 3 * j + 2] -= na * lr
+                E[row, r] += na * acc[3 * j + 2]
+        if j >= 0:
+            dx = px - q[3 * j]
+            dy = py - q[3 * j + 1]
+            nd_ = nx * dx + ny * dy
+            row = g0 + j  # θ_j: (n⊥, n·a) on i, (−n⊥, −n·d) on j
+            if i >= 0:
+                G[row, 3 * i] += ny * lr
+                G[row, 3 * i + 1] -= nx * lr
+                G[row, 3 * i + 2] -= na * lr
+                E[row, r] += -ny * acc[3 * i] + nx * acc[3 * i + 1] + na * acc[3 * i + 2]
+            G[row, 3 * j] -= ny * lr
+            G[row, 3 * j + 1] += nx * lr
+            G[row, 3 * j + 2] += nd_ * lr
+            E[row, r] += ny * acc[3 * j] - nx * acc[3 * j + 1] - nd_ * acc[3 * j + 2]
+            # positions: only n × d, on θ_j, moves with them
+            if i >= 0:
+                row = g0 + nb + 2 * i
+                G[row, 3 * j + 2] += ny * lr
+                E[row, r] -= ny * acc[3 * j + 2]
+                G[row + 1, 3 * j + 2] -= nx * lr
+                E[row + 1, r] += nx * acc[3 * j + 2]
+            row = g0 + nb + 2 * j
+            G[row, 3 * j + 2] -= ny * lr
+            E[row, r] += ny * acc[3 * j + 2]
+            G[row + 1, 3 * j + 2] += nx * lr
+            E[row + 1, r] -= nx * acc[3 * j + 2]
+
+
 @njit(cache=True)
 def clearance_jacobian(t, y, hist, sys, ws, f, JS):
     """The fast part of ``∂f/∂y``, the one the clearance forces drive, into ``JS``.
@@ -249,7 +319,12 @@ def clearance_jacobian(t, y, hist, sys, ws, f, JS):
     dr_i = sys.dr_i
     nd = dr_i.shape[0]
     ncl = cl_b.shape[0]
-    K = 4 * ncl + nb
+    ln_i = sys.ln_i
+    nln = ln_i.shape[0]
+    # responses: 4 per clearance joint, one per body's θ, and, where a point rides on a
+    # moving body's line (whose Φ_q depends on positions too), one per body's x and y
+    nxy = 2 * nb if nln > 0 else 0
+    K = 4 * ncl + nb + nxy
     G = np.zeros((K, n))
     E = np.zeros((K, m))
     X = np.empty((m, K))
@@ -320,11 +395,14 @@ def clearance_jacobian(t, y, hist, sys, ws, f, JS):
             wsum -= dco * lam[r]
             E[row, r] = dco * acc_[3 * bb + 2]
         G[row, 3 * bb + 2] = wsum
+    if nln > 0:
+        _line_geometry_share(sys, q, cs, sn, lam, acc_, m - nd - sys.ra_i.shape[0] - nln,
+                             4 * ncl, nb, G, E)
     _project_batch(sys, ws, G, E, X, PG, Z)
     # --- assemble
-    for bb in range(nb):
+    for bb in range(nb + nxy):
         row = 4 * ncl + bb
-        col = 3 * bb + 2
+        col = 3 * bb + 2 if bb < nb else 3 * ((bb - nb) // 2) + (bb - nb) % 2
         for i in range(n):
             JS[n + i, col] += PG[row, i]
         a_ = 0.0

@@ -118,8 +118,11 @@ class ReducedWork(NamedTuple):
     gap, gaprate : ndarray, shape (nh,)
         The contact-capable joints' penetration (m) and its rate (m/s).
     th, th_ref : ndarray, shape (nb,)
-        Body angles found from two nodes continue ``th_ref`` (rad), the reference
-        configuration's; ``th`` is the copy an evaluation updates.
+        Body angles found from two nodes (or by turning a line through a point) continue
+        ``th_ref`` (rad): the reference configuration's, then those of each output row
+        (:func:`output_row`, :func:`expand_rows`), so that a body that turns fully keeps a
+        continuous angle; ``th`` is the copy an evaluation updates. Only the multiple of 2π
+        of these angles depends on it, never their sine and cosine (so never a force).
     Mr : ndarray, shape (nz, nz)
         Rᵀ M R (kg, kg m, kg m²), factorised in place.
     b : ndarray, shape (nz,)
@@ -635,6 +638,17 @@ def _expand_into(t, y, zdd, sys, con, rw):
     return ok
 
 
+@njit(cache=True, inline='always')
+def _continue_angles(rw):
+    """The angles of the row just placed in ``rw`` become the ones the next evaluations
+    continue (``rw.th_ref``): a body that turns fully by the rows' steps keeps a continuous
+    angle (its 2π multiple; a body turning by less than π between rows keeps the same one)."""
+    th_ref = rw.th_ref
+    q = rw.q
+    for b in range(th_ref.shape[0]):
+        th_ref[b] = q[3 * b + 2]
+
+
 @njit(cache=True)
 def output_row(y, f, rw, Ya, YDa):
     """The absolute row of the reduced state ``y`` right after its evaluation: what the
@@ -699,6 +713,7 @@ def output_row(y, f, rw, Ya, YDa):
     for i in range(2):
         Ya[2 * n + i] = y[2 * nz + i]
         YDa[2 * n + i] = f[2 * nz + i]
+    _continue_angles(rw)
 
 
 @njit(cache=True)
@@ -771,6 +786,7 @@ def expand_rows(T, Y, YD, sys, con, rw, Ya, YDa):
         for i in range(2):
             Ya[k, 2 * n + i] = Y[k, 2 * nz + i]
             YDa[k, 2 * n + i] = YD[k, 2 * nz + i]
+        _continue_angles(rw)
     return bad
 
 

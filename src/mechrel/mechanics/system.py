@@ -43,9 +43,15 @@ class System(NamedTuple):
     Revolute joints (2 equations each): ``r_i + A_i s_i − r_j − A_j s_j − off = 0``; for a
     ground point ``s_j`` is its global position. ``off`` is zero except when a clearance joint
     is assembled at a prescribed eccentricity.
-    Translational joints (2 equations): ``n·(r_i + A_i s_i − p0) = 0`` with ``n`` the line's
-    normal, and ``θ_i − angle = 0``. Fixed angles (1 equation) and drivers (1 equation:
-    ``θ_i − f(t) = 0``).
+    Translational joints on a ground line (2 equations): ``n·(r_i + A_i s_i − p0) = 0`` with
+    ``n`` the line's normal, and ``θ_i − angle = 0``. Fixed angles (1 equation). Points on the
+    line of a moving body, or a pin in a ground slot (1 equation each, ``ln_*``):
+    ``(A_j n̄)·(r_i + A_i s_i − r_j) − n̄·s_j = 0``, the point s_i of body i on the line through
+    s_j of body j with unit normal n̄ (body j's frame; i or j −1: the ground, its point then
+    global): the on-line equation of a translational joint between moving bodies and of a
+    pin-in-slot joint. Relative angles (1 equation each, ``ra_*``): ``θ_i − θ_j − angle = 0``,
+    the second equation of such a translational joint. Drivers (1 equation:
+    ``θ_i − f(t) = 0``), always the last rows.
     Clearance joints (force elements): bearing body ``cl_b`` with point ``cl_sb``, journal body
     ``cl_j`` with point ``cl_sj``, packed force-law parameters ``cl_p``
     (:mod:`mechrel.forces.params`). ``cl_hist`` gives the clearance joints that can touch
@@ -73,6 +79,15 @@ class System(NamedTuple):
         Body of each fixed-angle constraint.
     fa_angle : ndarray
         The angle it holds (rad).
+    ln_i, ln_j : ndarray of int
+        Body of the point and body of the line of each point-on-a-line equation (−1: ground).
+    ln_si, ln_sj, ln_n : ndarray, shape (nl, 2)
+        The point in its body's frame, a point of the line and the line's unit normal in the
+        line body's frame (global for the ground; m, m, –).
+    ra_i, ra_j : ndarray of int
+        The two bodies of each relative-angle equation (−1: ground).
+    ra_angle : ndarray
+        The angle θ_i − θ_j it holds (rad).
     dr_i, dr_law : ndarray of int
         Driven body and driver law code (``LAW_*``) of each driver.
     dr_par : ndarray, shape (nd, N_DRIVER_PARAMS)
@@ -116,6 +131,14 @@ class System(NamedTuple):
     tr_angle: np.ndarray
     fa_i: np.ndarray
     fa_angle: np.ndarray
+    ln_i: np.ndarray
+    ln_si: np.ndarray
+    ln_j: np.ndarray
+    ln_sj: np.ndarray
+    ln_n: np.ndarray
+    ra_i: np.ndarray
+    ra_j: np.ndarray
+    ra_angle: np.ndarray
     dr_i: np.ndarray
     dr_law: np.ndarray
     dr_par: np.ndarray
@@ -163,7 +186,8 @@ class System(NamedTuple):
         Returns
         -------
         int
-            2 per revolute and translational joint, 1 per fixed angle and driver.
+            2 per revolute and translational joint, 1 per fixed angle, pin-in-slot joint and
+            driver.
 
         Examples
         --------
@@ -176,7 +200,7 @@ class System(NamedTuple):
         (7, 9)
         """
         return (2 * self.rev_i.shape[0] + 2 * self.tr_i.shape[0] + self.fa_i.shape[0]
-                + self.dr_i.shape[0])
+                + self.ln_i.shape[0] + self.ra_i.shape[0] + self.dr_i.shape[0])
 
     @property
     def n_contacts(self) -> int:
@@ -263,6 +287,21 @@ def _point(scene: Scene, ref, index):
     return index[ref.body], np.asarray(scene.bodies[ref.body].points[ref.point], dtype=float)
 
 
+def _line_direction(scene: Scene, joint: Joint) -> np.ndarray:
+    """The unit direction of a translational or pin-in-slot joint's line in the frame of its
+    line body (``points[1]``'s): ``direction`` is written as that body's points are, so for a
+    body written by ``global_points`` it is in ground axes at the initial configuration and
+    turns into the body frame by A(angle)ᵀ (exactly itself for angle 0)."""
+    u = np.asarray(joint.direction, dtype=float)
+    u = u / math.hypot(*u)
+    ref = joint.points[1]
+    if ref.body == GROUND or scene.bodies[ref.body].global_points is None:
+        return u
+    th = scene.bodies[ref.body].angle
+    c, s = math.cos(th), math.sin(th)
+    return np.array([c * u[0] + s * u[1], -s * u[0] + c * u[1]])
+
+
 def _driver_row(d) -> np.ndarray:
     row = np.zeros(N_DRIVER_PARAMS)
     row[D_ANGLE0] = d.angle0
@@ -315,7 +354,9 @@ def _system(scene: Scene, index, clearance_as: str) -> tuple[System, tuple[str, 
     rev_i, rev_j, rev_si, rev_sj, rev_off, rev_offdot = [], [], [], [], [], []
     tr_i, tr_si, tr_p0, tr_n, tr_angle = [], [], [], [], []
     fa_i, fa_angle = [], []
-    rev_labels, tr_labels, fa_labels = [], [], []
+    ln_i, ln_si, ln_j, ln_sj, ln_n = [], [], [], [], []
+    ra_i, ra_j, ra_angle = [], [], []
+    rev_labels, tr_labels, fa_labels, ln_labels, ra_labels = [], [], [], [], []
     cl_b, cl_j, cl_sb, cl_sj, cl_p, cl_hist = [], [], [], [], [], []
     n_contact = 0
     for joint in scene.joints.values():
@@ -349,7 +390,8 @@ def _system(scene: Scene, index, clearance_as: str) -> tuple[System, tuple[str, 
             rev_i.append(i); rev_j.append(j); rev_si.append(si); rev_sj.append(sj)
             rev_off.append(off); rev_offdot.append(offdot)
             rev_labels += [f"joints.{joint.name} (x)", f"joints.{joint.name} (y)"]
-        elif joint.type == "translational":
+        elif (joint.type == "translational" and joint.points[0].body != GROUND
+              and joint.points[1].body == GROUND):  # a slider on a ground line
             i, si = _point(scene, joint.points[0], index)
             _, p0 = _point(scene, joint.points[1], index)
             u = np.asarray(joint.direction, dtype=float)
@@ -357,6 +399,16 @@ def _system(scene: Scene, index, clearance_as: str) -> tuple[System, tuple[str, 
             tr_i.append(i); tr_si.append(si); tr_p0.append(p0)
             tr_n.append(np.array([-u[1], u[0]])); tr_angle.append(joint.angle)
             tr_labels += [f"joints.{joint.name} (on line)", f"joints.{joint.name} (angle)"]
+        elif joint.type in ("translational", "pin-in-slot"):  # a point on another body's line
+            i, si = _point(scene, joint.points[0], index)
+            j, sj = _point(scene, joint.points[1], index)
+            u = _line_direction(scene, joint)
+            ln_i.append(i); ln_si.append(si); ln_j.append(j); ln_sj.append(sj)
+            ln_n.append(np.array([-u[1], u[0]]))
+            ln_labels.append(f"joints.{joint.name} (on line)")
+            if joint.type == "translational":
+                ra_i.append(i); ra_j.append(j); ra_angle.append(joint.angle)
+                ra_labels.append(f"joints.{joint.name} (angle)")
         elif joint.type == "fixed-angle":
             i, _ = _point(scene, joint.points[0], index)
             fa_i.append(i); fa_angle.append(joint.angle)
@@ -374,13 +426,17 @@ def _system(scene: Scene, index, clearance_as: str) -> tuple[System, tuple[str, 
     def vecs(x, width=2):
         return np.asarray(x, dtype=float).reshape(-1, width)
 
-    labels = tuple(rev_labels + tr_labels + fa_labels
+    labels = tuple(rev_labels + tr_labels + fa_labels + ln_labels + ra_labels
                    + [f"drivers.{name}" for name in scene.drivers])
     # Bodies of each constraint row, in the row order of mechrel.mechanics.constraints: revolute
-    # x and y rows (i, j), translational (i) twice, fixed angles (i), drivers (i).
+    # x and y rows (i, j), translational (i) twice, fixed angles (i), points on lines and
+    # relative angles (i, j; the moving one first when i is the ground), drivers (i).
     row_body = ([(i, j) for i, j in zip(rev_i, rev_j) for _ in range(2)]
                 + [(i, -1) for i in tr_i for _ in range(2)]
-                + [(i, -1) for i in fa_i] + [(i, -1) for i in dr_i])
+                + [(i, -1) for i in fa_i]
+                + [(i, j) if i >= 0 else (j, -1) for i, j in zip(ln_i, ln_j)]
+                + [(i, j) if i >= 0 else (j, -1) for i, j in zip(ra_i, ra_j)]
+                + [(i, -1) for i in dr_i])
     row_body = np.asarray(row_body, dtype=np.int64).reshape(-1, 2)
     return System(
         mass=mass, gravity=np.asarray(scene.gravity, dtype=float),
@@ -389,6 +445,9 @@ def _system(scene: Scene, index, clearance_as: str) -> tuple[System, tuple[str, 
         tr_i=ints(tr_i), tr_si=vecs(tr_si), tr_p0=vecs(tr_p0), tr_n=vecs(tr_n),
         tr_angle=np.asarray(tr_angle, dtype=float).reshape(-1),
         fa_i=ints(fa_i), fa_angle=np.asarray(fa_angle, dtype=float).reshape(-1),
+        ln_i=ints(ln_i), ln_si=vecs(ln_si), ln_j=ints(ln_j), ln_sj=vecs(ln_sj),
+        ln_n=vecs(ln_n), ra_i=ints(ra_i), ra_j=ints(ra_j),
+        ra_angle=np.asarray(ra_angle, dtype=float).reshape(-1),
         dr_i=ints(dr_i), dr_law=ints(dr_law), dr_par=vecs(dr_par, N_DRIVER_PARAMS),
         cl_b=ints(cl_b), cl_j=ints(cl_j), cl_sb=vecs(cl_sb), cl_sj=vecs(cl_sj),
         cl_p=vecs(cl_p, N_PARAMS), cl_hist=ints(cl_hist),

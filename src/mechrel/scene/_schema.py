@@ -24,7 +24,7 @@ class Named:
 NAME_RE = re.compile(r"[A-Za-z_][A-Za-z0-9_]*\Z")
 NAME_RULE = "an identifier: letters, digits and underscores, not starting with a digit (no dots)"
 
-JOINT_TYPES = ("revolute", "translational", "fixed-angle")
+JOINT_TYPES = ("revolute", "translational", "pin-in-slot", "fixed-angle")
 
 CONTACT_KEYS = tuple(f.name for f in fields(Contact))
 FRICTION_KEYS = tuple(f.name for f in fields(Friction))
@@ -38,6 +38,7 @@ JOINT_KEYS_BY_TYPE = {
                  "initial_eccentricity", "initial_eccentricity_rate",
                  "contact", "friction", "lubricant", "transition"),
     "translational": ("type", "connects", "direction", "angle"),
+    "pin-in-slot": ("type", "connects", "direction"),
     "fixed-angle": ("type", "connects", "angle"),
 }
 JOINT_KEYS = tuple(dict.fromkeys(k for ks in JOINT_KEYS_BY_TYPE.values() for k in ks))
@@ -50,7 +51,7 @@ DRIVER_KEYS_BY_LAW = {
 }
 DRIVER_KEYS = tuple(dict.fromkeys(k for ks in DRIVER_KEYS_BY_LAW.values() for k in ks))
 
-BODY_KEYS = ("mass", "inertia", "position", "angle", "points")
+BODY_KEYS = ("mass", "inertia", "position", "angle", "points", "global_points")
 # the fields of every output kind (mechrel.outputs.OUTPUT_KINDS says which kind uses which)
 def _output_keys() -> tuple:
     from ..outputs import OUTPUT_KINDS
@@ -73,7 +74,8 @@ SCHEMA: dict = {
     "description": None,
     "gravity": None,
     "ground": {"points": Named(None, "ground point")},
-    "bodies": Named({**dict.fromkeys(BODY_KEYS), "points": Named(None, "point")}, "body"),
+    "bodies": Named({**dict.fromkeys(BODY_KEYS), "points": Named(None, "point"),
+                     "global_points": Named(None, "point")}, "body"),
     "joints": Named({k: _SUBTABLES.get(k) for k in JOINT_KEYS}, "joint"),
     "drivers": Named(dict.fromkeys(DRIVER_KEYS), "driver"),
     "outputs": Named(dict.fromkeys(OUTPUT_KEYS), "output"),

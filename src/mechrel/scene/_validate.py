@@ -7,6 +7,7 @@ Every problem raises one :class:`~mechrel.errors.SceneError` whose message reads
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import fields
@@ -30,6 +31,7 @@ from .model import (
 )
 
 COINCIDENT_TOL = 1e-9  # m: two joint points closer than this on one body form a zero-length link
+_LINE_JOINTS = ("translational", "pin-in-slot")  # a point on a line of another body
 
 
 class Checker(_Checker):
@@ -45,6 +47,22 @@ class Checker(_Checker):
 
 
 # ----------------------------------------------------------------------------- builder
+
+def _to_body_frame(g, position, angle) -> tuple[float, float]:
+    """A point given in ground coordinates at the initial configuration, ``g``, in the frame of
+    a body whose centre of mass is at ``position`` with angle ``angle`` there:
+    ``s = A(angle)ᵀ (g − position)`` (m); for angle 0 (cos 1, sin 0 exactly) simply
+    ``g − position``."""
+    dx, dy = g[0] - position[0], g[1] - position[1]
+    c, sn = math.cos(angle), math.sin(angle)
+    return (c * dx + sn * dy, -sn * dx + c * dy)
+
+
+@functools.cache
+def _defaults(cls) -> dict[str, Any]:
+    """``{field: default}`` of a sub-table's dataclass, in field order (read per joint)."""
+    return {f.name: f.default for f in fields(cls)}
+
 
 _REQUIRED_HINTS = {
     "name": "a string naming the scene",
@@ -72,6 +90,12 @@ _REQUIRED_HINTS = {
 
 class _Builder(Checker):
     required_hints = _REQUIRED_HINTS
+
+    def __init__(self, *args, **kwargs):
+        super().__init__(*args, **kwargs)
+        # the packed force-law parameters of each clearance joint validated, by joint name
+        # (pack_joint is the force law's check: its product is kept for the compiled scene)
+        self.packed: dict[str, Any] = {}
 
     def build(self, raw: Any) -> Scene:
         top = self.table("", raw)
@@ -115,25 +139,37 @@ class _Builder(Checker):
         bt = self.table("bodies", v, "a [bodies.NAME] table per moving body")
         if not bt:
             self.fail("bodies", v, "no bodies defined", "at least one [bodies.NAME] table")
-        out = {}
-        for name, b in bt.items():
-            p = join("bodies", name)
-            self.name(p, name, "body")
-            if name == GROUND:
-                self.fail(p, b, f"the body name '{GROUND}' is reserved for the frame "
-                                "(its points go in [ground.points])",
-                          "any other identifier (letters, digits and underscores, no dots)")
-            self.table(p, b)
-            self.keys(p, b, BODY_KEYS, required=("mass", "inertia", "position"), what="a body")
-            out[name] = Body(
-                name=name,
-                mass=self.number(p + ".mass", b["mass"], gt=0, unit="kg"),
-                inertia=self.number(p + ".inertia", b["inertia"], gt=0, unit="kg m^2"),
-                position=self.vec2(p + ".position", b["position"], unit="m"),
-                angle=self.number(p + ".angle", b.get("angle", 0.0), unit="rad"),
-                points=MappingProxyType(self._points(p + ".points", b.get("points", {}), "point")),
-            )
-        return out
+        return {name: self._body(name, b) for name, b in bt.items()}
+
+    def _body(self, name: str, b: Any) -> Body:
+        p = join("bodies", name)
+        self.name(p, name, "body")
+        if name == GROUND:
+            self.fail(p, b, f"the body name '{GROUND}' is reserved for the frame "
+                            "(its points go in [ground.points])",
+                      "any other identifier (letters, digits and underscores, no dots)")
+        self.table(p, b)
+        self.keys(p, b, BODY_KEYS, required=("mass", "inertia", "position"), what="a body")
+        position = self.vec2(p + ".position", b["position"], unit="m")
+        angle = self.number(p + ".angle", b.get("angle", 0.0), unit="rad")
+        placed = None
+        if "global_points" in b:
+            if "points" in b:
+                self.fail(p, {"points": b["points"], "global_points": b["global_points"]},
+                          "both points and global_points are given",
+                          "exactly one of points (body frame, m) or global_points (ground "
+                          "coordinates at the initial configuration, m)")
+            placed = self._points(p + ".global_points", b["global_points"], "point")
+            points = {k: _to_body_frame(v, position, angle) for k, v in placed.items()}
+        else:
+            points = self._points(p + ".points", b.get("points", {}), "point")
+        return Body(
+            name=name,
+            mass=self.number(p + ".mass", b["mass"], gt=0, unit="kg"),
+            inertia=self.number(p + ".inertia", b["inertia"], gt=0, unit="kg m^2"),
+            position=position, angle=angle, points=MappingProxyType(points),
+            global_points=None if placed is None else MappingProxyType(placed),
+        )
 
     def _ref(self, path: str, v: Any, bodies: Mapping[str, Body], ground: Mapping,
              *, ground_ok: bool = True, body_ok: bool = True) -> PointRef:
@@ -176,41 +212,75 @@ class _Builder(Checker):
     # -- joints
     def _joints(self, v: Any, bodies: Mapping[str, Body], ground: Mapping) -> dict[str, Joint]:
         jt = self.table("joints", v, "a [joints.NAME] table per joint")
-        out = {}
-        for name, j in jt.items():
-            p = join("joints", name)
-            self.name(p, name, "joint")
-            self.table(p, j)
-            if "type" not in j:
-                self.fail(p + ".type", _MISSING, "missing required field", _one_of(JOINT_TYPES))
-            jtype = self.choice(p + ".type", j["type"], JOINT_TYPES)
-            what = f"a {jtype} joint"
-            required = ("type", "connects") + (("direction", "angle") if jtype == "translational"
-                                               else ("angle",) if jtype == "fixed-angle" else ())
-            hints = {k: f" ('{k}' belongs to "
-                        f"{' or '.join(t for t, ks in JOINT_KEYS_BY_TYPE.items() if k in ks)} "
-                        "joints)"
-                     for k in JOINT_KEYS if k not in JOINT_KEYS_BY_TYPE[jtype]}
-            self.keys(p, j, JOINT_KEYS_BY_TYPE[jtype], required=required, what=what, hints=hints)
-            if jtype == "revolute":
-                out[name] = self._revolute(p, name, j, bodies, ground)
-            elif jtype == "translational":
-                c = self._refs(p + ".connects", j["connects"], 2, "a translational joint")
-                a = self._ref(p + ".connects[0]", c[0], bodies, ground, ground_ok=False)
-                b = self._ref(p + ".connects[1]", c[1], bodies, ground, body_ok=False)
-                d = self.vec2(p + ".direction", j["direction"], nonzero=True)
-                norm = math.hypot(*d)
-                out[name] = Joint(name=name, type="translational", points=(a, b),
-                                  direction=(d[0] / norm, d[1] / norm),
-                                  angle=self.number(p + ".angle", j["angle"], unit="rad"))
-            else:
-                c = self._refs(p + ".connects", j["connects"], 1, "a fixed-angle joint")
-                a = self._ref(p + ".connects[0]", c[0], bodies, ground, ground_ok=False)
-                out[name] = Joint(name=name, type="fixed-angle", points=(a,),
-                                  angle=self.number(p + ".angle", j["angle"], unit="rad"))
-        return out
+        return {name: self._joint(name, j, bodies, ground) for name, j in jt.items()}
 
-    def _revolute(self, p: str, name: str, j: Mapping, bodies, ground) -> Joint:
+    def _joint(self, name: str, j: Any, bodies: Mapping[str, Body], ground: Mapping,
+               keep: Mapping[str, Any] | None = None) -> Joint:
+        """One joint; ``keep``: sub-tables of a revolute joint validated before with the same
+        content and model, taken as they are (:class:`~mechrel.scene._values.SceneValues`)."""
+        p = join("joints", name)
+        self.name(p, name, "joint")
+        self.table(p, j)
+        if "type" not in j:
+            self.fail(p + ".type", _MISSING, "missing required field", _one_of(JOINT_TYPES))
+        jtype = self.choice(p + ".type", j["type"], JOINT_TYPES)
+        what = f"a {jtype} joint"
+        required = ("type", "connects") + {"translational": ("direction", "angle"),
+                                           "pin-in-slot": ("direction",),
+                                           "fixed-angle": ("angle",)}.get(jtype, ())
+        if jtype in _LINE_JOINTS:
+            self._no_clearance(p, j, jtype)
+        hints = {k: f" ('{k}' belongs to "
+                    f"{' or '.join(t for t, ks in JOINT_KEYS_BY_TYPE.items() if k in ks)} "
+                    "joints)"
+                 for k in JOINT_KEYS if k not in JOINT_KEYS_BY_TYPE[jtype]}
+        self.keys(p, j, JOINT_KEYS_BY_TYPE[jtype], required=required, what=what, hints=hints)
+        if jtype == "revolute":
+            return self._revolute(p, name, j, bodies, ground, keep or {})
+        if jtype in _LINE_JOINTS:
+            return self._line_joint(p, name, jtype, j, bodies, ground)
+        c = self._refs(p + ".connects", j["connects"], 1, "a fixed-angle joint")
+        a = self._ref(p + ".connects[0]", c[0], bodies, ground, ground_ok=False)
+        return Joint(name=name, type="fixed-angle", points=(a,),
+                     angle=self.number(p + ".angle", j["angle"], unit="rad"))
+
+    def _no_clearance(self, p: str, j: Mapping, jtype: str) -> None:
+        """A clearance field on a translational or pin-in-slot joint: one error saying that
+        clearance there is not supported (docs/scenes.md, "Clearance joints")."""
+        asked = [k for k in ("model", "clearance", "bearing_radius", "length",
+                             "initial_eccentricity", "initial_eccentricity_rate", "contact",
+                             "friction", "lubricant", "transition") if k in j]
+        if asked:
+            k = asked[0]
+            self.fail(f"{p}.{k}", j[k],
+                      f"clearance in a {jtype} joint is not supported: the clearance models "
+                      f"({', '.join(MODELS)}) are force laws of a journal in a circular "
+                      "bearing, and a slider's play in its guide (two guide faces, the block's "
+                      "corners, its tilt) is none of them",
+                      f"an ideal {jtype} joint (no {', '.join(asked)}); put the clearance in a "
+                      "revolute joint, e.g. the pin of the slider or of the slotted link")
+
+    def _line_joint(self, p: str, name: str, jtype: str, j: Mapping, bodies, ground) -> Joint:
+        """A translational or pin-in-slot joint: the point ``connects[0]`` on the line through
+        ``connects[1]`` along ``direction`` (written in the frame of ``connects[1]``'s body,
+        as that body's points are)."""
+        c = self._refs(p + ".connects", j["connects"], 2, f"a {jtype} joint")
+        a = self._ref(p + ".connects[0]", c[0], bodies, ground)
+        b = self._ref(p + ".connects[1]", c[1], bodies, ground)
+        if a.body == b.body:
+            what = "the ground to itself" if a.body == GROUND else f"body '{a.body}' to itself"
+            self.fail(p + ".connects", c, f"the joint connects {what}",
+                      "a point of one body and a point on the line of another (or of the "
+                      "ground)")
+        d = self.vec2(p + ".direction", j["direction"], nonzero=True)
+        norm = math.hypot(*d)
+        angle = (self.number(p + ".angle", j["angle"], unit="rad")
+                 if jtype == "translational" else None)
+        return Joint(name=name, type=cast(Any, jtype), points=(a, b),
+                     direction=(d[0] / norm, d[1] / norm), angle=angle)
+
+    def _revolute(self, p: str, name: str, j: Mapping, bodies, ground,
+                  keep: Mapping[str, Any]) -> Joint:
         c = self._refs(p + ".connects", j["connects"], 2, "a revolute joint")
         a = self._ref(p + ".connects[0]", c[0], bodies, ground)
         b = self._ref(p + ".connects[1]", c[1], bodies, ground)
@@ -255,8 +325,11 @@ class _Builder(Checker):
         subs: dict[str, Any] = {}
         for k, check in (("contact", self._contact), ("friction", self._friction),
                          ("lubricant", self._lubricant), ("transition", self._transition)):
-            subs[k] = (check(join(p, k), j.get(k, {}), model) if k in j or k in needs
-                       else None)
+            if k in keep:  # its content passed these checks before (the model unchanged)
+                subs[k] = keep[k] if k in j or k in needs else None
+            else:
+                subs[k] = (check(join(p, k), j.get(k, {}), model) if k in j or k in needs
+                           else None)
         joint = Joint(name=name, type="revolute", points=(a, b), model=model,
                       clearance=clearance, bearing_radius=bearing_radius, length=length,
                       initial_eccentricity=ecc, initial_eccentricity_rate=ecc_rate, **subs)
@@ -269,7 +342,7 @@ class _Builder(Checker):
         :func:`mechrel.forces.params.pack_params`, the one validator, and reported with the
         scene path of the field."""
         try:
-            pack_joint(joint)
+            self.packed[joint.name] = pack_joint(joint)
         except SceneError as err:
             field = cast(str, err.path)  # pack_params names the parameter of every error
             # a derived value (the contact stiffness) is named with what it is computed from
@@ -286,21 +359,21 @@ class _Builder(Checker):
 
     def _sub(self, path: str, v: Any, cls, specs: Mapping[str, dict]) -> dict:
         t = self.table(path, v)
-        keys = tuple(f.name for f in fields(cls))
-        self.keys(path, t, keys, what=f"[{path.rsplit('.', 1)[-1]}]")
+        defaults = _defaults(cls)
+        self.keys(path, t, tuple(defaults), what=f"[{path.rsplit('.', 1)[-1]}]")
         out: dict[str, Any] = {}
-        for f in fields(cls):
-            spec = specs[f.name]
-            val = t.get(f.name, f.default)
+        for name, default in defaults.items():
+            spec = specs[name]
+            val = t.get(name, default)
             if "choices" in spec:
-                out[f.name] = self.choice(join(path, f.name), val, spec["choices"])
+                out[name] = self.choice(join(path, name), val, spec["choices"])
             elif spec.get("boolean"):
                 if not isinstance(val, bool):
-                    self.fail(join(path, f.name), val, f"expected true or false, got "
+                    self.fail(join(path, name), val, f"expected true or false, got "
                               f"{_typename(val)}", "true or false")
-                out[f.name] = val
+                out[name] = val
             else:
-                out[f.name] = self.number(join(path, f.name), val, **spec)
+                out[name] = self.number(join(path, name), val, **spec)
         return out
 
     @staticmethod
@@ -358,7 +431,10 @@ class _Builder(Checker):
             for i, p1 in enumerate(names):
                 for p2 in names[i + 1:]:
                     if math.dist(coords[p1], coords[p2]) < COINCIDENT_TOL:
-                        self.fail(f"bodies.{body}.points.{p2}", coords[p2],
+                        placed = bodies[body].global_points
+                        table = "points" if placed is None else "global_points"
+                        self.fail(f"bodies.{body}.{table}.{p2}",
+                                  coords[p2] if placed is None else placed[p2],
                                   f"coincides with point '{p1}' while both carry revolute joints "
                                   f"(joints.{pts[p1]}, joints.{pts[p2]}): a zero-length link",
                                   f"distinct positions (at least {COINCIDENT_TOL:g} m apart), or "
@@ -575,47 +651,62 @@ def _dc(obj) -> dict:
 def scene_to_raw(scene: Scene) -> dict:
     """The canonical raw mapping of a scene: every field explicit (defaults filled in, floats,
     normalised directions), ``None`` fields omitted. Loading it gives back an equal scene."""
-    joints = {}
-    for n, j in scene.joints.items():
-        d: dict[str, Any] = {"type": j.type, "connects": [str(r) for r in j.points]}
-        if j.type == "revolute":
-            d["model"] = j.model
-            d["clearance"] = float(j.clearance)
-            if j.bearing_radius is not None:
-                d["bearing_radius"] = float(j.bearing_radius)
-            if j.length is not None:
-                d["length"] = float(j.length)
-            d["initial_eccentricity"] = _pair(j.initial_eccentricity)
-            d["initial_eccentricity_rate"] = _pair(j.initial_eccentricity_rate)
-            for k in ("contact", "friction", "lubricant", "transition"):
-                sub = getattr(j, k)
-                if sub is not None:
-                    d[k] = _dc(sub)
-        else:
-            if j.direction is not None:
-                d["direction"] = _pair(j.direction)
-            d["angle"] = float(cast(float, j.angle))  # every non-revolute joint holds an angle
-        joints[n] = d
-    drivers = {}
-    for n, dr in scene.drivers.items():
-        d = {"body": dr.body, "law": dr.law, "angle0": float(dr.angle0)}
-        for k in DRIVER_KEYS_BY_LAW[dr.law][3:]:
-            d[k] = float(getattr(dr, k))
-        drivers[n] = d
     return {
         "name": scene.name,
         "description": scene.description,
         "gravity": _pair(scene.gravity),
         "ground": {"points": {k: _pair(v) for k, v in scene.ground.items()}},
-        "bodies": {n: {"mass": b.mass, "inertia": b.inertia, "position": _pair(b.position),
-                       "angle": b.angle, "points": {k: _pair(v) for k, v in b.points.items()}}
-                   for n, b in scene.bodies.items()},
-        "joints": joints,
-        "drivers": drivers,
+        "bodies": {n: body_to_raw(b) for n, b in scene.bodies.items()},
+        "joints": {n: joint_to_raw(j) for n, j in scene.joints.items()},
+        "drivers": {n: driver_to_raw(dr) for n, dr in scene.drivers.items()},
         "outputs": {n: _output_raw(o) for n, o in scene.outputs.items()},
         "analysis": {k: v for k, v in _dc(scene.analysis).items() if v is not None},
         "solver": {k: v for k, v in _dc(scene.solver).items() if v is not None},
     }
+
+
+def body_to_raw(b: Body) -> dict:
+    """One body's table of :func:`scene_to_raw`: its points as written, in the body frame
+    (``points``) or in ground coordinates (``global_points``, only when the body was written
+    that way, so the scenes written before it keep their hash)."""
+    if b.global_points is None:
+        table = {"points": {k: _pair(v) for k, v in b.points.items()}}
+    else:
+        table = {"global_points": {k: _pair(v) for k, v in b.global_points.items()}}
+    return {"mass": b.mass, "inertia": b.inertia, "position": _pair(b.position),
+            "angle": b.angle, **table}
+
+
+def joint_to_raw(j: Joint) -> dict:
+    """One joint's table of :func:`scene_to_raw`."""
+    d: dict[str, Any] = {"type": j.type, "connects": [str(r) for r in j.points]}
+    if j.type == "revolute":
+        d["model"] = j.model
+        d["clearance"] = float(j.clearance)
+        if j.bearing_radius is not None:
+            d["bearing_radius"] = float(j.bearing_radius)
+        if j.length is not None:
+            d["length"] = float(j.length)
+        d["initial_eccentricity"] = _pair(j.initial_eccentricity)
+        d["initial_eccentricity_rate"] = _pair(j.initial_eccentricity_rate)
+        for k in ("contact", "friction", "lubricant", "transition"):
+            sub = getattr(j, k)
+            if sub is not None:
+                d[k] = _dc(sub)
+    else:
+        if j.direction is not None:
+            d["direction"] = _pair(j.direction)
+        if j.angle is not None:  # all but pin-in-slot joints hold an angle
+            d["angle"] = float(j.angle)
+    return d
+
+
+def driver_to_raw(dr: Driver) -> dict:
+    """One driver's table of :func:`scene_to_raw`."""
+    d = {"body": dr.body, "law": dr.law, "angle0": float(dr.angle0)}
+    for k in DRIVER_KEYS_BY_LAW[dr.law][3:]:
+        d[k] = float(getattr(dr, k))
+    return d
 
 
 def _output_raw(o: Output) -> dict:

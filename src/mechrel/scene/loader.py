@@ -29,6 +29,8 @@ _MAPPING_LABEL = "<mapping>"
 
 # ----------------------------------------------------------------------------- freezing
 
+_LEAVES = frozenset((float, int, str, bool, type(None)))  # the types TOML leaves have
+
 def freeze(v: Any) -> Any:
     """Read-only deep copy: tables → ``MappingProxyType``, arrays → tuples.
 
@@ -52,6 +54,8 @@ def freeze(v: Any) -> Any:
     ...
     TypeError: 'mappingproxy' object does not support item assignment
     """
+    if type(v) in _LEAVES:  # most values (and no Mapping ABC check for them)
+        return v
     if isinstance(v, Mapping):
         return MappingProxyType({k: freeze(x) for k, x in v.items()})
     if isinstance(v, (list, tuple)):
@@ -77,6 +81,8 @@ def thaw(v: Any) -> Any:
     >>> thaw(freeze({"points": {"A": [0.05, 0.0]}}))
     {'points': {'A': [0.05, 0.0]}}
     """
+    if type(v) in _LEAVES:
+        return v
     if isinstance(v, Mapping):
         return {k: thaw(x) for k, x in v.items()}
     if isinstance(v, (list, tuple)):
@@ -422,12 +428,24 @@ def parse_value(text: str) -> Any:
     try:
         doc = tomllib.loads(f"__value__ = {s}")
         if set(doc) == {"__value__"}:
+            check_depth(doc, "", _value_too_deep(s))  # the value one level down, as in a file
             return doc["__value__"]
     except tomllib.TOMLDecodeError:
         pass
+    except RecursionError:  # the parser recurses per level: thousands of levels exhaust it
+        raise _value_too_deep(s)("") from None
     if _NUMBER_RE.match(s):
         return float(s)
     return s
+
+
+def _value_too_deep(text: str):
+    """The error class :func:`check_depth` raises for an override value: one message naming
+    the (shortened) value."""
+    def error(message, source=None):
+        return SceneError(f"override value {fmt_value(text)}: tables and arrays nested more "
+                          f"than {MAX_DEPTH} levels deep; allowed: at most {MAX_DEPTH} levels")
+    return error
 
 
 def parse_override(text: str) -> tuple[str, Any]:
@@ -461,7 +479,10 @@ def parse_override(text: str) -> tuple[str, Any]:
         raise SceneError(f"override {fmt_value(text)}: expected PATH=VALUE; allowed: e.g. "
                          "joints.C1.clearance=0.3e-3 or joints.C1.model=dry")
     path, _, value = text.partition("=")
-    return path.strip(), parse_value(value)
+    try:
+        return path.strip(), parse_value(value)
+    except SceneError as exc:  # a value nested too deeply: say which path it was for
+        raise SceneError(f"{path.strip()}: {exc}", path=path.strip()) from None
 
 
 def _normalise_overrides(overrides: Any) -> list[tuple[str, Any, str]]:
@@ -503,8 +524,12 @@ def _is_number(v: Any) -> bool:
 
 
 def _length_points(raw: Mapping, m: re.Match, source: str | None):
-    """``(points table path, P, Q)`` of a matched ``OWNER.length(P,Q)`` path."""
+    """``(points table path, P, Q)`` of a matched ``OWNER.length(P,Q)`` path: the body's
+    ``global_points`` where it is written by them (a distance is the same in either frame)."""
     table = f"{m['owner']}.points"
+    owner = raw.get("bodies", {}).get(m["owner"][7:]) if m["owner"] != "ground" else None
+    if isinstance(owner, Mapping) and "global_points" in owner and "points" not in owner:
+        table = f"{m['owner']}.global_points"
     return (table, get_value(raw, f"{table}.{m['fixed']}", source=source),
             get_value(raw, f"{table}.{m['moved']}", source=source))
 

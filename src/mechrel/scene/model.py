@@ -41,6 +41,11 @@ class Body:
     """A rigid body. ``position``/``angle`` are the initial guess for assembly (m, rad);
     ``points`` are named points in the body frame, whose origin is the centre of mass (m).
 
+    A body written from joint positions (``global_points`` in the scene file) has its points
+    given in ground coordinates at the initial configuration; the loader derives ``points``
+    from them, ``position`` (the centre of mass) and ``angle`` (its frame's angle there,
+    default 0), and keeps what was written in ``global_points``.
+
     Parameters
     ----------
     name : str
@@ -55,6 +60,9 @@ class Body:
         Initial guess of the body angle (rad).
     points : mapping of str to (float, float)
         Named points in the body frame (m).
+    global_points : mapping of str to (float, float), optional
+        The same points in ground coordinates at the initial configuration (m), when the
+        body was written that way; None otherwise.
 
     Examples
     --------
@@ -71,6 +79,7 @@ class Body:
     position: Vec2
     angle: float
     points: Mapping[str, Vec2]
+    global_points: Mapping[str, Vec2] | None = None  # unset: not in the canonical raw
 
 
 @dataclass(frozen=True)
@@ -233,9 +242,12 @@ class Joint:
     """A kinematic joint.
 
     ``type``: ``"revolute"`` (connects two points, 2 equations, or a clearance joint when
-    ``model != "ideal"``), ``"translational"`` (``points[0]`` slides on the ground line through
-    ``points[1]`` with unit ``direction``; the body's angle stays ``angle``; 2 equations) or
-    ``"fixed-angle"`` (body of ``points[0]`` keeps ``angle``; 1 equation).
+    ``model != "ideal"``), ``"translational"`` (``points[0]`` slides on the line through
+    ``points[1]`` with unit ``direction``, written in the frame of ``points[1]``'s body (the
+    ground's: global axes); the angle of ``points[0]``'s body relative to ``points[1]``'s stays
+    ``angle``; 2 equations), ``"pin-in-slot"`` (``points[0]`` on that line, rotation free;
+    1 equation) or ``"fixed-angle"`` (body of ``points[0]`` keeps ``angle``; 1 equation).
+    The line may be on the ground or on a moving body, the point on any other body.
 
     For a revolute clearance joint, ``points[0]`` is on the bearing (hole) body and
     ``points[1]`` on the journal (pin) body; ``clearance`` is the radial clearance c = R_B − R_S,
@@ -246,14 +258,16 @@ class Joint:
     ----------
     name : str
         The joint's name (``joints.NAME``).
-    type : {"revolute", "translational", "fixed-angle"}
+    type : {"revolute", "translational", "pin-in-slot", "fixed-angle"}
         The joint type (above).
     points : tuple of PointRef
-        Two points (revolute, translational) or one (fixed-angle).
+        Two points (revolute, translational, pin-in-slot) or one (fixed-angle).
     direction : (float, float), optional
-        Unit direction of a translational joint's line.
+        Unit direction of a translational or pin-in-slot joint's line, in the frame of the
+        body of ``points[1]`` (global axes for the ground).
     angle : float, optional
-        Body angle held by a translational or fixed-angle joint (rad).
+        Angle held by a translational joint (of ``points[0]``'s body relative to
+        ``points[1]``'s; with the ground, the body's angle) or a fixed-angle joint (rad).
     model : str
         ``"ideal"`` or a clearance model (:data:`CLEARANCE_MODELS`).
     clearance : float
@@ -279,7 +293,7 @@ class Joint:
     """
 
     name: str
-    type: Literal["revolute", "translational", "fixed-angle"]
+    type: Literal["revolute", "translational", "pin-in-slot", "fixed-angle"]
     points: tuple[PointRef, ...]
     direction: Vec2 | None = None
     angle: float | None = None

@@ -6,8 +6,9 @@ its error is measured against a tight-tolerance reference and plotted against wa
 Error measures
 --------------
 * **pointwise** (ideal and lubricated scenes, whose trajectories converge): the maximum over
-  the output instants of |x − x_ref| for the displacement, velocity and acceleration of the
-  first output, each divided by that quantity's range over the reference;
+  the output instants of |x − x_ref| for each quantity of the first output (a point's
+  displacement, velocity and acceleration; a body's angle and its rates; ...), each divided
+  by that quantity's range over the reference;
 * **ensemble statistics** (dry and transition scenes). Dry contact at speed is chaotic: a 1 nm
   change of the initial state moves the slider by micrometres within a revolution, so
   pointwise errors do not converge with the step, and even the statistics of the error curve
@@ -30,8 +31,9 @@ freedom (the member statistics are taken as roughly normal), a setting
   confidence bound is below the target: it has been *shown* accurate enough; requiring all
   nine bounds needs no multiple-comparison correction);
 * **exceeds** it when ``|error| − t' · floor > target`` for some statistic, where ``t'`` is
-  the two-sided quantile Bonferroni-corrected over the nine statistics (1 − 0.05/18 at 95 %:
-  3.9 for R = 8, 7.2 for R = 4). Without the correction, an accurate setting of a chaotic
+  the two-sided quantile Bonferroni-corrected over the nine statistics (three of each of a
+  point's three quantities; 1 − 0.05/18 at 95 %: 3.9 for R = 8, 7.2 for R = 4; twelve for a
+  joint output's four). Without the correction, an accurate setting of a chaotic
   scene would be declared inaccurate by chance in about half the reports, since *some* of
   nine noise-dominated differences usually exceeds one t;
 * is **unresolved** otherwise: the ensemble is too small to tell. When no setting meets the
@@ -55,14 +57,12 @@ import math
 import time
 from dataclasses import dataclass, field
 from numbers import Integral
-from pathlib import Path
 
 import numpy as np
 import pandas as pd
 
 from ..errors import MechrelError, StudyError
 from ..forces.models import MODELS
-from ..scene.model import QUANTITIES
 
 STATISTICS = ("peak", "rms", "p95")
 """The statistics of an error curve compared in ensemble mode: peak |error|, RMS error and
@@ -76,6 +76,8 @@ DEFAULT_PERTURBATION = 1e-6
 far below any manufacturing tolerance, yet well above the assembly tolerance (1e-12 m by
 default; a smaller offset would not survive assembly, which stops when |Φ| <= tolerance)."""
 
+FILES = ("accuracy.csv", "accuracy.png")
+"""What ``mechrel accuracy`` writes into its output folder (one set, :mod:`mechrel.io.results`)."""
 CHAOTIC_KINDS = tuple(m.name for m in MODELS.values() if m.chaotic)
 """Scene kinds measured by ensemble statistics (impacts make their trajectories chaotic):
 the clearance models marked ``chaotic`` in the table of models."""
@@ -209,8 +211,9 @@ class EnsembleRun:
     settings : dict
         Its settings (``step``, ``rtol``, ``atol``).
     statistics : ndarray, shape (R, n_quantities, 3)
-        Per member, per quantity (:data:`~mechrel.scene.model.QUANTITIES`), the statistics
-        :data:`STATISTICS` of the error curve (m, m/s, m/s²).
+        Per member, per quantity of the output's kind (:data:`mechrel.outputs.OUTPUT_KINDS`;
+        a point's displacement, velocity, acceleration), the statistics :data:`STATISTICS`
+        of the error curve (SI units of the quantity).
     wall_times : ndarray, shape (R,)
         Wall time of each member run (s).
     n_steps, n_rhs : ndarray, shape (R,)
@@ -238,10 +241,19 @@ class EnsembleRun:
     max_violation: float
 
 
+def _quantities(scene, output):
+    """The quantities measured: those of the scene output's kind (the first output's by
+    default; :data:`mechrel.outputs.OUTPUT_KINDS`)."""
+    from ..outputs import quantities_of
+
+    return quantities_of(scene.outputs[output or next(iter(scene.outputs))])
+
+
 def _curves(res, output):
+    quantities = _quantities(res.scene, output)
     if res.ideal is not None:
-        return {q: res.error(output, q) for q in QUANTITIES}
-    return {q: res.outputs[output][q] for q in QUANTITIES}
+        return {q: res.error(output, q) for q in quantities}
+    return {q: res.outputs[output][q] for q in quantities}
 
 
 def run_ensemble(members, integrator: str, settings: dict | None = None,
@@ -290,7 +302,7 @@ def run_ensemble(members, integrator: str, settings: dict | None = None,
         walls.append(time.perf_counter() - start)
         name = output or next(iter(res.outputs))
         c = _curves(res, name)
-        stats.append([_stat_measures(c[q]) for q in QUANTITIES])
+        stats.append([_stat_measures(c[q]) for q in _quantities(res.scene, name)])
         steps.append(res.stats["n_steps"])
         rhs.append(res.stats.get("n_rhs", 0))
         viol = max(viol, float(res.stats["max_position_violation"]))
@@ -756,9 +768,10 @@ def accuracy_report(scene, *, candidates=None, reference=None, target: float = 0
     if statistical:
         members = perturbed_scenes(scene, R, seed, perturbation)
         tq = student_t(confidence, R)
-        # "exceeds" claims that *some* of the 9 statistics is off in either direction:
+        # "exceeds" claims that *some* of the statistics is off in either direction:
         # two-sided and Bonferroni-corrected, so that the claim holds at `confidence` overall
-        n_stats = len(QUANTITIES) * len(STATISTICS)
+        quantities = _quantities(scene, None)
+        n_stats = len(quantities) * len(STATISTICS)
         tq_exceeds = student_t(1.0 - (1.0 - confidence) / (2 * n_stats), R)
         warmed: set[str] = set()
 
@@ -780,8 +793,9 @@ def accuracy_report(scene, *, candidates=None, reference=None, target: float = 0
     else:
         ref = simulate(scene, method="dynamics", integrator=reference[0], **reference[1])
         output = next(iter(ref.outputs))
+        quantities = _quantities(scene, output)
         ref_c = _curves(ref, output)
-        scale = {q: max(np.ptp(ref_c[q]), 1e-300) for q in QUANTITIES}
+        scale = {q: max(np.ptp(ref_c[q]), 1e-300) for q in quantities}
     rows = []
     iterator = cands
     if progress:
@@ -801,8 +815,8 @@ def accuracy_report(scene, *, candidates=None, reference=None, target: float = 0
                 continue
             diff, se = compare_ensembles(run, ref_run)
             ad = np.abs(diff)
-            errs = {q: float(ad[k].max()) for k, q in enumerate(QUANTITIES)}
-            floors = {q: float(se[k].max()) for k, q in enumerate(QUANTITIES)}
+            errs = {q: float(ad[k].max()) for k, q in enumerate(quantities)}
+            floors = {q: float(se[k].max()) for k, q in enumerate(quantities)}
             bound = float(np.max(ad + tq * se))
             lower = float(np.max(ad - tq_exceeds * se))
             verdict = ("meets" if bound <= target else "exceeds" if lower > target
@@ -831,7 +845,7 @@ def accuracy_report(scene, *, candidates=None, reference=None, target: float = 0
             rows.append(row)
             continue
         c = _curves(res, output)
-        errs = {q: float(np.max(np.abs(c[q] - ref_c[q])) / scale[q]) for q in QUANTITIES}
+        errs = {q: float(np.max(np.abs(c[q] - ref_c[q])) / scale[q]) for q in quantities}
         measure = max(errs.values())
         row.update(wall_time=best, wall_total=total, n_steps=res.stats["n_steps"],
                    n_rhs=res.stats["n_rhs"], max_violation=res.stats["max_position_violation"],
@@ -929,8 +943,12 @@ def run_accuracy(scene, *, target=0.01, quick=False, out=None, progress=True, en
     ...
     mechrel.errors.StudyError: target: 0.0 is not a positive relative error
     """
-    rep = accuracy_report(scene, target=target, quick=quick, progress=progress,
-                          ensemble=ensemble, seed=seed)
+    from ..io.results import check_folder, removed_if_left_empty, result_set
+
+    with removed_if_left_empty(out):  # refused or interrupted: no empty folder left behind
+        folder = check_folder(out, FILES)  # before the run (minutes), not after it
+        rep = accuracy_report(scene, target=target, quick=quick, progress=progress,
+                              ensemble=ensemble, seed=seed)
     cols = ["integrator", "setting", "wall_time", "n_steps", "n_rhs", "measure"]
     if rep.ensemble > 1:
         cols += ["floor", "bound"]
@@ -948,16 +966,17 @@ def run_accuracy(scene, *, target=0.01, quick=False, out=None, progress=True, en
             f"meets the target when error + t·floor <= target (t = "
             f"{student_t(rep.confidence, rep.ensemble):.2f}, {rep.confidence:.0%} one-sided); "
             "wall time = median per run")
-    lines.append(t.to_string(index=False, float_format=lambda v: f"{v:.3g}"))
+    # the table's lines one by one: each element of ``lines`` is one line on the terminal
+    lines += t.to_string(index=False, float_format=lambda v: f"{v:.3g}").splitlines()
     lines.append(rep.conclusion)
     total = float(rep.table["wall_total"].sum()) if "wall_total" in rep.table else float("nan")
     lines.append(f"total wall time {rep.provenance.get('wall_time', float('nan')):.3g} s "
                  f"({total:.3g} s in the timed candidate runs)")
-    if out:
-        out = Path(out)
-        out.mkdir(parents=True, exist_ok=True)
+    if folder is not None:
         from ..io import write_table
-        write_table(rep.table, out / "accuracy.csv")
-        rep.plot(out / "accuracy.png")
-        lines.append(f"wrote {out}/accuracy.csv, accuracy.png")
+
+        with result_set(folder, "accuracy", known=FILES) as stage:  # one set
+            write_table(rep.table, stage / "accuracy.csv")
+            rep.plot(stage / "accuracy.png")
+        lines.append(f"wrote {folder}/accuracy.csv, accuracy.png")
     return lines, rep

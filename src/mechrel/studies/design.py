@@ -156,7 +156,7 @@ def run_design(study, *, method=None, n_jobs=1, seed=None, out=None, progress=Tr
     ...     lines, result = run_design(study, progress=False)
     >>> lines[0].startswith("study study: design for reliability (mc, ")
     True
-    >>> result.provenance["n_model_evaluations"] <= 30      # 10 per design tried, + the optimum
+    >>> result.provenance["n_evaluations"] <= 30      # 10 per design tried, + the optimum
     True
     """
     from ..uq import design_for_reliability
@@ -199,7 +199,7 @@ def run_design(study, *, method=None, n_jobs=1, seed=None, out=None, progress=Tr
     n_method = prov["counts"]["design"]["n_evaluations"]
     n_verify = prov["counts"]["verification"]["n_evaluations"]
     lines = [f"study {study.name}: design for reliability ({res.method}, "
-             f"{prov['n_model_evaluations']} simulations: {n_method} by the method, "
+             f"{prov['n_evaluations']} simulations: {n_method} by the method, "
              f"{n_verify} to verify; "
              f"{prov['n_cached']} from the cache)",
              f"  {res.sense} {res.cost_expression}: {res.cost:.6g} at the optimum "
@@ -225,21 +225,24 @@ def run_design(study, *, method=None, n_jobs=1, seed=None, out=None, progress=Tr
     wall = time.perf_counter() - start
     lines.append(f"  wall time {wall:.1f} s (n_jobs = {n_jobs})")
     if out:
+        from ..io.results import result_set
         from ..uq.design.figure import plot_tradeoff
 
-        write_table(res.table.reset_index(), out / "design.csv")
-        write_table(res.constraints.reset_index(), out / "design_constraints.csv")
-        write_table(res.tradeoff, out / "design_tradeoff.csv")
-        write_table(res.history.reset_index(), out / "design_history.csv")
-        _agg()
-        _save(plot_tradeoff(res, title=f"{study.name}: cost against reliability"),
-              out / "design_tradeoff.png")
-        if evaluations:
-            _write_failures(evaluations, out / "design_failures.csv")
-        write_json({**record, "wall_time": wall, "failures": _failure_counts(evaluations),
-                    "cost": res.cost, "optimum": res.design, "active": res.active,
-                    "provenance": dict(prov), "warnings": list(res.warnings),
-                    "summary": lines}, out / "design.json")
+        # one set: everything written into the staging folder, moved into out together
+        with result_set(out, "design", known=DESIGN_FILES) as stage:
+            write_table(res.table.reset_index(), stage / "design.csv")
+            write_table(res.constraints.reset_index(), stage / "design_constraints.csv")
+            write_table(res.tradeoff, stage / "design_tradeoff.csv")
+            write_table(res.history.reset_index(), stage / "design_history.csv")
+            _agg()
+            _save(plot_tradeoff(res, title=f"{study.name}: cost against reliability"),
+                  stage / "design_tradeoff.png")
+            if evaluations:
+                _write_failures(evaluations, stage / "design_failures.csv")
+            write_json({**record, "wall_time": wall, "failures": _failure_counts(evaluations),
+                        "cost": res.cost, "optimum": res.design, "active": res.active,
+                        "provenance": dict(prov), "warnings": list(res.warnings),
+                        "summary": lines}, stage / "design.json", relative_to=out)
         lines.append(f"  wrote {out}/design.csv, design_constraints.csv, design_tradeoff.csv, "
                      "design_tradeoff.png, design_history.csv, design.json")
     return lines, res

@@ -259,6 +259,47 @@ class Presenter:
     def __init__(self):
         self.keys: list[str] = []
 
+    def check(self, ctx: Context, method) -> None:
+        """Check a method's settings before any method of the run evaluates the model: each by
+        the registry's check, and those that count the model runs held in memory
+        (:attr:`~mechrel.uq.estimators.Setting.samples`) against the machine's memory.
+
+        Parameters
+        ----------
+        ctx : Context
+            The run.
+        method : mechrel.uq.estimators.Method
+            The registry entry of the method.
+
+        Raises
+        ------
+        StudyError
+            A setting is invalid, or its model runs would not fit in memory.
+
+        Examples
+        --------
+        >>> from mechrel.studies.rare import _demo
+        >>> from mechrel.uq.estimators import METHODS
+        >>> from dataclasses import replace
+        >>> study, model = _demo()   # analytic: a velocity extreme 6 + x1 + x2 (m/s)
+        >>> study = replace(study, method_settings={"is": {"n": 10**15}})
+        >>> ctx = Context(study, model, study.uncertain_inputs(), study.allowables(), "two-sided",
+        ...               seed=7, n=64, max_failure_fraction=0.1, common={"progress": False})
+        >>> Presenter().check(ctx, METHODS["importance_sampling"])
+        Traceback (most recent call last):
+        ...
+        mechrel.errors.StudyError: is.n = 1000000000000000: 1e+15 model runs of ...
+        """
+        from ..uq._common import check_memory
+        from ..uq.problem.model import check_model
+
+        settings = ctx.settings(method)
+        names, index = check_model(ctx.model)
+        for key, setting in method.settings.items():
+            if setting.samples:
+                where = f"{method.key}.{key}"
+                check_memory(settings[key], len(names) + len(index), where, settings[key])
+
     def run(self, ctx: Context, method) -> None:
         """Run a method, recording its result(s) in ``ctx.results``.
 
@@ -664,10 +705,22 @@ class PolynomialChaos(Presenter):
 
     rank = 2
 
+    def check(self, ctx, method):
+        from ..uq.surrogates.pce import check_cost
+
+        super().check(ctx, method)
+        try:  # what the expansion will cost, refused past the study's limit
+            check_cost(ctx.inputs.d, ctx.study.reliability["pce_order"],
+                       ctx.study.reliability["pce_max_evaluations"],
+                       names=("reliability.pce_order", "reliability.pce_max_evaluations"))
+        except StudyError as exc:
+            raise StudyError(f"{ctx.study.source}: {exc}") from None
+
     def run(self, ctx, method):
         self.keys.append(method.key)
         r = ctx.estimate(method.key, method.function, model=ctx.model, inputs=ctx.inputs,
                          order=ctx.study.reliability["pce_order"], seed=ctx.seed,
+                         max_evaluations=ctx.study.reliability["pce_max_evaluations"],
                          max_failure_fraction=ctx.max_failure_fraction, **ctx.common)
         ctx.estimate("pce_surrogate", r.reliability, result_name="pce_reliability", n=2**17,
                      rule="sobol", seed=ctx.seed, allowable=ctx.allowables, event=ctx.event)
@@ -923,8 +976,10 @@ class Generic(Presenter):
         _run_on_study(ctx, method, prefer="limit_state")
 
     def tail_lines(self, ctx):
-        return [f"  {k}: {ctx.results[k].n_evaluations} model evaluations, table in {k}.csv"
-                for k in self.keys]
+        # the count of its evaluations (computed, from the cache), as every line gives it
+        counts = {k: ctx.evaluations[k].count.text() if k in ctx.evaluations
+                  else f"{ctx.results[k].n_evaluations} model evaluations" for k in self.keys}
+        return [f"  {k}: {counts[k]}, table in {k}.csv" for k in self.keys]
 
     def write(self, ctx, out):
         from ..io import write_table

@@ -369,6 +369,49 @@ def design_points(results) -> pd.DataFrame | None:
     return pd.concat(frames, keys=keys, names=["method", "point", "input"])
 
 
+def evaluation_counts(results, evaluations):
+    """The one count of model evaluations of a run: per method, the rows its estimate rests on
+    (:class:`~mechrel.uq.EvaluationCount`) and the method of this run whose rows it includes
+    (SORM and importance sampling started from FORM's design point include FORM's search), and
+    the run's count, each row counted once.
+
+    Parameters
+    ----------
+    results : dict
+        ``{key: result}``.
+    evaluations : dict
+        ``{key: Evaluations}`` of the methods (a refusing method has evaluations, no result).
+
+    Returns
+    -------
+    per_method : dict
+        ``{key: (EvaluationCount, key of the method whose rows it includes, or None)}``.
+    total : EvaluationCount
+        The run's.
+
+    Examples
+    --------
+    >>> study, model = _demo()
+    >>> results, _ = estimate(study, model, study.uncertain_inputs(), ["form", "sorm"], seed=7,
+    ...                       common={"n_jobs": 1, "cache": None, "progress": False})
+    >>> per, total = evaluation_counts(results, {k: r.evaluations for k, r in results.items()})
+    >>> per["sorm"][1], total.evaluations == per["sorm"][0].evaluations
+    ('form', True)
+    """
+    from ..uq import EvaluationCount
+
+    per, total = {}, EvaluationCount()
+    for key, ev in evaluations.items():
+        count, shared = ev.count, None
+        result = results.get(key)
+        fr = _form_of(result) if result is not None else None
+        if fr is not None and fr is not result:
+            shared = next((k for k, r in results.items() if r is fr and k in evaluations), None)
+        per[key] = (count, shared)
+        total += count - (evaluations[shared].count if shared else EvaluationCount())
+    return per, total
+
+
 def summary_lines(results) -> list[str]:
     """One line per method: P_f, β, the c.o.v. and interval where there is one, the cost, and
     for a design point its largest importance factors.
@@ -393,13 +436,21 @@ def summary_lines(results) -> list[str]:
     """
     lines = []
     t = table(results)
+    per, _ = evaluation_counts(results, {k: r.evaluations for k, r in results.items()
+                                         if r.evaluations is not None})
     for key, row in t.iterrows():
         name = rare_event_methods()[key].name
         text = (f"  {key} ({name}): whole-cycle P_f = {row['pf']:.3g}, β = {row['beta']:.3f}")
         if np.isfinite(row["cov"]):
             text += (f", c.o.v. {row['cov']:.2f}, interval [{row['pf_lo']:.3g}, "
                      f"{row['pf_hi']:.3g}]")
-        text += f"; {int(row['n_evaluations'])} model evaluations, {row['wall_time']:.1f} s"
+        if key in per:
+            count, shared = per[key]
+            text += f"; {count.text()}" + (f", {per[shared][0].evaluations} of them {shared}'s"
+                                           if shared else "")
+        else:
+            text += f"; {int(row['n_evaluations'])} model evaluations"
+        text += f", {row['wall_time']:.1f} s"
         fr = _form_of(results[key])
         if fr is not None and fr is results[key]:
             imp = fr.importance.sort_values(ascending=False)

@@ -4,22 +4,20 @@ the estimators of :mod:`mechrel.uq`, write tables and figures, return a printabl
 from __future__ import annotations
 
 import functools
-import os
-import tempfile
 import time
-from pathlib import Path
 
 import pandas as pd
 
-from ..errors import OutputError, StudyError
 from ..io import save_figure, write_json, write_table
 from ..io.lock import hold_folder
+from ..io.results import check_folder, removed_if_left_empty, result_set
 from ..outputs import QUANTITY_INFO
 from .._checks import ARGS
 from ..uq._common import SampleFailuresError, failure_message
 
 UNITS = {name: q.unit for name, q in QUANTITY_INFO.items()}  # SI, from the output kinds
-# What a finished run writes beside its summary; a refused run removes an earlier run's.
+# What a finished run writes beside its summary. A run's files are one set (io.results): a
+# refused or a later run leaves none of an earlier run's beside its own.
 RELIABILITY_FILES = ("reliability.csv", "reliability.png")
 """The per-angle table and figure of ``mechrel reliability`` (the methods' presenters add
 their own files, :func:`reliability_results`)."""
@@ -49,59 +47,25 @@ def reliability_results() -> tuple[str, ...]:
     return RELIABILITY_FILES + files_of(study_methods().values()) + combined
 
 
-def _output_folder(out, names=()):
-    """``out`` as a created, writable folder (None: no output), in which none of the files
-    ``names`` is a folder; checked before anything runs."""
-    if not out:
-        return None
-    out = Path(out)
-    if out.exists() and not out.is_dir():
-        raise StudyError(f"out = {str(out)!r}: an existing file, not a folder; allowed: a "
-                         "folder (created if missing)")
-    for name in names:
-        if (out / name).is_dir():
-            raise OutputError(f"out = {str(out)!r}: {name} is a folder, where this run writes "
-                              f"a file; allowed: a folder without a folder named {name} "
-                              "(remove or rename it)")
-    try:
-        out.mkdir(parents=True, exist_ok=True)
-        fd, probe = tempfile.mkstemp(prefix=".mechrel-probe-", dir=out)
-        os.close(fd)
-        os.unlink(probe)
-    except OSError as exc:
-        raise OutputError(f"out = {str(out)!r}: cannot create the folder or a file in it "
-                          f"({exc.strerror}); allowed: a writable folder (created if "
-                          "missing)") from None
-    return out
-
-
 def _holds_output_folder(names):
     """Decorator: ``run(study, out=..., ...)`` with ``out`` checked (a writable folder in which
     none of the files ``names`` that the run writes is a folder, before anything runs; a
     callable ``names`` is asked at each run, for the methods registered by then) and
     locked for the whole run (:func:`mechrel.io.lock.hold_folder`): a second run on the same
-    folder is refused at once instead of evaluating everything again."""
+    folder is refused at once instead of evaluating everything again. A folder this run
+    created is removed again if the run leaves nothing in it (an argument refused after the
+    folder was made)."""
     def decorate(run):
         @functools.wraps(run)
         def wrapper(study, *, out=None, **kwargs):
-            folder = _output_folder(out, names() if callable(names) else names)
-            if folder is None:
-                return run(study, out=None, **kwargs)
-            with hold_folder(folder):
-                return run(study, out=folder, **kwargs)
+            with removed_if_left_empty(out):
+                folder = check_folder(out, names() if callable(names) else names)
+                if folder is None:
+                    return run(study, out=None, **kwargs)
+                with hold_folder(folder):
+                    return run(study, out=folder, **kwargs)
         return wrapper
     return decorate
-
-
-def _remove_stale(out, names) -> None:
-    """Remove earlier runs' result files ``names`` from ``out``, so that no table or figure
-    of another run is left beside this run's summary."""
-    for name in names:
-        try:
-            (out / name).unlink(missing_ok=True)
-        except OSError as exc:
-            raise OutputError(f"out = {str(out)!r}: cannot remove the earlier run's {name} "
-                              f"({exc.strerror}); allowed: a writable folder") from None
 
 
 def _check_run(*, n, seed, n_jobs, backend, max_failure_fraction, model, inputs, rows_per_n):
@@ -145,18 +109,20 @@ def _write_failures(evaluations, path) -> None:
     write_table(table.reset_index(level="method"), path)
 
 
-def _refusal(exc, evaluations, out, files, record, section, stale=()):
+def _refusal(exc, evaluations, out, files, record, section, known=()):
     """The error for an estimator's refusal (a :class:`SampleFailuresError`), after writing
-    ``files`` = (failures table, summary) to ``out`` and removing an earlier run's results
-    ``stale`` from it: the failed samples are never lost, and no earlier run's table or figure
-    is left beside the refusal."""
+    ``files`` = (failures table, summary) to ``out`` as the run's set of results
+    (:func:`mechrel.io.results.result_set`, the set named ``section``, as a finished run's;
+    ``known``: the other files of the set): the failed samples are never lost, and no earlier
+    run's table or figure is left beside the refusal."""
     method = next(reversed(evaluations))  # the refusing estimator recorded its evaluations last
     msg = str(exc).rstrip(".")
     if out:
-        _remove_stale(out, stale)
-        _write_failures(evaluations, out / files[0])
-        write_json({**record, "refused": {"method": method, "error": str(exc)},
-                    "failures": _failure_counts(evaluations)}, out / files[1])
+        with result_set(out, section, known=known) as stage:
+            _write_failures(evaluations, stage / files[0])
+            write_json({**record, "refused": {"method": method, "error": str(exc)},
+                        "failures": _failure_counts(evaluations)}, stage / files[1],
+                       relative_to=out)
         msg += (f". Wrote {out}/{files[0]} (inputs and reason of each failed sample) and "
                 f"{files[1]}")
     return SampleFailuresError(
@@ -274,6 +240,7 @@ def run_reliability(study, *, methods=None, n=None, n_jobs=1, seed=None, out=Non
     (['fosm'], 3)
     """
     from .presenters import COMBINED, Context, presenter_class, warnings_of
+    from .rare import evaluation_counts
     from .study import study_methods
 
     start = time.perf_counter()
@@ -309,7 +276,6 @@ def run_reliability(study, *, methods=None, n=None, n_jobs=1, seed=None, out=Non
                max_failure_fraction=max_failure_fraction, model=model, inputs=inputs,
                rows_per_n=max((p.rows_per_n for p in presenters.values()), default=0))
     allow = study.allowables()
-    _warm_up(model, progress)
     cache_path = (out / "evaluations.sqlite") if (out and cache) else None
     ctx = Context(study=study, model=model, inputs=inputs, allowables=allow, event=event,
                   seed=seed, n=n, max_failure_fraction=max_failure_fraction,
@@ -317,6 +283,9 @@ def run_reliability(study, *, methods=None, n=None, n_jobs=1, seed=None, out=Non
                   common=dict(n_jobs=n_jobs, backend=backend, cache=cache_path,
                               progress=progress), target=target)
     ctx.presenters = list(presenters.values()) + [cls() for cls in COMBINED]
+    for m in chosen:  # every method's settings and sizes, before the first one runs
+        presenters[presenter_class(m)].check(ctx, m)
+    _warm_up(model, progress)
     record = {"study": study.name, "source": study.source, "methods": list(keys), "n": n,
               "seed": seed, "event": event, "max_failure_fraction": max_failure_fraction}
     lines = [f"study {study.name}: scene {model.scene.name}, inputs {', '.join(inputs.names)}; "
@@ -355,36 +324,41 @@ def run_reliability(study, *, methods=None, n=None, n_jobs=1, seed=None, out=Non
         lines += p.tail_lines(ctx)
     lines += _failure_lines(ctx.evaluations, out / "failures.csv" if out else None)
     wall = time.perf_counter() - start
-    n_calls = sum(ev.n_model_calls for ev in ctx.evaluations.values())
-    lines.append(f"  {n_calls} model evaluations in {wall:.1f} s (n_jobs = {n_jobs})")
+    per_method, total = evaluation_counts(ctx.results, ctx.evaluations)
+    lines.append(f"  {total.text()} in {wall:.1f} s (n_jobs = {n_jobs})")
     notes = warnings_of(ctx.results) + ctx.notes
     lines += [f"  warning: {w}" for w in notes]
     verdict = _verdict(ctx, by_rank)
     if out:
-        written = []
-        if table is not None:
-            write_table(table.reset_index(), out / "reliability.csv")
-            written.append("reliability.csv")
-        plotted = [r for p in ctx.presenters for r in p.plotted(ctx)]
-        if plotted:
-            from ..uq.plots import plot_reliability
-            _agg()
+        # one set: everything written into the staging folder, moved into out together
+        with result_set(out, "reliability", known=reliability_results()) as stage:
+            written = []
+            if table is not None:
+                write_table(table.reset_index(), stage / "reliability.csv")
+                written.append("reliability.csv")
+            plotted = [r for p in ctx.presenters for r in p.plotted(ctx)]
+            if plotted:
+                from ..uq.plots import plot_reliability
+                _agg()
 
-            _save(plot_reliability(*plotted, title=f"{study.name}: reliability per crank "
-                                                   f"angle ({event})"),
-                  out / "reliability.png")
-            written.append("reliability.png")
-        for p in ctx.presenters:
-            written += p.write(ctx, out)
-        _remove_stale(out, [f for f in reliability_results() if f not in written])
-        _write_failures(ctx.evaluations, out / "failures.csv")
-        write_json({**record, "wall_time": wall, "failures": _failure_counts(ctx.evaluations),
-                    "provenance": {k: dict(v.provenance) for k, v in ctx.results.items()},
-                    "warnings": notes, "verdict": [v.strip() for v in verdict[1:]],
-                    "summary": lines, **{k: v for p in ctx.presenters
-                                         for k, v in p.record(ctx).items()}},
-                   out / "summary.json")
-        written += ["failures.csv", "summary.json"]
+                _save(plot_reliability(*plotted, title=f"{study.name}: reliability per crank "
+                                                       f"angle ({event})"),
+                      stage / "reliability.png")
+                written.append("reliability.png")
+            for p in ctx.presenters:
+                written += p.write(ctx, stage)
+            _write_failures(ctx.evaluations, stage / "failures.csv")
+            write_json({**record, "wall_time": wall,
+                        "failures": _failure_counts(ctx.evaluations),
+                        "evaluations": {**{k: {**c.as_dict(), "includes": shared}
+                                           for k, (c, shared) in per_method.items()},
+                                        "total": total.as_dict()},
+                        "provenance": {k: dict(v.provenance) for k, v in ctx.results.items()},
+                        "warnings": notes, "verdict": [v.strip() for v in verdict[1:]],
+                        "summary": lines, **{k: v for p in ctx.presenters
+                                             for k, v in p.record(ctx).items()}},
+                       stage / "summary.json", relative_to=out)
+            written += ["failures.csv", "summary.json"]
         lines.append(f"  wrote {out}/{', '.join(written)}")
     lines += verdict  # the summary ends with it
     return lines, ctx.results
@@ -487,8 +461,7 @@ def run_sensitivity(study, *, n=None, n_jobs=1, seed=None, out=None, progress=Tr
     table = res.to_frame().reset_index()
     table = table.sort_values([table.columns[0], "ST"], ascending=[True, False])
     lines = [f"study {study.name}: Sobol indices of the peak |error| over the cycle "
-             f"(N = {n}, {res.evaluations.n} model runs, "
-             f"{res.n_blocks_dropped} Saltelli blocks dropped for failures)"]
+             f"(N = {n}, {res.n_blocks_dropped} Saltelli blocks dropped for failures)"]
     for out_name, grp in table.groupby(table.columns[0], sort=False):
         ranked = ", ".join(f"{r[table.columns[1]]} ST={r['ST']:.3f}±{r['ST_conf']:.3f} "
                            f"S1={r['S1']:.3f}" for _, r in grp.iterrows())
@@ -496,18 +469,21 @@ def run_sensitivity(study, *, n=None, n_jobs=1, seed=None, out=None, progress=Tr
     lines += _failure_lines(evaluations, out / "sensitivity_failures.csv" if out else None)
     lines += [f"  warning: {w}" for w in res.warnings]
     wall = time.perf_counter() - start
-    lines.append(f"  wall time {wall:.1f} s (n_jobs = {n_jobs})")
+    count = res.evaluations.count
+    lines.append(f"  {count.text()} in {wall:.1f} s (n_jobs = {n_jobs})")
     if out:
-        write_table(table, out / "sensitivity.csv")
-        from ..uq.plots import plot_sobol
-        _agg()
+        with result_set(out, "sensitivity", known=SENSITIVITY_RESULTS) as stage:
+            write_table(table, stage / "sensitivity.csv")
+            from ..uq.plots import plot_sobol
+            _agg()
 
-        _save(plot_sobol(res, title=f"{study.name}: what drives the error"),
-              out / "sensitivity.png")
-        _write_failures(evaluations, out / "sensitivity_failures.csv")
-        write_json({**record, "wall_time": wall, "failures": _failure_counts(evaluations),
-                    "provenance": dict(res.provenance), "warnings": list(res.warnings),
-                    "summary": lines}, out / "sensitivity.json")
+            _save(plot_sobol(res, title=f"{study.name}: what drives the error"),
+                  stage / "sensitivity.png")
+            _write_failures(evaluations, stage / "sensitivity_failures.csv")
+            write_json({**record, "wall_time": wall, "failures": _failure_counts(evaluations),
+                        "evaluations": {"sobol": count.as_dict(), "total": count.as_dict()},
+                        "provenance": dict(res.provenance), "warnings": list(res.warnings),
+                        "summary": lines}, stage / "sensitivity.json", relative_to=out)
         lines.append(f"  wrote {out}/sensitivity.csv, sensitivity.png, "
                      "sensitivity_failures.csv, sensitivity.json")
     return lines, res

@@ -14,7 +14,7 @@ from importlib import resources
 from pathlib import Path
 from typing import Any
 
-from .._checks import _MISSING, Checker, join
+from .._checks import _MISSING, Checker, join, suggest
 from ..errors import SceneError, StudyError
 from ..outputs import QUANTITY_INFO
 from ..scene.loader import check_depth, read_toml_text
@@ -23,6 +23,7 @@ from ..uq.estimators import METHODS as REGISTRY
 from ..uq.problem.allowables import DEFAULT_ALLOWABLES, EVENTS
 from ..uq.problem.inputs import SAMPLING_RULES
 from ..uq.problem.mechanism import REFERENCES
+from ..uq.surrogates.pce import MAX_EVALUATIONS
 
 
 def study_methods() -> dict:
@@ -79,8 +80,9 @@ def study_settings(method) -> dict:
 
     Examples
     --------
-    >>> sorted(study_settings(study_methods()["sorm"]))
-    ['curvature_step', 'formula', 'max_iter', 'scheme', 'step', 'tol']
+    >>> sorted(study_settings(study_methods()["sorm"]))  # doctest: +NORMALIZE_WHITESPACE
+    ['contribution', 'curvature_step', 'formula', 'max_design_points', 'max_iter', 'scheme',
+     'search', 'step', 'tol']
     """
     return {k: s for k, s in method.settings.items() if s.check is not None}
 
@@ -109,7 +111,8 @@ def study_fields() -> tuple[str, ...]:
                         + tuple(_method_tables())))
 
 
-_RELIABILITY = ("event", "max_failure_fraction", "methods", "n", "pce_order", "rule", "seed")
+_RELIABILITY = ("event", "max_failure_fraction", "methods", "n", "pce_max_evaluations",
+                "pce_order", "rule", "seed")
 _RENAMED = {"form": "event"}
 """Keys of ``[reliability]`` renamed: old -> new (an old key is an error naming the new)."""
 _SENSITIVITY = ("max_failure_fraction", "n", "seed")
@@ -331,13 +334,21 @@ def _scene_source(c: _Checker, scene: str, base_dir: Path | None, given: bool) -
     leave — unless the caller gave it (``given``: an override), when it is taken as it is."""
     from ..scene.loader import _looks_like_path, embedded_names
 
-    if scene in embedded_names() or not _looks_like_path(scene):
+    names = embedded_names()
+    if scene in names or (given and not _looks_like_path(scene)):
         return scene
     folder = (base_dir or Path.cwd()).resolve()
     path = Path(scene)
     if given:
         return str(path)
     path = path if path.is_absolute() else folder / path
+    if not _looks_like_path(scene) and not path.is_file():
+        # a bare name is an embedded scene or a file beside the study (never one in the
+        # current folder, whose content could then end up in a message)
+        c.fail("scene", scene, f"not an embedded scene{suggest(scene, names)}, nor a file in "
+               f"{str(folder)!r}, the folder of the study file",
+               f"an embedded scene name ({', '.join(names)}) or a scene file in the study "
+               "file's folder or below it")
     if not path.resolve().is_relative_to(folder):
         c.fail("scene", scene, f"not read: it is outside {str(folder)!r}, the folder of the "
                "study file", "an embedded scene name or a scene file in the study file's folder "
@@ -448,6 +459,9 @@ def _reliability(c: _Checker, table: Any) -> dict:
             "rule": c.choice("reliability.rule", t.get("rule", "sobol"), SAMPLING_RULES),
             "seed": c.seed("reliability.seed", t.get("seed")),
             "pce_order": c.integer("reliability.pce_order", t.get("pce_order", 2), ge=1),
+            "pce_max_evaluations": c.integer("reliability.pce_max_evaluations",
+                                             t.get("pce_max_evaluations", MAX_EVALUATIONS),
+                                             ge=1),
             "max_failure_fraction": c.fraction("reliability.max_failure_fraction",
                                                t.get("max_failure_fraction", 0.1))}
 

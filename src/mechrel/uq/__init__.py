@@ -36,7 +36,7 @@ import importlib
 # worker process unpickling a model (which imports ``mechrel.uq.problem.model``) does not pay for
 # scipy.stats, chaospy and SALib.
 _EXPORTS = {
-    "problem.model": ["Model", "ModelFailure", "RowFailures", "FunctionModel"],
+    "problem.model": ["Model", "ModelFailure", "RowFailures", "FunctionModel", "evaluate_rows"],
     "problem.mechanism": ["MechanismModel"],
     "problem.inputs": ["UncertainInputs", "Normal", "TruncNormal", "Uniform", "LogNormal",
                        "Gumbel", "Weibull", "Gamma", "Beta", "ScipyMarginal",
@@ -46,7 +46,7 @@ _EXPORTS = {
     "problem.limit_state": ["LimitState"],
     "problem.analytic": ["linear_model", "ishigami", "ishigami_model", "ishigami_inputs",
                          "ishigami_indices"],
-    "execution.executor": ["evaluate", "evaluate_rows", "Evaluations", "BACKENDS"],
+    "execution.executor": ["evaluate", "Evaluations", "EvaluationCount", "BACKENDS"],
     "execution.cache": ["EvaluationCache"],
     "_common": ["SampleFailuresError"],
     "estimators": ["METHODS"],

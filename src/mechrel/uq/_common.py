@@ -13,7 +13,7 @@ import pandas as pd
 
 from mechrel.errors import StudyError
 
-from .execution.executor import Evaluations, evaluate
+from .execution.executor import EvaluationCount, Evaluations, evaluate
 from .problem.inputs import UncertainInputs
 from .problem.model import check_model
 
@@ -84,10 +84,8 @@ def make_provenance(
     return {
         "method": method,
         "seed": seed,
-        "n_model_evaluations": int(sum(e.n for e in evs)),
-        "n_model_calls": int(sum(e.n_model_calls for e in evs)),
-        "n_cached": int(sum(e.n_cached for e in evs)),
-        "n_failed": int(sum(e.n_failed for e in evs)),
+        # the count of model evaluations under the names every file uses (EvaluationCount)
+        **sum((e.count for e in evs), EvaluationCount()).as_dict(),
         "wall_time": float(wall_time),
         "model_cache_key": keys[0] if len(keys) == 1 else (keys or None),
         "model": models[0] if len(models) == 1 else (models or None),
@@ -240,7 +238,7 @@ class CountedByProvenance:
     def n_evaluations(self) -> int:
         """The model evaluations behind the estimate.
 
-        Rows sent to the executor, cache hits included (``provenance["n_model_evaluations"]``).
+        Rows sent to the executor, cache hits included (``provenance["n_evaluations"]``).
 
         Returns
         -------
@@ -250,8 +248,8 @@ class CountedByProvenance:
         Examples
         --------
         >>> class R(CountedByProvenance):
-        ...     provenance = {"n_model_evaluations": 7}
+        ...     provenance = {"n_evaluations": 7}
         >>> R().n_evaluations
         7
         """
-        return int(self.provenance["n_model_evaluations"])  # type: ignore[attr-defined]
+        return int(self.provenance["n_evaluations"])  # type: ignore[attr-defined]

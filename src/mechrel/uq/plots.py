@@ -439,7 +439,12 @@ def plot_sobol(result: Any, output: Any = None, *, title: str | None = None):
         ax.bar(x + w / 2, st.iloc[k].to_numpy(), w, yerr=None if ct is None else ct.iloc[k].to_numpy(),
                capsize=3, label="total order S_Ti")
         ax.set_xticks(x, names, rotation=30 if long else 0, ha="right" if long else "center")
-        ax.set_ylim(min(0.0, float(np.nanmin(s1.iloc[k]) - 0.05)), 1.05)
+        defined = s1.iloc[k].to_numpy(dtype=float)
+        defined = defined[np.isfinite(defined)]
+        ax.set_ylim(min(0.0, float(defined.min()) - 0.05) if defined.size else 0.0, 1.05)
+        if not defined.size:  # a measure that does not vary with the inputs: no variance
+            ax.text(0.5, 0.5, "undefined: this measure does not vary with the inputs",
+                    transform=ax.transAxes, ha="center", va="center", fontsize=8)
         ax.set_title(f"{_label(s1.index, k).replace('peak_abs_', 'peak |error|: ')} — {src}",
                      fontsize=9)
         ax.grid(axis="y", alpha=0.3)

@@ -350,7 +350,7 @@ def design_active_learning(*, problem, seed, confidence_level: float, failures: 
     ...     variables={"t": {"kind": "std", "input": "x", "lower": 0.01, "upper": 1.0}},
     ...     cost="1/t", constraints=0.99, allowable=1.0, method="ak", n_population=20000,
     ...     seed=4, tradeoff=0, verify="none", progress=False)
-    >>> abs(r.design["t"] / 0.38823 - 1) < 0.03, r.provenance["n_model_evaluations"] < 60
+    >>> abs(r.design["t"] / 0.38823 - 1) < 0.03, r.provenance["n_evaluations"] < 60
     (True, True)
     """
     if failures != "exclude":
@@ -393,7 +393,7 @@ def design_active_learning(*, problem, seed, confidence_level: float, failures: 
     Gt = np.empty((0, n_units))
     failed: list[np.ndarray] = []
     evs: list = []
-    counts = {"n_evaluations": 0, "n_model_calls": 0, "n_cached": 0, "n_failed": 0}
+    counts = {"n_evaluations": 0, "n_computed": 0, "n_cached": 0, "n_failed": 0}
     n_bad = 0
 
     def learn(Z, Y, ok):
@@ -413,7 +413,7 @@ def design_active_learning(*, problem, seed, confidence_level: float, failures: 
                                    Z.shape[0] > batch_size})
         evs.append(ev)
         for k_ in counts:
-            counts[k_] += {"n_evaluations": ev.n, "n_model_calls": ev.n_model_calls,
+            counts[k_] += {"n_evaluations": ev.n, "n_computed": ev.n_model_calls,
                            "n_cached": ev.n_cached, "n_failed": ev.n_failed}[k_]
         n_bad += learn(Z, ev.Y, ev.ok.copy())
         if n_bad > max_failure_fraction * counts["n_evaluations"]:

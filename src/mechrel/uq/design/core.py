@@ -40,7 +40,7 @@ from mechrel.errors import StudyError
 from ..._checks import ARGS
 from .._common import CountedByProvenance, check_inputs, emit_warnings, make_provenance
 from ..estimators._problem import concat_evaluations
-from ..execution.executor import Evaluations
+from ..execution.executor import EvaluationCount, Evaluations
 from ..problem.allowables import DEFAULT_ALLOWABLES, Allowable, check_event
 from ..problem.inputs import as_seed_sequence, child_seed, seed_record
 from ..problem.model import check_model, describe_model
@@ -237,7 +237,7 @@ class DesignEstimate:
     evaluations : tuple of Evaluations
         The model rows the method keeps (the method may keep fewer than it ran).
     counts : mapping
-        ``n_evaluations``, ``n_model_calls``, ``n_cached``, ``n_failed`` of every model row it
+        ``n_evaluations``, ``n_computed``, ``n_cached``, ``n_failed`` of every model row it
         ran.
     history : pandas.DataFrame
         One row per iteration.
@@ -895,15 +895,12 @@ def design_for_reliability(
                   "tradeoff": tradeoff, "confidence_level": confidence_level,
                   "failures": failures, "max_failure_fraction": max_failure_fraction,
                   **{k_: v for k_, v in est.settings.items()}})
-    ver_counts = {"n_evaluations": sum(e.n for e in ver_evs if e is not None),
-                  "n_model_calls": sum(e.n_model_calls for e in ver_evs if e is not None),
-                  "n_cached": sum(e.n_cached for e in ver_evs if e is not None),
-                  "n_failed": sum(e.n_failed for e in ver_evs if e is not None)}
-    prov["n_model_evaluations"] = int(est.counts["n_evaluations"] + ver_counts["n_evaluations"])
-    prov["n_model_calls"] = int(est.counts["n_model_calls"] + ver_counts["n_model_calls"])
-    prov["n_cached"] = int(est.counts["n_cached"] + ver_counts["n_cached"])
-    prov["n_failed"] = int(est.counts["n_failed"] + ver_counts["n_failed"])
-    prov["counts"] = {"design": dict(est.counts), "verification": ver_counts}
+    # the totals (n_evaluations, n_computed, n_cached, n_failed) are make_provenance's, over
+    # every evaluation; the split between the method and the verification beside them
+    prov["counts"] = {"design": sum((e.count for e in est.evaluations if e is not None),
+                                    EvaluationCount()).as_dict(),
+                      "verification": sum((e.count for e in ver_evs if e is not None),
+                                          EvaluationCount()).as_dict()}
     prov["model"] = describe_model(model)  # the scene and its hash; the designs' maps below
     prov["model_cache_key"] = model.cache_key()
     prov["optimum_model"] = problem.model_at(d).describe()

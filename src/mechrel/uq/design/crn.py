@@ -64,7 +64,7 @@ class CRNConstraints:
         self.confidence_level = confidence_level
         self._memo: dict[bytes, list[np.ndarray]] = {}
         self._last = None
-        self.counts = {"n_evaluations": 0, "n_model_calls": 0, "n_cached": 0, "n_failed": 0}
+        self.counts = {"n_evaluations": 0, "n_computed": 0, "n_cached": 0, "n_failed": 0}
         self.n_designs = 0
 
     def values(self, d: np.ndarray) -> list[np.ndarray]:
@@ -79,7 +79,7 @@ class CRNConstraints:
                                                     "progress": self.executor["progress"] and first})
             self.n_designs += 1
             for k in self.counts:
-                self.counts[k] += {"n_evaluations": ev.n, "n_model_calls": ev.n_model_calls,
+                self.counts[k] += {"n_evaluations": ev.n, "n_computed": ev.n_model_calls,
                                    "n_cached": ev.n_cached, "n_failed": ev.n_failed}[k]
             if ev.n_failed > self.max_failure_fraction * ev.n:
                 raise SampleFailuresError(

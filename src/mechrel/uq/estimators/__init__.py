@@ -60,6 +60,10 @@ class Setting:
         setting, the value and what is allowed (None: the estimator checks it itself).
     doc : str, default ""
         A one-line description (shown by the command line).
+    samples : bool, default False
+        The setting is a number of model runs the method holds in memory at once (a sample
+        count): the study runner checks it against the machine's memory before any method
+        runs.
 
     Examples
     --------
@@ -71,6 +75,7 @@ class Setting:
     default: Any
     check: Callable[[str, Any], Any] | None = None
     doc: str = ""
+    samples: bool = False
 
 
 @dataclass(frozen=True)
@@ -179,7 +184,7 @@ class Method:
         Examples
         --------
         >>> sorted(METHODS["form"].settings)
-        ['max_iter', 'scheme', 'start', 'step', 'tol', 'tol_direction']
+        ['contribution', 'max_design_points', 'max_iter', 'scheme', 'search', 'start', 'step', 'tol', 'tol_direction']
         """
         if self.declared_settings is not None:
             return MappingProxyType(dict(self.declared_settings))
@@ -214,7 +219,7 @@ class Method:
         >>> METHODS["form"].validate({"iterations": 5})
         Traceback (most recent call last):
         ...
-        mechrel.errors.StudyError: form: settings ['iterations']: unknown; allowed: ['max_iter', 'scheme', 'start', 'step', 'tol', 'tol_direction']
+        mechrel.errors.StudyError: form: settings ['iterations']: unknown; allowed: ['contribution', 'max_design_points', 'max_iter', 'scheme', 'search', 'start', 'step', 'tol', 'tol_direction']
         """
         given = dict(settings or {})
         known = self.settings
@@ -341,14 +346,14 @@ for _m in (
     Method("importance_sampling", "estimators.importance:importance_sampling",
            "estimators.importance:ImportanceSamplingResult", "rare_event",
            "importance sampling from a defensive mixture centred on FORM's design points",
-           _FORM_SETTINGS | _FAILURES | {"n": Setting(1000, _pos_int(2)), "design_point": Setting(None),
+           _FORM_SETTINGS | _FAILURES | {"n": Setting(1000, _pos_int(2), samples=True), "design_point": Setting(None),
                                          "defensive": Setting(0.1, _closed_fraction,
                                                               "weight of the standard normal in the mixture")},
            short="is"),
     Method("subset_simulation", "estimators.subset:subset_simulation",
            "estimators.subset:SubsetSimulationResult", "rare_event",
            "subset simulation (Au & Beck) with conditional sampling or modified Metropolis",
-           _FAILURES | {"n_per_level": Setting(1000, _pos_int(10)), "p0": Setting(0.1, _fraction),
+           _FAILURES | {"n_per_level": Setting(1000, _pos_int(10), samples=True), "p0": Setting(0.1, _fraction),
                         "proposal": Setting("conditional", _choice(("conditional", "modified_metropolis"))),
                         "rho": Setting(0.8, _correlation), "spread": Setting(1.0, _pos_float),
                         "max_levels": Setting(20, _pos_int(1))},

@@ -65,6 +65,7 @@ class Problem:
         self.bound = limit_state.bind(index)
         extra = limit_state.random_allowables
         self.d_model = len(names)
+        self.n_out = len(index)
         if extra:
             corr = None
             if inputs.correlation is not None:

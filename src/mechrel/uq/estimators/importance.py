@@ -46,7 +46,7 @@ from scipy import special, stats
 from mechrel.errors import StudyError
 
 from ..._checks import ARGS
-from .._common import SampleFailuresError, emit_warnings
+from .._common import SampleFailuresError, check_memory, emit_warnings
 from ..execution.executor import Evaluations
 from ..problem.inputs import as_seed_sequence, child_seed, seed_record
 from ._problem import Problem, RareEventResult, common_settings, concat_evaluations, refuse_evaluations
@@ -211,6 +211,7 @@ def importance_sampling(
     ss = as_seed_sequence(seed)
     problem = Problem(model=model, inputs=inputs, limit_state=limit_state, n_jobs=n_jobs, backend=backend,
                       cache=cache, progress=progress, chunk_size=chunk_size, what="importance_sampling")
+    check_memory(n, problem.d + problem.n_out, "n", n)  # before FORM runs, not after it
     extra = []
     if design_point is None:
         fr = _form(problem, seed=None, step=step, scheme=scheme, tol=tol, max_iter=max_iter, start=None,

@@ -53,7 +53,7 @@ from scipy import special, stats
 from mechrel.errors import StudyError
 
 from ..._checks import ARGS
-from .._common import SampleFailuresError, emit_warnings
+from .._common import SampleFailuresError, check_memory, emit_warnings
 from ..execution.executor import Evaluations
 from ..problem.inputs import as_seed_sequence, child_seed, seed_record
 from ._problem import Problem, RareEventResult, common_settings, refuse_evaluations
@@ -255,6 +255,7 @@ def subset_simulation(
     problem = Problem(model=model, inputs=inputs, limit_state=limit_state, n_jobs=n_jobs, backend=backend,
                       cache=cache, progress=progress, chunk_size=chunk_size, what="subset_simulation")
     d = problem.d
+    check_memory(N, d + problem.n_out, "n_per_level", N)  # each level holds N model runs
     fail_value = -np.inf if failures == "as_failure" else np.nan
     n_bad = 0
 

@@ -144,7 +144,9 @@ class EvaluationCache:
 
     def _fail(self, problem: str, exc: BaseException | None = None, todo: str = _WHAT_TO_DO):
         why = f" ({type(exc).__name__}: {exc})" if exc is not None else ""
-        raise CacheError(f"cache: {str(self.path)!r}: {problem}{why}; allowed: {todo}") from None
+        # one line: sqlite's reports (quick_check's, for one) span several
+        text = " ".join(f"{problem}{why}".split())
+        raise CacheError(f"cache: {str(self.path)!r}: {text}; allowed: {todo}") from None
 
     def _open(self) -> None:
         """Check the file (a sqlite database that passes ``quick_check``, holding only a table
@@ -154,8 +156,12 @@ class EvaluationCache:
             with self._connect() as con:
                 check = con.execute("PRAGMA quick_check").fetchall()
                 if check != [("ok",)]:
-                    self._fail("the file is damaged (sqlite quick_check: "
-                               f"{'; '.join(str(r[0]) for r in check[:3])})")
+                    # its report: a line per problem (hundreds, for a page), under a header
+                    found = [line.strip() for row in check for line in str(row[0]).splitlines()
+                             if line.strip() and not line.startswith("***")]
+                    more = f", and {len(found) - 1} more" if len(found) > 1 else ""
+                    self._fail(f"the file is damaged (sqlite quick_check: "
+                               f"{found[0] if found else 'not ok'}{more})")
                 tables = {r[0] for r in con.execute(
                     "SELECT name FROM sqlite_master WHERE type = 'table'")}
                 if tables - {"evaluations"}:

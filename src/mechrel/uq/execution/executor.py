@@ -34,13 +34,15 @@ import numpy as np
 import pandas as pd
 
 from mechrel._checks import ARGS
-from mechrel.errors import MechrelError, StudyError, interrupt_of
+from mechrel.errors import MechrelError, StudyError
 
-from ._workers import register_backend, safe_path_environment, watch_parent
+from ._workers import (chunk_ledger, register_backend, safe_path_environment, starting_chunk,
+                       worker_died)
 from .cache import as_cache
-from ..problem.model import RowFailures, as_output_index, check_model, describe_model
+from ..problem.model import (RowFailures, as_output_index, check_model, describe_model,
+                             evaluate_rows)
 
-__all__ = ["Evaluations", "evaluate", "evaluate_rows", "BACKENDS", "combined_cache_key"]
+__all__ = ["Evaluations", "EvaluationCount", "evaluate", "BACKENDS", "combined_cache_key"]
 
 BACKENDS = ("loky", "dask", "sequential")
 STATUS_OK = "ok"
@@ -48,9 +50,105 @@ STATUS_FAILED = "failed"
 
 
 def _readonly(a: np.ndarray) -> np.ndarray:
+    """A read-only array of ``a``'s values: ``a`` itself when it is read-only already (frozen
+    by its owner, e.g. the executor's own result arrays or another ``Evaluations``' arrays),
+    else a frozen copy (the caller's array stays the caller's)."""
+    if isinstance(a, np.ndarray) and not a.flags.writeable:
+        return a
     a = np.array(a, copy=True)
     a.setflags(write=False)
     return a
+
+
+@dataclass(frozen=True)
+class EvaluationCount:
+    """How many model evaluations an estimate rests on, and where they came from: the one
+    count that every line and file of a study reports (:attr:`Evaluations.count`).
+
+    Parameters
+    ----------
+    evaluations : int
+        Rows of inputs the estimate rests on (``Evaluations.n``; a result's ``n_evaluations``).
+    computed : int
+        Of them, evaluated by the model in this run (simulated, for the mechanism model).
+    cached : int
+        Of them, read from the evaluation cache.
+    failed : int
+        Of them, failed samples (computed or cached).
+
+    Rows neither computed nor cached were given precomputed (``evaluations=``).
+
+    Examples
+    --------
+    >>> EvaluationCount(71, 66, 5, 0).text()
+    '71 model evaluations (66 computed, 5 from the cache)'
+    >>> (EvaluationCount(13, 12, 1, 0) - EvaluationCount(11, 10, 1, 0)).text()
+    '2 model evaluations (2 computed)'
+    """
+
+    evaluations: int = 0
+    computed: int = 0
+    cached: int = 0
+    failed: int = 0
+
+    def __add__(self, other: EvaluationCount) -> EvaluationCount:
+        return EvaluationCount(*(a + b for a, b in zip(self.as_tuple(), other.as_tuple())))
+
+    def __sub__(self, other: EvaluationCount) -> EvaluationCount:
+        return EvaluationCount(*(a - b for a, b in zip(self.as_tuple(), other.as_tuple())))
+
+    def as_tuple(self) -> tuple[int, int, int, int]:
+        """``(evaluations, computed, cached, failed)``.
+
+        Returns
+        -------
+        tuple of int
+            The four counts.
+
+        Examples
+        --------
+        >>> EvaluationCount(3, 2, 1, 0).as_tuple()
+        (3, 2, 1, 0)
+        """
+        return (self.evaluations, self.computed, self.cached, self.failed)
+
+    def as_dict(self) -> dict[str, int]:
+        """The counts under the names of the files (``summary.json``, the provenance).
+
+        Returns
+        -------
+        dict
+            ``n_evaluations``, ``n_computed``, ``n_cached``, ``n_failed``.
+
+        Examples
+        --------
+        >>> EvaluationCount(3, 2, 1, 0).as_dict()
+        {'n_evaluations': 3, 'n_computed': 2, 'n_cached': 1, 'n_failed': 0}
+        """
+        return dict(zip(("n_evaluations", "n_computed", "n_cached", "n_failed"),
+                        self.as_tuple()))
+
+    def text(self) -> str:
+        """The count in words, as the summaries print it.
+
+        Returns
+        -------
+        str
+            ``"N model evaluations (C computed, K from the cache, F failed)"``, leaving out
+            the parts that are zero.
+
+        Examples
+        --------
+        >>> EvaluationCount(10, 8, 2, 1).text()
+        '10 model evaluations (8 computed, 2 from the cache, 1 failed)'
+        """
+        given = self.evaluations - self.computed - self.cached
+        parts = [f"{k} {what}" for k, what in ((self.computed, "computed"),
+                                               (self.cached, "from the cache"),
+                                               (given, "precomputed"),
+                                               (self.failed, "failed")) if k]
+        return (f"{self.evaluations} model evaluation{'' if self.evaluations == 1 else 's'}"
+                + (f" ({', '.join(parts)})" if parts else ""))
 
 
 @dataclass(frozen=True, eq=False)
@@ -74,9 +172,10 @@ class Evaluations:
     cache_key : str, optional
         The model's cache key (None for precomputed evaluations).
     n_model_calls : int, default 0
-        Calls actually made in this run (cache hits excluded).
+        Rows the model evaluated in this run (cache hits excluded; :attr:`count`'s
+        ``computed``).
     n_cached : int, default 0
-        Cache hits.
+        Rows read from the evaluation cache.
     wall_time : float, default 0.0
         Seconds spent in :func:`evaluate`.
     settings : dict
@@ -119,26 +218,40 @@ class Evaluations:
         idx = as_output_index(self.output_index, what="evaluations.output_index")
         if len(idx) != Y.shape[1]:
             raise StudyError(f"evaluations: output_index has {len(idx)} labels for Y with {Y.shape[1]} columns")
-        status = np.asarray(self.status).astype("<U6")
-        if status.shape != (X.shape[0],) or not np.all(np.isin(status, (STATUS_OK, STATUS_FAILED))):
+        status = np.asarray(self.status)
+        if status.dtype != np.dtype("<U6"):
+            status = status.astype("<U6")
+        ok = status == STATUS_OK
+        if status.shape != (X.shape[0],) or not (ok.all() or np.all(ok | (status == STATUS_FAILED))):
             raise StudyError("evaluations.status: one of 'ok'/'failed' per row required")
         reasons = tuple(self.reasons)
         if len(reasons) != X.shape[0]:
             raise StudyError("evaluations.reasons: one entry per row required")
-        ok = status == STATUS_OK
-        if not np.all(np.isfinite(Y[ok])):
+        # per failed row (only): NaN outputs and a reason; an ok row has none (vectorised: no
+        # Python loop over the rows unless a row needs mending)
+        failed = np.flatnonzero(~ok)
+        if failed.size and not np.all(np.isnan(Y[failed])):
+            Y = np.array(Y)
+            Y[failed] = np.nan
+        # the failed rows are NaN now: any other non-finite entry is in an ok row
+        if Y.size - np.count_nonzero(np.isfinite(Y)) != failed.size * Y.shape[1]:
             raise StudyError(
                 "evaluations: rows marked 'ok' contain non-finite outputs; mark them 'failed' with a reason"
             )
-        Y = np.where(ok[:, None], Y, np.nan)
+        missing = [i for i in failed if reasons[i] is None]
+        if missing or reasons.count(None) != ok.sum() + len(missing):
+            reasons = tuple(None if o else (r if r is not None else "unknown")
+                            for o, r in zip(ok, reasons))
         object.__setattr__(self, "X", _readonly(X))
         object.__setattr__(self, "Y", _readonly(Y))
         object.__setattr__(self, "status", _readonly(status))
-        object.__setattr__(self, "reasons", tuple(None if o else (r if r is not None else "unknown") for o, r in zip(ok, reasons)))
+        object.__setattr__(self, "reasons", reasons)
         object.__setattr__(self, "input_names", names)
         object.__setattr__(self, "output_index", idx)
         object.__setattr__(self, "settings", dict(self.settings))
         object.__setattr__(self, "model", dict(self.model))
+        ok.setflags(write=False)
+        object.__setattr__(self, "_ok", ok)  # not a field: the mask of ``ok``, computed once
 
     # ------------------------------------------------------------------ constructors
     @classmethod
@@ -239,7 +352,7 @@ class Evaluations:
         >>> Evaluations.from_arrays([[0.0], [1.0]], [1.0, float("inf")]).ok.tolist()
         [True, False]
         """
-        return self.status == STATUS_OK
+        return self._ok
 
     @property
     def n_ok(self) -> int:
@@ -272,6 +385,23 @@ class Evaluations:
         1
         """
         return self.n - self.n_ok
+
+    @property
+    def count(self) -> EvaluationCount:
+        """How many rows, computed in this run, read from the cache, failed.
+
+        Returns
+        -------
+        EvaluationCount
+            ``(n, n_model_calls, n_cached, n_failed)``.
+
+        Examples
+        --------
+        >>> Evaluations.from_arrays([[0.0], [1.0]], [1.0, float("nan")]).count.text()
+        '2 model evaluations (2 precomputed, 1 failed)'
+        """
+        return EvaluationCount(self.n, int(self.n_model_calls), int(self.n_cached),
+                               self.n_failed)
 
     def failure_counts(self) -> dict[str, int]:
         """Count the failed rows by reason, most frequent first.
@@ -423,10 +553,9 @@ class Evaluations:
         if Z.shape[0] != self.n:
             raise StudyError(f"reducer: must return one row per sample ({self.n}), got {Z.shape[0]}")
         ok = self.ok & np.all(np.isfinite(Z), axis=1)
-        reasons = tuple(
-            r if not o0 else (None if o1 else "non-finite reduced output")
-            for r, o0, o1 in zip(self.reasons, self.ok, ok)
-        )
+        reasons = list(self.reasons)
+        for i in np.flatnonzero(self.ok & ~ok):
+            reasons[i] = "non-finite reduced output"
         status = np.where(ok, STATUS_OK, STATUS_FAILED)
         return Evaluations(
             self.X, Z, status, reasons, self.input_names, idx, self.cache_key, self.n_model_calls,
@@ -493,122 +622,93 @@ def combined_cache_key(model: Any, input_names: tuple[str, ...], n_out: int) -> 
 
 
 def _evaluate_chunk(model: Any, X: np.ndarray, n_out: int, chunk_id: int):
-    """Worker: evaluate rows of X; per-sample failures are recorded, not raised.
+    """Worker: evaluate the rows of one chunk; per-sample failures are recorded, not raised.
 
-    A model with a true ``vectorized`` attribute is called once for the whole chunk
-    (``evaluate_batch``); non-finite rows are failures; a batch that isolates its failing rows
-    itself raises :class:`~mechrel.uq.problem.model.RowFailures` with every row's outputs and reasons,
-    which are recorded as they are; if the batch call raises another per-sample error, the
-    chunk is re-evaluated row by row so that only the rows that raise fail. On an interrupt the
-    rows finished so far ride on the ``KeyboardInterrupt`` as ``.finished``
-    (``(n_finished, Y, ok, reasons)``), so that the in-process loop can cache them."""
-    watch_parent()
+    Returns ``(chunk_id, Y, ok, failed, n_rows)``: the chunk's outputs (NaN in failed rows), the
+    mask of its successful rows and ``failed``, the ``(row, reason)`` pairs of its failed rows
+    only (a chunk without failures carries no per-row Python objects). A model with a true
+    ``vectorized`` attribute is called once for the whole chunk (:func:`_batch`), any other row
+    by row (:func:`~mechrel.uq.problem.model.evaluate_rows`). On an interrupt the rows finished
+    so far ride on the ``KeyboardInterrupt`` as ``.finished`` (``(n_finished, Y, ok,
+    reasons)``), so that the in-process loop can cache them."""
+    starting_chunk(chunk_id)
     if getattr(model, "vectorized", False) and X.shape[0]:
-        try:
-            Yb = np.asarray(model.evaluate_batch(np.array(X)), dtype=float)
-            reasons_b = None
-        except StudyError:
-            raise
-        except RowFailures as exc:  # the batch recorded its failing rows with their reasons
-            Yb, reasons_b = np.asarray(exc.Y, dtype=float), list(exc.reasons)
-            if len(reasons_b) != X.shape[0]:
-                raise StudyError(f"model.evaluate_batch: RowFailures carries {len(reasons_b)} "
-                                 f"reasons for {X.shape[0]} rows; allowed: one per row") from None
-        except MechrelError:
-            Yb = None  # isolate the failing rows below
-        if Yb is not None:
-            if Yb.shape != (X.shape[0], n_out):
-                raise StudyError(
-                    f"model.evaluate_batch returned shape {Yb.shape} for {X.shape[0]} rows; expected ({X.shape[0]}, {n_out})"
-                )
-            fin = np.isfinite(Yb)
-            okb = fin.all(axis=1)
-            if reasons_b is not None:
-                okb &= np.array([r is None for r in reasons_b], dtype=bool)
-            reasons_b = [None if o else ((reasons_b[i] if reasons_b is not None else None)
-                                         or f"non-finite output ({int((~f).sum())} of {n_out} entries)")
-                         for i, (o, f) in enumerate(zip(okb, fin))]
-            return chunk_id, np.where(okb[:, None], Yb, np.nan), okb, reasons_b, X.shape[0]
-    Y, ok, reasons = evaluate_rows(model.evaluate, X, n_out)
-    return chunk_id, Y, ok, reasons, X.shape[0]
+        Y, ok, failed = _batch(model, X, n_out)  # X: the chunk's own copy of its rows
+    else:
+        Y, ok, reasons = evaluate_rows(model.evaluate, X, n_out)
+        failed = tuple((int(i), reasons[i]) for i in np.flatnonzero(~ok))
+    return chunk_id, Y, ok, failed, X.shape[0]
 
 
-def evaluate_rows(evaluate_one: Callable[[np.ndarray], Any], X: np.ndarray, n_out: int):
-    """``evaluate_one`` at each row of ``X`` with the executor's per-sample failure capture.
+def _reason(exc: MechrelError) -> str:
+    """A failed sample's reason, as :func:`~mechrel.uq.problem.model.evaluate_rows` words it."""
+    return getattr(exc, "reason", None) or f"{type(exc).__name__}: {exc}"
 
-    A failed row (a :class:`~mechrel.errors.MechrelError` other than ``StudyError``, or a
-    non-finite output) is NaN with its reason. ``StudyError`` and any other exception (a bug)
-    propagate; an interrupt carries the rows finished so far as
-    ``.finished = (n_finished, Y, ok, reasons)``. A model's ``evaluate_batch`` that loops over
-    its rows uses it too, so that its failures read exactly as row-by-row evaluation's.
 
-    Parameters
-    ----------
-    evaluate_one : callable
-        ``evaluate_one(x) -> array of n_out`` for one row ``x`` (a model's ``evaluate``).
-    X : ndarray, shape (m, d)
-        The rows.
-    n_out : int
-        The number of outputs per row.
+def _batch(model: Any, X: np.ndarray, n_out: int):
+    """``model.evaluate_batch(X)`` as ``(Y, ok, failed)`` (see :func:`_evaluate_chunk`).
 
-    Returns
-    -------
-    Y : ndarray, shape (m, n_out)
-        The outputs; NaN in failed rows.
-    ok : ndarray of bool, shape (m,)
-        Which rows succeeded.
-    reasons : list of (str or None)
-        Per row: None when it succeeded, else why it failed.
+    The batch reports its own failed rows: a row with a non-finite output is a failure
+    ("non-finite output"), and a :class:`~mechrel.uq.problem.model.RowFailures` gives every
+    row's outputs and the failed rows' reasons, recorded as they are; the other rows are kept,
+    none is evaluated again. A batch that raises another per-sample error says no more than
+    that some row failed: it is split in halves, each evaluated again, until the rows that
+    raise stand alone (k failing rows among m cost about 2 k log2(m / k) more calls, against m
+    calls row by row), and each of those fails with the reason it raises with."""
+    m = X.shape[0]
+    try:
+        Y = model.evaluate_batch(X)
+        given = None
+    except StudyError:
+        raise
+    except RowFailures as exc:  # the batch recorded its failing rows with their reasons
+        Y, given = exc.Y, list(exc.reasons)
+        if len(given) != m:
+            raise StudyError(f"model.evaluate_batch: RowFailures carries {len(given)} "
+                             f"reasons for {m} rows; allowed: one per row") from None
+    except MechrelError as exc:  # some row raised: isolate it
+        if m == 1:
+            return np.full((1, n_out), np.nan), np.zeros(1, dtype=bool), ((0, _reason(exc)),)
+        return _halves(model, X, n_out)
+    Y = np.asarray(Y, dtype=float)
+    if Y.shape != (m, n_out):
+        raise StudyError(f"model.evaluate_batch returned shape {Y.shape} for {m} rows; "
+                         f"expected ({m}, {n_out})")
+    fin = np.isfinite(Y)
+    if given is None and fin.all():  # the usual chunk: one reduction, no per-row work
+        return Y, np.ones(m, dtype=bool), ()
+    ok = fin.all(axis=1)
+    if given is not None:
+        ok[[i for i, r in enumerate(given) if r is not None]] = False
+    bad = np.flatnonzero(~ok)
+    if not bad.size:
+        return Y, ok, ()
+    n_bad = n_out - np.count_nonzero(fin[bad], axis=1)  # non-finite entries per failed row
+    failed = tuple((int(i), (given[i] if given is not None else None)
+                    or f"non-finite output ({int(k)} of {n_out} entries)")
+                   for i, k in zip(bad, n_bad))
+    Y = np.array(Y)  # the model's array is not ours to write into
+    Y[bad] = np.nan
+    return Y, ok, failed
 
-    Raises
-    ------
-    StudyError
-        ``evaluate_one`` returned the wrong number of outputs (or raised a StudyError itself).
 
-    Examples
-    --------
-    >>> import numpy as np
-    >>> from mechrel.uq import ModelFailure
-    >>> def f(x):
-    ...     if x[0] < 0:
-    ...         raise ModelFailure("negative input")
-    ...     return [np.sqrt(x[0])]
-    >>> Y, ok, reasons = evaluate_rows(f, np.array([[4.0], [-1.0]]), 1)
-    >>> Y[:, 0].tolist(), ok.tolist(), reasons
-    ([2.0, nan], [True, False], [None, 'negative input'])
-    """
-    Y = np.full((X.shape[0], n_out), np.nan)
-    ok = np.zeros(X.shape[0], dtype=bool)
-    reasons: list[str | None] = [None] * X.shape[0]
-    for i in range(X.shape[0]):
-        try:
-            y = evaluate_one(np.array(X[i]))
-        except KeyboardInterrupt as exc:
-            exc.finished = (i, Y[:i], ok[:i], reasons[:i])
-            raise
-        except SystemError as exc:  # an interrupt inside a numba callback (interrupt_of)
-            interrupt = interrupt_of(exc)
-            if interrupt is None:
-                raise
-            interrupt.finished = (i, Y[:i], ok[:i], reasons[:i])
-            raise interrupt from None
-        except StudyError:
-            raise
-        except MechrelError as e:  # ModelFailure, SimulationError, AssemblyError, SceneError
-            reasons[i] = getattr(e, "reason", None) or f"{type(e).__name__}: {e}"
-            continue
-        y = np.asarray(y, dtype=float).reshape(-1)
-        if y.shape[0] != n_out:
-            raise StudyError(
-                f"model.evaluate returned {y.shape[0]} outputs, model.output_index has {n_out}"
-            )
-        bad = ~np.isfinite(y)
-        if bad.any():
-            reasons[i] = f"non-finite output ({int(bad.sum())} of {n_out} entries)"
-            continue
-        Y[i] = y
-        ok[i] = True
-    return Y, ok, reasons
+def _halves(model: Any, X: np.ndarray, n_out: int):
+    """:func:`_batch` of each half of ``X``, joined; an interrupt in the second half carries the
+    first half's rows as finished (``KeyboardInterrupt.finished``)."""
+    h = X.shape[0] // 2
+    Y0, ok0, failed0 = _batch(model, X[:h], n_out)
+    try:
+        Y1, ok1, failed1 = _batch(model, X[h:], n_out)
+    except KeyboardInterrupt as exc:
+        k, Yk, okk, rk = getattr(exc, "finished", (0, Y0[:0], ok0[:0], []))
+        reasons0 = [None] * h
+        for i, r in failed0:
+            reasons0[i] = r
+        exc.finished = (h + k, np.concatenate([Y0, Yk]), np.concatenate([ok0, okk]),
+                        reasons0 + list(rk))
+        raise
+    return (np.concatenate([Y0, Y1]), np.concatenate([ok0, ok1]),
+            failed0 + tuple((h + i, r) for i, r in failed1))
 
 
 def _check_picklable(model: Any) -> None:
@@ -756,13 +856,23 @@ def evaluate(
         use = found & (okc | (not retry_failed))
         Y[use] = Yc[use]
         ok[use] = okc[use]
-        for i in np.flatnonzero(use):
+        for i in np.flatnonzero(use & ~okc):  # a cached success has no reason
             reasons[i] = rc[i]
         done = use
     n_cached = int(done.sum())
+    n_failed = int((done & ~ok).sum())
     todo = np.flatnonzero(~done)
     cs = int(chunk_size) if chunk_size is not None else default_chunk_size(len(todo))
     chunks = [todo[s : s + cs] for s in range(0, len(todo), cs)]
+    # a chunk of consecutive rows (all of them when nothing is cached) is read and written as a
+    # slice: a block copy instead of a gather and a scatter by index
+    spans = [slice(int(r[0]), int(r[-1]) + 1) if r[-1] - r[0] + 1 == len(r) else r
+             for r in chunks]
+
+    def rows_of(cid: int) -> np.ndarray:
+        """The chunk's rows of ``X``, the chunk's own copy (a model may write into it)."""
+        span = spans[cid]
+        return X[span].copy() if isinstance(span, slice) else X[span]
 
     from tqdm.auto import tqdm
 
@@ -772,20 +882,27 @@ def evaluate(
     n_done = 0
 
     def _collect(result) -> None:
-        nonlocal n_calls, n_done
-        cid, Yk, okk, rk, ncalls = result
+        # one chunk at a time: its rows' outputs by one array assignment, its failed rows (only
+        # those) by their reasons, one cache transaction, one progress update
+        nonlocal n_calls, n_done, n_failed
+        cid, Yk, okk, failed, ncalls = result
         rows = chunks[cid]
-        Y[rows] = Yk
-        ok[rows] = okk
-        for i, r in zip(rows, rk):
-            reasons[i] = r
+        Y[spans[cid]] = Yk
+        ok[spans[cid]] = okk
+        for i, r in failed:
+            reasons[rows[i]] = r
         n_calls += ncalls
         n_done += len(rows)
         if cache is not None:
-            cache.store(key, X[rows], Yk, okk, rk)
+            rk: list[str | None] = [None] * len(rows)
+            for i, r in failed:
+                rk[i] = r
+            cache.store(key, X[spans[cid]], Yk, okk, rk)
         bar.update(len(rows))
-        if not okk.all():
-            bar.set_postfix(failed=sum(r is not None for r in reasons), refresh=False)
+        if failed:
+            n_failed += len(failed)
+            if progress:
+                bar.set_postfix(failed=n_failed, refresh=False)
         if callback is not None:
             callback(n_done, len(todo))
 
@@ -794,7 +911,7 @@ def evaluate(
             if backend == "sequential" or n_jobs == 1:
                 for cid, rows in enumerate(chunks):
                     try:
-                        result = _evaluate_chunk(model, X[rows], n_out, cid)
+                        result = _evaluate_chunk(model, rows_of(cid), n_out, cid)
                     except KeyboardInterrupt as exc:  # keep the samples finished in this chunk
                         k, Yk, okk, rk = getattr(exc, "finished", (0, None, None, None))
                         if cache is not None and k:
@@ -804,20 +921,31 @@ def evaluate(
             else:
                 import joblib
 
-                tasks = (joblib.delayed(_evaluate_chunk)(model, X[rows], n_out, cid) for cid, rows in enumerate(chunks))
+                tasks = (joblib.delayed(_evaluate_chunk)(model, rows_of(cid), n_out, cid)
+                         for cid in range(len(chunks)))
                 if backend == "dask":
                     with joblib.parallel_config(backend="dask"):
                         gen = joblib.Parallel(n_jobs=n_jobs, return_as="generator_unordered")(tasks)
                         _consume(gen, _collect)
                 else:
-                    with safe_path_environment():
+                    from joblib.externals.loky.process_executor import TerminatedWorkerError
+
+                    with safe_path_environment(), chunk_ledger() as ledger:
                         gen = joblib.Parallel(n_jobs=n_jobs, backend=register_backend(),
                                               return_as="generator_unordered")(tasks)
-                        _consume(gen, _collect)
+                        try:
+                            _consume(gen, ledger.collecting(_collect))
+                        except TerminatedWorkerError as exc:  # one line, not 40
+                            raise worker_died(exc, [chunks[c] for c in ledger.running()],
+                                              cache) from None
     finally:
         bar.close()
 
-    status = np.where(ok, STATUS_OK, STATUS_FAILED)
+    # the arrays are this call's own: frozen in place, not copied again by Evaluations
+    X.setflags(write=False)
+    Y.setflags(write=False)
+    status = np.full(n, STATUS_OK, dtype="<U6")
+    status[~ok] = STATUS_FAILED
     return Evaluations(
         X, Y, status, tuple(reasons), input_names, output_index,
         cache_key=str(model.cache_key()), n_model_calls=n_calls, n_cached=n_cached,

@@ -201,7 +201,7 @@ def slider_position(theta, crank, rod, offset):
     --------
     At θ = 0 an in-line slider-crank is stretched out, s = r + l:
 
-    >>> [round(float(v), 12) for v in slider_position(0.0, 0.05, 0.12, 0.0)]
+    >>> [round(float(v), 12) + 0.0 for v in slider_position(0.0, 0.05, 0.12, 0.0)]
     [0.17, 0.0, -0.070833333333]
     """
     t = np.asarray(theta, dtype=float)

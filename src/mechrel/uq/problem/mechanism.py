@@ -45,7 +45,7 @@ import pandas as pd
 from ..._checks import ARGS
 from ...errors import MechrelError, SceneError, StudyError
 from ...outputs import quantities_of
-from .model import ModelFailure, RowFailures
+from .model import ModelFailure, RowFailures, evaluate_rows
 from .allowables import EXTREME_STATS, sector_label
 
 SECTOR_STATS = ("max", "min")
@@ -54,14 +54,15 @@ REFERENCES = ("nominal", "same-geometry")
 """What the error is measured against: the ideal motion of the nominal geometry, or of the
 sample's own geometry (see the module docstring)."""
 
-_GEOMETRY = re.compile(r"-?(ground\.points\.|bodies\.[A-Za-z_]\w*\.points\.|"
+_GEOMETRY = re.compile(r"-?(ground\.points\.|bodies\.[A-Za-z_]\w*\.(global_)?points\.|"
                        r"(ground|bodies\.[A-Za-z_]\w*)\.length\()")
 
 
 def is_geometric(path: str) -> bool:
     """Whether a scene path sets the mechanism's geometry.
 
-    Geometric paths are a point's coordinates (whole or one component) and a length between two
+    Geometric paths are a point's coordinates (whole or one component; a body's ``points`` or,
+    for a body written from joint positions, its ``global_points``) and a length between two
     points of a body or of the ground.
 
     Parameters
@@ -78,6 +79,8 @@ def is_geometric(path: str) -> bool:
     --------
     >>> is_geometric("bodies.crank.points.B"), is_geometric("joints.C.clearance")
     (True, False)
+    >>> is_geometric("bodies.lever.global_points.B[0]")
+    True
     """
     return bool(_GEOMETRY.match(path))
 
@@ -220,6 +223,7 @@ class MechanismModel:
         self.nominal = np.asarray(nominal)
         self._raw = thaw(base.raw)
         self._scene = base
+        self._samples: _Samples | None = None  # what the samples share, made on first use
         angles = np.arange(0.0, 360.0 + 0.5 * self.angle_step, self.angle_step)
         self.crank_angles = angles
         if not isinstance(extremes, bool):
@@ -237,10 +241,12 @@ class MechanismModel:
                     labels += [(q, sector_label(stat, lo, hi)) for lo, hi in zip(angles[:-1], angles[1:])]
         self.output_index = pd.MultiIndex.from_tuples(labels, names=["quantity", "crank_angle"])
 
-    # pickling: ship the raw mapping, rebuild the scene in the worker
+    # pickling: ship the raw mapping, rebuild the scene (and what the samples share) in the
+    # worker
     def __getstate__(self):
         state = dict(self.__dict__)
         state["_scene"] = None
+        state["_samples"] = None
         return state
 
     def __setstate__(self, state):
@@ -455,13 +461,12 @@ class MechanismModel:
         """
         return self._simulate(x)
 
-    def _simulate(self, x, solvers: dict | None = None):
-        """:meth:`simulate`; with ``solvers`` (a dict shared by the samples of a batch), the
-        integrator made for a sample's solver table and scene kind is kept there and reused by
-        the batch's other samples with the same ones, and the result has no provenance
-        (:func:`~mechrel.simulation.simulate_sample`): the same numbers, bitwise."""
+    def _simulate(self, x):
+        """:meth:`simulate`: the sample's scene built and validated in full
+        (:func:`~mechrel.scene.with_overrides`) and simulated with its provenance; the
+        reference :meth:`evaluate` is tested against."""
         from ...scene import with_overrides
-        from ...simulation import make_integrator, scene_kind, simulate, simulate_sample
+        from ...simulation import simulate
 
         values = self.scene_values(x)
         scene = with_overrides(self.scene, values)
@@ -471,14 +476,7 @@ class MechanismModel:
             other = {p: v for p, v in values.items() if not is_geometric(p)}
             reference = with_overrides(self.scene, other) if other else self.scene
         sectors = self.angle_step if getattr(self, "with_sectors", False) else None
-        if solvers is None:
-            return simulate(scene, reference=reference, extremes=self.with_extremes, sectors=sectors)
-        key = (scene.solver, scene_kind(scene))
-        solver = solvers.get(key)
-        if solver is None:
-            solver = solvers[key] = make_integrator(scene)
-        return simulate_sample(scene, solver, reference=reference, extremes=self.with_extremes,
-                               sectors=sectors)
+        return simulate(scene, reference=reference, extremes=self.with_extremes, sectors=sectors)
 
     def extremes(self, x) -> pd.DataFrame:
         """Where the cycle extremes occur at input vector ``x``.
@@ -557,7 +555,7 @@ class MechanismModel:
         >>> y.shape == (len(m.output_index),), bool(np.isfinite(y).all())
         (True, True)
         """
-        return self._evaluate(x, {})
+        return self._evaluate(x)
 
     def evaluate_batch(self, X) -> np.ndarray:
         """:meth:`evaluate` at each row of ``X`` in one call.
@@ -581,7 +579,7 @@ class MechanismModel:
         mechrel.uq.RowFailures
             When rows failed: every row's outputs and, per failed row, the reason
             :meth:`evaluate` raises with (the executor records them as they are;
-            :func:`mechrel.uq.evaluate_rows`).
+            :func:`mechrel.uq.problem.model.evaluate_rows`).
         StudyError
             If ``X`` is not of shape (m, d).
 
@@ -593,22 +591,20 @@ class MechanismModel:
         >>> Y.shape == (2, len(m.output_index)), bool((Y[0] == m.evaluate(m.nominal)).all())
         (True, True)
         """
-        from ..execution.executor import evaluate_rows
-
         X = np.asarray(X, dtype=float)
         if X.ndim != 2 or X.shape[1] != len(self.input_names):
             raise StudyError(f"X: expected shape (m, {len(self.input_names)}) for inputs "
                              f"{list(self.input_names)}, got {X.shape}")
-        solvers: dict = {}
-        Y, ok, reasons = evaluate_rows(lambda x: self._evaluate(x, solvers), X,
-                                       len(self.output_index))
+        Y, ok, reasons = evaluate_rows(self._evaluate, X, len(self.output_index))
         if not ok.all():
             raise RowFailures(Y, reasons)
         return Y
 
-    def _evaluate(self, x, solvers: dict) -> np.ndarray:
+    def _evaluate(self, x) -> np.ndarray:
+        if self._samples is None:
+            self._samples = _Samples(self)
         try:
-            res = self._simulate(x, solvers)
+            res = self._samples.simulate(self.scene_values(x))
         except StudyError:
             raise
         except MechrelError as exc:
@@ -630,6 +626,53 @@ class MechanismModel:
     def __repr__(self) -> str:
         return (f"MechanismModel({self.scene.name!r}, inputs={list(self.input_names)}, "
                 f"output={self.output!r}, angle_step={self.angle_step:g})")
+
+
+class _Samples:
+    """What the samples of one :class:`MechanismModel` share, in one process (not pickled):
+    the scene prepared for the inputs' paths (:class:`~mechrel.simulation.PreparedScene`: a
+    sample's values are set in the compiled scene, validated by the scene's own rules on the
+    tables they sit in), the integrators by solver table and scene kind, and the nominal
+    reference design by the sample's non-geometric values (with geometric inputs only: one,
+    its ideal mechanism analysed once per set of output instants). A sample's numbers are
+    those of :meth:`MechanismModel.simulate`, bitwise."""
+
+    KEEP = 8  # reference designs kept (one per set of non-geometric values)
+
+    def __init__(self, model: MechanismModel):
+        from ...simulation import PreparedScene
+        from ...scene._values import SceneValues
+
+        self.model = model
+        paths = list(model.scene_values(model.nominal))
+        self.prepared = PreparedScene(model.scene, paths)
+        self.solvers: dict = {}
+        self.other = SceneValues(model.scene, [p for p in paths if not is_geometric(p)])
+        self.references: dict = {}
+
+    def simulate(self, values: dict):
+        from ...simulation import ReferenceDesign, make_integrator, scene_kind, simulate_sample
+
+        model = self.model
+        scene, compiled = self.prepared.at(values)
+        reference = None
+        if model.nominal_reference:
+            # the nominal geometry with the sample's other values (a speed, a clearance)
+            other = {p: v for p, v in values.items() if not is_geometric(p)}
+            key = tuple(other.items())
+            reference = self.references.get(key)
+            if reference is None:
+                if len(self.references) >= self.KEEP:
+                    self.references.pop(next(iter(self.references)))
+                reference = self.references[key] = ReferenceDesign(
+                    self.other(other) if other else model.scene)
+        key = (scene.solver, scene_kind(scene))
+        solver = self.solvers.get(key)
+        if solver is None:
+            solver = self.solvers[key] = make_integrator(scene)
+        sectors = model.angle_step if getattr(model, "with_sectors", False) else None
+        return simulate_sample(scene, solver, reference=reference, extremes=model.with_extremes,
+                               sectors=sectors, compiled=compiled)
 
 
 _NUMBER = re.compile(r"(?<![\w.])[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?")

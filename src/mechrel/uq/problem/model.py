@@ -25,9 +25,10 @@ from typing import Any, Protocol, runtime_checkable
 import numpy as np
 import pandas as pd
 
-from mechrel.errors import MechrelError, StudyError
+from mechrel.errors import MechrelError, StudyError, interrupt_of
 
-__all__ = ["Model", "ModelFailure", "RowFailures", "FunctionModel", "check_model", "describe_model", "as_output_index"]
+__all__ = ["Model", "ModelFailure", "RowFailures", "FunctionModel", "evaluate_rows", "check_model",
+           "describe_model", "as_output_index"]
 
 
 class ModelFailure(MechrelError, RuntimeError):
@@ -65,7 +66,7 @@ class ModelFailure(MechrelError, RuntimeError):
 
 class RowFailures(ModelFailure):
     """Some rows of a batch failed: raised by a model's ``evaluate_batch`` that records its
-    rows' failures itself (instead of letting the executor re-run the batch row by row).
+    rows' failures itself (the executor keeps the other rows, and evaluates none again).
 
     Parameters
     ----------
@@ -84,10 +85,11 @@ class RowFailures(ModelFailure):
 
     def __init__(self, Y, reasons):
         self.Y = np.asarray(Y, dtype=float)
-        self.reasons = [None if r is None else str(r) for r in reasons]
-        failed = [r for r in self.reasons if r is not None]
-        super().__init__(f"{len(failed)} of {len(self.reasons)} rows failed"
-                         + (f", the first: {failed[0]}" if failed else ""))
+        self.reasons = [r if r is None or type(r) is str else str(r) for r in reasons]
+        n_failed = len(self.reasons) - self.reasons.count(None)
+        first = next((r for r in self.reasons if r is not None), None)
+        super().__init__(f"{n_failed} of {len(self.reasons)} rows failed"
+                         + (f", the first: {first}" if n_failed else ""))
 
     def __reduce__(self):  # picklable across process boundaries with its rows
         return (type(self), (self.Y, self.reasons))
@@ -159,11 +161,13 @@ class Model(Protocol):
 
     # Optional (not part of the runtime check): ``vectorized: bool`` and
     # ``evaluate_batch(X (m, d)) -> (m, n_out)``; when ``vectorized`` is true the executor calls
-    # ``evaluate_batch`` once per chunk (see :class:`FunctionModel`); a batch that isolates its
-    # failing rows raises :class:`RowFailures` with all rows' outputs and reasons (see
-    # :class:`mechrel.uq.problem.mechanism.MechanismModel`), and it attaches the rows finished before an
-    # interrupt as ``KeyboardInterrupt.finished`` (:func:`mechrel.uq.execution.executor.evaluate_rows`
-    # does both).
+    # ``evaluate_batch`` once per chunk (see :class:`FunctionModel`). A batch reports its failed
+    # rows itself, and the rest of the batch is kept as it is: a non-finite row (a row mask of
+    # NaN) is a failure with the reason "non-finite output"; :class:`RowFailures` carries every
+    # row's outputs and, per failed row, its reason (see
+    # :class:`mechrel.uq.problem.mechanism.MechanismModel`). A batch that loops over its rows
+    # attaches the rows finished before an interrupt as ``KeyboardInterrupt.finished``;
+    # :func:`evaluate_rows` does both.
 
     def cache_key(self) -> str:
         """A stable hash of everything that determines the outputs except ``x``.
@@ -229,6 +233,85 @@ def as_output_index(index: Any, *, what: str = "output_index") -> pd.Index:
     return out
 
 
+def evaluate_rows(evaluate_one: Callable[[np.ndarray], Any], X: np.ndarray, n_out: int):
+    """``evaluate_one`` at each row of ``X`` with the executor's per-sample failure capture.
+
+    A failed row (a :class:`~mechrel.errors.MechrelError` other than ``StudyError``, or a
+    non-finite output) is NaN with its reason. ``StudyError`` and any other exception (a bug)
+    propagate; an interrupt carries the rows finished so far as
+    ``.finished = (n_finished, Y, ok, reasons)``. A model's ``evaluate_batch`` that loops over
+    its rows uses it too, so that its failures read exactly as row-by-row evaluation's (the
+    executor itself runs a model without ``vectorized`` through it).
+
+    Parameters
+    ----------
+    evaluate_one : callable
+        ``evaluate_one(x) -> array of n_out`` for one row ``x`` (a model's ``evaluate``).
+    X : ndarray, shape (m, d)
+        The rows.
+    n_out : int
+        The number of outputs per row.
+
+    Returns
+    -------
+    Y : ndarray, shape (m, n_out)
+        The outputs; NaN in failed rows.
+    ok : ndarray of bool, shape (m,)
+        Which rows succeeded.
+    reasons : list of (str or None)
+        Per row: None when it succeeded, else why it failed.
+
+    Raises
+    ------
+    StudyError
+        ``evaluate_one`` returned the wrong number of outputs (or raised a StudyError itself).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from mechrel.uq import ModelFailure
+    >>> def f(x):
+    ...     if x[0] < 0:
+    ...         raise ModelFailure("negative input")
+    ...     return [np.sqrt(x[0])]
+    >>> Y, ok, reasons = evaluate_rows(f, np.array([[4.0], [-1.0]]), 1)
+    >>> Y[:, 0].tolist(), ok.tolist(), reasons
+    ([2.0, nan], [True, False], [None, 'negative input'])
+    """
+    Y = np.full((X.shape[0], n_out), np.nan)
+    ok = np.zeros(X.shape[0], dtype=bool)
+    reasons: list[str | None] = [None] * X.shape[0]
+    for i in range(X.shape[0]):
+        try:
+            y = evaluate_one(np.array(X[i]))
+        except KeyboardInterrupt as exc:
+            exc.finished = (i, Y[:i], ok[:i], reasons[:i])  # type: ignore[attr-defined]
+            raise
+        except SystemError as exc:  # an interrupt inside a numba callback (interrupt_of)
+            interrupt = interrupt_of(exc)
+            if interrupt is None:
+                raise
+            interrupt.finished = (i, Y[:i], ok[:i], reasons[:i])  # type: ignore[attr-defined]
+            raise interrupt from None
+        except StudyError:
+            raise
+        except MechrelError as e:  # ModelFailure, SimulationError, AssemblyError, SceneError
+            reasons[i] = getattr(e, "reason", None) or f"{type(e).__name__}: {e}"
+            continue
+        y = np.asarray(y, dtype=float).reshape(-1)
+        if y.shape[0] != n_out:
+            raise StudyError(
+                f"model.evaluate returned {y.shape[0]} outputs, model.output_index has {n_out}"
+            )
+        bad = ~np.isfinite(y)
+        if bad.any():
+            reasons[i] = f"non-finite output ({int(bad.sum())} of {n_out} entries)"
+            continue
+        Y[i] = y
+        ok[i] = True
+    return Y, ok, reasons
+
+
 def check_model(model: Any) -> tuple[tuple[str, ...], pd.Index]:
     """Check that ``model`` implements the :class:`Model` protocol.
 
@@ -292,11 +375,13 @@ class FunctionModel:
     vectorized
         ``True``: ``func`` takes a batch ``X`` (m, d) and returns (m, n_out) (or (m,) for one
         output), and the executor calls it once per chunk instead of once per row (saving the
-        per-call Python overhead). Failures stay per row: a row with a non-finite output is a
-        failure with its reason; if the batch call raises :class:`ModelFailure` (or another
-        per-sample ``MechrelError``), the executor re-evaluates that chunk row by row so that only
-        the rows that raise are failures. Not part of the cache key: a vectorised and a row-wise
-        function computing the same numbers share cached results.
+        per-call Python overhead). Failures stay per row, reported by ``func`` itself: a row with
+        a non-finite output (a NaN row) is a failure with its reason, and ``func`` may raise
+        :class:`RowFailures` with every row's outputs and the failed rows' reasons; the other
+        rows are kept. If the batch call raises :class:`ModelFailure` (or another per-sample
+        ``MechrelError``), the executor evaluates the chunk's halves again until the rows that
+        raise stand alone (docs/uq.md, "Vectorised models"). Not part of the cache key: a
+        vectorised and a row-wise function computing the same numbers share cached results.
 
     Examples
     --------

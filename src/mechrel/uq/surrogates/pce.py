@@ -122,6 +122,133 @@ def multi_indices(d: int, order: int, q_norm: float = 1.0) -> np.ndarray:
     return A
 
 
+MAX_EVALUATIONS = 100_000
+"""The model evaluations :func:`polynomial_chaos` starts unless asked for more
+(``max_evaluations``): the number of terms grows as C(d + order, order), so that order 200 in
+three inputs would start 2.7 million (days of simulations) on a typing slip."""
+
+
+def _n_terms(d: int, order: int, q_norm: float, cap: int) -> int:
+    """How many multi-indices :func:`multi_indices` returns, counted without building them (at
+    most ``cap + 1``: the count stops there)."""
+    if q_norm >= 1.0:
+        return math.comb(d + order, order)
+    limit = order + 1e-9
+    count = 0
+
+    def walk(j: int, partial: float) -> bool:  # True: past cap
+        nonlocal count
+        if j == d:
+            count += 1
+            return count > cap
+        a = 0
+        while a <= order and (partial + a**q_norm) ** (1.0 / q_norm) <= limit:
+            if walk(j + 1, partial + a**q_norm):
+                return True
+            a += 1
+        return False
+
+    walk(0, 0.0)
+    return count
+
+
+def design_size(d: int, order: int, *, method: str = "regression", oversampling: float = 2.0,
+                rule: str = "sobol", q_norm: float = 1.0, cap: int | None = None) -> int:
+    """The model evaluations of the training design of :func:`polynomial_chaos`, counted
+    without building it (for a full quadrature grid, the Gauss count ``(order + 1)^d``; a
+    Smolyak grid is counted once built).
+
+    Parameters
+    ----------
+    d : int
+        Number of inputs.
+    order, method, oversampling, rule, q_norm
+        As in :func:`polynomial_chaos`.
+    cap : int, optional
+        Count hyperbolic (``q_norm < 1``) terms only up to this many terms (the count is then
+        larger than any limit it is compared with).
+
+    Returns
+    -------
+    int
+        The number of training samples.
+
+    Examples
+    --------
+    >>> design_size(3, 2, rule="random")      # 10 terms, twice over
+    20
+    >>> design_size(3, 200)                   # 1 373 701 terms: 2^22 Sobol' points
+    4194304
+    """
+    if method == "quadrature":
+        return (order + 1) ** d
+    P = _n_terms(d, order, q_norm, cap if cap is not None else 10**7)
+    n = int(math.ceil(float(oversampling) * P))
+    if rule == "sobol":
+        n = 1 << (n - 1).bit_length()  # balanced Sobol' sets need a power of 2 (pce_design)
+    return n
+
+
+def check_cost(d: int, order: int, max_evaluations: int | None, *, method: str = "regression",
+               oversampling: float = 2.0, rule: str = "sobol", q_norm: float = 1.0,
+               names: tuple[str, str] = ("order", "max_evaluations")) -> int:
+    """Refuse a polynomial chaos whose training design needs more than ``max_evaluations``
+    model evaluations (None: any number), saying what it would cost and what fits.
+
+    Parameters
+    ----------
+    d, order, method, oversampling, rule, q_norm
+        As in :func:`design_size`.
+    max_evaluations : int or None
+        The limit (:data:`MAX_EVALUATIONS` by default in :func:`polynomial_chaos`).
+    names : (str, str), default ("order", "max_evaluations")
+        The names of the order and of the limit in the message (a study's fields).
+
+    Returns
+    -------
+    int
+        The evaluations (as counted by :func:`design_size`, capped past the limit).
+
+    Raises
+    ------
+    StudyError
+        The design needs more evaluations than the limit.
+
+    Examples
+    --------
+    >>> check_cost(3, 200, 100_000)
+    Traceback (most recent call last):
+    ...
+    mechrel.errors.StudyError: order = 200: an expansion of order 200 in 3 inputs has 1373701 terms, 4194304 model evaluations (2 per term, rounded up to a power of 2 for Sobol' points), more than max_evaluations = 100000; allowed: order <= 56 for 3 inputs, or max_evaluations = 4194304 (or more) to run them knowingly
+    """
+    if max_evaluations is None:
+        return design_size(d, order, method=method, oversampling=oversampling, rule=rule,
+                           q_norm=q_norm)
+    max_evaluations = ARGS.integer(names[1], max_evaluations, ge=1)
+    cap = int(max_evaluations / max(float(oversampling), 1.0)) + 1
+
+    def size(k: int) -> int:
+        return design_size(d, k, method=method, oversampling=oversampling, rule=rule,
+                           q_norm=q_norm, cap=cap)
+
+    n = size(order)
+    if n <= max_evaluations:
+        return n
+    fits = order
+    while fits > 0 and size(fits) > max_evaluations:
+        fits -= 1
+    if method == "quadrature":
+        how = f"a Gauss grid of {order + 1} points per input: {n} model evaluations"
+    else:
+        P = _n_terms(d, order, q_norm, cap)
+        terms = f"{P} terms" if q_norm >= 1.0 or P <= cap else f"more than {cap} terms"
+        how = (f"{terms}, {n} model evaluations ({float(oversampling):g} per term"
+               + (", rounded up to a power of 2 for Sobol' points)" if rule == "sobol" else ")"))
+    raise StudyError(f"{names[0]} = {order}: an expansion of order {order} in {d} inputs has "
+                     f"{how}, more than {names[1]} = {max_evaluations}; allowed: {names[0]} <= "
+                     f"{fits} for {d} inputs, or {names[1]} = {n} (or more) to run them knowingly")
+
+
 def _recurrences(inputs: UncertainInputs, order: int) -> list[tuple[np.ndarray, np.ndarray]]:
     """Per germ dimension: (A_k, B_k), k = 0..order, of the monic three-term recurrence."""
     import chaospy
@@ -540,6 +667,7 @@ def polynomial_chaos(
     evaluations: Evaluations | None = None,
     validation: Evaluations | None = None,
     max_failure_fraction: float = 0.1,
+    max_evaluations: int | None = MAX_EVALUATIONS,
     n_jobs: int = 1,
     backend: str = "loky",
     cache: Any = None,
@@ -581,6 +709,9 @@ def polynomial_chaos(
         Precomputed training and validation evaluations.
     max_failure_fraction : float in [0, 1], default 0.1
         Refuse above this fraction of failed training samples (regression).
+    max_evaluations : int or None, default MAX_EVALUATIONS
+        Refuse, before any evaluation, a training design of more model evaluations (saying
+        how many, and the largest order within the limit); None: no limit.
     n_jobs : int, default 1
         Parallel workers: an integer >= 1, or -1 for all cores (all Dask workers).
     backend : {"loky", "dask", "sequential"}, default "loky"
@@ -628,6 +759,9 @@ def polynomial_chaos(
         assert evaluations is not None  # exclusive_source: exactly one
         names = evaluations.input_names
     inputs = check_inputs(inputs, names)
+    if model is not None:  # the evaluations it would start, before building anything
+        check_cost(inputs.d, order, max_evaluations, method=method, oversampling=oversampling,
+                   rule=rule, q_norm=q_norm)
     ss = as_seed_sequence(seed)
     if n_validation is None:
         n_validation = 0 if method == "regression" else 32
@@ -639,6 +773,11 @@ def polynomial_chaos(
                                    quadrature_rule=quadrature_rule, sparse=sparse, q_norm=q_norm, seed=ss)
     exe = executor_kwargs(n_jobs, backend, cache, progress, chunk_size)
     if model is not None:
+        if max_evaluations is not None and X_design.shape[0] > max_evaluations:  # Smolyak
+            raise StudyError(f"order = {order}: a sparse grid of {X_design.shape[0]} nodes in "
+                             f"{inputs.d} inputs, more than max_evaluations = {max_evaluations}"
+                             f"; allowed: a lower order, or max_evaluations = "
+                             f"{X_design.shape[0]} (or more) to run them knowingly")
         ev = run(model, X_design, exe)
     else:
         assert evaluations is not None  # exclusive_source: exactly one
