@@ -13,7 +13,7 @@ import pytest
 from mechrel.cli.main import main
 from mechrel.errors import AssemblyError, SceneError, SimulationError, StudyError
 from mechrel.scene import load_scene
-from mechrel.scene.loader import MAX_DEPTH
+from mechrel.scene.loader import MAX_DEPTH, list_scenes
 from mechrel.simulation import simulate
 from mechrel.studies.study import load_study
 from mechrel.uq import Normal, UncertainInputs, linear_model, monte_carlo, sobol_design
@@ -391,9 +391,8 @@ def test_a_bare_scene_name_is_looked_up_beside_the_study_not_in_the_current_fold
         load_study(study)
     assert str(info.value) == (
         f"{study}: scene = \"mine\": not an embedded scene, nor a file in '{studies}', the "
-        "folder of the study file; allowed: an embedded scene name (double-pendulum, four-bar, "
-        "nine-bar, nine-bar-dry, nine-bar-lubricated, slider-crank, slider-crank-dry, "
-        "slider-crank-lubricated) or a scene file in the study file's folder or below it")
+        f"folder of the study file; allowed: an embedded scene name ({', '.join(list_scenes())}"
+        ") or a scene file in the study file's folder or below it")
     (studies / "mine").write_text('extends = "slider-crank-lubricated"\nname = "mine"\n')
     assert load_study(study).scene == str(studies / "mine")  # the one beside the study
     study.write_text(STUDY.format(scene="slider-crnk"))

@@ -170,7 +170,7 @@ def test_monte_carlo_reuses_a_forward_runs_evaluations_and_cache(tmp_path):
     pd.testing.assert_frame_equal(a.table, b.table)  # the same design: monte_carlo's
     c = _run(0.95, "mc", n=500, seed=4, cache=tmp_path)
     d = _run(0.95, "mc", n=500, seed=4, cache=tmp_path)
-    assert d.provenance["n_model_calls"] == 0 and d.provenance["n_cached"] == 500
+    assert d.provenance["n_computed"] == 0 and d.provenance["n_cached"] == 500
     pd.testing.assert_frame_equal(c.table, d.table)
     with pytest.raises(StudyError, match="evaluations: of another model"):
         _run(0.95, "mc", evaluations=evaluate(linear_model([0.0], [[1.0]], ["x1"]),
@@ -468,5 +468,5 @@ def test_the_result_gives_forward_allowables_and_limit_states():
     p = r.provenance
     assert p["settings"]["target"] == 0.9 and p["settings"]["method"] == "mc"
     assert p["settings"]["allowable_std"].startswith("not used")
-    assert p["n_model_evaluations"] == 1000
+    assert p["n_evaluations"] == 1000
     assert r.to_frame() is not r.table and r.to_frame().equals(r.table)

@@ -63,7 +63,8 @@ def _readonly(a: np.ndarray) -> np.ndarray:
 @dataclass(frozen=True)
 class EvaluationCount:
     """How many model evaluations an estimate rests on, and where they came from: the one
-    count that every line and file of a study reports (:attr:`Evaluations.count`).
+    count that every line and file of a study reports (:attr:`Evaluations.count`). Rows
+    neither computed nor cached were given precomputed (``evaluations=``).
 
     Parameters
     ----------
@@ -75,8 +76,6 @@ class EvaluationCount:
         Of them, read from the evaluation cache.
     failed : int
         Of them, failed samples (computed or cached).
-
-    Rows neither computed nor cached were given precomputed (``evaluations=``).
 
     Examples
     --------
