@@ -157,6 +157,8 @@ def _jacobian_wrapper(keep):
     return njit(jacobian)
 
 
+# compiles its own callers of the inlined Radau helpers (20-50 s on two cores)
+@pytest.mark.slow
 def test_radau_inlined_helpers_work_on_a_callers_own_arrays():
     # Radau's inlined step helpers used to borrow their arguments. Inlined into a caller whose
     # work arrays died at the call, the Jacobian helper read freed memory (the reduced

@@ -77,6 +77,8 @@ def test_docstring_examples(name):
     assert result.failed == 0, f"{result.failed} of {result.attempted} examples failed in {name}"
 
 
+# the whole Sphinx build (90 s on two cores): a documentation check, run under -m slow
+@pytest.mark.slow
 def test_sphinx_build_has_no_warnings(tmp_path):
     # the command of docs/api.md, into a temporary folder; -W --keep-going lists every warning
     proc = subprocess.run(

@@ -27,7 +27,15 @@ def test_the_examples_are_there():
     assert {"four_bar", "generic_model", "dask_cluster", "four_bar_tolerances"} <= names
 
 
-@pytest.mark.parametrize("script", SCRIPTS, ids=[p.stem for p in SCRIPTS])
+# The examples that run a study (a rare-event study on the mechanism, a tolerance study, a local
+# Dask cluster) take 15-40 s each on two idle cores: they run under -m slow; the others (a
+# simulation, a generic model, a custom clearance model) stay in the default suite.
+SLOW_EXAMPLES = {"rare_events", "four_bar_tolerances", "dask_cluster"}
+
+
+@pytest.mark.parametrize("script", [pytest.param(p, marks=pytest.mark.slow)
+                                    if p.stem in SLOW_EXAMPLES else p for p in SCRIPTS],
+                         ids=[p.stem for p in SCRIPTS])
 def test_example_runs_and_writes_a_figure(script, tmp_path):
     src = str(Path(mechrel.__file__).resolve().parents[1])
     env = {**os.environ, "MPLBACKEND": "Agg",

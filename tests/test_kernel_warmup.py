@@ -135,6 +135,8 @@ def test_own_jobs_wait_for_the_helper_jobs_they_call(monkeypatch, formulation):
         assert all(shares.needs[j] == ("rhs",) for j in ("newton", "fd_jacobian"))
 
 
+# compiles the Radau kernel's jobs in fresh processes (about a minute on two cores)
+@pytest.mark.slow
 def test_the_compile_jobs_compile_the_types_the_kernel_passes():
     # a job compiled for other argument types than the Radau kernel passes would be compiled
     # a second time by the kernel (no gain, and twice the work). A kernel loaded from the
