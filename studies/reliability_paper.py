@@ -28,7 +28,7 @@ Reported forms (all from the same μ_i, σ_i):
 
 The geometry is a reconstruction (docs/scenes.md): compare trends with the paper, not values.
 
-    python paper/reliability_paper.py --out results/reliability_paper [--quick] [--jobs 2]
+    python studies/reliability_paper.py --out results/reliability_paper [--quick] [--jobs 2]
 """
 
 from __future__ import annotations
@@ -450,7 +450,7 @@ def write_report(out: Path, long, mins, sbs, trend, cons, keys, wall, args):
     lines = [
         "# The paper's §5 on the reconstructed nine-bar (FOSM)",
         "",
-        f"Command: `python paper/reliability_paper.py --out {args.out}"
+        f"Command: `python studies/reliability_paper.py --out {args.out}"
         + (" --quick" if args.quick else "") + f" --jobs {args.jobs}`; wall time {wall:.0f} s; "
         f"cases: {', '.join(keys)}; analysed cycle: {args.cycles:g} (the last).",
         "",

@@ -34,7 +34,7 @@ it separately (`kinematic_effect.csv`), from the ideal counterparts at ±1σ.
 Cross-check: a polynomial chaos expansion (regression, total order ``--pce-order``, 3× over-
 sampled) of the same measures, whose Sobol indices come from its coefficients.
 
-    python paper/sensitivity.py --out results/sensitivity [--quick] [--jobs 2] [--n 128]
+    python studies/sensitivity.py --out results/sensitivity [--quick] [--jobs 2] [--n 128]
 """
 
 from __future__ import annotations
@@ -310,7 +310,7 @@ def run(args) -> int:
     summary += lines
     print("\n".join(summary))
     rep = ["# Sensitivity of the nine-bar's error (Sobol indices)", "",
-           f"Command: `python paper/sensitivity.py --out {args.out} --n {n} --jobs {args.jobs}"
+           f"Command: `python studies/sensitivity.py --out {args.out} --n {n} --jobs {args.jobs}"
            + (" --quick" if args.quick else "") + f"`; wall time {wall:.0f} s.", "",
            "Inputs: " + "; ".join(f"{k}: {v}" for k, v in SPECS.items()) + ".", "",
            "## Peak |error| over the cycle, ranked by total index", "",

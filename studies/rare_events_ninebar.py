@@ -27,7 +27,7 @@ Every model evaluation is cached in OUT/evaluations.sqlite (a rerun resumes). Wr
 ``curve.csv``, ``per_angle.csv``, ``rare_events_ninebar.png``, ``report.md`` and
 ``summary.json`` into OUT.
 
-    python paper/rare_events_ninebar.py --out results/rare_events_ninebar [--quick] [--jobs 2]
+    python studies/rare_events_ninebar.py --out results/rare_events_ninebar [--quick] [--jobs 2]
 """
 
 from __future__ import annotations

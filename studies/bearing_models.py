@@ -2,7 +2,7 @@
 """Model-form uncertainty of the lubricated joint: the nine-bar's §4 response errors and §5
 reliability with long, short and finite-length bearings side by side.
 
-    python paper/bearing_models.py --out results/bearing_models [--n 200] [--jobs 2] [--quick]
+    python studies/bearing_models.py --out results/bearing_models [--n 200] [--jobs 2] [--quick]
 
 The case is the paper's lubricated nine-bar at 3π rad/s (``nine-bar-lubricated``: C1 and C2
 lubricated, 100 cP, radial clearance 0.5 mm, bearing radius 15 mm, so journal diameter
@@ -22,12 +22,12 @@ both joints changes between the variants (:data:`VARIANTS`):
 ``--sample-deg`` degrees; the slider's displacement, velocity and acceleration errors (with
 clearance − ideal) and the journal orbits of C1 and C2.
 
-§5 (reliability), with the input distribution of ``paper/reliability_paper.py`` (clearance
+§5 (reliability), with the input distribution of ``studies/reliability_paper.py`` (clearance
 truncated normal, std 10 %, ±30 %; viscosity lognormal, CV 15 %; crank speed normal, std
 0.1 rad/s) and the paper's allowables I ~ N(0.012, 0.004²) m, N(0.3, 0.1²) m/s, N(18, 6²) m/s²:
 
 * FOSM per analysis angle (every 18°, 2d + 1 = 7 simulations per variant), two-sided
-  reliability P(|i| < I) and its index β = Φ⁻¹(R), as in ``paper/reliability_paper.py``;
+  reliability P(|i| < I) and its index β = Φ⁻¹(R), as in ``studies/reliability_paper.py``;
   FOSM is deterministic: its numbers move between runs only by the finite-difference noise
   (the solver tolerance), well below the differences reported here;
 * whole-cycle failure probability P_f = 1 − P(max over the cycle of |i| ≤ I) from Monte Carlo
@@ -404,7 +404,7 @@ def write_summary(out, err, run_rows, fmin, wc, diff, args, wall):
     lines = [
         "# Bearing model (long / short / finite) on the nine-bar: §4 errors and §5 reliability",
         "",
-        f"Command: `python paper/bearing_models.py --out {args.out} --n {args.n} --jobs "
+        f"Command: `python studies/bearing_models.py --out {args.out} --n {args.n} --jobs "
         f"{args.jobs} --cycles {args.cycles:g} --sample-deg {args.sample_deg:g}`"
         f"{' --quick' if args.quick else ''}; wall time {wall:.0f} s.",
         "",

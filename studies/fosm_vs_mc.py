@@ -2,7 +2,7 @@
 """Where and why FOSM departs from Monte Carlo on the nine-bar.
 
 Per case (lubricated and dry at 3π rad/s, 0.5 mm, 100 cP; the input distribution of
-paper/reliability_paper.py: clearance, viscosity, speed), per crank angle:
+studies/reliability_paper.py: clearance, viscosity, speed), per crank angle:
 
 * FOSM (2d + 1 simulations) vs Monte Carlo (``--n`` Sobol points, cached in
   OUT/evaluations.sqlite so that a rerun resumes) with Wilson 95 % intervals, and the
@@ -30,7 +30,7 @@ paper/reliability_paper.py: clearance, viscosity, speed), per crank angle:
 For dry contact the FOSM step is also varied (±1σ secant, ±0.25σ, "auto") to show that its σ_i
 is a property of the step, not of the mechanism.
 
-    python paper/fosm_vs_mc.py --out results/fosm_vs_mc [--quick] [--jobs 2] [--n 512]
+    python studies/fosm_vs_mc.py --out results/fosm_vs_mc [--quick] [--jobs 2] [--n 512]
 
 Note: AD/KS p-values assume independent samples; with Sobol points they are conservative
 (fewer rejections). Use ``--rule random`` for calibrated p-values.
@@ -485,7 +485,7 @@ def write_report(out, all_res, args, wall):
     summ = pd.DataFrame([r for res in all_res for r in summary_rows(res)])
     summ.to_csv(out / "summary.csv", index=False)
     lines = ["# FOSM vs Monte Carlo on the nine-bar", "",
-             f"Command: `python paper/fosm_vs_mc.py --out {args.out} --n {args.n} --rule {args.rule} "
+             f"Command: `python studies/fosm_vs_mc.py --out {args.out} --n {args.n} --rule {args.rule} "
              f"--jobs {args.jobs}" + (" --quick" if args.quick else "") + f"`; wall time {wall:.0f} s.", "",
              "Inputs (per case, see reliability_paper.py): clearance truncnormal CV 10 %, viscosity "
              "lognormal CV 15 % (lubricated), speed N(ω, 0.1²) rad/s. Probe allowables (fixed, FOSM "

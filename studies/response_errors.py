@@ -1,7 +1,7 @@
 """Dynamic response errors of the slider: the study of Chen, Wang & Gao (2022), §4, on mechrel's
 nine-bar, plus the slider-crank benchmark with a clearance joint between rod and slider.
 
-    python paper/response_errors.py --out results/response_errors [--quick]
+    python studies/response_errors.py --out results/response_errors [--quick]
 
 What is simulated
 -----------------
@@ -503,7 +503,7 @@ def main(argv=None):
     used = ", ".join(sorted({f"{r['integrator']} rtol = {r['rtol']:g}" for r in run_rows}))
     settings = (f"Settings: two revolutions of the driving crank, the second analysed; outputs "
                 f"every {sample:g}° of crank rotation; each scene type's default integrator "
-                f"({used}). Command: `python paper/response_errors.py --out {out}"
+                f"({used}). Command: `python studies/response_errors.py --out {out}"
                 f"{' --quick' if args.quick else ''}"
                 f"{'' if args.sample_deg is None else f' --sample-deg {args.sample_deg:g}'}`.")
     (out / "summary.md").write_text(markdown(comparisons, rows, run_rows, figures, settings),
