@@ -43,7 +43,7 @@ def radau_copy(edits, name: str):
     module ``name`` (:func:`module_from_source`): its relative imports made absolute first, so
     edits anchor on the absolute ones. numba compiles the copy afresh in this process, which
     makes it the fair baseline for kernel variants (a fresh copy runs a few per cent faster
-    than the kernel loaded from numba's cache; docs/performance.md)."""
+    than the kernel loaded from numba's cache; docs/dev/performance-log.md)."""
     import inspect
 
     import mechrel.integrate.radau as radau

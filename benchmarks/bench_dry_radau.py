@@ -2,12 +2,12 @@
 where it applies), one run per cycle, interleaved.
 
 Issue 14 asks for the dry nine-bar and slider-crank several times faster. Their default is
-DOPRI5 at rtol 1e-8, which spends 84–87 % of its time in right-hand sides (docs/performance.md,
-"Cost per cycle against the floor"); ``radau`` integrates them in the clearance joints'
-eccentricities. Both are chaotic (the accuracy report's ensemble measure resolves no 1 %
-setting on them), so no equal-accuracy comparison is possible: this prints, per scene and
-setting, the median wall time of the whole ``simulate`` over ``--repeats`` interleaved rounds,
-the integrator's counts and the number of impacts, which is what either integrator must
+DOPRI5 at rtol 1e-8, which spends 84–87 % of its time in right-hand sides
+(docs/dev/performance-log.md, "Cost per cycle against the floor"); ``radau`` integrates them in
+the clearance joints' eccentricities. Both are chaotic (the accuracy report's ensemble measure
+resolves no 1 % setting on them), so no equal-accuracy comparison is possible: this prints, per
+scene and setting, the median wall time of the whole ``simulate`` over ``--repeats`` interleaved
+rounds, the integrator's counts and the number of impacts, which is what either integrator must
 resolve.
 
 A second table says where DOPRI5's steps go at its default setting (one untimed run with the

@@ -23,7 +23,7 @@ For each scene and integrator setting this measures, in one process with the run
 
 Accuracy is the 1 % peak criterion of ``bench_lubricated_ninebar.py`` (peak slider
 acceleration error within 1 % of a radau rtol 1e-10 reference) for the lubricated scenes;
-the dry scenes are chaotic (docs/performance.md, "What accuracy costs") and are reported at
+the dry scenes are chaotic (docs/performance.md, "Which tolerance") and are reported at
 their default setting, whose floor is its own steps × stages × t_f.
 
 ``--formulation`` chooses the equations radau integrates (default ``auto``, what the shipped

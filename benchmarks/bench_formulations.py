@@ -23,7 +23,7 @@ Run (≈ 2 min warm; the undriven pendulum with a lubricated hinge, ≈ 1 min mo
 
     python benchmarks/bench_formulations.py --repeats 7 --json /tmp/bench_formulations.json
     python benchmarks/bench_formulations.py --repeats 7 \
-        --scenes benchmarks/scenes/double-pendulum-lubricated.toml double-pendulum
+        --scenes tests/data/scenes/double-pendulum-lubricated.toml double-pendulum
 """
 
 from __future__ import annotations

@@ -190,7 +190,7 @@ def main(argv=None):
     print("| code | integrator | rtol | wall (s) | integration (s) | steps | rhs evals | "
           "peak dev (%) | curve dev (%) |\n|---|---|---|---|---|---|---|---|---|")
     # radau integrates the reduced equations here (its default formulation), which meet the
-    # peak criterion from rtol 3e-2 (docs/performance.md, "Radau on the reduced equations")
+    # peak criterion from rtol 3e-2 (docs/dev/performance-log.md, "Radau on the reduced equations")
     tols = ([3e-2, 1e-2, 3e-3, 1e-3, 3e-4, 1e-4, 3e-5, 1e-5, 1e-6] if not args.quick
             else [1e-4, 1e-5])
     mr_settings = [("radau", t) for t in tols if "radau" in INTEGRATORS]

@@ -1,4 +1,4 @@
-"""paper/bearing_models.py: the variants are the paper's bearing with only the film changed, the
+"""studies/bearing_models.py: the variants are the paper's bearing with only the film changed, the
 conditional whole-cycle estimator against closed forms, and a smoke run of ``--quick``."""
 
 from __future__ import annotations
@@ -19,7 +19,7 @@ from scipy import stats
 from mechrel.scene import load_scene
 
 ROOT = Path(__file__).resolve().parents[1]
-STUDY = ROOT / "paper" / "bearing_models.py"
+STUDY = ROOT / "studies" / "bearing_models.py"
 
 
 def _module():
@@ -111,13 +111,13 @@ def test_quick_study_runs_and_the_long_variant_is_the_papers_run(tmp_path):
     rows = list(csv.DictReader(open(tmp_path / "errors.csv", encoding="utf-8")))
     assert {r["variant"] for r in rows} == {"long", "finite"}
     # the long variant, set explicitly, is the default lubricated nine-bar of
-    # paper/response_errors.py (case lub-3pi) sampled every 0.05°: the same simulation and the
+    # studies/response_errors.py (case lub-3pi) sampled every 0.05°: the same simulation and the
     # same sampling, so the same ranges to round-off. The reference is that script's own run
     # with this code: its committed run (docs/figures/response_errors/errors.csv) predates the
     # reduced formulation, whose integration differs at the level of the integration error
     # (3e-6 of the ranges), not of round-off
     spec = importlib.util.spec_from_file_location("response_errors",
-                                                  ROOT / "paper" / "response_errors.py")
+                                                  ROOT / "studies" / "response_errors.py")
     paper = importlib.util.module_from_spec(spec)
     sys.modules["response_errors"] = paper  # its dataclasses look their module up
     spec.loader.exec_module(paper)

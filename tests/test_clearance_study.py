@@ -1,4 +1,4 @@
-"""paper/response_errors.py: the transcribed paper ranges, and a smoke run of ``--quick``."""
+"""studies/response_errors.py: the transcribed paper ranges, and a smoke run of ``--quick``."""
 
 from __future__ import annotations
 
@@ -11,7 +11,7 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
-STUDY = ROOT / "paper" / "response_errors.py"
+STUDY = ROOT / "studies" / "response_errors.py"
 REFERENCE = ROOT / "docs" / "reference.md"
 
 

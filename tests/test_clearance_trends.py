@@ -9,7 +9,7 @@ every lubricated case, then falls below 0.2 m/s² by 10°); from there on the lu
 response repeats from cycle to cycle (cycle-2 peaks equal cycle-1 peaks to 1 %).
 
 Slow version (``-m slow``): two revolutions, the second analysed, as in
-``paper/response_errors.py``; adds the 5π dry/lubricated comparison and the dry joint's
+``studies/response_errors.py``; adds the 5π dry/lubricated comparison and the dry joint's
 displacement and velocity trends with clearance. The dry joint's acceleration-error peak is
 NOT monotone in clearance or speed (a peak of a chaotic impact sequence, docs/reference.md), so it
 is not asserted; docs/validation.md discusses it.

@@ -186,8 +186,8 @@ def test_radau_agrees_with_scipy_radau(pendulum, pendulum_reference):
 def test_radau_counts_newton_rejections_apart():
     # The lubricated nine-bar at rtol 3e-4 (the 1 % peak criterion of the benchmarks): its step
     # size is set by the convergence of the simplified Newton iteration as the films thin
-    # (docs/performance.md, "Cost per cycle against the floor"), so nearly all of its rejected
-    # trial steps are Newton's (measured 124 of 125, the other one failed the error test).
+    # (docs/dev/performance-log.md, "Cost per cycle against the floor"), so nearly all of its
+    # rejected trial steps are Newton's (measured 124 of 125, the other one failed the error test).
     # The count must be a part of n_rejected, neither 0 nor all of it.
     r = simulate(load_scene("nine-bar-lubricated"), integrator="radau", rtol=3e-4, atol=3e-7)
     st = r.stats

@@ -8,7 +8,7 @@ import tomllib
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
-LINTED = ["src", "tests", "examples", "benchmarks"]
+LINTED = ["src", "tests", "examples", "benchmarks", "tools", "studies"]
 
 
 def test_ruff_is_clean():

@@ -39,11 +39,11 @@ EPS = np.finfo(float).eps
 SCENES = ("nine-bar-lubricated", "slider-crank-lubricated", "four-bar", "nine-bar-dry",
           "double-pendulum", "pendulum-lubricated", "four-bar-undriven", "cart-pendulum",
           "cart-pendulum-lubricated", "block-incline")
-BENCH_SCENES = Path(__file__).parents[1] / "benchmarks" / "scenes"
-CART_PENDULUM = BENCH_SCENES / "cart-pendulum-lubricated.toml"
+DATA_SCENES = Path(__file__).parent / "data" / "scenes"
+CART_PENDULUM = DATA_SCENES / "cart-pendulum-lubricated.toml"
 # the double pendulum's middle hinge as a lubricated bearing (0.1 mm, 5 mm radius, 10 mm long,
 # 0.2 Pa s): undriven, so the construction gives both links free angles
-PENDULUM_LUBRICATED = BENCH_SCENES / "double-pendulum-lubricated.toml"
+PENDULUM_LUBRICATED = DATA_SCENES / "double-pendulum-lubricated.toml"
 
 
 def undriven_four_bar():
@@ -61,8 +61,9 @@ def cart_pendulum(lubricated=False):
     position on its line (a free position) and the pendulum's angle (a free angle). No
     horizontal force acts, so the horizontal momentum stays zero. With ``lubricated`` the
     hinge is a lubricated bearing (the double pendulum's: 0.1 mm, 5 mm radius, 10 mm long,
-    0.2 Pa s), and the journal's eccentricity adds two coordinates. The scene is the
-    benchmarks' ``cart-pendulum-lubricated.toml``; without ``lubricated`` its hinge is ideal."""
+    0.2 Pa s), and the journal's eccentricity adds two coordinates. The scene is
+    ``tests/data/scenes/cart-pendulum-lubricated.toml``; without ``lubricated`` its hinge is
+    ideal."""
     if lubricated:
         return load_scene(CART_PENDULUM)
     return load_scene(CART_PENDULUM, overrides={"name": "cart-pendulum",

@@ -17,7 +17,7 @@ from mechrel.scene.loader import get_value, thaw
 from mechrel.simulation import simulate
 
 # The embedded scenes' hashes before global_points, pin-in-slot joints and translational
-# joints between moving bodies were added (benchmarks/compare_trees.py's "before" tree): the
+# joints between moving bodies were added (tools/compare_trees.py's "before" tree): the
 # new optional fields stay out of the canonical form when unset, so none of them moved.
 HASHES = {
     "double-pendulum": "b6229695f5d7db04b1cb5e0ae09a1ade1e4750bdd6357f4889bfed329506bc58",

@@ -383,7 +383,7 @@ def test_refused_sensitivity_writes_its_failures(tmp_path, capsys):
     assert summary["failures"]["sobol"]["n_failed"] == failing.sum()
 
 
-STUDY_SCRIPTS = Path(__file__).resolve().parents[1] / "paper"
+STUDY_SCRIPTS = Path(__file__).resolve().parents[1] / "studies"
 
 
 def _script(name):

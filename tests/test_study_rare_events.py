@@ -262,12 +262,12 @@ def test_reliability_command_runs_form_and_subset_on_the_mechanism(tmp_path, cap
 
 
 def test_nine_bar_script_finds_its_deepest_allowable_and_reads_the_levels():
-    # paper/rare_events_ninebar.py on the analytic extreme 6 + x1 + x2: P(Y > I) = Φ(−(I−6)/√2)
+    # studies/rare_events_ninebar.py on the analytic extreme 6 + x1 + x2: P(Y > I) = Φ(−(I−6)/√2)
     import importlib.util
     import sys
     from pathlib import Path
 
-    path = Path(__file__).resolve().parents[1] / "paper" / "rare_events_ninebar.py"
+    path = Path(__file__).resolve().parents[1] / "studies" / "rare_events_ninebar.py"
     spec = importlib.util.spec_from_file_location("study_script_rare_events_ninebar", path)
     script = importlib.util.module_from_spec(spec)
     sys.modules[spec.name] = script

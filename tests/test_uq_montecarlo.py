@@ -135,6 +135,29 @@ def test_whole_cycle_never_exceeds_the_smallest_point_reliability(data):
         assert np.all(two.table["reliability"] <= point + 1e-15)
 
 
+@settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(_data())
+def test_allowable_draws_are_the_allowables_the_result_counted(data):
+    Y, idx, allow, event, mode, seed = data
+    ev = Evaluations.from_arrays(np.zeros((Y.shape[0], 1)), Y, output_index=idx)
+    res = monte_carlo(evaluations=ev, allowable=allow, event=event, allowable_mode=mode, seed=seed)
+    draws = res.allowable_draws()
+    assert draws.shape == Y.shape
+    inside = (np.abs(Y) <= draws) if event == "two-sided" else (Y <= draws)
+    np.testing.assert_array_equal(inside.sum(axis=0), res.table["n_inside"].to_numpy())
+    mu = res.table["mu_I"].to_numpy()
+    sd = res.table["sigma_I"].to_numpy()
+    if mode == "fixed":
+        np.testing.assert_array_equal(draws, np.broadcast_to(mu, Y.shape))
+    # one standard normal per sample and quantity: the outputs of a quantity move together
+    for q in idx.get_level_values("quantity").unique():
+        cols = np.flatnonzero((idx.get_level_values("quantity") == q) & (sd > 0))
+        if mode == "sampled" and cols.size:
+            z = (draws[:, cols] - mu[cols]) / sd[cols]
+            np.testing.assert_allclose(z, z[:, :1].repeat(cols.size, axis=1), rtol=1e-12,
+                                       atol=1e-12)
+
+
 def _fails_in_a_region(x):
     if x[0] > 1.5:
         raise ModelFailure("assembly failed: links cannot close")

@@ -56,11 +56,11 @@ from mechrel.uq import (
 from mechrel.uq.problem.allowables import parse_sector
 from mechrel.uq.problem.analytic import slider_crank_tolerance_model
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
-from bench_system_reliability import (
+sys.path.insert(0, str(Path(__file__).resolve().parent / "data"))
+from system_problems import (  # noqa: E402  (the problems bench_system_reliability.py shares)
     ALLOWABLES,
     four_branch,
-    four_branch_exact,  # noqa: E402
+    four_branch_exact,
     slider_crank,
 )
 

@@ -1,5 +1,5 @@
 """Argument types and error reporting shared by the ``mechrel`` subcommands and the study
-scripts (``paper/*.py``)."""
+scripts (``studies/*.py``)."""
 
 from __future__ import annotations
 

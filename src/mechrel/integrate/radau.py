@@ -75,7 +75,7 @@ step with θ > THET only the fast part is refreshed; a full Jacobian is computed
 start, after a history change, after a Newton failure or error-test rejection with a stale
 Jacobian, and at least every ``MAX_PARTIAL`` updates. On the lubricated nine-bar this needs
 6.5k right-hand sides per cycle where differencing the clearance bodies' columns needed
-12.4k (docs/performance.md).
+12.4k (docs/dev/performance-log.md, "Integrators").
 
 Code structure
 --------------
@@ -124,8 +124,8 @@ iteration did not converge (diverged, or was predicted too slow and the step shr
 latter also in ``n_newton_rejected``; ``n_lu`` counts factorisations of the pair (real,
 complex) of iteration matrices. On the lubricated nine-bar nearly all rejections are Newton's
 (124 of 125 per cycle at rtol 3e-4): the step size there is set by the convergence of the
-simplified Newton iteration, not by the error estimate (docs/performance.md, "Cost per cycle
-against the floor").
+simplified Newton iteration, not by the error estimate (docs/dev/performance-log.md, "Cost per
+cycle against the floor").
 
 References
 ----------
@@ -193,7 +193,7 @@ NIT = 7  # maximum Newton iterations per step
 # right-hand sides (module docstring), so refreshing it often pays: measured on the lubricated
 # nine-bar at rtol 1e-7 (right-hand sides per cycle, with MAX_PARTIAL = 30): THET = 0.3 →
 # 14.2k, 0.1 → 8.3k, 0.03 → 6.5k, 0.01 → 6.0k; at rtol 1e-3: 29.5k, 14.3k, 5.2k, 7.9k
-# (docs/performance.md). 0.03 is the best over the tolerances measured.
+# (docs/dev/performance-log.md). 0.03 is the best over the tolerances measured.
 THET = 0.03
 SAFE = 0.9
 FACL = 5.0  # h_new ≥ h / FACL
@@ -1212,8 +1212,8 @@ class Radau(Integrator):
     docstring; internally ``rtol' ≈ 1e-5``), for a stiff scene used without settings: on the
     lubricated nine-bar they put the peak slider acceleration within 6e-6 (relative) of a
     tight-tolerance reference, and every sample within 1e-4 of the peak, in under 300 steps
-    per cycle (docs/performance.md); ``atol = 1e-9`` is a nanometre (nanoradian, nm/s) floor,
-    far below the clearances (≥ 0.1 mm) and their rates that the scenes resolve. Scenes
+    per cycle (docs/dev/performance-log.md); ``atol = 1e-9`` is a nanometre (nanoradian, nm/s)
+    floor, far below the clearances (≥ 0.1 mm) and their rates that the scenes resolve. Scenes
     whose type selects ``radau`` automatically use ``DEFAULT_SOLVERS`` (1e-7, 1e-10).
 
     Parameters

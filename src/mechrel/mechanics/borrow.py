@@ -5,9 +5,9 @@ decrements. A compiled function pays a pair each time it binds an array (taking 
 tuple, as ``sys.rev_i``, slicing it, as ``K[s]``, or aliasing it) and when the binding dies, and
 Numba's reference-count pruning pass leaves most of these pairs in place across the loops,
 branches and calls of the right-hand side. On the dry slider-crank, ``perf`` attributed about
-30 % of an RK4 run's samples to ``NRT_incref``/``NRT_decref`` (docs/performance.md, "Reference
-counting"). For an array whose meminfo pointer is null, the same increment and decrement are a
-test for null and nothing else.
+30 % of an RK4 run's samples to ``NRT_incref``/``NRT_decref`` (docs/dev/performance-log.md,
+"Where the targets stand"). For an array whose meminfo pointer is null, the same increment and
+decrement are a test for null and nothing else.
 
 The rules.
 

@@ -145,13 +145,41 @@ def _save(fig, path) -> None:
     plt.close(fig)
 
 
-def _warm_up(model, progress) -> None:
-    """On a cold kernel cache, compile here, announced and with a bar of the elapsed time,
-    before the workers start (they then load the kernels instead of each compiling them
-    behind a progress bar standing at 0)."""
-    from .._kernel_cache import warm_up
+def warm_up(model, *, progress: bool = True) -> float:
+    """Compile the simulation kernels a model needs, once, before its samples run.
 
-    warm_up(model.scene, progress=progress)
+    On a cold kernel cache (after installing or changing mechrel) this compiles them in this
+    process, announced on stderr with the expected time and a bar of the elapsed time, so that
+    worker processes load them from numba's on-disk cache instead of each compiling them behind
+    a progress bar standing at 0. On a warm cache it returns at once. The numbers of later runs
+    do not depend on it. ``mechrel reliability`` and ``mechrel sensitivity`` call it; a study
+    script does so before its first estimator.
+
+    Parameters
+    ----------
+    model : MechanismModel
+        The model whose scene (:attr:`~mechrel.uq.problem.mechanism.MechanismModel.scene`)
+        decides which kernels are needed.
+    progress : bool, optional
+        Announce a compilation and show its bar (default True).
+
+    Returns
+    -------
+    float
+        The seconds spent compiling (0.0 on a warm cache).
+
+    Examples
+    --------
+    >>> from mechrel.uq import MechanismModel
+    >>> model = MechanismModel("slider-crank", {"crank": ["bodies.crank.length(O,A)"]},
+    ...                        angle_step=90.0)
+    >>> seconds = warm_up(model, progress=False)   # compiles here if the cache is cold
+    >>> warm_up(model, progress=False)             # then nothing is left to compile
+    0.0
+    """
+    from .._kernel_cache import warm_up as compile_kernels
+
+    return compile_kernels(model.scene, progress=progress)
 
 
 def _verdict(ctx, by_rank) -> list[str]:
@@ -285,7 +313,7 @@ def run_reliability(study, *, methods=None, n=None, n_jobs=1, seed=None, out=Non
     ctx.presenters = list(presenters.values()) + [cls() for cls in COMBINED]
     for m in chosen:  # every method's settings and sizes, before the first one runs
         presenters[presenter_class(m)].check(ctx, m)
-    _warm_up(model, progress)
+    warm_up(model, progress=progress)
     record = {"study": study.name, "source": study.source, "methods": list(keys), "n": n,
               "seed": seed, "event": event, "max_failure_fraction": max_failure_fraction}
     lines = [f"study {study.name}: scene {model.scene.name}, inputs {', '.join(inputs.names)}; "
@@ -444,7 +472,7 @@ def run_sensitivity(study, *, n=None, n_jobs=1, seed=None, out=None, progress=Tr
     _check_run(n=n, seed=seed, n_jobs=n_jobs, backend=backend,
                max_failure_fraction=max_failure_fraction, model=model, inputs=inputs,
                rows_per_n=inputs.d + 2)
-    _warm_up(model, progress)
+    warm_up(model, progress=progress)
     record = {"study": study.name, "source": study.source, "n": n, "seed": seed,
               "max_failure_fraction": max_failure_fraction}
     try:

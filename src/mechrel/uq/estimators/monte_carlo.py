@@ -287,6 +287,38 @@ class MonteCarloResult(CountedByProvenance):
         """
         return self.table["reliability"]
 
+    def allowable_draws(self) -> np.ndarray:
+        """The allowable each sample was compared with: one draw per sample and quantity from
+        the seed's allowable stream, scaled per output (the mean where ``allowable_mode`` is
+        ``"fixed"``), the same numbers the result counted.
+
+        For paired comparisons on the same samples and the same allowables, e.g. a model
+        against its linearisation (``studies/fosm_vs_mc.py``).
+
+        Returns
+        -------
+        numpy.ndarray, shape (n, n_out)
+            The allowable of each sample (row, failed samples included) and output (column),
+            in the outputs' units.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from mechrel.uq import Allowable, Normal, UncertainInputs, linear_model
+        >>> inputs = UncertainInputs.from_specs({"x": Normal(0.0, 0.1)})
+        >>> r = monte_carlo(model=linear_model([0.0], [[1.0]], ["x"]), inputs=inputs, n=64,
+        ...                 seed=5, allowable=Allowable(0.2, 0.05), progress=False)
+        >>> draws = r.allowable_draws()
+        >>> draws.shape
+        (64, 1)
+        >>> inside = np.abs(r.evaluations.Y) <= draws        # the two-sided event it counted
+        >>> int(inside.sum()) == int(r.table["n_inside"].iloc[0])
+        True
+        """
+        mu_I, sd_I, groups = resolve_allowables(self.evaluations.output_index, self.allowable)
+        return _draw_allowables(self.evaluations.n, mu_I, sd_I, groups, self.allowable_mode,
+                                child_seed(as_seed_sequence(self.seed), 1))
+
 
 def _check_common(event, allowable_mode, confidence_level, ci_method, failures, max_failure_fraction):
     check_event(event)

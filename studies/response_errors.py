@@ -1,7 +1,7 @@
 """Dynamic response errors of the slider: the study of Chen, Wang & Gao (2022), §4, on mechrel's
 nine-bar, plus the slider-crank benchmark with a clearance joint between rod and slider.
 
-    python paper/response_errors.py --out results/response_errors [--quick]
+    python studies/response_errors.py --out results/response_errors [--quick]
 
 What is simulated
 -----------------
@@ -36,19 +36,19 @@ converged to 0.1 % at 0.25°. Dry values are also chaotic: round-off-level chang
 move them by ~10 % (docs/validation.md).
 
 Integrators: the scene type's default (``mechrel.simulation.DEFAULT_SOLVERS``: DOPRI5 for dry,
-rtol = 1e-8, atol = 1e-11; the compiled Radau for lubricated, rtol = 1e-7, atol = 1e-10); wall time and solver statistics are recorded
-per case.
+rtol = 1e-8, atol = 1e-11; the compiled Radau for lubricated, rtol = 1e-7, atol = 1e-10); wall
+time and solver statistics are recorded per case.
 
 Outputs (in ``--out``)
 ----------------------
-``errors.csv``: one row per comparison, case and quantity: min, max and time of the peak of
-the error over the analysed revolution (SI units) beside the paper's published range
+``errors.csv``: one row per comparison, case and quantity: min, max and time of the peak of the
+error over the analysed revolution (SI units) beside the paper's published range
 (:data:`PAPER_RANGES`, transcribed from §4.1–4.3, restated in docs/reference.md and, given a
-text copy of the paper, checked against it with ``--paper FILE``). ``runs.csv``: one row per case: wall time, integrator, steps, rhs evaluations,
-impacts, max ε per joint, max constraint violation, energy balance. ``summary.md``: both as
-markdown tables, with the figures. ``fig_*.png``: per comparison, errors (3 stacked panels)
-and journal orbits inside their clearance circles. ``series/<case>.csv.gz``: the analysed
-time series (errors and orbits).
+text copy of the paper, checked against it with ``--paper FILE``). ``runs.csv``: one row per
+case: wall time, integrator, steps, rhs evaluations, impacts, max ε per joint, max constraint
+violation, energy balance. ``summary.md``: both as markdown tables, with the figures.
+``fig_*.png``: per comparison, errors (3 stacked panels) and journal orbits inside their
+clearance circles. ``series/<case>.csv.gz``: the analysed time series (errors and orbits).
 """
 
 from __future__ import annotations
@@ -503,7 +503,7 @@ def main(argv=None):
     used = ", ".join(sorted({f"{r['integrator']} rtol = {r['rtol']:g}" for r in run_rows}))
     settings = (f"Settings: two revolutions of the driving crank, the second analysed; outputs "
                 f"every {sample:g}° of crank rotation; each scene type's default integrator "
-                f"({used}). Command: `python paper/response_errors.py --out {out}"
+                f"({used}). Command: `python studies/response_errors.py --out {out}"
                 f"{' --quick' if args.quick else ''}"
                 f"{'' if args.sample_deg is None else f' --sample-deg {args.sample_deg:g}'}`.")
     (out / "summary.md").write_text(markdown(comparisons, rows, run_rows, figures, settings),

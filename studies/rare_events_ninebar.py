@@ -27,7 +27,7 @@ Every model evaluation is cached in OUT/evaluations.sqlite (a rerun resumes). Wr
 ``curve.csv``, ``per_angle.csv``, ``rare_events_ninebar.png``, ``report.md`` and
 ``summary.json`` into OUT.
 
-    python paper/rare_events_ninebar.py --out results/rare_events_ninebar [--quick] [--jobs 2]
+    python studies/rare_events_ninebar.py --out results/rare_events_ninebar [--quick] [--jobs 2]
 """
 
 from __future__ import annotations
@@ -41,11 +41,11 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from mechrel.cli.args import jobs, positive_integer, report_errors, sample_count
+from mechrel.cli.args import positive_integer, report_errors, sample_count
 from mechrel.errors import StudyError
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from reliability_paper import _md  # noqa: E402
+from reliability_paper import markdown_table  # noqa: E402
 
 SEED = 20221014
 UNITS = {"displacement": "m", "velocity": "m/s", "acceleration": "m/s²"}
@@ -324,8 +324,8 @@ def run(args) -> int:
     out.mkdir(parents=True, exist_ok=True)
     t_start = time.perf_counter()
     model, inputs = _setup(args.quantity)
-    from mechrel._kernel_cache import warm_up
-    warm_up(model.scene, progress=not args.no_progress)
+    from mechrel.studies.runner import warm_up
+    warm_up(model, progress=not args.no_progress)
     common = {"n_jobs": args.jobs, "cache": out / "evaluations.sqlite",
               "progress": not args.no_progress}
     q = args.quantity
@@ -438,10 +438,10 @@ def run(args) -> int:
              + (f" Active learning: the whole curve {sims_of['ak_curve']} simulations, "
                 f"{timings['ak_curve']:.0f} s." if "ak_curve" in sims_of else ""),
              "",
-             _md(curve_t, ".3g"), "",
+             markdown_table(curve_t, ".3g"), "",
              f"Per angle (I_θ at Monte Carlo's {1 - args.angle_pf:g} quantile), "
              f"{timings['form_sorm_per_angle']:.0f} s:", "",
-             _md(angle_t, ".3g"), "",
+             markdown_table(angle_t, ".3g"), "",
              f"Total {wall:.0f} s, {sims} simulations run (the rest from the cache)."]
     (out / "report.md").write_text("\n".join(lines) + "\n")
     print("\n".join(lines))

@@ -23,9 +23,9 @@ processes the paired ratio and the fastest runs are steadier than the medians.
 
 Run::
 
-    python benchmarks/compare_trees.py bitwise /tmp/before .
-    python benchmarks/compare_trees.py timing /tmp/before . --rounds 7 --reps 15
-    python benchmarks/compare_trees.py timing /tmp/before . --rounds 7 --reps 15 \
+    python tools/compare_trees.py bitwise /tmp/before .
+    python tools/compare_trees.py timing /tmp/before . --rounds 7 --reps 15
+    python tools/compare_trees.py timing /tmp/before . --rounds 7 --reps 15 \
         --settings '{"rtol": 1e-5, "atol": 1e-8, "extremes": true}'
 
 A cold tree compiles its kernels in its first process (minutes); run ``timing`` once with

@@ -34,7 +34,7 @@ it separately (`kinematic_effect.csv`), from the ideal counterparts at ±1σ.
 Cross-check: a polynomial chaos expansion (regression, total order ``--pce-order``, 3× over-
 sampled) of the same measures, whose Sobol indices come from its coefficients.
 
-    python paper/sensitivity.py --out results/sensitivity [--quick] [--jobs 2] [--n 128]
+    python studies/sensitivity.py --out results/sensitivity [--quick] [--jobs 2] [--n 128]
 """
 
 from __future__ import annotations
@@ -52,7 +52,11 @@ import pandas as pd
 
 from mechrel.errors import StudyError
 from mechrel.cli.args import sample_count, report_errors
-from mechrel.uq.problem.mechanism import MechanismModel, _lookup
+from mechrel.scene.loader import get_value
+from mechrel.uq.problem.mechanism import MechanismModel
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from reliability_paper import markdown_table  # noqa: E402
 
 PI = math.pi
 QUANTITIES = ("displacement", "velocity", "acceleration")
@@ -71,8 +75,20 @@ ELEMENT_INPUTS = {
     "rod7_length": [("bodies.rod7.points.R", 0, -0.5), ("bodies.rod7.points.S", 0, 0.5)],
 }
 SPECS = {
-    "clearance_C1": {"distribution": "truncnormal", "mean": 0.5e-3, "std": 0.05e-3, "lower": 0.35e-3, "upper": 0.65e-3},
-    "clearance_C2": {"distribution": "truncnormal", "mean": 0.5e-3, "std": 0.05e-3, "lower": 0.35e-3, "upper": 0.65e-3},
+    "clearance_C1": {
+        "distribution": "truncnormal",
+        "mean": 0.5e-3,
+        "std": 0.05e-3,
+        "lower": 0.35e-3,
+        "upper": 0.65e-3,
+    },
+    "clearance_C2": {
+        "distribution": "truncnormal",
+        "mean": 0.5e-3,
+        "std": 0.05e-3,
+        "lower": 0.35e-3,
+        "upper": 0.65e-3,
+    },
     "viscosity": {"distribution": "lognormal", "mean": 0.1, "std": 0.015},
     "speed": {"distribution": "normal", "mean": 3 * PI, "std": 0.1},
     "guide_x": {"distribution": "normal", "mean": 0.670, "std": 0.2e-3},
@@ -89,19 +105,21 @@ class ToleranceModel(MechanismModel):
 
     def __init__(self, scene, inputs, *, elements, **kwargs):
         super().__init__(scene, inputs, **kwargs)
-        elements = {str(k): [(str(p), int(c), float(s)) for p, c, s in v] for k, v in elements.items()}
+        elements = {
+            str(k): [(str(p), int(c), float(s)) for p, c, s in v] for k, v in elements.items()
+        }
         nominal = []
         for name, targets in elements.items():
             if name in self.input_names or not targets:
                 raise StudyError(f"elements.{name}: duplicate name or no target")
             for path, comp, scale in targets:
-                value = _lookup(self._raw, path)
+                value = get_value(self.scene.raw, path)
                 if not (isinstance(value, (list, tuple)) and 0 <= comp < len(value)
                         and all(isinstance(v, (int, float)) for v in value) and scale != 0):
                     raise StudyError(f"elements.{name}: {path}[{comp}] is not a coordinate of a "
                                      f"numeric vector (holds {value!r})")
             path, comp, scale = targets[0]
-            nominal.append(float(_lookup(self._raw, path)[comp]) / scale)
+            nominal.append(float(get_value(self.scene.raw, path)[comp]) / scale)
         self.elements = elements
         self.input_names = self.input_names + tuple(elements)
         self.nominal = np.concatenate([self.nominal, nominal])
@@ -113,9 +131,9 @@ class ToleranceModel(MechanismModel):
     def scene_values(self, x):
         values = super().scene_values(x)  # checks the length, sets the scalar inputs
         x = np.asarray(x, dtype=float).reshape(-1)
-        for (name, targets), value in zip(self.elements.items(), map(float, x[len(self.targets):])):
+        for targets, value in zip(self.elements.values(), map(float, x[len(self.targets):])):
             for path, comp, scale in targets:
-                vec = list(values.get(path, _lookup(self._raw, path)))
+                vec = list(values.get(path, get_value(self.scene.raw, path)))
                 vec[comp] = scale * value
                 values[path] = vec
         return values
@@ -157,8 +175,12 @@ def kinematic_effect(model, inputs) -> pd.DataFrame:
 def ranked_table(sob, pce_s1, pce_st) -> pd.DataFrame:
     t = sob.to_frame().reset_index()
     t = t.rename(columns={t.columns[0]: "measure"})
-    t["PCE_S1"] = [pce_s1.loc[m, i] if pce_s1 is not None else np.nan for m, i in zip(t["measure"], t["input"])]
-    t["PCE_ST"] = [pce_st.loc[m, i] if pce_st is not None else np.nan for m, i in zip(t["measure"], t["input"])]
+    t["PCE_S1"] = [
+        pce_s1.loc[m, i] if pce_s1 is not None else np.nan for m, i in zip(t["measure"], t["input"])
+    ]
+    t["PCE_ST"] = [
+        pce_st.loc[m, i] if pce_st is not None else np.nan for m, i in zip(t["measure"], t["input"])
+    ]
     t = t.sort_values(["measure", "ST"], ascending=[True, False])
     t["rank_ST"] = t.groupby("measure")["ST"].rank(ascending=False).astype(int)
     t["rank_PCE_ST"] = t.groupby("measure")["PCE_ST"].rank(ascending=False)
@@ -183,8 +205,12 @@ def plot_bars(table, path, title):
     x = np.arange(len(inputs))
     for ax, m in zip(axes[0], order):
         g = table[table["measure"] == m].set_index("input").reindex(inputs)
-        ax.bar(x - 0.2, g["S1"], 0.38, yerr=g["S1_conf"], capsize=3, color="C0", label="S1 (Saltelli)")
-        ax.bar(x + 0.2, g["ST"], 0.38, yerr=g["ST_conf"], capsize=3, color="C1", label="ST (Saltelli)")
+        ax.bar(
+            x - 0.2, g["S1"], 0.38, yerr=g["S1_conf"], capsize=3, color="C0", label="S1 (Saltelli)"
+        )
+        ax.bar(
+            x + 0.2, g["ST"], 0.38, yerr=g["ST_conf"], capsize=3, color="C1", label="ST (Saltelli)"
+        )
         ax.plot(x - 0.2, g["PCE_S1"], "k_", ms=14, mew=2, label="S1 (PCE)")
         ax.plot(x + 0.2, g["PCE_ST"], "kx", ms=7, mew=1.5, label="ST (PCE)")
         ax.set_xticks(x, inputs, rotation=35, ha="right")
@@ -223,19 +249,13 @@ def plot_per_angle(res, std, path, pce=None):
         ax.patch.set_visible(False)
     axes[0].legend(fontsize=8, ncol=3, loc="upper left")
     axes[-1].set_xlabel("crank angle (deg)")
-    fig.suptitle("Total Sobol index of the signed error per crank angle: Saltelli (solid, same runs), "
-                 "PCE (dashed)\ngrey: the error's standard deviation at that angle", fontsize=10)
+    fig.suptitle(
+        "Total Sobol index of the signed error per crank angle: Saltelli (solid, same runs), "
+        "PCE (dashed)\ngrey: the error's standard deviation at that angle",
+        fontsize=10,
+    )
     fig.savefig(path, dpi=115)
     plt.close(fig)
-
-
-def _md(df):
-    cols = list(df.columns)
-    out = ["| " + " | ".join(cols) + " |", "|" + "---|" * len(cols)]
-    for _, r in df.iterrows():
-        out.append("| " + " | ".join(f"{v:.4g}" if isinstance(v, (float, np.floating)) else str(v)
-                                       for v in r) + " |")
-    return "\n".join(out)
 
 
 def main(argv=None) -> int:
@@ -266,7 +286,10 @@ def run(args) -> int:
     t0 = time.perf_counter()
     model, inputs = build(args.cycles)
     common = dict(n_jobs=args.jobs, cache=cache, progress=not args.no_progress)
-    print(f"sensitivity: {model.input_names}, Saltelli N = {n} ({n * (inputs.d + 2)} runs)", flush=True)
+    print(
+        f"sensitivity: {model.input_names}, Saltelli N = {n} ({n * (inputs.d + 2)} runs)",
+        flush=True,
+    )
     sob = sobol_indices(model=model, inputs=inputs, n=n, seed=args.seed, reducer=peak_abs, **common)
     t_sob = time.perf_counter() - t0
     pce = polynomial_chaos(model=model, inputs=inputs, order=args.pce_order, oversampling=3.0,
@@ -277,16 +300,22 @@ def run(args) -> int:
     table = ranked_table(sob, pce_peak.sobol_first, pce_peak.sobol_total)
     table.to_csv(out / "sensitivity_ranked.csv", index=False)
     loo = pce_peak.loo_error
-    plot_bars(table, out / "sensitivity.png",
-              f"Lubricated nine-bar: Sobol indices of the peak |error| over the cycle "
-              f"(Saltelli N = {n}, {sob.evaluations.n} runs; PCE order {args.pce_order}, "
-              f"{pce.evaluations.n} runs, LOO error "
-              + ", ".join(f"{k.replace('peak_abs_', '')[:4]}. {v:.2g}" for k, v in loo.items()) + ")")
+    plot_bars(
+        table,
+        out / "sensitivity.png",
+        f"Lubricated nine-bar: Sobol indices of the peak |error| over the cycle "
+        f"(Saltelli N = {n}, {sob.evaluations.n} runs; PCE order {args.pce_order}, "
+        f"{pce.evaluations.n} runs, LOO error "
+        + ", ".join(f"{k.replace('peak_abs_', '')[:4]}. {v:.2g}" for k, v in loo.items())
+        + ")",
+    )
     lines = []
     if args.per_angle:
         per = sobol_indices(evaluations=sob.evaluations, inputs=inputs, seed=args.seed,
                             max_failure_fraction=1.0)
-        std = pd.Series(np.nanstd(sob.evaluations.Y, axis=0, ddof=1), index=sob.evaluations.output_index)
+        std = pd.Series(
+            np.nanstd(sob.evaluations.Y, axis=0, ddof=1), index=sob.evaluations.output_index
+        )
         per.to_frame().reset_index().to_csv(out / "sensitivity_per_angle.csv", index=False)
         plot_per_angle(per, std, out / "sensitivity_per_angle.png", pce)
         pce_t = pce.to_frame()
@@ -296,34 +325,77 @@ def run(args) -> int:
             s = std.xs(q, level="quantity")
             a = float(s.idxmax())
             st = per.total.xs(q, level="quantity").loc[a]
-            lines.append(f"  {q}: largest error spread at {a:g}° (std {s.max():.3g} {UNITS[q]}); "
-                         "ST there: " + ", ".join(f"{k} {v:.2f}" for k, v in st.sort_values(ascending=False).items()))
+            lines.append(
+                f"  {q}: largest error spread at {a:g}° (std {s.max():.3g} {UNITS[q]}); "
+                "ST there: "
+                + ", ".join(f"{k} {v:.2f}" for k, v in st.sort_values(ascending=False).items())
+            )
     kin = kinematic_effect(model, inputs)
     kin.to_csv(out / "kinematic_effect.csv", index=False)
     wall = time.perf_counter() - t0
-    summary = [f"Saltelli N = {n}: {sob.evaluations.n} runs ({sob.evaluations.n_model_calls} simulated, "
-               f"{sob.n_blocks_dropped} blocks dropped) in {t_sob:.0f} s; PCE order {args.pce_order}: "
-               f"{pce.evaluations.n} runs; total {wall:.0f} s"]
+    summary = [
+        f"Saltelli N = {n}: {sob.evaluations.n} runs ({sob.evaluations.n_model_calls} simulated, "
+        f"{sob.n_blocks_dropped} blocks dropped) in {t_sob:.0f} s; PCE order {args.pce_order}: "
+        f"{pce.evaluations.n} runs; total {wall:.0f} s"
+    ]
     for m, g in table.groupby("measure", sort=False):
-        summary.append(f"  {m}: " + ", ".join(f"{r.input} ST {r.ST:.3f}±{r.ST_conf:.3f} (PCE {r.PCE_ST:.3f})"
-                                               for r in g.itertuples()))
+        summary.append(
+            f"  {m}: "
+            + ", ".join(
+                f"{r.input} ST {r.ST:.3f}±{r.ST_conf:.3f} (PCE {r.PCE_ST:.3f})"
+                for r in g.itertuples()
+            )
+        )
     summary += lines
     print("\n".join(summary))
-    rep = ["# Sensitivity of the nine-bar's error (Sobol indices)", "",
-           f"Command: `python paper/sensitivity.py --out {args.out} --n {n} --jobs {args.jobs}"
-           + (" --quick" if args.quick else "") + f"`; wall time {wall:.0f} s.", "",
-           "Inputs: " + "; ".join(f"{k}: {v}" for k, v in SPECS.items()) + ".", "",
-           "## Peak |error| over the cycle, ranked by total index", "",
-           f"`S1_conf`/`ST_conf`: bootstrap 95 % half-widths. PCE: order {args.pce_order} regression on "
-           f"{pce.evaluations.n} runs, leave-one-out relative error "
-           + ", ".join(f"{k} {v:.3g}" for k, v in loo.items()) + ".", "",
-           _md(table), "", "## Direct kinematic effect of the geometric tolerances (not in the error)", "",
-           _md(kin), "", "## Summary", "", "```", *summary, "```", "",
-           "Figures: " + ", ".join(f"`{p.name}`" for p in sorted(out.glob("*.png"))) + "."]
+    rep = [
+        "# Sensitivity of the nine-bar's error (Sobol indices)",
+        "",
+        f"Command: `python studies/sensitivity.py --out {args.out} --n {n} --jobs {args.jobs}"
+        + (" --quick" if args.quick else "")
+        + f"`; wall time {wall:.0f} s.",
+        "",
+        "Inputs: " + "; ".join(f"{k}: {v}" for k, v in SPECS.items()) + ".",
+        "",
+        "## Peak |error| over the cycle, ranked by total index",
+        "",
+        "`S1_conf`/`ST_conf`: bootstrap 95 % half-widths. "
+        f"PCE: order {args.pce_order} regression on "
+        f"{pce.evaluations.n} runs, leave-one-out relative error "
+        + ", ".join(f"{k} {v:.3g}" for k, v in loo.items())
+        + ".",
+        "",
+        markdown_table(table),
+        "",
+        "## Direct kinematic effect of the geometric tolerances (not in the error)",
+        "",
+        markdown_table(kin),
+        "",
+        "## Summary",
+        "",
+        "```",
+        *summary,
+        "```",
+        "",
+        "Figures: " + ", ".join(f"`{p.name}`" for p in sorted(out.glob("*.png"))) + ".",
+    ]
     (out / "report.md").write_text("\n".join(rep) + "\n")
-    (out / "summary.json").write_text(json.dumps(
-        {"argv": sys.argv, "n": n, "seed": args.seed, "wall_time": wall, "summary": summary,
-         "provenance_sobol": sob.provenance, "provenance_pce": pce.provenance}, indent=2, default=str) + "\n")
+    (out / "summary.json").write_text(
+        json.dumps(
+            {
+                "argv": sys.argv,
+                "n": n,
+                "seed": args.seed,
+                "wall_time": wall,
+                "summary": summary,
+                "provenance_sobol": sob.provenance,
+                "provenance_pce": pce.provenance,
+            },
+            indent=2,
+            default=str,
+        )
+        + "\n"
+    )
     print(f"wrote {out}/ in {wall:.0f} s")
     return 0
 

@@ -2,7 +2,7 @@
 """Model-form uncertainty of the lubricated joint: the nine-bar's §4 response errors and §5
 reliability with long, short and finite-length bearings side by side.
 
-    python paper/bearing_models.py --out results/bearing_models [--n 200] [--jobs 2] [--quick]
+    python studies/bearing_models.py --out results/bearing_models [--n 200] [--jobs 2] [--quick]
 
 The case is the paper's lubricated nine-bar at 3π rad/s (``nine-bar-lubricated``: C1 and C2
 lubricated, 100 cP, radial clearance 0.5 mm, bearing radius 15 mm, so journal diameter
@@ -22,12 +22,12 @@ both joints changes between the variants (:data:`VARIANTS`):
 ``--sample-deg`` degrees; the slider's displacement, velocity and acceleration errors (with
 clearance − ideal) and the journal orbits of C1 and C2.
 
-§5 (reliability), with the input distribution of ``paper/reliability_paper.py`` (clearance
+§5 (reliability), with the input distribution of ``studies/reliability_paper.py`` (clearance
 truncated normal, std 10 %, ±30 %; viscosity lognormal, CV 15 %; crank speed normal, std
 0.1 rad/s) and the paper's allowables I ~ N(0.012, 0.004²) m, N(0.3, 0.1²) m/s, N(18, 6²) m/s²:
 
 * FOSM per analysis angle (every 18°, 2d + 1 = 7 simulations per variant), two-sided
-  reliability P(|i| < I) and its index β = Φ⁻¹(R), as in ``paper/reliability_paper.py``;
+  reliability P(|i| < I) and its index β = Φ⁻¹(R), as in ``studies/reliability_paper.py``;
   FOSM is deterministic: its numbers move between runs only by the finite-difference noise
   (the solver tolerance), well below the differences reported here;
 * whole-cycle failure probability P_f = 1 − P(max over the cycle of |i| ≤ I) from Monte Carlo
@@ -61,11 +61,11 @@ import numpy as np
 import pandas as pd
 from scipy import stats
 
-from mechrel.cli.args import jobs, positive_integer, report_errors, sample_count
+from mechrel.cli.args import jobs, report_errors, sample_count
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from reliability_paper import (  # noqa: E402
-    ALLOW, CASES, QUANTITIES, RTOL, _md, case_inputs, case_model, forms_table,
+    ALLOW, CASES, QUANTITIES, RTOL, markdown_table, case_inputs, case_model, forms_table,
 )
 
 PI = math.pi
@@ -404,7 +404,7 @@ def write_summary(out, err, run_rows, fmin, wc, diff, args, wall):
     lines = [
         "# Bearing model (long / short / finite) on the nine-bar: §4 errors and §5 reliability",
         "",
-        f"Command: `python paper/bearing_models.py --out {args.out} --n {args.n} --jobs "
+        f"Command: `python studies/bearing_models.py --out {args.out} --n {args.n} --jobs "
         f"{args.jobs} --cycles {args.cycles:g} --sample-deg {args.sample_deg:g}`"
         f"{' --quick' if args.quick else ''}; wall time {wall:.0f} s.",
         "",
@@ -416,12 +416,25 @@ def write_summary(out, err, run_rows, fmin, wc, diff, args, wall):
     for r in err.itertuples():
         lines.append(f"| {r.variant} | {r.quantity} | {_fmt_rng(r.min, r.max, r.quantity)} | "
                      f"{r.max_abs_over_long:.3f} | {r.angle_of_peak_deg:.1f} |")
-    lines += ["", "## Runs", "", _md(pd.DataFrame(run_rows)), "",
-              "## §5: FOSM minimum β over the analysis angles, and FOSM on the cycle extreme", "",
-              _md(fmin), "",
-              f"## §5: whole-cycle P_f, Monte Carlo n = {args.n} per variant (same samples)", "",
-              _md(wc), "", "## Paired differences to the long bearing (conditional estimates)",
-              "", _md(diff), ""]
+    lines += [
+        "",
+        "## Runs",
+        "",
+        markdown_table(pd.DataFrame(run_rows)),
+        "",
+        "## §5: FOSM minimum β over the analysis angles, and FOSM on the cycle extreme",
+        "",
+        markdown_table(fmin),
+        "",
+        f"## §5: whole-cycle P_f, Monte Carlo n = {args.n} per variant (same samples)",
+        "",
+        markdown_table(wc),
+        "",
+        "## Paired differences to the long bearing (conditional estimates)",
+        "",
+        markdown_table(diff),
+        "",
+    ]
     (out / "summary.md").write_text("\n".join(lines) + "\n", encoding="utf-8")
 
 
@@ -499,8 +512,6 @@ def run(args) -> int:
     plot_whole_cycle(wc, variants, out / "fig_whole_cycle.png", args.n)
 
     wall = time.perf_counter() - t0
-    from mechrel.uq._common import package_versions
-
     prov = {k: {"fosm": {"model_cache_key": fos[k].provenance["model_cache_key"],
                          "settings": fos[k].provenance["settings"]},
                 "monte_carlo": {"model_cache_key": mc[k].provenance["model_cache_key"],
@@ -508,9 +519,20 @@ def run(args) -> int:
                                 "settings": mc[k].provenance["settings"],
                                 "failure_counts": mc[k].failure_counts}}
             for k in fos}
-    (out / "summary.json").write_text(json.dumps(
-        {"argv": sys.argv, "variants": [v.key for v in variants], "wall_time": wall,
-         "versions": package_versions(), "provenance": prov}, indent=2, default=str) + "\n")
+    (out / "summary.json").write_text(
+        json.dumps(
+            {
+                "argv": sys.argv,
+                "variants": [v.key for v in variants],
+                "wall_time": wall,
+                "versions": next(iter(fos.values())).provenance["versions"],
+                "provenance": prov,
+            },
+            indent=2,
+            default=str,
+        )
+        + "\n"
+    )
     write_summary(out, err, run_rows, fmin, wc, diff, args, wall)
     pd.set_option("display.width", 200)
     print(err.to_string(index=False, float_format=lambda x: f"{x:.4g}"))

@@ -11,13 +11,13 @@ has its own entry; from numba's disk cache only the entry points resolve.
 
 Run::
 
-    perf record -o /tmp/perf.data python benchmarks/profile_kernels.py nine-bar-lubricated \\
+    perf record -o /tmp/perf.data python tools/profile_kernels.py nine-bar-lubricated \\
         --nocache --runs 1000
     perf report -i /tmp/perf.data --time 70%-100% --no-children --sort dso,sym
 
 (``--time`` keeps the steady state: with ``--nocache`` the first part is compilation.) This is
 how the reference-count traffic that ``mechrel.mechanics.borrow`` removes was found
-(docs/performance.md, "Where the targets stand").
+(docs/dev/performance-log.md, "Where the targets stand").
 """
 
 from __future__ import annotations

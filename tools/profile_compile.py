@@ -9,7 +9,7 @@ by a factor of two or more; compare trees one after the other.
 
 Run::
 
-    python benchmarks/profile_compile.py [--top 25]
+    python tools/profile_compile.py [--top 25]
 """
 
 from __future__ import annotations

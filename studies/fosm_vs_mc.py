@@ -2,7 +2,7 @@
 """Where and why FOSM departs from Monte Carlo on the nine-bar.
 
 Per case (lubricated and dry at 3π rad/s, 0.5 mm, 100 cP; the input distribution of
-paper/reliability_paper.py: clearance, viscosity, speed), per crank angle:
+studies/reliability_paper.py: clearance, viscosity, speed), per crank angle:
 
 * FOSM (2d + 1 simulations) vs Monte Carlo (``--n`` Sobol points, cached in
   OUT/evaluations.sqlite so that a rerun resumes) with Wilson 95 % intervals, and the
@@ -30,7 +30,7 @@ paper/reliability_paper.py: clearance, viscosity, speed), per crank angle:
 For dry contact the FOSM step is also varied (±1σ secant, ±0.25σ, "auto") to show that its σ_i
 is a property of the step, not of the mechanism.
 
-    python paper/fosm_vs_mc.py --out results/fosm_vs_mc [--quick] [--jobs 2] [--n 512]
+    python studies/fosm_vs_mc.py --out results/fosm_vs_mc [--quick] [--jobs 2] [--n 512]
 
 Note: AD/KS p-values assume independent samples; with Sobol points they are conservative
 (fewer rejections). Use ``--rule random`` for calibrated p-values.
@@ -52,7 +52,7 @@ from mechrel.cli.args import sample_count, report_errors
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from reliability_paper import (  # noqa: E402
-    CASES, QUANTITIES, RTOL, UNITS, _md, case_inputs, case_model, fosm_settings,
+    CASES, QUANTITIES, RTOL, UNITS, markdown_table, case_inputs, case_model, fosm_settings,
 )
 
 SEED = 20221014
@@ -123,27 +123,19 @@ def whole_cycle_conditional(Y, index, mu_I, sd_I):
         cols = q == g
         P = P * stats.norm.cdf((mu_I[cols][0] - np.abs(Y[:, cols]).max(axis=1)) / sd_I[cols][0])
     rows["all"] = mean_ci(P[:, None])
-    return pd.DataFrame({k: [float(v[0][0]), float(v[1][0]), float(v[2][0])] for k, v in rows.items()},
-                        index=["reliability", "reliability_lo", "reliability_hi"]).T
+    return pd.DataFrame(
+        {k: [float(v[0][0]), float(v[1][0]), float(v[2][0])] for k, v in rows.items()},
+        index=["reliability", "reliability_lo", "reliability_hi"],
+    ).T
 
 
 def inside(Y, I, event):
     return (np.abs(Y) <= I) if event == "two-sided" else (Y <= I)
 
 
-def allowable_draws(index, allowable, seed, n):
-    """The allowable values monte_carlo draws for these outputs (same seed stream)."""
-    from mechrel.uq.problem.inputs import as_seed_sequence, child_seed
-    from mechrel.uq.estimators.monte_carlo import _draw_allowables
-    from mechrel.uq.problem.allowables import resolve_allowables
-
-    mu, sd, groups = resolve_allowables(index, allowable)
-    return _draw_allowables(n, mu, sd, groups, "sampled", child_seed(as_seed_sequence(seed), 1))
-
-
 # ----------------------------------------------------------------------------- one case
 def analyse_case(key, *, n, rule, seed, n_jobs, cache, progress, cycles, dry_steps):
-    from mechrel.uq import DEFAULT_ALLOWABLES, Evaluations, fosm, monte_carlo, normality_check
+    from mechrel.uq import Evaluations, fosm, monte_carlo, normality_check
 
     case = CASES[key]
     model, inputs = case_model(case, cycles=cycles), case_inputs(case)
@@ -151,7 +143,9 @@ def analyse_case(key, *, n, rule, seed, n_jobs, cache, progress, cycles, dry_ste
     t0 = time.perf_counter()
     settings = fosm_settings(case)
     f_paper = fosm(model=model, inputs=inputs, event="two-sided", **settings, **common)
-    mc = monte_carlo(model=model, inputs=inputs, n=n, rule=rule, seed=seed, event="two-sided", **common)
+    mc = monte_carlo(
+        model=model, inputs=inputs, n=n, rule=rule, seed=seed, event="two-sided", **common
+    )
     ev = mc.evaluations
     t_sim = time.perf_counter() - t0
     print(f"  {key}: FOSM {f_paper.evaluations.n} + MC {ev.n} points "
@@ -181,7 +175,7 @@ def analyse_case(key, *, n, rule, seed, n_jobs, cache, progress, cycles, dry_ste
                           allowable_mode="sampled")
         nc = normality_check(fosm=f, monte_carlo=m2)
         # paired indicator differences on the same samples and the same allowable draws
-        I = allowable_draws(ev.output_index, allow or DEFAULT_ALLOWABLES, seed, ev.n)[ok]
+        I = m2.allowable_draws()[ok]
         d, dlo, dhi = paired_diff(inside(Y, I, "two-sided"), inside(Ylin, I, "two-sided"))
         t = nc.to_frame()
         t["R_fosm_one_sided"] = f.table["R_one_sided"]
@@ -224,12 +218,22 @@ def analyse_case(key, *, n, rule, seed, n_jobs, cache, progress, cycles, dry_ste
         else:
             t["estimator"] = "binomial (Wilson)"
         per_angle[name] = t
-        wc["R_min_point_mc"] = [t.xs(g, level="quantity")["R_mc"].min() if g != "all" else t["R_mc"].min()
-                                for g in wc.index]
-        wc["R_min_point_fosm"] = [t.xs(g, level="quantity")["R_fosm"].min() if g != "all" else t["R_fosm"].min()
-                                  for g in wc.index]
+        wc["R_min_point_mc"] = [
+            t.xs(g, level="quantity")["R_mc"].min() if g != "all" else t["R_mc"].min()
+            for g in wc.index
+        ]
+        wc["R_min_point_fosm"] = [
+            t.xs(g, level="quantity")["R_fosm"].min() if g != "all" else t["R_fosm"].min()
+            for g in wc.index
+        ]
         wc["R_whole_cycle_lin"] = wc_lin
-        res["allowables"][name] = {"table": t, "whole_cycle": wc, "normality": nc, "fosm": f, "mc": m2}
+        res["allowables"][name] = {
+            "table": t,
+            "whole_cycle": wc,
+            "normality": nc,
+            "fosm": f,
+            "mc": m2,
+        }
     # FOSM step sensitivity (dry: the response is not differentiable in practice)
     steps = []
     for step in dry_steps if case.model == "dry" else ():
@@ -282,14 +286,29 @@ def plot_reliability(res, name, path):
                                g["R_mc_hi"].to_numpy(), n, 0.95),
                            allowable=allow, clip=floor)
         lin = 1 - g["R_lin"]
-        a.plot(x[lin > 0], lin[lin > 0], "x", color="C2", ms=5, label="MC of FOSM's linear model, same sample")
+        a.plot(
+            x[lin > 0],
+            lin[lin > 0],
+            "x",
+            color="C2",
+            ms=5,
+            label="MC of FOSM's linear model, same sample",
+        )
         a.set_ylabel(f"{q}\n1 − R = P(|i| > I)")
         b.axhline(0, color="k", lw=0.7)
         b.fill_between(x, g["diff_lo"], g["diff_hi"], color="C0", alpha=0.2,
                        label="R_FOSM − R_MC, 95 % interval")
         b.plot(x, g["diff"], "o-", color="C0", ms=3, lw=1)
-        b.errorbar(x + 2, -g["nonlin_diff"], yerr=[g["nonlin_hi"] - g["nonlin_diff"], g["nonlin_diff"] - g["nonlin_lo"]],
-                   fmt="x", color="C2", ms=4, capsize=2, label="R_lin − R_MC (non-linearity, paired)")
+        b.errorbar(
+            x + 2,
+            -g["nonlin_diff"],
+            yerr=[g["nonlin_hi"] - g["nonlin_diff"], g["nonlin_diff"] - g["nonlin_lo"]],
+            fmt="x",
+            color="C2",
+            ms=4,
+            capsize=2,
+            label="R_lin − R_MC (non-linearity, paired)",
+        )
         b.set_ylabel("difference in R")
         for ax in row:
             ax.grid(alpha=0.3, which="both")
@@ -298,8 +317,12 @@ def plot_reliability(res, name, path):
         b.legend(fontsize=7, loc="lower left")
     for ax in axes[-1]:
         ax.set_xlabel("crank angle (deg)")
-    allow = ("paper's allowable I ~ N(μ_I, σ_I²)" if name == "paper" else
-             "probe allowable (fixed): " + ", ".join(f"{q[:4]}. {v:.3g} {UNITS[q]}" for q, v in res["probe"].items()))
+    allow = (
+        "paper's allowable I ~ N(μ_I, σ_I²)"
+        if name == "paper"
+        else "probe allowable (fixed): "
+        + ", ".join(f"{q[:4]}. {v:.3g} {UNITS[q]}" for q, v in res["probe"].items())
+    )
     fig.suptitle(f"{CASES[res['case']].label}: FOSM vs Monte Carlo — {allow}", fontsize=10)
     fig.savefig(path, dpi=115)
     plt.close(fig)
@@ -315,11 +338,15 @@ def plot_moments(res, path):
         g = _q(t, q)
         x = g.index.to_numpy(dtype=float)
         a, b, c = row
-        a.fill_between(x, g["mc_mean_lo"], g["mc_mean_hi"], color="C1", alpha=0.3, label="MC mean, 95 %")
+        a.fill_between(
+            x, g["mc_mean_lo"], g["mc_mean_hi"], color="C1", alpha=0.3, label="MC mean, 95 %"
+        )
         a.plot(x, g["mc_mean"], "o", color="C1", ms=3)
         a.plot(x, g["mu_i"], "-", color="C0", label="FOSM μ_i = f(μ_X)")
         a.set_ylabel(f"{q}\nerror mean ({UNITS[q]})")
-        b.fill_between(x, g["mc_std_lo"], g["mc_std_hi"], color="C1", alpha=0.3, label="MC std, 95 %")
+        b.fill_between(
+            x, g["mc_std_lo"], g["mc_std_hi"], color="C1", alpha=0.3, label="MC std, 95 %"
+        )
         b.plot(x, g["mc_std"], "o", color="C1", ms=3)
         b.plot(x, g["sigma_i"], "-", color="C0", label="FOSM σ_i")
         for k, (step, sd, _) in enumerate(res["steps"]):
@@ -378,7 +405,10 @@ def plot_qq(res, path):
         ax.set_title(f"{lbl[0]} at {lbl[1]:g}°\n" + ax.get_title().split(": ", 1)[-1], fontsize=9)
     for ax in axes.ravel()[len(picks):]:
         ax.axis("off")
-    fig.suptitle(f"{CASES[res['case']].label}: QQ of MC errors vs FOSM's normal at the worst angles", fontsize=10)
+    fig.suptitle(
+        f"{CASES[res['case']].label}: QQ of MC errors vs FOSM's normal at the worst angles",
+        fontsize=10,
+    )
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
@@ -393,8 +423,22 @@ def plot_forms(res, path):
         g = _q(t, q)
         x = g.index.to_numpy(dtype=float)
         ax.fill_between(x, g["R_mc_one_sided_lo"], g["R_mc_one_sided_hi"], color="C0", alpha=0.2)
-        ax.plot(x, g["R_mc_one_sided"], "o", color="C0", ms=4, label="MC, one-sided P(i < I) (paper's event)")
-        ax.plot(x, g["R_fosm_one_sided"], "-", color="C0", lw=1.2, label="FOSM Φ(β), signed error (paper's formula)")
+        ax.plot(
+            x,
+            g["R_mc_one_sided"],
+            "o",
+            color="C0",
+            ms=4,
+            label="MC, one-sided P(i < I) (paper's event)",
+        )
+        ax.plot(
+            x,
+            g["R_fosm_one_sided"],
+            "-",
+            color="C0",
+            lw=1.2,
+            label="FOSM Φ(β), signed error (paper's formula)",
+        )
         ax.fill_between(x, g["R_mc_lo"], g["R_mc_hi"], color="C1", alpha=0.2)
         ax.plot(x, g["R_mc"], "s", color="C1", ms=4, label="MC, two-sided P(|i| < I)")
         ax.plot(x, g["R_fosm"], "-", color="C1", lw=1.2, label="FOSM, two-sided")
@@ -409,8 +453,11 @@ def plot_forms(res, path):
         ax.patch.set_visible(False)
     axes[0].legend(fontsize=7, loc="lower left")
     axes[-1].set_xlabel("crank angle (deg)")
-    fig.suptitle(f"{CASES[res['case']].label}: the signed error vs its magnitude (probe allowable)\n"
-                 "the one-sided event counts every negative error as safe, however large", fontsize=10)
+    fig.suptitle(
+        f"{CASES[res['case']].label}: the signed error vs its magnitude (probe allowable)\n"
+        "the one-sided event counts every negative error as safe, however large",
+        fontsize=10,
+    )
     fig.savefig(path, dpi=115)
     plt.close(fig)
 
@@ -434,15 +481,35 @@ def plot_whole_cycle(all_res, path):
             w = 0.26
             ax.bar(x - w, wc["R_min_point_fosm"], w, color="C0", label="FOSM: min point-in-time R")
             ax.bar(x, wc["R_min_point_mc"], w, color="C1", label="MC: min point-in-time R")
-            ax.bar(x + w, wc["reliability"], w, color="C3", label="MC: whole-cycle R",
-                   yerr=[wc["reliability"] - wc["reliability_lo"], wc["reliability_hi"] - wc["reliability"]],
-                   capsize=3)
-            ax.plot(x + w, wc["R_whole_cycle_lin"], "k_", ms=14, mew=2, label="whole-cycle R of FOSM's linear model")
-            lo = float(np.nanmin(wc[["R_min_point_fosm", "R_min_point_mc", "reliability_lo"]].to_numpy()))
+            ax.bar(
+                x + w,
+                wc["reliability"],
+                w,
+                color="C3",
+                label="MC: whole-cycle R",
+                yerr=[
+                    wc["reliability"] - wc["reliability_lo"],
+                    wc["reliability_hi"] - wc["reliability"],
+                ],
+                capsize=3,
+            )
+            ax.plot(
+                x + w,
+                wc["R_whole_cycle_lin"],
+                "k_",
+                ms=14,
+                mew=2,
+                label="whole-cycle R of FOSM's linear model",
+            )
+            lo = float(
+                np.nanmin(wc[["R_min_point_fosm", "R_min_point_mc", "reliability_lo"]].to_numpy())
+            )
             ax.set_ylim(max(0.0, lo - 0.1 * (1 - lo) - 0.005), 1.0)
             ax.set_xticks(x, groups)
             ax.grid(axis="y", alpha=0.3)
-            ax.set_title(f"{res['case']}, {'paper' if name == 'paper' else 'probe'} allowable", fontsize=9)
+            ax.set_title(
+                f"{res['case']}, {'paper' if name == 'paper' else 'probe'} allowable", fontsize=9
+            )
             if i == 0 and j == 0:
                 ax.legend(fontsize=7, loc="lower left")
     fig.suptitle("Whole-cycle reliability (within the allowable at every angle, jointly) vs the "
@@ -463,55 +530,81 @@ def summary_rows(res):
             outside = (g["diff_lo"] > 0) | (g["diff_hi"] < 0)
             nonlin = (g["nonlin_lo"] > 0) | (g["nonlin_hi"] < 0)
             wc = res["allowables"][name]["whole_cycle"].loc[q]
-            rows.append({
-                "case": res["case"], "allowable": name, "quantity": q,
-                "max_sigma_i/sigma_I": g["sigma_i_over_sigma_I"].max() if name == "paper" else np.nan,
-                "max|R_FOSM-R_MC|": abs(g.loc[k, "diff"]), "at": k,
-                "R_FOSM_there": g.loc[k, "R_fosm"], "R_MC_there": g.loc[k, "R_mc"],
-                "MC_CI_there": f"[{g.loc[k, 'R_mc_lo']:.4f}, {g.loc[k, 'R_mc_hi']:.4f}]",
-                "angles_FOSM_outside_CI": f"{int(outside.sum())}/{len(g)}",
-                "angles_nonlinearity_significant": f"{int(nonlin.sum())}/{len(g)}",
-                "angles_AD_rejects": f"{int((g['ad_pvalue'] < 0.01).sum())}/{len(g)}",
-                "max|skew|": g["skewness"].abs().max(), "max|exkurt|": g["excess_kurtosis"].abs().max(),
-                "min_R_point_MC": g["R_mc"].min(), "whole_cycle_R_MC": wc["reliability"],
-                "whole_cycle_CI": f"[{wc['reliability_lo']:.4f}, {wc['reliability_hi']:.4f}]",
-                "min_R_point_FOSM": g["R_fosm"].min(),
-                "max_R_one_sided_minus_two_sided_MC": (g["R_mc_one_sided"] - g["R_mc"]).max(),
-            })
+            rows.append(
+                {
+                    "case": res["case"],
+                    "allowable": name,
+                    "quantity": q,
+                    "max_sigma_i/sigma_I": g["sigma_i_over_sigma_I"].max()
+                    if name == "paper"
+                    else np.nan,
+                    "max|R_FOSM-R_MC|": abs(g.loc[k, "diff"]),
+                    "at": k,
+                    "R_FOSM_there": g.loc[k, "R_fosm"],
+                    "R_MC_there": g.loc[k, "R_mc"],
+                    "MC_CI_there": f"[{g.loc[k, 'R_mc_lo']:.4f}, {g.loc[k, 'R_mc_hi']:.4f}]",
+                    "angles_FOSM_outside_CI": f"{int(outside.sum())}/{len(g)}",
+                    "angles_nonlinearity_significant": f"{int(nonlin.sum())}/{len(g)}",
+                    "angles_AD_rejects": f"{int((g['ad_pvalue'] < 0.01).sum())}/{len(g)}",
+                    "max|skew|": g["skewness"].abs().max(),
+                    "max|exkurt|": g["excess_kurtosis"].abs().max(),
+                    "min_R_point_MC": g["R_mc"].min(),
+                    "whole_cycle_R_MC": wc["reliability"],
+                    "whole_cycle_CI": f"[{wc['reliability_lo']:.4f}, {wc['reliability_hi']:.4f}]",
+                    "min_R_point_FOSM": g["R_fosm"].min(),
+                    "max_R_one_sided_minus_two_sided_MC": (g["R_mc_one_sided"] - g["R_mc"]).max(),
+                }
+            )
     return rows
 
 
 def write_report(out, all_res, args, wall):
     summ = pd.DataFrame([r for res in all_res for r in summary_rows(res)])
     summ.to_csv(out / "summary.csv", index=False)
-    lines = ["# FOSM vs Monte Carlo on the nine-bar", "",
-             f"Command: `python paper/fosm_vs_mc.py --out {args.out} --n {args.n} --rule {args.rule} "
-             f"--jobs {args.jobs}" + (" --quick" if args.quick else "") + f"`; wall time {wall:.0f} s.", "",
-             "Inputs (per case, see reliability_paper.py): clearance truncnormal CV 10 %, viscosity "
-             "lognormal CV 15 % (lubricated), speed N(ω, 0.1²) rad/s. Probe allowables (fixed, FOSM "
-             "R = 0.90 at the worst angle): "
-             + "; ".join(f"{res['case']}: " + ", ".join(f"{q} {v:.4g} {UNITS[q]}" for q, v in res["probe"].items())
-                         for res in all_res) + ".", "",
-             "Paper allowable: MC = conditional Monte Carlo (the allowable's normal integrated "
-             "per sample, normal 95 % interval); probe allowable: binomial with Wilson 95 % interval. "
-             "`max|R_FOSM-R_MC|` with the MC reliability and its 95 % Wilson interval at that angle; "
-             "`angles_FOSM_outside_CI`: angles where R_FOSM lies outside the MC interval; "
-             "`angles_nonlinearity_significant`: angles where the paired difference between the "
-             "simulator and FOSM's linear model on the same sample is non-zero at 95 %; "
-             "`angles_AD_rejects`: Anderson–Darling at 1 %.", "",
-             _md(summ), ""]
+    lines = [
+        "# FOSM vs Monte Carlo on the nine-bar",
+        "",
+        f"Command: `python studies/fosm_vs_mc.py --out {args.out} --n {args.n} --rule {args.rule} "
+        f"--jobs {args.jobs}" + (" --quick" if args.quick else "") + f"`; wall time {wall:.0f} s.",
+        "",
+        "Inputs (per case, see reliability_paper.py): clearance truncnormal CV 10 %, viscosity "
+        "lognormal CV 15 % (lubricated), speed N(ω, 0.1²) rad/s. Probe allowables (fixed, FOSM "
+        "R = 0.90 at the worst angle): "
+        + "; ".join(
+            f"{res['case']}: "
+            + ", ".join(f"{q} {v:.4g} {UNITS[q]}" for q, v in res["probe"].items())
+            for res in all_res
+        )
+        + ".",
+        "",
+        "Paper allowable: MC = conditional Monte Carlo (the allowable's normal integrated "
+        "per sample, normal 95 % interval); probe allowable: binomial with Wilson 95 % interval. "
+        "`max|R_FOSM-R_MC|` with the MC reliability and its 95 % Wilson interval at that angle; "
+        "`angles_FOSM_outside_CI`: angles where R_FOSM lies outside the MC interval; "
+        "`angles_nonlinearity_significant`: angles where the paired difference between the "
+        "simulator and FOSM's linear model on the same sample is non-zero at 95 %; "
+        "`angles_AD_rejects`: Anderson–Darling at 1 %.",
+        "",
+        markdown_table(summ),
+        "",
+    ]
     for res in all_res:
         wc = res["allowables"]["probe"]["whole_cycle"]
         wcp = res["allowables"]["paper"]["whole_cycle"]
         lines += [f"## {res['case']}: whole cycle", "",
-                  "paper allowable:", "", _md(wcp.reset_index()), "",
-                  "probe allowable:", "", _md(wc.reset_index()), ""]
+                  "paper allowable:", "", markdown_table(wcp.reset_index()), "",
+                  "probe allowable:", "", markdown_table(wc.reset_index()), ""]
         if res["steps"]:
             t = res["allowables"]["paper"]["table"]
-            lines += ["FOSM σ_i by step (median over angles, relative to the MC std): "
-                      + "; ".join(f"step {s}: {np.nanmedian(sd.to_numpy() / t['mc_std'].to_numpy()):.2f}"
-                                  for s, sd, _ in res["steps"])
-                      + f"; ±1σ secant (used): {np.nanmedian(t['sigma_i'] / t['mc_std']):.2f}.", ""]
+            lines += [
+                "FOSM σ_i by step (median over angles, relative to the MC std): "
+                + "; ".join(
+                    f"step {s}: {np.nanmedian(sd.to_numpy() / t['mc_std'].to_numpy()):.2f}"
+                    for s, sd, _ in res["steps"]
+                )
+                + f"; ±1σ secant (used): {np.nanmedian(t['sigma_i'] / t['mc_std']):.2f}.",
+                "",
+            ]
         if res["n_failed"]:
             lines += [f"Failed samples: {res['n_failed']} ({res['failure_counts']}).", ""]
     lines.append("Figures: " + ", ".join(f"`{p.name}`" for p in sorted(out.glob("*.png"))) + ".")
@@ -520,7 +613,7 @@ def write_report(out, all_res, args, wall):
 
 
 def _cases(text: str) -> list[str]:
-    """argparse type of ``--cases``: comma-separated keys of ``CASES``."""
+    """Argparse type of ``--cases``: comma-separated keys of ``CASES``."""
     keys = [k.strip() for k in text.split(",")]
     bad = [k for k in keys if k not in CASES]
     if bad:

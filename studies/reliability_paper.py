@@ -28,7 +28,7 @@ Reported forms (all from the same μ_i, σ_i):
 
 The geometry is a reconstruction (docs/scenes.md): compare trends with the paper, not values.
 
-    python paper/reliability_paper.py --out results/reliability_paper [--quick] [--jobs 2]
+    python studies/reliability_paper.py --out results/reliability_paper [--quick] [--jobs 2]
 """
 
 from __future__ import annotations
@@ -134,14 +134,46 @@ PAPER_MINIMA = (
 
 # The paper's §4 error ranges [min, max] over the simulated time (Figs. 6–17), per case.
 PAPER_RANGES = {
-    "dry-3pi": {"displacement": (-4.047e-3, 7.72e-4), "velocity": (-0.2039, 0.2427), "acceleration": (-365.0, 576.0)},
-    "lub-3pi": {"displacement": (-4.097e-3, 6.802e-4), "velocity": (-0.1229, 0.1385), "acceleration": (-14.01, 24.01)},
-    "dry-5pi": {"displacement": (-3.444e-3, 7.966e-4), "velocity": (-0.3324, 0.3054), "acceleration": (-581.8, 1386.0)},
-    "lub-5pi": {"displacement": (-3.449e-3, 7.691e-4), "velocity": (-0.2114, 0.1911), "acceleration": (-42.8, 107.6)},
-    "lub-200cP": {"displacement": (-4.018e-3, 6.222e-4), "velocity": (-0.09714, 0.1037), "acceleration": (-4.82, 11.25)},
-    "lub-400cP": {"displacement": (-3.892e-3, 5.274e-4), "velocity": (-0.06477, 0.06576), "acceleration": (-1.504, 6.338)},
-    "lub-0.3mm": {"displacement": (-3.496e-3, -1.617e-4), "velocity": (-0.04091, 0.04001), "acceleration": (-1.532, 5.624)},
-    "lub-0.7mm": {"displacement": (-4.832e-3, 1.58e-3), "velocity": (-0.1834, 0.2430), "acceleration": (-64.92, 100.5)},
+    "dry-3pi": {
+        "displacement": (-4.047e-3, 7.72e-4),
+        "velocity": (-0.2039, 0.2427),
+        "acceleration": (-365.0, 576.0),
+    },
+    "lub-3pi": {
+        "displacement": (-4.097e-3, 6.802e-4),
+        "velocity": (-0.1229, 0.1385),
+        "acceleration": (-14.01, 24.01),
+    },
+    "dry-5pi": {
+        "displacement": (-3.444e-3, 7.966e-4),
+        "velocity": (-0.3324, 0.3054),
+        "acceleration": (-581.8, 1386.0),
+    },
+    "lub-5pi": {
+        "displacement": (-3.449e-3, 7.691e-4),
+        "velocity": (-0.2114, 0.1911),
+        "acceleration": (-42.8, 107.6),
+    },
+    "lub-200cP": {
+        "displacement": (-4.018e-3, 6.222e-4),
+        "velocity": (-0.09714, 0.1037),
+        "acceleration": (-4.82, 11.25),
+    },
+    "lub-400cP": {
+        "displacement": (-3.892e-3, 5.274e-4),
+        "velocity": (-0.06477, 0.06576),
+        "acceleration": (-1.504, 6.338),
+    },
+    "lub-0.3mm": {
+        "displacement": (-3.496e-3, -1.617e-4),
+        "velocity": (-0.04091, 0.04001),
+        "acceleration": (-1.532, 5.624),
+    },
+    "lub-0.7mm": {
+        "displacement": (-4.832e-3, 1.58e-3),
+        "velocity": (-0.1834, 0.2430),
+        "acceleration": (-64.92, 100.5),
+    },
 }
 
 
@@ -248,10 +280,15 @@ def run_cases(keys, *, n_jobs: int, cycles: float, cache, progress: bool):
         ft.insert(0, "case", key)
         tables.append(ft.reset_index())
         imp = r.importance().groupby(level="quantity").mean()
-        print(f"  {key:10s} FOSM: {r.evaluations.n} points ({r.evaluations.n_model_calls} simulated) "
-              f"in {time.perf_counter() - t0:.1f} s; mean σ_i² shares: "
-              + "; ".join(f"{q[:4]} " + ", ".join(f"{c} {imp.loc[q, c]:.2f}" for c in imp.columns)
-                          for q in QUANTITIES), flush=True)
+        print(
+            f"  {key:10s} FOSM: {r.evaluations.n} points ({r.evaluations.n_model_calls} simulated) "
+            f"in {time.perf_counter() - t0:.1f} s; mean σ_i² shares: "
+            + "; ".join(
+                f"{q[:4]} " + ", ".join(f"{c} {imp.loc[q, c]:.2f}" for c in imp.columns)
+                for q in QUANTITIES
+            ),
+            flush=True,
+        )
     return results, pd.concat(tables, ignore_index=True)
 
 
@@ -279,10 +316,21 @@ def side_by_side(mins: pd.DataFrame, keys) -> pd.DataFrame:
         if key not in keys:
             continue
         o = ours.loc[(key, q)]
-        rows.append({"comparison": comp, "case": key, "quantity": q,
-                     "paper_angle": ang, "paper_beta": beta, "paper_R": R,
-                     "ours_angle": o["angle"], "ours_beta": o["beta_two"], "ours_R": o["R_two"],
-                     "ours_beta_signed_min": o["beta_signed"], "ours_angle_signed": o["angle_signed"]})
+        rows.append(
+            {
+                "comparison": comp,
+                "case": key,
+                "quantity": q,
+                "paper_angle": ang,
+                "paper_beta": beta,
+                "paper_R": R,
+                "ours_angle": o["angle"],
+                "ours_beta": o["beta_two"],
+                "ours_R": o["R_two"],
+                "ours_beta_signed_min": o["beta_signed"],
+                "ours_angle_signed": o["angle_signed"],
+            }
+        )
     return pd.DataFrame(rows)
 
 
@@ -306,27 +354,42 @@ def trends(mins: pd.DataFrame, keys) -> pd.DataFrame:
         for q in QUANTITIES:
             p_order = sorted(cases, key=lambda c: paper[(c, q)])
             o_order = sorted(cases, key=lambda c: ours[(c, q)])
-            rows.append({"comparison": comp, "quantity": q,
-                         "paper_lowest_to_highest": " < ".join(labels[c] for c in p_order),
-                         "ours_lowest_to_highest": " < ".join(labels[c] for c in o_order),
-                         "same_order": p_order == o_order,
-                         "near_tie": _tie([paper[(c, q)] for c in cases]) or _tie([ours[(c, q)] for c in cases]),
-                         "paper_betas": ", ".join(f"{labels[c]} {paper[(c, q)]:.3f}" for c in cases),
-                         "ours_betas": ", ".join(f"{labels[c]} {ours[(c, q)]:.3f}" for c in cases)})
+            rows.append(
+                {
+                    "comparison": comp,
+                    "quantity": q,
+                    "paper_lowest_to_highest": " < ".join(labels[c] for c in p_order),
+                    "ours_lowest_to_highest": " < ".join(labels[c] for c in o_order),
+                    "same_order": p_order == o_order,
+                    "near_tie": _tie([paper[(c, q)] for c in cases])
+                    or _tie([ours[(c, q)] for c in cases]),
+                    "paper_betas": ", ".join(f"{labels[c]} {paper[(c, q)]:.3f}" for c in cases),
+                    "ours_betas": ", ".join(f"{labels[c]} {ours[(c, q)]:.3f}" for c in cases),
+                }
+            )
     # speed: the paper's claim "lower speed, higher reliability" (lubricated and dry)
     for model in ("lub", "dry"):
         a, b = f"{model}-3pi", f"{model}-5pi"
         if a in keys and b in keys:
             for q in QUANTITIES:
-                rows.append({"comparison": f"speed ({model})", "quantity": q,
-                             "paper_lowest_to_highest": " < ".join(
-                                 x for _, x in sorted(((paper[(a, q)], "3π"), (paper[(b, q)], "5π")))),
-                             "ours_lowest_to_highest": " < ".join(
-                                 x for _, x in sorted(((ours[(a, q)], "3π"), (ours[(b, q)], "5π")))),
-                             "same_order": (paper[(a, q)] < paper[(b, q)]) == (ours[(a, q)] < ours[(b, q)]),
-                             "near_tie": _tie([paper[(a, q)], paper[(b, q)]]) or _tie([ours[(a, q)], ours[(b, q)]]),
-                             "paper_betas": f"3π {paper[(a, q)]:.3f}, 5π {paper[(b, q)]:.3f}",
-                             "ours_betas": f"3π {ours[(a, q)]:.3f}, 5π {ours[(b, q)]:.3f}"})
+                rows.append(
+                    {
+                        "comparison": f"speed ({model})",
+                        "quantity": q,
+                        "paper_lowest_to_highest": " < ".join(
+                            x for _, x in sorted(((paper[(a, q)], "3π"), (paper[(b, q)], "5π")))
+                        ),
+                        "ours_lowest_to_highest": " < ".join(
+                            x for _, x in sorted(((ours[(a, q)], "3π"), (ours[(b, q)], "5π")))
+                        ),
+                        "same_order": (paper[(a, q)] < paper[(b, q)])
+                        == (ours[(a, q)] < ours[(b, q)]),
+                        "near_tie": _tie([paper[(a, q)], paper[(b, q)]])
+                        or _tie([ours[(a, q)], ours[(b, q)]]),
+                        "paper_betas": f"3π {paper[(a, q)]:.3f}, 5π {paper[(b, q)]:.3f}",
+                        "ours_betas": f"3π {ours[(a, q)]:.3f}, 5π {ours[(b, q)]:.3f}",
+                    }
+                )
     return pd.DataFrame(rows)
 
 
@@ -380,7 +443,7 @@ def plot_errors(long, keys, path):
     comps = [c for c in comps if len(c[2]) >= 2]
     fig, axes = plt.subplots(3, len(comps), figsize=(max(7.0, 4.2 * len(comps)), 8), sharex=True,
                              squeeze=False, constrained_layout=True)
-    for col, (ck, title, labels) in enumerate(comps):
+    for col, (_ck, title, labels) in enumerate(comps):
         for row, q in enumerate(QUANTITIES):
             ax = axes[row][col]
             for j, (key, lab) in enumerate(labels.items()):
@@ -407,8 +470,20 @@ def plot_forms(long, key, path):
     fig, axes = plt.subplots(3, 1, figsize=(8, 8), sharex=True, constrained_layout=True)
     for ax, q in zip(axes, QUANTITIES):
         g = long[(long["case"] == key) & (long["quantity"] == q)]
-        ax.plot(g["crank_angle"], g["beta_signed"], "o-", ms=4, label="Φ(β) on the signed error (eq. 28 literally)")
-        ax.plot(g["crank_angle"], g["beta_mag"], "s-", ms=4, label="Φ(β) on |error| (what the paper's numbers are)")
+        ax.plot(
+            g["crank_angle"],
+            g["beta_signed"],
+            "o-",
+            ms=4,
+            label="Φ(β) on the signed error (eq. 28 literally)",
+        )
+        ax.plot(
+            g["crank_angle"],
+            g["beta_mag"],
+            "s-",
+            ms=4,
+            label="Φ(β) on |error| (what the paper's numbers are)",
+        )
         ax.plot(g["crank_angle"], g["beta_two"], "k--", lw=1, label="Φ⁻¹(P(|i| < I)), two-sided")
         ax2 = ax.twinx()
         ax2.bar(g["crank_angle"], g["mu_i"], width=8, color="0.85", zorder=0)
@@ -427,7 +502,8 @@ def plot_forms(long, key, path):
 
 
 # ----------------------------------------------------------------------------- report
-def _md(df: pd.DataFrame, floatfmt: str = ".4g") -> str:
+def markdown_table(df: pd.DataFrame, floatfmt: str = ".4g") -> str:
+    """``df`` as a Markdown table (floats as ``floatfmt``), for the studies' reports."""
     cols = list(df.columns)
     lines = ["| " + " | ".join(cols) + " |", "|" + "---|" * len(cols)]
     for _, r in df.iterrows():
@@ -450,11 +526,13 @@ def write_report(out: Path, long, mins, sbs, trend, cons, keys, wall, args):
     lines = [
         "# The paper's §5 on the reconstructed nine-bar (FOSM)",
         "",
-        f"Command: `python paper/reliability_paper.py --out {args.out}"
-        + (" --quick" if args.quick else "") + f" --jobs {args.jobs}`; wall time {wall:.0f} s; "
+        f"Command: `python studies/reliability_paper.py --out {args.out}"
+        + (" --quick" if args.quick else "")
+        + f" --jobs {args.jobs}`; wall time {wall:.0f} s; "
         f"cases: {', '.join(keys)}; analysed cycle: {args.cycles:g} (the last).",
         "",
-        "Input distribution (centred on each case): clearance truncnormal, std 10 % of nominal, ±30 %; "
+        "Input distribution (centred on each case): clearance truncnormal, std 10 % of nominal, "
+        "±30 %; "
         "viscosity lognormal, CV 15 % (lubricated only); speed normal, std 0.1 rad/s. FOSM steps: "
         "lubricated `auto` (noise = rtol = 1e-7); dry ±1σ secant.",
         "",
@@ -463,43 +541,67 @@ def write_report(out: Path, long, mins, sbs, trend, cons, keys, wall, args):
         f"All {len(cons)} printed (β, R) pairs ({len(cons.drop_duplicates(['case', 'quantity']))} "
         "distinct) satisfy R = Φ(β) to within "
         f"{cons.loc[~cons['misprint'], 'Phi_beta_minus_R'].abs().max():.1e} except one: "
-        + "; ".join(f"{r.case} {r.quantity} β = {r.beta}, R = {r.R} (Φ(β) = {r.Phi_beta:.4f}; "
-                    f"Φ⁻¹(R) = {r.beta_from_R:.4f}, a digit misprint of 1.072)"
-                    for r in cons[cons["misprint"]].drop_duplicates(["case", "quantity"]).itertuples())
+        + "; ".join(
+            f"{r.case} {r.quantity} β = {r.beta}, R = {r.R} (Φ(β) = {r.Phi_beta:.4f}; "
+            f"Φ⁻¹(R) = {r.beta_from_R:.4f}, a digit misprint of 1.072)"
+            for r in cons[cons["misprint"]].drop_duplicates(["case", "quantity"]).itertuples()
+        )
         + ". The form is the one-sided eq. (28).",
         "",
         "It is applied to the error's *magnitude*: with σ_i = 0 the printed β implies "
         "|μ_i| = μ_I − βσ_I, inside the §4 ranges of |error| for every case; read as the *signed* "
         "error it needs a σ_i as large as the error's whole range where the §4 displacement error "
         "is (almost) all negative (column `sigma_i_min_signed`, e.g. "
-        + ", ".join(f"{r.case} {r.quantity} ≥ {r.sigma_i_min_signed * 1e3:.1f} mm"
-                    for r in cons[(cons["quantity"] == "displacement")].drop_duplicates("case").itertuples())
+        + ", ".join(
+            f"{r.case} {r.quantity} ≥ {r.sigma_i_min_signed * 1e3:.1f} mm"
+            for r in cons[(cons["quantity"] == "displacement")].drop_duplicates("case").itertuples()
+        )
         + "). On the magnitude, with σ_i ≪ σ_I, the one-sided Φ(β) equals the two-sided "
         f"P(|i| < I) to {gap[small].max():.1e} in our cases with max σ_i/σ_I < 0.5 "
         f"({', '.join(small)})"
-        + (f"; where σ_i is comparable to σ_I or larger ({', '.join(f'{k}: σ_i/σ_I up to {ratio[k]:.1f}' for k in big)}) "
-           f"they differ by up to {gap[big].max():.2f}: the one-sided form then misses the other "
-           "tail" if len(big) else "")
+        + (
+            "; where σ_i is comparable to σ_I or larger ("
+            + ", ".join(f"{k}: σ_i/σ_I up to {ratio[k]:.1f}" for k in big)
+            + ") "
+            f"they differ by up to {gap[big].max():.2f}: the one-sided form then misses the other "
+            "tail"
+            if len(big)
+            else ""
+        )
         + ". The figures show the two-sided form.",
         "",
-        _md(cons[["case", "quantity", "angle", "beta", "R", "Phi_beta_minus_R",
-                  "implied_mu_i_if_sigma_i_0", "paper_range_lo", "paper_range_hi",
-                  "sigma_i_min_signed", "sigma_i_min_magnitude"]]),
+        markdown_table(
+            cons[
+                [
+                    "case",
+                    "quantity",
+                    "angle",
+                    "beta",
+                    "R",
+                    "Phi_beta_minus_R",
+                    "implied_mu_i_if_sigma_i_0",
+                    "paper_range_lo",
+                    "paper_range_hi",
+                    "sigma_i_min_signed",
+                    "sigma_i_min_magnitude",
+                ]
+            ]
+        ),
         "",
         "## Minima: paper vs this reconstruction",
         "",
         "`ours_*`: FOSM two-sided at the angle of the minimum; `ours_beta_signed_min`: the "
         "minimum of the literal signed-error reading (and its angle).",
         "",
-        _md(sbs),
+        markdown_table(sbs),
         "",
         "## Trends (cases ordered by their minimum β)",
         "",
-        _md(trend.drop(columns=[])),
+        markdown_table(trend.drop(columns=[])),
         "",
         "## Our minima and error ranges per case",
         "",
-        _md(mins),
+        markdown_table(mins),
         "",
         "Figures: " + ", ".join(f"`{p.name}`" for p in sorted(out.glob("*.png"))) + ".",
     ]
@@ -552,13 +654,29 @@ def run(args) -> int:
     wall = time.perf_counter() - t0
     import json
 
-    from mechrel.uq._common import package_versions
-    prov = {k: {"model_cache_key": r.provenance["model_cache_key"], "inputs": r.provenance["inputs"],
-                "settings": r.provenance["settings"], "n_model_calls": r.provenance["n_computed"]}
-            for k, r in results.items()}
-    (out / "summary.json").write_text(json.dumps(
-        {"argv": sys.argv, "cases": keys, "wall_time": wall, "versions": package_versions(),
-         "provenance": prov}, indent=2, default=str) + "\n")
+    prov = {
+        k: {
+            "model_cache_key": r.provenance["model_cache_key"],
+            "inputs": r.provenance["inputs"],
+            "settings": r.provenance["settings"],
+            "n_model_calls": r.provenance["n_computed"],
+        }
+        for k, r in results.items()
+    }
+    (out / "summary.json").write_text(
+        json.dumps(
+            {
+                "argv": sys.argv,
+                "cases": keys,
+                "wall_time": wall,
+                "versions": next(iter(results.values())).provenance["versions"],
+                "provenance": prov,
+            },
+            indent=2,
+            default=str,
+        )
+        + "\n"
+    )
     write_report(out, long, mins, sbs, trend, cons, keys, wall, args)
     print(sbs.to_string(index=False, float_format=lambda v: f"{v:.4g}"))
     print(trend[["comparison", "quantity", "paper_lowest_to_highest", "ours_lowest_to_highest",
