@@ -36,7 +36,8 @@ from pathlib import Path  # noqa: E402
 
 from _common import git_state  # noqa: E402  (benchmarks/ is sys.path[0])
 from mechrel.scene import load_scene  # noqa: E402
-from mechrel.simulation import DEFAULT_SOLVERS, compile_scene, scene_kind, simulate  # noqa: E402
+from mechrel.mechanics.system import compile_scene  # noqa: E402
+from mechrel.simulation import DEFAULT_SOLVERS, scene_kind, simulate  # noqa: E402
 from mechrel.studies.accuracy import CHAOTIC_KINDS, accuracy_report  # noqa: E402
 
 SCENES = ("nine-bar-lubricated", "slider-crank-lubricated", "nine-bar-dry", "slider-crank-dry",

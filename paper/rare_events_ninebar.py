@@ -324,7 +324,7 @@ def run(args) -> int:
     out.mkdir(parents=True, exist_ok=True)
     t_start = time.perf_counter()
     model, inputs = _setup(args.quantity)
-    from mechrel._kernel_cache import warm_up
+    from mechrel.warmup import warm_up
     warm_up(model.scene, progress=not args.no_progress)
     common = {"n_jobs": args.jobs, "cache": out / "evaluations.sqlite",
               "progress": not args.no_progress}

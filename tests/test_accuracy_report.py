@@ -42,7 +42,8 @@ from scipy.stats import t as student  # noqa: E402
 
 from mechrel.cli.main import main  # noqa: E402
 from mechrel.errors import StudyError  # noqa: E402
-from mechrel.simulation import compile_scene, simulate  # noqa: E402
+from mechrel.mechanics.system import compile_scene  # noqa: E402
+from mechrel.simulation import simulate  # noqa: E402
 from mechrel.studies.accuracy import (  # noqa: E402
     compare_ensembles, ensemble_needed, ensemble_statistics, perturbed_scenes)
 

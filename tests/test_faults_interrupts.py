@@ -18,7 +18,7 @@ from pathlib import Path
 
 import pytest
 
-from mechrel._kernel_cache import warm_up
+from mechrel.warmup import warm_up
 from mechrel.cli.main import main
 from mechrel.scene import load_scene
 
@@ -150,7 +150,7 @@ def test_simulate_stops_promptly_with_one_line(sig, code, name, tmp_path):
 
 def test_ctrl_c_during_the_one_off_compilation_stops_it_and_its_helper(tmp_path):
     # a cold kernel cache (an empty NUMBA_CACHE_DIR): the run announces the compilation and a
-    # helper process compiles part of it (mechrel._kernel_cache.split_compile); Ctrl-C to the
+    # helper process compiles part of it (mechrel.warmup.split_compile); Ctrl-C to the
     # parent alone (as a job runner's SIGINT) stops the parent at once, and the helper, which
     # nobody reads any more, ends itself within its watch interval (0.5 s) instead of
     # compiling on for up to a minute

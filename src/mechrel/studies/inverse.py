@@ -55,7 +55,7 @@ def methods_of(study, target: float, n: int) -> list[str]:
 
 def estimate_one(ctx, key: str):
     """Run the inverse method ``key`` on the study of ``ctx`` (a
-    :class:`~mechrel.studies.presenters.Context` whose ``target`` is set).
+    :class:`~mechrel.studies.context.Context` whose ``target`` is set).
 
     The result goes to ``ctx.results["inverse_KEY"]``, its evaluations to
     ``ctx.evaluations["inverse_KEY"]`` (not when it reuses the forward Monte Carlo's); a method
@@ -64,7 +64,7 @@ def estimate_one(ctx, key: str):
 
     Parameters
     ----------
-    ctx : mechrel.studies.presenters.Context
+    ctx : mechrel.studies.context.Context
         The run.
     key : str
         A key of :data:`mechrel.uq.inverse.INVERSE_METHODS`.
@@ -82,7 +82,7 @@ def estimate_one(ctx, key: str):
 
     Examples
     --------
-    >>> from mechrel.studies.presenters import Context
+    >>> from mechrel.studies.context import Context
     >>> from mechrel.studies.rare import _demo
     >>> study, model = _demo()   # velocity extreme 6 + x1 + x2 (m/s), x standard normal
     >>> ctx = Context(study, model, study.uncertain_inputs(), study.allowables(), "two-sided",
@@ -144,7 +144,7 @@ def table(results) -> pd.DataFrame:
 
     Examples
     --------
-    >>> from mechrel.studies.presenters import Context
+    >>> from mechrel.studies.context import Context
     >>> from mechrel.studies.rare import _demo
     >>> study, model = _demo()
     >>> ctx = Context(study, model, study.uncertain_inputs(), study.allowables(), "two-sided",
@@ -172,7 +172,7 @@ def summary_lines(ctx, results) -> list[str]:
 
     Parameters
     ----------
-    ctx : mechrel.studies.presenters.Context
+    ctx : mechrel.studies.context.Context
         The run (its study's allowables, for the note on their std).
     results : dict
         ``{key: InverseResult}``.
@@ -184,7 +184,7 @@ def summary_lines(ctx, results) -> list[str]:
 
     Examples
     --------
-    >>> from mechrel.studies.presenters import Context
+    >>> from mechrel.studies.context import Context
     >>> from mechrel.studies.rare import _demo
     >>> study, model = _demo()
     >>> ctx = Context(study, model, study.uncertain_inputs(), study.allowables(), "two-sided",
@@ -239,7 +239,7 @@ def record(results) -> dict:
 
     Examples
     --------
-    >>> from mechrel.studies.presenters import Context
+    >>> from mechrel.studies.context import Context
     >>> from mechrel.studies.rare import _demo
     >>> study, model = _demo()
     >>> ctx = Context(study, model, study.uncertain_inputs(), study.allowables(), "two-sided",

@@ -8,7 +8,7 @@ import time
 
 import pandas as pd
 
-from ..io import save_figure, write_json, write_table
+from ..io import write_json, write_table
 from ..io.lock import hold_folder
 from ..io.results import check_folder, removed_if_left_empty, result_set
 from ..outputs import QUANTITY_INFO
@@ -132,24 +132,11 @@ def _refusal(exc, evaluations, out, files, record, section, known=()):
         "study file", exc.evaluations)
 
 
-def _agg() -> None:
-    """Draw without a display (before pyplot is imported; keeps a backend already chosen)."""
-    import matplotlib
-    matplotlib.use("Agg", force=False)
-
-
-def _save(fig, path) -> None:
-    import matplotlib.pyplot as plt
-
-    save_figure(fig, path, dpi=130)  # atomically: temporary file, then rename
-    plt.close(fig)
-
-
 def _warm_up(model, progress) -> None:
     """On a cold kernel cache, compile here, announced and with a bar of the elapsed time,
     before the workers start (they then load the kernels instead of each compiling them
     behind a progress bar standing at 0)."""
-    from .._kernel_cache import warm_up
+    from ..warmup import warm_up
 
     warm_up(model.scene, progress=progress)
 
@@ -239,7 +226,8 @@ def run_reliability(study, *, methods=None, n=None, n_jobs=1, seed=None, out=Non
     >>> list(results), results["fosm"].n_evaluations
     (['fosm'], 3)
     """
-    from .presenters import COMBINED, Context, presenter_class, warnings_of
+    from .context import Context
+    from .presenters import COMBINED, presenter_class, warnings_of
     from .rare import evaluation_counts
     from .study import study_methods
 
@@ -339,6 +327,8 @@ def run_reliability(study, *, methods=None, n=None, n_jobs=1, seed=None, out=Non
             plotted = [r for p in ctx.presenters for r in p.plotted(ctx)]
             if plotted:
                 from ..uq.plots import plot_reliability
+                from .presenters import _agg, _save
+
                 _agg()
 
                 _save(plot_reliability(*plotted, title=f"{study.name}: reliability per crank "
@@ -475,6 +465,9 @@ def run_sensitivity(study, *, n=None, n_jobs=1, seed=None, out=None, progress=Tr
         with result_set(out, "sensitivity", known=SENSITIVITY_RESULTS) as stage:
             write_table(table, stage / "sensitivity.csv")
             from ..uq.plots import plot_sobol
+
+            from .presenters import _agg, _save
+
             _agg()
 
             _save(plot_sobol(res, title=f"{study.name}: what drives the error"),
