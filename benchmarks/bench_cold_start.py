@@ -51,7 +51,7 @@ from _common import git_state  # noqa: E402  (benchmarks/ is sys.path[0])
 CODE = r"""
 import json, resource, sys, time
 t0 = time.perf_counter()
-from mechrel.studies.study import load_study
+from mechrel.study.study import load_study
 from mechrel.scene import with_overrides
 import mechrel.warmup as kc
 study = load_study("nine-bar-lubricated")

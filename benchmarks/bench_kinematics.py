@@ -53,7 +53,7 @@ from mechrel.mechanics.construction import _construct, construction  # noqa: E40
 from mechrel.mechanics.kinematics import _kinematics, assemble  # noqa: E402
 from mechrel.mechanics.system import compile_scene  # noqa: E402
 from mechrel.scene import load_scene  # noqa: E402
-from mechrel.studies.study import load_study  # noqa: E402
+from mechrel.study.study import load_study  # noqa: E402
 
 SCENES = ("nine-bar", "slider-crank", "four-bar")
 ROOT = Path(__file__).resolve().parent.parent

@@ -62,7 +62,7 @@ from pathlib import Path  # noqa: E402
 
 import psutil  # noqa: E402
 
-from mechrel.studies.study import load_study  # noqa: E402
+from mechrel.study.study import load_study  # noqa: E402
 from mechrel.uq.execution.executor import default_chunk_size, evaluate  # noqa: E402
 
 STUDY = "nine-bar-lubricated"
@@ -70,7 +70,7 @@ STUDY = "nine-bar-lubricated"
 PROBE = r"""
 import json, time, os, sys
 t0 = time.perf_counter()
-from mechrel.studies.study import load_study
+from mechrel.study.study import load_study
 import dataclasses
 t1 = time.perf_counter()
 s = load_study(%(study)r)

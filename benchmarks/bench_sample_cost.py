@@ -158,7 +158,7 @@ def case_tolerance() -> dict:
 def case_lubricated() -> dict:
     import mechrel.integrate.radau as radau
     from mechrel.mechanics import kinematics
-    from mechrel.studies.study import load_study
+    from mechrel.study.study import load_study
 
     study = load_study("nine-bar-lubricated")
     model = study.model()

@@ -26,7 +26,7 @@ from numba.core import event
 with event.install_recorder("numba:compile") as rec:
     from mechrel.scene import with_overrides
     from mechrel.simulation import simulate
-    from mechrel.studies.study import load_study
+    from mechrel.study.study import load_study
     scene = load_study("nine-bar-lubricated").model().scene
     a = scene.analysis
     step = a.sample_step_angle / abs(scene.drivers[a.cycle_driver].speed)

@@ -58,7 +58,7 @@ DEEPEST = 1e-6
 
 
 def _setup(quantity):
-    from mechrel.studies.study import load_study
+    from mechrel.study.study import load_study
 
     study = load_study("nine-bar-lubricated", overrides={"quantities": [quantity]})
     return study.model(), study.uncertain_inputs()

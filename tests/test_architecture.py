@@ -151,7 +151,7 @@ def test_the_import_graph_has_no_circle_but_the_known_arrows():
 
 
 def test_no_module_imports_itself_through_others():
-    # inside a room too (studies/presenters <-> studies/rare was one); the known back arrow
+    # inside a room too (study/presenters <-> study/rare was one); the known back arrow
     # between forces and scene makes the one tolerated circle of modules
     known = {m for m in _modules() if room_of(m) in {r for arrow in KNOWN_BACK_ARROWS
                                                         for r in arrow}}

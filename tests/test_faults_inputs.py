@@ -15,7 +15,7 @@ from mechrel.errors import AssemblyError, SceneError, SimulationError, StudyErro
 from mechrel.scene import load_scene
 from mechrel.scene.loader import MAX_DEPTH
 from mechrel.simulation import simulate
-from mechrel.studies.study import load_study
+from mechrel.study.study import load_study
 from mechrel.uq import Normal, UncertainInputs, linear_model, monte_carlo, sobol_design
 from mechrel.uq._common import physical_memory
 

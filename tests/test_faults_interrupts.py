@@ -368,7 +368,7 @@ def test_no_cache_is_named_before_there_is_one(tmp_path):
     study = tmp_path / "study.toml"
     study.write_text(FOSM_STUDY)
     out = tmp_path / "out"
-    rc, err = _at("import:mechrel.studies.runner",
+    rc, err = _at("import:mechrel.study.runner",
                   ["reliability", str(study), "--jobs", "1", "--no-progress", "--out", str(out)],
                   signal.SIGINT, tmp_path)
     assert (rc, err) == (130, "mechrel: interrupted (Ctrl-C)\n")
@@ -444,7 +444,7 @@ def test_an_interrupt_while_results_are_written_keeps_the_earlier_set(sig, tmp_p
     assert main(_fosm(tmp_path, 1e-5)) == 0  # the earlier run, in-process
     earlier = _files(out)
     assert {"reliability.csv", "reliability.png", "summary.json"} <= set(earlier)
-    rc, err = _at("call:mechrel.studies.runner.write_json", _fosm(tmp_path, 2e-5), sig, tmp_path)
+    rc, err = _at("call:mechrel.study.runner.write_json", _fosm(tmp_path, 2e-5), sig, tmp_path)
     assert rc == code, err
     assert err == (f"mechrel: interrupted ({name}); the finished model evaluations are kept in "
                    f"{out / 'evaluations.sqlite'}: the same command resumes from them\n")

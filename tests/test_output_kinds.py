@@ -358,7 +358,7 @@ def test_studies_and_their_figures_take_every_kind(kind, tmp_path, capsys):
 def test_the_accuracy_study_measures_every_kind(kind):
     # the first output's own quantities (the accuracy study measured a point's three, and a
     # scene whose first output was a body failed with KeyError 'displacement')
-    from mechrel.studies.accuracy import _curves, perturbed_scenes, run_ensemble
+    from mechrel.study.accuracy import _curves, perturbed_scenes, run_ensemble
 
     scene = load_scene("four-bar", overrides={
         "analysis.cycles": 0.05, "outputs": {"o": EXAMPLES[kind]}, **COUPLER_M})

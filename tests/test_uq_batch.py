@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 from mechrel.errors import SceneError, StudyError
-from mechrel.studies.study import load_study
+from mechrel.study.study import load_study
 from mechrel.uq import FunctionModel, ModelFailure
 from mechrel.uq.execution.executor import evaluate
 from mechrel.uq.problem.model import evaluate_rows

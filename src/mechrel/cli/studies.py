@@ -1,5 +1,5 @@
 """``mechrel reliability`` and ``mechrel sensitivity``: a study file run by the estimators of
-:mod:`mechrel.uq` (:mod:`mechrel.studies.runner`)."""
+:mod:`mechrel.uq` (:mod:`mechrel.study.runner`)."""
 
 from __future__ import annotations
 
@@ -48,7 +48,7 @@ def split_overrides(texts) -> tuple[dict, dict]:
     ({'reliability.n': 512}, {'joints.C1.model': 'dry'})
     """
     from ..scene.loader import parse_override
-    from ..studies.study import study_fields
+    from ..study.study import study_fields
 
     study, scene = {}, {}
     fields = study_fields()
@@ -166,7 +166,7 @@ def _warnings_in_summary():
 
 
 def _load(args):
-    from ..studies.study import load_study
+    from ..study.study import load_study
 
     study_fields, scene = split_overrides(args.overrides)
     if args.scene:  # given on the command line: not confined to the study file's folder
@@ -192,7 +192,7 @@ def _jobs(args) -> int:
 
 
 def _cmd_reliability(args) -> int:
-    from ..studies.runner import run_reliability
+    from ..study.runner import run_reliability
 
     study = _load(args)
     methods = None if args.method is None else tuple(args.method)
@@ -208,7 +208,7 @@ def _cmd_reliability(args) -> int:
 
 
 def _cmd_sensitivity(args) -> int:
-    from ..studies.runner import run_sensitivity
+    from ..study.runner import run_sensitivity
 
     study = _load(args)
     with dask_backend(args.scheduler) as backend, _warnings_in_summary():
@@ -264,7 +264,7 @@ def register_reliability(sub) -> None:
     >>> args.command, args.method, args.n
     ('reliability', ['fosm'], None)
     """
-    from ..studies.study import rare_event_methods, study_methods
+    from ..study.study import rare_event_methods, study_methods
 
     rare = ", ".join(f"{k} ({m.name})" for k, m in rare_event_methods().items())
     p = sub.add_parser(

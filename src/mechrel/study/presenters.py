@@ -1,6 +1,6 @@
 """How ``mechrel reliability`` runs and presents each registered method.
 
-The runner (:func:`mechrel.studies.runner.run_reliability`) names no method: for each method
+The runner (:func:`mechrel.study.runner.run_reliability`) names no method: for each method
 of the run it takes the :class:`Presenter` of the method's registry entry
 (:data:`mechrel.uq.estimators.METHODS`) from :func:`presenter_class` — the method's own entry
 in :data:`PRESENTERS`, else the one of its ``kind`` — and asks it, in turn, to run the method,
@@ -94,7 +94,7 @@ class Presenter:
 
         Examples
         --------
-        >>> from mechrel.studies.rare import _demo
+        >>> from mechrel.study.rare import _demo
         >>> from mechrel.uq.estimators import METHODS
         >>> from dataclasses import replace
         >>> study, model = _demo()   # analytic: a velocity extreme 6 + x1 + x2 (m/s)
@@ -133,7 +133,7 @@ class Presenter:
 
         Examples
         --------
-        >>> from mechrel.studies.rare import _demo
+        >>> from mechrel.study.rare import _demo
         >>> from mechrel.uq.estimators import METHODS
         >>> study, model = _demo()   # analytic: a velocity extreme 6 + x1 + x2 (m/s)
         >>> ctx = Context(study, model, study.uncertain_inputs(), study.allowables(), "two-sided",
@@ -176,7 +176,7 @@ class Presenter:
 
         Examples
         --------
-        >>> from mechrel.studies.rare import _demo
+        >>> from mechrel.study.rare import _demo
         >>> from mechrel.uq.estimators import METHODS
         >>> study, model = _demo()   # analytic: a velocity extreme 6 + x1 + x2 (m/s)
         >>> ctx = Context(study, model, study.uncertain_inputs(), study.allowables(), "two-sided",
@@ -203,7 +203,7 @@ class Presenter:
 
         Examples
         --------
-        >>> from mechrel.studies.rare import _demo
+        >>> from mechrel.study.rare import _demo
         >>> from mechrel.uq.estimators import METHODS
         >>> study, model = _demo()   # analytic: a velocity extreme 6 + x1 + x2 (m/s)
         >>> ctx = Context(study, model, study.uncertain_inputs(), study.allowables(), "two-sided",
@@ -252,7 +252,7 @@ class Presenter:
 
         Examples
         --------
-        >>> from mechrel.studies.rare import _demo
+        >>> from mechrel.study.rare import _demo
         >>> from mechrel.uq.estimators import METHODS
         >>> study, model = _demo()   # analytic: a velocity extreme 6 + x1 + x2 (m/s)
         >>> ctx = Context(study, model, study.uncertain_inputs(), study.allowables(), "two-sided",
@@ -303,7 +303,7 @@ class Presenter:
         --------
         FOSM gives a reason only beside a Monte Carlo run:
 
-        >>> from mechrel.studies.rare import _demo
+        >>> from mechrel.study.rare import _demo
         >>> from mechrel.uq.estimators import METHODS
         >>> study, model = _demo()   # analytic: a velocity extreme 6 + x1 + x2 (m/s)
         >>> ctx = Context(study, model, study.uncertain_inputs(), study.allowables(), "two-sided",
@@ -334,7 +334,7 @@ class Presenter:
 
         Examples
         --------
-        >>> from mechrel.studies.rare import _demo
+        >>> from mechrel.study.rare import _demo
         >>> from mechrel.uq.estimators import METHODS
         >>> study, model = _demo()   # analytic: a velocity extreme 6 + x1 + x2 (m/s)
         >>> ctx = Context(study, model, study.uncertain_inputs(), study.allowables(), "two-sided",

@@ -3,7 +3,7 @@
 One :class:`Context` per run: the study, its model, inputs and allowables, the run's seed and
 settings, and what the methods have produced so far (results, evaluations, notes, values the
 presenters share such as the whole-cycle estimates and the FORM design point). The presenters
-(:mod:`mechrel.studies.presenters`) and the rare-event helpers (:mod:`mechrel.studies.rare`)
+(:mod:`mechrel.study.presenters`) and the rare-event helpers (:mod:`mechrel.study.rare`)
 read and fill it; it imports neither.
 """
 
@@ -22,7 +22,7 @@ __all__ = ["Context"]
 
 @dataclass
 class Context:
-    """What one run of :func:`~mechrel.studies.runner.run_reliability` shares between presenters.
+    """What one run of :func:`~mechrel.study.runner.run_reliability` shares between presenters.
 
     Parameters
     ----------
@@ -61,7 +61,7 @@ class Context:
 
     Examples
     --------
-    >>> from mechrel.studies.rare import _demo
+    >>> from mechrel.study.rare import _demo
     >>> from mechrel.uq.estimators import METHODS
     >>> study, model = _demo()   # analytic: a velocity extreme 6 + x1 + x2 (m/s)
     >>> ctx = Context(study, model, study.uncertain_inputs(), study.allowables(), "two-sided",
@@ -116,7 +116,7 @@ class Context:
 
         Examples
         --------
-        >>> from mechrel.studies.rare import _demo
+        >>> from mechrel.study.rare import _demo
         >>> from mechrel.uq.estimators import METHODS
         >>> study, model = _demo()   # analytic: a velocity extreme 6 + x1 + x2 (m/s)
         >>> ctx = Context(study, model, study.uncertain_inputs(), study.allowables(), "two-sided",
@@ -161,7 +161,7 @@ class Context:
 
         Examples
         --------
-        >>> from mechrel.studies.rare import _demo
+        >>> from mechrel.study.rare import _demo
         >>> from mechrel.uq.estimators import METHODS
         >>> study, model = _demo()   # analytic: a velocity extreme 6 + x1 + x2 (m/s)
         >>> ctx = Context(study, model, study.uncertain_inputs(), study.allowables(), "two-sided",
@@ -196,8 +196,8 @@ class Context:
 
         Examples
         --------
-        >>> from mechrel.studies.presenters import FOSM
-        >>> from mechrel.studies.rare import _demo
+        >>> from mechrel.study.presenters import FOSM
+        >>> from mechrel.study.rare import _demo
         >>> from mechrel.uq.estimators import METHODS
         >>> study, model = _demo()   # analytic: a velocity extreme 6 + x1 + x2 (m/s)
         >>> ctx = Context(study, model, study.uncertain_inputs(), study.allowables(), "two-sided",

@@ -168,19 +168,19 @@ def run_reliability(study, *, methods=None, n=None, n_jobs=1, seed=None, out=Non
     """Run the study's reliability methods and write their results to ``out``.
 
     The methods are those of the registry (:data:`mechrel.uq.estimators.METHODS`), each run
-    and presented by its :class:`~mechrel.studies.presenters.Presenter`; nothing here names a
+    and presented by its :class:`~mechrel.study.presenters.Presenter`; nothing here names a
     method.
 
     Parameters
     ----------
     study : Study
-        From :func:`~mechrel.studies.study.load_study`.
+        From :func:`~mechrel.study.study.load_study`.
     methods : sequence of str, optional
-        Study-file names of registered methods (:func:`~mechrel.studies.study.study_methods`:
+        Study-file names of registered methods (:func:`~mechrel.study.study.study_methods`:
         ``"fosm"``, ``"mc"``, ``"pce"``, ``"form"``, ``"sorm"``, ``"is"``, ``"subset"``, ...)
         or ``"all"`` (every one). Default: the study's ``reliability.methods``. The rare-event
         methods (settings from the study's ``[form]``, ``[sorm]``, ``[is]``, ``[subset]``)
-        estimate the whole-cycle failure probability (:mod:`mechrel.studies.rare`).
+        estimate the whole-cycle failure probability (:mod:`mechrel.study.rare`).
     n, seed, max_failure_fraction : optional
         Monte Carlo samples, seed, and the largest fraction of failed samples the sampling
         methods accept; default: the study's.
@@ -195,7 +195,7 @@ def run_reliability(study, *, methods=None, n=None, n_jobs=1, seed=None, out=Non
         Cache the model evaluations in ``out/evaluations.sqlite``.
     target_reliability : float or False, optional
         Ask the inverse question too: the allowables at which the whole-cycle reliability is
-        this, in (0, 1) (:mod:`mechrel.studies.inverse`; ``inverse.csv``, the summary's
+        this, in (0, 1) (:mod:`mechrel.study.inverse`; ``inverse.csv``, the summary's
         ``allowable for`` lines, ``summary.json``'s ``inverse``). Default (None): the study's
         ``inverse.target``, if it has one; False: not asked.
 
@@ -216,7 +216,7 @@ def run_reliability(study, *, methods=None, n=None, n_jobs=1, seed=None, out=Non
     --------
     FOSM (three simulations) on a one-cycle slider-crank with an uncertain clearance:
 
-    >>> from mechrel.studies.study import load_study
+    >>> from mechrel.study.study import load_study
     >>> study = load_study({"scene": "slider-crank-lubricated", "quantities": ["velocity"],
     ...                     "angle_step": 90.0, "cycles": 1,
     ...                     "inputs": {"c": {"paths": ["joints.C.clearance"],
@@ -370,7 +370,7 @@ def run_sensitivity(study, *, n=None, n_jobs=1, seed=None, out=None, progress=Tr
     Parameters
     ----------
     study : Study
-        From :func:`~mechrel.studies.study.load_study`.
+        From :func:`~mechrel.study.study.load_study`.
     n : int, optional
         Saltelli base samples (N (d + 2) model runs); default: the study's
         ``sensitivity.n``.
@@ -411,7 +411,7 @@ def run_sensitivity(study, *, n=None, n_jobs=1, seed=None, out=None, progress=Tr
     N = 8 base samples of one input: 8 (1 + 2) = 24 simulations of a one-cycle slider-crank
     (far too few to rank inputs: the result warns so):
 
-    >>> from mechrel.studies.study import load_study
+    >>> from mechrel.study.study import load_study
     >>> study = load_study({"scene": "slider-crank-lubricated", "quantities": ["velocity"],
     ...                     "angle_step": 90.0, "cycles": 1,
     ...                     "inputs": {"c": {"paths": ["joints.C.clearance"],
