@@ -1,13 +1,13 @@
 """What accuracy costs in time on the embedded scenes: ``mechrel accuracy`` run on each.
 
-For every scene this calls :func:`mechrel.studies.accuracy.accuracy_report` (the code behind
+For every scene this calls :func:`mechrel.study.accuracy.accuracy_report` (the code behind
 ``mechrel accuracy SCENE``) with a bounded candidate list (each scene a few minutes on one
 core), writes the figure to ``docs/figures/performance/accuracy_<scene>.png``, the table to
 ``<out>/accuracy_<scene>.csv`` and a Markdown summary (tables, recommendation, the default of
 ``mechrel.simulation.DEFAULT_SOLVERS`` and its measured error) to
 ``<out>/accuracy_<scene>.md`` (``--replot`` redraws the figures from the saved tables).
 
-Error measures and reference: see ``mechrel.studies.accuracy`` (pointwise max error / range
+Error measures and reference: see ``mechrel.study.accuracy`` (pointwise max error / range
 for ideal and lubricated scenes; for dry scenes, whose trajectories are chaotic, the difference
 of the ensemble means of the error curves' statistics over ``--ensemble`` R perturbed initial
 states, with its standard error as the floor). Wall times: pointwise, the minimum of
@@ -36,8 +36,9 @@ from pathlib import Path  # noqa: E402
 
 from _common import git_state  # noqa: E402  (benchmarks/ is sys.path[0])
 from mechrel.scene import load_scene  # noqa: E402
-from mechrel.simulation import DEFAULT_SOLVERS, compile_scene, scene_kind, simulate  # noqa: E402
-from mechrel.studies.accuracy import CHAOTIC_KINDS, accuracy_report  # noqa: E402
+from mechrel.mechanics.system import compile_scene  # noqa: E402
+from mechrel.simulation import DEFAULT_SOLVERS, scene_kind, simulate  # noqa: E402
+from mechrel.study.accuracy import CHAOTIC_KINDS, accuracy_report  # noqa: E402
 
 SCENES = ("nine-bar-lubricated", "slider-crank-lubricated", "nine-bar-dry", "slider-crank-dry",
           "nine-bar")
@@ -101,7 +102,7 @@ def figure(rep, kind, path, repeats=2, load=None):
 
 def replot(out, figdir, scenes=SCENES):
     """Redraw the figures of ``scenes`` from the saved tables (no simulation)."""
-    from mechrel.studies.accuracy import AccuracyReport
+    from mechrel.study.accuracy import AccuracyReport
     summary = json.loads((out / "accuracy_scenes.json").read_text())
     for name, info in summary.items():
         if name not in scenes:

@@ -35,7 +35,7 @@ FIXED = {"displacement": 1.5e-3, "velocity": 0.083, "acceleration": 12.5}
 
 
 def overrides(scale: float | None) -> list[str]:
-    from mechrel.studies.study import load_study
+    from mechrel.study.study import load_study
 
     study = load_study("nine-bar-lubricated")
     out = []

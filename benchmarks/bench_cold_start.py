@@ -7,17 +7,17 @@ main job (``mechrel reliability``: the default study ``nine-bar-lubricated``) co
 its first sample, and then evaluates one sample of the study's model (which must then compile
 nothing more):
 
-* ``one process``: ``simulate`` of the short run :func:`mechrel._kernel_cache.warm_up` makes,
+* ``one process``: ``simulate`` of the short run :func:`mechrel.warmup.warm_up` makes,
   on one core: every kernel compiled one after another (the warm-up before this change);
-* ``two processes``: :func:`mechrel._kernel_cache.warm_up` itself, which hands part of the
+* ``two processes``: :func:`mechrel.warmup.warm_up` itself, which hands part of the
   Radau kernel's callees and the post-processing to a helper process
-  (:func:`mechrel._kernel_cache.split_compile`), compiles the rest and then the kernel here;
+  (:func:`mechrel.warmup.split_compile`), compiles the rest and then the kernel here;
 * ``two processes, previous shares`` (``--modes two-previous``): the same with the absolute
   formulation's shares of the helper and this process before they were balanced (the helper
   also compiled the kinematic analysis, and this process waited for it; the clearance
   Jacobian did not wait for the helper's right-hand side), set in the run's process before
   the warm-up. Since the default study's Radau integrates the reduced equations (which have
-  their own shares, ``mechrel._kernel_cache.SHARES``), this mode no longer changes its run.
+  their own shares, ``mechrel.warmup.SHARES``), this mode no longer changes its run.
 
 The runs alternate (``--rounds`` rounds of ``--modes``), one at a time; each reports its
 wall time, the CPU time of the process and its children, the load average before it, the
@@ -51,9 +51,9 @@ from _common import git_state  # noqa: E402  (benchmarks/ is sys.path[0])
 CODE = r"""
 import json, resource, sys, time
 t0 = time.perf_counter()
-from mechrel.studies.study import load_study
+from mechrel.study.study import load_study
 from mechrel.scene import with_overrides
-import mechrel._kernel_cache as kc
+import mechrel.warmup as kc
 study = load_study("nine-bar-lubricated")
 model = study.model()
 scene = model.scene

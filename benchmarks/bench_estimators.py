@@ -78,7 +78,7 @@ from pathlib import Path  # noqa: E402
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
-from mechrel.studies.study import load_study  # noqa: E402
+from mechrel.study.study import load_study  # noqa: E402
 from mechrel.uq import (Allowable, MechanismModel, evaluate, fosm, monte_carlo,  # noqa: E402
                         monte_carlo_design, peak_abs, polynomial_chaos, sobol_indices)
 

@@ -60,7 +60,7 @@ def study_evaluation(repeats: int) -> None:
     cycle extremes: MechanismModel.evaluate at the inputs' means, interleaved, medians."""
     import numpy as np
 
-    from mechrel.studies.study import load_study
+    from mechrel.study.study import load_study
     from mechrel.uq.problem.mechanism import MechanismModel
 
     study = load_study("nine-bar-lubricated")

@@ -62,7 +62,7 @@ from pathlib import Path  # noqa: E402
 
 import psutil  # noqa: E402
 
-from mechrel.studies.study import load_study  # noqa: E402
+from mechrel.study.study import load_study  # noqa: E402
 from mechrel.uq.execution.executor import default_chunk_size, evaluate  # noqa: E402
 
 STUDY = "nine-bar-lubricated"
@@ -70,7 +70,7 @@ STUDY = "nine-bar-lubricated"
 PROBE = r"""
 import json, time, os, sys
 t0 = time.perf_counter()
-from mechrel.studies.study import load_study
+from mechrel.study.study import load_study
 import dataclasses
 t1 = time.perf_counter()
 s = load_study(%(study)r)
@@ -249,9 +249,16 @@ def per_sample_split(model, X, rounds):
 
     import mechrel.integrate.radau as radau
     import mechrel.scene as scene_api
-    import mechrel.simulation as simulation
+    import mechrel.simulation.prepared
+    import mechrel.simulation.reference
+    import mechrel.simulation.run
+    import mechrel.simulation.times
     from mechrel.mechanics import kinematics
     from mechrel.uq.problem.allowables import EXTREME_STATS
+
+    # the modules of the simulation that compile scenes
+    compilers = (mechrel.simulation.prepared, mechrel.simulation.reference,
+                 mechrel.simulation.run, mechrel.simulation.times)
 
     def row_by_row(x):
         res = model.simulate(x)
@@ -272,12 +279,13 @@ def per_sample_split(model, X, rounds):
            for part in ("total", *parts.values(), "rest")}
     n = X.shape[0]
     advance, kin, con = radau.Radau._advance, kinematics._kinematics, kinematics._construct
-    overrides, compile_scene = scene_api.with_overrides, simulation.compile_scene
+    overrides, compile_scene = scene_api.with_overrides, mechrel.simulation.run.compile_scene
     radau.Radau._advance = timed(advance, "radau")
     kinematics._kinematics = timed(kin, "kinematics")  # by Newton–Raphson …
     kinematics._construct = timed(con, "kinematics")  # … or in closed form
     scene_api.with_overrides = timed(overrides, "scene")  # the model imports it per call
-    simulation.compile_scene = timed(compile_scene, "compile")
+    for module in compilers:
+        module.compile_scene = timed(compile_scene, "compile")
     try:
         for _ in range(rounds):
             for how in ("row_by_row", "batch"):
@@ -295,7 +303,9 @@ def per_sample_split(model, X, rounds):
             assert np.array_equal(old, new)  # the batch changes no number
     finally:
         radau.Radau._advance, kinematics._kinematics, kinematics._construct = advance, kin, con
-        scene_api.with_overrides, simulation.compile_scene = overrides, compile_scene
+        scene_api.with_overrides = overrides
+        for module in compilers:
+            module.compile_scene = compile_scene
     rounds_ms = {k: [round(1e3 * x, 2) for x in v] for k, v in out.items()}
     print("per sample (ms), each round: " + json.dumps(rounds_ms), flush=True)
     return {k: statistics_median(v) for k, v in out.items()}

@@ -101,8 +101,8 @@ def case_tolerance() -> dict:
     from mechrel.mechanics.kinematics import assemble, kinematic_analysis
     from mechrel.mechanics.system import compile_scene
     from mechrel.scene import load_scene
-    from mechrel.simulation import (KINEMATIC_POINTS, _window_points, analysis_window,
-                                    output_times, simulate)
+    from mechrel.simulation import KINEMATIC_POINTS, analysis_window, output_times, simulate
+    from mechrel.simulation.extremes import _window_points
     from mechrel.uq.problem.mechanism import MechanismModel
 
     inputs = {"crank": ["bodies.crank.length(O,A)"], "rod": ["bodies.rod.length(A,B)"],
@@ -158,7 +158,7 @@ def case_tolerance() -> dict:
 def case_lubricated() -> dict:
     import mechrel.integrate.radau as radau
     from mechrel.mechanics import kinematics
-    from mechrel.studies.study import load_study
+    from mechrel.study.study import load_study
 
     study = load_study("nine-bar-lubricated")
     model = study.model()

@@ -52,7 +52,7 @@ from _common import git_state  # noqa: E402
 
 from mechrel.scene import with_overrides  # noqa: E402
 from mechrel.simulation import simulate  # noqa: E402
-from mechrel.studies.study import load_study  # noqa: E402
+from mechrel.study.study import load_study  # noqa: E402
 
 QUANTITIES = ("displacement", "velocity", "acceleration")
 P_LOW = float(special.ndtr(-3.0))  # 0.00135

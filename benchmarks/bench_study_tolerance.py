@@ -34,7 +34,7 @@ import numpy as np  # noqa: E402
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _common import git_state  # noqa: E402
 
-from mechrel.studies.study import load_study  # noqa: E402
+from mechrel.study.study import load_study  # noqa: E402
 
 RTOLS = (1e-3, 3e-4, 1e-4, 3e-5, 1e-5)
 

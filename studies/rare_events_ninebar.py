@@ -58,7 +58,7 @@ DEEPEST = 1e-6
 
 
 def _setup(quantity):
-    from mechrel.studies.study import load_study
+    from mechrel.study.study import load_study
 
     study = load_study("nine-bar-lubricated", overrides={"quantities": [quantity]})
     return study.model(), study.uncertain_inputs()
@@ -324,7 +324,7 @@ def run(args) -> int:
     out.mkdir(parents=True, exist_ok=True)
     t_start = time.perf_counter()
     model, inputs = _setup(args.quantity)
-    from mechrel.studies.runner import warm_up
+    from mechrel.study.runner import warm_up
     warm_up(model, progress=not args.no_progress)
     common = {"n_jobs": args.jobs, "cache": out / "evaluations.sqlite",
               "progress": not args.no_progress}

@@ -3,7 +3,7 @@
 import numpy as np
 
 from mechrel.scene import load_scene
-from mechrel.studies.accuracy import accuracy_report
+from mechrel.study.accuracy import accuracy_report
 
 
 def test_report_orders_errors_and_recommends_fastest_meeting_target():
@@ -42,8 +42,9 @@ from scipy.stats import t as student  # noqa: E402
 
 from mechrel.cli.main import main  # noqa: E402
 from mechrel.errors import StudyError  # noqa: E402
-from mechrel.simulation import compile_scene, simulate  # noqa: E402
-from mechrel.studies.accuracy import (  # noqa: E402
+from mechrel.mechanics.system import compile_scene  # noqa: E402
+from mechrel.simulation import simulate  # noqa: E402
+from mechrel.study.accuracy import (  # noqa: E402
     compare_ensembles, ensemble_needed, ensemble_statistics, perturbed_scenes)
 
 REF = ("dopri5", {"rtol": 1e-11, "atol": 1e-14})

@@ -16,7 +16,7 @@ from mechrel._checks import ARGS, Checker
 from mechrel.cli import args as cli_args
 from mechrel.cli.main import main
 from mechrel.errors import MechrelError, SceneError, StudyError
-from mechrel.studies.study import load_study
+from mechrel.study.study import load_study
 from mechrel.uq import (
     Allowable, Normal, UncertainInputs, evaluate, linear_model, monte_carlo, monte_carlo_design,
     sobol_indices,
@@ -28,7 +28,7 @@ ALLOW = Allowable(1.0, 0.3)
 
 
 def _study_raw() -> dict:
-    data = resources.files("mechrel.studies").joinpath("data", "nine-bar-lubricated.toml")
+    data = resources.files("mechrel.study").joinpath("data", "nine-bar-lubricated.toml")
     return tomllib.loads(data.read_text("utf-8"))
 
 

@@ -204,7 +204,7 @@ def test_set_reaches_the_study_and_its_scene(tmp_path, capsys):
 ])
 def test_bad_study_arguments_fail_before_anything_runs(argv, fragment, tmp_path, capsys,
                                                        monkeypatch):
-    import mechrel.studies.runner as runner
+    import mechrel.study.runner as runner
 
     def never(*args, **kwargs):
         raise AssertionError("ran although an argument is wrong")

@@ -53,7 +53,7 @@ def test_doctests_are_found():
                               "mechrel.uq.problem.analytic", "mechrel.scene.loader",
                               "mechrel.integrate.explicit", "mechrel.cli.args",
                               "mechrel.uq.problem.inputs", "mechrel.uq.execution.executor",
-                              "mechrel.studies.presenters", "mechrel.studies.runner",
+                              "mechrel.study.presenters", "mechrel.study.runner",
                               "mechrel.cli.studies")
              for t in _doctests(importlib.import_module(m))}
     for name in ("mechrel.forces.contact.ln_normal_force", "mechrel.forces.friction.friction_force",
@@ -62,8 +62,8 @@ def test_doctests_are_found():
                  "mechrel.cli.args.sample_count",
                  "mechrel.uq.problem.inputs.UncertainInputs.sample",
                  "mechrel.uq.execution.executor.Evaluations.reduce",
-                 "mechrel.studies.presenters.Presenter.run",
-                 "mechrel.studies.runner.run_sensitivity", "mechrel.cli.studies.split_overrides"):
+                 "mechrel.study.presenters.Presenter.run",
+                 "mechrel.study.runner.run_sensitivity", "mechrel.cli.studies.split_overrides"):
         assert name in found
 
 

@@ -34,7 +34,7 @@ import mechrel.errors
 
 PACKAGES = ("mechrel", "mechrel.scene", "mechrel.forces", "mechrel.integrate", "mechrel.io",
             "mechrel.mechanics", "mechrel.simulation", "mechrel.outputs", "mechrel.uq",
-            "mechrel.studies", "mechrel.cli")
+            "mechrel.study", "mechrel.cli")
 
 # Packages left out of this test (none: the uncertainty layer is checked like the rest).
 EXCLUDED_PACKAGES: tuple[str, ...] = ()
@@ -149,8 +149,8 @@ def test_the_enumeration_covers_the_api():
                  "mechrel.cli.main", "mechrel.uq.UncertainInputs.sample",
                  "mechrel.uq.Evaluations.to_frame", "mechrel.uq.LimitState.exceedance",
                  "mechrel.uq.estimators.Method.validate", "mechrel.uq.plots.plot_sobol",
-                 "mechrel.studies.study.load_study", "mechrel.studies.runner.run_reliability",
-                 "mechrel.studies.presenters.Presenter.verdict",
+                 "mechrel.study.study.load_study", "mechrel.study.runner.run_reliability",
+                 "mechrel.study.presenters.Presenter.verdict",
                  "mechrel.cli.studies.split_overrides"):
         assert name in ITEMS, name
     assert not [n for n in ITEMS if n.startswith(EXCLUDED_MODULES)]

@@ -15,7 +15,7 @@ from mechrel.errors import AssemblyError, SceneError, SimulationError, StudyErro
 from mechrel.scene import load_scene
 from mechrel.scene.loader import MAX_DEPTH, list_scenes
 from mechrel.simulation import simulate
-from mechrel.studies.study import load_study
+from mechrel.study.study import load_study
 from mechrel.uq import Normal, UncertainInputs, linear_model, monte_carlo, sobol_design
 from mechrel.uq._common import physical_memory
 
@@ -402,13 +402,13 @@ def test_a_bare_scene_name_is_looked_up_beside_the_study_not_in_the_current_fold
 
 
 def test_the_compile_helper_does_not_import_modules_from_the_current_folder(tmp_path):
-    """The helper process of a cold Radau compilation (mechrel._kernel_cache.split_compile,
+    """The helper process of a cold Radau compilation (mechrel.warmup.split_compile,
     ``python -c``) started with the current folder first on its import path; it runs here on
     a warm cache (it loads what it would compile), which starts it all the same."""
     cwd, markers = _trap_folder(tmp_path, ("pickle", "json", "struct", "signal"))
     script = tmp_path / "run.py"
     script.write_text(textwrap.dedent("""
-        from mechrel._kernel_cache import split_compile
+        from mechrel.warmup import split_compile
         from mechrel.scene import load_scene
         scene = load_scene("slider-crank-lubricated",
                            overrides=["solver.rtol=1e-5", "solver.atol=1e-8"])

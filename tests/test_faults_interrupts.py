@@ -18,7 +18,7 @@ from pathlib import Path
 
 import pytest
 
-from mechrel._kernel_cache import warm_up
+from mechrel.warmup import warm_up
 from mechrel.cli.main import main
 from mechrel.scene import load_scene
 
@@ -150,7 +150,7 @@ def test_simulate_stops_promptly_with_one_line(sig, code, name, tmp_path):
 
 def test_ctrl_c_during_the_one_off_compilation_stops_it_and_its_helper(tmp_path):
     # a cold kernel cache (an empty NUMBA_CACHE_DIR): the run announces the compilation and a
-    # helper process compiles part of it (mechrel._kernel_cache.split_compile); Ctrl-C to the
+    # helper process compiles part of it (mechrel.warmup.split_compile); Ctrl-C to the
     # parent alone (as a job runner's SIGINT) stops the parent at once, and the helper, which
     # nobody reads any more, ends itself within its watch interval (0.5 s) instead of
     # compiling on for up to a minute
@@ -368,7 +368,7 @@ def test_no_cache_is_named_before_there_is_one(tmp_path):
     study = tmp_path / "study.toml"
     study.write_text(FOSM_STUDY)
     out = tmp_path / "out"
-    rc, err = _at("import:mechrel.studies.runner",
+    rc, err = _at("import:mechrel.study.runner",
                   ["reliability", str(study), "--jobs", "1", "--no-progress", "--out", str(out)],
                   signal.SIGINT, tmp_path)
     assert (rc, err) == (130, "mechrel: interrupted (Ctrl-C)\n")
@@ -444,7 +444,7 @@ def test_an_interrupt_while_results_are_written_keeps_the_earlier_set(sig, tmp_p
     assert main(_fosm(tmp_path, 1e-5)) == 0  # the earlier run, in-process
     earlier = _files(out)
     assert {"reliability.csv", "reliability.png", "summary.json"} <= set(earlier)
-    rc, err = _at("call:mechrel.studies.runner.write_json", _fosm(tmp_path, 2e-5), sig, tmp_path)
+    rc, err = _at("call:mechrel.study.runner.write_json", _fosm(tmp_path, 2e-5), sig, tmp_path)
     assert rc == code, err
     assert err == (f"mechrel: interrupted ({name}); the finished model evaluations are kept in "
                    f"{out / 'evaluations.sqlite'}: the same command resumes from them\n")

@@ -7,7 +7,7 @@ import json
 
 import pytest
 
-import mechrel._kernel_cache as kc
+import mechrel.warmup as kc
 from mechrel.scene import load_scene
 
 

@@ -83,6 +83,25 @@ def test_bad_output_tables_are_one_clear_scene_error(table, match):
         load_scene("four-bar", overrides={"outputs.x": table})
 
 
+def test_every_kind_has_one_evaluator_and_the_catalogue_needs_no_mechanics():
+    # the catalogue (ground floor) and the evaluators (simulation) are one row + one function
+    # per kind: every kind has its evaluator, and no evaluator is for a kind not catalogued
+    import ast
+    from pathlib import Path
+
+    import mechrel.outputs
+    from mechrel.simulation.evaluators import EVALUATORS, evaluator
+
+    assert set(EVALUATORS) == set(OUTPUT_KINDS)
+    with pytest.raises(ValueError, match="'point' has an evaluator already: _point_values"):
+        evaluator("point")
+    tree = ast.parse(Path(mechrel.outputs.__file__).read_text())
+    imported = [a.name for n in ast.walk(tree) if isinstance(n, ast.Import) for a in n.names]
+    imported += ["." * n.level + (n.module or "") for n in ast.walk(tree)
+                 if isinstance(n, ast.ImportFrom)]
+    assert [m for m in imported if m.startswith((".", "mechrel"))] == []
+
+
 def test_the_table_feeds_the_allowables_and_the_model():
     from mechrel.uq import DEFAULT_ALLOWABLES, MechanismModel
     from mechrel.uq.problem.allowables import resolve_allowables
@@ -138,7 +157,7 @@ def test_path_deviation_is_the_distance_from_the_ideal_path():
 
     from mechrel.mechanics.kinematics import assemble, kinematic_analysis
     from mechrel.mechanics.system import compile_scene
-    from mechrel.outputs import distance_to_path, ideal_path
+    from mechrel.simulation.evaluators import distance_to_path, ideal_path
     scene = load_scene("four-bar", overrides={
         "bodies.coupler.points.M": [0.0, 0.03],
         "outputs.curve": {"kind": "path", "point": "coupler.M"},
@@ -339,7 +358,7 @@ def test_studies_and_their_figures_take_every_kind(kind, tmp_path, capsys):
 def test_the_accuracy_study_measures_every_kind(kind):
     # the first output's own quantities (the accuracy study measured a point's three, and a
     # scene whose first output was a body failed with KeyError 'displacement')
-    from mechrel.studies.accuracy import _curves, perturbed_scenes, run_ensemble
+    from mechrel.study.accuracy import _curves, perturbed_scenes, run_ensemble
 
     scene = load_scene("four-bar", overrides={
         "analysis.cycles": 0.05, "outputs": {"o": EXAMPLES[kind]}, **COUPLER_M})
@@ -353,7 +372,7 @@ def test_a_path_against_a_reference_design_is_its_distance_from_the_reference_pa
     # an ideal four-bar with a longer crank against the nominal design: the coupler point's
     # path deviation is its distance from the nominal path (it read 0, the deviation of a point
     # from its own path, so a study of path tolerances on an ideal mechanism found nothing)
-    from mechrel.outputs import distance_to_path, ideal_path
+    from mechrel.simulation.evaluators import distance_to_path, ideal_path
     over = {"joints.A.model": "ideal", "joints.B.model": "ideal",
             "outputs.curve": EXAMPLES["path"], "outputs.mx": {"point": "coupler.M",
                                                               "axis": [1.0, 0.0]},

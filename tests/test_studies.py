@@ -15,7 +15,7 @@ import pytest
 from mechrel.cli.main import main
 from mechrel.errors import StudyError
 from mechrel.scene import load_scene, scene_hash
-from mechrel.studies.study import embedded_studies, load_study
+from mechrel.study.study import embedded_studies, load_study
 
 
 # slider-crank-lubricated, one cycle at the sampling tolerance: ~0.1 s per sample

@@ -30,9 +30,9 @@ from scipy import special
 
 from mechrel.cli.main import main
 from mechrel.errors import StudyError
-from mechrel.studies import inverse
-from mechrel.studies.runner import reliability_results, run_reliability
-from mechrel.studies.study import load_study
+from mechrel.study import inverse
+from mechrel.study.runner import reliability_results, run_reliability
+from mechrel.study.study import load_study
 from mechrel.uq import evaluate
 from mechrel.uq.inverse import _INVERSE, INVERSE_METHODS, register_inverse
 from mechrel.uq.inverse.order_statistics import order_statistic_ranks

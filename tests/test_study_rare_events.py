@@ -25,8 +25,8 @@ from scipy import special
 
 from mechrel.cli.main import main
 from mechrel.errors import StudyError
-from mechrel.studies import rare
-from mechrel.studies.study import load_study, rare_event_methods, study_methods
+from mechrel.study import rare
+from mechrel.study.study import load_study, rare_event_methods, study_methods
 from mechrel.uq import FunctionModel
 from mechrel.uq.estimators import METHODS as REGISTRY
 

@@ -193,7 +193,7 @@ def test_leave_one_out_errors_near_the_limit_state_are_flagged():
 
 
 def test_the_study_runs_it_as_a_rare_event_method():
-    from mechrel.studies.rare import _demo, estimate, table
+    from mechrel.study.rare import _demo, estimate, table
     from mechrel.uq import METHODS
 
     m = METHODS["active_learning"]
@@ -206,7 +206,7 @@ def test_the_study_runs_it_as_a_rare_event_method():
 
 
 def test_a_study_file_sets_it_in_its_ak_table():
-    from mechrel.studies.study import load_study
+    from mechrel.study.study import load_study
 
     raw = {"scene": "nine-bar-lubricated", "quantities": ["velocity"],
            "inputs": {"x1": {"distribution": "normal", "mean": 0.0, "std": 1.0}},

@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 from mechrel.errors import SceneError, StudyError
-from mechrel.studies.study import load_study
+from mechrel.study.study import load_study
 from mechrel.uq import FunctionModel, ModelFailure
 from mechrel.uq.execution.executor import evaluate
 from mechrel.uq.problem.model import evaluate_rows
@@ -323,7 +323,7 @@ def test_the_mechanism_sample_path_is_bitwise_the_full_path_with_mixed_inputs():
 
 
 def test_the_nominal_reference_of_geometric_samples_is_analysed_once(monkeypatch):
-    import mechrel.simulation as simulation
+    import mechrel.simulation.reference as simulation  # where the reference is analysed
 
     model = MechanismModel("slider-crank", ["bodies.crank.length(O,A)",
                                             "bodies.rod.length(A,B)"], angle_step=30.0)

@@ -27,8 +27,8 @@ from scipy import special, stats
 
 from mechrel.cli.main import main
 from mechrel.errors import EstimateWarning, StudyError
-from mechrel.studies.design import run_design
-from mechrel.studies.study import load_study
+from mechrel.study.design import run_design
+from mechrel.study.study import load_study
 from mechrel.uq import (DESIGN_METHODS, FunctionModel, Normal, UncertainInputs,
                         design_for_reliability)
 from mechrel.uq.design.expression import CostExpression

@@ -146,7 +146,7 @@ def test_fosm_sigma_of_length_tolerances_is_the_closed_form_sensitivity():
 
 def test_study_files_and_set_accept_geometric_inputs_and_the_reference(tmp_path, capsys):
     from mechrel.cli.main import main
-    from mechrel.studies.study import load_study
+    from mechrel.study.study import load_study
 
     raw = {"scene": "slider-crank", "angle_step": 30.0,
            "inputs": {"pivot_y": {"paths": ["ground.points.O[1]"], "distribution": "normal",

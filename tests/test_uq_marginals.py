@@ -660,8 +660,8 @@ seed = 3
 
 
 def test_study_file_with_new_marginals_loads_runs_and_reports_them(tmp_path):
-    from mechrel.studies.runner import run_reliability
-    from mechrel.studies.study import load_study
+    from mechrel.study.runner import run_reliability
+    from mechrel.study.study import load_study
 
     path = tmp_path / "tolerances.toml"
     path.write_text(STUDY, encoding="utf-8")
@@ -688,7 +688,7 @@ def test_study_file_with_new_marginals_loads_runs_and_reports_them(tmp_path):
      r"'scale'\] \(loc and scale optional, default 0 and 1\); missing \[\], unknown \['c'\]"),
 ])
 def test_study_file_errors_name_file_field_value(tmp_path, old, new, match):
-    from mechrel.studies.study import load_study
+    from mechrel.study.study import load_study
 
     assert old in STUDY
     path = tmp_path / "tolerances.toml"
@@ -698,7 +698,7 @@ def test_study_file_errors_name_file_field_value(tmp_path, old, new, match):
 
 
 def test_study_file_correlation_out_of_reach_is_refused(tmp_path):
-    from mechrel.studies.study import load_study
+    from mechrel.study.study import load_study
 
     path = tmp_path / "tolerances.toml"
     path.write_text(STUDY.replace('"crank,rod" = 0.3', '"rod,pivot" = -0.99'), encoding="utf-8")

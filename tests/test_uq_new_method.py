@@ -2,7 +2,7 @@
 
 Here it touches none of mechrel's: the method is one module (the estimator and its result,
 written below in this test file) and one :func:`~mechrel.uq.estimators.register` call, and it
-runs through :func:`~mechrel.studies.runner.run_reliability` and ``mechrel reliability
+runs through :func:`~mechrel.study.runner.run_reliability` and ``mechrel reliability
 --method KEY``, its settings read from the study file's table of its key, its result written.
 
 Tolerances
@@ -29,8 +29,8 @@ from scipy import special
 from mechrel._checks import ARGS
 from mechrel.cli.main import main
 from mechrel.errors import StudyError
-from mechrel.studies.runner import run_reliability
-from mechrel.studies.study import load_study, study_methods
+from mechrel.study.runner import run_reliability
+from mechrel.study.study import load_study, study_methods
 from mechrel.uq import evaluate
 from mechrel.uq.estimators import _METHODS, Method, Setting, register
 from mechrel.uq.estimators._problem import Problem, RareEventResult

@@ -40,7 +40,7 @@ import pytest
 from scipy import special
 
 from mechrel.errors import StudyError
-from mechrel.studies.rare import verdict_lines
+from mechrel.study.rare import verdict_lines
 from mechrel.uq import (
     FunctionModel,
     LimitState,

@@ -196,8 +196,8 @@ def test_the_reliability_summary_carries_warnings_and_ends_with_a_verdict(tmp_pa
 def test_the_verdict_on_a_dry_scene_says_fosm_does_not_apply(tmp_path):
     # the dry slider-crank (one cycle, 18° analysis points, 8 samples): FOSM warns that the model
     # is not smooth, and the verdict trusts Monte Carlo and says why not FOSM
-    from mechrel.studies.runner import run_reliability
-    from mechrel.studies.study import load_study
+    from mechrel.study.runner import run_reliability
+    from mechrel.study.study import load_study
 
     study = load_study({"scene": "slider-crank-dry", "cycles": 1, "angle_step": 18.0,
                         "scene_overrides": {"solver.rtol": 1e-6, "solver.atol": 1e-9},

@@ -1,7 +1,7 @@
 """Where a cold compilation of the main job's kernels goes: numba's compile time per function.
 
 A fresh process with an empty ``NUMBA_CACHE_DIR`` simulates the short run of the default
-study's scene (the lubricated nine-bar) that :func:`mechrel._kernel_cache.warm_up` makes, in
+study's scene (the lubricated nine-bar) that :func:`mechrel.warmup.warm_up` makes, in
 one process, recording numba's ``numba:compile`` events; each compiled function's *self* time
 (its compile time minus that of the functions compiled while it was being compiled) is
 printed, largest first, with the wall time and the total. The load average moves these times
@@ -26,7 +26,7 @@ from numba.core import event
 with event.install_recorder("numba:compile") as rec:
     from mechrel.scene import with_overrides
     from mechrel.simulation import simulate
-    from mechrel.studies.study import load_study
+    from mechrel.study.study import load_study
     scene = load_study("nine-bar-lubricated").model().scene
     a = scene.analysis
     step = a.sample_step_angle / abs(scene.drivers[a.cycle_driver].speed)

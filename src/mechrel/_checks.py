@@ -1,6 +1,6 @@
 """One validation toolkit: each value a user gives has one rule, whoever reads it.
 
-The scene files (:mod:`mechrel.scene`), the study files (:mod:`mechrel.studies.study`), the
+The scene files (:mod:`mechrel.scene`), the study files (:mod:`mechrel.study.study`), the
 estimators' arguments (:mod:`mechrel.uq`) and the command line (:mod:`mechrel.cli`) check
 their values with a :class:`Checker`, so that a value breaking a rule gets the same message
 wherever it was given: ``SOURCE: PATH = VALUE: PROBLEM; allowed: WHAT`` (``SOURCE`` is the

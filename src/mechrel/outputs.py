@@ -4,19 +4,14 @@ An ``[outputs.NAME]`` table of a scene picks a ``kind`` (default ``"point"``); e
 its scene fields, its quantities (with SI and display units and a default allowable error, if
 any), how they are computed from the mechanism's state, and what the ideal mechanism's value
 is. :data:`OUTPUT_KINDS` is that table; :data:`QUANTITY_INFO` indexes its quantities by name.
-The simulation (:func:`values`), the scene validation, the command line's summary and figures,
-the uncertainty model (:class:`~mechrel.uq.MechanismModel`) and the default allowables
-(:data:`mechrel.uq.problem.allowables.DEFAULT_ALLOWABLES`) all read it, so a new kind is one entry
-here, its scene fields in ``scene/_schema.py`` and ``scene/_validate.py`` (docs/scenes.md,
-"How to add an output kind").
+The scene validation, the simulation, the command line's summary and figures, the uncertainty
+model (:class:`~mechrel.uq.MechanismModel`) and the default allowables
+(:data:`mechrel.uq.problem.allowables.DEFAULT_ALLOWABLES`) all read it.
 
-Every function ``values(scene, compiled, output, st, ideal, actual, counterpart)`` gets the
-states :class:`States` (instants ``T``, coordinates ``Q`` (m, rad), their rates ``V`` and
-accelerations ``A``, one row per instant, and the history state ``H`` of the contact joints or
-None) and returns ``{quantity: array}`` in SI units; ``ideal`` says whether the state
-is the ideal mechanism's (for kinds whose ideal value is not the same formula on the ideal
-state), ``actual`` is the simulated scene (``scene`` may be a reference design) and
-``counterpart`` the scene whose ideal mechanism the errors are measured against.
+This module is the catalogue only, on the ground floor: it imports nothing of mechrel, so the
+scene can read it. The function that computes a kind's values from the mechanism's states is
+the kind's evaluator, in :mod:`mechrel.simulation.evaluators`; a new kind is one row here and
+one function there (docs/scenes.md, "How to add an output kind").
 """
 
 from __future__ import annotations
@@ -24,9 +19,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 from types import MappingProxyType
-from collections.abc import Callable, Mapping
-
-import numpy as np
+from collections.abc import Mapping
 
 
 @dataclass(frozen=True)
@@ -74,10 +67,9 @@ class OutputKind:
     quantities : tuple of Quantity
         What it measures, with units.
     computed, ideal : str
-        How the value and its ideal counterpart are computed (for the docs).
-    values : callable
-        ``values(scene, compiled, output, states, ideal, actual, counterpart) ->
-        {quantity: array}`` in SI units.
+        How the value and its ideal counterpart are computed (for the docs); the function
+        that computes them is the kind's evaluator
+        (:data:`mechrel.simulation.evaluators.EVALUATORS`).
 
     Examples
     --------
@@ -91,280 +83,11 @@ class OutputKind:
     quantities: tuple[Quantity, ...]
     computed: str
     ideal: str
-    values: Callable
-
-
-@dataclass(frozen=True)
-class States:
-    """The mechanism's states at some instants (rows): ``T`` (s), ``Q`` (m, rad), ``V``,
-    ``A``, and ``H`` the contact joints' history state (impact speeds, m/s) or None (the ideal
-    mechanism has none).
-
-    Parameters
-    ----------
-    T : numpy.ndarray
-        Instants (s).
-    Q : numpy.ndarray
-        Coordinates at each instant (m, rad), one row each.
-    V, A : numpy.ndarray
-        Their first and second time derivatives (m/s, rad/s; m/s², rad/s²).
-    H : numpy.ndarray, optional
-        History state of the contact joints (impact speeds, m/s), one row per instant.
-
-    Examples
-    --------
-    >>> z = np.zeros((2, 3))
-    >>> States(np.array([0.0, 0.1]), z, z, z).H is None
-    True
-    """
-
-    T: np.ndarray
-    Q: np.ndarray
-    V: np.ndarray
-    A: np.ndarray
-    H: np.ndarray | None = None
-
-
-def _body(compiled, name):
-    return compiled.body_index[name]
-
-
-def _point_values(scene, compiled, output, st, ideal, actual, counterpart):
-    """A body point's position, velocity and acceleration projected on the unit ``axis``."""
-    Q, V, A = st.Q, st.V, st.A
-    b = _body(compiled, output.point.body)
-    sx, sy = scene.bodies[output.point.body].points[output.point.point]
-    ux, uy = output.axis
-    th = Q[:, 3 * b + 2]
-    w = V[:, 3 * b + 2]
-    al = A[:, 3 * b + 2]
-    c, s = np.cos(th), np.sin(th)
-    ax, ay = c * sx - s * sy, s * sx + c * sy  # A s
-    px, py = Q[:, 3 * b] + ax, Q[:, 3 * b + 1] + ay
-    vx, vy = V[:, 3 * b] - ay * w, V[:, 3 * b + 1] + ax * w
-    accx = A[:, 3 * b] - ay * al - ax * w * w
-    accy = A[:, 3 * b + 1] + ax * al - ay * w * w
-    return {"displacement": px * ux + py * uy, "velocity": vx * ux + vy * uy,
-            "acceleration": accx * ux + accy * uy}
-
-
-def _body_values(scene, compiled, output, st, ideal, actual, counterpart):
-    """A body's absolute angle, angular velocity and angular acceleration."""
-    Q, V, A = st.Q, st.V, st.A
-    b = _body(compiled, output.body)
-    return {"angle": Q[:, 3 * b + 2], "angular_velocity": V[:, 3 * b + 2],
-            "angular_acceleration": A[:, 3 * b + 2]}
-
-
-def _global_point(scene, compiled, ref, Q):
-    if ref.body == "ground":
-        x, y = scene.ground[ref.point]
-        return np.full(Q.shape[0], float(x)), np.full(Q.shape[0], float(y))
-    b = _body(compiled, ref.body)
-    sx, sy = scene.bodies[ref.body].points[ref.point]
-    th = Q[:, 3 * b + 2]
-    c, s = np.cos(th), np.sin(th)
-    return Q[:, 3 * b] + c * sx - s * sy, Q[:, 3 * b + 1] + s * sx + c * sy
-
-
-def _joint_values(scene, compiled, output, st, ideal, actual, counterpart):
-    """Eccentricity ratio ε = |e|/c, minimum film thickness h_min = c (1 − ε) (rigid
-    surfaces; negative while a dry journal penetrates) and penetration max(|e| − c, 0) of a
-    clearance joint, e = journal point − bearing point. The ideal joint is concentric:
-    ε = 0, h_min = c (the clearance of the simulated scene ``actual``), no penetration."""
-    Q = st.Q
-    joint = scene.joints[output.joint]
-    c = joint.clearance
-    if ideal:
-        c = actual.joints[output.joint].clearance
-        n = Q.shape[0]
-        return {"eccentricity_ratio": np.zeros(n), "min_film_thickness": np.full(n, c),
-                "penetration": np.zeros(n),
-                "reaction_force": _multiplier_force(compiled, "ideal", output.joint, st)}
-    bx, by = _global_point(scene, compiled, joint.points[0], Q)
-    jx, jy = _global_point(scene, compiled, joint.points[1], Q)
-    e = np.hypot(jx - bx, jy - by)
-    if joint.is_clearance:
-        force = _clearance_force(scene, compiled, joint, st)
-    else:
-        force = _multiplier_force(compiled, "dynamic", output.joint, st)
-    return {"eccentricity_ratio": e / c, "min_film_thickness": c - e,
-            "penetration": np.maximum(e - c, 0.0), "reaction_force": force}
-
-
-def _global_velocity(scene, compiled, ref, Q, V):
-    if ref.body == "ground":
-        return np.zeros(Q.shape[0]), np.zeros(Q.shape[0]), np.zeros(Q.shape[0])
-    b = _body(compiled, ref.body)
-    sx, sy = scene.bodies[ref.body].points[ref.point]
-    th, w = Q[:, 3 * b + 2], V[:, 3 * b + 2]
-    c, s = np.cos(th), np.sin(th)
-    ax, ay = c * sx - s * sy, s * sx + c * sy
-    return V[:, 3 * b] - ay * w, V[:, 3 * b + 1] + ax * w, w
-
-
-def _clearance_force(scene, compiled, joint, st):
-    """|F| (N) of a clearance joint's force law (contact and friction, film, or both) at the
-    states, with the impact speeds of ``st.H`` (the force law of the simulation itself)."""
-    from .forces.joint import clearance_force
-
-    k = compiled.clearance_names.index(joint.name)
-    sys = compiled.dynamic
-    h = int(sys.cl_hist[k])
-    p = sys.cl_p[k]
-    bx, by = _global_point(scene, compiled, joint.points[0], st.Q)
-    jx, jy = _global_point(scene, compiled, joint.points[1], st.Q)
-    bvx, bvy, wb = _global_velocity(scene, compiled, joint.points[0], st.Q, st.V)
-    jvx, jvy, wj = _global_velocity(scene, compiled, joint.points[1], st.Q, st.V)
-    if h >= 0 and st.H is None:
-        raise ValueError("the history state is needed for a dry joint's force")
-    out = np.empty(st.Q.shape[0])
-    for i in range(out.size):
-        impact = float(st.H[i, h]) if h >= 0 else 0.0
-        fx, fy, _, _, _ = clearance_force(jx[i] - bx[i], jy[i] - by[i], jvx[i] - bvx[i],
-                                          jvy[i] - bvy[i], wb[i], wj[i], impact, p)
-        out[i] = math.hypot(fx, fy)
-    return out
-
-
-def _multiplier_force(compiled, which, name, st):
-    """|λ| (N) of the two constraint rows of revolute joint ``name`` in system ``which``
-    (``"ideal"`` or ``"dynamic"``): the force the joint transmits, from the equations of
-    motion at the states (for the driven ideal mechanism, its inverse dynamics)."""
-    from .mechanics.dynamics import N_WORK, accelerations_into, make_workspace
-
-    sys = getattr(compiled, which)
-    labels = compiled.labels[which]
-    r0, r1 = [i for i, lbl in enumerate(labels) if lbl.startswith(f"joints.{name} (")]
-    n = st.Q.shape[1]
-    ws = make_workspace(sys)
-    lam = ws.lam
-    Y = np.zeros((st.Q.shape[0], 2 * n + N_WORK))
-    Y[:, :n], Y[:, n:2 * n] = st.Q, st.V
-    use_h = st.H is not None and which == "dynamic" and st.H.shape[1] > 0
-    H = np.ascontiguousarray(st.H) if use_h else np.zeros((st.Q.shape[0], sys.n_contacts))
-    out = np.empty(st.Q.shape[0])
-    for i in range(out.size):
-        accelerations_into(float(st.T[i]), Y[i], H[i], sys, ws)
-        out[i] = math.hypot(lam[r0], lam[r1])
-    return out
 
 
 # Instants per cycle of the ideal path (a closed polyline) that path deviations are measured
 # against: chord sag ds² / (8 R) ≤ 1e-8 m for paths ≤ 1 m long with curvature radius ≥ 1 mm.
 PATH_POINTS = 7200
-_PATHS: dict = {}
-
-
-def ideal_path(counterpart, ref) -> np.ndarray:
-    """The path (PATH_POINTS + 1, 2) (m) of point ``ref`` on the ideal mechanism of
-    ``counterpart`` over one cycle of its cycle driver, from kinematic analysis (cached).
-
-    Parameters
-    ----------
-    counterpart : Scene
-        A fully driven scene with a cycle driver.
-    ref : PointRef
-        The point whose path is traced.
-
-    Returns
-    -------
-    ndarray, shape (PATH_POINTS + 1, 2)
-        Global coordinates (m), first and last rows the same point.
-
-    Raises
-    ------
-    SimulationError
-        A scene that is not fully driven or has no cycle driver.
-
-    Examples
-    --------
-    The slider of the slider-crank moves on a straight guide: its path is a segment of
-    twice the crank radius (0.05 m):
-
-    >>> from mechrel.scene import load_scene
-    >>> scene = load_scene("slider-crank")
-    >>> path = ideal_path(scene, scene.outputs["slider"].point)
-    >>> round(float(np.ptp(path[:, 0])), 9), round(float(np.ptp(path[:, 1])), 9)
-    (0.1, 0.0)
-    """
-    from .errors import SimulationError
-    from .mechanics.kinematics import assemble, kinematic_analysis
-    from .mechanics.system import compile_scene
-    from .scene import scene_hash
-
-    key = (scene_hash(counterpart), str(ref))
-    if key in _PATHS:
-        return _PATHS[key]
-    compiled = compile_scene(counterpart)
-    if compiled.period is None or compiled.ideal.n_constraints != compiled.q_guess.size:
-        raise SimulationError(f"a path output ({ref}) needs a fully driven mechanism with "
-                              "analysis.cycle_driver (its ideal path is one cycle of it); "
-                              "allowed: kind = 'point' on other scenes")
-    tol = counterpart.solver.assembly_tolerance
-    q0, _ = assemble(compiled.ideal, compiled.q_guess, 0.0, tol=tol,
-                     labels=compiled.labels["ideal"])
-    T = np.linspace(0.0, compiled.period, PATH_POINTS + 1)
-    Q, _, _, _ = kinematic_analysis(compiled.ideal, q0, T, tol=tol,
-                                    labels=compiled.labels["ideal"])
-    x, y = _global_point(counterpart, compiled, ref, Q)
-    if len(_PATHS) > 16:
-        _PATHS.clear()
-    _PATHS[key] = np.column_stack([x, y])
-    return _PATHS[key]
-
-
-def distance_to_path(px, py, path) -> np.ndarray:
-    """Distance (m) of the points (px, py) from the polyline ``path``: the smallest distance
-    to the segments next to the 8 nearest vertices (the nearest point of a finely sampled
-    smooth curve lies on one of them).
-
-    Parameters
-    ----------
-    px, py : array_like
-        Coordinates of the points (m).
-    path : ndarray, shape (m, 2)
-        The polyline's vertices (m), m >= 2.
-
-    Returns
-    -------
-    ndarray
-        One distance (m) per point.
-
-    Examples
-    --------
-    >>> path = np.array([[0.0, 0.0], [1.0, 0.0], [2.0, 0.0]])
-    >>> distance_to_path(np.array([0.5, 2.5]), np.array([0.3, 0.0]), path).tolist()
-    [0.3, 0.5]
-    """
-    from scipy.spatial import cKDTree
-
-    P = np.column_stack([px, py])
-    m = path.shape[0]
-    _, idx = cKDTree(path).query(P, k=min(8, m))
-    idx = np.atleast_2d(idx.T).T
-    best = np.full(P.shape[0], np.inf)
-    for col in range(idx.shape[1]):
-        for shift in (-1, 0):
-            i0 = np.clip(idx[:, col] + shift, 0, m - 2)
-            a, b = path[i0], path[i0 + 1]
-            ab = b - a
-            den = np.maximum(np.einsum("ij,ij->i", ab, ab), 1e-300)
-            t = np.clip(np.einsum("ij,ij->i", P - a, ab) / den, 0.0, 1.0)
-            d = np.hypot(*(P - a - t[:, None] * ab).T)
-            best = np.minimum(best, d)
-    return best
-
-
-def _path_values(scene, compiled, output, st, ideal, actual, counterpart):
-    """The distance of a point from the ideal mechanism's path of the same point (the coupler
-    curve), not from the same-time ideal point: a timing difference along the path is no
-    deviation. The ideal point is on its path: 0."""
-    Q = st.Q
-    if ideal:
-        return {"path_deviation": np.zeros(Q.shape[0])}
-    px, py = _global_point(scene, compiled, output.point, Q)
-    return {"path_deviation": distance_to_path(px, py, ideal_path(counterpart, output.point))}
 
 
 OUTPUT_KINDS: Mapping[str, OutputKind] = MappingProxyType({
@@ -375,16 +98,14 @@ OUTPUT_KINDS: Mapping[str, OutputKind] = MappingProxyType({
                     Quantity("acceleration", "m/s²", "m/s²", 1.0, (18.0, 6.0))),
         computed="the point's position, velocity and acceleration projected on the unit axis "
                  "(any direction)",
-        ideal="the same point of the ideal mechanism at the same instant",
-        values=_point_values),
+        ideal="the same point of the ideal mechanism at the same instant"),
     "body": OutputKind(
         name="body", fields=("body",),
         quantities=(Quantity("angle", "rad", "deg", 180.0 / math.pi),
                     Quantity("angular_velocity", "rad/s", "rad/s", 1.0),
                     Quantity("angular_acceleration", "rad/s²", "rad/s²", 1.0)),
         computed="the body's absolute angle θ and its first and second time derivatives",
-        ideal="the same body of the ideal mechanism at the same instant",
-        values=_body_values),
+        ideal="the same body of the ideal mechanism at the same instant"),
     "joint": OutputKind(
         name="joint", fields=("joint",),
         quantities=(Quantity("eccentricity_ratio", "1", "", 1.0),
@@ -397,15 +118,13 @@ OUTPUT_KINDS: Mapping[str, OutputKind] = MappingProxyType({
                  "and friction, film) for a clearance joint, the constraint force |λ| for an "
                  "ideal one",
         ideal="the ideal joint is concentric: ε = 0, h_min = c, no penetration; its force is "
-              "the ideal mechanism's constraint force |λ| (inverse dynamics)",
-        values=_joint_values),
+              "the ideal mechanism's constraint force |λ| (inverse dynamics)"),
     "path": OutputKind(
         name="path", fields=("point",),
         quantities=(Quantity("path_deviation", "m", "µm", 1e6),),
         computed="the distance from the point's position to the ideal mechanism's path of the "
                  "same point over one cycle (a polyline of PATH_POINTS instants)",
-        ideal="0: the ideal point lies on its own path",
-        values=_path_values),
+        ideal="0: the ideal point lies on its own path"),
 })
 
 #: Every quantity of every kind by name (names are unique across kinds).
@@ -432,54 +151,6 @@ def quantities_of(output) -> tuple[str, ...]:
     ('displacement', 'velocity', 'acceleration')
     """
     return tuple(q.name for q in OUTPUT_KINDS[output.kind].quantities)
-
-
-def values(scene, compiled, T, Q, V, A, *, H=None, ideal: bool = False, actual=None,
-           counterpart=None) -> dict:
-    """``{output: {quantity: array}}`` of every output of ``scene`` at the states (rows of
-    ``Q``, ``V``, ``A``); ``actual``: the simulated scene when ``scene`` is a reference
-    design, ``counterpart``: the scene whose ideal mechanism is the reference (both default
-    ``scene``).
-
-    Parameters
-    ----------
-    scene : Scene
-        Whose outputs are computed.
-    compiled : CompiledScene
-        ``scene`` compiled.
-    T : ndarray
-        Instants (s).
-    Q, V, A : ndarray, shape (len(T), n)
-        Coordinates (m, rad) and their derivatives.
-    H : ndarray, optional
-        The contact joints' history state (impact speeds, m/s).
-    ideal : bool
-        The states are of the ideal mechanism.
-    actual, counterpart : Scene, optional
-        See above.
-
-    Returns
-    -------
-    dict
-        ``{output: {quantity: ndarray}}`` in SI units.
-
-    Examples
-    --------
-    >>> from mechrel.mechanics.system import compile_scene
-    >>> from mechrel.scene import load_scene
-    >>> from mechrel.simulation import simulate
-    >>> scene = load_scene("slider-crank")
-    >>> r = simulate(scene)
-    >>> out = values(scene, compile_scene(scene), r.time, r.q, r.v, r.a, ideal=True)
-    >>> bool(np.array_equal(out["slider"]["displacement"], r.outputs["slider"]["displacement"]))
-    True
-    """
-    actual = scene if actual is None else actual
-    counterpart = scene if counterpart is None else counterpart
-    st = States(np.asarray(T, dtype=float), Q, V, A, H)
-    return {name: OUTPUT_KINDS[o.kind].values(scene, compiled, o, st, ideal, actual,
-                                              counterpart)
-            for name, o in scene.outputs.items()}
 
 
 def display(quantity: str) -> tuple[str, float]:

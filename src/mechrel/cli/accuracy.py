@@ -8,7 +8,7 @@ from .terminal import say
 
 def _cmd_accuracy(args) -> int:
     from ..scene import load_scene
-    from ..studies.accuracy import run_accuracy
+    from ..study.accuracy import run_accuracy
 
     scene = load_scene(args.scene, overrides=args.overrides)
     lines, _ = run_accuracy(scene, target=args.target, quick=args.quick, out=args.out,

@@ -60,7 +60,7 @@ def _cmd_animate(args) -> int:
     import matplotlib
 
     matplotlib.use("Agg")
-    from .._kernel_cache import warm_up
+    from ..warmup import warm_up
     from ..io.drawing import (ANIMATION_FORMATS, animate, animation_output,
                               check_animation_path, save_animation)
     from ..io.results import result_set

@@ -96,7 +96,7 @@ def _cmd_simulate(args) -> int:
                 raise OutputError(f"--out: {str(sibling)!r}, which this run writes beside "
                                   f"{out.name}, is a folder; allowed: a file name (remove or "
                                   "rename the folder)")
-    from .._kernel_cache import warm_up
+    from ..warmup import warm_up
 
     # announces a cold cache's compilation, of the kernel of the integrator the run uses
     warm_up(scene, integrator=args.integrator, progress=not args.no_progress)

@@ -1,6 +1,6 @@
 """``mechrel reliability``, ``mechrel sensitivity`` and ``mechrel design``: a study file run by
-the estimators of :mod:`mechrel.uq` (:mod:`mechrel.studies.runner`,
-:mod:`mechrel.studies.design`)."""
+the estimators of :mod:`mechrel.uq` (:mod:`mechrel.study.runner`,
+:mod:`mechrel.study.design`)."""
 
 from __future__ import annotations
 
@@ -49,7 +49,7 @@ def split_overrides(texts) -> tuple[dict, dict]:
     ({'reliability.n': 512}, {'joints.C1.model': 'dry'})
     """
     from ..scene.loader import parse_override
-    from ..studies.study import study_fields
+    from ..study.study import study_fields
 
     study, scene = {}, {}
     fields = study_fields()
@@ -167,7 +167,7 @@ def _warnings_in_summary():
 
 
 def _load(args):
-    from ..studies.study import load_study
+    from ..study.study import load_study
 
     study_fields, scene = split_overrides(args.overrides)
     if args.scene:  # given on the command line: not confined to the study file's folder
@@ -193,7 +193,7 @@ def _jobs(args) -> int:
 
 
 def _cmd_reliability(args) -> int:
-    from ..studies.runner import run_reliability
+    from ..study.runner import run_reliability
 
     study = _load(args)
     methods = None if args.method is None else tuple(args.method)
@@ -209,7 +209,7 @@ def _cmd_reliability(args) -> int:
 
 
 def _cmd_sensitivity(args) -> int:
-    from ..studies.runner import run_sensitivity
+    from ..study.runner import run_sensitivity
 
     study = _load(args)
     with dask_backend(args.scheduler) as backend, _warnings_in_summary():
@@ -222,7 +222,7 @@ def _cmd_sensitivity(args) -> int:
 
 
 def _cmd_design(args) -> int:
-    from ..studies.design import run_design
+    from ..study.design import run_design
 
     study = _load(args)
     with dask_backend(args.scheduler) as backend, _warnings_in_summary():
@@ -280,7 +280,7 @@ def register_reliability(sub) -> None:
     >>> args.command, args.method, args.n
     ('reliability', ['fosm'], None)
     """
-    from ..studies.study import rare_event_methods, study_methods
+    from ..study.study import rare_event_methods, study_methods
 
     rare = ", ".join(f"{k} ({m.name})" for k, m in rare_event_methods().items())
     p = sub.add_parser(

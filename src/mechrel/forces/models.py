@@ -6,7 +6,7 @@ behaves numerically (stiff, chaotic), which scene sub-tables it requires and whi
 which integrator it runs with by default. The scene validation (:mod:`mechrel.scene._validate`),
 the parameter packing (:func:`pack_joint`), the compiled system (:mod:`mechrel.mechanics.system`),
 the simulation defaults (:mod:`mechrel.simulation`), the integrators' failure advice
-(:mod:`mechrel.integrate.base`) and the accuracy study (:mod:`mechrel.studies.accuracy`) read
+(:mod:`mechrel.integrate.base`) and the accuracy study (:mod:`mechrel.study.accuracy`) read
 this table instead of testing model names. The compiled force law branches on the integer
 ``code`` (:func:`mechrel.forces.joint.clearance_force`).
 

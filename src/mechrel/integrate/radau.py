@@ -98,7 +98,7 @@ helper with a documented contract, in the order a step calls them (the subroutin
 
 The helpers' arithmetic is the kernel's, in the same order, so the cut left every result
 bitwise unchanged. :func:`_solve_collocation` is compiled on its own (the cold warm-up compiles
-it in its helper process, :func:`mechrel._kernel_cache.split_compile`); the others are
+it in its helper process, :func:`mechrel.warmup.split_compile`); the others are
 ``inline='always'``, compiled into the kernel: as separate functions they added about 10 s to
 a cold one-process compile (each passes the System and Workspace tuples) for no gain at run
 time. The called helpers take their arrays borrowed at entry

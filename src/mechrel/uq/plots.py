@@ -472,7 +472,7 @@ def plot_whole_cycle(estimates: pd.DataFrame, *, target: float | None = None, ti
     Parameters
     ----------
     estimates : pandas.DataFrame
-        :func:`mechrel.studies.rare.whole_cycle_estimates`: ``method``, ``group``, ``pf``,
+        :func:`mechrel.study.rare.whole_cycle_estimates`: ``method``, ``group``, ``pf``,
         ``pf_lo``, ``pf_hi``, ``kind``, ``n_failures``.
     target : float, optional
         The largest acceptable P_f (1 − the target reliability).

@@ -24,7 +24,7 @@ its settings with defaults and checks, and its kind. The older estimators (``fos
 ``monte_carlo``, ``polynomial_chaos``, ``sobol_indices``) are listed by reference, their
 settings read from their signatures (their own argument checks apply). Adding a method is one
 module plus one :func:`register` call (or one entry below); the study runner and the command
-line then offer it (:mod:`mechrel.studies.presenters`); ``docs/uq.md`` ("How to add a method")
+line then offer it (:mod:`mechrel.study.presenters`); ``docs/uq.md`` ("How to add a method")
 shows it.
 """
 

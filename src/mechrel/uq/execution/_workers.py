@@ -20,7 +20,7 @@
   ``MECHREL_PARENT_PID``) and ends itself within :data:`WATCH_INTERVAL` s of that process's end
   — also after a ``kill -9`` of the parent, which gives the parent no chance to stop them.
   On Ctrl-C or SIGTERM the parent stops them itself (joblib aborts the pool). The compile
-  helper of :func:`mechrel._kernel_cache.split_compile` watches its parent the same way.
+  helper of :func:`mechrel.warmup.split_compile` watches its parent the same way.
 
 The backend is registered with joblib as ``"mechrel-loky"``: joblib's loky backend with the
 environment above added to the one joblib gives its workers (thread limits).
@@ -127,7 +127,7 @@ def _watch(parent: int) -> None:
 
 def watch_parent() -> None:
     """In a worker started by :func:`register_backend`'s backend, or a compile helper of
-    :func:`mechrel._kernel_cache.split_compile` (both pass this process's parent id as
+    :func:`mechrel.warmup.split_compile` (both pass this process's parent id as
     ``MECHREL_PARENT_PID``): start (once per process) a daemon thread that ends the process
     when its parent ends. Elsewhere: nothing."""
     global _watching

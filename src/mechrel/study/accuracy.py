@@ -475,7 +475,7 @@ def default_candidates(scene, kind: str, quick: bool = False) -> list[tuple[str,
     (4, 'dopri5', 0.0001, 'rk4')
     """
     from ..integrate import INTEGRATORS
-    from ..simulation import compile_scene
+    from ..mechanics.system import compile_scene
 
     period = compile_scene(scene).period or scene.analysis_duration
     cands: list[tuple[str, dict]] = []
@@ -882,7 +882,7 @@ def accuracy_report(scene, *, candidates=None, reference=None, target: float = 0
         conclusion = (f"no setting met the target {target:g}"
                       + (" (every error is resolved above it)" if R > 1 else "")
                       + "; tighten the candidates")
-    from ..simulation import _provenance
+    from ..simulation.result import _provenance
     ref_info = {"integrator": reference[0], **reference[1]}
     if statistical:
         ref_info.update(ensemble=R, wall_time=float(np.median(ref_run.wall_times)),

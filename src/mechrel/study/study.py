@@ -173,7 +173,7 @@ class Study:
         ``sense``, ``constraints`` (``[{reliability, quantity, basis}]``), ``method`` (a key of
         :data:`mechrel.uq.design.DESIGN_METHODS`), ``settings`` (its table
         ``[design.KEY]``), ``verify``, ``tradeoff``, ``seed``, ``max_failure_fraction``
-        (:mod:`mechrel.studies.design`).
+        (:mod:`mechrel.study.design`).
     source : str, optional
         Where the study was read from.
 
@@ -293,7 +293,7 @@ def embedded_studies() -> tuple[str, ...]:
     >>> "nine-bar-lubricated" in embedded_studies()
     True
     """
-    d = resources.files("mechrel.studies").joinpath("data")
+    d = resources.files("mechrel.study").joinpath("data")
     return tuple(sorted(p.name[:-5] for p in d.iterdir() if p.name.endswith(".toml")))
 
 
@@ -313,7 +313,7 @@ def _read(source) -> tuple[dict, str, Path | None]:
     src = str(source)
     if src in embedded_studies():
         label, base_dir = f"<embedded study {src}>", None
-        data = resources.files("mechrel.studies").joinpath("data", src + ".toml").read_bytes()
+        data = resources.files("mechrel.study").joinpath("data", src + ".toml").read_bytes()
     else:
         p = Path(src)
         if not p.is_file():

@@ -28,7 +28,7 @@ def methods_of(study, target: float, n: int) -> list[str]:
 
     Parameters
     ----------
-    study : mechrel.studies.study.Study
+    study : mechrel.study.study.Study
         The study (``inverse.methods``).
     target : float
         The target reliability.
@@ -42,7 +42,7 @@ def methods_of(study, target: float, n: int) -> list[str]:
 
     Examples
     --------
-    >>> from mechrel.studies.rare import _demo
+    >>> from mechrel.study.rare import _demo
     >>> study, _ = _demo()
     >>> methods_of(study, 0.99, 2000), methods_of(study, 0.999, 2000)
     (['mc'], ['subset'])
@@ -55,7 +55,7 @@ def methods_of(study, target: float, n: int) -> list[str]:
 
 def estimate_one(ctx, key: str):
     """Run the inverse method ``key`` on the study of ``ctx`` (a
-    :class:`~mechrel.studies.presenters.Context` whose ``target`` is set).
+    :class:`~mechrel.study.context.Context` whose ``target`` is set).
 
     The result goes to ``ctx.results["inverse_KEY"]``, its evaluations to
     ``ctx.evaluations["inverse_KEY"]`` (not when it reuses the forward Monte Carlo's); a method
@@ -64,7 +64,7 @@ def estimate_one(ctx, key: str):
 
     Parameters
     ----------
-    ctx : mechrel.studies.presenters.Context
+    ctx : mechrel.study.context.Context
         The run.
     key : str
         A key of :data:`mechrel.uq.inverse.INVERSE_METHODS`.
@@ -82,8 +82,8 @@ def estimate_one(ctx, key: str):
 
     Examples
     --------
-    >>> from mechrel.studies.presenters import Context
-    >>> from mechrel.studies.rare import _demo
+    >>> from mechrel.study.context import Context
+    >>> from mechrel.study.rare import _demo
     >>> study, model = _demo()   # velocity extreme 6 + x1 + x2 (m/s), x standard normal
     >>> ctx = Context(study, model, study.uncertain_inputs(), study.allowables(), "two-sided",
     ...               seed=7, n=1000, max_failure_fraction=0.1, common={"progress": False},
@@ -144,8 +144,8 @@ def table(results) -> pd.DataFrame:
 
     Examples
     --------
-    >>> from mechrel.studies.presenters import Context
-    >>> from mechrel.studies.rare import _demo
+    >>> from mechrel.study.context import Context
+    >>> from mechrel.study.rare import _demo
     >>> study, model = _demo()
     >>> ctx = Context(study, model, study.uncertain_inputs(), study.allowables(), "two-sided",
     ...               seed=7, n=1000, max_failure_fraction=0.1, common={"progress": False},
@@ -172,7 +172,7 @@ def summary_lines(ctx, results) -> list[str]:
 
     Parameters
     ----------
-    ctx : mechrel.studies.presenters.Context
+    ctx : mechrel.study.context.Context
         The run (its study's allowables, for the note on their std).
     results : dict
         ``{key: InverseResult}``.
@@ -184,8 +184,8 @@ def summary_lines(ctx, results) -> list[str]:
 
     Examples
     --------
-    >>> from mechrel.studies.presenters import Context
-    >>> from mechrel.studies.rare import _demo
+    >>> from mechrel.study.context import Context
+    >>> from mechrel.study.rare import _demo
     >>> study, model = _demo()
     >>> ctx = Context(study, model, study.uncertain_inputs(), study.allowables(), "two-sided",
     ...               seed=7, n=1000, max_failure_fraction=0.1, common={"progress": False},
@@ -239,8 +239,8 @@ def record(results) -> dict:
 
     Examples
     --------
-    >>> from mechrel.studies.presenters import Context
-    >>> from mechrel.studies.rare import _demo
+    >>> from mechrel.study.context import Context
+    >>> from mechrel.study.rare import _demo
     >>> study, model = _demo()
     >>> ctx = Context(study, model, study.uncertain_inputs(), study.allowables(), "two-sided",
     ...               seed=7, n=1000, max_failure_fraction=0.1, common={"progress": False},

@@ -27,8 +27,9 @@ import time
 from ..errors import StudyError
 from ..io import write_json, write_table
 from ..uq._common import SampleFailuresError
-from .runner import (_agg, _check_run, _failure_counts, _failure_lines, _holds_output_folder,
-                     _refusal, _save, _warm_up, _write_failures)
+from .presenters import _agg, _save
+from .runner import (_check_run, _failure_counts, _failure_lines, _holds_output_folder,
+                     _refusal, _write_failures, warm_up)
 
 __all__ = ["run_design", "DESIGN_FILES", "design_model"]
 
@@ -43,7 +44,7 @@ def design_model(study):
 
     Parameters
     ----------
-    study : mechrel.studies.study.Study
+    study : mechrel.study.study.Study
         A study with a ``[design]`` section.
 
     Returns
@@ -58,7 +59,7 @@ def design_model(study):
 
     Examples
     --------
-    >>> from mechrel.studies.study import load_study
+    >>> from mechrel.study.study import load_study
     >>> study = load_study({"scene": "slider-crank-lubricated", "quantities": ["velocity"],
     ...     "inputs": {"c": {"paths": ["joints.C.clearance"], "distribution": "normal",
     ...                      "mean": 0.5e-3, "std": 2e-5}},
@@ -97,7 +98,7 @@ def run_design(study, *, method=None, n_jobs=1, seed=None, out=None, progress=Tr
     Parameters
     ----------
     study : Study
-        From :func:`~mechrel.studies.study.load_study`, with a ``[design]`` section.
+        From :func:`~mechrel.study.study.load_study`, with a ``[design]`` section.
     method : str, optional
         A key of :data:`mechrel.uq.design.DESIGN_METHODS`; default: the study's
         ``design.method``.
@@ -141,7 +142,7 @@ def run_design(study, *, method=None, n_jobs=1, seed=None, out=None, progress=Tr
     method on 10 samples per design and at most 2 designs, no verification: far too few for an
     answer, which the warnings say):
 
-    >>> from mechrel.studies.study import load_study
+    >>> from mechrel.study.study import load_study
     >>> study = load_study({"scene": "slider-crank-lubricated", "quantities": ["velocity"],
     ...     "angle_step": 90.0, "cycles": 1, "allowable": {"velocity": {"mean": 0.3}},
     ...     "inputs": {"c": {"paths": ["joints.C.clearance"], "distribution": "normal",
@@ -177,7 +178,7 @@ def run_design(study, *, method=None, n_jobs=1, seed=None, out=None, progress=Tr
     _check_run(n=2, seed=seed, n_jobs=n_jobs, backend=backend,
                max_failure_fraction=max_failure_fraction, model=model, inputs=inputs,
                rows_per_n=0)
-    _warm_up(model, progress)
+    warm_up(model, progress=progress)
     record = {"study": study.name, "source": study.source, "method": method, "seed": seed,
               "max_failure_fraction": max_failure_fraction, "design": {
                   k: v for k, v in cfg.items() if k != "settings"}, "settings": chosen}

@@ -8,7 +8,7 @@ import time
 
 import pandas as pd
 
-from ..io import save_figure, write_json, write_table
+from ..io import write_json, write_table
 from ..io.lock import hold_folder
 from ..io.results import check_folder, removed_if_left_empty, result_set
 from ..outputs import QUANTITY_INFO
@@ -132,19 +132,6 @@ def _refusal(exc, evaluations, out, files, record, section, known=()):
         "study file", exc.evaluations)
 
 
-def _agg() -> None:
-    """Draw without a display (before pyplot is imported; keeps a backend already chosen)."""
-    import matplotlib
-    matplotlib.use("Agg", force=False)
-
-
-def _save(fig, path) -> None:
-    import matplotlib.pyplot as plt
-
-    save_figure(fig, path, dpi=130)  # atomically: temporary file, then rename
-    plt.close(fig)
-
-
 def warm_up(model, *, progress: bool = True) -> float:
     """Compile the simulation kernels a model needs, once, before its samples run.
 
@@ -177,7 +164,7 @@ def warm_up(model, *, progress: bool = True) -> float:
     >>> warm_up(model, progress=False)             # then nothing is left to compile
     0.0
     """
-    from .._kernel_cache import warm_up as compile_kernels
+    from ..warmup import warm_up as compile_kernels
 
     return compile_kernels(model.scene, progress=progress)
 
@@ -209,19 +196,19 @@ def run_reliability(study, *, methods=None, n=None, n_jobs=1, seed=None, out=Non
     """Run the study's reliability methods and write their results to ``out``.
 
     The methods are those of the registry (:data:`mechrel.uq.estimators.METHODS`), each run
-    and presented by its :class:`~mechrel.studies.presenters.Presenter`; nothing here names a
+    and presented by its :class:`~mechrel.study.presenters.Presenter`; nothing here names a
     method.
 
     Parameters
     ----------
     study : Study
-        From :func:`~mechrel.studies.study.load_study`.
+        From :func:`~mechrel.study.study.load_study`.
     methods : sequence of str, optional
-        Study-file names of registered methods (:func:`~mechrel.studies.study.study_methods`:
+        Study-file names of registered methods (:func:`~mechrel.study.study.study_methods`:
         ``"fosm"``, ``"mc"``, ``"pce"``, ``"form"``, ``"sorm"``, ``"is"``, ``"subset"``, ...)
         or ``"all"`` (every one). Default: the study's ``reliability.methods``. The rare-event
         methods (settings from the study's ``[form]``, ``[sorm]``, ``[is]``, ``[subset]``)
-        estimate the whole-cycle failure probability (:mod:`mechrel.studies.rare`).
+        estimate the whole-cycle failure probability (:mod:`mechrel.study.rare`).
     n, seed, max_failure_fraction : optional
         Monte Carlo samples, seed, and the largest fraction of failed samples the sampling
         methods accept; default: the study's.
@@ -236,7 +223,7 @@ def run_reliability(study, *, methods=None, n=None, n_jobs=1, seed=None, out=Non
         Cache the model evaluations in ``out/evaluations.sqlite``.
     target_reliability : float or False, optional
         Ask the inverse question too: the allowables at which the whole-cycle reliability is
-        this, in (0, 1) (:mod:`mechrel.studies.inverse`; ``inverse.csv``, the summary's
+        this, in (0, 1) (:mod:`mechrel.study.inverse`; ``inverse.csv``, the summary's
         ``allowable for`` lines, ``summary.json``'s ``inverse``). Default (None): the study's
         ``inverse.target``, if it has one; False: not asked.
 
@@ -257,7 +244,7 @@ def run_reliability(study, *, methods=None, n=None, n_jobs=1, seed=None, out=Non
     --------
     FOSM (three simulations) on a one-cycle slider-crank with an uncertain clearance:
 
-    >>> from mechrel.studies.study import load_study
+    >>> from mechrel.study.study import load_study
     >>> study = load_study({"scene": "slider-crank-lubricated", "quantities": ["velocity"],
     ...                     "angle_step": 90.0, "cycles": 1,
     ...                     "inputs": {"c": {"paths": ["joints.C.clearance"],
@@ -267,7 +254,8 @@ def run_reliability(study, *, methods=None, n=None, n_jobs=1, seed=None, out=Non
     >>> list(results), results["fosm"].n_evaluations
     (['fosm'], 3)
     """
-    from .presenters import COMBINED, Context, presenter_class, warnings_of
+    from .context import Context
+    from .presenters import COMBINED, presenter_class, warnings_of
     from .rare import evaluation_counts
     from .study import study_methods
 
@@ -367,6 +355,8 @@ def run_reliability(study, *, methods=None, n=None, n_jobs=1, seed=None, out=Non
             plotted = [r for p in ctx.presenters for r in p.plotted(ctx)]
             if plotted:
                 from ..uq.plots import plot_reliability
+                from .presenters import _agg, _save
+
                 _agg()
 
                 _save(plot_reliability(*plotted, title=f"{study.name}: reliability per crank "
@@ -408,7 +398,7 @@ def run_sensitivity(study, *, n=None, n_jobs=1, seed=None, out=None, progress=Tr
     Parameters
     ----------
     study : Study
-        From :func:`~mechrel.studies.study.load_study`.
+        From :func:`~mechrel.study.study.load_study`.
     n : int, optional
         Saltelli base samples (N (d + 2) model runs); default: the study's
         ``sensitivity.n``.
@@ -449,7 +439,7 @@ def run_sensitivity(study, *, n=None, n_jobs=1, seed=None, out=None, progress=Tr
     N = 8 base samples of one input: 8 (1 + 2) = 24 simulations of a one-cycle slider-crank
     (far too few to rank inputs: the result warns so):
 
-    >>> from mechrel.studies.study import load_study
+    >>> from mechrel.study.study import load_study
     >>> study = load_study({"scene": "slider-crank-lubricated", "quantities": ["velocity"],
     ...                     "angle_step": 90.0, "cycles": 1,
     ...                     "inputs": {"c": {"paths": ["joints.C.clearance"],
@@ -503,6 +493,9 @@ def run_sensitivity(study, *, n=None, n_jobs=1, seed=None, out=None, progress=Tr
         with result_set(out, "sensitivity", known=SENSITIVITY_RESULTS) as stage:
             write_table(table, stage / "sensitivity.csv")
             from ..uq.plots import plot_sobol
+
+            from .presenters import _agg, _save
+
             _agg()
 
             _save(plot_sobol(res, title=f"{study.name}: what drives the error"),

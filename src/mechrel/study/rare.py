@@ -63,7 +63,7 @@ def whole_cycle_limit_state(study, model):
 
     Parameters
     ----------
-    study : mechrel.studies.study.Study
+    study : mechrel.study.study.Study
         The study (its quantities, allowables and ``reliability.event``).
     model : mechrel.uq.Model
         The model; its outputs must include the cycle extremes of the study's quantities.
@@ -112,8 +112,8 @@ def whole_cycle_limit_state(study, model):
 
 def estimate_one(ctx, method):
     """Run the rare-event ``method`` (a registry entry) on the study of ``ctx`` (a
-    :class:`~mechrel.studies.presenters.Context`): its settings from the study file's table
-    (:meth:`~mechrel.studies.presenters.Context.settings`), the whole-cycle limit state, and,
+    :class:`~mechrel.study.context.Context`): its settings from the study file's table
+    (:meth:`~mechrel.study.context.Context.settings`), the whole-cycle limit state, and,
     for a method with a ``design_point`` setting, an earlier FORM result of this run (same
     model, inputs and limit state), else FORM run with the study's ``[form]`` settings (the
     FORM settings of the method's own table over them). The result goes to
@@ -123,7 +123,7 @@ def estimate_one(ctx, method):
 
     Parameters
     ----------
-    ctx : mechrel.studies.presenters.Context
+    ctx : mechrel.study.context.Context
         The run: study, model, inputs, seed, the estimators' common arguments, the results
         so far (``ctx.results``) and the notes (``ctx.notes``).
     method : mechrel.uq.estimators.Method
@@ -221,7 +221,7 @@ def estimate(study, model, inputs, keys, *, seed, common, max_failure_fraction=N
 
     Parameters
     ----------
-    study : mechrel.studies.study.Study
+    study : mechrel.study.study.Study
         The study: allowables, quantities, the methods' settings tables.
     model : mechrel.uq.Model
         The model; its outputs must include the cycle extremes of the study's quantities.
@@ -260,7 +260,7 @@ def estimate(study, model, inputs, keys, *, seed, common, max_failure_fraction=N
     >>> round(results["form"].beta, 6), notes
     (2.828427, [])
     """
-    from .presenters import Context
+    from .context import Context
 
     ctx = Context(study=study, model=model, inputs=inputs, allowables=study.allowables(),
                   event=study.reliability["event"], seed=seed, n=study.reliability["n"],

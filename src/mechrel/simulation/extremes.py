@@ -1,0 +1,119 @@
+"""The cycle extremes: each output's largest and smallest error over the analysis window
+(the last cycle of the cycle driver), found on the integrator's solution log
+(docs/mechanics.md, "Cycle extremes"), and per sector of the cycle."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..errors import SimulationError
+from ..mechanics.system import CompiledScene
+
+from .times import _crank_angle
+
+# Points of the integrator's continuous extension logged inside each step for the cycle
+# extremes, beside the step's end (docs/mechanics.md, "Cycle extremes"): the four-bar's peak
+# acceleration errors change by < 1e-3 (relative) from 3 to 15 points (tests/test_extremes.py).
+DENSE_POINTS = 3
+# Kinematic-only runs (an ideal scene against a reference design) have no steps: their extremes
+# come from this many equal intervals of the window (smooth errors, error of the peak
+# ~ (window / KINEMATIC_POINTS)^2 / 8 of its curvature).
+KINEMATIC_POINTS = 3600
+# The statistics of every output's error over the window, in SimulationResult.extremes.
+EXTREME_FIELDS = ("max", "max_time", "max_angle", "min", "min_time", "min_angle",
+                  "max_abs", "max_abs_time", "max_abs_angle")
+
+
+def analysis_window(compiled: CompiledScene, times: np.ndarray) -> float:
+    """Start (s) of the window the cycle extremes cover: the last cycle of the cycle driver
+    (one period before the last output instant), or the whole span without a cycle driver.
+
+    Parameters
+    ----------
+    compiled : CompiledScene
+        The compiled scene (its cycle driver and period, s).
+    times : ndarray
+        The output instants (s).
+
+    Returns
+    -------
+    float
+        The window's start (s).
+
+    Examples
+    --------
+    >>> from mechrel.simulation import output_times
+    >>> from mechrel.mechanics.system import compile_scene
+    >>> from mechrel.scene import load_scene
+    >>> scene = load_scene("slider-crank-dry")  # two revolutions of 12 ms
+    >>> compiled = compile_scene(scene)
+    >>> round(analysis_window(compiled, output_times(scene, compiled)), 9)
+    0.012
+    """
+    if compiled.cycle_driver < 0 or compiled.period is None:
+        return float(times[0])
+    return max(float(times[0]), float(times[-1]) - compiled.period)
+
+
+def _window_points(times: np.ndarray, t_lo: float, extra_t: np.ndarray):
+    """The output instants at or after ``t_lo`` merged with the instants ``extra_t``, sorted,
+    duplicates dropped: ``(T, sel, first)`` with ``sel`` the mask of the output instants kept
+    and ``first`` the positions in ``concatenate([times[sel], extra_t])`` that make ``T``."""
+    span = max(float(times[-1]) - t_lo, 1.0)
+    sel = times >= t_lo - 1e-12 * span
+    T = np.concatenate([times[sel], extra_t])
+    T, first = np.unique(T, return_index=True)
+    return T, sel, first
+
+
+def _extremes_of(scene, compiled, T, outputs, ideal, sectors=None):
+    """``({output: {quantity: {field: value}}}, sector extremes or None)`` of the error
+    ``outputs − ideal`` at ``T``; with ``sectors`` (degrees), per output and quantity the
+    largest and smallest error over each closed sector [k·sectors, (k + 1)·sectors] of the
+    window's crank angle (:func:`_sector_extremes`)."""
+    angles = _crank_angle(scene, compiled, T)
+    out = {}
+    by_sector = {} if sectors else None
+    for name, quantities in outputs.items():
+        out[name] = {}
+        for qty, values in quantities.items():
+            err = values - ideal[name][qty]
+            if not np.all(np.isfinite(err)):
+                raise SimulationError(f"output {name}.{qty}: a non-finite error on the "
+                                      "solution log (cycle extremes)")
+            d = {}
+            for key, i in (("max", int(np.argmax(err))), ("min", int(np.argmin(err))),
+                           ("max_abs", int(np.argmax(np.abs(err))))):
+                d[key] = float(abs(err[i]) if key == "max_abs" else err[i])
+                d[f"{key}_time"] = float(T[i])
+                d[f"{key}_angle"] = float(angles[i]) if angles is not None else math.nan
+            out[name][qty] = {k: d[k] for k in EXTREME_FIELDS}
+            if sectors:
+                by_sector.setdefault(name, {})[qty] = _sector_extremes(err, angles, sectors)
+    return out, by_sector
+
+
+def _sector_extremes(err: np.ndarray, angles: np.ndarray, step: float):
+    """``(max, min)`` of ``err`` over the closed sectors [k·step, (k + 1)·step] of the crank
+    angle since the window's start (degrees), k = 0 … 360/step − 1: the whole cycle is their
+    union, so the cycle's extremes are the sectors' extremes (a point on a boundary counts in
+    both sectors)."""
+    n = int(round(360.0 / step))
+    rel = (angles - angles[0]) / step
+    k = np.clip(np.floor(rel + 1e-9).astype(int), 0, n - 1)
+    smax = np.full(n, -np.inf)
+    smin = np.full(n, np.inf)
+    np.maximum.at(smax, k, err)
+    np.minimum.at(smin, k, err)
+    edge = np.abs(rel - np.round(rel)) <= 1e-9
+    prev = np.round(rel).astype(int) - 1
+    on = edge & (prev >= 0) & (prev < n)
+    np.maximum.at(smax, prev[on], err[on])
+    np.minimum.at(smin, prev[on], err[on])
+    if not (np.all(np.isfinite(smax)) and np.all(np.isfinite(smin))):
+        raise SimulationError(f"sector extremes: a sector of {step:g}° holds no point of the "
+                              "solution "
+                              "log; allowed: sectors no finer than the output grid")
+    return smax, smin

@@ -1,0 +1,416 @@
+"""Run a scene: ``simulate(scene) -> SimulationResult``.
+
+What runs depends only on what the scene declares:
+
+* no clearance joints and fully driven → kinematic analysis only (no dynamics);
+* clearance joints → forward dynamics of the mechanism with the clearance joints as force
+  elements, plus the ideal counterpart (the same scene with those joints ideal) by kinematic
+  analysis when it is fully driven (by forward dynamics otherwise), and the errors;
+* undriven (free) mechanisms → forward dynamics.
+
+A run that ends where its force laws have no meaning (a journal through its film, a
+penetration beyond the clearance) raises :class:`~mechrel.errors.SimulationError`.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Mapping
+
+import numpy as np
+
+from ..errors import AssemblyError, SimulationError
+from ..forces.models import MODELS
+from ..integrate import IntegrationResult
+from ..mechanics.dynamics import N_WORK
+from ..mechanics.kinematics import assemble, kinematic_analysis
+from ..mechanics.post import post_process
+from ..mechanics.system import CompiledScene, compile_scene
+from ..scene.model import Scene
+
+from .evaluators import values
+from .extremes import (DENSE_POINTS, KINEMATIC_POINTS, _extremes_of, _window_points,
+                       analysis_window)
+from .reference import (ReferenceDesign, _check_reference, _ideal_at, _ideal_by_dynamics,
+                        _reference_outputs)
+from .result import SimulationResult, _provenance
+from .solver import _check_step_budget, make_integrator
+from .times import _crank_angle, output_times
+
+def _orbits_and_energy(compiled: CompiledScene, res: IntegrationResult):
+    """Journal orbits and the energy bookkeeping at the output instants (one compiled call)."""
+    from ..forces.params import P_C
+
+    sys = compiled.dynamic
+    n = sys.mass.shape[0]
+    Y = np.ascontiguousarray(res.y)
+    EX, EY, T, V, E = post_process(np.ascontiguousarray(res.t), Y, sys)
+    orbits = {name: {"ex": EX[:, k], "ey": EY[:, k],
+                     "eps": np.hypot(EX[:, k], EY[:, k]) / sys.cl_p[k, P_C]}
+              for k, name in enumerate(compiled.clearance_names)}
+    win, wcl = Y[:, 2 * n], Y[:, 2 * n + 1]
+    energy = {"kinetic": T, "potential": V, "elastic": E, "input_work": win,
+              "clearance_work": wcl, "dissipated": -wcl - (E - E[0]),
+              "balance": (T - T[0]) + (V - V[0]) - win - wcl}
+    return orbits, energy
+
+
+def _check_orbits(scene: Scene, times: np.ndarray, orbits) -> None:
+    """Raise :class:`SimulationError` when a journal is where its force law has no meaning:
+    a lubricated journal at or beyond the bearing wall (ε ≥ 1; the film's divergence is what
+    keeps it inside, docs/forces.md §5, so reaching the wall means the integrator stepped over
+    the film), or a dry/transition penetration δ = (ε − 1) c beyond the clearance itself
+    (ε ≥ 2; the Lankarani–Nikravesh law is a small-deformation law, δ ≪ radii, and steel joints
+    penetrate micrometres). Such a run is a failed run, not a result."""
+    for name, d in orbits.items():
+        joint = scene.joints[name]
+        model = joint.clearance_model
+        eps = d["eps"]
+        i = int(np.argmax(eps))
+        if model.film_only and eps[i] >= 1.0:
+            contact = ", ".join(f"'{m.name}'" for m in MODELS.values()
+                                if m.has_film and m.has_contact)
+            assert joint.lubricant is not None  # validated: a film model has one
+            raise SimulationError(
+                f"joint {name}: the journal left the bearing (eccentricity ratio ε = "
+                f"{eps[i]:.4g} >= 1 at t = {times[i]:.6g} s): the film (viscosity "
+                f"{joint.lubricant.viscosity:g} Pa s) cannot carry the load there; use model = "
+                f"{contact} (adds metal contact) or check the load and viscosity")
+        if model.has_contact and eps[i] >= 2.0:
+            raise SimulationError(
+                f"joint {name}: penetration {(eps[i] - 1.0) * joint.clearance:.4g} m at t = "
+                f"{times[i]:.6g} s exceeds the clearance ({joint.clearance:g} m): the contact "
+                "law (small deformations) does not apply; check the contact's Young's moduli "
+                "and the load")
+
+
+# Magnitudes (SI) beyond which a scene value is named when a run fails: no quantity of a
+# planar mechanism comes near it (Young's moduli are ~1e11 Pa), and products and squares of
+# such values overflow float64 in the force laws and the kinematics.
+EXTREME_MAGNITUDE = 1e15
+
+
+def extreme_values(scene: Scene) -> list[str]:
+    """``PATH = VALUE`` of the scene's numbers of magnitude >= :data:`EXTREME_MAGNITUDE`.
+
+    A failed run names them in its advice: such values overflow the force laws.
+
+    Parameters
+    ----------
+    scene : mechrel.scene.model.Scene
+        The scene.
+
+    Returns
+    -------
+    list of str
+        ``"PATH = VALUE"`` lines, sorted.
+
+    Examples
+    --------
+    >>> from mechrel.scene import load_scene
+    >>> extreme_values(load_scene("slider-crank-lubricated"))
+    []
+    >>> extreme_values(load_scene("slider-crank-lubricated",
+    ...                           overrides=["joints.C.lubricant.viscosity=1e200"]))
+    ['joints.C.lubricant.viscosity = 1e+200']
+    """
+    found: list[str] = []
+    stack: list[tuple[object, str]] = [(scene.raw or {}, "")]
+    while stack:
+        node, path = stack.pop()
+        if isinstance(node, Mapping):
+            stack.extend((v, f"{path}.{k}" if path else str(k)) for k, v in node.items())
+        elif isinstance(node, (list, tuple)):
+            stack.extend((v, f"{path}[{i}]") for i, v in enumerate(node))
+        elif (isinstance(node, (int, float)) and not isinstance(node, bool)
+              and abs(node) >= EXTREME_MAGNITUDE):
+            found.append(f"{path} = {node:g}")
+    return sorted(found)
+
+
+def simulate(scene: Scene, *, reference: Scene | None = None, method: str = "auto",
+             integrator: str | None = None, progress: bool = False, extremes: bool = False,
+             dense_points: int = DENSE_POINTS, sectors: float | None = None,
+             **solver_settings) -> SimulationResult:
+    """Simulate a scene over its analysis span.
+
+    Parameters
+    ----------
+    scene : Scene
+        From :func:`mechrel.scene.load_scene`.
+    reference : Scene, optional
+        The design the errors are measured against: the ideal (all-joints-ideal) mechanism of
+        ``reference`` instead of that of ``scene`` (e.g. the nominal design when ``scene``
+        carries geometric tolerances). It must have the scene's output names, bodies and
+        drivers (:class:`SimulationError` otherwise). With a reference the result always has
+        an ideal counterpart and errors, also for a scene without clearance joints.
+    method : {"auto", "kinematics", "dynamics"}
+        ``auto`` uses kinematic analysis for a fully driven scene without clearance joints and
+        forward dynamics otherwise; ``dynamics`` forces forward dynamics (e.g. to check an
+        integrator against the kinematic analysis).
+    integrator : str, optional
+        Overrides ``scene.solver.integrator``.
+    progress : bool
+        Show a progress bar over the output instants.
+    extremes : bool
+        Also find the cycle extremes of every output's error on the integrator's solution
+        (:attr:`SimulationResult.extremes`); needs an ideal counterpart (clearance joints or a
+        ``reference``). Without it the run is bitwise what it was.
+    dense_points : int
+        Points of the integrator's continuous extension evaluated inside each step for the
+        extremes (besides the step's end), ≥ 0.
+    sectors : float, optional
+        With ``extremes``: also the extremes over each sector of this many degrees of the
+        analysed cycle (:attr:`SimulationResult.sector_extremes`); a divisor of 360 and a
+        multiple of the output grid's crank-angle step.
+    **solver_settings
+        ``step``, ``rtol``, ``atol`` overrides.
+
+    Returns
+    -------
+    SimulationResult
+
+    Raises
+    ------
+    AssemblyError
+        The initial configuration cannot be assembled.
+    SimulationError
+        An over-constrained scene, an unknown method or setting, a reference that does not
+        match, or a failed integration (non-finite state, step-size underflow, too many
+        steps, a journal leaving its bearing). When the scene holds values of magnitude
+        >= ``EXTREME_MAGNITUDE``, the message of either error names them first (their
+        overflow is the likely cause).
+    TypeError
+        ``scene`` is not a :class:`~mechrel.scene.model.Scene`.
+
+    Examples
+    --------
+    The slider-crank with ideal joints is fully driven: kinematic analysis over one crank
+    revolution; the slider travels twice the crank radius (0.05 m):
+
+    >>> from mechrel.scene import load_scene
+    >>> r = simulate(load_scene("slider-crank"))
+    >>> r.method, r.time.size, float(r.crank_angle[-1])
+    ('kinematics', 361, 360.0)
+    >>> x = r.outputs["slider"]["displacement"]
+    >>> round(float(x.max() - x.min()), 9)
+    0.1
+    """
+    # the settings as one mapping: a setting named like a parameter of the private path
+    # (solver=, provenance=) is then refused by name with the allowed ones, not taken for it
+    return _explained(scene, reference=reference, method=method, integrator=integrator,
+                      progress=progress, extremes=extremes, dense_points=dense_points,
+                      sectors=sectors, solver_settings=solver_settings)
+
+
+def simulate_sample(scene: Scene, solver, *, reference: Scene | ReferenceDesign | None = None,
+                    extremes: bool = False, sectors: float | None = None,
+                    compiled: CompiledScene | None = None) -> SimulationResult:
+    """:func:`simulate` (``reference``, ``extremes``) with an integrator made beforehand and
+    without the provenance record: the inner call of a batch of samples
+    (:meth:`mechrel.uq.problem.mechanism.MechanismModel.evaluate_batch`), where the integrator
+    is made once per batch and the provenance is the model's.
+
+    Parameters
+    ----------
+    scene, extremes, sectors
+        As for :func:`simulate`.
+    reference : Scene or ReferenceDesign, optional
+        As for :func:`simulate`; a :class:`ReferenceDesign` is the same design prepared once
+        for the samples that share it.
+    solver : Integrator
+        ``make_integrator(scene)`` or an equal one (made from a scene with the same ``solver``
+        table and :func:`scene_kind`): the numbers are then those of ``simulate``, bitwise.
+    compiled : CompiledScene, optional
+        ``compile_scene(scene)`` or equal arrays (a
+        :class:`PreparedScene`'s); compiled here when not given.
+
+    Returns
+    -------
+    SimulationResult
+        As :func:`simulate`'s, with an empty ``provenance``.
+
+    Examples
+    --------
+    Bitwise the numbers of :func:`simulate`, without the provenance record:
+
+    >>> import math
+    >>> from mechrel.scene import load_scene, with_overrides
+    >>> scene = with_overrides(load_scene("slider-crank-lubricated"),
+    ...                        {"analysis.cycles": 1, "analysis.sample_step_angle": math.pi / 2})
+    >>> r = simulate_sample(scene, make_integrator(scene))
+    >>> e = r.error("slider", "velocity")
+    >>> bool((e == simulate(scene).error("slider", "velocity")).all()), r.provenance
+    (True, {})
+    """
+    return _explained(scene, reference=reference, method="auto", integrator=None,
+                      progress=False, extremes=extremes, dense_points=DENSE_POINTS,
+                      sectors=sectors, solver=solver, provenance=False, compiled=compiled)
+
+
+def _explained(scene, **kwargs) -> SimulationResult:
+    """``_simulate(scene, **kwargs)``, a failure of a scene with values of extreme magnitude
+    explained by them."""
+    try:
+        return _simulate(scene, **kwargs)
+    except (AssemblyError, SimulationError) as exc:
+        extreme = extreme_values(scene) if isinstance(scene, Scene) else []
+        if not extreme:
+            raise
+        # a failure of a scene with values of no physical magnitude is their overflow, not a
+        # toggle position or a step size: say so first
+        raise type(exc)(f"{scene.source or scene.name}: the run failed with values of extreme "
+                        f"magnitude in the scene, which overflow float64 arithmetic: "
+                        f"{', '.join(extreme[:4])}; allowed: values of physical magnitude "
+                        f"(SI, below {EXTREME_MAGNITUDE:g}) (the failure: {exc})") from None
+
+
+def _simulate(scene: Scene, *, reference: Scene | ReferenceDesign | None, method: str,
+              integrator: str | None, progress: bool, extremes: bool, dense_points: int,
+              sectors: float | None = None, solver=None, provenance: bool = True,
+              solver_settings=None, compiled: CompiledScene | None = None) -> SimulationResult:
+    start = time.perf_counter()
+    if not isinstance(scene, Scene):
+        raise TypeError(f"simulate: scene must be a Scene, got {type(scene).__name__} "
+                        f"{scene!r:.60}; load it first: simulate(load_scene(...))")
+    ref = None  # the reference design, prepared (its ideal mechanism compiled once)
+    if isinstance(reference, ReferenceDesign):
+        ref, reference = reference, reference.scene
+    if reference is not None:
+        _check_reference(scene, reference)
+        ref = ref or ReferenceDesign(reference)
+    # made (and so checked) even when kinematic analysis needs no integrator
+    if solver is None:
+        solver = make_integrator(scene, integrator, **(solver_settings or {}))
+    if compiled is None:
+        compiled = compile_scene(scene)
+    n = compiled.q_guess.size
+    if compiled.ideal.n_constraints > n:
+        # more equations than coordinates: the constraint Jacobian cannot have full row rank,
+        # which the Schur complement of the dynamics (and the kinematic analysis) needs; it
+        # used to surface as a step-size or rank failure deep in the integration
+        raise SimulationError(
+            f"{scene.source or scene.name}: over-constrained: with ideal joints the mechanism "
+            f"has {compiled.ideal.n_constraints} constraint equations for {n} coordinates "
+            f"({n // 3} bodies): {', '.join(compiled.labels['ideal'])}; allowed: at most one "
+            "equation per coordinate (remove a driver or a joint)")
+    times = output_times(scene, compiled)
+    _check_step_budget(solver, times)
+    has_clearance = bool(compiled.clearance_names)
+    driven = compiled.ideal.n_constraints == n
+    tol = scene.solver.assembly_tolerance
+    if method not in ("auto", "kinematics", "dynamics"):
+        raise SimulationError(f"method: {method!r} is not one of 'auto', 'kinematics', "
+                              "'dynamics'")
+    if method == "kinematics" and (has_clearance or not driven):
+        raise SimulationError("method='kinematics' needs a fully driven scene without "
+                              "clearance joints")
+    if extremes and not has_clearance and reference is None:
+        raise SimulationError(
+            f"simulate: extremes = True: scene {scene.name!r} has no clearance joints and no "
+            "reference design, so its outputs have no error whose extremes could be found; "
+            "allowed: extremes with a clearance joint or a reference")
+    if sectors is not None and not (extremes and isinstance(sectors, (int, float))
+                                    and not isinstance(sectors, bool) and sectors > 0
+                                    and abs(360.0 / sectors - round(360.0 / sectors)) < 1e-9):
+        raise SimulationError(f"simulate: sectors = {sectors!r}: allowed: with extremes=True, a "
+                              "divisor of 360 degrees (e.g. 18)")
+    if isinstance(dense_points, bool) or not isinstance(dense_points, (int, np.integer)) \
+            or dense_points < 0:
+        raise SimulationError(f"simulate: dense_points = {dense_points!r}: not an integer >= 0; "
+                              "allowed: 0, 1, 2, ... points inside each integrator step")
+    q0, _ = assemble(compiled.ideal, compiled.q_guess, 0.0, tol=tol,
+                     labels=compiled.labels["ideal"])
+
+    ideal = None
+    if driven and (has_clearance or method in ("auto", "kinematics")):
+        Qi, Vi, Ai, viol_i = kinematic_analysis(compiled.ideal, q0, times, tol=tol,
+                                                labels=compiled.labels["ideal"])
+        # against a reference design, the scene's ideal mechanism is not the one the errors
+        # are measured against: its outputs by their formulas (a path output's distance from
+        # the reference's path, not the 0 of a point on its own path)
+        ideal = values(scene, compiled, times, Qi, Vi, Ai, ideal=reference is None,
+                         counterpart=reference)
+    # the ideal counterpart the errors are measured against: the reference design's, or the
+    # scene's own ideal mechanism
+    counterpart = ideal if ref is None else _reference_outputs(ref, times, scene)
+
+    if not has_clearance and driven and method != "dynamics":
+        assert ideal is not None  # driven, method "auto" or "kinematics": computed above
+        ext = sec = None
+        if extremes:  # no integrator steps: a fine uniform sampling of the window
+            t_win = analysis_window(compiled, times)
+            fine = np.linspace(t_win, float(times[-1]), KINEMATIC_POINTS + 1)
+            T, sel, _ = _window_points(times, t_win, fine)
+            lead = times[~sel]
+            Qf, Vf, Af, _ = kinematic_analysis(compiled.ideal, q0, np.concatenate([lead, T]),
+                                               tol=tol, labels=compiled.labels["ideal"])
+            m = lead.size
+            ext, sec = _extremes_of(scene, compiled, T,
+                                    values(scene, compiled, T, Qf[m:], Vf[m:], Af[m:],
+                                             ideal=reference is None, counterpart=reference),
+                                    _ideal_at(scene, compiled, ref, q0, solver, T, lead),
+                                    sectors)
+        wall = time.perf_counter() - start
+        stats = {"integrator": "kinematic-analysis", "n_steps": times.size,
+                 "max_position_violation": float(viol_i), "wall_time": wall, "status": "ok"}
+        return SimulationResult(scene=scene, time=times,
+                                crank_angle=_crank_angle(scene, compiled, times),
+                                outputs=ideal, ideal=None if reference is None else counterpart,
+                                q=Qi, v=Vi, a=Ai, method="kinematics", stats=stats,
+                                provenance=_provenance(scene, wall, reference)
+                                if provenance else {}, extremes=ext, sector_extremes=sec)
+
+    sys = compiled.dynamic
+    qa, va = assemble(compiled.assembly, q0, 0.0, tol=tol,
+                      labels=compiled.labels["assembly"])
+    y0 = np.concatenate([qa, va, np.zeros(N_WORK)])
+    hist0 = np.zeros(sys.n_contacts)
+    bar = None
+    if progress:
+        from tqdm.auto import tqdm
+        bar = tqdm(total=times.size, desc=f"simulate {scene.name}", unit="sample", leave=False)
+    t_lo = analysis_window(compiled, times) if extremes else None
+    try:
+        res = solver.integrate(sys, y0, hist0, times, progress=bar, log_from=t_lo,
+                               dense_points=dense_points)
+    finally:
+        if bar is not None:
+            bar.close()
+    Y, YD = res.y, res.ydot
+    Q, V, A = Y[:, :n], Y[:, n:2 * n], YD[:, n:2 * n]
+    outputs = values(scene, compiled, times, Q, V, A, H=res.hist_out, counterpart=reference)
+    if counterpart is None and (has_clearance or reference is not None):
+        # undriven mechanism: ideal counterpart by dynamics
+        counterpart = _ideal_by_dynamics(reference or scene, solver, times, scene)
+    orbits, energy = _orbits_and_energy(compiled, res)
+    _check_orbits(scene, times, orbits)
+    ext = sec = None
+    if extremes:
+        assert t_lo is not None  # set above when extremes
+        ny = Y.shape[1]
+        log = res.log
+        T, sel, first = _window_points(times, t_lo, log[:, 0])
+        Ql = np.concatenate([Y[sel, :n], log[:, 1:1 + n]])[first]
+        Vl = np.concatenate([Y[sel, n:2 * n], log[:, 1 + n:1 + 2 * n]])[first]
+        Al = np.concatenate([YD[sel, n:2 * n], log[:, 1 + ny + n:1 + ny + 2 * n]])[first]
+        Hl = np.concatenate([res.hist_out[sel], log[:, 1 + 2 * ny:]])[first]
+        ext, sec = _extremes_of(scene, compiled, T,
+                                values(scene, compiled, T, Ql, Vl, Al, H=Hl,
+                                         counterpart=reference),
+                                _ideal_at(scene, compiled, ref, q0, solver, T, times[~sel]),
+                                sectors)
+    wall = time.perf_counter() - start
+    stats = res.stats.as_dict()
+    stats["total_wall_time"] = wall
+    if extremes:
+        stats["n_extreme_points"] = int(T.size)
+    return SimulationResult(scene=scene, time=times,
+                            crank_angle=_crank_angle(scene, compiled, times),
+                            outputs=outputs,
+                            ideal=counterpart if has_clearance or reference is not None
+                            else None,
+                            q=Q, v=V, a=A, method="dynamics", stats=stats,
+                            provenance=_provenance(scene, wall, reference)
+                            if provenance else {},
+                            orbits=orbits, energy=energy, extremes=ext, sector_extremes=sec)
