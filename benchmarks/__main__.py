@@ -121,6 +121,12 @@ BENCHMARKS: dict[str, Benchmark] = {
     "gp-libraries": Benchmark(
         "bench_gp_libraries.py", "which Kriging library: fit time and accuracy",
         "docs/uq.md, Active learning", "", ("--reps", "1", "--n", "50", "--d", "3")),
+    "design-slider-crank": Benchmark(
+        "bench_design_slider_crank.py",
+        "tolerance allocation with the whole-cycle against the per-angle constraint",
+        "docs/validation.md, Design for reliability", "3–4 min",
+        ("--n", "4000", "--n-verify", "20000", "--tradeoff", "2",
+         "--figure", "results/bench_quick/design_slider_crank.png")),
     "sample-cost": Benchmark(
         "bench_sample_cost.py", "what a sample costs around its physics, two trees compared",
         "docs/performance.md, A sample costs what its physics costs; docs/uq.md", "",

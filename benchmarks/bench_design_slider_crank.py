@@ -18,6 +18,7 @@ docs/figures/design_slider_crank.png of docs/validation.md, "Design for reliabil
 from __future__ import annotations
 
 import argparse
+from pathlib import Path
 import os
 import time
 import warnings
@@ -84,6 +85,7 @@ def main() -> None:
     fig = plot_tradeoff(results["whole-cycle"], results["per-angle"],
                         labels=["whole-cycle constraint", "per-angle constraint"],
                         title="slider-crank tolerance allocation: cost against reliability")
+    Path(args.figure).parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(args.figure, dpi=130)
     print(f"wrote {args.figure}")
 
