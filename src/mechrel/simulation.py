@@ -25,7 +25,7 @@ from typing import Any
 import numpy as np
 
 from .errors import AssemblyError, SimulationError
-from .forces.models import MODELS
+from .forces.models import MODELS, SUBTABLES
 from .integrate import INTEGRATORS, IntegrationResult, get_integrator
 from .mechanics.drivers import driver_angles, driver_law
 from .mechanics.dynamics import N_WORK
@@ -1157,8 +1157,7 @@ def _simulate(scene: Scene, *, reference: Scene | ReferenceDesign | None, method
 
 # Fields of a joint that enter the compiled scene only through the packed force-law
 # parameters of a clearance joint (pack_joint).
-_FORCE_LAW_FIELDS = ("clearance", "bearing_radius", "length", "contact", "friction", "lubricant",
-                    "transition")
+_FORCE_LAW_FIELDS = ("clearance", "bearing_radius", "length", *SUBTABLES)
 # Numeric fields of a driver: its row of driver parameters.
 _DRIVER_FIELDS = ("angle0", "speed", "acceleration", "amplitude", "frequency", "phase",
                  "ramp_time")
