@@ -13,9 +13,16 @@ this table instead of testing model names. The compiled force law branches on th
 The film of a lubricated or transition joint is chosen per joint in the lubricant sub-table
 (``joints.NAME.lubricant.bearing``), one row of :data:`BEARINGS`.
 
+A row declares its parameters (:class:`Param`: sub-table, key, default, range, unit, slot);
+the parameter vector's slots and :func:`~mechrel.forces.params.pack_params`' defaults and
+ranges (:mod:`mechrel.forces.params`), the scene's sub-table classes, their validation and the
+scene hash derive from them, and the row says whether the model is smooth (FOSM warns on one
+that is not). No model name is written outside this table.
+
 Adding a model (see docs/forces.md, "Adding a clearance model"): write its force law beside
 :mod:`mechrel.forces.film`, add one :class:`ClearanceModel` row here (a new ``code``) and one
-branch on that code in :func:`mechrel.forces.joint.clearance_force`.
+branch on that code in :func:`mechrel.forces.joint.clearance_force`. A row that runs an
+existing compiled law can be added at run time with :func:`register_model`.
 """
 
 from __future__ import annotations
