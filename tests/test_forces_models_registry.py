@@ -88,7 +88,7 @@ def test_fosm_warns_on_a_registered_non_smooth_model(dummy):
     from mechrel.uq.problem.mechanism import MechanismModel
 
     model = MechanismModel("slider-crank-dry", ["joints.C.clearance"], angle_step=90.0,
-                           cycles=0.25, overrides={"joints.C.model": dummy.name})
+                           cycles=1, overrides={"joints.C.model": dummy.name})
     assert model.nonsmooth.startswith("dry contact in joint C")
     inputs = UncertainInputs.from_specs({"joints.C.clearance": Normal(0.5e-3, 1e-5)})
     with warnings.catch_warnings():

@@ -134,7 +134,8 @@ def make_integrator(scene: Scene, integrator: str | None = None, **settings):
                               f"{', '.join(sorted(INTEGRATORS))}")
     chosen: dict = {}
     if name == "auto":
-        name, chosen = DEFAULT_SOLVERS[scene_kind(scene)]
+        kind = scene_kind(scene)  # a model registered since import: its row's solver
+        name, chosen = DEFAULT_SOLVERS.get(kind) or MODELS[kind].solver
         chosen = dict(chosen)
         if name not in INTEGRATORS:  # compiled stiff method not available: SciPy's
             name = "lsoda"

@@ -24,7 +24,8 @@ GROUND = "ground"
 
 CLEARANCE_MODELS = ("ideal", *_MODELS)
 """Allowed values of ``joints.NAME.model``: ``"ideal"`` and the clearance models of
-:data:`mechrel.forces.models.MODELS`."""
+:data:`mechrel.forces.models.MODELS` (those of the package; the validation reads the table
+itself, so a model added by :func:`~mechrel.forces.models.register_model` is allowed too)."""
 DRIVER_LAWS = ("constant-speed", "constant-acceleration", "harmonic", "smooth-start")
 QUANTITIES = ("displacement", "velocity", "acceleration")
 INTEGRATOR_NAMES = ("auto", "rk4", "dopri5", "radau", "scipy-radau", "bdf", "lsoda")
