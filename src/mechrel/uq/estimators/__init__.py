@@ -134,9 +134,9 @@ class Method:
 
         Examples
         --------
-        >>> METHODS["form"].public_names
-        {'form': 'estimators.form', 'FORMResult': 'estimators.form', \
-'FORMConvergenceError': 'estimators.form'}
+        >>> names = METHODS["form"].public_names
+        >>> list(names), set(names.values())
+        (['form', 'FORMResult', 'FORMConvergenceError'], {'estimators.form'})
         """
         out: dict[str, str] = {}
         if not isinstance(self.estimator, str):
