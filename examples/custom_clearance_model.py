@@ -38,10 +38,11 @@ otherwise: the force law runs inside the compiled equations of motion
 code of each joint's row), so a new law needs a new branch there. What it takes, as
 docs/forces.md "Adding a clearance model" says: (1) the law as pure ``numba.njit`` functions of
 scalars in SI units in a new module of ``mechrel/forces/``; (2) one registration, a
-``ClearanceModel`` row in ``MODELS`` with a new code (or a ``BearingModel`` row in ``BEARINGS``
-for a film model), plus any new parameter slots in ``mechrel/forces/params.py``; (3) one branch
-on the new code in ``clearance_force``. Scene validation, packing, the default solver, the
-orbit checks, the failure advice and the accuracy study then follow from the row. A candidate
+``ClearanceModel`` row in ``MODELS`` with a new code, declaring its parameters (``Param``:
+sub-table, key, default, range, unit, slot), or a ``BearingModel`` row in ``BEARINGS`` for a
+film model; (3) one branch on the new code in ``clearance_force``. The parameter slots, scene
+validation and fields, packing, the default solver, the orbit checks, the failure advice, the
+accuracy study and FOSM's smoothness warning then follow from the row. A candidate
 law can be compared with the Reynolds solver exactly as the built-in films are below, in plain
 Python, before any of that.
 """
@@ -49,7 +50,6 @@ Python, before any of that.
 from __future__ import annotations
 
 import argparse
-import inspect
 import time
 from pathlib import Path
 
@@ -61,9 +61,9 @@ import numpy as np  # noqa: E402
 
 from mechrel.forces.finite_film import finite_film_forces  # noqa: E402
 from mechrel.forces.film import film_forces_eps_w  # noqa: E402
-from mechrel.forces.models import BEARINGS, DEFAULT_BEARING, MODELS, SUBTABLE_PARAMS  # noqa: E402
+from mechrel.forces.models import BEARINGS, DEFAULT_BEARING, MODELS, PARAMS  # noqa: E402
 from mechrel.forces.params import (  # noqa: E402
-    CAVITATION_NAMES, DEFAULTS, FINITE_LD_RANGE, LIMITS, describe_range, pack_params,
+    DEFAULTS, FINITE_LD_RANGE, describe_range,
 )
 from mechrel.forces.reynolds import reynolds_forces  # noqa: E402
 from mechrel.forces.short_film import short_film_forces  # noqa: E402
@@ -106,13 +106,14 @@ def print_registry() -> None:
           f"{DEFAULT_BEARING!r}):")
     for b in BEARINGS.values():
         print(f"  {b.name:7s} code {b.code}: {b.summary}\n          source: {b.source}")
-    print("Lubricant keys (joints.NAME.lubricant.KEY):")
-    choices = {"bearing": ", ".join(BEARINGS), "cavitation": ", ".join(CAVITATION_NAMES),
-               "shear_torque": "true, false"}
-    defaults = inspect.signature(pack_params).parameters
-    for key, param in SUBTABLE_PARAMS["lubricant"].items():
-        rng = describe_range(**LIMITS[param]) if param in LIMITS else f"one of {choices[key]}"
-        print(f"  {key:13s} default {defaults[param].default!s:16s} allowed {rng}")
+    print("Lubricant keys (joints.NAME.lubricant.KEY), as the models declare them:")
+    for prm in PARAMS.values():
+        if prm.sub != "lubricant":
+            continue
+        rng = (describe_range(**prm.limit, **({} if prm.unit == "-" else {"unit": prm.unit}))
+               if prm.limit else "true, false" if prm.boolean
+               else f"one of {', '.join(prm.choices or ())}")
+        print(f"  {prm.key:13s} default {prm.default!s:16s} allowed {rng}")
     print(f"  (bearing 'finite' needs L/D = length / (2 journal radius) in "
           f"[{FINITE_LD_RANGE[0]:g}, {FINITE_LD_RANGE[1]:g}])")
 

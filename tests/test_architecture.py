@@ -22,10 +22,9 @@ PACKAGE = Path(mechrel.__file__).resolve().parent
 ARCHITECTURE = Path(__file__).resolve().parents[1] / "docs" / "architecture.md"
 
 # Arrows that run back up a floor, tolerated while their owner removes them; each names why.
-# forces -> scene: forces/models.py reads its defaults from scene.model.Contact (issue 33,
-# part C, makes each clearance-model row declare its own parameters and defaults, and the
-# scene derive from it; then this entry must go, and the test says so).
-KNOWN_BACK_ARROWS = {("forces", "scene")}
+# (The last one, forces -> scene, went when each clearance-model row came to declare its own
+# parameters and defaults and the scene's sub-tables to derive from them.)
+KNOWN_BACK_ARROWS: set[tuple[str, str]] = set()
 
 
 def _module_name(path: Path) -> str:

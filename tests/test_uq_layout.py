@@ -43,3 +43,16 @@ def test_the_package_and_the_model_protocol_import_lazily():
 def test_the_flat_modules_are_gone(old):
     with pytest.raises(ModuleNotFoundError):
         importlib.import_module(f"mechrel.uq.{old}")
+
+
+def test_every_registered_method_is_exported_with_its_result():
+    # the exports of a method come from its registration (one module + one registration)
+    from mechrel.uq.estimators import METHODS
+
+    for m in METHODS.values():
+        names = m.public_names
+        assert names and set(names) <= set(uq.__all__), m.name
+        assert getattr(uq, m.function.__name__) is m.function
+        assert getattr(uq, m.result_type.__name__) is m.result_type
+        for name, module in names.items():
+            assert uq._WHERE[name] == module

@@ -14,9 +14,8 @@ from mechrel.forces.friction import dynamic_correction, friction_force
 from mechrel.forces.joint import (
     clearance_force, film_shear_torques, transition_energy, transition_weight,
 )
-from mechrel.forces.models import (
-    BEARINGS, MODELS, BearingModel, ClearanceModel, model_by_code, pack_joint,
-)
+from mechrel.forces.models import BEARINGS, MODELS, BearingModel, ClearanceModel, model_by_code
+from mechrel.forces.packing import pack_joint
 from mechrel.forces.params import (
     BEARING_LONG, BEARING_NAMES, BEARING_SHORT, DEFAULTS, LIMITS, MODEL_DRY, MODEL_LUBRICATED,
     MODEL_NAMES, MODEL_TRANSITION, N_PARAMS,

@@ -22,8 +22,8 @@ import numpy as np
 from mechrel._checks import describe_number as describe_range
 from mechrel.errors import SceneError
 from mechrel.forces.models import (
-    BEARING_FINITE, BEARING_LONG, BEARING_SHORT, BEARINGS, DEFAULT_BEARING, MODEL_DRY,
-    MODEL_LUBRICATED, MODEL_TRANSITION, MODELS,
+    BEARING_FINITE, BEARING_LONG, BEARING_SHORT, BEARINGS, MODEL_DRY, MODEL_LUBRICATED,
+    MODEL_TRANSITION, MODELS, PARAMS, model_by_code,
 )
 
 __all__ = [
@@ -38,83 +38,72 @@ __all__ = [
 
 # --- clearance models: codes and names come from the table of models ------------------------
 MODEL_NAMES = {m.name: m.code for m in MODELS.values()}
-"""Scene name → integer code of every clearance model (:data:`mechrel.forces.models.MODELS`)."""
+"""Scene name → integer code of every clearance model of the package
+(:data:`mechrel.forces.models.MODELS`)."""
 BEARING_NAMES = {b.name: b.code for b in BEARINGS.values()}
+"""Scene name → integer code of every film model (:data:`mechrel.forces.models.BEARINGS`)."""
 CAVITATION_HALF_SOMMERFELD = 0
 """Gümbel film: the positive part of the full-film pressure (every film model)."""
 CAVITATION_REYNOLDS = 1
 """Swift–Stieber film: p ≥ 0 with zero gradient at rupture (the finite film only)."""
-CAVITATION_NAMES = {"half-sommerfeld": CAVITATION_HALF_SOMMERFELD,
-                    "reynolds": CAVITATION_REYNOLDS}
-"""Scene name → integer code of every film model (:data:`mechrel.forces.models.BEARINGS`)."""
+CAVITATION_NAMES = {name: i for i, name in
+                    enumerate(PARAMS[("lubricant", "cavitation")].choices or ())}
+"""Scene name → integer code of every cavitation condition (``lubricant.cavitation``)."""
+assert CAVITATION_NAMES == {"half-sommerfeld": CAVITATION_HALF_SOMMERFELD,
+                            "reynolds": CAVITATION_REYNOLDS}
 
-# --- indices into the parameter vector ---------------------------------------------------------
-P_MODEL = 0     # model code (MODEL_DRY / MODEL_LUBRICATED / MODEL_TRANSITION), stored as float
-P_C = 1         # radial clearance c = R_B - R_S (m)
-P_RB = 2        # bearing (hole) radius R_B (m)
-P_RS = 3        # journal (pin) radius R_S = R_B - c (m)
-P_L = 4         # bearing length L (m)
-P_K = 5         # contact stiffness K (N/m^n)
-P_N = 6         # contact force exponent n (-), 1.5 for Hertz line/point contact as in the paper
-P_CE = 7        # coefficient of restitution c_e (-), in (0, 1]
-P_FLOOR = 8     # floor of the impact speed δ̇⁻ used in the LN damping term (m/s), > 0
-P_CF = 9        # friction coefficient c_f (-); 0 means friction is not evaluated at all
-P_V0 = 10       # c_d dead-band speed v0 (m/s)
-P_V1 = 11       # c_d full-friction speed v1 (m/s), > v0
-P_MU = 12       # dynamic viscosity μ (Pa s)
-P_LAMBDA = 13   # small-eccentricity correction exponent λ (-)
-P_EPS0 = 14     # small-eccentricity correction threshold ε0 (-), in (0, 1]
-P_E1 = 15       # transition band width e1 (m)
-P_EPSMAX = 16   # transition model: ε at which the film is clamped, ε_max (-), in (0, 1)
-P_BEARING = 17  # film model code (BEARING_LONG / BEARING_SHORT / BEARING_FINITE), as float
-P_CAVITATION = 18  # film cavitation code (CAVITATION_HALF_SOMMERFELD / CAVITATION_REYNOLDS)
-P_SHEAR = 19    # 1: apply the film's viscous shear torques to journal and bearing, 0: not
-N_PARAMS = 20
+# --- the parameter vector: the joint's geometry, then the models' declared parameters ---------
+_GEOMETRY = ("model", "clearance", "bearing_radius", "journal_radius", "length", "stiffness")
+_SLOTTED = {prm.slot: prm for prm in PARAMS.values() if prm.slot is not None}
 
-PARAM_NAMES = (
-    "model", "clearance", "bearing_radius", "journal_radius", "length", "stiffness",
-    "exponent", "restitution", "impact_speed_floor", "friction_coefficient", "v0", "v1",
-    "viscosity", "lam", "eps0", "e1", "eps_max", "bearing", "cavitation", "shear_torque",
-)
-"""Field name of each index, in index order (``PARAM_NAMES[P_K] == "stiffness"``)."""
+PARAM_NAMES = (*_GEOMETRY, *_SLOTTED)
+"""Field name of each index, in index order (``PARAM_NAMES[P_K] == "stiffness"``): the
+joint's geometry, then the slots of :data:`mechrel.forces.models.PARAMS` in order of
+declaration."""
+_SLOT = {name: i for i, name in enumerate(PARAM_NAMES)}
+N_PARAMS = len(PARAM_NAMES)
 
-DEFAULTS: dict[str, float] = {
-    "exponent": 1.5,
-    "impact_speed_floor": 1e-3,
-    "friction_coefficient": 0.0,
-    "v0": 1e-4,
-    "v1": 1e-2,
-    "viscosity": 0.0,
-    "lam": 1.0,
-    "eps0": 0.1,
-    "e1": 1e-5,
-    "eps_max": 0.99,
-}
-"""Defaults of :func:`pack_params` where the paper gives no value (justified in docs/forces.md)."""
+P_MODEL = _SLOT["model"]            # model code (MODELS[...].code), stored as float
+P_C = _SLOT["clearance"]            # radial clearance c = R_B - R_S (m)
+P_RB = _SLOT["bearing_radius"]      # bearing (hole) radius R_B (m)
+P_RS = _SLOT["journal_radius"]      # journal (pin) radius R_S = R_B - c (m)
+P_L = _SLOT["length"]               # bearing length L (m)
+P_K = _SLOT["stiffness"]            # contact stiffness K (N/m^n)
+P_N = _SLOT["exponent"]             # contact force exponent n (-), 1.5 for Hertz contact
+P_CE = _SLOT["restitution"]         # coefficient of restitution c_e (-), in (0, 1]
+P_FLOOR = _SLOT["impact_speed_floor"]  # floor of the impact speed δ̇⁻ (m/s), > 0
+P_CF = _SLOT["friction_coefficient"]   # friction coefficient c_f (-); 0: friction not evaluated
+P_V0 = _SLOT["v0"]                  # c_d dead-band speed v0 (m/s)
+P_V1 = _SLOT["v1"]                  # c_d full-friction speed v1 (m/s), > v0
+P_MU = _SLOT["viscosity"]           # dynamic viscosity μ (Pa s)
+P_LAMBDA = _SLOT["lam"]             # small-eccentricity correction exponent λ (-)
+P_EPS0 = _SLOT["eps0"]              # small-eccentricity correction threshold ε0 (-)
+P_E1 = _SLOT["e1"]                  # transition band width e1 (m)
+P_EPSMAX = _SLOT["eps_max"]         # transition model: ε at which the film is clamped (-)
+P_BEARING = _SLOT["bearing"]        # film model code (BEARINGS[...].code), as float
+P_CAVITATION = _SLOT["cavitation"]  # film cavitation code (CAVITATION_NAMES), as float
+P_SHEAR = _SLOT["shear_torque"]     # 1: apply the film's viscous shear torques, 0: not
+
+DEFAULTS: dict[str, Any] = {name: prm.pack_default for name, prm in _SLOTTED.items()}
+"""What :func:`pack_params` packs for a parameter not given (justified in docs/forces.md):
+the scene's default (:class:`mechrel.forces.models.Param`), or its ``off`` value (no
+friction, no film) where the model does not read the sub-table."""
 
 LIMITS: dict[str, dict] = {
     "clearance": dict(gt=0, unit="m"),
     "length": dict(gt=0, unit="m"),
     "stiffness": dict(gt=0, unit="N/m^n"),
-    "exponent": dict(ge=1, le=3),
-    "restitution": dict(gt=0, le=1),
-    "impact_speed_floor": dict(gt=0, unit="m/s"),
-    "friction_coefficient": dict(ge=0),
-    "v0": dict(ge=0, unit="m/s"),
-    "v1": dict(gt=0, unit="m/s"),
-    "viscosity": dict(ge=0, unit="Pa s"),
-    "lam": dict(ge=0),
-    "eps0": dict(gt=0, le=1),
-    "e1": dict(gt=0, unit="m"),
-    "eps_max": dict(gt=0, lt=1),
+    **{name: dict(prm.limit, **({} if prm.unit == "-" else {"unit": prm.unit}))
+       for name, prm in _SLOTTED.items() if prm.limit},
 }
 """Allowed range of each force-law value (keywords ``gt``, ``ge``, ``lt``, ``le``, ``unit``).
 
-The one statement of these ranges: :func:`pack_params` checks them, and the scene validation
-checks the same entries for the scene keys that feed them
-(:data:`mechrel.forces.models.SUBTABLE_PARAMS`), so that a scene and a direct call accept
-exactly the same values. Cross-field rules (R_S > 0, v1 > v0, viscosity > 0 for a film model)
-are checked by :func:`pack_params` and restated by the scene validation with scene paths."""
+The one statement of these ranges (the joint's geometry here, the models' parameters in
+:data:`mechrel.forces.models.PARAMS`): :func:`pack_params` checks them, and the scene
+validation checks the same declarations for the scene keys, so that a scene and a direct call
+accept exactly the same values. Cross-field rules (R_S > 0, v1 > v0, viscosity > 0 for a film
+model) are checked by :func:`pack_params` and restated by the scene validation with scene
+paths."""
 
 
 FINITE_LD_RANGE = (0.25, 4.0)
@@ -157,20 +146,7 @@ def pack_params(
     bearing_radius: float,
     length: float,
     stiffness: float,
-    exponent: float = DEFAULTS["exponent"],
-    restitution: float,
-    impact_speed_floor: float = DEFAULTS["impact_speed_floor"],
-    friction_coefficient: float = DEFAULTS["friction_coefficient"],
-    v0: float = DEFAULTS["v0"],
-    v1: float = DEFAULTS["v1"],
-    viscosity: float = DEFAULTS["viscosity"],
-    lam: float = DEFAULTS["lam"],
-    eps0: float = DEFAULTS["eps0"],
-    e1: float = DEFAULTS["e1"],
-    eps_max: float = DEFAULTS["eps_max"],
-    bearing: str = DEFAULT_BEARING,
-    cavitation: str = "half-sommerfeld",
-    shear_torque: bool = False,
+    **params: Any,
 ) -> np.ndarray:
     """Validate a clearance joint's parameters and pack them into the vector the force law reads.
 
@@ -186,37 +162,23 @@ def pack_params(
         Bearing length L (m), > 0 (used by the film only).
     stiffness : float
         Contact stiffness K (N/m^n), > 0; see :func:`mechrel.forces.contact.contact_stiffness`.
-    exponent : float, default 1.5
-        Contact force exponent n (-), in [1, 3].
-    restitution : float
-        Coefficient of restitution c_e (-), in (0, 1].
-    impact_speed_floor : float, default 1e-3
-        Floor of the impact speed δ̇⁻ (m/s) in the Lankarani–Nikravesh damping term, > 0.
-    friction_coefficient : float, default 0
-        Coulomb friction coefficient c_f (-), ≥ 0; 0 switches friction off entirely.
-    v0, v1 : float, default 1e-4, 1e-2
-        Speeds of Ambrósio's dynamic correction c_d (m/s), 0 ≤ v0 < v1.
-    viscosity : float, default 0
-        Dynamic viscosity μ (Pa s); > 0 for the lubricated and transition models.
-    lam : float, default 1
-        Exponent λ (-) of the small-eccentricity film correction (ε/ε0)^λ, ≥ 0.
-    eps0 : float, default 0.1
-        Threshold ε0 (-) of that correction, in (0, 1].
-    e1 : float, default 1e-5
-        Width of the transition band c ≤ |e| ≤ c + e1 (m), > 0.
-    eps_max : float, default 0.99
-        Eccentricity ratio at which the film force is clamped in the transition model (-),
-        in (0, 1). The lubricated model does not clamp (its film keeps ε < 1; see
+    **params
+        The models' parameters by slot name (:data:`PARAM_NAMES` after the geometry; each
+        declared by a :class:`mechrel.forces.models.Param`, whose unit, range and default
+        apply). Not given: :data:`DEFAULTS`. The built-in ones: ``restitution`` c_e (-) in
+        (0, 1], default 0.9; ``exponent`` n (-) in [1, 3], default 1.5;
+        ``impact_speed_floor`` (m/s) > 0, default 1e-3; ``friction_coefficient`` c_f (-)
+        ≥ 0, default 0 (friction off); ``v0``, ``v1`` (m/s), 0 ≤ v0 < v1, defaults 1e-4,
+        1e-2; ``viscosity`` μ (Pa s), default 0, > 0 for a model with a film; ``lam`` λ (-)
+        ≥ 0, default 1, and ``eps0`` ε0 (-) in (0, 1], default 0.1, of the small-eccentricity
+        film correction (ε/ε0)^λ; ``bearing`` {"long", "short", "finite"}, default "long"
+        (:data:`mechrel.forces.models.BEARINGS`); ``cavitation``
+        {"half-sommerfeld", "reynolds"}, default "half-sommerfeld" ("reynolds" needs bearing
+        "finite"); ``shear_torque`` (bool), default False
+        (:func:`mechrel.forces.joint.film_shear_torques`); ``e1`` (m) > 0, default 1e-5, the
+        width of the transition band; ``eps_max`` (-) in (0, 1), default 0.99, where the
+        transition model clamps the film (the lubricated model does not clamp, see
         :func:`mechrel.forces.joint.clearance_force`).
-    bearing : {"long", "short", "finite"}, default "long"
-        Film model of the lubricated and transition models
-        (:data:`mechrel.forces.models.BEARINGS`); not read by the dry model.
-    cavitation : {"half-sommerfeld", "reynolds"}, default "half-sommerfeld"
-        Cavitation condition of the film; "reynolds" (Swift–Stieber) needs bearing "finite"
-        (the long and short films are half-Sommerfeld closed forms).
-    shear_torque : bool, default False
-        Apply the film's viscous shear torques to journal and bearing
-        (:func:`mechrel.forces.joint.film_shear_torques`); off by default, as in the paper.
 
     Returns
     -------
@@ -241,26 +203,34 @@ def pack_params(
     ...
     mechrel.errors.SceneError: restitution = 1.5 is invalid: allowed a finite number in (0, 1]
     """
-    if not isinstance(model, str) or model.lower() not in MODEL_NAMES:
+    if not isinstance(model, str) or model.lower() not in MODELS:
         raise SceneError(
-            f"model = {model!r} is invalid: allowed one of {sorted(MODEL_NAMES)}", path="model"
+            f"model = {model!r} is invalid: allowed one of {sorted(MODELS)}", path="model"
         )
+    unknown = sorted(set(params) - set(_SLOTTED))
+    if unknown:
+        raise TypeError(f"pack_params() got unexpected keyword arguments {unknown}; allowed: "
+                        f"{sorted(_SLOTTED)}")
     row = MODELS[model.lower()]
-    code = row.code
-    if not isinstance(bearing, str) or bearing.lower() not in BEARING_NAMES:
-        raise SceneError(
-            f"bearing = {bearing!r} is invalid: allowed one of {sorted(BEARING_NAMES)}",
-            path="bearing")
-    bcode = BEARING_NAMES[bearing.lower()]
-    if not isinstance(cavitation, str) or cavitation.lower() not in CAVITATION_NAMES:
-        raise SceneError(
-            f"cavitation = {cavitation!r} is invalid: allowed one of "
-            f"{sorted(CAVITATION_NAMES)}", path="cavitation")
-    ccode = CAVITATION_NAMES[cavitation.lower()]
-    _check("shear_torque", shear_torque, isinstance(shear_torque, (bool, np.bool_)),
-           "true or false")
+    values: dict[str, float] = {}
+    for name, prm in _SLOTTED.items():
+        value = params.get(name, DEFAULTS[name])
+        if prm.choices is not None:
+            ok = isinstance(value, str) and value.lower() in prm.choices
+            if not ok:
+                raise SceneError(f"{name} = {value!r} is invalid: allowed one of "
+                                 f"{sorted(prm.choices)}", path=name)
+            values[name] = float(prm.choices.index(value.lower()))
+        elif prm.boolean:
+            _check(name, value, isinstance(value, (bool, np.bool_)), "true or false")
+            values[name] = 1.0 if value else 0.0
+        else:
+            values[name] = _limited(name, value) if name in LIMITS else _real(name, value)
+    bearing = str(params.get("bearing", DEFAULTS["bearing"]))
+    bcode = int(values["bearing"])
+    ccode = int(values["cavitation"])
     if row.has_film:
-        _check("cavitation", cavitation,
+        _check("cavitation", params.get("cavitation", DEFAULTS["cavitation"]),
                ccode == CAVITATION_HALF_SOMMERFELD or bcode == BEARING_FINITE,
                f"'half-sommerfeld' for bearing {bearing!r} (closed form); 'reynolds' needs "
                "bearing 'finite'")
@@ -273,23 +243,14 @@ def pack_params(
     RS = RB - c
     L = _limited("length", length)
     K = _limited("stiffness", stiffness)
-    n = _limited("exponent", exponent)
-    ce = _limited("restitution", restitution)
-    floor = _limited("impact_speed_floor", impact_speed_floor)
-    cf = _limited("friction_coefficient", friction_coefficient)
-    a0 = _limited("v0", v0)
-    a1 = _limited("v1", v1)
-    _check("v1", v1, a1 > a0, f"> v0 = {a0!r} (m/s)")
-    mu = _limited("viscosity", viscosity)
+    _check("v1", params.get("v1", DEFAULTS["v1"]), values["v1"] > values["v0"],
+           f"> v0 = {values['v0']!r} (m/s)")
     if row.has_film:
-        _check("viscosity", viscosity, mu > 0.0, f"> 0 (Pa s) for model {model!r}")
-    lm = _limited("lam", lam)
-    e0 = _limited("eps0", eps0)
-    w1 = _limited("e1", e1)
-    em = _limited("eps_max", eps_max)
+        _check("viscosity", params.get("viscosity", DEFAULTS["viscosity"]),
+               values["viscosity"] > 0.0, f"> 0 (Pa s) for model {model!r}")
     if row.has_film and bcode == BEARING_FINITE:
         from mechrel.forces.finite_film import TABLES_PRESENT
-        cav = cavitation.lower()
+        cav = str(params.get("cavitation", DEFAULTS["cavitation"])).lower()
         _check("bearing", bearing, TABLES_PRESENT[cav],
                f"a bearing for which a table is installed: the {cav} table of the finite film "
                "is missing; build it with python -m mechrel.forces.finite_table")
@@ -300,26 +261,14 @@ def pack_params(
                f"(here L/D = {ld:.4g}); use bearing 'long' above, 'short' below")
 
     p = np.empty(N_PARAMS, dtype=np.float64)
-    p[P_MODEL] = code
+    p[P_MODEL] = row.code
     p[P_C] = c
     p[P_RB] = RB
     p[P_RS] = RS
     p[P_L] = L
     p[P_K] = K
-    p[P_N] = n
-    p[P_CE] = ce
-    p[P_FLOOR] = floor
-    p[P_CF] = cf
-    p[P_V0] = a0
-    p[P_V1] = a1
-    p[P_MU] = mu
-    p[P_LAMBDA] = lm
-    p[P_EPS0] = e0
-    p[P_E1] = w1
-    p[P_EPSMAX] = em
-    p[P_BEARING] = bcode
-    p[P_CAVITATION] = ccode
-    p[P_SHEAR] = 1.0 if shear_torque else 0.0
+    for name, x in values.items():
+        p[_SLOT[name]] = x
     return p
 
 
@@ -355,9 +304,10 @@ def unpack_params(p: np.ndarray) -> dict[str, Any]:
     if arr.shape != (N_PARAMS,):
         raise ValueError(f"parameter vector must have shape ({N_PARAMS},), got {arr.shape}")
     out: dict[str, Any] = {name: float(arr[i]) for i, name in enumerate(PARAM_NAMES)}
-    names = {v: k for k, v in MODEL_NAMES.items()}
-    out["model"] = names[int(arr[P_MODEL])]
-    out["bearing"] = {v: k for k, v in BEARING_NAMES.items()}[int(arr[P_BEARING])]
-    out["cavitation"] = {v: k for k, v in CAVITATION_NAMES.items()}[int(arr[P_CAVITATION])]
-    out["shear_torque"] = bool(arr[P_SHEAR])
+    out["model"] = model_by_code(int(arr[P_MODEL])).name
+    for name, prm in _SLOTTED.items():
+        if prm.choices is not None:
+            out[name] = prm.choices[int(arr[_SLOT[name]])]
+        elif prm.boolean:
+            out[name] = bool(arr[_SLOT[name]])
     return out

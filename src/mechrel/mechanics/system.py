@@ -316,7 +316,7 @@ def _driver_row(d) -> np.ndarray:
 
 def clearance_parameters(joint: Joint) -> np.ndarray:
     """Pack a clearance joint's force-law parameters by its model's row of the table of
-    models (:func:`mechrel.forces.models.pack_joint`).
+    models (:func:`mechrel.forces.packing.pack_joint`).
 
     Parameters
     ----------
@@ -335,7 +335,7 @@ def clearance_parameters(joint: Joint) -> np.ndarray:
     >>> float(clearance_parameters(load_scene("slider-crank-dry").joints["C"])[P_C])   # m
     0.0005
     """
-    from ..forces.models import pack_joint
+    from ..forces.packing import pack_joint
 
     return pack_joint(joint)
 

@@ -8,14 +8,15 @@ from .loader import (
 )
 from .model import (
     CLEARANCE_MODELS, DRIVER_LAWS, FORMULATIONS, GROUND, INTEGRATOR_NAMES, QUANTITIES, Analysis,
-    Body, Contact, Driver, Friction, Joint, Lubricant, Output, PointRef, Scene, Solver,
-    Transition,
+    SUBTABLE_CLASSES, Body, Contact, Driver, Friction, Joint, Lubricant, Output, PointRef, Scene,
+    Solver, SubTable, Transition,
 )
 
 __all__ = [
     "load_scene", "list_scenes", "embedded_names", "with_overrides", "scene_hash",
     "canonical_json", "parse_override", "parse_value", "apply_override", "SceneError",
     "Scene", "Body", "PointRef", "Joint", "Contact", "Friction", "Lubricant", "Transition",
+    "SubTable", "SUBTABLE_CLASSES",
     "Driver", "Output", "Analysis", "Solver",
     "GROUND", "CLEARANCE_MODELS", "DRIVER_LAWS", "QUANTITIES", "INTEGRATOR_NAMES",
     "FORMULATIONS",

@@ -10,7 +10,7 @@ from __future__ import annotations
 import re
 from dataclasses import dataclass, fields
 
-from .model import Analysis, Contact, Friction, Lubricant, Solver, Transition
+from .model import SUBTABLE_CLASSES, Analysis, Solver
 
 
 @dataclass(frozen=True)
@@ -26,17 +26,12 @@ NAME_RULE = "an identifier: letters, digits and underscores, not starting with a
 
 JOINT_TYPES = ("revolute", "translational", "pin-in-slot", "fixed-angle")
 
-CONTACT_KEYS = tuple(f.name for f in fields(Contact))
-FRICTION_KEYS = tuple(f.name for f in fields(Friction))
-LUBRICANT_KEYS = tuple(f.name for f in fields(Lubricant))
-TRANSITION_KEYS = tuple(f.name for f in fields(Transition))
 ANALYSIS_KEYS = tuple(f.name for f in fields(Analysis))
 SOLVER_KEYS = tuple(f.name for f in fields(Solver))
 
 JOINT_KEYS_BY_TYPE = {
     "revolute": ("type", "connects", "model", "clearance", "bearing_radius", "length",
-                 "initial_eccentricity", "initial_eccentricity_rate",
-                 "contact", "friction", "lubricant", "transition"),
+                 "initial_eccentricity", "initial_eccentricity_rate", *SUBTABLE_CLASSES),
     "translational": ("type", "connects", "direction", "angle"),
     "pin-in-slot": ("type", "connects", "direction"),
     "fixed-angle": ("type", "connects", "angle"),
@@ -62,12 +57,8 @@ OUTPUT_KEYS = _output_keys()
 TOP_KEYS = ("name", "description", "gravity", "ground", "bodies", "joints", "drivers",
             "outputs", "analysis", "solver")
 
-_SUBTABLES = {
-    "contact": dict.fromkeys(CONTACT_KEYS),
-    "friction": dict.fromkeys(FRICTION_KEYS),
-    "lubricant": dict.fromkeys(LUBRICANT_KEYS),
-    "transition": dict.fromkeys(TRANSITION_KEYS),
-}
+_SUBTABLES = {sub: dict.fromkeys(f.name for f in fields(cls))
+              for sub, cls in SUBTABLE_CLASSES.items()}
 
 SCHEMA: dict = {
     "name": None,

@@ -7,7 +7,6 @@ Every problem raises one :class:`~mechrel.errors.SceneError` whose message reads
 
 from __future__ import annotations
 
-import functools
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import fields
@@ -17,17 +16,15 @@ from typing import Any, cast
 from .._checks import _MISSING, _one_of, _typename, describe_number, fmt_value, join, suggest
 from .._checks import Checker as _Checker
 from ..errors import SceneError
-from ..forces.models import BEARINGS, MODELS, SUBTABLE_PARAMS, pack_joint
-from ..forces.params import LIMITS
-from ..forces.reynolds import CAVITATION
+from ..forces.models import MODELS, PARAMS, SUBTABLE_PARAMS
+from ..forces.packing import pack_joint
 from ._schema import (
     ANALYSIS_KEYS, BODY_KEYS, DRIVER_KEYS, DRIVER_KEYS_BY_LAW, JOINT_KEYS, JOINT_KEYS_BY_TYPE,
     JOINT_TYPES, NAME_RE, NAME_RULE, SOLVER_KEYS, TOP_KEYS,
 )
 from .model import (
-    CLEARANCE_MODELS, DRIVER_LAWS, FORMULATIONS, GROUND, INTEGRATOR_NAMES, MAX_STEPS_LIMIT,
-    Analysis, Body, Contact, Driver, Friction, Joint, Lubricant, Output, PointRef, Scene, Solver,
-    Transition,
+    DRIVER_LAWS, FORMULATIONS, GROUND, INTEGRATOR_NAMES, MAX_STEPS_LIMIT, SUBTABLE_CLASSES,
+    Analysis, Body, Driver, Joint, Output, PointRef, Scene, Solver, SubTable,
 )
 
 COINCIDENT_TOL = 1e-9  # m: two joint points closer than this on one body form a zero-length link
@@ -56,12 +53,6 @@ def _to_body_frame(g, position, angle) -> tuple[float, float]:
     dx, dy = g[0] - position[0], g[1] - position[1]
     c, sn = math.cos(angle), math.sin(angle)
     return (c * dx + sn * dy, -sn * dx + c * dy)
-
-
-@functools.cache
-def _defaults(cls) -> dict[str, Any]:
-    """``{field: default}`` of a sub-table's dataclass, in field order (read per joint)."""
-    return {f.name: f.default for f in fields(cls)}
 
 
 _REQUIRED_HINTS = {
@@ -248,8 +239,8 @@ class _Builder(Checker):
         """A clearance field on a translational or pin-in-slot joint: one error saying that
         clearance there is not supported (docs/scenes.md, "Clearance joints")."""
         asked = [k for k in ("model", "clearance", "bearing_radius", "length",
-                             "initial_eccentricity", "initial_eccentricity_rate", "contact",
-                             "friction", "lubricant", "transition") if k in j]
+                             "initial_eccentricity", "initial_eccentricity_rate",
+                             *SUBTABLE_CLASSES) if k in j]
         if asked:
             k = asked[0]
             self.fail(f"{p}.{k}", j[k],
@@ -288,7 +279,7 @@ class _Builder(Checker):
             what = "the ground to itself" if a.body == GROUND else f"body '{a.body}' to itself"
             self.fail(p + ".connects", c, f"the joint connects {what}",
                       "two points on different bodies (or a body and the ground)")
-        model = self.choice(p + ".model", j.get("model", "ideal"), CLEARANCE_MODELS)
+        model = self.choice(p + ".model", j.get("model", "ideal"), ("ideal", *MODELS))
         ideal = model == "ideal"
         kind = f"a '{model}' clearance joint"
         if not ideal:
@@ -323,13 +314,12 @@ class _Builder(Checker):
         # given but not needed is validated too (and ignored by the force law)
         needs = () if ideal else MODELS[model].requires
         subs: dict[str, Any] = {}
-        for k, check in (("contact", self._contact), ("friction", self._friction),
-                         ("lubricant", self._lubricant), ("transition", self._transition)):
+        for k in SUBTABLE_CLASSES:
             if k in keep:  # its content passed these checks before (the model unchanged)
                 subs[k] = keep[k] if k in j or k in needs else None
             else:
-                subs[k] = (check(join(p, k), j.get(k, {}), model) if k in j or k in needs
-                           else None)
+                subs[k] = (self._subtable(join(p, k), k, j.get(k, {}), model)
+                           if k in j or k in needs else None)
         joint = Joint(name=name, type="revolute", points=(a, b), model=model,
                       clearance=clearance, bearing_radius=bearing_radius, length=length,
                       initial_eccentricity=ecc, initial_eccentricity_rate=ecc_rate, **subs)
@@ -357,65 +347,39 @@ class _Builder(Checker):
             self.fail(where.get(field, join(p, field)), err.value,
                       f"not allowed by the '{joint.model}' force law{derived}", err.allowed)
 
-    def _sub(self, path: str, v: Any, cls, specs: Mapping[str, dict]) -> dict:
+    def _subtable(self, path: str, sub: str, v: Any, model: str) -> SubTable:
+        """A clearance joint's sub-table, checked by the declarations of its parameters
+        (:data:`mechrel.forces.models.PARAMS`: range, choices or true/false), then by the
+        cross-field rules the force law states with scene paths."""
         t = self.table(path, v)
-        defaults = _defaults(cls)
-        self.keys(path, t, tuple(defaults), what=f"[{path.rsplit('.', 1)[-1]}]")
-        out: dict[str, Any] = {}
-        for name, default in defaults.items():
-            spec = specs[name]
-            val = t.get(name, default)
-            if "choices" in spec:
-                out[name] = self.choice(join(path, name), val, spec["choices"])
-            elif spec.get("boolean"):
+        params = {prm.key: prm for prm in PARAMS.values() if prm.sub == sub}
+        self.keys(path, t, tuple(params), what=f"[{sub}]")
+        d: dict[str, Any] = {}
+        for key, prm in params.items():
+            val = t.get(key, prm.default)
+            if prm.choices is not None:
+                d[key] = self.choice(join(path, key), val, prm.choices)
+            elif prm.boolean:
                 if not isinstance(val, bool):
-                    self.fail(join(path, name), val, f"expected true or false, got "
+                    self.fail(join(path, key), val, f"expected true or false, got "
                               f"{_typename(val)}", "true or false")
-                out[name] = val
+                d[key] = val
             else:
-                out[name] = self.number(join(path, name), val, **spec)
-        return out
-
-    @staticmethod
-    def _limits(sub: str) -> dict[str, dict]:
-        """The allowed ranges of a sub-table's force-law keys: the entries of
-        :data:`mechrel.forces.params.LIMITS` (one statement of each range)."""
-        return {key: LIMITS[param] for key, param in SUBTABLE_PARAMS[sub].items()
-                if param in LIMITS}
-
-    def _contact(self, path: str, v: Any, model: str) -> Contact:
-        pa = dict(gt=0, unit="Pa")
-        nu = dict(gt=-1, lt=0.5)
-        return Contact(**self._sub(path, v, Contact, {
-            "youngs_modulus_bearing": pa, "youngs_modulus_journal": pa,
-            "poisson_bearing": nu, "poisson_journal": nu,
-            "stiffness": dict(choices=("conformal", "paper")),
-            **self._limits("contact"),
-        }))
-
-    def _friction(self, path: str, v: Any, model: str) -> Friction:
-        d = self._sub(path, v, Friction, self._limits("friction"))
-        if not d["v1"] > d["v0"]:
+                spec: dict[str, Any] = dict(prm.limit)
+                if prm.unit != "-":
+                    spec["unit"] = prm.unit
+                d[key] = self.number(join(path, key), val, **spec)
+        if "v0" in d and "v1" in d and not d["v1"] > d["v0"]:  # friction's dynamic correction
             self.fail(path + ".v1", d["v1"], f"must be greater than v0 = {fmt_value(d['v0'])}",
                       "v1 > v0 >= 0 (m/s)")
-        return Friction(**d)
-
-    def _lubricant(self, path: str, v: Any, model: str) -> Lubricant:
-        d = self._sub(path, v, Lubricant, {**self._limits("lubricant"),
-                                           "bearing": dict(choices=tuple(BEARINGS)),
-                                           "cavitation": dict(choices=CAVITATION),
-                                           "shear_torque": dict(boolean=True)})
         row = MODELS.get(model)
-        if row is not None and row.has_film and not d["viscosity"] > 0:
+        if "viscosity" in d and row is not None and row.has_film and not d["viscosity"] > 0:
             names = [f"'{m.name}'" for m in MODELS.values() if m.has_film]
             films = " and ".join([", ".join(names[:-1]), names[-1]] if len(names) > 1 else names)
             self.fail(path + ".viscosity", d["viscosity"],
                       f"a '{model}' joint needs a film, and a film of zero viscosity carries no "
                       "load", f"> 0 (Pa s) for models {films}")
-        return Lubricant(**d)
-
-    def _transition(self, path: str, v: Any, model: str) -> Transition:
-        return Transition(**self._sub(path, v, Transition, self._limits("transition")))
+        return SUBTABLE_CLASSES[sub](**d)
 
     def _zero_length_links(self, bodies: Mapping[str, Body], joints: Mapping[str, Joint]) -> None:
         used: dict[str, dict[str, str]] = {}
@@ -644,13 +608,42 @@ def _pair(v) -> list[float]:
     return [float(v[0]), float(v[1])]
 
 
-def _dc(obj) -> dict:
-    return {f.name: getattr(obj, f.name) for f in fields(obj)}
+# The fields written into the canonical raw mapping (and so into the scene hash) even at their
+# default: the ones that existed when the hash started leaving defaults out (mechrel 0.33), so
+# that the hashes of the scenes written before did not move. A field added since is written only
+# when it differs from its default, so adding a field with a default moves no scene's hash and
+# orphans no evaluation cache. (A clearance joint's sub-tables say it per parameter:
+# mechrel.forces.models.Param.hashed_at_default.)
+_HASHED_AT_DEFAULT: dict[type, frozenset[str]] = {
+    Analysis: frozenset({"duration", "cycles", "cycle_driver", "sample_step",
+                         "sample_step_angle"}),
+    Solver: frozenset({"integrator", "step", "rtol", "atol", "max_steps", "baumgarte_alpha",
+                       "baumgarte_beta", "assembly_tolerance", "onset_tolerance",
+                       "formulation"}),
+}
+
+
+def _table(obj, hashed_at_default: frozenset[str]) -> dict:
+    """A dataclass's table of :func:`scene_to_raw`: its fields that are not None, those not in
+    ``hashed_at_default`` only when they differ from their default."""
+    out = {}
+    for f in fields(obj):
+        v = getattr(obj, f.name)
+        if v is not None and (f.name in hashed_at_default or v != f.default):
+            out[f.name] = v
+    return out
+
+
+def _subtable_raw(sub: str, table: SubTable) -> dict:
+    return _table(table, frozenset(prm.key for prm in PARAMS.values()
+                                   if prm.sub == sub and prm.hashed_at_default))
 
 
 def scene_to_raw(scene: Scene) -> dict:
     """The canonical raw mapping of a scene: every field explicit (defaults filled in, floats,
-    normalised directions), ``None`` fields omitted. Loading it gives back an equal scene."""
+    normalised directions), ``None`` fields omitted, and a field added after mechrel 0.33
+    omitted at its default (:data:`_HASHED_AT_DEFAULT`). Loading it gives back an equal
+    scene."""
     return {
         "name": scene.name,
         "description": scene.description,
@@ -660,8 +653,8 @@ def scene_to_raw(scene: Scene) -> dict:
         "joints": {n: joint_to_raw(j) for n, j in scene.joints.items()},
         "drivers": {n: driver_to_raw(dr) for n, dr in scene.drivers.items()},
         "outputs": {n: _output_raw(o) for n, o in scene.outputs.items()},
-        "analysis": {k: v for k, v in _dc(scene.analysis).items() if v is not None},
-        "solver": {k: v for k, v in _dc(scene.solver).items() if v is not None},
+        "analysis": _table(scene.analysis, _HASHED_AT_DEFAULT[Analysis]),
+        "solver": _table(scene.solver, _HASHED_AT_DEFAULT[Solver]),
     }
 
 
@@ -689,10 +682,10 @@ def joint_to_raw(j: Joint) -> dict:
             d["length"] = float(j.length)
         d["initial_eccentricity"] = _pair(j.initial_eccentricity)
         d["initial_eccentricity_rate"] = _pair(j.initial_eccentricity_rate)
-        for k in ("contact", "friction", "lubricant", "transition"):
+        for k in SUBTABLE_CLASSES:
             sub = getattr(j, k)
             if sub is not None:
-                d[k] = _dc(sub)
+                d[k] = _subtable_raw(k, sub)
     else:
         if j.direction is not None:
             d["direction"] = _pair(j.direction)

@@ -38,11 +38,10 @@ from .._checks import fmt_value
 from ._validate import _Builder, _pair, body_to_raw, driver_to_raw, joint_to_raw
 from .loader import (_COMPONENT_RE, _LENGTH_RE, _MAPPING_LABEL, apply_override, freeze,
                      with_overrides)
-from .model import Scene
+from .model import SUBTABLE_CLASSES, Scene
 
 __all__ = ["SceneValues", "table_of", "value_path"]
 
-_SUBTABLES = ("contact", "friction", "lubricant", "transition")  # a revolute joint's
 
 
 def value_path(path: str) -> str:
@@ -175,7 +174,7 @@ class SceneValues:
                       if table_of(p) == ("joint", name)}
             joint = scene.joints[name]
             if "model" not in fields and joint.type == "revolute":
-                self._keep[name] = {k: getattr(joint, k) for k in _SUBTABLES
+                self._keep[name] = {k: getattr(joint, k) for k in SUBTABLE_CLASSES
                                     if k not in fields}
         self.bodies = tuple(n for n in scene.bodies if ("body", n) in tables)
         self.ground = ("ground",) in tables
@@ -198,7 +197,7 @@ class SceneValues:
             The scene :func:`~mechrel.scene.with_overrides` gives for ``values``.
         dict
             The packed force-law parameters of the clearance joints validated again, by joint
-            name (:func:`~mechrel.forces.models.pack_joint`: the force law's own check,
+            name (:func:`~mechrel.forces.packing.pack_joint`: the force law's own check,
             kept for the compiled scene); empty when the scene was validated in full.
 
         Raises

@@ -9,13 +9,13 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, make_dataclass
 from types import MappingProxyType
-from typing import Literal
+from typing import TYPE_CHECKING, Any, Literal
 
-from ..forces.models import DEFAULT_BEARING as _DEFAULT_BEARING
 from ..forces.models import MODELS as _MODELS
-from ..forces.params import DEFAULTS as _FORCE_DEFAULTS
+from ..forces.models import PARAMS as _PARAMS
+from ..forces.models import SUBTABLES as _SUBTABLES
 
 Vec2 = tuple[float, float]
 
@@ -24,7 +24,8 @@ GROUND = "ground"
 
 CLEARANCE_MODELS = ("ideal", *_MODELS)
 """Allowed values of ``joints.NAME.model``: ``"ideal"`` and the clearance models of
-:data:`mechrel.forces.models.MODELS`."""
+:data:`mechrel.forces.models.MODELS` (those of the package; the validation reads the table
+itself, so a model added by :func:`~mechrel.forces.models.register_model` is allowed too)."""
 DRIVER_LAWS = ("constant-speed", "constant-acceleration", "harmonic", "smooth-start")
 QUANTITIES = ("displacement", "velocity", "acceleration")
 INTEGRATOR_NAMES = ("auto", "rk4", "dopri5", "radau", "scipy-radau", "bdf", "lsoda")
@@ -106,135 +107,103 @@ class PointRef:
         return f"{self.body}.{self.point}"
 
 
-@dataclass(frozen=True)
-class Contact:
-    """Dry-contact parameters (Lankarani–Nikravesh). Moduli in Pa, speeds in m/s.
+class SubTable:
+    """A clearance joint's sub-table (``joints.NAME.SUB``): frozen values of declared parameters.
 
-    The equations are those of :mod:`mechrel.forces.contact` (sources there).
-
-    Parameters
-    ----------
-    youngs_modulus_bearing, youngs_modulus_journal : float
-        Young's moduli of bearing and journal (Pa), > 0; default 206 GPa (steel).
-    poisson_bearing, poisson_journal : float
-        Poisson's ratios (-), in (−1, 0.5); default 0.3.
-    restitution : float
-        Coefficient of restitution c_e (-), in (0, 1]; default 0.9.
-    exponent : float
-        Contact force exponent n (-), in [1, 3]; default 1.5 (Hertz).
-    stiffness : {"conformal", "paper"}
-        Radius combination of the stiffness: the journal inside its bearing (default) or the
-        sum of radii as printed in the paper (:func:`mechrel.forces.contact.contact_stiffness`).
-    impact_speed_floor : float
-        Floor of the impact speed in the damping term (m/s), > 0; default 1e-3.
+    One class per sub-table of the table of clearance models
+    (:data:`mechrel.forces.models.SUBTABLES`: :class:`Contact`, :class:`Friction`,
+    :class:`Lubricant`, :class:`Transition`), made from the models' parameter declarations
+    (:class:`mechrel.forces.models.Param`): its fields, in order, are the declared keys with
+    their defaults. A model's new parameter is a new field with its default.
 
     Examples
     --------
+    >>> from mechrel.scene import load_scene
+    >>> friction = load_scene("slider-crank-dry").joints["C"].friction
+    >>> isinstance(friction, SubTable), SUBTABLE_CLASSES["friction"] is Friction
+    (True, True)
+    """
+
+    __slots__ = ()
+
+    if TYPE_CHECKING:  # the fields are made from the declarations at import
+        def __init__(self, **values: Any) -> None: ...
+
+        def __getattr__(self, name: str) -> Any: ...
+
+
+_TYPES = {bool: "bool", str: "str"}
+
+
+def _param_line(prm) -> str:
+    kind = ("{" + ", ".join(f'"{c}"' for c in prm.choices) + "}" if prm.choices
+            else _TYPES.get(type(prm.default), "float"))
+    rng = ""
+    if prm.limit:
+        from .._checks import describe_number
+        rng = "; " + describe_number(**prm.limit).replace("a finite number ", "")
+    unit = f" ({prm.unit})" if prm.unit != "-" else ""
+    return (f"    {prm.key} : {kind}, default {prm.default!r}\n"
+            f"        {prm.summary[:1].upper()}{prm.summary[1:]}{unit}{rng}.")
+
+
+def _subtable_class(name: str, intro: str, examples: str) -> type:
+    sub = name.lower()  # the class of sub-table "contact" is Contact
+    params = [prm for prm in _PARAMS.values() if prm.sub == sub]
+    cls = make_dataclass(
+        name, [(prm.key, type(prm.default), field(default=prm.default)) for prm in params],
+        bases=(SubTable,), frozen=True)
+    cls.__module__ = __name__
+    cls.__doc__ = (f"{intro}\n\n    Made from the parameters the clearance models declare in "
+                   f"``{sub}`` (:data:`mechrel.forces.models.PARAMS`).\n\n"
+                   "    Parameters\n    ----------\n"
+                   + "\n".join(_param_line(prm) for prm in params)
+                   + f"\n\n    Examples\n    --------\n{examples}")
+    return cls
+
+
+Contact = _subtable_class("Contact", """\
+Dry-contact parameters (Lankarani–Nikravesh). Moduli in Pa, speeds in m/s.
+
+    The equations are those of :mod:`mechrel.forces.contact` (sources there).""", """\
     >>> from mechrel.scene import load_scene
     >>> contact = load_scene("slider-crank-dry").joints["C"].contact
     >>> contact.restitution, contact.youngs_modulus_bearing, contact.stiffness
     (0.9, 206000000000.0, 'conformal')
-    """
+""")
+Friction = _subtable_class("Friction", """\
+Modified Coulomb friction with the dynamic correction c_d (v0 < v1, m/s).
 
-    youngs_modulus_bearing: float = 206e9
-    youngs_modulus_journal: float = 206e9
-    poisson_bearing: float = 0.3
-    poisson_journal: float = 0.3
-    restitution: float = 0.9
-    exponent: float = _FORCE_DEFAULTS["exponent"]
-    stiffness: Literal["conformal", "paper"] = "conformal"
-    impact_speed_floor: float = _FORCE_DEFAULTS["impact_speed_floor"]  # docs/forces.md
-
-
-@dataclass(frozen=True)
-class Friction:
-    """Modified Coulomb friction with the dynamic correction c_d (v0 < v1, m/s).
-
-    The law is :func:`mechrel.forces.friction.friction_force` (source there).
-
-    Parameters
-    ----------
-    coefficient : float
-        Coulomb coefficient c_f (-), ≥ 0 (0: no friction); default 0.05.
-    v0, v1 : float
-        Slip speeds of the dynamic correction (m/s), 0 ≤ v0 < v1; defaults 1e-4 and 1e-2.
-
-    Examples
-    --------
+    The law is :func:`mechrel.forces.friction.friction_force` (source there).""", """\
     >>> from mechrel.scene import load_scene
     >>> load_scene("slider-crank-dry").joints["C"].friction
     Friction(coefficient=0.01, v0=0.0001, v1=0.01)
-    """
-
-    coefficient: float = 0.05
-    v0: float = _FORCE_DEFAULTS["v0"]
-    v1: float = _FORCE_DEFAULTS["v1"]
-
-
-@dataclass(frozen=True)
-class Lubricant:
-    """The lubricant film. ``viscosity`` in Pa s (100 cP = 0.1 Pa s); ``bearing`` the film
-    model, a key of :data:`mechrel.forces.models.BEARINGS` (``"long"``: Pinkus–Sternlicht,
-    the paper's; ``"short"``: Ocvirk; ``"finite"``: finite length, 0.25 <= L/D <= 4).
+""")
+Lubricant = _subtable_class("Lubricant", """\
+The lubricant film. ``viscosity`` in Pa s (100 cP = 0.1 Pa s); ``bearing`` the film
+    model, a key of :data:`mechrel.forces.models.BEARINGS`.
 
     The film laws and their sources are in :mod:`mechrel.forces.film`,
-    :mod:`mechrel.forces.short_film` and :mod:`mechrel.forces.finite_film`.
-
-    Parameters
-    ----------
-    viscosity : float
-        Dynamic viscosity μ (Pa s), > 0; default 0.1.
-    lam : float
-        Exponent λ of the small-eccentricity correction (-), ≥ 0; default 1.
-    eps0 : float
-        Threshold ε0 of that correction (-), in (0, 1]; default 0.1.
-    bearing : {"long", "short", "finite"}
-        The film model; default ``"long"``.
-    cavitation : {"half-sommerfeld", "reynolds"}
-        Cavitation condition; ``"reynolds"`` (Swift–Stieber) with the finite bearing only.
-    shear_torque : bool
-        Apply the film's shear torques to journal and bearing (not in the paper); default
-        False.
-
-    Examples
-    --------
+    :mod:`mechrel.forces.short_film` and :mod:`mechrel.forces.finite_film`.""", """\
     >>> from mechrel.scene import load_scene
     >>> film = load_scene("slider-crank-lubricated").joints["C"].lubricant
     >>> film.viscosity, film.bearing   # 400 cP
     (0.4, 'long')
-    """
+""")
+Transition = _subtable_class("Transition", """\
+Dry/lubricated blend over c <= |e| <= c + e1 (m); film evaluated at eps <= eps_max.
 
-    viscosity: float = 0.1
-    lam: float = _FORCE_DEFAULTS["lam"]
-    eps0: float = _FORCE_DEFAULTS["eps0"]
-    bearing: str = _DEFAULT_BEARING
-    cavitation: str = "half-sommerfeld"  # "reynolds" (Swift–Stieber): finite bearing only
-    shear_torque: bool = False  # film shear torques on journal and bearing (not in the paper)
-
-
-@dataclass(frozen=True)
-class Transition:
-    """Dry/lubricated blend over c <= |e| <= c + e1 (m); film evaluated at eps <= eps_max.
-
-    The blend is :func:`mechrel.forces.joint.transition_weight` (paper eq. 19, source there).
-
-    Parameters
-    ----------
-    e1 : float
-        Width of the blend band (m), > 0; default 1e-5.
-    eps_max : float
-        Eccentricity ratio at which the film is clamped (-), in (0, 1); default 0.99.
-
-    Examples
-    --------
+    The blend is :func:`mechrel.forces.joint.transition_weight` (paper eq. 19, source there).""",
+                             """\
     >>> from mechrel.scene import load_scene
     >>> scene = load_scene("slider-crank", overrides=["joints.C.model=transition"])
     >>> scene.joints["C"].transition
     Transition(e1=1e-05, eps_max=0.99)
-    """
-
-    e1: float = _FORCE_DEFAULTS["e1"]
-    eps_max: float = _FORCE_DEFAULTS["eps_max"]
+""")
+SUBTABLE_CLASSES: Mapping[str, type] = MappingProxyType({
+    cls.__name__.lower(): cls for cls in (Contact, Friction, Lubricant, Transition)})
+"""The class of each sub-table of a clearance joint, by its scene key."""
+assert tuple(SUBTABLE_CLASSES) == _SUBTABLES, "a class per declared sub-table"
 
 
 @dataclass(frozen=True)
@@ -301,10 +270,10 @@ class Joint:
     clearance: float = 0.0
     bearing_radius: float | None = None
     length: float | None = None
-    contact: Contact | None = None
-    friction: Friction | None = None
-    lubricant: Lubricant | None = None
-    transition: Transition | None = None
+    contact: SubTable | None = None
+    friction: SubTable | None = None
+    lubricant: SubTable | None = None
+    transition: SubTable | None = None
     initial_eccentricity: Vec2 = (0.0, 0.0)
     initial_eccentricity_rate: Vec2 = (0.0, 0.0)
 

@@ -11,6 +11,7 @@ from typing import Any
 
 import numpy as np
 
+from ..forces.models import SUBTABLES
 from ..mechanics.system import CompiledScene, System, _driver_row, compile_scene
 from ..scene._values import SceneValues, table_of, value_path
 from ..scene.model import GROUND, Scene
@@ -44,8 +45,7 @@ from ..scene.model import GROUND, Scene
 
 # Fields of a joint that enter the compiled scene only through the packed force-law
 # parameters of a clearance joint (pack_joint).
-_FORCE_LAW_FIELDS = ("clearance", "bearing_radius", "length", "contact", "friction", "lubricant",
-                    "transition")
+_FORCE_LAW_FIELDS = ("clearance", "bearing_radius", "length", *SUBTABLES)
 # Numeric fields of a driver: its row of driver parameters.
 _DRIVER_FIELDS = ("angle0", "speed", "acceleration", "amplitude", "frequency", "phase",
                  "ramp_time")

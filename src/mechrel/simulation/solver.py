@@ -103,8 +103,9 @@ def make_integrator(scene: Scene, integrator: str | None = None, **settings):
                               f"{', '.join(sorted(INTEGRATORS))}")
     chosen: dict = {}
     if name == "auto":
-        name, chosen = DEFAULT_SOLVERS[scene_kind(scene)]
-        chosen = dict(chosen)
+        kind = scene_kind(scene)  # a model registered since import: its row's solver
+        name, table = DEFAULT_SOLVERS.get(kind) or MODELS[kind].solver
+        chosen = dict(table)
         if name not in INTEGRATORS:  # compiled stiff method not available: SciPy's
             name = "lsoda"
     # step, rtol, atol and the integrator's own keywords (Radau's fixed_step); the step

@@ -26,15 +26,19 @@ Every estimator takes keyword arguments only, accepts either ``model=`` (it eval
 design through :func:`evaluate`) or precomputed ``evaluations=``, and returns a frozen result
 with ``.to_frame()``, ``.provenance`` and ``.n_evaluations``. See ``docs/uq.md``.
 
-Every public name is imported from here (``from mechrel.uq import fosm``); the table below is
-the one list of them.
+Every public name is imported from here (``from mechrel.uq import fosm``); the table below and
+the registry of methods are the one list of them.
 """
 
 import importlib
 
-# Public name -> submodule, the one list of the public API. Imports are lazy (PEP 562) so that a
-# worker process unpickling a model (which imports ``mechrel.uq.problem.model``) does not pay for
-# scipy.stats, chaospy and SALib.
+from .estimators import METHODS as _METHODS
+
+# Public name -> submodule, the one list of the public API: the names below, and for every
+# method of the registry (mechrel.uq.estimators.METHODS) its estimator, its result type and its
+# further exports (Method.public_names), so that adding a method is one module plus one
+# registration. Imports are lazy (PEP 562) so that a worker process unpickling a model (which
+# imports ``mechrel.uq.problem.model``) does not pay for scipy.stats, chaospy and SALib.
 _EXPORTS = {
     "problem.model": ["Model", "ModelFailure", "RowFailures", "FunctionModel", "evaluate_rows"],
     "problem.mechanism": ["MechanismModel"],
@@ -50,17 +54,7 @@ _EXPORTS = {
     "execution.cache": ["EvaluationCache"],
     "_common": ["SampleFailuresError"],
     "estimators": ["METHODS"],
-    "estimators.fosm": ["fosm", "FOSMResult", "FOSMPfResult", "fosm_design", "fd_steps"],
-    "estimators.monte_carlo": ["monte_carlo", "MonteCarloResult", "MonteCarloPfResult",
-                               "monte_carlo_design"],
-    "estimators.sobol": ["sobol_indices", "SobolResult", "sobol_design", "peak_abs"],
     "estimators.normality": ["normality_check", "NormalityResult"],
-    "estimators.form": ["form", "FORMResult", "FORMConvergenceError"],
-    "estimators.sorm": ["sorm", "SORMResult"],
-    "estimators.importance": ["importance_sampling", "ImportanceSamplingResult"],
-    "estimators.subset": ["subset_simulation", "SubsetSimulationResult"],
-    "estimators.ak": ["active_learning", "AKResult"],
-    "surrogates.pce": ["polynomial_chaos", "PCEResult", "pce_design", "multi_indices"],
     "surrogates.kriging": ["Kriging", "fit_kriging"],
     "inverse": ["INVERSE_METHODS"],
     "inverse.quantile": ["inverse_reliability", "InverseResult"],
@@ -69,6 +63,7 @@ _EXPORTS = {
     "design.space": ["DesignVariable", "ReliabilityConstraint"],
 }
 _WHERE = {name: mod for mod, names in _EXPORTS.items() for name in names}
+_WHERE.update({name: mod for m in _METHODS.values() for name, mod in m.public_names.items()})
 __all__ = list(_WHERE)
 
 

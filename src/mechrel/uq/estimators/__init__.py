@@ -102,6 +102,9 @@ class Method:
         The method's name in study files and on the command line (``mechrel reliability
         --method``), default ``name``; a study file sets, in the table of that name, the
         settings that have a check.
+    exports : tuple of str, default ()
+        Further public names of the estimator's module (its design function, extra result
+        types): :mod:`mechrel.uq` exports them with the estimator and its result type.
 
     Examples
     --------
@@ -117,6 +120,33 @@ class Method:
     summary: str
     declared_settings: Mapping[str, Setting] | None = field(default=None)
     short: str | None = None
+    exports: tuple[str, ...] = ()
+
+    @property
+    def public_names(self) -> dict[str, str]:
+        """The names :mod:`mechrel.uq` exports for the method, with their modules.
+
+        Returns
+        -------
+        dict of str to str
+            ``{name: module under mechrel.uq}``: the estimator, its result type and
+            :attr:`exports`; empty for a method given as objects (defined outside mechrel).
+
+        Examples
+        --------
+        >>> names = METHODS["form"].public_names
+        >>> list(names), set(names.values())
+        (['form', 'FORMResult', 'FORMConvergenceError'], {'estimators.form'})
+        """
+        out: dict[str, str] = {}
+        if not isinstance(self.estimator, str):
+            return out
+        module = self.estimator.split(":")[0]
+        for path in (self.estimator, self.result, *(f"{module}:{x}" for x in self.exports)):
+            if isinstance(path, str):
+                mod, attr = path.split(":")
+                out[attr] = mod
+        return out
 
     @property
     def key(self) -> str:
@@ -328,16 +358,20 @@ def register(method: Method) -> Method:
 
 for _m in (
     Method("fosm", "estimators.fosm:fosm", "estimators.fosm:FOSMResult", "reliability",
-           "first-order second-moment interference formula (the paper's eqs. 25-28)"),
+           "first-order second-moment interference formula (the paper's eqs. 25-28)",
+           exports=("FOSMPfResult", "fosm_design", "fd_steps")),
     Method("monte_carlo", "estimators.monte_carlo:monte_carlo", "estimators.monte_carlo:MonteCarloResult", "reliability",
-           "crude Monte Carlo reliability and moments", short="mc"),
+           "crude Monte Carlo reliability and moments", short="mc",
+           exports=("MonteCarloPfResult", "monte_carlo_design")),
     Method("polynomial_chaos", "surrogates.pce:polynomial_chaos", "surrogates.pce:PCEResult", "surrogate",
-           "polynomial chaos expansion (chaospy)", short="pce"),
+           "polynomial chaos expansion (chaospy)", short="pce",
+           exports=("pce_design", "multi_indices")),
     Method("sobol_indices", "estimators.sobol:sobol_indices", "estimators.sobol:SobolResult", "sensitivity",
-           "Sobol' indices (SALib / Saltelli)"),
+           "Sobol' indices (SALib / Saltelli)", exports=("sobol_design", "peak_abs")),
     Method("form", "estimators.form:form", "estimators.form:FORMResult", "rare_event",
            "FORM: design points by iHLRF, P_f of their series (or parallel) system",
-           _FORM_SETTINGS | {"start": Setting(None), "tol_direction": Setting(None, _pos_float)}),
+           _FORM_SETTINGS | {"start": Setting(None), "tol_direction": Setting(None, _pos_float)},
+           exports=("FORMConvergenceError",)),
     Method("sorm", "estimators.sorm:sorm", "estimators.sorm:SORMResult", "rare_event",
            "SORM: Hohenbichler-Rackwitz / Tvedt / Breitung from the curvatures at the design point",
            _FORM_SETTINGS | {"design_point": Setting(None),

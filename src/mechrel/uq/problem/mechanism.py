@@ -44,6 +44,7 @@ import pandas as pd
 
 from ..._checks import ARGS
 from ...errors import MechrelError, SceneError, StudyError
+from ...forces.models import MODELS
 from ...outputs import quantities_of
 from .model import ModelFailure, RowFailures, evaluate_rows
 from .allowables import EXTREME_STATS, sector_label
@@ -83,6 +84,12 @@ def is_geometric(path: str) -> bool:
     True
     """
     return bool(_GEOMETRY.match(path))
+
+
+def _one_of_models() -> str:
+    """``'dry', 'lubricated' or 'transition'``: the clearance models of the table."""
+    names = [repr(m) for m in MODELS]
+    return " or ".join([", ".join(names[:-1]), names[-1]] if len(names) > 1 else names)
 
 
 class MechanismModel:
@@ -169,7 +176,7 @@ class MechanismModel:
         if not base.clearance_joints and not self.nominal_reference:
             raise StudyError(
                 f"scene {base.name!r}: has no clearance joints, so its response error is zero; "
-                "allowed: a joint with model = 'dry', 'lubricated' or 'transition', or "
+                f"allowed: a joint with model = {_one_of_models()}, or "
                 "geometric inputs (point coordinates, lengths) measured against the nominal "
                 "design" + (" (reference = 'nominal')" if geometric else ""))
         if base.analysis.cycle_driver is None:
@@ -309,13 +316,14 @@ class MechanismModel:
     def nonsmooth(self) -> str | None:
         """Why the response is not a smooth function of the inputs, or None.
 
-        Dry contact (``dry`` or ``transition`` joints) makes it piecewise smooth at best, chaotic at
-        worst. FOSM warns on such a model.
+        A clearance model whose row is not ``smooth`` (:data:`mechrel.forces.models.MODELS`:
+        dry contact) makes it piecewise smooth at best, chaotic at worst. FOSM warns on such a
+        model.
 
         Returns
         -------
         str or None
-            The reason, None for a smooth (lubricated) model.
+            The reason, None for a smooth model (e.g. a lubricant film only).
 
         Examples
         --------
@@ -323,11 +331,14 @@ class MechanismModel:
         ...                angle_step=90.0).nonsmooth is None
         True
         """
-        dry = [j.name for j in self.scene.clearance_joints if j.model in ("dry", "transition")]
-        if not dry:
+        rough = [j for j in self.scene.clearance_joints if not j.clearance_model.smooth]
+        if not rough:
             return None
-        return (f"dry contact in joint{'s' if len(dry) > 1 else ''} {', '.join(dry)}: impacts "
-                "make the response non-smooth, often chaotic")
+        what = ("dry contact" if all(j.clearance_model.has_contact for j in rough)
+                else "a non-smooth force law")
+        return (f"{what} in joint{'s' if len(rough) > 1 else ''} "
+                f"{', '.join(j.name for j in rough)}: impacts make the response non-smooth, "
+                "often chaotic")
 
     def describe(self) -> dict:
         """Describe the model for provenance.
