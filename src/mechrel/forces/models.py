@@ -5,11 +5,10 @@ A revolute clearance joint's ``model`` (scene key ``joints.NAME.model``) names o
 behaves numerically (stiff, chaotic), which scene sub-tables it requires and which it reads, and
 which integrator it runs with by default. The scene validation (:mod:`mechrel.scene._validate`),
 the parameter packing (:func:`mechrel.forces.packing.pack_joint`), the compiled system
-(:mod:`mechrel.mechanics.system`), the simulation defaults (:mod:`mechrel.simulation`), the integrators' failure advice
-(:mod:`mechrel.integrate.base`) and the accuracy study (:mod:`mechrel.study.accuracy`) read
-this table instead of testing model names. The compiled force law branches on the integer
-``code`` (:func:`mechrel.forces.joint.clearance_force`).
-
+(:mod:`mechrel.mechanics.system`), the simulation defaults (:mod:`mechrel.simulation`), the
+integrators' failure advice (:mod:`mechrel.integrate.base`) and the accuracy study
+(:mod:`mechrel.study.accuracy`) read this table instead of testing model names. The compiled
+force law branches on the integer ``code`` (:func:`mechrel.forces.joint.clearance_force`).
 The film of a lubricated or transition joint is chosen per joint in the lubricant sub-table
 (``joints.NAME.lubricant.bearing``), one row of :data:`BEARINGS`.
 
