@@ -2,7 +2,7 @@
 
 A *room* is a top-level module or sub-package of ``mechrel`` (``scene``, ``outputs``,
 ``_kernel_cache``, ...). Every import counts, at module level or inside a function (a lazy
-import is still a dependency), as ``python3 tools/import_loops.py``-style checkers count them.
+import is still a dependency), as the project's loop checker counts them.
 docs/architecture.md's table "package | owns | depends on" lists the rooms from the ground
 floor up, one per row, each with the rooms it imports (backticked names, or "–"). The tests
 check that the table is the real graph (both ways: no undeclared arrow, no stale one), that
