@@ -66,7 +66,7 @@ def test_the_study_methods_are_the_registrys():
     # properties of the registry, not a copy of it: every registered method but the
     # sensitivity ones is a study method by its key, in the registry's order; the rare-event
     # ones are the study's rare-event tables; each has a presenter
-    from mechrel.studies.presenters import Presenter, presenter_class
+    from mechrel.study.presenters import Presenter, presenter_class
 
     study = [m for m in REGISTRY.values() if m.kind != "sensitivity"]
     assert list(study_methods()) == [m.key for m in study]
