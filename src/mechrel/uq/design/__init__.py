@@ -36,9 +36,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 from types import MappingProxyType
 
-from mechrel.errors import StudyError
-
-from ..estimators import Method, Setting
+from ..estimators import Method, Setting, _add
 
 __all__ = ["DESIGN_METHODS", "register_design"]
 
@@ -71,13 +69,7 @@ def register_design(method: Method) -> Method:
     ...
     mechrel.errors.StudyError: register_design: method 'ak' is already registered; allowed: a new key
     """
-    if not isinstance(method, Method):
-        raise StudyError(f"register_design: got {type(method).__name__}; allowed: a Method")
-    if method.key in _DESIGN:
-        raise StudyError(f"register_design: method {method.key!r} is already registered; "
-                         "allowed: a new key")
-    _DESIGN[method.key] = method
-    return method
+    return _add(_DESIGN, method, who="register_design", by="key")
 
 
 def _count(minimum: int, what: str):

@@ -348,11 +348,19 @@ def register(method: Method) -> Method:
     ...
     mechrel.errors.StudyError: register: method 'fosm' is already registered; allowed: a new name
     """
+    return _add(_METHODS, method, who="register", by="name")
+
+
+def _add(table: dict, method: Method, *, who: str, by: str, reserved: tuple = ()) -> Method:
+    """``table[method.<by>] = method``: the one check and message of every method registry
+    (:func:`register`, and the inverse and design registries), ``who`` naming the registering
+    function; a key in ``reserved`` counts as taken."""
     if not isinstance(method, Method):
-        raise StudyError(f"register: got {type(method).__name__}; allowed: a Method")
-    if method.name in _METHODS:
-        raise StudyError(f"register: method {method.name!r} is already registered; allowed: a new name")
-    _METHODS[method.name] = method
+        raise StudyError(f"{who}: got {type(method).__name__}; allowed: a Method")
+    key = getattr(method, by)
+    if key in table or key in reserved:
+        raise StudyError(f"{who}: method {key!r} is already registered; allowed: a new {by}")
+    table[key] = method
     return method
 
 

@@ -35,9 +35,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 from types import MappingProxyType
 
-from mechrel.errors import StudyError
-
-from ..estimators import METHODS, Method, Setting
+from ..estimators import METHODS, Method, Setting, _add
 
 __all__ = ["INVERSE_METHODS", "register_inverse", "choose_method", "MC_RESOLUTION"]
 
@@ -75,13 +73,7 @@ def register_inverse(method: Method) -> Method:
     ...
     mechrel.errors.StudyError: register_inverse: method 'mc' is already registered; allowed: a new key
     """
-    if not isinstance(method, Method):
-        raise StudyError(f"register_inverse: got {type(method).__name__}; allowed: a Method")
-    if method.key in _INVERSE or method.key == "auto":
-        raise StudyError(f"register_inverse: method {method.key!r} is already registered; "
-                         "allowed: a new key")
-    _INVERSE[method.key] = method
-    return method
+    return _add(_INVERSE, method, who="register_inverse", by="key", reserved=("auto",))
 
 
 def _sample_count(name, v):
