@@ -118,6 +118,10 @@ BENCHMARKS: dict[str, Benchmark] = {
         "bench_ak_ninebar.py", "active learning on the main study against 10⁴ Monte Carlo",
         "docs/performance.md, Estimators", "",
         ("--seeds", "1", "--skip-mc", "--out", "results/bench_quick/ak_ninebar")),
+    "ak-workers": Benchmark(
+        "bench_ak_workers.py", "active learning on the main study: one against two workers",
+        "docs/performance.md, Estimators; docs/uq.md", "≈ 2 min",
+        ("--rounds", "1"), json=True),
     "gp-libraries": Benchmark(
         "bench_gp_libraries.py", "which Kriging library: fit time and accuracy",
         "docs/uq.md, Active learning", "", ("--reps", "1", "--n", "50", "--d", "3")),

@@ -30,6 +30,7 @@ from __future__ import annotations
 import argparse
 import time
 import warnings
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -112,6 +113,7 @@ def main(argv=None):
                         "cpu_s": time.process_time() - c0})
                     line = pd.Series(rows[-1]).to_frame().T
                     print(line.to_string(header=len(rows) == 1, index=False), flush=True)
+                    Path(a.out).parent.mkdir(parents=True, exist_ok=True)
                     pd.DataFrame(rows).to_csv(a.out, index=False)
     df = pd.DataFrame(rows)
     g = df.groupby(["problem", "tolerance", "batch"])

@@ -291,3 +291,52 @@ def test_kriging_interpolates_and_extrapolates_a_linear_trend():
     with pytest.raises(StudyError, match=r"fit_kriging: 3 points for a linear trend in 2 inputs; "
                                          r"allowed: at least 5"):
         kriging.fit_kriging(X[:3], y[:3])
+
+
+def test_auto_takes_monte_carlo_only_where_few_rows_resolve_the_estimate():
+    # P_f = Φ(−2.5) = 6.2e-3 with 99.9 % intervals (z = 3.29): at tolerance 0.1 it needs
+    # (1 − P)/(P δ²) = 7e5 Monte Carlo rows, δ = 0.1/(2z), more than AUTO_MC_ROWS, so the
+    # importance population; at tolerance 0.3 (δ = 0.0456) 7.7e4 rows: Monte Carlo. Both
+    # intervals hold the exact value (each misses once in a thousand seeds for a right method)
+    from mechrel.uq.estimators import ak
+
+    model = FunctionModel(linear_rows, INPUTS2.names, ["g"], key="lin")
+    z = stats.norm.ppf(0.9995)
+    p = special.ndtr(-2.5)
+    rows = {tol: (1 - p) / (p * (tol / (2 * z)) ** 2) for tol in (0.1, 0.3)}
+    assert rows[0.1] > ak.AUTO_MC_ROWS >= rows[0.3]
+    for tol, kind in ((0.1, "importance"), (0.3, "monte_carlo")):
+        t = quiet(model=model, inputs=INPUTS2, seed=4, tolerance=tol,
+                  confidence_level=0.999).to_frame().iloc[0]
+        assert t["population"] == kind
+        assert t["pf_lo"] <= p <= t["pf_hi"]
+
+
+def test_an_importance_population_grows_at_most_is_grow_times_its_start():
+    # a small start (n_population = 500) with a tight tolerance: the sampling error asks for
+    # more rows than IS_GROW × 500; the population stops there and learning goes on
+    from mechrel.uq.estimators import ak
+
+    r = quiet(model=FOUR, inputs=INPUTS2, limit_state=FOUR_LS, seed=8, n_population=500,
+              population="importance", tolerance=0.05, max_evaluations=40)
+    assert r.history["n_population"].max() <= ak.IS_GROW * 500
+    assert (r.history["population"] == "importance").all()
+
+
+def test_the_mixture_density_equals_the_direct_log_sum_exp():
+    # the chunked, shifted log Σ exp against scipy's on rows far from every centre (where an
+    # unshifted sum underflows to log 0) and near them, across a chunk boundary
+    from mechrel.uq.estimators import ak
+
+    rng = np.random.default_rng(0)
+    C = rng.normal(size=(50, 3)) * 2.0
+    U = np.vstack([rng.normal(size=(ak.LOGH_CHUNK + 7, 3)), rng.normal(size=(5, 3)) * 60.0])
+    pop = ak._Population("importance", 3, np.random.SeedSequence(1), C)
+    d2 = (U * U).sum(1)[:, None] + (C * C).sum(1)[None, :] - 2.0 * U @ C.T
+    lk = -0.5 * np.maximum(d2, 0.0) - 1.5 * math.log(2 * math.pi)
+    lmix = special.logsumexp(lk, axis=1) - math.log(C.shape[0])
+    ref = np.logaddexp(math.log(ak.DEFENSIVE) + ak._log_phi(U), math.log(1 - ak.DEFENSIVE) + lmix)
+    got = pop._log_h(U)
+    assert np.all(np.isfinite(got))
+    # |log h| reaches ~ 1e4 on the far rows: a few ulps of it
+    np.testing.assert_allclose(got, ref, rtol=1e-13, atol=1e-12)

@@ -31,7 +31,9 @@ the centres c_m the surrogate's failure points found by subset simulation *on th
 single design point (AK-IS) does not. It is rebuilt from the current surrogate every
 ``REBUILD_EVERY`` iterations and when the stopping rule is first met (the run stops only on a
 population of the final surrogate). ``"auto"`` chooses Monte Carlo when the surrogate's P_f
-(subset simulation on it) can be resolved by ``max_population`` points, else importance.
+(subset simulation on it) can be resolved by at most ``AUTO_MC_ROWS`` (10⁵) and
+``max_population`` points, else importance: predicting the surrogates on more rows costs more
+than the importance population (10⁴ rows and a subset run on the surrogate per rebuild).
 
 Learning and batches
 --------------------
@@ -92,6 +94,9 @@ N_CENTRES = 200            # centres of the importance mixture
 N_SUBSET = 2000            # samples per level of the subset runs on the surrogate
 REBUILD_EVERY = 10         # iterations between rebuilds of an importance population
 LOO_LIMIT = 0.05           # leave-one-out RMS error near g = 0 over the spread of g that warns
+LOGH_CHUNK = 20_000         # rows per block of the mixture density (20 000 × 200 centres: 32 MB)
+IS_GROW = 8                # an importance population grows to at most IS_GROW × n_population rows
+AUTO_MC_ROWS = 100_000     # "auto": Monte Carlo only when the tolerance needs at most this many rows
 FREEZE_U = 8.0             # points whose every unit has |μ| ≥ FREEZE_U σ are not re-predicted
 REFRESH_EVERY = 10         # iterations between full passes over the population
 FRESH_EVERY = 3            # Kriging refits between fits that also start afresh (not only warm)
@@ -300,9 +305,15 @@ class _Population:
         if self.kind == "monte_carlo":
             return lp
         C = self.centres
-        d2 = (U * U).sum(1)[:, None] + (C * C).sum(1)[None, :] - 2.0 * U @ C.T
-        lk = -0.5 * np.maximum(d2, 0.0) - 0.5 * self.d * math.log(2 * math.pi)
-        lmix = special.logsumexp(lk, axis=1) - math.log(C.shape[0])
+        c2 = (C * C).sum(1)
+        lmix = np.empty(U.shape[0])
+        for s in range(0, U.shape[0], LOGH_CHUNK):  # bounds the (rows × centres) block's memory
+            u = U[s: s + LOGH_CHUNK]
+            d2 = (u * u).sum(1)[:, None] + c2[None, :] - 2.0 * (u @ C.T)
+            lk = -0.5 * np.maximum(d2, 0.0)
+            top = lk.max(axis=1)  # log Σ exp, shifted by the row's largest term (finite)
+            lmix[s: s + LOGH_CHUNK] = top + np.log(np.exp(lk - top[:, None]).sum(axis=1))
+        lmix += -0.5 * self.d * math.log(2 * math.pi) - math.log(C.shape[0])
         return np.logaddexp(math.log(DEFENSIVE) + lp, math.log(1.0 - DEFENSIVE) + lmix)
 
     def grow(self, n: int) -> slice:
@@ -564,8 +575,10 @@ def active_learning(
         if kind_wanted == "auto":
             p_ss, _, _ = _subset_on(gsys, d, child_seed(child_seed(ss, 3), n_rebuild))
             delta = tol / (2 * z)
-            p_switch = 1.0 / (1.0 + n_pop_max * delta * delta)
-            kind_wanted = "monte_carlo" if p_ss >= p_switch else "importance"
+            # Monte Carlo rows the tolerance needs at this P_f; above AUTO_MC_ROWS predicting on
+            # them costs more than building (and re-predicting) an importance population
+            n_mc = (1.0 - p_ss) / (p_ss * delta * delta) if p_ss > 0 else math.inf
+            kind_wanted = "monte_carlo" if n_mc <= min(n_pop_max, AUTO_MC_ROWS) else "importance"
         if kind_wanted == "monte_carlo":
             P = _Population("monte_carlo", d, child_seed(ss, 2))
         else:
@@ -631,7 +644,14 @@ def active_learning(
                         "pf_plus": pp, "cov_sampling": se / pf if pf > 0 else np.nan,
                         "n_population": pop.n, "population": pop.kind})
         # ---- grow the population when its sampling error dominates
-        if pf > 0 and samp > tol / 2 and pop.n < n_pop_max:
+        # (an importance population is first redrawn for the current surrogate, and grows to at
+        # most IS_GROW × n_population rows: a proposal that needs more is a poor one, and the
+        # next rebuild's centres, from a better surrogate, are the cure, not more rows)
+        cap = n_pop_max if pop.kind == "monte_carlo" else min(n_pop_max, IS_GROW * n_pop0)
+        if pf > 0 and samp > tol / 2 and pop.kind == "importance" and pop_fit != fitted:
+            rebuild_now = True
+            continue
+        if pf > 0 and samp > tol / 2 and pop.n < cap:
             want = pop.n * (samp / (0.9 * tol / 2)) ** 2
             if population == "auto" and pop.kind == "monte_carlo" and want > n_pop_max:
                 pop = build_population("importance")
@@ -639,7 +659,7 @@ def active_learning(
                 MU = SD = frozen = None
                 since_rebuild = 0
             else:
-                pop.grow(max(int(min(n_pop_max, math.ceil(want))) - pop.n, pop.n // 2, 1))
+                pop.grow(max(int(min(cap, math.ceil(want))) - pop.n, pop.n // 2, 1))
             history[-1]["grown"] = True
             continue
         done = pf > 0 and half <= tol * pf
