@@ -121,6 +121,7 @@ class SurrogateConstraints:
         self.members = list(problem.scalars.unit_members)
         self._active: np.ndarray | None = None
         self._last_full: tuple | None = None
+        self._last_mean: tuple | None = None
         self._memo: dict[bytes, np.ndarray] = {}
 
     @property
@@ -163,8 +164,18 @@ class SurrogateConstraints:
             out.append(float(np.partition(h, h.size - t)[h.size - t]))
         return np.asarray(out)
 
+    def _mean(self, d) -> np.ndarray:
+        """μ over the whole population at ``d`` (kept for the last design: confirming a design
+        and rebuilding the active set there read the same pass; σ is not needed for either)."""
+        key = np.asarray(d, dtype=float).tobytes()
+        if self._last_full is not None and self._last_full[0] == key:
+            return self._last_full[1]
+        if self._last_mean is None or self._last_mean[0] != key:
+            self._last_mean = (key, self.predict(d)[0])
+        return self._last_mean[1]
+
     def _build_active(self, d, rel) -> None:
-        MU, _ = self.predict(d)
+        MU = self._mean(d)
         keep = np.zeros(self.n, dtype=bool)
         for idx, r in zip(self.members, rel):
             h = 1.0 - MU[:, list(idx)].min(axis=1)
@@ -201,7 +212,7 @@ class SurrogateConstraints:
     def confirm(self, d, rel) -> bool:
         """Whether the active set's factors at ``d`` are the whole population's; if not, the
         active set is rebuilt at ``d`` (and the optimiser should start again from there)."""
-        exact = self.full(d, rel)[2]
+        exact = self._factor_of(self._mean(d), np.asarray(rel, dtype=float), self.n)
         approx = self.factors(d, rel)
         if np.allclose(exact, approx, rtol=0, atol=0):
             return True
