@@ -413,3 +413,23 @@ def test_study_script_cases_are_checked_by_argparse(tmp_path, capsys):
     assert info.value.code == 2
     assert ("argument --cases: unknown case 'bogus'; allowed: comma-separated cases from "
             "dry-3pi, lub-3pi") in capsys.readouterr().err
+
+
+def test_the_embedded_design_study_asks_for_the_largest_clearance(capsys):
+    # `mechrel design` with no STUDY runs it; its model is the default study's (same inputs and
+    # scene), its allowables fixed, its one variable the clearance input's mean
+    from mechrel.cli.main import main
+
+    assert "nine-bar-clearance-design" in embedded_studies()
+    study = load_study("nine-bar-clearance-design")
+    default = load_study("nine-bar-lubricated")
+    assert study.model().cache_key() == default.model().cache_key()
+    assert study.uncertain_inputs().names == default.uncertain_inputs().names
+    assert all(std == 0.0 for _, std in study.allowable.values())
+    d = study.design
+    assert (d["cost"], d["sense"], d["method"]) == ("c", "maximize", "ak")
+    assert d["variables"]["c"]["kind"] == "mean" and d["variables"]["c"]["input"] == "clearance"
+    assert d["constraints"] == [{"basis": "whole-cycle", "quantity": "all", "reliability": 0.999}]
+    with pytest.raises(SystemExit):
+        main(["design", "--help"])
+    assert "nine-bar-clearance-design" in " ".join(capsys.readouterr().out.split())

@@ -234,10 +234,9 @@ def _cmd_design(args) -> int:
     return 0
 
 
-def _study_args(p, section, n=True):
-    p.add_argument("study", nargs="?", default="nine-bar-lubricated", metavar="STUDY",
-                   help="embedded study name or path to a study .toml "
-                        "(default: nine-bar-lubricated)")
+def _study_args(p, section, n=True, default="nine-bar-lubricated"):
+    p.add_argument("study", nargs="?", default=default, metavar="STUDY",
+                   help=f"embedded study name or path to a study .toml (default: {default})")
     p.add_argument("--scene", metavar="SCENE",
                    help="embedded scene name or scene file to use instead of the study's "
                         "scene (a file the study names must be in the study file's folder)")
@@ -364,7 +363,7 @@ def register_design(sub) -> None:
                     "(OUT/design*.csv, design_tradeoff.png, design.json). Methods: "
                     + ", ".join(f"{k} ({m.summary})" for k, m in DESIGN_METHODS.items())
                     + ". Simulations are cached in OUT/evaluations.sqlite.")
-    _study_args(p, "design", n=False)
+    _study_args(p, "design", n=False, default="nine-bar-clearance-design")
     p.add_argument("--method", choices=tuple(DESIGN_METHODS),
                    help="design method (default: the study's design.method)")
     p.set_defaults(func=_cmd_design)
