@@ -165,8 +165,8 @@ class SurrogateConstraints:
         return np.asarray(out)
 
     def _mean(self, d) -> np.ndarray:
-        """μ over the whole population at ``d`` (kept for the last design: confirming a design
-        and rebuilding the active set there read the same pass; σ is not needed for either)."""
+        """μ over the whole population at ``d`` (the last full pass's, when it was at ``d``: a
+        failed confirmation rebuilds the active set from the pass that confirmed)."""
         key = np.asarray(d, dtype=float).tobytes()
         if self._last_full is not None and self._last_full[0] == key:
             return self._last_full[1]
@@ -212,8 +212,9 @@ class SurrogateConstraints:
     def confirm(self, d, rel) -> bool:
         """Whether the active set's factors at ``d`` are the whole population's; if not, the
         active set is rebuilt at ``d`` (and the optimiser should start again from there)."""
-        exact = self._factor_of(self._mean(d), np.asarray(rel, dtype=float), self.n)
-        approx = self.factors(d, rel)
+        exact = self.full(d, rel)[2]   # with σ: the iteration's bounds and learning step at an
+        approx = self.factors(d, rel)  # optimum read this same pass
+
         if np.allclose(exact, approx, rtol=0, atol=0):
             return True
         self._build_active(d, rel)
