@@ -415,7 +415,8 @@ class Evaluations:
         >>> Evaluations.from_arrays([[0.0], [1.0]], [float("nan"), float("inf")]).failure_counts()
         {'non-finite output': 2}
         """
-        return dict(Counter(r for r in self.reasons if r is not None).most_common())
+        reasons = self.reasons
+        return dict(Counter(reasons[i] for i in np.flatnonzero(~self.ok)).most_common())
 
     def failures(self) -> pd.DataFrame:
         """The failed rows: their inputs and reason.
