@@ -115,13 +115,13 @@ def _inside(Y: np.ndarray, mu_I: np.ndarray, sd_I: np.ndarray, groups: np.ndarra
     stream is a child seed of its own, read by nothing else."""
     n = Y.shape[0]
     two_sided = event == "two-sided"
-    with np.errstate(invalid="ignore"):
-        if mode == "fixed" or not np.any(sd_I):
-            return (np.abs(Y) <= mu_I) if two_sided else (Y <= mu_I)
+    spread = mode != "fixed" and bool(np.any(sd_I))
+    if spread:
         xi, col = _standard_draws(n, groups, seed)
-        inside = np.empty(Y.shape, dtype=bool)
-        for s in range(0, n, block):
-            I = mu_I[None, :] + sd_I[None, :] * xi[s:s + block, col]
+    inside = np.empty(Y.shape, dtype=bool)
+    with np.errstate(invalid="ignore"):
+        for s in range(0, n, block):  # no (n, n_out) temporaries
+            I = mu_I[None, :] + sd_I[None, :] * xi[s:s + block, col] if spread else mu_I
             y = Y[s:s + block]
             np.less_equal(np.abs(y) if two_sided else y, I, out=inside[s:s + block])
     return inside
