@@ -130,7 +130,18 @@ class RowFailures(ModelFailure):
 
     @property
     def reasons(self) -> list:
-        """One entry per row: None where the row succeeded, else its reason."""
+        """The reasons one entry per row (built from :attr:`failed` on each access).
+
+        Returns
+        -------
+        list of (str or None)
+            ``n_rows`` entries: None where the row succeeded, else its reason.
+
+        Examples
+        --------
+        >>> RowFailures(np.zeros((3, 1)), {1: "why"}).reasons
+        [None, 'why', None]
+        """
         out: list = [None] * self.n_rows
         for i, r in self.failed.items():
             out[i] = r
