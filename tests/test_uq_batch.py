@@ -10,6 +10,7 @@ two loky workers; the slider-crank cases are kinematic or one short cycle each.
 from __future__ import annotations
 
 import pickle
+import re
 
 import numpy as np
 import pytest
@@ -153,6 +154,40 @@ def test_row_failures_pickle_with_their_rows():
     back = pickle.loads(pickle.dumps(exc))
     assert back.reasons == [None, "why"] and np.array_equal(back.Y, exc.Y, equal_nan=True)
     assert str(back) == "1 of 2 rows failed, the first: why"
+    exc = RowFailures(np.array([[1.0], [np.nan], [np.nan]]), {2: "b", np.int64(1): "a"})
+    back = pickle.loads(pickle.dumps(exc))
+    assert back.failed == {1: "a", 2: "b"} and back.reasons == [None, "a", "b"]
+    assert str(back) == "2 of 3 rows failed, the first: a"
+
+
+def _rows_with_failures_mapping(X):
+    """:func:`_rows_with_failures`, its failed rows' reasons as ``{row: reason}``."""
+    Y = np.column_stack([X[:, 0] + X[:, 1], X[:, 0] * X[:, 1]])
+    bad = np.flatnonzero(X[:, 0] < 0)
+    if bad.size:
+        raise RowFailures(np.where(X[:, :1] < 0, np.nan, Y),
+                          {int(i): f"x0 < 0 (row {i})" for i in bad})
+    return Y
+
+
+def test_row_failures_by_row_are_recorded_as_the_per_row_form():
+    X = np.random.default_rng(4).standard_normal((300, 2))
+    ev = {}
+    for name, f in (("list", _rows_with_failures), ("mapping", _rows_with_failures_mapping)):
+        model = FunctionModel(f, ["a", "b"], ["s", "p"], key=name, vectorized=True)
+        ev[name] = evaluate(model, X, chunk_size=300, progress=False)
+    # the reasons are counted from the batch's first row: in one chunk, the sample's index
+    assert ev["mapping"].reasons == ev["list"].reasons
+    assert ev["mapping"].n_failed == int((X[:, 0] < 0).sum()) and ev["mapping"].n_model_calls == 300
+    assert np.array_equal(ev["mapping"].Y, ev["list"].Y, equal_nan=True)
+    assert list(ev["mapping"].status) == list(ev["list"].status)
+
+
+@pytest.mark.parametrize("key", [4, -1, 1.0, True, "0"])
+def test_row_failures_name_only_rows_of_the_batch(key):
+    with pytest.raises(StudyError, match=rf"RowFailures: {re.escape(repr(key))} is not a row of "
+                                         r"the batch of 4 rows; allowed: integers 0\.\.3"):
+        RowFailures(np.zeros((4, 1)), {key: "why"})
 
 
 def test_evaluate_rows_hands_the_finished_rows_to_an_interrupt():
@@ -239,8 +274,9 @@ def test_a_raising_batch_isolates_its_failing_rows_by_halves():
     assert ev.n_model_calls == X.shape[0]  # rows computed, each counted once
 
 
-@pytest.mark.parametrize("func", [_sums_masked, _sums_raising, _rows_with_failures],
-                         ids=["mask", "raising", "RowFailures"])
+@pytest.mark.parametrize("func", [_sums_masked, _sums_raising, _rows_with_failures,
+                                  _rows_with_failures_mapping],
+                         ids=["mask", "raising", "RowFailures", "RowFailures-by-row"])
 def test_vectorised_results_do_not_depend_on_chunks_workers_or_batching(func):
     X = _design()
     vec = FunctionModel(func, ["a", "b"], ["s", "p"], key=func.__name__, vectorized=True)
@@ -255,7 +291,7 @@ def test_vectorised_results_do_not_depend_on_chunks_workers_or_batching(func):
         assert ev.Y.tobytes() == first.Y.tobytes(), key
         assert list(ev.status) == list(first.status), key
         assert ev.count.as_tuple() == first.count.as_tuple(), key
-        if func is not _rows_with_failures:  # that one words its reason per row
+        if func not in (_rows_with_failures, _rows_with_failures_mapping):  # reasons per row
             assert ev.reasons == first.reasons, key
 
 

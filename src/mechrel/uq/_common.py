@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import datetime as _dt
+import functools
 import os
 import platform
 from importlib.metadata import PackageNotFoundError, version
@@ -56,6 +57,13 @@ class SampleFailuresError(StudyError):
 
 
 def package_versions() -> dict[str, str]:
+    """The versions of Python and of the packages a result depends on (a new dict)."""
+    return dict(_package_versions())
+
+
+@functools.cache
+def _package_versions() -> dict[str, str]:
+    # read once per process: the package metadata lookups cost ~40 ms per result
     out = {"python": platform.python_version()}
     for p in _PACKAGES:
         try:

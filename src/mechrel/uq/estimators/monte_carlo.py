@@ -78,6 +78,7 @@ from ..problem.inputs import (SAMPLING_RULES, as_seed_sequence, child_seed, seed
 from ..problem.model import check_model
 from ..problem.allowables import (binomial_interval, check_event, per_angle_mask, resolve_allowables,
                           whole_cycle_column)
+from ._moments import column_moments
 from ._problem import Problem, RareEventResult
 
 __all__ = ["monte_carlo", "monte_carlo_design", "MonteCarloResult", "MonteCarloPfResult",
@@ -92,10 +93,38 @@ def _draw_allowables(n: int, mu_I: np.ndarray, sd_I: np.ndarray, groups: np.ndar
     """(n, n_out) allowable values: one N(0,1) draw per sample and group, scaled per output."""
     if mode == "fixed":
         return np.broadcast_to(mu_I, (n, mu_I.shape[0]))
+    xi, col = _standard_draws(n, groups, seed)
+    return mu_I[None, :] + sd_I[None, :] * xi[:, col]
+
+
+def _standard_draws(n: int, groups: np.ndarray, seed: np.random.SeedSequence):
+    """The N(0,1) draws of the allowables, (n, n_groups), and each output's column in them."""
     uniq = list(dict.fromkeys(groups.tolist()))
     xi = np.random.default_rng(seed).standard_normal((n, len(uniq)))
-    col = np.array([uniq.index(g) for g in groups])
-    return mu_I[None, :] + sd_I[None, :] * xi[:, col]
+    return xi, np.array([uniq.index(g) for g in groups])
+
+
+def _inside(Y: np.ndarray, mu_I: np.ndarray, sd_I: np.ndarray, groups: np.ndarray, mode: str,
+            seed: np.random.SeedSequence, event: str, block: int = 8192) -> np.ndarray:
+    """(n, n_out) bool: whether each output of each sample is inside its allowable (the
+    ``event``), the allowables of :func:`_draw_allowables`, compared a block of rows at a time
+    (the same numbers: each entry is the same expression of the same draw).
+
+    Where no output's allowable has a spread (``fixed``, or every ``sigma_I`` 0) the allowable
+    is its mean, bitwise (μ + 0·ξ = μ for a finite ξ), and nothing is drawn: the allowables'
+    stream is a child seed of its own, read by nothing else."""
+    n = Y.shape[0]
+    two_sided = event == "two-sided"
+    spread = mode != "fixed" and bool(np.any(sd_I))
+    if spread:
+        xi, col = _standard_draws(n, groups, seed)
+    inside = np.empty(Y.shape, dtype=bool)
+    with np.errstate(invalid="ignore"):
+        for s in range(0, n, block):  # no (n, n_out) temporaries
+            I = mu_I[None, :] + sd_I[None, :] * xi[s:s + block, col] if spread else mu_I
+            y = Y[s:s + block]
+            np.less_equal(np.abs(y) if two_sided else y, I, out=inside[s:s + block])
+    return inside
 
 
 def reliability_from_samples(
@@ -111,17 +140,17 @@ def reliability_from_samples(
 ) -> tuple[pd.DataFrame, pd.DataFrame]:
     """Point-in-time and whole-cycle reliability from evaluations (see module docstring)."""
     mu_I, sd_I, groups = resolve_allowables(ev.output_index, allowable)
-    I = _draw_allowables(ev.n, mu_I, sd_I, groups, allowable_mode, seed)
-    Y = ev.Y
+    inside = _inside(ev.Y, mu_I, sd_I, groups, allowable_mode, seed, event)
     ok = ev.ok
-    with np.errstate(invalid="ignore"):
-        inside = (np.abs(Y) <= I) if event == "two-sided" else (Y <= I)
+    all_ok = ev.n_failed == 0
     if failures == "exclude":
         rows = ok
-        inside = inside[rows]
+        if not all_ok:
+            inside = inside[rows]
     else:
         rows = np.ones(ev.n, dtype=bool)
-        inside = inside & ok[:, None]
+        if not all_ok:
+            inside &= ok[:, None]
     n_eff = int(rows.sum())
     k = inside.sum(axis=0)
     lo, hi = binomial_interval(k, n_eff, confidence_level=confidence_level, method=ci_method)
@@ -162,21 +191,19 @@ def reliability_from_samples(
     return point, whole
 
 
-def sample_moments(Y: np.ndarray, *, confidence_level: float) -> pd.DataFrame:
-    """mean, std, skewness, excess kurtosis per column, with intervals for mean and std."""
-    n = Y.shape[0]
+def sample_moments(Y: np.ndarray, *, confidence_level: float,
+                   rows: np.ndarray | None = None) -> pd.DataFrame:
+    """mean, std, skewness, excess kurtosis per column of ``Y[rows]``, with intervals for mean
+    and std (the moments in one pass: :func:`~mechrel.uq.estimators._moments.column_moments`,
+    the same bits as SciPy's ``skew``/``kurtosis`` with ``bias=False``)."""
+    n, mean, ss, m4, skew, kurt = column_moments(Y, rows)
     z = stats.norm.ppf(0.5 + confidence_level / 2)
     with np.errstate(invalid="ignore", divide="ignore"):
-        mean = Y.mean(axis=0)
-        c = Y - mean
-        s2 = (c**2).sum(axis=0) / (n - 1) if n > 1 else np.full(Y.shape[1], np.nan)
+        s2 = ss / (n - 1) if n > 1 else np.full(mean.shape[0], np.nan)
         s = np.sqrt(s2)
-        m4 = (c**4).mean(axis=0)
         se_mean = s / np.sqrt(n)
         var_s2 = (m4 - s2**2 * (n - 3) / (n - 1)) / n
         se_s2 = np.sqrt(np.maximum(var_s2, 0.0))
-        skew = stats.skew(Y, axis=0, bias=False) if n > 2 else np.full(Y.shape[1], np.nan)
-        kurt = stats.kurtosis(Y, axis=0, fisher=True, bias=False) if n > 3 else np.full(Y.shape[1], np.nan)
     return pd.DataFrame(
         {"mean": mean, "mean_lo": mean - z * se_mean, "mean_hi": mean + z * se_mean,
          "std": s, "std_lo": np.sqrt(np.maximum(s2 - z * se_s2, 0.0)), "std_hi": np.sqrt(s2 + z * se_s2),
@@ -483,7 +510,7 @@ def monte_carlo(
         ev, allowable=allowable, event=event, allowable_mode=allowable_mode, seed=ss_I,
         confidence_level=confidence_level, ci_method=ci_method, failures=failures,
     )
-    mom = sample_moments(ev.Y[ev.ok], confidence_level=confidence_level)
+    mom = sample_moments(ev.Y, rows=ev.ok, confidence_level=confidence_level)
     mom.index = ev.output_index
     table = pd.concat([mom, point], axis=1)
     prov = make_provenance(

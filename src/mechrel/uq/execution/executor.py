@@ -415,7 +415,8 @@ class Evaluations:
         >>> Evaluations.from_arrays([[0.0], [1.0]], [float("nan"), float("inf")]).failure_counts()
         {'non-finite output': 2}
         """
-        return dict(Counter(r for r in self.reasons if r is not None).most_common())
+        reasons = self.reasons
+        return dict(Counter(reasons[i] for i in np.flatnonzero(~self.ok)).most_common())
 
     def failures(self) -> pd.DataFrame:
         """The failed rows: their inputs and reason.
@@ -661,9 +662,9 @@ def _batch(model: Any, X: np.ndarray, n_out: int):
     except StudyError:
         raise
     except RowFailures as exc:  # the batch recorded its failing rows with their reasons
-        Y, given = exc.Y, list(exc.reasons)
-        if len(given) != m:
-            raise StudyError(f"model.evaluate_batch: RowFailures carries {len(given)} "
+        Y, given = exc.Y, exc.failed
+        if exc.n_rows != m:
+            raise StudyError(f"model.evaluate_batch: RowFailures carries {exc.n_rows} "
                              f"reasons for {m} rows; allowed: one per row") from None
     except MechrelError as exc:  # some row raised: isolate it
         if m == 1:
@@ -677,15 +678,15 @@ def _batch(model: Any, X: np.ndarray, n_out: int):
     if given is None and fin.all():  # the usual chunk: one reduction, no per-row work
         return Y, np.ones(m, dtype=bool), ()
     ok = fin.all(axis=1)
-    if given is not None:
-        ok[[i for i, r in enumerate(given) if r is not None]] = False
+    if given:
+        ok[list(given)] = False
     bad = np.flatnonzero(~ok)
     if not bad.size:
         return Y, ok, ()
     n_bad = n_out - np.count_nonzero(fin[bad], axis=1)  # non-finite entries per failed row
-    failed = tuple((int(i), (given[i] if given is not None else None)
-                    or f"non-finite output ({int(k)} of {n_out} entries)")
-                   for i, k in zip(bad, n_bad))
+    given = given or {}
+    failed = tuple((i, given.get(i) or f"non-finite output ({int(k)} of {n_out} entries)")
+                   for i, k in zip(bad.tolist(), n_bad))
     Y = np.array(Y)  # the model's array is not ours to write into
     Y[bad] = np.nan
     return Y, ok, failed

@@ -2118,7 +2118,10 @@ class UncertainInputs:
         if self._chol is None:
             out = np.empty_like(u)
             for j, m in enumerate(self.marginals):
-                out[:, j] = m.scipy().ppf(u[:, j])
+                # a normal marginal: SciPy's norm.ppf is ndtri(u)·std + mean, the same bits as
+                # from_z(ndtri(u)) without its argument checks (a third of the sampling time)
+                out[:, j] = (m.from_z(special.ndtri(u[:, j])) if type(m) is Normal
+                             else m.scipy().ppf(u[:, j]))
             return out
         return self.from_standard_normal(special.ndtri(u))
 

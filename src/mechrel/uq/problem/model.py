@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import hashlib
 import json
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
@@ -72,8 +72,25 @@ class RowFailures(ModelFailure):
     ----------
     Y : array (m, n_out)
         Every row's outputs; the failed rows' are ignored (NaN).
-    reasons : sequence of (str or None)
-        Per row: None when it succeeded, else its stable reason (as ``ModelFailure.reason``).
+    reasons : mapping of int to str, or sequence of (str or None)
+        The failed rows' reasons (each stable, as ``ModelFailure.reason``): either
+        ``{row: reason}`` for the failed rows only, rows counted from 0 in ``Y`` (what a large
+        batch should give: no Python object per successful row), or one entry per row, None
+        where the row succeeded.
+
+    Attributes
+    ----------
+    failed : dict of int to str
+        The failed rows' reasons, by row, in row order.
+    n_rows : int
+        The rows of the batch: ``len(Y)`` for the mapping, ``len(reasons)`` for the sequence.
+    reasons : list of (str or None)
+        One entry per row, None where the row succeeded (built on demand).
+
+    Raises
+    ------
+    StudyError
+        If a key of the mapping is not a row of ``Y``.
 
     Examples
     --------
@@ -81,18 +98,57 @@ class RowFailures(ModelFailure):
     >>> exc = RowFailures(np.array([[1.0], [np.nan]]), [None, "clearance <= 0"])
     >>> str(exc), exc.reasons
     ('1 of 2 rows failed, the first: clearance <= 0', [None, 'clearance <= 0'])
+    >>> Y = np.zeros((1000, 2))
+    >>> Y[[3, 7]] = np.nan
+    >>> exc = RowFailures(Y, {7: "film rupture", 3: "assembly failed"})
+    >>> str(exc), exc.failed
+    ('2 of 1000 rows failed, the first: assembly failed', {3: 'assembly failed', 7: 'film rupture'})
     """
 
     def __init__(self, Y, reasons):
         self.Y = np.asarray(Y, dtype=float)
-        self.reasons = [r if r is None or type(r) is str else str(r) for r in reasons]
-        n_failed = len(self.reasons) - self.reasons.count(None)
-        first = next((r for r in self.reasons if r is not None), None)
-        super().__init__(f"{n_failed} of {len(self.reasons)} rows failed"
-                         + (f", the first: {first}" if n_failed else ""))
+        self._given = reasons
+        if isinstance(reasons, Mapping):
+            m = self.Y.shape[0] if self.Y.ndim else 0
+            failed = {}
+            for i, r in reasons.items():
+                if (isinstance(i, (bool, np.bool_)) or not isinstance(i, (int, np.integer))
+                        or not 0 <= i < m):
+                    raise StudyError(f"RowFailures: {i!r} is not a row of the batch of {m} rows; "
+                                     f"allowed: integers 0..{m - 1}")
+                if r is not None:
+                    failed[int(i)] = r if type(r) is str else str(r)
+            self.failed = dict(sorted(failed.items()))
+            self.n_rows = m
+        else:
+            self.failed = {i: r if type(r) is str else str(r)
+                           for i, r in enumerate(reasons) if r is not None}
+            self.n_rows = len(reasons)
+        first = next(iter(self.failed.values()), None)
+        super().__init__(f"{len(self.failed)} of {self.n_rows} rows failed"
+                         + (f", the first: {first}" if self.failed else ""))
 
-    def __reduce__(self):  # picklable across process boundaries with its rows
-        return (type(self), (self.Y, self.reasons))
+    @property
+    def reasons(self) -> list:
+        """The reasons one entry per row (built from :attr:`failed` on each access).
+
+        Returns
+        -------
+        list of (str or None)
+            ``n_rows`` entries: None where the row succeeded, else its reason.
+
+        Examples
+        --------
+        >>> RowFailures(np.zeros((3, 1)), {1: "why"}).reasons
+        [None, 'why', None]
+        """
+        out: list = [None] * self.n_rows
+        for i, r in self.failed.items():
+            out[i] = r
+        return out
+
+    def __reduce__(self):  # picklable across process boundaries with its rows, as given
+        return (type(self), (self.Y, self._given))
 
 
 @runtime_checkable
@@ -164,7 +220,7 @@ class Model(Protocol):
     # ``evaluate_batch`` once per chunk (see :class:`FunctionModel`). A batch reports its failed
     # rows itself, and the rest of the batch is kept as it is: a non-finite row (a row mask of
     # NaN) is a failure with the reason "non-finite output"; :class:`RowFailures` carries every
-    # row's outputs and, per failed row, its reason (see
+    # row's outputs and the failed rows' reasons ({row: reason}; see
     # :class:`mechrel.uq.problem.mechanism.MechanismModel`). A batch that loops over its rows
     # attaches the rows finished before an interrupt as ``KeyboardInterrupt.finished``;
     # :func:`evaluate_rows` does both.
@@ -377,8 +433,8 @@ class FunctionModel:
         output), and the executor calls it once per chunk instead of once per row (saving the
         per-call Python overhead). Failures stay per row, reported by ``func`` itself: a row with
         a non-finite output (a NaN row) is a failure with its reason, and ``func`` may raise
-        :class:`RowFailures` with every row's outputs and the failed rows' reasons; the other
-        rows are kept. If the batch call raises :class:`ModelFailure` (or another per-sample
+        :class:`RowFailures` with every row's outputs and the failed rows' reasons
+        (``{row: reason}``); the other rows are kept. If the batch call raises :class:`ModelFailure` (or another per-sample
         ``MechrelError``), the executor evaluates the chunk's halves again until the rows that
         raise stand alone (docs/uq.md, "Vectorised models"). Not part of the cache key: a
         vectorised and a row-wise function computing the same numbers share cached results.
