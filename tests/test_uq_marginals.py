@@ -249,8 +249,11 @@ _MAKERS = {
     "gamma": st.builds(Gamma, st.floats(1e-2, 1e2), st.floats(1e-2, 1e2)),
     "beta": st.builds(lambda a, b, lo, w: Beta(a, b, lo, lo + w), st.floats(0.3, 20.0),
                       st.floats(0.3, 20.0), st.floats(-10, 10), st.floats(0.1, 10)),
+    # shapes normal floats: SciPy's own genextreme is inconsistent at a subnormal shape
+    # (c = 5e-324: ppf(p) = 0 for every p while cdf(0) = e^-1), which no wrapper can round-trip
     "scipy": st.builds(lambda c, loc, sc: ScipyMarginal(stats.genextreme(c, loc, sc)),
-                       st.floats(-0.3, 0.3), st.floats(-10, 10), st.floats(0.1, 10)),
+                       st.floats(-0.3, 0.3, allow_subnormal=False), st.floats(-10, 10),
+                       st.floats(0.1, 10)),
 }
 
 
