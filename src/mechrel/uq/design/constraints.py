@@ -166,12 +166,15 @@ class ConstraintScalars:
                                      f"analysis-angle outputs of {list(qs)}; allowed: basis "
                                      "'whole-cycle'")
                 self.members.append(("per-angle", cols))
-        self._col_scale = np.array([self.allowables[g] for g in gof]) if len(gof) else None
+        self._col_scale = np.array([self.allowables[g] for g in gof], dtype=float)
         self._gof = gof
         # the learning units: per quantity its largest signed ratio, and for the two-sided
         # event also its largest negated one (max |e| = max(max e, −min e): the same event,
         # without the kink of |e| at e = 0 that a smooth surrogate cannot follow)
-        units, unit_of, self._unit_cols = [], [], []
+        units: list[str] = []
+        unit_of: list[int] = []
+        # per unit: the output columns, the sign (0: |e|'s own extreme) and the allowable
+        self._unit_cols: list[tuple[tuple[int, ...], float, float]] = []
         for j, g in enumerate(groups):
             signs: tuple[float, ...] = (1.0, -1.0) if event == "two-sided" else (1.0,)
             if event == "two-sided" and None in (_cycle_column(output_index, g, "max"),

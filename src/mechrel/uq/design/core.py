@@ -573,9 +573,10 @@ def _verify_settings(verify: Any) -> dict:
            "n": ARGS.sample_count("verify.n", verify.get("n", 10_000))}
     from ..estimators import METHODS
     sub = METHODS["subset_simulation"].settings
-    out["n_per_level"] = sub["n_per_level"].check("verify.n_per_level",
-                                                  verify.get("n_per_level", 500))
-    out["p0"] = sub["p0"].check("verify.p0", verify.get("p0", 0.1))
+    for key, default in (("n_per_level", 500), ("p0", 0.1)):
+        value = verify.get(key, default)
+        check = sub[key].check
+        out[key] = value if check is None else check(f"verify.{key}", value)
     return out
 
 
@@ -583,8 +584,8 @@ def _verify(problem: DesignProblem, d: np.ndarray, settings: dict, ss, *, confid
             failures, max_failure_fraction, executor) -> tuple[pd.DataFrame, dict, list]:
     """An independent forward run of the model at design ``d`` (another seed): per constraint
     its P_f with the interval, and the whole cycle's P_f of its quantities."""
-    from ..estimators.monte_carlo import monte_carlo
-    from ..estimators.subset import subset_simulation
+    from ..estimators.monte_carlo import MonteCarloResult, monte_carlo
+    from ..estimators.subset import SubsetSimulationResult, subset_simulation
     from ..inverse import MC_RESOLUTION
 
     sc = problem.scalars
@@ -607,13 +608,16 @@ def _verify(problem: DesignProblem, d: np.ndarray, settings: dict, ss, *, confid
     model = problem.model_at(d)
     allowable = ({g: Allowable(a, 0.0) for g, a in sc.allowables.items()}
                  if sc.groups != ("all",) else Allowable(sc.allowables["all"], 0.0))
-    rows, results, evs = [], {}, []
+    rows: list[list] = []
+    results: dict[str, MonteCarloResult | SubsetSimulationResult] = {}
+    evs: list[Evaluations | None] = []  # a result's rows (None: it kept none)
     if method == "mc":
         r = monte_carlo(model=model, inputs=problem.inputs, n=n, rule="random",
                         seed=child_seed(ss, _SEED_VERIFY), allowable=allowable,
                         event=problem.event, confidence_level=confidence_level,
                         failures="as_violation" if failures == "as_failure" else "exclude",
                         max_failure_fraction=max_failure_fraction, **executor)
+        assert isinstance(r, MonteCarloResult)  # no limit_state: the forward result
         results["mc"] = r
         evs.append(r.evaluations)
         wc = r.whole_cycle
@@ -634,16 +638,16 @@ def _verify(problem: DesignProblem, d: np.ndarray, settings: dict, ss, *, confid
         for i in range(len(problem.constraints)):
             qs = [sc.groups[j] for j in sc.members[i][1]]
             ls = sc.extremes.limit_state({q: sc.allowables[q] for q in qs})
-            r = subset_simulation(model=model, inputs=problem.inputs, limit_state=ls,
-                                  seed=child_seed(ss, _SEED_VERIFY + 1 + i),
-                                  n_per_level=settings["n_per_level"], p0=settings["p0"],
-                                  confidence_level=confidence_level, failures=failures,
-                                  max_failure_fraction=max_failure_fraction, **executor)
-            results[f"subset[{i}]"] = r
-            evs.append(r.evaluations)
-            t = r.table.iloc[0]
+            ss_r = subset_simulation(model=model, inputs=problem.inputs, limit_state=ls,
+                                     seed=child_seed(ss, _SEED_VERIFY + 1 + i),
+                                     n_per_level=settings["n_per_level"], p0=settings["p0"],
+                                     confidence_level=confidence_level, failures=failures,
+                                     max_failure_fraction=max_failure_fraction, **executor)
+            results[f"subset[{i}]"] = ss_r
+            evs.append(ss_r.evaluations)
+            t = ss_r.table.iloc[0]
             p = (float(t["pf"]), float(t["pf_lo"]), float(t["pf_hi"]))
-            rows.append(["subset", *p, *p, int(r.n_evaluations)])
+            rows.append(["subset", *p, *p, int(ss_r.n_evaluations)])
     return pd.DataFrame(rows, columns=cols, index=sc.labels()), results, evs
 
 
@@ -652,6 +656,7 @@ def _allowables(allowable: Any, groups: tuple[str, ...]) -> tuple[dict, list[str
     """The deterministic allowables (means) per quantity, and the stds left out."""
     out, left = {}, []
     for g in groups:
+        a: Any  # as given: a number, a (mean, std) pair or an Allowable (checked by the caller)
         if allowable is None:
             a = DEFAULT_ALLOWABLES.get(g)
         elif isinstance(allowable, Mapping):

@@ -28,7 +28,7 @@ import pandas as pd
 from mechrel.errors import StudyError
 
 from .._common import SampleFailuresError, failure_message
-from ..execution.executor import evaluate
+from ..execution.executor import Evaluations, evaluate
 from ..inverse import MC_RESOLUTION
 from ..inverse.order_statistics import quantile_interval
 from ..problem.allowables import binomial_interval
@@ -63,7 +63,7 @@ class CRNConstraints:
         self.max_failure_fraction = max_failure_fraction
         self.confidence_level = confidence_level
         self._memo: dict[bytes, list[np.ndarray]] = {}
-        self._last = None
+        self._last: tuple[bytes, Evaluations] | None = None  # the last design run, its rows
         self.counts = {"n_evaluations": 0, "n_computed": 0, "n_cached": 0, "n_failed": 0}
         self.n_designs = 0
 

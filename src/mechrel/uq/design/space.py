@@ -35,6 +35,7 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from mechrel.errors import StudyError
 
@@ -392,12 +393,12 @@ class DesignSpace:
         base = []
         for v in self.variables:
             if v.kind == "scene":
-                value = (nominal or {}).get(v.input)
-                if value is None and v.start is None:
+                value = (nominal or {}).get(v.input, v.start)
+                if value is None:
                     raise StudyError(f"variables.{v.name}.start: missing: the model does not "
                                      f"give the base value of {v.input!r}; allowed: a start "
                                      "value within the bounds")
-                base.append(float(v.start if value is None else value))
+                base.append(float(value))
                 continue
             j = random.index(v.input)
             if v.kind == "mean":
@@ -453,14 +454,14 @@ class DesignSpace:
         return len(self.variables)
 
     # ---------------------------------------------------------------- optimiser coordinates
-    def to_unit(self, d: np.ndarray) -> np.ndarray:
+    def to_unit(self, d: ArrayLike) -> np.ndarray:
         """Design → the optimiser's coordinates in [0, 1]: linear in a mean or scene value,
         logarithmic in a std or half-width (tolerances span decades; equal steps are equal
         ratios).
 
         Parameters
         ----------
-        d : ndarray, shape (m,)
+        d : array_like, shape (m,)
             A design within the bounds.
 
         Returns
@@ -483,13 +484,13 @@ class DesignSpace:
             lg = (np.log(d) - np.log(lo)) / (np.log(hi) - np.log(lo))
         return np.where(self.log, lg, lin)
 
-    def from_unit(self, eta: np.ndarray) -> np.ndarray:
+    def from_unit(self, eta: ArrayLike) -> np.ndarray:
         """The optimiser's coordinates → design (inverse of :meth:`to_unit`), clipped to the
         bounds.
 
         Parameters
         ----------
-        eta : ndarray, shape (m,)
+        eta : array_like, shape (m,)
             Coordinates in [0, 1] (clipped).
 
         Returns
@@ -512,7 +513,7 @@ class DesignSpace:
         return np.clip(np.where(self.log, lg, lin), lo, hi)
 
     # ---------------------------------------------------------------- the map
-    def affine(self, d: Sequence[float]) -> tuple[np.ndarray, np.ndarray, dict[str, float]]:
+    def affine(self, d: ArrayLike) -> tuple[np.ndarray, np.ndarray, dict[str, float]]:
         """The design's map of the uncertain inputs, x = loc + scale (x₀ − μ₀) per input, and
         its scene values.
 
@@ -541,14 +542,14 @@ class DesignSpace:
         >>> [np.round(a, 12).tolist() for a in s.affine([0.3])[:2]]
         [[1.0], [3.0]]
         """
-        d = np.asarray(d, dtype=float).reshape(-1)
-        if d.size != self.m:
+        x = np.asarray(d, dtype=float).reshape(-1)
+        if x.size != self.m:
             raise StudyError(f"design: expected {self.m} values ({', '.join(self.names)}), "
-                             f"got {d.size}")
+                             f"got {x.size}")
         loc = self.mu0.copy()
         scale = np.ones_like(self.mu0)
         scene = {}
-        for v, value, b in zip(self.variables, d, self.base):
+        for v, value, b in zip(self.variables, x, self.base):
             if v.kind == "scene":
                 scene[v.input] = float(value)
                 continue
@@ -559,14 +560,14 @@ class DesignSpace:
                 scale[j] = value / b
         return loc, scale, scene
 
-    def physical(self, d: Sequence[float], X0: np.ndarray) -> np.ndarray:
+    def physical(self, d: ArrayLike, X0: ArrayLike) -> np.ndarray:
         """The model's input points at design ``d`` from base points ``X0``.
 
         Parameters
         ----------
         d : sequence of float
             The design.
-        X0 : ndarray, shape (n, r)
+        X0 : array_like, shape (n, r)
             Points of the uncertain inputs at the base design (in the order of
             ``inputs.names``).
 
@@ -594,7 +595,7 @@ class DesignSpace:
     def _scene_cols(self, scene: Mapping[str, float]) -> tuple[tuple[int, float], ...]:
         return tuple((self._col[n], v) for n, v in scene.items())
 
-    def as_dict(self, d: Sequence[float]) -> dict[str, float]:
+    def as_dict(self, d: ArrayLike) -> dict[str, float]:
         """The ``{name: value}`` of a design.
 
         Parameters
@@ -675,7 +676,7 @@ class AtDesign:
     [1.5]
     """
 
-    def __init__(self, model: Any, space: DesignSpace, design: Sequence[float]):
+    def __init__(self, model: Any, space: DesignSpace, design: ArrayLike):
         self.model = model
         self.design = tuple(float(v) for v in np.asarray(design, dtype=float).reshape(-1))
         loc, scale, scene = space.affine(self.design)
