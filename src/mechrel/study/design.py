@@ -33,6 +33,7 @@ from ..uq._common import SampleFailuresError
 from .presenters import _agg, _save
 from .runner import (_check_run, _failure_counts, _failure_lines, _holds_output_folder,
                      _refusal, _write_failures, warm_up)
+from .study import _design_variables
 
 if TYPE_CHECKING:
     from ..uq.design.core import DesignResult
@@ -91,11 +92,6 @@ def design_model(study: Study) -> MechanismModel:
                           quantities=study.quantities, angle_step=study.angle_step,
                           cycles=study.cycles, overrides=dict(study.scene_overrides),
                           reference=study.reference)
-
-
-def _variables(design: Mapping[str, Any]) -> dict[str, dict[str, Any]]:
-    return {name: {k: v[k] for k in ("kind", "input", "lower", "upper", "start") if k in v}
-            for name, v in design["variables"].items()}
 
 
 @_holds_output_folder(DESIGN_FILES)
@@ -195,7 +191,7 @@ def run_design(study: Study, *, method: str | None = None, n_jobs: int = 1,
                   k: v for k, v in cfg.items() if k != "settings"}, "settings": chosen}
     try:
         res = design_for_reliability(
-            model=model, inputs=inputs, variables=_variables(cfg), cost=cfg["cost"],
+            model=model, inputs=inputs, variables=_design_variables(cfg), cost=cfg["cost"],
             constraints=list(cfg["constraints"]), allowable=study.allowables(),
             event=study.reliability["event"], sense=cfg["sense"], method=method, seed=seed,
             verify=dict(cfg["verify"]), tradeoff=cfg["tradeoff"],

@@ -48,8 +48,8 @@ from .constraints import ConstraintScalars
 from .expression import CostExpression, check_finite
 from .space import SENSES, AtDesign, DesignSpace, as_constraints, as_variables
 
-__all__ = ["design_for_reliability", "DesignResult", "DesignProblem", "DesignEstimate",
-           "optimise", "ACTIVE", "VERIFY_METHODS", "TRADEOFF_RANGE"]
+__all__ = ["design_for_reliability", "design_space", "DesignResult", "DesignProblem",
+           "DesignEstimate", "optimise", "ACTIVE", "VERIFY_METHODS", "TRADEOFF_RANGE"]
 
 ACTIVE = 0.01
 """A constraint is *active* at the optimum when its factor k ≥ 1 − ACTIVE: within 1 % of its
@@ -559,24 +559,28 @@ def _tradeoff(problem: DesignProblem, estimator, d_star: np.ndarray, points: int
 
 
 # ----------------------------------------------------------------------------- verification
-def _verify_settings(verify: Any) -> dict:
+def _verify_settings(verify: Any, where: str = "verify") -> dict:
+    """The verification's settings, checked (``where``: how they are named in messages)."""
     if isinstance(verify, str):
         verify = {"method": verify}
     if not isinstance(verify, Mapping):
-        raise StudyError(f"verify = {verify!r}: allowed: one of {', '.join(VERIFY_METHODS)}, or "
+        raise StudyError(f"{where} = {verify!r}: allowed: one of {', '.join(VERIFY_METHODS)}, or "
                          "a mapping {method, n, n_per_level, p0}")
     unknown = sorted(set(verify) - {"method", "n", "n_per_level", "p0"})
     if unknown:
-        raise StudyError(f"verify: unknown field {unknown[0]!r}; allowed: fields method, n, "
+        raise StudyError(f"{where}: unknown field {unknown[0]!r}; allowed: fields method, n, "
                          "n_per_level, p0")
-    out = {"method": ARGS.choice("verify.method", verify.get("method", "auto"), VERIFY_METHODS),
-           "n": ARGS.sample_count("verify.n", verify.get("n", 10_000))}
+    out: dict[str, Any] = {"method": ARGS.choice(f"{where}.method", verify.get("method", "auto"),
+                                                 VERIFY_METHODS),
+                           "n": ARGS.sample_count(f"{where}.n", verify.get("n", 10_000))}
     from ..estimators import METHODS
+    from ..estimators.subset import level_sizes
     sub = METHODS["subset_simulation"].settings
     for key, default in (("n_per_level", 500), ("p0", 0.1)):
         value = verify.get(key, default)
         check = sub[key].check
-        out[key] = value if check is None else check(f"verify.{key}", value)
+        out[key] = value if check is None else check(f"{where}.{key}", value)
+    level_sizes(out["n_per_level"], out["p0"], f"{where}.p0")  # checked now, not at the end
     return out
 
 
@@ -675,6 +679,51 @@ def _allowables(allowable: Any, groups: tuple[str, ...]) -> tuple[dict, list[str
             a = a.mean
         out[g] = a
     return out, left
+
+
+def design_space(model: Any, inputs: Any, variables: Any) -> DesignSpace:
+    """The design space of ``variables`` on ``model``: the base design is ``inputs`` and, for a
+    ``"scene"`` variable without ``start``, the model's nominal value of its input (a
+    :class:`~mechrel.uq.MechanismModel`'s: the scene's value at the variable's paths).
+
+    Parameters
+    ----------
+    model : Model
+        Its inputs: the uncertain inputs and one per ``"scene"`` variable.
+    inputs : UncertainInputs
+        The uncertain inputs at the base design.
+    variables : sequence of DesignVariable, or mapping
+        As :func:`design_for_reliability` takes them.
+
+    Returns
+    -------
+    DesignSpace
+
+    Raises
+    ------
+    StudyError
+        A bad variable (naming it), a scene variable with neither ``start`` nor a nominal
+        value in the model.
+
+    Examples
+    --------
+    >>> from mechrel.uq import FunctionModel, Normal, UncertainInputs
+    >>> model = FunctionModel(lambda X: X[:, :1] * X[:, 1:], ["x", "g"], ["e"], vectorized=True)
+    >>> inputs = UncertainInputs.from_specs({"x": Normal(0.0, 0.1)})
+    >>> design_space(model, inputs, {"g": {"kind": "scene", "input": "g", "lower": 1.0,
+    ...                                    "upper": 3.0, "start": 2.0}}).start.tolist()
+    [2.0]
+    """
+    names, _ = check_model(model)
+    if inputs is None or not hasattr(inputs, "names"):
+        raise StudyError(f"inputs = {inputs!r}: allowed: an UncertainInputs")
+    checked = as_variables(variables)
+    random_names = tuple(n for n in names if n in inputs.names)
+    inputs = check_inputs(inputs, random_names) if len(random_names) == len(inputs.names) \
+        else inputs
+    nominal = dict(zip(names, np.asarray(getattr(model, "nominal", []), dtype=float))) \
+        if getattr(model, "nominal", None) is not None else {}
+    return DesignSpace(checked, inputs, names, nominal)
 
 
 def design_for_reliability(
@@ -796,16 +845,8 @@ def design_for_reliability(
     if model is None:
         raise StudyError("design_for_reliability: model = None: required; allowed: a mechrel.uq "
                          "Model (e.g. FunctionModel, MechanismModel)")
-    names, index = check_model(model)
-    if inputs is None or not hasattr(inputs, "names"):
-        raise StudyError(f"inputs = {inputs!r}: allowed: an UncertainInputs")
-    variables = as_variables(variables)
-    random_names = tuple(n for n in names if n in inputs.names)
-    inputs = check_inputs(inputs, random_names) if len(random_names) == len(inputs.names) \
-        else inputs
-    nominal = dict(zip(names, np.asarray(getattr(model, "nominal", []), dtype=float))) \
-        if getattr(model, "nominal", None) is not None else {}
-    space = DesignSpace(variables, inputs, names, nominal)
+    _, index = check_model(model)
+    space = design_space(model, inputs, variables)
     inputs = space.inputs
     cost_expr = cost if isinstance(cost, CostExpression) else CostExpression(cost, space.names)
     start_cost = check_finite(cost_expr, space.as_dict(space.start), "the start design")
