@@ -239,6 +239,37 @@ def test_bad_arguments_name_the_field():
                                    tradeoff=0, verify="none", **kw)
 
 
+@pytest.mark.parametrize("kw,message", [
+    (dict(variables={"t": {"kind": "width", "input": "x", "lower": 0.01, "upper": 1.0}}),
+     r"^variables\.t\.kind = \"width\": unknown value \(did you mean 'half_width'\?\); "
+     r"allowed: one of mean, std, half_width, scene$"),
+    (dict(variables={"t": {"kind": "std", "input": "x", "lower": 1.0, "upper": 0.01}}),
+     r"^variables\.t\.upper = 0\.01: must be > 1; allowed: a finite number > 1$"),
+    (dict(variables={"t": {"kind": "std", "input": "x", "lower": 0.01, "upper": 1.0,
+                           "start": 2.0}}),
+     r"^variables\.t\.start = 2\.0: must be <= 1; allowed: a finite number in \[0\.01, 1\]$"),
+    (dict(variables={"g": {"kind": "scene", "input": "g", "lower": 0.01, "upper": 1.0}}),
+     r"^variables\.g\.input = 'g': not an input of the model \(x\); allowed: the model's "
+     r"input carrying the scene value$"),
+    (dict(constraints=1.0), r"^constraints\[0\]\.reliability = 1\.0: must be < 1; allowed: "
+                            r"a finite number in \(0, 1\)$"),
+    (dict(constraints=0), r"^constraints\[0\]\.reliability = 0\.0: must be > 0; allowed: "
+                          r"a finite number in \(0, 1\)$"),
+    (dict(method="sora"), r"^method = \"sora\": unknown value; allowed: one of ak, mc$"),
+    (dict(verify={"method": "subset", "p0": 0.3}),
+     r"^verify\.p0: got 0\.3 with n_per_level = 500; allowed: 1/p0 and n_per_level·p0 "
+     r"integers"),
+])
+def test_a_wrong_argument_is_one_error_naming_it(kw, message):
+    # each message whole: the field, its value and what is allowed
+    args = dict(variables={"t": {"kind": "std", "input": "x", "lower": 0.01, "upper": 1.0}},
+                cost="1/t", constraints=0.99, verify="none")
+    with pytest.raises(StudyError, match=message):
+        design_for_reliability(model=_linear([1.0], ["x"]), allowable=1.0, progress=False,
+                               inputs=UncertainInputs.from_specs({"x": Normal(0.0, 0.1)}),
+                               tradeoff=0, **{**args, **kw})
+
+
 def test_the_registry():
     assert list(DESIGN_METHODS) == ["ak", "mc"]
     assert DESIGN_METHODS["mc"].settings["n"].default == 10_000
