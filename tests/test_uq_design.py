@@ -105,6 +105,35 @@ def test_a_tolerance_allocation_with_a_known_optimum(method, kw):
         assert r.converged and prov["counts"]["design"]["n_evaluations"] <= 40
 
 
+@pytest.mark.parametrize("method,kw", [("mc", {"n": 1000}), ("ak", {"n_population": 20_000})])
+def test_every_model_run_is_counted(method, kw):
+    # the provenance counts the rows the model computed: every design the method tried (for
+    # "mc", n rows each, the trade-off curve's re-optimisations on the same sample included),
+    # and the verification's; nothing is cached here, so every row is computed
+    seen = []
+
+    def error(X):
+        seen.append(len(X))
+        return X[:, :1]
+
+    model = FunctionModel(error, ["x"], ["e"], vectorized=True, key=f"test-counted-{method}")
+    r = design_for_reliability(
+        model=model, inputs=UncertainInputs.from_specs({"x": Normal(0.0, 0.1)}),
+        variables={"t": {"kind": "std", "input": "x", "lower": 0.01, "upper": 1.0}},
+        cost="1/t", constraints=0.9, allowable=1.0, method=method, seed=5, tradeoff=3,
+        verify={"method": "mc", "n": 500}, progress=False, **kw)
+    prov = r.provenance
+    assert prov["n_evaluations"] == prov["n_computed"] == sum(seen)
+    assert prov["n_cached"] == 0
+    assert prov["counts"]["verification"]["n_evaluations"] == 500
+    assert prov["counts"]["design"]["n_evaluations"] == sum(seen) - 500
+    if method == "mc":  # one sample per design: more designs than the method's own search
+        assert prov["counts"]["design"]["n_evaluations"] % 1000 == 0
+        assert prov["counts"]["design"]["n_evaluations"] > 1000 * prov["settings"]["n_designs"]
+    else:  # the surrogate's trade-off curve runs nothing
+        assert prov["counts"]["design"]["n_evaluations"] == len(r.evaluations.Y)
+
+
 def test_the_largest_mean_for_a_one_sided_target():
     # e = x, x ~ N(m, 0.1): P(e <= 1) >= 0.99 for m <= 1 − 0.1 Φ⁻¹(0.99)
     inputs = UncertainInputs.from_specs({"x": Normal(0.5, 0.1)})

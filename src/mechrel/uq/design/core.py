@@ -238,7 +238,9 @@ class DesignEstimate:
         The model rows the method keeps (the method may keep fewer than it ran).
     counts : mapping
         ``n_evaluations``, ``n_computed``, ``n_cached``, ``n_failed`` of every model row it
-        ran.
+        ran, kept up to date when its estimator runs the model again (the trade-off curve of
+        ``"mc"``): the provenance's count of the method's runs. Rows reused from an earlier
+        result are not among them.
     history : pandas.DataFrame
         One row per iteration.
     details : mapping, optional
@@ -941,12 +943,14 @@ def design_for_reliability(
                   "tradeoff": tradeoff, "confidence_level": confidence_level,
                   "failures": failures, "max_failure_fraction": max_failure_fraction,
                   **{k_: v for k_, v in est.settings.items()}})
-    # the totals (n_evaluations, n_computed, n_cached, n_failed) are make_provenance's, over
-    # every evaluation; the split between the method and the verification beside them
-    prov["counts"] = {"design": sum((e.count for e in est.evaluations if e is not None),
-                                    EvaluationCount()).as_dict(),
-                      "verification": sum((e.count for e in ver_evs if e is not None),
-                                          EvaluationCount()).as_dict()}
+    # the totals (n_evaluations, n_computed, n_cached, n_failed): every model run of this
+    # call, the method's (its counts: every design it tried, not only the rows it keeps) and
+    # the verification's, with the split beside them
+    by_method = EvaluationCount(*(int(est.counts[k]) for k in (
+        "n_evaluations", "n_computed", "n_cached", "n_failed")))
+    by_verification = sum((e.count for e in ver_evs if e is not None), EvaluationCount())
+    prov.update((by_method + by_verification).as_dict())
+    prov["counts"] = {"design": by_method.as_dict(), "verification": by_verification.as_dict()}
     prov["model"] = describe_model(model)  # the scene and its hash; the designs' maps below
     prov["model_cache_key"] = model.cache_key()
     prov["optimum_model"] = problem.model_at(d).describe()
