@@ -134,6 +134,48 @@ def test_every_model_run_is_counted(method, kw):
         assert prov["counts"]["design"]["n_evaluations"] == len(r.evaluations.Y)
 
 
+def _one_tolerance(**kw):
+    """e = x, x ~ N(0, t): P(|e| <= 1) >= R_t for t <= 1/Φ⁻¹((1 + R_t)/2)."""
+    return design_for_reliability(
+        model=_linear([1.0], ["x"]), inputs=UncertainInputs.from_specs({"x": Normal(0, 0.1)}),
+        variables={"t": {"kind": "std", "input": "x", "lower": 0.01, "upper": 1.0}},
+        cost="1/t", allowable=1.0, seed=4, tradeoff=0, progress=False, **kw)
+
+
+def test_a_surrogate_starts_from_an_earlier_results_runs():
+    # the second target's surrogate learns from the first run's rows too (initial=): they are
+    # kept in its evaluations but not counted as its runs. The optimum's tolerance: the
+    # population's quantile of |x| (N = 20 000) has a relative s.e. of 0.7 % (R = 0.95) and
+    # 0.9 % (R = 0.99), sqrt(p (1 − p)/N) / (2 φ(z) z); 3 % is over three of them
+    first = _one_tolerance(constraints=0.99, method="ak", n_population=20_000, verify="none")
+    second = _one_tolerance(constraints=0.95, method="ak", n_population=20_000, verify="none",
+                            initial=first)
+    for r, target in ((first, 0.99), (second, 0.95)):
+        assert r.converged
+        assert r.design["t"] == pytest.approx(1 / special.ndtri((1 + target) / 2), rel=0.03)
+    n_first = len(first.evaluations.Y)
+    assert second.provenance["settings"]["n_reused"] == n_first
+    assert len(second.evaluations.Y) == n_first + second.provenance["n_evaluations"]
+    with pytest.raises(StudyError, match=r"design \(ak\): initial = DesignResult: not a "
+                                         r"DesignResult of method 'ak' on this model"):
+        _one_tolerance(constraints=0.95, method="ak", initial=_one_tolerance(
+            constraints=0.95, method="mc", n=400, verify="none"), verify="none")
+
+
+def test_a_verification_by_subset_simulation():
+    # at R = 0.999 a Monte Carlo verification of a few thousand runs sees a few failures;
+    # subset simulation resolves P_f with as many. Its 95 % interval holds the exact P_f at the
+    # optimum found, 2 Φ(−1/t)
+    r = _one_tolerance(constraints=0.999, method="mc", n=20_000,
+                       verify={"method": "subset", "n_per_level": 1000})
+    c = r.constraints.iloc[0]
+    exact = 2 * stats.norm.sf(1 / r.design["t"])
+    assert c["verify_method"] == "subset" and c["verify_n"] >= 2000
+    assert c["verify_pf_lo"] <= exact <= c["verify_pf_hi"]
+    assert c["whole_cycle_pf"] == c["verify_pf"]  # one event: the whole cycle's
+    assert r.provenance["counts"]["verification"]["n_evaluations"] == c["verify_n"]
+
+
 def test_the_largest_mean_for_a_one_sided_target():
     # e = x, x ~ N(m, 0.1): P(e <= 1) >= 0.99 for m <= 1 − 0.1 Φ⁻¹(0.99)
     inputs = UncertainInputs.from_specs({"x": Normal(0.5, 0.1)})
