@@ -135,7 +135,7 @@ def test_every_model_run_is_counted(method, kw):
 
 
 def _one_tolerance(**kw):
-    """e = x, x ~ N(0, t): P(|e| <= 1) >= R_t for t <= 1/Φ⁻¹((1 + R_t)/2)."""
+    """The error x ~ N(0, t): P(|x| <= 1) >= R_t for t <= 1/Φ⁻¹((1 + R_t)/2)."""
     return design_for_reliability(
         model=_linear([1.0], ["x"]), inputs=UncertainInputs.from_specs({"x": Normal(0, 0.1)}),
         variables={"t": {"kind": "std", "input": "x", "lower": 0.01, "upper": 1.0}},
