@@ -105,6 +105,77 @@ def test_a_tolerance_allocation_with_a_known_optimum(method, kw):
         assert r.converged and prov["counts"]["design"]["n_evaluations"] <= 40
 
 
+@pytest.mark.parametrize("method,kw", [("mc", {"n": 1000}), ("ak", {"n_population": 20_000})])
+def test_every_model_run_is_counted(method, kw):
+    # the provenance counts the rows the model computed: every design the method tried (for
+    # "mc", n rows each, the trade-off curve's re-optimisations on the same sample included),
+    # and the verification's; nothing is cached here, so every row is computed
+    seen = []
+
+    def error(X):
+        seen.append(len(X))
+        return X[:, :1]
+
+    model = FunctionModel(error, ["x"], ["e"], vectorized=True, key=f"test-counted-{method}")
+    r = design_for_reliability(
+        model=model, inputs=UncertainInputs.from_specs({"x": Normal(0.0, 0.1)}),
+        variables={"t": {"kind": "std", "input": "x", "lower": 0.01, "upper": 1.0}},
+        cost="1/t", constraints=0.9, allowable=1.0, method=method, seed=5, tradeoff=3,
+        verify={"method": "mc", "n": 500}, progress=False, **kw)
+    prov = r.provenance
+    assert prov["n_evaluations"] == prov["n_computed"] == sum(seen)
+    assert prov["n_cached"] == 0
+    assert prov["counts"]["verification"]["n_evaluations"] == 500
+    assert prov["counts"]["design"]["n_evaluations"] == sum(seen) - 500
+    if method == "mc":  # one sample per design: more designs than the method's own search
+        assert prov["counts"]["design"]["n_evaluations"] % 1000 == 0
+        assert prov["counts"]["design"]["n_evaluations"] > 1000 * prov["settings"]["n_designs"]
+    else:  # the surrogate's trade-off curve runs nothing
+        assert prov["counts"]["design"]["n_evaluations"] == len(r.evaluations.Y)
+
+
+def _one_tolerance(**kw):
+    """The error x ~ N(0, t): P(|x| <= 1) >= R_t for t <= 1/Φ⁻¹((1 + R_t)/2)."""
+    return design_for_reliability(
+        model=_linear([1.0], ["x"]), inputs=UncertainInputs.from_specs({"x": Normal(0, 0.1)}),
+        variables={"t": {"kind": "std", "input": "x", "lower": 0.01, "upper": 1.0}},
+        cost="1/t", allowable=1.0, seed=4, tradeoff=0, progress=False, **kw)
+
+
+def test_a_surrogate_starts_from_an_earlier_results_runs():
+    # the second target's surrogate learns from the first run's rows too (initial=): they are
+    # kept in its evaluations but not counted as its runs. The optimum's tolerance: the
+    # population's quantile of |x| (N = 20 000) has a relative s.e. of 0.7 % (R = 0.95) and
+    # 0.9 % (R = 0.99), sqrt(p (1 − p)/N) / (2 φ(z) z); 3 % is over three of them
+    first = _one_tolerance(constraints=0.99, method="ak", n_population=20_000, verify="none")
+    second = _one_tolerance(constraints=0.95, method="ak", n_population=20_000, verify="none",
+                            initial=first)
+    for r, target in ((first, 0.99), (second, 0.95)):
+        assert r.converged
+        assert r.design["t"] == pytest.approx(1 / special.ndtri((1 + target) / 2), rel=0.03)
+    n_first = len(first.evaluations.Y)
+    assert second.provenance["settings"]["n_reused"] == n_first
+    assert len(second.evaluations.Y) == n_first + second.provenance["n_evaluations"]
+    with pytest.raises(StudyError, match=r"design \(ak\): initial = DesignResult: not a "
+                                         r"DesignResult of method 'ak' on this model"):
+        _one_tolerance(constraints=0.95, method="ak", initial=_one_tolerance(
+            constraints=0.95, method="mc", n=400, verify="none"), verify="none")
+
+
+def test_a_verification_by_subset_simulation():
+    # at R = 0.999 a Monte Carlo verification of a few thousand runs sees a few failures;
+    # subset simulation resolves P_f with as many. Its 95 % interval holds the exact P_f at the
+    # optimum found, 2 Φ(−1/t)
+    r = _one_tolerance(constraints=0.999, method="mc", n=20_000,
+                       verify={"method": "subset", "n_per_level": 1000})
+    c = r.constraints.iloc[0]
+    exact = 2 * stats.norm.sf(1 / r.design["t"])
+    assert c["verify_method"] == "subset" and c["verify_n"] >= 2000
+    assert c["verify_pf_lo"] <= exact <= c["verify_pf_hi"]
+    assert c["whole_cycle_pf"] == c["verify_pf"]  # one event: the whole cycle's
+    assert r.provenance["counts"]["verification"]["n_evaluations"] == c["verify_n"]
+
+
 def test_the_largest_mean_for_a_one_sided_target():
     # e = x, x ~ N(m, 0.1): P(e <= 1) >= 0.99 for m <= 1 − 0.1 Φ⁻¹(0.99)
     inputs = UncertainInputs.from_specs({"x": Normal(0.5, 0.1)})
@@ -237,6 +308,37 @@ def test_bad_arguments_name_the_field():
         with pytest.raises(StudyError, match=message):
             design_for_reliability(model=model, inputs=inputs, allowable=1.0, progress=False,
                                    tradeoff=0, verify="none", **kw)
+
+
+@pytest.mark.parametrize("kw,message", [
+    (dict(variables={"t": {"kind": "width", "input": "x", "lower": 0.01, "upper": 1.0}}),
+     r"^variables\.t\.kind = \"width\": unknown value \(did you mean 'half_width'\?\); "
+     r"allowed: one of mean, std, half_width, scene$"),
+    (dict(variables={"t": {"kind": "std", "input": "x", "lower": 1.0, "upper": 0.01}}),
+     r"^variables\.t\.upper = 0\.01: must be > 1; allowed: a finite number > 1$"),
+    (dict(variables={"t": {"kind": "std", "input": "x", "lower": 0.01, "upper": 1.0,
+                           "start": 2.0}}),
+     r"^variables\.t\.start = 2\.0: must be <= 1; allowed: a finite number in \[0\.01, 1\]$"),
+    (dict(variables={"g": {"kind": "scene", "input": "g", "lower": 0.01, "upper": 1.0}}),
+     r"^variables\.g\.input = 'g': not an input of the model \(x\); allowed: the model's "
+     r"input carrying the scene value$"),
+    (dict(constraints=1.0), r"^constraints\[0\]\.reliability = 1\.0: must be < 1; allowed: "
+                            r"a finite number in \(0, 1\)$"),
+    (dict(constraints=0), r"^constraints\[0\]\.reliability = 0\.0: must be > 0; allowed: "
+                          r"a finite number in \(0, 1\)$"),
+    (dict(method="sora"), r"^method = \"sora\": unknown value; allowed: one of ak, mc$"),
+    (dict(verify={"method": "subset", "p0": 0.3}),
+     r"^verify\.p0: got 0\.3 with n_per_level = 500; allowed: 1/p0 and n_per_level·p0 "
+     r"integers"),
+])
+def test_a_wrong_argument_is_one_error_naming_it(kw, message):
+    # each message whole: the field, its value and what is allowed
+    args = dict(variables={"t": {"kind": "std", "input": "x", "lower": 0.01, "upper": 1.0}},
+                cost="1/t", constraints=0.99, verify="none")
+    with pytest.raises(StudyError, match=message):
+        design_for_reliability(model=_linear([1.0], ["x"]), allowable=1.0, progress=False,
+                               inputs=UncertainInputs.from_specs({"x": Normal(0.0, 0.1)}),
+                               tradeoff=0, **{**args, **kw})
 
 
 def test_the_registry():

@@ -23,6 +23,9 @@ means and spreads the other variables move or scale. The allowables are the stud
 from __future__ import annotations
 
 import time
+from collections.abc import Mapping
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 from ..errors import StudyError
 from ..io import write_json, write_table
@@ -30,6 +33,12 @@ from ..uq._common import SampleFailuresError
 from .presenters import _agg, _save
 from .runner import (_check_run, _failure_counts, _failure_lines, _holds_output_folder,
                      _refusal, _write_failures, warm_up)
+from .study import _design_variables
+
+if TYPE_CHECKING:
+    from ..uq.design.core import DesignResult
+    from ..uq.problem.mechanism import MechanismModel
+    from .study import Study
 
 __all__ = ["run_design", "DESIGN_FILES", "design_model"]
 
@@ -39,7 +48,7 @@ DESIGN_FILES = ("design.csv", "design_constraints.csv", "design_tradeoff.csv",
 """The files a design run writes to its output folder."""
 
 
-def design_model(study):
+def design_model(study: Study) -> MechanismModel:
     """The study's mechanism model with one input per ``"scene"`` design variable.
 
     Parameters
@@ -85,14 +94,12 @@ def design_model(study):
                           reference=study.reference)
 
 
-def _variables(study) -> dict:
-    return {name: {k: v[k] for k in ("kind", "input", "lower", "upper", "start") if k in v}
-            for name, v in study.design["variables"].items()}
-
-
 @_holds_output_folder(DESIGN_FILES)
-def run_design(study, *, method=None, n_jobs=1, seed=None, out=None, progress=True,
-               cache=True, backend="loky", max_failure_fraction=None, settings=None):
+def run_design(study: Study, *, method: str | None = None, n_jobs: int = 1,
+               seed: Any = None, out: Path | None = None, progress: bool = True,
+               cache: bool = True, backend: str = "loky",
+               max_failure_fraction: float | None = None,
+               settings: Mapping[str, Any] | None = None) -> tuple[list[str], DesignResult]:
     """The study's ``[design]``: the optimum, its verification and the trade-off curve.
 
     Parameters
@@ -184,7 +191,7 @@ def run_design(study, *, method=None, n_jobs=1, seed=None, out=None, progress=Tr
                   k: v for k, v in cfg.items() if k != "settings"}, "settings": chosen}
     try:
         res = design_for_reliability(
-            model=model, inputs=inputs, variables=_variables(study), cost=cfg["cost"],
+            model=model, inputs=inputs, variables=_design_variables(cfg), cost=cfg["cost"],
             constraints=list(cfg["constraints"]), allowable=study.allowables(),
             event=study.reliability["event"], sense=cfg["sense"], method=method, seed=seed,
             verify=dict(cfg["verify"]), tradeoff=cfg["tradeoff"],

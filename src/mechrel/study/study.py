@@ -407,16 +407,36 @@ def _correlation(c: _Checker, table: Any, names) -> dict | None:
     return dict(table)
 
 
+def _scene_or_none(scene: str, overrides: Mapping) -> Any:
+    """The study's scene with its overrides, or None when it does not load (the model reports
+    why when it is built)."""
+    from ..scene import load_scene
+
+    try:
+        return load_scene(scene, overrides=dict(overrides))
+    except (SceneError, OSError):
+        return None
+
+
+def _uncertain_or_none(specs: Mapping) -> Any:
+    """The uncertain inputs of the specs, or None when a distribution is wrong (load_study
+    reports it, naming the input)."""
+    from ..uq import UncertainInputs
+
+    try:
+        return UncertainInputs.from_specs(dict(specs))
+    except StudyError:
+        return None
+
+
 def _output_quantities(scene: str, output: Any, overrides: Mapping) -> tuple[str, ...]:
     """The quantities of the study's output (the scene's first output by default): a study
     without ``quantities`` analyses all of them. A scene that does not load, or an output it
     does not have, keeps the point kind's three here; the model then reports the problem."""
     from ..outputs import quantities_of
-    from ..scene import load_scene
 
-    try:
-        base = load_scene(scene, overrides=dict(overrides))
-    except (SceneError, OSError):
+    base = _scene_or_none(scene, overrides)
+    if base is None:
         return QUANTITIES
     name = output if isinstance(output, str) else next(iter(base.outputs), None)
     return quantities_of(base.outputs[name]) if name in base.outputs else QUANTITIES
@@ -510,18 +530,51 @@ def _inverse(c: _Checker, table: Any) -> dict:
                                  tuple(INVERSE_METHODS) + ("auto",))}
 
 
-def _design(c: _Checker, table: Any, inputs: Mapping) -> dict | None:
+def _design_variables(design: Mapping[str, Any]) -> dict[str, dict[str, Any]]:
+    """The ``[design]`` section's variables as :func:`mechrel.uq.design_for_reliability` takes
+    them (a scene variable's ``paths`` become the model's input of its name)."""
+    return {name: {k: v[k] for k in ("kind", "input", "lower", "upper", "start") if k in v}
+            for name, v in design["variables"].items()}
+
+
+def _scene_value(c: _Checker, where: str, paths: list[str], raw: Mapping) -> list[float]:
+    """The scene's values at a scene variable's ``paths`` (a path ``-P``: minus P's value),
+    each path checked: in the scene, and a number."""
+    from ..scene.loader import get_value
+
+    values = []
+    for path in paths:
+        try:
+            value = get_value(raw, path.lstrip("-"))
+        except SceneError as exc:
+            problem, _, allowed = str(exc).partition("; allowed: ")
+            c.fail(join(where, "paths"), paths, f"{path!r}: {problem.split(': ', 1)[-1]}",
+                   allowed or None)
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            c.fail(join(where, "paths"), paths, f"{path!r} holds {value!r}, not a number",
+                   "dotted paths of numeric scene values (e.g. joints.C1.lubricant.viscosity)")
+        values.append(-float(value) if path.startswith("-") else float(value))
+    return values
+
+
+def _design(c: _Checker, table: Any, inputs: Mapping, quantities: tuple[str, ...],
+            scene: str, overrides: Mapping) -> dict | None:
     """``[design]``: design variables, cost, constraints, method and its settings (absent:
-    None). The fields are checked here (names, types, ranges, the cost's language, the method's
-    settings); what needs the model (a constraint's quantity, a variable's input kind) is
-    checked by :func:`mechrel.uq.design_for_reliability` when it runs."""
+    None). Every field is checked here (names, types, ranges, the cost's language and its value
+    at the start design, a constraint's quantity, the method's settings, a scene variable's
+    paths in the scene, which give its base value when it has no ``start``), as
+    :func:`mechrel.uq.design_for_reliability` will find them, so that a wrong field is
+    reported when the study is read, not after the simulations have started."""
     from ..uq.design import DESIGN_METHODS
-    from ..uq.design.core import VERIFY_METHODS
-    from ..uq.design.expression import CostExpression
-    from ..uq.design.space import BASES, KINDS, SENSES
+    from ..uq.design.core import VERIFY_METHODS, _verify_settings
+    from ..uq.design.expression import CostExpression, check_finite
+    from ..uq.design.space import (BASES, KINDS, SENSES, DesignSpace, as_constraints,
+                                   as_variables)
 
     if table is None or (isinstance(table, Mapping) and not table):
         return None
+    loaded: list = []  # the scene, loaded for the first scene variable (None: it does not load)
+    base: dict[str, float] = {}  # the scene variables' values in the scene
     t = c.table("design", table, "a table with variables, cost and constraints")
     c.keys("design", t, _DESIGN + tuple(DESIGN_METHODS), required=("variables", "cost",
                                                                     "constraints"),
@@ -566,6 +619,16 @@ def _design(c: _Checker, table: Any, inputs: Mapping) -> dict | None:
                        "scene variable")
             v["paths"] = tuple(paths)
             v["input"] = str(name)
+            if not loaded:
+                loaded.append(_scene_or_none(scene, overrides))
+            if loaded[0] is not None:
+                values = _scene_value(c, where, list(paths), loaded[0].raw)
+                if "start" not in v and len(set(values)) > 1:
+                    c.fail(join(where, "start"), _MISSING, "missing, and the paths hold different "
+                           f"values in the scene ({', '.join(f'{x:g}' for x in values)}): no one "
+                           "base value", "a start value within the bounds, or paths that hold "
+                           "one value")
+                base[str(name)] = values[0]
         else:
             if "paths" in spec:
                 c.fail(join(where, "paths"), spec["paths"], f"kind {kind!r} sets an uncertain "
@@ -597,7 +660,8 @@ def _design(c: _Checker, table: Any, inputs: Mapping) -> dict | None:
         constraints.append({
             "reliability": c.fraction(join(where, "reliability"), con["reliability"],
                                       open_lo=True, open_hi=True),
-            "quantity": c.string(join(where, "quantity"), con.get("quantity", "all")),
+            "quantity": c.choice(join(where, "quantity"), con.get("quantity", "all"),
+                                 ("all", *quantities)),
             "basis": c.choice(join(where, "basis"), con.get("basis", "whole-cycle"), BASES)})
     method = c.choice("design.method", t.get("method", "ak"), tuple(DESIGN_METHODS))
     settings = {}
@@ -624,6 +688,21 @@ def _design(c: _Checker, table: Any, inputs: Mapping) -> dict | None:
         verify["method"] = c.choice("design.verify.method", verify["method"], VERIFY_METHODS)
     if "n" in verify:
         verify["n"] = c.sample_count("design.verify.n", verify["n"])
+    scene_names = tuple(n for n, v in variables.items() if v["kind"] == "scene")
+    try:  # what design_for_reliability checks on the whole set: one message naming the field
+        as_constraints(constraints, "design.constraints")  # none repeated
+        _verify_settings(verify, "design.verify")  # subset's n_per_level and p0
+        checked = as_variables(_design_variables({"variables": variables}), "design.variables")
+        uncertain = _uncertain_or_none(inputs)
+        if uncertain is not None and len(base) == len(scene_names):
+            # (a spread's lower bound > 0, one variable per role, half-width of a bounded input,
+            # the start design, its cost)
+            space = DesignSpace(checked, uncertain, (*inputs, *scene_names), base,
+                                where="design.variables")
+            check_finite(CostExpression(cost, tuple(variables), where="design.cost"),
+                         space.as_dict(space.start), "the start design")
+    except StudyError as exc:
+        raise StudyError(str(exc), source=c.source) from None
     return {"variables": variables, "cost": cost,
             "sense": c.choice("design.sense", t.get("sense", "minimize"), SENSES),
             "constraints": constraints, "method": method, "settings": settings,
@@ -710,7 +789,7 @@ def load_study(source, *, overrides: Mapping[str, Any] | None = None,
         reference=c.choice("reference", raw.get("reference", "nominal"), REFERENCES),
         method_settings=_method_settings(c, raw),
         inverse=_inverse(c, raw.get("inverse", {})),
-        design=_design(c, raw.get("design"), specs),
+        design=_design(c, raw.get("design"), specs, quantities, scene, all_overrides),
         source=label)
     try:  # the distributions, checked by chaospy/scipy with the input's name
         study.uncertain_inputs()

@@ -30,7 +30,7 @@ from ..inverse.extremes import WHOLE_CYCLE, Extremes
 from ..problem.allowables import output_groups, per_angle_mask
 from .space import ReliabilityConstraint
 
-__all__ = ["upper_quantile", "exceedance"]
+__all__ = ["upper_quantile"]
 
 
 def _cycle_column(index: pd.Index, group: str, stat: str) -> int | None:
@@ -75,28 +75,6 @@ def upper_quantile(values: np.ndarray, reliability: float) -> float:
         return math.nan
     k = min(max(math.ceil(n * reliability - 1e-9 * n), 1), n)
     return float(np.partition(v, k - 1)[k - 1])
-
-
-def exceedance(values: np.ndarray) -> tuple[int, int]:
-    """(samples with a ratio > 1, samples counted), NaN rows left out.
-
-    Parameters
-    ----------
-    values : ndarray, shape (n,)
-        Ratios Y/a (NaN: a sample not evaluated).
-
-    Returns
-    -------
-    (int, int)
-
-    Examples
-    --------
-    >>> exceedance(np.array([0.5, 1.5, np.nan, 2.0]))
-    (2, 3)
-    """
-    v = np.asarray(values, dtype=float)
-    ok = ~np.isnan(v)
-    return int(np.sum(v[ok] > 1.0)), int(ok.sum())
 
 
 class ConstraintScalars:
@@ -166,12 +144,15 @@ class ConstraintScalars:
                                      f"analysis-angle outputs of {list(qs)}; allowed: basis "
                                      "'whole-cycle'")
                 self.members.append(("per-angle", cols))
-        self._col_scale = np.array([self.allowables[g] for g in gof]) if len(gof) else None
+        self._col_scale = np.array([self.allowables[g] for g in gof], dtype=float)
         self._gof = gof
         # the learning units: per quantity its largest signed ratio, and for the two-sided
         # event also its largest negated one (max |e| = max(max e, −min e): the same event,
         # without the kink of |e| at e = 0 that a smooth surrogate cannot follow)
-        units, unit_of, self._unit_cols = [], [], []
+        units: list[str] = []
+        unit_of: list[int] = []
+        # per unit: the output columns, the sign (0: |e|'s own extreme) and the allowable
+        self._unit_cols: list[tuple[tuple[int, ...], float, float]] = []
         for j, g in enumerate(groups):
             signs: tuple[float, ...] = (1.0, -1.0) if event == "two-sided" else (1.0,)
             if event == "two-sided" and None in (_cycle_column(output_index, g, "max"),
@@ -244,16 +225,6 @@ class ConstraintScalars:
                 out.append(sub / self._col_scale[list(idx)])
         return out
 
-    def from_units(self, H: np.ndarray) -> list[np.ndarray]:
-        """Per whole-cycle constraint its ratio from the unit ratios ``H`` (n, units) (a
-        surrogate's prediction)."""
-        out = []
-        for (kind, _), units in zip(self.members, self.unit_members):
-            if kind != "whole-cycle":
-                raise StudyError("a per-angle constraint has no ratio from the cycle extremes")
-            out.append(H[:, list(units)].max(axis=1)[:, None])
-        return out
-
     def factors(self, values: Sequence[np.ndarray], reliabilities: Sequence[float],
                 failures: str = "exclude") -> np.ndarray:
         """Each constraint's factor k: the largest of its columns' R-quantiles.
@@ -261,7 +232,7 @@ class ConstraintScalars:
         Parameters
         ----------
         values : list of ndarray
-            From :meth:`values` (or :meth:`from_units`).
+            From :meth:`values`.
         reliabilities : sequence of float
             The target of each constraint.
         failures : {"exclude", "as_failure"}
@@ -286,10 +257,3 @@ class ConstraintScalars:
     def labels(self) -> list[str]:
         """One label per constraint (:attr:`ReliabilityConstraint.label`)."""
         return [c.label for c in self.constraints]
-
-    def column_labels(self, i: int) -> list:
-        """The output labels of constraint ``i``'s columns (per angle), or its quantities."""
-        kind, idx = self.members[i]
-        if kind == "whole-cycle":
-            return [self.groups[j] for j in idx]
-        return [self.extremes.output_index[j] for j in idx]

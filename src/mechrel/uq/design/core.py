@@ -48,8 +48,8 @@ from .constraints import ConstraintScalars
 from .expression import CostExpression, check_finite
 from .space import SENSES, AtDesign, DesignSpace, as_constraints, as_variables
 
-__all__ = ["design_for_reliability", "DesignResult", "DesignProblem", "DesignEstimate",
-           "optimise", "ACTIVE", "VERIFY_METHODS", "TRADEOFF_RANGE"]
+__all__ = ["design_for_reliability", "design_space", "DesignResult", "DesignProblem",
+           "DesignEstimate", "optimise", "ACTIVE", "VERIFY_METHODS", "TRADEOFF_RANGE"]
 
 ACTIVE = 0.01
 """A constraint is *active* at the optimum when its factor k ≥ 1 − ACTIVE: within 1 % of its
@@ -238,7 +238,9 @@ class DesignEstimate:
         The model rows the method keeps (the method may keep fewer than it ran).
     counts : mapping
         ``n_evaluations``, ``n_computed``, ``n_cached``, ``n_failed`` of every model row it
-        ran.
+        ran, kept up to date when its estimator runs the model again (the trade-off curve of
+        ``"mc"``): the provenance's count of the method's runs. Rows reused from an earlier
+        result are not among them.
     history : pandas.DataFrame
         One row per iteration.
     details : mapping, optional
@@ -559,23 +561,28 @@ def _tradeoff(problem: DesignProblem, estimator, d_star: np.ndarray, points: int
 
 
 # ----------------------------------------------------------------------------- verification
-def _verify_settings(verify: Any) -> dict:
+def _verify_settings(verify: Any, where: str = "verify") -> dict:
+    """The verification's settings, checked (``where``: how they are named in messages)."""
     if isinstance(verify, str):
         verify = {"method": verify}
     if not isinstance(verify, Mapping):
-        raise StudyError(f"verify = {verify!r}: allowed: one of {', '.join(VERIFY_METHODS)}, or "
+        raise StudyError(f"{where} = {verify!r}: allowed: one of {', '.join(VERIFY_METHODS)}, or "
                          "a mapping {method, n, n_per_level, p0}")
     unknown = sorted(set(verify) - {"method", "n", "n_per_level", "p0"})
     if unknown:
-        raise StudyError(f"verify: unknown field {unknown[0]!r}; allowed: fields method, n, "
+        raise StudyError(f"{where}: unknown field {unknown[0]!r}; allowed: fields method, n, "
                          "n_per_level, p0")
-    out = {"method": ARGS.choice("verify.method", verify.get("method", "auto"), VERIFY_METHODS),
-           "n": ARGS.sample_count("verify.n", verify.get("n", 10_000))}
+    out: dict[str, Any] = {"method": ARGS.choice(f"{where}.method", verify.get("method", "auto"),
+                                                 VERIFY_METHODS),
+                           "n": ARGS.sample_count(f"{where}.n", verify.get("n", 10_000))}
     from ..estimators import METHODS
+    from ..estimators.subset import level_sizes
     sub = METHODS["subset_simulation"].settings
-    out["n_per_level"] = sub["n_per_level"].check("verify.n_per_level",
-                                                  verify.get("n_per_level", 500))
-    out["p0"] = sub["p0"].check("verify.p0", verify.get("p0", 0.1))
+    for key, default in (("n_per_level", 500), ("p0", 0.1)):
+        value = verify.get(key, default)
+        check = sub[key].check
+        out[key] = value if check is None else check(f"{where}.{key}", value)
+    level_sizes(out["n_per_level"], out["p0"], f"{where}.p0")  # checked now, not at the end
     return out
 
 
@@ -583,8 +590,8 @@ def _verify(problem: DesignProblem, d: np.ndarray, settings: dict, ss, *, confid
             failures, max_failure_fraction, executor) -> tuple[pd.DataFrame, dict, list]:
     """An independent forward run of the model at design ``d`` (another seed): per constraint
     its P_f with the interval, and the whole cycle's P_f of its quantities."""
-    from ..estimators.monte_carlo import monte_carlo
-    from ..estimators.subset import subset_simulation
+    from ..estimators.monte_carlo import MonteCarloResult, monte_carlo
+    from ..estimators.subset import SubsetSimulationResult, subset_simulation
     from ..inverse import MC_RESOLUTION
 
     sc = problem.scalars
@@ -607,13 +614,16 @@ def _verify(problem: DesignProblem, d: np.ndarray, settings: dict, ss, *, confid
     model = problem.model_at(d)
     allowable = ({g: Allowable(a, 0.0) for g, a in sc.allowables.items()}
                  if sc.groups != ("all",) else Allowable(sc.allowables["all"], 0.0))
-    rows, results, evs = [], {}, []
+    rows: list[list] = []
+    results: dict[str, MonteCarloResult | SubsetSimulationResult] = {}
+    evs: list[Evaluations | None] = []  # a result's rows (None: it kept none)
     if method == "mc":
         r = monte_carlo(model=model, inputs=problem.inputs, n=n, rule="random",
                         seed=child_seed(ss, _SEED_VERIFY), allowable=allowable,
                         event=problem.event, confidence_level=confidence_level,
                         failures="as_violation" if failures == "as_failure" else "exclude",
                         max_failure_fraction=max_failure_fraction, **executor)
+        assert isinstance(r, MonteCarloResult)  # no limit_state: the forward result
         results["mc"] = r
         evs.append(r.evaluations)
         wc = r.whole_cycle
@@ -634,16 +644,16 @@ def _verify(problem: DesignProblem, d: np.ndarray, settings: dict, ss, *, confid
         for i in range(len(problem.constraints)):
             qs = [sc.groups[j] for j in sc.members[i][1]]
             ls = sc.extremes.limit_state({q: sc.allowables[q] for q in qs})
-            r = subset_simulation(model=model, inputs=problem.inputs, limit_state=ls,
-                                  seed=child_seed(ss, _SEED_VERIFY + 1 + i),
-                                  n_per_level=settings["n_per_level"], p0=settings["p0"],
-                                  confidence_level=confidence_level, failures=failures,
-                                  max_failure_fraction=max_failure_fraction, **executor)
-            results[f"subset[{i}]"] = r
-            evs.append(r.evaluations)
-            t = r.table.iloc[0]
+            ss_r = subset_simulation(model=model, inputs=problem.inputs, limit_state=ls,
+                                     seed=child_seed(ss, _SEED_VERIFY + 1 + i),
+                                     n_per_level=settings["n_per_level"], p0=settings["p0"],
+                                     confidence_level=confidence_level, failures=failures,
+                                     max_failure_fraction=max_failure_fraction, **executor)
+            results[f"subset[{i}]"] = ss_r
+            evs.append(ss_r.evaluations)
+            t = ss_r.table.iloc[0]
             p = (float(t["pf"]), float(t["pf_lo"]), float(t["pf_hi"]))
-            rows.append(["subset", *p, *p, int(r.n_evaluations)])
+            rows.append(["subset", *p, *p, int(ss_r.n_evaluations)])
     return pd.DataFrame(rows, columns=cols, index=sc.labels()), results, evs
 
 
@@ -652,6 +662,7 @@ def _allowables(allowable: Any, groups: tuple[str, ...]) -> tuple[dict, list[str
     """The deterministic allowables (means) per quantity, and the stds left out."""
     out, left = {}, []
     for g in groups:
+        a: Any  # as given: a number, a (mean, std) pair or an Allowable (checked by the caller)
         if allowable is None:
             a = DEFAULT_ALLOWABLES.get(g)
         elif isinstance(allowable, Mapping):
@@ -670,6 +681,51 @@ def _allowables(allowable: Any, groups: tuple[str, ...]) -> tuple[dict, list[str
             a = a.mean
         out[g] = a
     return out, left
+
+
+def design_space(model: Any, inputs: Any, variables: Any) -> DesignSpace:
+    """The design space of ``variables`` on ``model``: the base design is ``inputs`` and, for a
+    ``"scene"`` variable without ``start``, the model's nominal value of its input (a
+    :class:`~mechrel.uq.MechanismModel`'s: the scene's value at the variable's paths).
+
+    Parameters
+    ----------
+    model : Model
+        Its inputs: the uncertain inputs and one per ``"scene"`` variable.
+    inputs : UncertainInputs
+        The uncertain inputs at the base design.
+    variables : sequence of DesignVariable, or mapping
+        As :func:`design_for_reliability` takes them.
+
+    Returns
+    -------
+    DesignSpace
+
+    Raises
+    ------
+    StudyError
+        A bad variable (naming it), a scene variable with neither ``start`` nor a nominal
+        value in the model.
+
+    Examples
+    --------
+    >>> from mechrel.uq import FunctionModel, Normal, UncertainInputs
+    >>> model = FunctionModel(lambda X: X[:, :1] * X[:, 1:], ["x", "g"], ["e"], vectorized=True)
+    >>> inputs = UncertainInputs.from_specs({"x": Normal(0.0, 0.1)})
+    >>> design_space(model, inputs, {"g": {"kind": "scene", "input": "g", "lower": 1.0,
+    ...                                    "upper": 3.0, "start": 2.0}}).start.tolist()
+    [2.0]
+    """
+    names, _ = check_model(model)
+    if inputs is None or not hasattr(inputs, "names"):
+        raise StudyError(f"inputs = {inputs!r}: allowed: an UncertainInputs")
+    checked = as_variables(variables)
+    random_names = tuple(n for n in names if n in inputs.names)
+    inputs = check_inputs(inputs, random_names) if len(random_names) == len(inputs.names) \
+        else inputs
+    nominal = dict(zip(names, np.asarray(getattr(model, "nominal", []), dtype=float))) \
+        if getattr(model, "nominal", None) is not None else {}
+    return DesignSpace(checked, inputs, names, nominal)
 
 
 def design_for_reliability(
@@ -791,16 +847,8 @@ def design_for_reliability(
     if model is None:
         raise StudyError("design_for_reliability: model = None: required; allowed: a mechrel.uq "
                          "Model (e.g. FunctionModel, MechanismModel)")
-    names, index = check_model(model)
-    if inputs is None or not hasattr(inputs, "names"):
-        raise StudyError(f"inputs = {inputs!r}: allowed: an UncertainInputs")
-    variables = as_variables(variables)
-    random_names = tuple(n for n in names if n in inputs.names)
-    inputs = check_inputs(inputs, random_names) if len(random_names) == len(inputs.names) \
-        else inputs
-    nominal = dict(zip(names, np.asarray(getattr(model, "nominal", []), dtype=float))) \
-        if getattr(model, "nominal", None) is not None else {}
-    space = DesignSpace(variables, inputs, names, nominal)
+    _, index = check_model(model)
+    space = design_space(model, inputs, variables)
     inputs = space.inputs
     cost_expr = cost if isinstance(cost, CostExpression) else CostExpression(cost, space.names)
     start_cost = check_finite(cost_expr, space.as_dict(space.start), "the start design")
@@ -895,12 +943,14 @@ def design_for_reliability(
                   "tradeoff": tradeoff, "confidence_level": confidence_level,
                   "failures": failures, "max_failure_fraction": max_failure_fraction,
                   **{k_: v for k_, v in est.settings.items()}})
-    # the totals (n_evaluations, n_computed, n_cached, n_failed) are make_provenance's, over
-    # every evaluation; the split between the method and the verification beside them
-    prov["counts"] = {"design": sum((e.count for e in est.evaluations if e is not None),
-                                    EvaluationCount()).as_dict(),
-                      "verification": sum((e.count for e in ver_evs if e is not None),
-                                          EvaluationCount()).as_dict()}
+    # the totals (n_evaluations, n_computed, n_cached, n_failed): every model run of this
+    # call, the method's (its counts: every design it tried, not only the rows it keeps) and
+    # the verification's, with the split beside them
+    by_method = EvaluationCount(*(int(est.counts[k]) for k in (
+        "n_evaluations", "n_computed", "n_cached", "n_failed")))
+    by_verification = sum((e.count for e in ver_evs if e is not None), EvaluationCount())
+    prov.update((by_method + by_verification).as_dict())
+    prov["counts"] = {"design": by_method.as_dict(), "verification": by_verification.as_dict()}
     prov["model"] = describe_model(model)  # the scene and its hash; the designs' maps below
     prov["model_cache_key"] = model.cache_key()
     prov["optimum_model"] = problem.model_at(d).describe()

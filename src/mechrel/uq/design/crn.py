@@ -28,7 +28,7 @@ import pandas as pd
 from mechrel.errors import StudyError
 
 from .._common import SampleFailuresError, failure_message
-from ..execution.executor import evaluate
+from ..execution.executor import Evaluations, evaluate
 from ..inverse import MC_RESOLUTION
 from ..inverse.order_statistics import quantile_interval
 from ..problem.allowables import binomial_interval
@@ -63,7 +63,7 @@ class CRNConstraints:
         self.max_failure_fraction = max_failure_fraction
         self.confidence_level = confidence_level
         self._memo: dict[bytes, list[np.ndarray]] = {}
-        self._last = None
+        self._last: tuple[bytes, Evaluations] | None = None  # the last design run, its rows
         self.counts = {"n_evaluations": 0, "n_computed": 0, "n_cached": 0, "n_failed": 0}
         self.n_designs = 0
 
@@ -78,9 +78,7 @@ class CRNConstraints:
             ev = evaluate(self.problem.model, Z, **{**self.executor,
                                                     "progress": self.executor["progress"] and first})
             self.n_designs += 1
-            for k in self.counts:
-                self.counts[k] += {"n_evaluations": ev.n, "n_computed": ev.n_model_calls,
-                                   "n_cached": ev.n_cached, "n_failed": ev.n_failed}[k]
+            self.count(ev)
             if ev.n_failed > self.max_failure_fraction * ev.n:
                 raise SampleFailuresError(
                     f"design (mc): at design {self.problem.space.as_dict(d)}, {ev.n_failed} of "
@@ -90,6 +88,13 @@ class CRNConstraints:
             self._memo[key] = self.problem.scalars.values(ev.Y)
             self._last = (key, ev)
         return self._memo[key]
+
+    def count(self, ev: Evaluations) -> None:
+        """Add the rows of a model run to :attr:`counts` (every run the method makes, the
+        trade-off curve's included)."""
+        for k in self.counts:
+            self.counts[k] += {"n_evaluations": ev.n, "n_computed": ev.n_model_calls,
+                               "n_cached": ev.n_cached, "n_failed": ev.n_failed}[k]
 
     def evaluations_at(self, d: np.ndarray):
         """The model rows at design ``d`` if it was the last design run, else None."""
@@ -186,11 +191,12 @@ def design_monte_carlo(*, problem, seed, confidence_level: float, failures: str,
     est = CRNConstraints(problem, X0, executor, failures, max_failure_fraction, confidence_level)
     d, info = optimise(problem, est.factors, rel, problem.space.start,
                        max_evaluations=max_designs)
-    est.values(d)  # the optimum's rows are the last run (kept)
-    ev = est.evaluations_at(d)
-    if ev is None:  # pragma: no cover - values(d) just ran it unless memoised earlier
-        Z = problem.space.physical(d, X0)
-        ev = evaluate(problem.model, Z, **{**executor, "progress": False})
+    est.values(d)
+    ev = est.evaluations_at(d)  # the optimum's rows, if it was the last design run
+    if ev is None:  # an earlier design: its rows again (from the cache, if there is one)
+        ev = evaluate(problem.model, problem.space.physical(d, X0),
+                      **{**executor, "progress": False})
+        est.count(ev)
     history = pd.DataFrame([{"iteration": 0, "n_designs": est.n_designs,
                              "n_evaluations": est.counts["n_evaluations"],
                              "cost": info["cost"], **problem.space.as_dict(d),
@@ -199,7 +205,8 @@ def design_monte_carlo(*, problem, seed, confidence_level: float, failures: str,
     if not info["feasible"] and not np.all(np.isfinite(info["factors"])):
         raise StudyError("design (mc): every sample failed at the designs tried; allowed: "
                          "bounds that keep the model evaluable")
-    return DesignEstimate(d, est, (ev,), dict(est.counts), history, {}, tuple(notes),
+    # est.counts itself: the trade-off curve's designs, run on the same sample, add to it
+    return DesignEstimate(d, est, (ev,), est.counts, history, {}, tuple(notes),
                           {"n": n, "rule": rule, "n_designs": est.n_designs,
                            "population": "common random numbers: one sample of the base "
                                          "inputs mapped through every design"},

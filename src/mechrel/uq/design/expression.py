@@ -86,7 +86,7 @@ def _compile(node: ast.AST, names: Sequence[str], where: str, text: str) -> tupl
         return ("un", op, _compile(node.operand, names, where, text))
     if isinstance(node, ast.Call):
         fn = node.func.id if isinstance(node.func, ast.Name) else None
-        if fn not in FUNCTIONS:
+        if fn is None or fn not in FUNCTIONS:
             shown = fn if fn is not None else ast.unparse(node.func)
             raise _fail(where, text, f"the function {shown!r} is not one of the language's",
                         names)

@@ -35,6 +35,7 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from mechrel.errors import StudyError
 
@@ -172,7 +173,7 @@ class ReliabilityConstraint:
         return f"{self.quantity} ({self.basis}) R >= {self.reliability:g}"
 
 
-def as_variables(variables: Any) -> tuple[DesignVariable, ...]:
+def as_variables(variables: Any, where: str = "variables") -> tuple[DesignVariable, ...]:
     """Design variables from :class:`DesignVariable` objects or ``{name: {field: value}}``.
 
     Parameters
@@ -180,6 +181,8 @@ def as_variables(variables: Any) -> tuple[DesignVariable, ...]:
     variables : sequence of DesignVariable, or mapping
         ``{name: {"kind", "input", "lower", "upper", "start"}}`` (the form of a study file's
         ``[design.variables.NAME]`` tables).
+    where : str, default "variables"
+        How the variables are named in messages (``design.variables`` in a study file).
 
     Returns
     -------
@@ -200,20 +203,20 @@ def as_variables(variables: Any) -> tuple[DesignVariable, ...]:
     out = []
     if isinstance(variables, Mapping):
         for name, spec in variables.items():
-            where = f"variables.{name}"
+            at = f"{where}.{name}"
             if isinstance(spec, DesignVariable):
                 out.append(spec)
                 continue
             if not isinstance(spec, Mapping):
-                raise StudyError(f"{where} = {spec!r}: not a table; allowed: a table with kind, "
+                raise StudyError(f"{at} = {spec!r}: not a table; allowed: a table with kind, "
                                  "input, lower, upper and optionally start")
             unknown = sorted(set(spec) - {"kind", "input", "lower", "upper", "start"})
             if unknown:
-                raise StudyError(f"{where}: unknown field {unknown[0]!r}; allowed: fields kind, "
+                raise StudyError(f"{at}: unknown field {unknown[0]!r}; allowed: fields kind, "
                                  "input, lower, upper, start")
             missing = [k for k in ("kind", "input", "lower", "upper") if k not in spec]
             if missing:
-                raise StudyError(f"{where}.{missing[0]}: missing required field; allowed: "
+                raise StudyError(f"{at}.{missing[0]}: missing required field; allowed: "
                                  + {"kind": "one of " + ", ".join(KINDS),
                                     "input": "the name of an uncertain input (scene: of the "
                                              "model's input carrying the value)",
@@ -224,32 +227,33 @@ def as_variables(variables: Any) -> tuple[DesignVariable, ...]:
     elif isinstance(variables, (list, tuple)) and variables:
         out = list(variables)
     else:
-        raise StudyError(f"variables = {variables!r}: no design variables; allowed: a non-empty "
+        raise StudyError(f"{where} = {variables!r}: no design variables; allowed: a non-empty "
                          "sequence of DesignVariable or a mapping {name: {kind, input, lower, "
                          "upper}}")
     checked = []
     for v in out:
         if not isinstance(v, DesignVariable):
-            raise StudyError(f"variables: {v!r} is not a DesignVariable; allowed: "
+            raise StudyError(f"{where}: {v!r} is not a DesignVariable; allowed: "
                              "DesignVariable(name, kind, input, lower, upper, start=None)")
-        checked.append(v.checked(f"variables.{v.name}"))
+        checked.append(v.checked(f"{where}.{v.name}"))
     names = [v.name for v in checked]
     dup = sorted({n for n in names if names.count(n) > 1})
     if dup:
-        raise StudyError(f"variables: the name {dup[0]!r} is used twice; allowed: distinct names")
+        raise StudyError(f"{where}: the name {dup[0]!r} is used twice; allowed: distinct names")
     seen: dict[tuple[str, str], str] = {}
     for v in checked:
         role = "spread" if v.kind in _SCALE_KINDS else v.kind
         key = (v.input, role)
         if key in seen:
-            raise StudyError(f"variables.{v.name}: input {v.input!r} already has a {role} "
+            raise StudyError(f"{where}.{v.name}.input = {v.input!r}: already has a {role} "
                              f"variable ({seen[key]}); allowed: at most one mean and one std or "
                              "half_width variable per input, one scene variable per model input")
         seen[key] = v.name
     return tuple(checked)
 
 
-def as_constraints(constraints: Any) -> tuple[ReliabilityConstraint, ...]:
+def as_constraints(constraints: Any, where: str = "constraints"
+                   ) -> tuple[ReliabilityConstraint, ...]:
     """Reliability constraints from a number, :class:`ReliabilityConstraint` objects or mappings.
 
     Parameters
@@ -258,6 +262,8 @@ def as_constraints(constraints: Any) -> tuple[ReliabilityConstraint, ...]:
         A number R_t is the whole-cycle constraint of all quantities at R_t; a mapping has
         ``reliability``, ``quantity`` and ``basis`` (the form of a study file's
         ``[[design.constraints]]``).
+    where : str, default "constraints"
+        How the constraints are named in messages (``design.constraints`` in a study file).
 
     Returns
     -------
@@ -278,35 +284,35 @@ def as_constraints(constraints: Any) -> tuple[ReliabilityConstraint, ...]:
             isinstance(constraints, (int, float)) and not isinstance(constraints, bool)):
         constraints = [constraints]
     if not isinstance(constraints, (list, tuple)) or not constraints:
-        raise StudyError(f"constraints = {constraints!r}: no constraint; allowed: a target "
+        raise StudyError(f"{where} = {constraints!r}: no constraint; allowed: a target "
                          "reliability in (0, 1), or a non-empty sequence of "
                          "ReliabilityConstraint or {reliability, quantity, basis}")
     out = []
     for i, c in enumerate(constraints):
-        where = f"constraints[{i}]"
+        at = f"{where}[{i}]"
         if isinstance(c, Mapping):
             unknown = sorted(set(c) - {"reliability", "quantity", "basis"})
             if unknown:
-                raise StudyError(f"{where}: unknown field {unknown[0]!r}; allowed: fields "
+                raise StudyError(f"{at}: unknown field {unknown[0]!r}; allowed: fields "
                                  "reliability, quantity, basis")
             if "reliability" not in c:
-                raise StudyError(f"{where}.reliability: missing required field; allowed: a "
+                raise StudyError(f"{at}.reliability: missing required field; allowed: a "
                                  "reliability in (0, 1)")
             c = ReliabilityConstraint(c["reliability"], c.get("quantity", "all"),
                                       c.get("basis", "whole-cycle"))
         elif isinstance(c, (int, float)) and not isinstance(c, bool):
             c = ReliabilityConstraint(float(c))
         if not isinstance(c, ReliabilityConstraint):
-            raise StudyError(f"{where} = {c!r}: not a constraint; allowed: a reliability, a "
+            raise StudyError(f"{at} = {c!r}: not a constraint; allowed: a reliability, a "
                              "ReliabilityConstraint or {reliability, quantity, basis}")
-        r = ARGS.fraction(f"{where}.reliability", c.reliability, open_lo=True, open_hi=True)
-        q = ARGS.string(f"{where}.quantity", c.quantity)
-        b = ARGS.choice(f"{where}.basis", c.basis, BASES)
+        r = ARGS.fraction(f"{at}.reliability", c.reliability, open_lo=True, open_hi=True)
+        q = ARGS.string(f"{at}.quantity", c.quantity)
+        b = ARGS.choice(f"{at}.basis", c.basis, BASES)
         out.append(ReliabilityConstraint(r, q, b))
     keys = [(c.quantity, c.basis) for c in out]
     dup = sorted({k for k in keys if keys.count(k) > 1})
     if dup:
-        raise StudyError(f"constraints: quantity {dup[0][0]!r} ({dup[0][1]}) is constrained "
+        raise StudyError(f"{where}: quantity {dup[0][0]!r} ({dup[0][1]}) is constrained "
                          "twice; allowed: one constraint per quantity and basis")
     return tuple(out)
 
@@ -314,7 +320,7 @@ def as_constraints(constraints: Any) -> tuple[ReliabilityConstraint, ...]:
 def _base_half_width(marginal, name: str, where: str) -> float:
     lo, hi = (float(v) for v in marginal.scipy().support())
     if not (math.isfinite(lo) and math.isfinite(hi)):
-        raise StudyError(f"{where}: kind 'half_width' needs a bounded input, but {name!r} is "
+        raise StudyError(f"{where}.kind = 'half_width': needs a bounded input, but {name!r} is "
                          f"{marginal!r} (range [{lo:g}, {hi:g}]); allowed: kind 'std', or a "
                          "bounded distribution (uniform, truncnormal, beta)")
     return 0.5 * (hi - lo)
@@ -335,6 +341,8 @@ class DesignSpace:
     nominal : mapping, optional
         ``{model input: value}``: the base design's scene values (default start of a
         ``"scene"`` variable).
+    where : str, default "variables"
+        How the variables are named in messages (``design.variables`` in a study file).
 
     Raises
     ------
@@ -355,7 +363,8 @@ class DesignSpace:
     """
 
     def __init__(self, variables: Sequence[DesignVariable], inputs: Any,
-                 model_names: Sequence[str], nominal: Mapping[str, float] | None = None):
+                 model_names: Sequence[str], nominal: Mapping[str, float] | None = None,
+                 where: str = "variables"):
         self.variables = tuple(variables)
         self.inputs = inputs
         self.model_names = tuple(model_names)
@@ -363,19 +372,19 @@ class DesignSpace:
         scene = [v for v in self.variables if v.kind == "scene"]
         scene_names = [v.input for v in scene]
         for v in self.variables:
-            where = f"variables.{v.name}"
+            at = f"{where}.{v.name}"
             if v.kind == "scene":
                 if v.input in random:
-                    raise StudyError(f"{where}.input = {v.input!r}: an uncertain input, not a "
+                    raise StudyError(f"{at}.input = {v.input!r}: an uncertain input, not a "
                                      "fixed scene value; allowed: kind 'mean', 'std' or "
                                      "'half_width' for an uncertain input, 'scene' for a model "
                                      "input that is not uncertain")
                 if v.input not in self.model_names:
-                    raise StudyError(f"{where}.input = {v.input!r}: not an input of the model "
+                    raise StudyError(f"{at}.input = {v.input!r}: not an input of the model "
                                      f"({', '.join(self.model_names)}); allowed: the model's "
                                      "input carrying the scene value")
             elif v.input not in random:
-                raise StudyError(f"{where}.input = {v.input!r}: not an uncertain input; "
+                raise StudyError(f"{at}.input = {v.input!r}: not an uncertain input; "
                                  f"allowed: one of {', '.join(random)}")
         extra = [n for n in self.model_names if n not in random and n not in scene_names]
         if extra:
@@ -392,12 +401,12 @@ class DesignSpace:
         base = []
         for v in self.variables:
             if v.kind == "scene":
-                value = (nominal or {}).get(v.input)
-                if value is None and v.start is None:
-                    raise StudyError(f"variables.{v.name}.start: missing: the model does not "
+                value = (nominal or {}).get(v.input, v.start)
+                if value is None:
+                    raise StudyError(f"{where}.{v.name}.start: missing: the model does not "
                                      f"give the base value of {v.input!r}; allowed: a start "
                                      "value within the bounds")
-                base.append(float(v.start if value is None else value))
+                base.append(float(value))
                 continue
             j = random.index(v.input)
             if v.kind == "mean":
@@ -406,7 +415,7 @@ class DesignSpace:
                 base.append(float(self.sd0[j]))
             else:
                 base.append(_base_half_width(inputs.marginals[j], v.input,
-                                             f"variables.{v.name}"))
+                                             f"{where}.{v.name}"))
         self.base = np.asarray(base)
         self.lower = np.array([v.lower for v in self.variables])
         self.upper = np.array([v.upper for v in self.variables])
@@ -453,14 +462,14 @@ class DesignSpace:
         return len(self.variables)
 
     # ---------------------------------------------------------------- optimiser coordinates
-    def to_unit(self, d: np.ndarray) -> np.ndarray:
+    def to_unit(self, d: ArrayLike) -> np.ndarray:
         """Design → the optimiser's coordinates in [0, 1]: linear in a mean or scene value,
         logarithmic in a std or half-width (tolerances span decades; equal steps are equal
         ratios).
 
         Parameters
         ----------
-        d : ndarray, shape (m,)
+        d : array_like, shape (m,)
             A design within the bounds.
 
         Returns
@@ -483,13 +492,13 @@ class DesignSpace:
             lg = (np.log(d) - np.log(lo)) / (np.log(hi) - np.log(lo))
         return np.where(self.log, lg, lin)
 
-    def from_unit(self, eta: np.ndarray) -> np.ndarray:
+    def from_unit(self, eta: ArrayLike) -> np.ndarray:
         """The optimiser's coordinates → design (inverse of :meth:`to_unit`), clipped to the
         bounds.
 
         Parameters
         ----------
-        eta : ndarray, shape (m,)
+        eta : array_like, shape (m,)
             Coordinates in [0, 1] (clipped).
 
         Returns
@@ -512,7 +521,7 @@ class DesignSpace:
         return np.clip(np.where(self.log, lg, lin), lo, hi)
 
     # ---------------------------------------------------------------- the map
-    def affine(self, d: Sequence[float]) -> tuple[np.ndarray, np.ndarray, dict[str, float]]:
+    def affine(self, d: ArrayLike) -> tuple[np.ndarray, np.ndarray, dict[str, float]]:
         """The design's map of the uncertain inputs, x = loc + scale (x₀ − μ₀) per input, and
         its scene values.
 
@@ -541,14 +550,14 @@ class DesignSpace:
         >>> [np.round(a, 12).tolist() for a in s.affine([0.3])[:2]]
         [[1.0], [3.0]]
         """
-        d = np.asarray(d, dtype=float).reshape(-1)
-        if d.size != self.m:
+        x = np.asarray(d, dtype=float).reshape(-1)
+        if x.size != self.m:
             raise StudyError(f"design: expected {self.m} values ({', '.join(self.names)}), "
-                             f"got {d.size}")
+                             f"got {x.size}")
         loc = self.mu0.copy()
         scale = np.ones_like(self.mu0)
         scene = {}
-        for v, value, b in zip(self.variables, d, self.base):
+        for v, value, b in zip(self.variables, x, self.base):
             if v.kind == "scene":
                 scene[v.input] = float(value)
                 continue
@@ -559,14 +568,14 @@ class DesignSpace:
                 scale[j] = value / b
         return loc, scale, scene
 
-    def physical(self, d: Sequence[float], X0: np.ndarray) -> np.ndarray:
+    def physical(self, d: ArrayLike, X0: ArrayLike) -> np.ndarray:
         """The model's input points at design ``d`` from base points ``X0``.
 
         Parameters
         ----------
         d : sequence of float
             The design.
-        X0 : ndarray, shape (n, r)
+        X0 : array_like, shape (n, r)
             Points of the uncertain inputs at the base design (in the order of
             ``inputs.names``).
 
@@ -594,7 +603,7 @@ class DesignSpace:
     def _scene_cols(self, scene: Mapping[str, float]) -> tuple[tuple[int, float], ...]:
         return tuple((self._col[n], v) for n, v in scene.items())
 
-    def as_dict(self, d: Sequence[float]) -> dict[str, float]:
+    def as_dict(self, d: ArrayLike) -> dict[str, float]:
         """The ``{name: value}`` of a design.
 
         Parameters
@@ -675,7 +684,7 @@ class AtDesign:
     [1.5]
     """
 
-    def __init__(self, model: Any, space: DesignSpace, design: Sequence[float]):
+    def __init__(self, model: Any, space: DesignSpace, design: ArrayLike):
         self.model = model
         self.design = tuple(float(v) for v in np.asarray(design, dtype=float).reshape(-1))
         loc, scale, scene = space.affine(self.design)

@@ -155,6 +155,41 @@ def _gamma(ind: np.ndarray, p: float) -> float:
     return 2.0 * g
 
 
+def level_sizes(n_per_level: int, p0: float, where: str = "p0") -> tuple[int, int]:
+    """The seeds of a level and the length of their chains, n_per_level·p0 and 1/p0, which must
+    be integers.
+
+    Parameters
+    ----------
+    n_per_level : int
+        Samples per level.
+    p0 : float
+        The level probability, in (0, 1).
+    where : str, default "p0"
+        How ``p0`` is named in the message.
+
+    Returns
+    -------
+    (int, int)
+
+    Raises
+    ------
+    StudyError
+        Either is not an integer (or no seed).
+
+    Examples
+    --------
+    >>> level_sizes(500, 0.1)
+    (50, 10)
+    """
+    nc = n_per_level * p0
+    ns = 1.0 / p0
+    if abs(nc - round(nc)) > 1e-9 or abs(ns - round(ns)) > 1e-9 or round(nc) < 1:
+        raise StudyError(f"{where}: got {p0!r} with n_per_level = {n_per_level}; allowed: 1/p0 and n_per_level·p0 integers "
+                         "(e.g. p0 = 0.1 with n_per_level a multiple of 10)")
+    return int(round(nc)), int(round(ns))
+
+
 def subset_simulation(
     *,
     model: Any,
@@ -239,12 +274,7 @@ def subset_simulation(
     refuse_evaluations(evaluations, "subset_simulation")
     N = check_positive("n_per_level", n_per_level, integer=True, minimum=1)
     p0 = ARGS.fraction("p0", p0, open_lo=True, open_hi=True)
-    nc = N * p0
-    ns = 1.0 / p0
-    if abs(nc - round(nc)) > 1e-9 or abs(ns - round(ns)) > 1e-9 or round(nc) < 1:
-        raise StudyError(f"p0: got {p0!r} with n_per_level = {N}; allowed: 1/p0 and n_per_level·p0 integers "
-                         "(e.g. p0 = 0.1 with n_per_level a multiple of 10)")
-    nc, ns = int(round(nc)), int(round(ns))
+    nc, ns = level_sizes(N, p0)
     ARGS.choice("proposal", proposal, PROPOSALS)
     rho = ARGS.fraction("rho", rho, open_lo=False, open_hi=True)
     spread = check_positive("spread", spread)

@@ -37,7 +37,7 @@ import hashlib
 import json
 import math
 import re
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 
 import numpy as np
 import pandas as pd
@@ -144,7 +144,8 @@ class MechanismModel:
     (('clearance',), [('velocity', 0.0), ('velocity', 90.0), ('velocity', 180.0)])
     """
 
-    def __init__(self, scene, inputs: Sequence[str], *, output: str | None = None,
+    def __init__(self, scene, inputs: Sequence[str] | Mapping[str, str | Sequence[str]], *,
+                 output: str | None = None,
                  quantities: Sequence[str] | None = None, angle_step: float = 18.0,
                  cycles: float | None = None, overrides=None, reference: str = "nominal",
                  extremes: bool = True, sectors: bool = False):
