@@ -17,6 +17,10 @@ The package has four parts, one folder each:
     command line loop over.
 ``surrogates/``
     :func:`polynomial_chaos` and :func:`fit_kriging` (the Kriging model of :func:`active_learning`).
+``results``
+    The views every per-output result shares (:class:`OutputViews`: ``per_angle()``, the rows
+    at the analysis angles, and ``cycle_extremes()``), also as functions of any table indexed
+    by a model's outputs (:func:`per_angle`, :func:`cycle_extremes`).
 ``inverse/``, ``design/``
     The inverse question (:func:`inverse_reliability`: the allowable for a target reliability)
     and design for reliability (:func:`design_for_reliability`: the cheapest design that meets
@@ -53,6 +57,7 @@ _EXPORTS = {
     "execution.executor": ["evaluate", "Evaluations", "EvaluationCount", "BACKENDS"],
     "execution.cache": ["EvaluationCache"],
     "_common": ["SampleFailuresError"],
+    "results": ["OutputViews", "per_angle", "cycle_extremes"],
     "estimators": ["METHODS"],
     "estimators.normality": ["normality_check", "NormalityResult"],
     "surrogates.kriging": ["Kriging", "fit_kriging"],

@@ -53,6 +53,7 @@ from .._common import (
 )
 from ..execution.executor import Evaluations
 from ..problem.inputs import UncertainInputs
+from ..results import OutputViews
 from ..problem.model import check_model
 from ..problem.allowables import (check_event, per_angle_mask, reliability_one_sided,
                           reliability_two_sided, resolve_allowables)
@@ -148,7 +149,7 @@ def fosm_design(inputs: UncertainInputs, *, step: Any = "auto", noise: float = E
 
 
 @dataclass(frozen=True, eq=False)
-class FOSMResult(CountedByProvenance):
+class FOSMResult(OutputViews, CountedByProvenance):
     """FOSM reliability per output (frozen).
 
     Parameters

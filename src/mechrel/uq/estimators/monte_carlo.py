@@ -76,6 +76,7 @@ from ..execution.executor import Evaluations
 from ..problem.inputs import (SAMPLING_RULES, as_seed_sequence, child_seed, seed_record,
                               sobol_balance_note)
 from ..problem.model import check_model
+from ..results import OutputViews
 from ..problem.allowables import (binomial_interval, check_event, per_angle_mask, resolve_allowables,
                           whole_cycle_column)
 from ._problem import Problem, RareEventResult
@@ -185,7 +186,7 @@ def sample_moments(Y: np.ndarray, *, confidence_level: float) -> pd.DataFrame:
 
 
 @dataclass(frozen=True, eq=False)
-class MonteCarloResult(CountedByProvenance):
+class MonteCarloResult(OutputViews, CountedByProvenance):
     """Monte Carlo reliability and moments (frozen).
 
     Parameters

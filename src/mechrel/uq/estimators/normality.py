@@ -39,6 +39,7 @@ from .._common import (CountedByProvenance, _labels, emit_warnings, make_provena
 from .fosm import FOSMResult
 from .monte_carlo import MonteCarloResult, reliability_from_samples
 from ..problem.allowables import per_angle_mask
+from ..results import OutputViews
 
 __all__ = ["normality_check", "NormalityResult"]
 
@@ -62,7 +63,7 @@ def _ad_normal_pvalue(a2: float, n: int) -> float:
 
 
 @dataclass(frozen=True, eq=False)
-class NormalityResult(CountedByProvenance):
+class NormalityResult(OutputViews, CountedByProvenance):
     """Per-output normality diagnostics of FOSM against Monte Carlo (frozen).
 
     Parameters
