@@ -77,7 +77,8 @@ def test_fixed_allowable_mode_is_an_allowable_with_zero_std():
     a = monte_carlo(model=_model(), inputs=INPUTS, n=n, seed=5, allowable=ALLOW,
                     allowable_mode="fixed")
     b = monte_carlo(model=_model(), inputs=INPUTS, n=n, seed=5, allowable=Allowable(1.0, 0.0))
-    pd.testing.assert_frame_equal(a.table.drop(columns="sigma_I"), b.table.drop(columns="sigma_I"))
+    pd.testing.assert_frame_equal(a.table.drop(columns="allowable_std"),
+                                  b.table.drop(columns="allowable_std"))
     mu, sd = _exact()
     exact = reliability_two_sided(mu, sd, 1.0, 0.0)[2]
     t = monte_carlo(model=_model(), inputs=INPUTS, n=n, seed=5, allowable=ALLOW,
@@ -145,8 +146,8 @@ def test_allowable_draws_are_the_allowables_the_result_counted(data):
     assert draws.shape == Y.shape
     inside = (np.abs(Y) <= draws) if event == "two-sided" else (Y <= draws)
     np.testing.assert_array_equal(inside.sum(axis=0), res.table["n_inside"].to_numpy())
-    mu = res.table["mu_I"].to_numpy()
-    sd = res.table["sigma_I"].to_numpy()
+    mu = res.table["allowable_mean"].to_numpy()
+    sd = res.table["allowable_std"].to_numpy()
     if mode == "fixed":
         np.testing.assert_array_equal(draws, np.broadcast_to(mu, Y.shape))
     # one standard normal per sample and quantity: the outputs of a quantity move together

@@ -155,3 +155,71 @@ def test_monte_carlos_max_abs_row_is_its_whole_cycle_estimate(results):
     mc = results["monte_carlo"]
     row = mc.cycle_extremes().loc[("velocity", "max_abs")]
     assert row["reliability"] == mc.whole_cycle.loc["velocity", "reliability"]
+
+
+# --------------------------------------------------------------------- one vocabulary, old names
+def test_the_tables_speak_one_vocabulary(results):
+    cols = {k: set(r.to_frame().columns) for k, r in results.items()}
+    for k in ("fosm", "monte_carlo", "pce"):
+        assert {"mean", "std"} <= cols[k], k
+    for k in ("fosm", "monte_carlo"):
+        assert {"allowable_mean", "allowable_std"} <= cols[k], k
+    assert {"mean_lo", "mean_hi", "std_lo", "std_hi", "reliability_lo", "reliability_hi"} \
+        <= cols["monte_carlo"]
+    assert {"fosm_mean", "fosm_std", "mc_mean", "mc_std"} <= cols["normality"]
+    old = {"mu_i", "sigma_i", "mu_I", "sigma_I", "mu_g", "sigma_g"}
+    assert not any(old & c for c in cols.values())
+
+
+@pytest.mark.parametrize("key, old, new", [
+    ("fosm", "mu_i", "mean"), ("fosm", "sigma_i", "std"), ("fosm", "mu_I", "allowable_mean"),
+    ("fosm", "sigma_I", "allowable_std"), ("monte_carlo", "mu_I", "allowable_mean"),
+    ("monte_carlo", "sigma_I", "allowable_std"), ("normality", "mu_i", "fosm_mean"),
+    ("normality", "sigma_i", "fosm_std"),
+])
+def test_an_old_column_name_reads_the_new_column_with_a_warning(results, key, old, new):
+    r = results[key]
+    message = rf"^column '{old}' is renamed '{new}'; the old name goes in the release after 0\.1$"
+    for table in (r.table, r.to_frame(), r.per_angle()):
+        want = table[new]
+        with pytest.warns(FutureWarning, match=message):
+            pd.testing.assert_series_equal(table[old], want)
+        with pytest.warns(FutureWarning, match=message):
+            both = table[[old, "flag" if key == "normality" else "n" if key == "monte_carlo"
+                          else "beta"]]
+        pd.testing.assert_series_equal(both.iloc[:, 0], want)
+        with pytest.warns(FutureWarning, match=message):
+            pd.testing.assert_series_equal(table.loc[:, old], want)
+        with pytest.warns(FutureWarning, match=message):
+            pd.testing.assert_series_equal(table.loc[table.index[1:], old], want.iloc[1:])
+        with pytest.warns(FutureWarning, match=message):
+            pd.testing.assert_series_equal(getattr(table, old), want)
+        assert old not in table.columns and old not in table
+
+
+def test_the_new_names_and_unknown_names_behave_as_in_pandas(results):
+    import warnings
+
+    t = results["fosm"].table
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # no warning for the new names or other columns
+        t["mean"], t[["std", "beta"]], t.loc[:, "reliability"], t.beta  # noqa: B018
+        t.loc[t.index[0]]  # noqa: B018 - a row key is not a column
+    with pytest.raises(KeyError, match="mu_x"):
+        t["mu_x"]  # noqa: B018
+    with pytest.raises(AttributeError, match="mu_x"):
+        t.mu_x  # noqa: B018
+
+
+def test_the_limit_state_table_of_fosm_reads_its_old_names():
+    from mechrel.uq import LimitState
+
+    inputs = UncertainInputs.from_specs({"x1": Normal(0.0, 1.0), "x2": Normal(0.0, 1.0)})
+    g = FunctionModel(lambda X: 3.0 - X[:, 0] - X[:, 1], ["x1", "x2"], ["g"], vectorized=True)
+    r = fosm(model=g, inputs=inputs, limit_state=LimitState.margin(), progress=False)
+    t = r.to_frame()
+    assert t["mean"].iloc[0] == 3.0 and t["std"].iloc[0] == pytest.approx(2**0.5, rel=1e-9)
+    with pytest.warns(FutureWarning, match="column 'mu_g' is renamed 'mean'"):
+        assert t["mu_g"].iloc[0] == 3.0
+    with pytest.warns(FutureWarning, match="column 'sigma_g' is renamed 'std'"):
+        assert t["sigma_g"].iloc[0] == t["std"].iloc[0]

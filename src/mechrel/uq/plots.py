@@ -273,8 +273,8 @@ def plot_reliability(*results: Any, title: str | None = None):
         x, xlabel = _xvalues(index, pos)
         t = first.table
         allowable = None
-        if {"mu_I", "sigma_I"} <= set(t.columns):
-            mu_I, sd_I = t["mu_I"].to_numpy()[pos], t["sigma_I"].to_numpy()[pos]
+        if {"allowable_mean", "allowable_std"} <= set(t.columns):
+            mu_I, sd_I = t["allowable_mean"].to_numpy()[pos], t["allowable_std"].to_numpy()[pos]
             if np.ptp(mu_I) == 0 and np.ptp(sd_I) == 0:
                 allowable = (float(mu_I[0]), float(sd_I[0]), UNITS.get(q, ""))
         kw = {"allowable": allowable}

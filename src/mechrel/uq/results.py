@@ -19,13 +19,24 @@ the labels' internals:
     The rows of the cycle extremes, the level renamed ``statistic`` (its values are the
     statistics' labels).
 
-The two views partition the table. They are not named ``whole_cycle``: a Monte Carlo result's
+The two views partition the table.
+
+The tables speak one vocabulary: ``mean`` and ``std`` for the moments of an output (FOSM's
+first-order ones, Monte Carlo's sample ones, PCE's from the coefficients), ``allowable_mean``
+and ``allowable_std`` for the allowable I ~ N(mean, std²), and an interval as two columns
+``<column>_lo`` / ``<column>_hi`` (``mean_lo``, ``reliability_hi``, ``pf_lo``). The names of
+release 0.1 (:data:`DEPRECATED_COLUMNS`: FOSM's ``mu_i``/``sigma_i``, ``mu_I``/``sigma_I``,
+``mu_g``/``sigma_g``) still read, with a :class:`FutureWarning` naming the new column, from a
+result's table (:class:`ResultTable`) for one more release. They are not named ``whole_cycle``: a Monte Carlo result's
 ``whole_cycle`` is its table of the whole-cycle *events* (per quantity and for all quantities
 jointly), which the cycle-extreme rows are not (a row per statistic and quantity, and FOSM's are
 NaN where it gives no estimate).
 """
 
 from __future__ import annotations
+
+import warnings
+from types import MappingProxyType
 
 import numpy as np
 import pandas as pd
@@ -34,7 +45,17 @@ from mechrel.errors import StudyError
 
 from .problem.allowables import parse_sector, per_angle_mask
 
-__all__ = ["OutputViews", "per_angle", "cycle_extremes"]
+__all__ = ["OutputViews", "per_angle", "cycle_extremes", "ResultTable", "DEPRECATED_COLUMNS"]
+
+#: The column names of release 0.1 that a result's table still reads for one more release
+#: (with a :class:`FutureWarning`): old name → the new names it stands for, the first one the
+#: table has (FOSM's ``mu_i`` is ``mean`` in its own table, ``fosm_mean`` in the normality
+#: check's).
+DEPRECATED_COLUMNS = MappingProxyType({
+    "mu_i": ("mean", "fosm_mean"), "sigma_i": ("std", "fosm_std"),
+    "mu_I": ("allowable_mean",), "sigma_I": ("allowable_std",),
+    "mu_g": ("mean",), "sigma_g": ("std",),
+})
 
 
 def _check(frame, what: str):
@@ -180,7 +201,7 @@ class OutputViews:
         >>> model = FunctionModel(lambda x: np.array([x[0], 2 * x[0], 2 * abs(x[0])]), ["x"], idx)
         >>> r = fosm(model=model, inputs=UncertainInputs.from_specs({"x": Normal(1.0, 0.1)}),
         ...          allowable=Allowable(3.0), progress=False)
-        >>> r.per_angle().xs("velocity")["sigma_i"].round(12).tolist()   # |df/dx| σ
+        >>> r.per_angle().xs("velocity")["std"].round(12).tolist()   # |df/dx| σ
         [0.1, 0.2]
         """
         return per_angle(self.to_frame())  # type: ignore[attr-defined]
@@ -213,3 +234,105 @@ class OutputViews:
         True
         """
         return cycle_extremes(self.to_frame(), sectors=sectors)  # type: ignore[attr-defined]
+
+
+class ResultTable(pd.DataFrame):
+    """A result's table: a :class:`pandas.DataFrame` that still reads the deprecated columns.
+
+    ``table["mu_i"]``, ``table[["mu_i", "beta"]]``, ``table.loc[rows, "mu_i"]`` and
+    ``table.mu_i`` return the renamed column (:data:`DEPRECATED_COLUMNS`) with a
+    :class:`FutureWarning` that names it; everything else is a DataFrame's. Tables derived
+    from it (copies, slices, ``to_frame()``) are ResultTables too; the old names are not
+    columns (``"mu_i" in table`` is False, CSV files have the new names).
+
+    Parameters
+    ----------
+    *args, **kwargs
+        As for :class:`pandas.DataFrame`.
+
+    Examples
+    --------
+    >>> import warnings
+    >>> t = ResultTable({"mean": [1.0], "std": [0.5]})
+    >>> with warnings.catch_warnings(record=True) as caught:
+    ...     warnings.simplefilter("always")
+    ...     value = float(t["sigma_i"].iloc[0])
+    >>> value, str(caught[0].message)
+    (0.5, "column 'sigma_i' is renamed 'std'; the old name goes in the release after 0.1")
+    """
+
+    _metadata: list[str] = []
+
+    @property
+    def _constructor(self):
+        return ResultTable
+
+    def _renamed(self, name, stacklevel: int):
+        if isinstance(name, str) and name in DEPRECATED_COLUMNS and name not in self.columns:
+            for new in DEPRECATED_COLUMNS[name]:
+                if new in self.columns:
+                    warnings.warn(f"column {name!r} is renamed {new!r}; the old name goes in the "
+                                  "release after 0.1", FutureWarning, stacklevel=stacklevel + 1)
+                    return new
+        return name
+
+    def _columns_key(self, key, stacklevel: int):
+        if isinstance(key, list):
+            return [self._renamed(k, stacklevel + 1) for k in key]
+        return self._renamed(key, stacklevel + 1)
+
+    def __getitem__(self, key):
+        return super().__getitem__(self._columns_key(key, 2))
+
+    def __getattr__(self, name):
+        if name in DEPRECATED_COLUMNS:
+            new = self._renamed(name, 2)
+            if new != name:
+                return super().__getitem__(new)
+        return super().__getattr__(name)
+
+    @property
+    def loc(self):
+        """``.loc`` that reads a deprecated column name as its new one.
+
+        Returns
+        -------
+        object
+            An indexer like :attr:`pandas.DataFrame.loc`.
+
+        Examples
+        --------
+        >>> import warnings
+        >>> t = ResultTable({"mean": [1.0, 2.0]})
+        >>> with warnings.catch_warnings():
+        ...     warnings.simplefilter("ignore", FutureWarning)
+        ...     t.loc[1, "mu_i"]
+        np.float64(2.0)
+        """
+        return _Loc(self, super().loc)
+
+
+class _Loc:
+    """``ResultTable.loc``: the column part of a key read through the deprecated names."""
+
+    __slots__ = ("_table", "_loc")
+
+    def __init__(self, table: ResultTable, loc):
+        self._table, self._loc = table, loc
+
+    def _key(self, key):
+        if isinstance(key, tuple) and len(key) == 2:
+            return key[0], self._table._columns_key(key[1], 3)
+        return key
+
+    def __getitem__(self, key):
+        return self._loc[self._key(key)]
+
+    def __setitem__(self, key, value):
+        self._loc[self._key(key)] = value
+
+    def __call__(self, *args, **kwargs):
+        return _Loc(self._table, self._loc(*args, **kwargs))
+
+    def __getattr__(self, name):
+        return getattr(self._loc, name)

@@ -53,7 +53,7 @@ from .._common import (
 )
 from ..execution.executor import Evaluations
 from ..problem.inputs import UncertainInputs
-from ..results import OutputViews
+from ..results import OutputViews, ResultTable
 from ..problem.model import check_model
 from ..problem.allowables import (check_event, per_angle_mask, reliability_one_sided,
                           reliability_two_sided, resolve_allowables)
@@ -155,8 +155,9 @@ class FOSMResult(OutputViews, CountedByProvenance):
     Parameters
     ----------
     table : DataFrame
-        Per output: ``mu_i``, ``sigma_i`` (first-order mean and std of the error), ``mu_I``,
-        ``sigma_I`` (allowable), ``beta`` (the paper's index (μ_I − μ_i)/sqrt(σ_I² + σ_i²)),
+        Per output (a :class:`~mechrel.uq.results.ResultTable`): ``mean``, ``std`` (first-order
+        mean μ_i and standard deviation σ_i of the error), ``allowable_mean``, ``allowable_std``
+        (μ_I and σ_I of the allowable), ``beta`` (the paper's index (μ_I − μ_i)/sqrt(σ_I² + σ_i²)),
         ``R_one_sided`` (= Φ(beta), the paper's R), ``beta_minus`` ((μ_I + μ_i)/s),
         ``R_two_sided`` (P(−I < i < I)), ``reliability`` (the one selected by ``event``) and
         ``beta_generalized`` (Φ⁻¹(reliability)).
@@ -215,7 +216,7 @@ class FOSMResult(OutputViews, CountedByProvenance):
         >>> inputs = UncertainInputs.from_specs({"x": Normal(0.0, 0.1)})
         >>> r = fosm(model=linear_model([0.0], [[1.0]], ["x"]), inputs=inputs,
         ...          allowable=Allowable(0.2, 0.0), progress=False)
-        >>> round(float(r.to_frame()["sigma_i"].iloc[0]), 12)
+        >>> round(float(r.to_frame()["std"].iloc[0]), 12)
         0.1
         """
         return self.table.copy()
@@ -281,7 +282,7 @@ class FOSMResult(OutputViews, CountedByProvenance):
         [0.2, 0.8]
         """
         g = self.gradient.to_numpy() * self.input_std[None, :]
-        var = self.table["sigma_i"].to_numpy() ** 2
+        var = self.table["std"].to_numpy() ** 2
         with np.errstate(divide="ignore", invalid="ignore"):
             share = g**2 / var[:, None]
         return pd.DataFrame(share, index=self.gradient.index, columns=self.gradient.columns)
@@ -426,9 +427,9 @@ def fosm(
     rel = r1 if event == "one-sided" else r2
     from scipy import special
 
-    table = pd.DataFrame(
+    table = ResultTable(
         {
-            "mu_i": mu_i, "sigma_i": sigma_i, "mu_I": mu_I, "sigma_I": sd_I,
+            "mean": mu_i, "std": sigma_i, "allowable_mean": mu_I, "allowable_std": sd_I,
             "beta": beta, "R_one_sided": r1, "beta_minus": bm, "R_two_sided": r2,
             "reliability": rel, "beta_generalized": special.ndtri(rel),
         },
@@ -447,7 +448,7 @@ def fosm(
     # zero gradient (β = ±∞ from round-off)
     table.loc[blank, ["beta", "R_one_sided", "beta_minus", "R_two_sided", "reliability",
                       "beta_generalized"]] = np.nan
-    table.loc[~per_angle_mask(ev.output_index), "sigma_i"] = np.nan
+    table.loc[~per_angle_mask(ev.output_index), "std"] = np.nan
     notes = emit_warnings(checks)
     return FOSMResult(table, grad, event, readonly(h), readonly(inputs.std), readonly(inputs.pearson_correlation),
                       allowable, ev, prov, notes)
@@ -526,8 +527,8 @@ class FOSMPfResult(RareEventResult):
     Parameters
     ----------
     table : DataFrame
-        One row (index: the limit state's name): ``pf`` = Φ(−β), ``beta`` = μ_g/σ_g, ``mu_g``,
-        ``sigma_g`` and ``n_evaluations`` (2d + 1).
+        One row (index: the limit state's name): ``pf`` = Φ(−β), ``beta`` = μ_g/σ_g, ``mean``
+        (μ_g = g(μ_X)), ``std`` (σ_g) and ``n_evaluations`` (2d + 1).
     gradient : Series
         ∂g/∂x at the means, per input (random allowables included), in g's unit per input unit.
     evaluations : Evaluations or None
@@ -607,9 +608,9 @@ def _limit_state_fosm(*, model, inputs, limit_state, step, noise, executor) -> F
     else:
         beta = mu_g / sigma_g
     caveats = emit_warnings(notes, stacklevel=4)
-    table = pd.DataFrame({"pf": [float(special.ndtr(-beta))], "beta": [beta], "mu_g": [mu_g],
-                          "sigma_g": [sigma_g], "n_evaluations": [problem.n_evaluations]},
-                         index=pd.Index([problem.limit_state.name], name="limit_state"))
+    table = ResultTable({"pf": [float(special.ndtr(-beta))], "beta": [beta], "mean": [mu_g],
+                         "std": [sigma_g], "n_evaluations": [problem.n_evaluations]},
+                        index=pd.Index([problem.limit_state.name], name="limit_state"))
     prov = problem.provenance(method="fosm", seed=None,
                               settings={"step": step if isinstance(step, str) or np.ndim(step) == 0
                                         else list(map(float, step)), "noise": noise,

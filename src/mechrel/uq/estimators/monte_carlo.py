@@ -76,7 +76,7 @@ from ..execution.executor import Evaluations
 from ..problem.inputs import (SAMPLING_RULES, as_seed_sequence, child_seed, seed_record,
                               sobol_balance_note)
 from ..problem.model import check_model
-from ..results import OutputViews
+from ..results import OutputViews, ResultTable
 from ..problem.allowables import (binomial_interval, check_event, per_angle_mask, resolve_allowables,
                           whole_cycle_column)
 from ._problem import Problem, RareEventResult
@@ -127,7 +127,7 @@ def reliability_from_samples(
     k = inside.sum(axis=0)
     lo, hi = binomial_interval(k, n_eff, confidence_level=confidence_level, method=ci_method)
     point = pd.DataFrame(
-        {"mu_I": mu_I, "sigma_I": sd_I, "n": n_eff, "n_inside": k,
+        {"allowable_mean": mu_I, "allowable_std": sd_I, "n": n_eff, "n_inside": k,
          "reliability": k / n_eff if n_eff else np.nan, "reliability_lo": lo, "reliability_hi": hi},
         index=ev.output_index,
     )
@@ -192,8 +192,10 @@ class MonteCarloResult(OutputViews, CountedByProvenance):
     Parameters
     ----------
     table : DataFrame
-        Per output: moments with intervals, ``mu_I``, ``sigma_I``, ``n``, ``n_inside``,
-        ``reliability`` with ``reliability_lo``/``_hi``.
+        Per output (a :class:`~mechrel.uq.results.ResultTable`): the sample moments ``mean``
+        with ``mean_lo``/``mean_hi``, ``std`` with ``std_lo``/``std_hi``, ``skewness``,
+        ``excess_kurtosis``; the allowable's ``allowable_mean``, ``allowable_std``; ``n``,
+        ``n_inside``, ``reliability`` with ``reliability_lo``/``reliability_hi``.
     whole_cycle : DataFrame
         Per quantity and ``"all"``: the joint event over the cycle.
     event : {"two-sided", "one-sided"}
@@ -486,7 +488,7 @@ def monte_carlo(
     )
     mom = sample_moments(ev.Y[ev.ok], confidence_level=confidence_level)
     mom.index = ev.output_index
-    table = pd.concat([mom, point], axis=1)
+    table = ResultTable(pd.concat([mom, point], axis=1))
     prov = make_provenance(
         method="monte_carlo", seed=seed_record(ss), evaluations=[ev], inputs=inputs,
         wall_time=time.perf_counter() - t0,
