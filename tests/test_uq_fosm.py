@@ -238,7 +238,7 @@ def test_fosm_on_a_limit_state_is_exact_for_a_linear_margin_of_normals():
     # the exceedance y > I of y = a·x + c, x correlated normal, I ~ N(μ_I, σ_I²) a random
     # allowable (an input of g too): g = I − y, so β = (μ_I − c − a·μ)/sqrt(aᵀΣa + σ_I²)
     # exactly; central differences of a linear g are exact to round-off (asserted to 1e-9).
-    from mechrel.uq import FOSMPfResult, LimitState
+    from mechrel.uq import FOSMResult, LimitState
 
     inputs = UncertainInputs.from_specs({"x1": Normal(1.0, 0.3), "x2": Normal(-0.5, 0.2)},
                                         correlation={("x1", "x2"): 0.4})
@@ -248,11 +248,13 @@ def test_fosm_on_a_limit_state_is_exact_for_a_linear_margin_of_normals():
     r = fosm(model=model, inputs=inputs, limit_state=ls, progress=False)
     var = a @ inputs.covariance @ a + 0.5**2
     beta = (4.0 - c - a @ inputs.mean) / math.sqrt(var)
-    assert isinstance(r, FOSMPfResult)
+    assert isinstance(r, FOSMResult) and r.table is None and r.event is None  # one type
     assert r.beta == pytest.approx(beta, rel=1e-9)
     assert r.pf == pytest.approx(special.ndtr(-beta), rel=1e-8)
     assert r.n_evaluations == 2 * 3 + 1  # the allowable is a point of the stencil too
-    assert r.gradient.to_numpy() == pytest.approx([-2.0, 1.0, 1.0], rel=1e-9)
+    assert r.gradient.to_numpy()[0] == pytest.approx([-2.0, 1.0, 1.0], rel=1e-9)
+    assert r.gradient.index.tolist() == ["y > I"] and r.pf_table.index.name == "limit_state"
+    assert r.to_frame()["std"].iloc[0] == pytest.approx(math.sqrt(var), rel=1e-9)
 
 
 def test_fosm_refuses_a_limit_state_with_allowables_or_evaluations():

@@ -258,7 +258,7 @@ def test_monte_carlo_on_a_limit_state_with_a_random_allowable():
     # y = x, x ~ N(0, 1), against a random allowable I ~ N(2, 0.5²): P(y > I) = Φ(−2/√1.25)
     # exactly; the estimate is within 4 binomial standard deviations of it, its Wilson interval
     # covers it, and the sample is the same for any number of workers.
-    from mechrel.uq import FunctionModel, LimitState, MonteCarloPfResult
+    from mechrel.uq import FunctionModel, LimitState, MonteCarloResult
 
     inputs = UncertainInputs.from_specs({"x": Normal(0.0, 1.0)})
     model = FunctionModel(lambda X: X[:, 0], ["x"], ["y"], vectorized=True)
@@ -266,7 +266,8 @@ def test_monte_carlo_on_a_limit_state_with_a_random_allowable():
     n = 4000
     r = monte_carlo(model=model, inputs=inputs, limit_state=ls, n=n, seed=3, progress=False)
     exact = float(special.ndtr(-2.0 / np.sqrt(1.25)))
-    assert isinstance(r, MonteCarloPfResult) and r.n_evaluations == n
+    assert isinstance(r, MonteCarloResult) and r.n_evaluations == n  # one result type
+    assert r.table is None and r.whole_cycle is None and r.n_failed == 0
     assert abs(r.pf - exact) <= 4 * np.sqrt(exact * (1 - exact) / n)
     row = r.to_frame().iloc[0]
     assert row["pf_lo"] < exact < row["pf_hi"]

@@ -223,3 +223,58 @@ def test_the_limit_state_table_of_fosm_reads_its_old_names():
         assert t["mu_g"].iloc[0] == 3.0
     with pytest.warns(FutureWarning, match="column 'sigma_g' is renamed 'std'"):
         assert t["sigma_g"].iloc[0] == t["std"].iloc[0]
+
+
+# ------------------------------------------------------------------- one result type per function
+def _limit_state_runs():
+    from mechrel.uq import LimitState
+
+    inputs = UncertainInputs.from_specs({"x": Normal(0.0, 1.0)})
+    model = FunctionModel(lambda X: X[:, 0], ["x"], ["y"], vectorized=True)
+    ls = LimitState.exceedance(["y"], 2.0, kind="upper")
+    return (fosm(model=model, inputs=inputs, limit_state=ls, progress=False),
+            monte_carlo(model=model, inputs=inputs, limit_state=ls, n=512, seed=1,
+                        progress=False))
+
+
+def test_fosm_and_monte_carlo_return_one_type_whatever_the_failure_definition(results):
+    from mechrel.uq import FOSMResult, MonteCarloResult
+
+    f_ls, mc_ls = _limit_state_runs()
+    assert type(results["fosm"]) is type(f_ls) is FOSMResult
+    assert type(results["monte_carlo"]) is type(mc_ls) is MonteCarloResult
+    # the limit state's part is pf_table; the per-output part is table; one of them is None
+    for per_output, on_g in ((results["fosm"], f_ls), (results["monte_carlo"], mc_ls)):
+        assert per_output.pf_table is None and on_g.table is None
+        pd.testing.assert_frame_equal(on_g.to_frame(), on_g.pf_table)
+        assert on_g.pf == on_g.pf_table["pf"].iloc[0] and on_g.beta == on_g.pf_table["beta"].iloc[0]
+        with pytest.raises(StudyError, match=r"\.pf: the result was run with allowable= .*"
+                                             r"allowed: limit_state="):
+            per_output.pf  # noqa: B018
+        with pytest.raises(StudyError, match=r"run with limit_state=, it has no per-output table"):
+            on_g.per_angle()
+    assert f_ls.pf == pytest.approx(0.022750131948179195, rel=1e-9)  # Φ(−2), exact for linear g
+    assert mc_ls.cov == mc_ls.pf_table["cov"].iloc[0]
+
+
+def test_a_limit_state_result_is_refused_where_outputs_are_needed():
+    from mechrel.uq.plots import plot_reliability
+
+    f_ls, mc_ls = _limit_state_runs()
+    with pytest.raises(StudyError, match=r"^normality_check: fosm= was run with limit_state="):
+        normality_check(fosm=f_ls, monte_carlo=mc_ls)
+    with pytest.raises(StudyError, match=r"^plot_reliability: a FOSMResult run with limit_state="):
+        plot_reliability(f_ls)
+
+
+@pytest.mark.parametrize("old, new", [("FOSMPfResult", "FOSMResult"),
+                                      ("MonteCarloPfResult", "MonteCarloResult")])
+def test_the_old_result_names_are_deprecated_aliases(old, new):
+    import mechrel.uq as uq
+
+    with pytest.warns(FutureWarning, match=rf"^mechrel\.uq\.{old} is {new} .*pf_table"):
+        alias = getattr(uq, old)
+    assert alias is getattr(uq, new)
+    assert old not in uq.__all__
+    f_ls, mc_ls = _limit_state_runs()
+    assert isinstance(f_ls if new == "FOSMResult" else mc_ls, alias)  # isinstance checks hold

@@ -71,8 +71,20 @@ _WHERE = {name: mod for mod, names in _EXPORTS.items() for name in names}
 _WHERE.update({name: mod for m in _METHODS.values() for name, mod in m.public_names.items()})
 __all__ = list(_WHERE)
 
+# Names of release 0.1 kept for one more release (a FutureWarning names the new one): fosm and
+# monte_carlo return one type whatever their arguments, the limit state's part in pf_table.
+_DEPRECATED = {"FOSMPfResult": "FOSMResult", "MonteCarloPfResult": "MonteCarloResult"}
+
 
 def __getattr__(name: str):
+    if name in _DEPRECATED:
+        import warnings
+
+        new = _DEPRECATED[name]
+        warnings.warn(f"mechrel.uq.{name} is {new} (one result type per estimator, the limit "
+                      f"state's part in {new}.pf_table); the old name goes in the release "
+                      "after 0.1", FutureWarning, stacklevel=2)
+        return __getattr__(new)
     mod = _WHERE.get(name)
     if mod is None:
         raise AttributeError(f"module 'mechrel.uq' has no attribute {name!r}")

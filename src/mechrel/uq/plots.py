@@ -70,6 +70,9 @@ def _kind(result: Any) -> str:
     from .estimators.fosm import FOSMResult
     from .estimators.monte_carlo import MonteCarloResult
 
+    if isinstance(result, (FOSMResult, MonteCarloResult)) and result.table is None:
+        raise StudyError(f"plot_reliability: a {type(result).__name__} run with limit_state= has one "
+                         "P_f, no reliability per output; allowed: results run with allowable=")
     if isinstance(result, FOSMResult):
         return "fosm"
     if isinstance(result, MonteCarloResult):

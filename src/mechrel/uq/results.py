@@ -45,7 +45,8 @@ from mechrel.errors import StudyError
 
 from .problem.allowables import parse_sector, per_angle_mask
 
-__all__ = ["OutputViews", "per_angle", "cycle_extremes", "ResultTable", "DEPRECATED_COLUMNS"]
+__all__ = ["OutputViews", "per_angle", "cycle_extremes", "ResultTable", "DEPRECATED_COLUMNS",
+           "limit_state_value"]
 
 #: The column names of release 0.1 that a result's table still reads for one more release
 #: (with a :class:`FutureWarning`): old name → the new names it stands for, the first one the
@@ -204,7 +205,7 @@ class OutputViews:
         >>> r.per_angle().xs("velocity")["std"].round(12).tolist()   # |df/dx| σ
         [0.1, 0.2]
         """
-        return per_angle(self.to_frame())  # type: ignore[attr-defined]
+        return per_angle(self._views_frame())
 
     def cycle_extremes(self, *, sectors: bool = True):
         """The rows of ``to_frame()`` at the cycle extremes (level ``statistic``).
@@ -233,7 +234,14 @@ class OutputViews:
         >>> float(row["reliability"]) == float(r.whole_cycle.loc["velocity", "reliability"])
         True
         """
-        return cycle_extremes(self.to_frame(), sectors=sectors)  # type: ignore[attr-defined]
+        return cycle_extremes(self._views_frame(), sectors=sectors)
+
+    def _views_frame(self):
+        """``to_frame()``, or an error for a result run on a limit state (no per-output table)."""
+        if getattr(self, "table", True) is None:
+            raise StudyError(f"{type(self).__name__}: run with limit_state=, it has no per-output "
+                             "table to view; its probability of failure is pf_table (and .pf)")
+        return self.to_frame()  # type: ignore[attr-defined]
 
 
 class ResultTable(pd.DataFrame):
@@ -336,3 +344,40 @@ class _Loc:
 
     def __getattr__(self, name):
         return getattr(self._loc, name)
+
+
+def limit_state_value(result, column: str):
+    """``result.pf_table[column]`` of a result run on a limit state, as a float.
+
+    Parameters
+    ----------
+    result : FOSMResult or MonteCarloResult
+        A result with a ``pf_table`` field.
+    column : str
+        ``"pf"``, ``"beta"``, ``"cov"``.
+
+    Returns
+    -------
+    float
+        The limit state's value.
+
+    Raises
+    ------
+    StudyError
+        If the result was run with ``allowable=`` (no limit state).
+
+    Examples
+    --------
+    >>> from mechrel.uq import FunctionModel, LimitState, Normal, UncertainInputs, fosm
+    >>> inputs = UncertainInputs.from_specs({"x": Normal(0.0, 1.0)})
+    >>> g = FunctionModel(lambda X: 2.0 - X[:, 0], ["x"], ["g"], vectorized=True)
+    >>> r = fosm(model=g, inputs=inputs, limit_state=LimitState.margin(), progress=False)
+    >>> limit_state_value(r, "beta")
+    2.0
+    """
+    table = result.pf_table
+    if table is None:
+        raise StudyError(f"{type(result).__name__}.{column}: the result was run with allowable= (a "
+                         f"reliability per output); {column} is a limit state's: allowed: "
+                         "limit_state= (or the per-output table)")
+    return float(table[column].iloc[0])

@@ -185,6 +185,7 @@ class NormalityResult(OutputViews, CountedByProvenance):
         idx = self.table.index
         pos = resolve_outputs_safe(idx, output)
         ev = self.monte_carlo.evaluations
+        assert ev is not None  # normality_check takes per-output results only
         y = np.sort(ev.Y[ev.ok, pos])
         n = y.shape[0]
         p = (np.arange(1, n + 1) - 0.5) / n
@@ -243,6 +244,12 @@ def normality_check(
         raise StudyError(f"normality_check: fosm= must be a FOSMResult, got {type(fosm).__name__}")
     if not isinstance(monte_carlo, MonteCarloResult):
         raise StudyError(f"normality_check: monte_carlo= must be a MonteCarloResult, got {type(monte_carlo).__name__}")
+    for name, r in (("fosm", fosm), ("monte_carlo", monte_carlo)):
+        if r.table is None:
+            raise StudyError(f"normality_check: {name}= was run with limit_state= (one P_f, no "
+                             "per-output table); allowed: a result run with allowable=")
+    assert fosm.table is not None and fosm.evaluations is not None and fosm.event is not None
+    assert monte_carlo.table is not None and monte_carlo.evaluations is not None
     alpha = ARGS.fraction("alpha", alpha, open_lo=True, open_hi=True)
     ev = monte_carlo.evaluations
     if not ev.output_index.equals(fosm.table.index):
