@@ -278,3 +278,13 @@ def test_the_old_result_names_are_deprecated_aliases(old, new):
     assert old not in uq.__all__
     f_ls, mc_ls = _limit_state_runs()
     assert isinstance(f_ls if new == "FOSMResult" else mc_ls, alias)  # isinstance checks hold
+
+
+def test_the_whole_cycle_estimates_read_a_limit_state_result():
+    from mechrel.study.rare import whole_cycle_estimates
+
+    f_ls, mc_ls = _limit_state_runs()
+    est = whole_cycle_estimates({"fosm": f_ls, "mc": mc_ls}).set_index("method")
+    assert est.loc["fosm", "pf"] == f_ls.pf and est.loc["fosm", "kind"] == "approximation"
+    assert est.loc["mc", "pf"] == mc_ls.pf and est.loc["mc", "kind"] == "sampling"
+    assert est.loc["mc", "pf_lo"] == mc_ls.pf_table["pf_lo"].iloc[0]

@@ -322,13 +322,13 @@ class MonteCarloResult(OutputViews, CountedByProvenance):
 
         Examples
         --------
-        >>> from mechrel.uq import FunctionModel, LimitState, Normal, UncertainInputs
-        >>> inputs = UncertainInputs.from_specs({"x": Normal(0.0, 1.0)})
-        >>> model = FunctionModel(lambda X: X[:, 0], ["x"], ["y"], vectorized=True)
-        >>> r = monte_carlo(model=model, inputs=inputs, n=1000, seed=2, progress=False,
-        ...                 limit_state=LimitState.exceedance(["y"], 1.0, kind="upper"))
-        >>> bool(r.pf == r.pf_table["n_failed_domain"].iloc[0] / 1000)
-        True
+        >>> from mechrel.uq import LimitState, Uniform, UncertainInputs, linear_model
+        >>> inputs = UncertainInputs.from_specs({"u": Uniform(0.0, 1.0)})
+        >>> r = monte_carlo(model=linear_model([0.0], [[1.0]], ["u"]), inputs=inputs, n=1000,
+        ...                 seed=2, limit_state=LimitState.exceedance([0], 0.9, kind="upper"),
+        ...                 progress=False)
+        >>> bool(r.pf == r.pf_table["n_failed_domain"].iloc[0] / 1000), bool(0.07 < r.pf < 0.13)
+        (True, True)
         """
         return limit_state_value(self, "pf")
 
@@ -348,11 +348,12 @@ class MonteCarloResult(OutputViews, CountedByProvenance):
 
         Examples
         --------
-        >>> from mechrel.uq import FunctionModel, LimitState, Normal, UncertainInputs
-        >>> inputs = UncertainInputs.from_specs({"x": Normal(0.0, 1.0)})
-        >>> model = FunctionModel(lambda X: X[:, 0], ["x"], ["y"], vectorized=True)
-        >>> r = monte_carlo(model=model, inputs=inputs, n=4096, seed=2, progress=False,
-        ...                 limit_state=LimitState.exceedance(["y"], 2.0, kind="upper"))
+        g = 2 − x of a standard normal x, so β = 2:
+
+        >>> from mechrel.uq import LimitState, Normal, UncertainInputs, linear_model
+        >>> r = monte_carlo(model=linear_model([2.0], [[-1.0]], ["x"]), n=4096, seed=2,
+        ...                 inputs=UncertainInputs.from_specs({"x": Normal(0.0, 1.0)}),
+        ...                 limit_state=LimitState.margin(), progress=False)
         >>> bool(abs(r.beta - 2.0) < 0.15)   # the c.o.v. of pf is ≈ 0.1 at n p ≈ 90
         True
         """
