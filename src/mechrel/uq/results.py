@@ -252,7 +252,7 @@ class ResultTable(pd.DataFrame):
 
     Parameters
     ----------
-    *args, **kwargs
+    data, index, columns, dtype, copy
         As for :class:`pandas.DataFrame`.
 
     Examples
