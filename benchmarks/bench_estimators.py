@@ -274,7 +274,7 @@ def main(argv=None):
     # ---------------- FOSM (deterministic: one run)
     f = analysed(lambda: fosm(model=model, inputs=inputs, allowable=allow, **kw))
     record("FOSM", "2d+1", f.provenance, f.provenance["n_evaluations"], seed=None,
-           R=f.table["reliability"], mean=f.table["mu_i"], std=f.table["sigma_i"])
+           R=f.table["reliability"], mean=f.table["mean"], std=f.table["std"])
     seeds = [EST_SEED + r for r in range(a.replicates)]
 
     def seeds_for(n_evals):

@@ -30,10 +30,10 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
 from mechrel.errors import EstimateWarning  # noqa: E402
-from mechrel.uq import Allowable, Normal, TruncNormal, UncertainInputs, fosm, monte_carlo  # noqa: E402
+from mechrel.uq import (Allowable, Normal, TruncNormal, UncertainInputs, fosm,  # noqa: E402
+                        monte_carlo, per_angle)
 from mechrel.uq.problem.mechanism import MechanismModel  # noqa: E402
 from mechrel.uq.plots import plot_reliability  # noqa: E402
-from mechrel.uq.problem.allowables import per_angle_mask  # noqa: E402
 
 INPUTS = {
     "O4_x": (["ground.points.O4[0]"], Normal(0.14, 20e-6)),          # m
@@ -66,9 +66,9 @@ def main(argv=None) -> int:
           f"FOSM {f.evaluations.n} runs, Monte Carlo {mc.evaluations.n} runs "
           f"({mc.n_failed} failed)")
     share = f.importance()
-    share = share[per_angle_mask(share.index)].groupby(level="quantity").mean()
+    share = per_angle(share).groupby(level="quantity").mean()
     # per-angle rows (the model appends each quantity's cycle extremes: max, min, max_abs)
-    ft, mt = (r.table[per_angle_mask(r.table.index)] for r in (f, mc))
+    ft, mt = f.per_angle(), mc.per_angle()
     for q in ("displacement", "velocity", "acceleration"):
         tf = ft.xs(q, level="quantity")
         tm = mt.xs(q, level="quantity")

@@ -68,8 +68,8 @@ def main(argv=None):
     r_pce = pce_rel.reliability.iloc[0]
     print(f"design deflection δ0 = {DELTA0 * 1e3:.3f} mm; allowable |δ − δ0| < I, "
           f"I ~ N({allowable.mean * 1e3:g} mm, ({allowable.std * 1e3:g} mm)²)")
-    print(f"error: FOSM mean {fo.table['mu_i'].iloc[0] * 1e3:+.4f} mm, std "
-          f"{fo.table['sigma_i'].iloc[0] * 1e3:.4f} mm; Monte Carlo mean "
+    print(f"error: FOSM mean {fo.table['mean'].iloc[0] * 1e3:+.4f} mm, std "
+          f"{fo.table['std'].iloc[0] * 1e3:.4f} mm; Monte Carlo mean "
           f"{row['mean'] * 1e3:+.4f} mm, std {row['std'] * 1e3:.4f} mm; PCE mean "
           f"{pce.mean.iloc[0] * 1e3:+.4f} mm, std {pce.std.iloc[0] * 1e3:.4f} mm")
     print(f"reliability: FOSM {r_fo:.4f}; Monte Carlo {row['reliability']:.4f} "
@@ -85,8 +85,8 @@ def main(argv=None):
     err = np.array([deflection_error(x)[0] for x in X]) * 1e3
     ax1.hist(err, bins=80, density=True, alpha=0.5, label="Monte Carlo samples")
     grid = np.linspace(err.min(), err.max(), 300)
-    ax1.plot(grid, stats.norm.pdf(grid, fo.table["mu_i"].iloc[0] * 1e3,
-                                  fo.table["sigma_i"].iloc[0] * 1e3), "k-", label="FOSM normal")
+    ax1.plot(grid, stats.norm.pdf(grid, fo.table["mean"].iloc[0] * 1e3,
+                                  fo.table["std"].iloc[0] * 1e3), "k-", label="FOSM normal")
     surrogate = pce.predict(X)[:, 0] * 1e3
     ax1.hist(surrogate, bins=80, density=True, histtype="step", color="C3",
              label="PCE surrogate (order 3)")

@@ -172,12 +172,6 @@ def run_mc(model, *, n, n_jobs, cache, progress):
                        progress=progress)
 
 
-def _angles(index) -> np.ndarray:
-    from mechrel.uq.problem.allowables import per_angle_mask
-
-    return per_angle_mask(index)
-
-
 def fosm_long(results) -> pd.DataFrame:
     """FOSM per analysis angle and at the cycle extreme max|i|, all variants."""
     parts = []

@@ -68,7 +68,7 @@ def probe_allowable(fosm_table: pd.DataFrame, target: float = PROBE_R) -> dict:
     out = {}
     for q in QUANTITIES:
         t = fosm_table.xs(q, level="quantity")
-        mu, sd = t["mu_i"].to_numpy(), t["sigma_i"].to_numpy()
+        mu, sd = t["mean"].to_numpy(), t["std"].to_numpy()
 
         def f(I):
             return reliability_two_sided(mu, sd, I, 0.0)[2].min() - target
@@ -81,7 +81,7 @@ def probe_allowable(fosm_table: pd.DataFrame, target: float = PROBE_R) -> dict:
 def linearised(fosm, inputs, X: np.ndarray) -> np.ndarray:
     """FOSM's first-order model at the sample X."""
     G = fosm.gradient.to_numpy()
-    return fosm.table["mu_i"].to_numpy()[None, :] + (X - inputs.mean[None, :]) @ G.T
+    return fosm.table["mean"].to_numpy()[None, :] + (X - inputs.mean[None, :]) @ G.T
 
 
 def paired_diff(a: np.ndarray, b: np.ndarray):
@@ -187,8 +187,8 @@ def analyse_case(key, *, n, rule, seed, n_jobs, cache, progress, cycles, dry_ste
         t["nonlin_diff"], t["nonlin_lo"], t["nonlin_hi"] = d, dlo, dhi
         t["mc_mean_lo"], t["mc_mean_hi"] = mc.table["mean_lo"], mc.table["mean_hi"]
         t["mc_std_lo"], t["mc_std_hi"] = mc.table["std_lo"], mc.table["std_hi"]
-        t["sigma_i_over_sigma_I"] = f.table["sigma_i"] / f.table["sigma_I"].replace(0, np.nan)
-        t["mu_I"], t["sigma_I"] = f.table["mu_I"], f.table["sigma_I"]
+        t["sigma_i_over_sigma_I"] = f.table["std"] / f.table["allowable_std"].replace(0, np.nan)
+        t["mu_I"], t["sigma_I"] = f.table["allowable_mean"], f.table["allowable_std"]
         wc = m2.whole_cycle.copy()
         wc_lin = lin.whole_cycle["reliability"]
         if allow is None:
@@ -239,7 +239,7 @@ def analyse_case(key, *, n, rule, seed, n_jobs, cache, progress, cycles, dry_ste
     for step in dry_steps if case.model == "dry" else ():
         kw = {"step": step} if step != "auto" else {"step": "auto", "noise": RTOL}
         fs = fosm(model=model, inputs=inputs, event="two-sided", **kw, **common)
-        steps.append((str(step), fs.table["sigma_i"], fs.table["mu_i"]))
+        steps.append((str(step), fs.table["std"], fs.table["mean"]))
     res["steps"] = steps
     res["inputs"] = inputs.describe()
     res["fosm_settings"] = settings
@@ -277,9 +277,10 @@ def plot_reliability(res, name, path):
         a, b = row
         m = _q(mc_res.table, q)
         allow = None
-        if {"mu_I", "sigma_I"} <= set(m.columns) and m["mu_I"].nunique() == 1 \
-                and m["sigma_I"].nunique() == 1:
-            allow = (float(m["mu_I"].iloc[0]), float(m["sigma_I"].iloc[0]), UNITS[q])
+        if {"allowable_mean", "allowable_std"} <= set(m.columns) \
+                and m["allowable_mean"].nunique() == 1 and m["allowable_std"].nunique() == 1:
+            allow = (float(m["allowable_mean"].iloc[0]), float(m["allowable_std"].iloc[0]),
+                     UNITS[q])
         # the shared panel (mechrel.uq.plots): MC band, points, ▼ bounds, FOSM, the allowable
         reliability_panels(None, a, x, fosm=(g["R_fosm"].to_numpy(), "FOSM (normal formula)"),
                            mc=(g["R_mc"].to_numpy(), g["R_mc_lo"].to_numpy(),

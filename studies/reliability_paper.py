@@ -216,14 +216,17 @@ def fosm_settings(case: Case) -> dict:
 
 
 def forms_table(t: pd.DataFrame) -> pd.DataFrame:
-    """The three readings of the paper's formula from FOSM's μ_i, σ_i (see module doc)."""
-    s = np.hypot(t["sigma_I"], t["sigma_i"])
+    """The three readings of the paper's formula from FOSM's μ_i, σ_i (see module doc), in
+    the paper's symbols (``mu_i``, ``sigma_i``, ``mu_I``, ``sigma_I``)."""
+    mu_i, sigma_i = t["mean"], t["std"]
+    mu_I, sigma_I = t["allowable_mean"], t["allowable_std"]
+    s = np.hypot(sigma_I, sigma_i)
     out = pd.DataFrame(index=t.index)
-    out["mu_i"], out["sigma_i"] = t["mu_i"], t["sigma_i"]
-    out["mu_I"], out["sigma_I"] = t["mu_I"], t["sigma_I"]
-    out["beta_signed"] = (t["mu_I"] - t["mu_i"]) / s
+    out["mu_i"], out["sigma_i"] = mu_i, sigma_i
+    out["mu_I"], out["sigma_I"] = mu_I, sigma_I
+    out["beta_signed"] = (mu_I - mu_i) / s
     out["R_signed"] = norm.cdf(out["beta_signed"])
-    out["beta_mag"] = (t["mu_I"] - t["mu_i"].abs()) / s
+    out["beta_mag"] = (mu_I - mu_i.abs()) / s
     out["R_mag"] = norm.cdf(out["beta_mag"])
     out["R_two"] = t["R_two_sided"]
     out["beta_two"] = norm.ppf(t["R_two_sided"])

@@ -58,8 +58,8 @@ def test_linear_model_fosm_is_exact():
     model, inputs, mu, sd = _linear()
     res = fosm(model=model, inputs=inputs, allowable=Allowable(1.0, 0.2), event="one-sided")
     t = res.table
-    np.testing.assert_allclose(t["mu_i"], mu, rtol=1e-12)
-    np.testing.assert_allclose(t["sigma_i"], sd, rtol=1e-10)
+    np.testing.assert_allclose(t["mean"], mu, rtol=1e-12)
+    np.testing.assert_allclose(t["std"], sd, rtol=1e-10)
     beta = (1.0 - mu) / np.sqrt(0.2**2 + sd**2)
     np.testing.assert_allclose(t["beta"], beta, rtol=1e-10)
     np.testing.assert_allclose(t["R_one_sided"], special.ndtr(beta), rtol=1e-10)
@@ -101,7 +101,7 @@ def test_quadratic_gradient_is_exact_for_any_step():
     m = FunctionModel(_quadratic, inputs.names, ["y"])
     res = fosm(model=m, inputs=inputs, step=0.5, allowable=Allowable(10.0, 1.0))
     np.testing.assert_allclose(res.gradient.to_numpy(), [[4.0, 3.0]], rtol=1e-12)
-    np.testing.assert_allclose(res.table["sigma_i"], math.hypot(4 * 0.3, 3 * 0.1), rtol=1e-12)
+    np.testing.assert_allclose(res.table["std"], math.hypot(4 * 0.3, 3 * 0.1), rtol=1e-12)
     imp = res.importance()
     np.testing.assert_allclose(imp.sum(axis=1), 1.0, rtol=1e-12)
 
@@ -172,11 +172,10 @@ def test_default_allowables_are_the_papers_per_quantity():
     m = FunctionModel(_mechanism_like, inputs.names, _grid_index())
     res = fosm(model=m, inputs=inputs)
     t = res.table
-    assert (t.loc["displacement",
-                  "mu_I"] == 0.012).all() and (t.loc["displacement", "sigma_I"] == 0.004).all()
-    assert (t.loc["velocity", "mu_I"] == 0.3).all() and (t.loc["velocity", "sigma_I"] == 0.1).all()
-    assert (t.loc["acceleration",
-                  "mu_I"] == 18.0).all() and (t.loc["acceleration", "sigma_I"] == 6.0).all()
+    for q, mean, std in (("displacement", 0.012, 0.004), ("velocity", 0.3, 0.1),
+                         ("acceleration", 18.0, 6.0)):
+        assert (t.loc[q, "allowable_mean"] == mean).all()
+        assert (t.loc[q, "allowable_std"] == std).all()
     # custom mapping; missing quantity is an error naming it
     with pytest.raises(StudyError,
                        match=r"allowable: no allowable error for quantity \['acceleration'\]"):
@@ -239,7 +238,7 @@ def test_fosm_on_a_limit_state_is_exact_for_a_linear_margin_of_normals():
     # the exceedance y > I of y = a·x + c, x correlated normal, I ~ N(μ_I, σ_I²) a random
     # allowable (an input of g too): g = I − y, so β = (μ_I − c − a·μ)/sqrt(aᵀΣa + σ_I²)
     # exactly; central differences of a linear g are exact to round-off (asserted to 1e-9).
-    from mechrel.uq import FOSMPfResult, LimitState
+    from mechrel.uq import FOSMResult, LimitState
 
     inputs = UncertainInputs.from_specs({"x1": Normal(1.0, 0.3), "x2": Normal(-0.5, 0.2)},
                                         correlation={("x1", "x2"): 0.4})
@@ -249,11 +248,13 @@ def test_fosm_on_a_limit_state_is_exact_for_a_linear_margin_of_normals():
     r = fosm(model=model, inputs=inputs, limit_state=ls, progress=False)
     var = a @ inputs.covariance @ a + 0.5**2
     beta = (4.0 - c - a @ inputs.mean) / math.sqrt(var)
-    assert isinstance(r, FOSMPfResult)
+    assert isinstance(r, FOSMResult) and r.table is None and r.event is None  # one type
     assert r.beta == pytest.approx(beta, rel=1e-9)
     assert r.pf == pytest.approx(special.ndtr(-beta), rel=1e-8)
     assert r.n_evaluations == 2 * 3 + 1  # the allowable is a point of the stencil too
-    assert r.gradient.to_numpy() == pytest.approx([-2.0, 1.0, 1.0], rel=1e-9)
+    assert r.gradient.to_numpy()[0] == pytest.approx([-2.0, 1.0, 1.0], rel=1e-9)
+    assert r.gradient.index.tolist() == ["y > I"] and r.pf_table.index.name == "limit_state"
+    assert r.to_frame()["std"].iloc[0] == pytest.approx(math.sqrt(var), rel=1e-9)
 
 
 def test_fosm_refuses_a_limit_state_with_allowables_or_evaluations():

@@ -133,10 +133,10 @@ def test_fosm_sigma_of_length_tolerances_is_the_closed_form_sensitivity():
     table = res.table[per_angle_mask(res.table.index)]
     for k, q in enumerate(("displacement", "velocity", "acceleration")):
         expected = np.hypot(dr[k] * 20e-6, dl[k] * 30e-6)
-        got = table.xs(q, level="quantity")["sigma_i"].to_numpy()
+        got = table.xs(q, level="quantity")["std"].to_numpy()
         assert got.shape == expected.shape == (21,)
         assert np.max(np.abs(got - expected)) <= 1e-6 * np.max(expected), q
-        mu = table.xs(q, level="quantity")["mu_i"].to_numpy()
+        mu = table.xs(q, level="quantity")["mean"].to_numpy()
         assert np.max(np.abs(mu)) <= 1e-9 * np.max(expected)  # the nominal design: no error
     # the gradient itself, per input
     g = res.gradient[per_angle_mask(res.gradient.index)].xs("displacement", level="quantity")

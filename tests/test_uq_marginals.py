@@ -411,9 +411,9 @@ def test_fosm_and_monte_carlo_use_the_true_moments_and_the_pearson_correlation()
     res = fosm(model=model, inputs=inputs, allowable=Allowable(1.0, 0.2))
     (ma, va, *_), (mb, vb, *_) = _closed_forms(specs["a"]), _closed_forms(specs["b"])
     sd = math.sqrt(4 * va + 9 * vb - 12 * 0.5 * math.sqrt(va * vb))
-    assert res.table["mu_i"].to_numpy() == pytest.approx([2 * ma - 3 * mb, GEV.scipy().mean()],
+    assert res.table["mean"].to_numpy() == pytest.approx([2 * ma - 3 * mb, GEV.scipy().mean()],
                                                          rel=1e-9)
-    assert res.table["sigma_i"].to_numpy() == pytest.approx([sd, GEV.scipy().std()], rel=1e-9)
+    assert res.table["std"].to_numpy() == pytest.approx([sd, GEV.scipy().std()], rel=1e-9)
     n = 2**14
     mc = monte_carlo(model=model, inputs=inputs, n=n, rule="random", seed=2,
                      allowable=Allowable(1.0, 0.2), progress=False)

@@ -63,7 +63,7 @@ def probe_allowables(table, target=0.5):
     out = {}
     for q in ("displacement", "velocity", "acceleration"):
         t = table[per_angle_mask(table.index)].xs(q, level="quantity")  # the angles only
-        mu, sd = t["mu_i"].to_numpy(), t["sigma_i"].to_numpy()
+        mu, sd = t["mean"].to_numpy(), t["std"].to_numpy()
         hi = float(np.max(np.abs(mu) + 10 * sd))
         I = optimize.brentq(lambda v: reliability_two_sided(mu, sd, v, 0.0)[2].min() - target,
                             1e-12, hi, xtol=1e-14 * hi)
@@ -96,13 +96,14 @@ def test_fosm_agrees_with_monte_carlo_where_the_error_is_normal(runs):
     inside = (checked["R_fosm"] >= checked["R_mc_lo"]) & (checked["R_fosm"] <= checked["R_mc_hi"])
     assert inside.all(), f"FOSM outside the {LEVEL:.0%} MC interval:\n{checked[~inside]}"
     # first-order moments agree with the sample moments there, too
-    rel = (checked["sigma_i"] / checked["mc_std"]).to_numpy()
+    rel = (checked["fosm_std"] / checked["mc_std"]).to_numpy()
     assert np.all((rel > 0.7) & (rel < 1.4)), rel
 
     # the check has power: FOSM with σ_i doubled (or halved) falls outside the interval
     for factor in (2.0, 0.5):
         I = np.array([allow[q].mean for q in checked.index.get_level_values("quantity")])
-        wrong = reliability_two_sided(checked["mu_i"], factor * checked["sigma_i"], I, 0.0)[2]
+        wrong = reliability_two_sided(checked["fosm_mean"], factor * checked["fosm_std"], I,
+                                      0.0)[2]
         out = (wrong < checked["R_mc_lo"]) | (wrong > checked["R_mc_hi"])
         assert out.any(), f"σ_i × {factor} would pass too: the test has no power"
 

@@ -77,7 +77,8 @@ def test_fixed_allowable_mode_is_an_allowable_with_zero_std():
     a = monte_carlo(model=_model(), inputs=INPUTS, n=n, seed=5, allowable=ALLOW,
                     allowable_mode="fixed")
     b = monte_carlo(model=_model(), inputs=INPUTS, n=n, seed=5, allowable=Allowable(1.0, 0.0))
-    pd.testing.assert_frame_equal(a.table.drop(columns="sigma_I"), b.table.drop(columns="sigma_I"))
+    pd.testing.assert_frame_equal(a.table.drop(columns="allowable_std"),
+                                  b.table.drop(columns="allowable_std"))
     mu, sd = _exact()
     exact = reliability_two_sided(mu, sd, 1.0, 0.0)[2]
     t = monte_carlo(model=_model(), inputs=INPUTS, n=n, seed=5, allowable=ALLOW,
@@ -145,8 +146,8 @@ def test_allowable_draws_are_the_allowables_the_result_counted(data):
     assert draws.shape == Y.shape
     inside = (np.abs(Y) <= draws) if event == "two-sided" else (Y <= draws)
     np.testing.assert_array_equal(inside.sum(axis=0), res.table["n_inside"].to_numpy())
-    mu = res.table["mu_I"].to_numpy()
-    sd = res.table["sigma_I"].to_numpy()
+    mu = res.table["allowable_mean"].to_numpy()
+    sd = res.table["allowable_std"].to_numpy()
     if mode == "fixed":
         np.testing.assert_array_equal(draws, np.broadcast_to(mu, Y.shape))
     # one standard normal per sample and quantity: the outputs of a quantity move together
@@ -257,7 +258,7 @@ def test_monte_carlo_on_a_limit_state_with_a_random_allowable():
     # y = x, x ~ N(0, 1), against a random allowable I ~ N(2, 0.5²): P(y > I) = Φ(−2/√1.25)
     # exactly; the estimate is within 4 binomial standard deviations of it, its Wilson interval
     # covers it, and the sample is the same for any number of workers.
-    from mechrel.uq import FunctionModel, LimitState, MonteCarloPfResult
+    from mechrel.uq import FunctionModel, LimitState, MonteCarloResult
 
     inputs = UncertainInputs.from_specs({"x": Normal(0.0, 1.0)})
     model = FunctionModel(lambda X: X[:, 0], ["x"], ["y"], vectorized=True)
@@ -265,7 +266,8 @@ def test_monte_carlo_on_a_limit_state_with_a_random_allowable():
     n = 4000
     r = monte_carlo(model=model, inputs=inputs, limit_state=ls, n=n, seed=3, progress=False)
     exact = float(special.ndtr(-2.0 / np.sqrt(1.25)))
-    assert isinstance(r, MonteCarloPfResult) and r.n_evaluations == n
+    assert isinstance(r, MonteCarloResult) and r.n_evaluations == n  # one result type
+    assert r.table is None and r.whole_cycle is None and r.n_failed == 0
     assert abs(r.pf - exact) <= 4 * np.sqrt(exact * (1 - exact) / n)
     row = r.to_frame().iloc[0]
     assert row["pf_lo"] < exact < row["pf_hi"]

@@ -39,8 +39,8 @@ def test_non_normal_output_is_flagged_and_fosm_misses_the_interval():
     f, mc, res = _run()
     sq = res.table.loc["square"]
     # FOSM linearises at x = 0.5: μ_i = 0.25, σ_i = 2·0.5·1 = 1; the truth is μ = 1.25, skewed
-    assert sq["mu_i"] == pytest.approx(0.25,
-                                       rel=1e-10) and sq["sigma_i"] == pytest.approx(1.0, rel=1e-8)
+    assert sq["fosm_mean"] == pytest.approx(0.25, rel=1e-10)
+    assert sq["fosm_std"] == pytest.approx(1.0, rel=1e-8)
     assert sq["flag"]
     assert sq["ks_pvalue"] < 1e-6 and sq["ad_pvalue"] < 1e-6
     assert sq["skewness"] > 1.5 and sq["excess_kurtosis"] > 2

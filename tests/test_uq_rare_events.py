@@ -576,8 +576,8 @@ def test_form_sorm_on_the_lubricated_nine_bar_against_monte_carlo():
     assert whole.positions[0].size == n_angles > 1
     f = fosm(model=model, inputs=inputs, progress=False)
     acc = f.table.loc["acceleration"]
-    angle = acc["sigma_i"].idxmax()
-    a = float(acc.loc[angle, "mu_i"] + 1.2816 * acc.loc[angle, "sigma_i"])
+    angle = acc["std"].idxmax()
+    a = float(acc.loc[angle, "mean"] + 1.2816 * acc.loc[angle, "std"])
     ls = LimitState.exceedance(("acceleration", angle), a, kind="upper")
     # an ODE-integrated output is noisy at the 1e-5..1e-4 level relative to the error (a small
     # difference of two large responses): the defaults made for smooth functions (step 1e-4,

@@ -65,7 +65,7 @@ def test_a_kink_is_a_zero_gradient_and_an_unresolved_response():
     assert len(res.warnings) == 2 and set(res.warnings) == set(texts)
     assert "gradient is zero at 1 of 2 outputs, e.g. kink" in res.warnings[1]
     assert "does not resolve the response at 1 of 2 outputs, e.g. kink" in res.warnings[0]
-    assert res.table.loc["kink", "sigma_i"] == 0  # the number stays; the warning says what it is
+    assert res.table.loc["kink", "std"] == 0  # the number stays; the warning says what it is
 
 
 class _DryModel(FunctionModel):

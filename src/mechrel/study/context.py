@@ -12,8 +12,6 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Any
 
-import pandas as pd
-
 from ..errors import StudyError
 from ..uq._common import SampleFailuresError
 
@@ -207,12 +205,6 @@ class Context:
         >>> ctx.angles(ctx.results["fosm"].table).index.tolist()
         [('velocity', 0.0)]
         """
-        from ..uq.problem.allowables import per_angle_mask
+        from ..uq.results import per_angle
 
-        t = table[per_angle_mask(table.index)].copy()
-        names = list(t.index.names)
-        k = names.index("crank_angle")
-        t.index = pd.MultiIndex.from_tuples(
-            [tuple(float(v) if i == k else v for i, v in enumerate(lbl)) for lbl in t.index],
-            names=names)
-        return t
+        return per_angle(table)

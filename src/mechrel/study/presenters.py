@@ -184,7 +184,7 @@ class Presenter:
         >>> p = FOSM()
         >>> p.run(ctx, METHODS["fosm"])
         >>> p.frames(ctx)[0].columns[:2].tolist()
-        ['fosm.mu_i', 'fosm.sigma_i']
+        ['fosm.mean', 'fosm.std']
         """
         return []
 
@@ -445,7 +445,7 @@ class FOSM(Presenter):
         t = ctx.angles(nc.table).xs(quantity, level="quantity")
         m = ctx.angles(mc.table).xs(quantity, level="quantity")
         r_out = int(((t["R_fosm"] < t["R_mc_lo"]) | (t["R_fosm"] > t["R_mc_hi"])).sum())
-        mu_out = int(((t["mu_i"] < m["mean_lo"]) | (t["mu_i"] > m["mean_hi"])).sum())
+        mu_out = int(((t["fosm_mean"] < m["mean_lo"]) | (t["fosm_mean"] > m["mean_hi"])).sum())
         nonsmooth = getattr(ctx.model, "nonsmooth", None)
         if nonsmooth:
             return f"FOSM is not applicable ({nonsmooth})"

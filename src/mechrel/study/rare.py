@@ -508,7 +508,8 @@ def whole_cycle_estimates(results) -> pd.DataFrame:
                 rows.append((key, str(g), 1.0 - float(row["reliability"]),
                              1.0 - float(row["reliability_hi"]), 1.0 - float(row["reliability_lo"]),
                              "monte_carlo", n - float(row["n_inside"]), n, nw))
-        elif isinstance(r, RareEventResult) and hasattr(r, "table"):
+        elif isinstance(r, RareEventResult) or getattr(r, "pf_table", None) is not None:
+            # a rare-event result, or FOSM / Monte Carlo run on the limit state (pf_table)
             t = r.to_frame().iloc[0]
             lo, hi = float(t.get("pf_lo", np.nan)), float(t.get("pf_hi", np.nan))
             kind = "sampling" if np.isfinite(lo) and np.isfinite(hi) else "approximation"

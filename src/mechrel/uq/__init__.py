@@ -17,6 +17,10 @@ The package has four parts, one folder each:
     command line loop over.
 ``surrogates/``
     :func:`polynomial_chaos` and :func:`fit_kriging` (the Kriging model of :func:`active_learning`).
+``results``
+    The views every per-output result shares (:class:`OutputViews`: ``per_angle()``, the rows
+    at the analysis angles, and ``cycle_extremes()``), also as functions of any table indexed
+    by a model's outputs (:func:`per_angle`, :func:`cycle_extremes`).
 ``inverse/``, ``design/``
     The inverse question (:func:`inverse_reliability`: the allowable for a target reliability)
     and design for reliability (:func:`design_for_reliability`: the cheapest design that meets
@@ -53,6 +57,7 @@ _EXPORTS = {
     "execution.executor": ["evaluate", "Evaluations", "EvaluationCount", "BACKENDS"],
     "execution.cache": ["EvaluationCache"],
     "_common": ["SampleFailuresError"],
+    "results": ["OutputViews", "per_angle", "cycle_extremes"],
     "estimators": ["METHODS"],
     "estimators.normality": ["normality_check", "NormalityResult"],
     "surrogates.kriging": ["Kriging", "fit_kriging"],
@@ -66,8 +71,20 @@ _WHERE = {name: mod for mod, names in _EXPORTS.items() for name in names}
 _WHERE.update({name: mod for m in _METHODS.values() for name, mod in m.public_names.items()})
 __all__ = list(_WHERE)
 
+# Names of release 0.1 kept for one more release (a FutureWarning names the new one): fosm and
+# monte_carlo return one type whatever their arguments, the limit state's part in pf_table.
+_DEPRECATED = {"FOSMPfResult": "FOSMResult", "MonteCarloPfResult": "MonteCarloResult"}
+
 
 def __getattr__(name: str):
+    if name in _DEPRECATED:
+        import warnings
+
+        new = _DEPRECATED[name]
+        warnings.warn(f"mechrel.uq.{name} is {new} (one result type per estimator, the limit "
+                      f"state's part in {new}.pf_table); the old name goes in the release "
+                      "after 0.1", FutureWarning, stacklevel=2)
+        return __getattr__(new)
     mod = _WHERE.get(name)
     if mod is None:
         raise AttributeError(f"module 'mechrel.uq' has no attribute {name!r}")

@@ -70,6 +70,9 @@ def _kind(result: Any) -> str:
     from .estimators.fosm import FOSMResult
     from .estimators.monte_carlo import MonteCarloResult
 
+    if isinstance(result, (FOSMResult, MonteCarloResult)) and result.table is None:
+        raise StudyError(f"plot_reliability: a {type(result).__name__} run with limit_state= has one "
+                         "P_f, no reliability per output; allowed: results run with allowable=")
     if isinstance(result, FOSMResult):
         return "fosm"
     if isinstance(result, MonteCarloResult):
@@ -273,8 +276,8 @@ def plot_reliability(*results: Any, title: str | None = None):
         x, xlabel = _xvalues(index, pos)
         t = first.table
         allowable = None
-        if {"mu_I", "sigma_I"} <= set(t.columns):
-            mu_I, sd_I = t["mu_I"].to_numpy()[pos], t["sigma_I"].to_numpy()[pos]
+        if {"allowable_mean", "allowable_std"} <= set(t.columns):
+            mu_I, sd_I = t["allowable_mean"].to_numpy()[pos], t["allowable_std"].to_numpy()[pos]
             if np.ptp(mu_I) == 0 and np.ptp(sd_I) == 0:
                 allowable = (float(mu_I[0]), float(sd_I[0]), UNITS.get(q, ""))
         kw = {"allowable": allowable}

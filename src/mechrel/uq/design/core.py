@@ -623,10 +623,12 @@ def _verify(problem: DesignProblem, d: np.ndarray, settings: dict, ss, *, confid
                         event=problem.event, confidence_level=confidence_level,
                         failures="as_violation" if failures == "as_failure" else "exclude",
                         max_failure_fraction=max_failure_fraction, **executor)
-        assert isinstance(r, MonteCarloResult)  # no limit_state: the forward result
+        # no limit_state: the per-output result, whose tables are set
+        assert isinstance(r, MonteCarloResult) and r.table is not None and r.whole_cycle is not None
         results["mc"] = r
         evs.append(r.evaluations)
         wc = r.whole_cycle
+        table = r.table
         for i, c in enumerate(problem.constraints):
             kind, idx = sc.members[i]
             key = c.quantity if c.quantity in wc.index else "all"
@@ -635,7 +637,7 @@ def _verify(problem: DesignProblem, d: np.ndarray, settings: dict, ss, *, confid
             if kind == "whole-cycle":
                 p = whole
             else:
-                t = r.table.iloc[list(idx)]
+                t = table.iloc[list(idx)]
                 j = int(np.argmax(1 - t["reliability"].to_numpy()))
                 p = (1 - t["reliability"].iloc[j], 1 - t["reliability_hi"].iloc[j],
                      1 - t["reliability_lo"].iloc[j])

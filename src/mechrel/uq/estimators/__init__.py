@@ -367,10 +367,10 @@ def _add(table: dict, method: Method, *, who: str, by: str, reserved: tuple = ()
 for _m in (
     Method("fosm", "estimators.fosm:fosm", "estimators.fosm:FOSMResult", "reliability",
            "first-order second-moment interference formula (the paper's eqs. 25-28)",
-           exports=("FOSMPfResult", "fosm_design", "fd_steps")),
+           exports=("fosm_design", "fd_steps")),
     Method("monte_carlo", "estimators.monte_carlo:monte_carlo", "estimators.monte_carlo:MonteCarloResult", "reliability",
            "crude Monte Carlo reliability and moments", short="mc",
-           exports=("MonteCarloPfResult", "monte_carlo_design")),
+           exports=("monte_carlo_design",)),
     Method("polynomial_chaos", "surrogates.pce:polynomial_chaos", "surrogates.pce:PCEResult", "surrogate",
            "polynomial chaos expansion (chaospy)", short="pce",
            exports=("pce_design", "multi_indices")),

@@ -53,12 +53,13 @@ from .._common import (
 )
 from ..execution.executor import Evaluations
 from ..problem.inputs import UncertainInputs
+from ..results import OutputViews, ResultTable, limit_state_value
 from ..problem.model import check_model
 from ..problem.allowables import (check_event, per_angle_mask, reliability_one_sided,
                           reliability_two_sided, resolve_allowables)
-from ._problem import Problem, RareEventResult
+from ._problem import Problem
 
-__all__ = ["fosm", "fosm_design", "fd_steps", "FOSMResult", "FOSMPfResult"]
+__all__ = ["fosm", "fosm_design", "fd_steps", "FOSMResult"]
 
 EPS = float(np.finfo(float).eps)
 
@@ -148,28 +149,35 @@ def fosm_design(inputs: UncertainInputs, *, step: Any = "auto", noise: float = E
 
 
 @dataclass(frozen=True, eq=False)
-class FOSMResult(CountedByProvenance):
-    """FOSM reliability per output (frozen).
+class FOSMResult(OutputViews, CountedByProvenance):
+    """FOSM reliability per output, or mean-value FOSM on a limit state (frozen).
+
+    What :func:`fosm` returns, whatever its arguments: with ``allowable=`` the per-output
+    ``table`` (``pf_table`` is None), with ``limit_state=`` the limit state's ``pf_table``
+    (``table`` is None).
 
     Parameters
     ----------
-    table : DataFrame
-        Per output: ``mu_i``, ``sigma_i`` (first-order mean and std of the error), ``mu_I``,
-        ``sigma_I`` (allowable), ``beta`` (the paper's index (μ_I − μ_i)/sqrt(σ_I² + σ_i²)),
+    table : DataFrame or None
+        Per output (a :class:`~mechrel.uq.results.ResultTable`): ``mean``, ``std`` (first-order
+        mean μ_i and standard deviation σ_i of the error), ``allowable_mean``, ``allowable_std``
+        (μ_I and σ_I of the allowable), ``beta`` (the paper's index (μ_I − μ_i)/sqrt(σ_I² + σ_i²)),
         ``R_one_sided`` (= Φ(beta), the paper's R), ``beta_minus`` ((μ_I + μ_i)/s),
         ``R_two_sided`` (P(−I < i < I)), ``reliability`` (the one selected by ``event``) and
         ``beta_generalized`` (Φ⁻¹(reliability)).
     gradient : DataFrame
-        ∂output/∂input (outputs × inputs), by central differences.
-    event : {"two-sided", "one-sided"}
-        The event whose probability is ``reliability``.
+        ∂output/∂input (outputs × inputs), by central differences; on a limit state one row
+        (the limit state's name): ∂g/∂x at the means, per input (random allowables included),
+        in g's unit per input unit.
+    event : {"two-sided", "one-sided"} or None
+        The event whose probability is ``reliability`` (None on a limit state).
     steps : ndarray
         The finite-difference step of each input (its unit).
     input_std, input_correlation : ndarray
         The inputs' standard deviations and Pearson correlation matrix used.
     allowable
-        The allowables as given.
-    evaluations : Evaluations
+        The allowables as given (None on a limit state).
+    evaluations : Evaluations or None
         The 2d + 1 model runs.
     provenance : dict
         How the result was made (method, settings, counts, versions, time).
@@ -177,7 +185,15 @@ class FOSMResult(CountedByProvenance):
         Why the numbers may not be trustworthy (each also issued as an
         :class:`~mechrel.errors.EstimateWarning`): a non-smooth model (dry contact), outputs whose
         response the step does not resolve (a kink, an impact, chaos), outputs with a zero
-        gradient (σ_i = 0, so β = ±∞ and R ∈ {0, 1} there are not estimates).
+        gradient (σ_i = 0, so β = ±∞ and R ∈ {0, 1} there are not estimates); on a limit state,
+        a limit state on cycle extremes, a kink of g at the means, a zero gradient (then
+        ``beta`` and ``pf`` are NaN: they would only reflect round-off).
+    pf_table : DataFrame or None, default None
+        With ``limit_state=`` (a :class:`~mechrel.uq.results.ResultTable`): one row (index: the
+        limit state's name), ``pf`` = Φ(−β), ``beta`` = μ_g/σ_g, ``mean`` (μ_g = g(μ_X)),
+        ``std`` (σ_g) and ``n_evaluations`` (2d + 1). Exact for a limit state linear in normal
+        inputs (and allowables); otherwise a first-order approximation about the means, which
+        is not invariant to how g is written (FORM is).
 
     Examples
     --------
@@ -189,24 +205,25 @@ class FOSMResult(CountedByProvenance):
     ('fosm', 3, ())
     """
 
-    table: pd.DataFrame
+    table: pd.DataFrame | None
     gradient: pd.DataFrame
-    event: str
+    event: str | None
     steps: np.ndarray
     input_std: np.ndarray
     input_correlation: np.ndarray
     allowable: Any
-    evaluations: Evaluations
+    evaluations: Evaluations | None
     provenance: dict = field(repr=False)
     warnings: tuple[str, ...] = ()
+    pf_table: pd.DataFrame | None = None
 
     def to_frame(self) -> pd.DataFrame:
-        """The per-output table (a copy of ``table``).
+        """The result's table: a copy of ``table`` (or of ``pf_table`` on a limit state).
 
         Returns
         -------
         pandas.DataFrame
-            One row per output; the columns listed under ``table``.
+            One row per output (the columns listed under ``table``), or the limit state's row.
 
         Examples
         --------
@@ -214,19 +231,22 @@ class FOSMResult(CountedByProvenance):
         >>> inputs = UncertainInputs.from_specs({"x": Normal(0.0, 0.1)})
         >>> r = fosm(model=linear_model([0.0], [[1.0]], ["x"]), inputs=inputs,
         ...          allowable=Allowable(0.2, 0.0), progress=False)
-        >>> round(float(r.to_frame()["sigma_i"].iloc[0]), 12)
+        >>> round(float(r.to_frame()["std"].iloc[0]), 12)
         0.1
         """
-        return self.table.copy()
+        table = self.table if self.table is not None else self.pf_table
+        assert table is not None  # one of the two, by construction
+        return table.copy()
 
     @property
-    def beta(self) -> pd.Series:
-        """The reliability index β = (μ_I − μ_i)/√(σ_I² + σ_i²) per output.
+    def beta(self) -> Any:
+        """The reliability index β = (μ_I − μ_i)/√(σ_I² + σ_i²) per output (on a limit state μ_g/σ_g).
 
         Returns
         -------
-        pandas.Series
-            The ``beta`` column of ``table`` (dimensionless).
+        pandas.Series or float
+            The ``beta`` column of ``table`` (dimensionless); on a limit state the float
+            ``pf_table["beta"]``.
 
         Examples
         --------
@@ -237,7 +257,34 @@ class FOSMResult(CountedByProvenance):
         >>> round(float(r.beta.iloc[0]), 6)   # 0.3 / √(0.04² + 0.1²)
         2.78543
         """
+        if self.table is None:
+            return limit_state_value(self, "beta")
         return self.table["beta"]
+
+    @property
+    def pf(self) -> float:
+        """The probability of failure Φ(−β) of the limit state (a result of ``limit_state=``).
+
+        Returns
+        -------
+        float
+            ``pf_table["pf"]``.
+
+        Raises
+        ------
+        StudyError
+            If the result was run with ``allowable=`` (then ``1 - reliability`` per output).
+
+        Examples
+        --------
+        >>> from mechrel.uq import FunctionModel, LimitState, Normal, UncertainInputs
+        >>> inputs = UncertainInputs.from_specs({"x": Normal(0.0, 1.0)})
+        >>> g = FunctionModel(lambda X: 2.0 - X[:, 0], ["x"], ["g"], vectorized=True)
+        >>> r = fosm(model=g, inputs=inputs, limit_state=LimitState.margin(), progress=False)
+        >>> round(r.pf, 6)   # Φ(−2)
+        0.02275
+        """
+        return limit_state_value(self, "pf")
 
     @property
     def reliability(self) -> pd.Series:
@@ -257,10 +304,10 @@ class FOSMResult(CountedByProvenance):
         >>> round(float(r.reliability.iloc[0]), 4)   # Φ(2)
         0.9772
         """
-        return self.table["reliability"]
+        return self._views_frame()["reliability"]
 
     def importance(self) -> pd.DataFrame:
-        """The share of σ_i² from each input, (∂f/∂x_j σ_j)² / σ_i².
+        """The share of σ_i² from each input, (∂f/∂x_j σ_j)² / σ_i² (on a limit state, of σ_g²).
 
         An exact decomposition for independent inputs; with correlated inputs the shares do not
         include the cross terms and need not sum to 1.
@@ -268,7 +315,7 @@ class FOSMResult(CountedByProvenance):
         Returns
         -------
         pandas.DataFrame
-            Outputs × inputs, dimensionless.
+            Outputs (or the limit state) × inputs, dimensionless.
 
         Examples
         --------
@@ -280,7 +327,7 @@ class FOSMResult(CountedByProvenance):
         [0.2, 0.8]
         """
         g = self.gradient.to_numpy() * self.input_std[None, :]
-        var = self.table["sigma_i"].to_numpy() ** 2
+        var = self.to_frame()["std"].to_numpy() ** 2
         with np.errstate(divide="ignore", invalid="ignore"):
             share = g**2 / var[:, None]
         return pd.DataFrame(share, index=self.gradient.index, columns=self.gradient.columns)
@@ -302,7 +349,7 @@ def fosm(
     cache: Any = None,
     progress: bool = True,
     chunk_size: int | None = None,
-) -> FOSMResult | FOSMPfResult:
+) -> FOSMResult:
     """FOSM reliability (paper eqs. 25–28) with first-order propagation of ``inputs``.
 
     Pass ``model=`` (2d + 1 evaluations are run here) or ``evaluations=`` of
@@ -332,7 +379,7 @@ def fosm(
     limit_state : LimitState, optional
         In place of ``allowable``/``event``: mean-value FOSM on the limit state g (its random
         allowables are inputs too): μ_g = g(μ_X), σ_g² = ∇gᵀ Σ ∇g by central differences,
-        β = μ_g/σ_g, P_f = Φ(−β); returns a :class:`FOSMPfResult`. Needs ``model=``.
+        β = μ_g/σ_g, P_f = Φ(−β), in the result's ``pf_table``. Needs ``model=``.
     seed : optional
         Unused (FOSM draws nothing); accepted so that every estimator shares one interface.
     step : "auto" or float or array, default "auto"
@@ -354,7 +401,8 @@ def fosm(
     Returns
     -------
     FOSMResult
-        Per output: μ_i, σ_i, β, both reliabilities; ``.to_frame()``, ``.provenance``.
+        Per output: μ_i, σ_i, β, both reliabilities; ``.to_frame()``, ``.provenance``; on a
+        limit state its ``pf_table`` (``.pf``, ``.beta``).
 
     Raises
     ------
@@ -373,6 +421,16 @@ def fosm(
     >>> row = r.to_frame().iloc[0]
     >>> round(float(row["beta"]), 6), round(float(row["R_two_sided"]), 4)
     (2.0, 0.9545)
+
+    On a limit state, g = 3 − x1 − x2 of standard normals: β = 3/√2 exactly, in the same
+    result type:
+
+    >>> from mechrel.uq import FunctionModel, LimitState
+    >>> inputs = UncertainInputs.from_specs({"x1": Normal(0.0, 1.0), "x2": Normal(0.0, 1.0)})
+    >>> g = FunctionModel(lambda X: 3.0 - X[:, 0] - X[:, 1], ["x1", "x2"], ["g"], vectorized=True)
+    >>> r = fosm(model=g, inputs=inputs, limit_state=LimitState.margin(), progress=False)
+    >>> type(r).__name__, round(r.beta * 2**0.5, 9), r.n_evaluations, r.table is None
+    ('FOSMResult', 3.0, 5, True)
     """
     t0 = time.perf_counter()
     exclusive_source(model, evaluations, what="fosm")
@@ -425,9 +483,9 @@ def fosm(
     rel = r1 if event == "one-sided" else r2
     from scipy import special
 
-    table = pd.DataFrame(
+    table = ResultTable(
         {
-            "mu_i": mu_i, "sigma_i": sigma_i, "mu_I": mu_I, "sigma_I": sd_I,
+            "mean": mu_i, "std": sigma_i, "allowable_mean": mu_I, "allowable_std": sd_I,
             "beta": beta, "R_one_sided": r1, "beta_minus": bm, "R_two_sided": r2,
             "reliability": rel, "beta_generalized": special.ndtri(rel),
         },
@@ -446,7 +504,7 @@ def fosm(
     # zero gradient (β = ±∞ from round-off)
     table.loc[blank, ["beta", "R_one_sided", "beta_minus", "R_two_sided", "reliability",
                       "beta_generalized"]] = np.nan
-    table.loc[~per_angle_mask(ev.output_index), "sigma_i"] = np.nan
+    table.loc[~per_angle_mask(ev.output_index), "std"] = np.nan
     notes = emit_warnings(checks)
     return FOSMResult(table, grad, event, readonly(h), readonly(inputs.std), readonly(inputs.pearson_correlation),
                       allowable, ev, prov, notes)
@@ -515,49 +573,7 @@ def fosm_checks(model, index, Y: np.ndarray, sigma_i: np.ndarray,
     return out, blank
 
 
-@dataclass(frozen=True, eq=False)
-class FOSMPfResult(RareEventResult):
-    """Mean-value FOSM on a limit state (frozen): what ``fosm(limit_state=...)`` returns.
-
-    Exact for a limit state linear in normal inputs (and allowables); otherwise a first-order
-    approximation about the means, which is not invariant to how g is written (FORM is).
-
-    Parameters
-    ----------
-    table : DataFrame
-        One row (index: the limit state's name): ``pf`` = Φ(−β), ``beta`` = μ_g/σ_g, ``mu_g``,
-        ``sigma_g`` and ``n_evaluations`` (2d + 1).
-    gradient : Series
-        ∂g/∂x at the means, per input (random allowables included), in g's unit per input unit.
-    evaluations : Evaluations or None
-        The stencil's model runs.
-    provenance : dict
-        How the result was made (with the limit state's description).
-    warnings : tuple of str, default ()
-        Caveats of the estimate, also issued as :class:`~mechrel.errors.EstimateWarning`: a
-        non-smooth model, a limit state on cycle extremes, a kink of g at the means, a zero
-        gradient (then ``beta`` and ``pf`` are NaN: they would only reflect round-off).
-
-    Examples
-    --------
-    g = 3 − x1 − x2 of standard normals: β = 3/√2 exactly.
-
-    >>> from mechrel.uq import FunctionModel, LimitState, Normal, UncertainInputs, fosm
-    >>> inputs = UncertainInputs.from_specs({"x1": Normal(0.0, 1.0), "x2": Normal(0.0, 1.0)})
-    >>> g = FunctionModel(lambda X: 3.0 - X[:, 0] - X[:, 1], ["x1", "x2"], ["g"], vectorized=True)
-    >>> r = fosm(model=g, inputs=inputs, limit_state=LimitState.margin(), progress=False)
-    >>> round(r.beta * 2**0.5, 9), r.n_evaluations
-    (3.0, 5)
-    """
-
-    table: pd.DataFrame
-    gradient: pd.Series
-    evaluations: Evaluations | None
-    provenance: dict = field(repr=False)
-    warnings: tuple[str, ...] = ()
-
-
-def _limit_state_fosm(*, model, inputs, limit_state, step, noise, executor) -> FOSMPfResult:
+def _limit_state_fosm(*, model, inputs, limit_state, step, noise, executor) -> FOSMResult:
     """Mean-value FOSM on ``limit_state``: the (2d + 1)-point stencil of :func:`fosm_design`
     over the inputs and the random allowables, g through the model."""
     from scipy import special
@@ -606,12 +622,14 @@ def _limit_state_fosm(*, model, inputs, limit_state, step, noise, executor) -> F
     else:
         beta = mu_g / sigma_g
     caveats = emit_warnings(notes, stacklevel=4)
-    table = pd.DataFrame({"pf": [float(special.ndtr(-beta))], "beta": [beta], "mu_g": [mu_g],
-                          "sigma_g": [sigma_g], "n_evaluations": [problem.n_evaluations]},
-                         index=pd.Index([problem.limit_state.name], name="limit_state"))
+    table = ResultTable({"pf": [float(special.ndtr(-beta))], "beta": [beta], "mean": [mu_g],
+                         "std": [sigma_g], "n_evaluations": [problem.n_evaluations]},
+                        index=pd.Index([problem.limit_state.name], name="limit_state"))
     prov = problem.provenance(method="fosm", seed=None,
                               settings={"step": step if isinstance(step, str) or np.ndim(step) == 0
                                         else list(map(float, step)), "noise": noise,
                                         "gradient": "central differences, 2d+1 evaluations, at the means"})
-    return FOSMPfResult(table, pd.Series(grad, index=list(problem.names), name="dg_dx"),
-                        problem.all_evaluations(), prov, caveats)
+    gradient = pd.DataFrame(grad[None, :], index=table.index, columns=list(problem.names))
+    return FOSMResult(None, gradient, None, readonly(fd_steps(problem.inputs, step, noise)),
+                      readonly(problem.inputs.std), readonly(problem.inputs.pearson_correlation),
+                      None, problem.all_evaluations(), prov, caveats, pf_table=table)

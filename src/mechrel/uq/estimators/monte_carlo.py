@@ -76,13 +76,14 @@ from ..execution.executor import Evaluations
 from ..problem.inputs import (SAMPLING_RULES, as_seed_sequence, child_seed, seed_record,
                               sobol_balance_note)
 from ..problem.model import check_model
+from ..results import OutputViews, ResultTable, limit_state_value
 from ..problem.allowables import (binomial_interval, check_event, per_angle_mask, resolve_allowables,
                           whole_cycle_column)
 from ._moments import column_moments
-from ._problem import Problem, RareEventResult
+from ._problem import Problem
 
-__all__ = ["monte_carlo", "monte_carlo_design", "MonteCarloResult", "MonteCarloPfResult",
-           "ALLOWABLE_MODES", "FAILURE_MODES"]
+__all__ = ["monte_carlo", "monte_carlo_design", "MonteCarloResult", "ALLOWABLE_MODES",
+           "FAILURE_MODES"]
 
 ALLOWABLE_MODES = ("sampled", "fixed")
 FAILURE_MODES = ("exclude", "as_violation")
@@ -155,7 +156,7 @@ def reliability_from_samples(
     k = inside.sum(axis=0)
     lo, hi = binomial_interval(k, n_eff, confidence_level=confidence_level, method=ci_method)
     point = pd.DataFrame(
-        {"mu_I": mu_I, "sigma_I": sd_I, "n": n_eff, "n_inside": k,
+        {"allowable_mean": mu_I, "allowable_std": sd_I, "n": n_eff, "n_inside": k,
          "reliability": k / n_eff if n_eff else np.nan, "reliability_lo": lo, "reliability_hi": hi},
         index=ev.output_index,
     )
@@ -212,20 +213,28 @@ def sample_moments(Y: np.ndarray, *, confidence_level: float,
 
 
 @dataclass(frozen=True, eq=False)
-class MonteCarloResult(CountedByProvenance):
-    """Monte Carlo reliability and moments (frozen).
+class MonteCarloResult(OutputViews, CountedByProvenance):
+    """Monte Carlo reliability and moments, or crude Monte Carlo on a limit state (frozen).
+
+    What :func:`monte_carlo` returns, whatever its arguments: with ``allowable=`` the
+    per-output ``table`` and ``whole_cycle`` (``pf_table`` is None), with ``limit_state=`` the
+    limit state's ``pf_table`` (``table``, ``whole_cycle``, ``event``, ``allowable_mode`` are
+    None).
 
     Parameters
     ----------
-    table : DataFrame
-        Per output: moments with intervals, ``mu_I``, ``sigma_I``, ``n``, ``n_inside``,
-        ``reliability`` with ``reliability_lo``/``_hi``.
-    whole_cycle : DataFrame
+    table : DataFrame or None
+        Per output (a :class:`~mechrel.uq.results.ResultTable`): the sample moments ``mean``
+        with ``mean_lo``/``mean_hi``, ``std`` with ``std_lo``/``std_hi``, ``skewness``,
+        ``excess_kurtosis``; the allowable's ``allowable_mean``, ``allowable_std``; ``n``,
+        ``n_inside``, ``reliability`` with ``reliability_lo``/``reliability_hi``.
+    whole_cycle : DataFrame or None
         Per quantity and ``"all"``: the joint event over the cycle.
-    event : {"two-sided", "one-sided"}
+    event : {"two-sided", "one-sided"} or None
         The event counted as inside.
     allowable, allowable_mode
-        The allowables as given, and whether they were ``"sampled"`` or ``"fixed"`` at their mean.
+        The allowables as given, and whether they were ``"sampled"`` or ``"fixed"`` at their mean
+        (None on a limit state).
     rule : str
         The sampling rule (``"user-supplied"`` for precomputed evaluations).
     confidence_level, ci_method
@@ -246,6 +255,11 @@ class MonteCarloResult(CountedByProvenance):
         Caveats of the estimate: a Sobol' design of a size that is not a power of 2
         (:func:`~mechrel.uq.problem.inputs.sobol_balance_note`); for a run on a PCE surrogate,
         the surrogate's.
+    pf_table : DataFrame or None, default None
+        With ``limit_state=`` (a :class:`~mechrel.uq.results.ResultTable`): one row (index: the
+        limit state's name), ``pf`` = k/n, ``beta`` = −Φ⁻¹(pf), ``cov`` = sqrt((1 − pf)/(n pf)),
+        ``pf_lo``/``pf_hi`` (the binomial interval of ``ci_method``), ``n_samples``,
+        ``n_failed_domain`` (k, samples with g ≤ 0), ``n_failed_model`` and ``n_evaluations``.
 
     Examples
     --------
@@ -259,29 +273,31 @@ class MonteCarloResult(CountedByProvenance):
     (3, 256, 256)
     """
 
-    table: pd.DataFrame
-    whole_cycle: pd.DataFrame
-    event: str
+    table: pd.DataFrame | None
+    whole_cycle: pd.DataFrame | None
+    event: str | None
     allowable: Any
-    allowable_mode: str
+    allowable_mode: str | None
     rule: str
     confidence_level: float
     ci_method: str
     failures: str
     n_failed: int
     failure_counts: dict
-    evaluations: Evaluations
+    evaluations: Evaluations | None
     seed: Any
     provenance: dict = field(repr=False)
     warnings: tuple[str, ...] = ()
+    pf_table: pd.DataFrame | None = None
 
     def to_frame(self) -> pd.DataFrame:
-        """The per-output table (a copy of ``table``).
+        """The result's table: a copy of ``table`` (or of ``pf_table`` on a limit state).
 
         Returns
         -------
         pandas.DataFrame
-            One row per output: the sample statistics, the reliability and its confidence interval.
+            One row per output: the sample statistics, the reliability and its confidence
+            interval; or the limit state's row.
 
         Examples
         --------
@@ -292,7 +308,9 @@ class MonteCarloResult(CountedByProvenance):
         >>> float(r.to_frame()["reliability"].iloc[0])
         1.0
         """
-        return self.table.copy()
+        table = self.table if self.table is not None else self.pf_table
+        assert table is not None  # one of the two, by construction
+        return table.copy()
 
     @property
     def reliability(self) -> pd.Series:
@@ -312,7 +330,87 @@ class MonteCarloResult(CountedByProvenance):
         >>> bool(abs(float(r.reliability.iloc[0]) - 0.9545) < 0.01)   # 2 Φ(2) − 1, 3 s.e. ≈ 0.01
         True
         """
-        return self.table["reliability"]
+        return self._views_frame()["reliability"]
+
+    @property
+    def pf(self) -> float:
+        """The estimated probability of failure P(g ≤ 0) (a result of ``limit_state=``).
+
+        Returns
+        -------
+        float
+            ``pf_table["pf"]``, k/n.
+
+        Raises
+        ------
+        StudyError
+            If the result was run with ``allowable=`` (then ``1 - reliability`` per output and
+            ``whole_cycle``).
+
+        Examples
+        --------
+        >>> from mechrel.uq import LimitState, Uniform, UncertainInputs, linear_model
+        >>> inputs = UncertainInputs.from_specs({"u": Uniform(0.0, 1.0)})
+        >>> r = monte_carlo(model=linear_model([0.0], [[1.0]], ["u"]), inputs=inputs, n=1000,
+        ...                 seed=2, limit_state=LimitState.exceedance([0], 0.9, kind="upper"),
+        ...                 progress=False)
+        >>> bool(r.pf == r.pf_table["n_failed_domain"].iloc[0] / 1000), bool(0.07 < r.pf < 0.13)
+        (True, True)
+        """
+        return limit_state_value(self, "pf")
+
+    @property
+    def beta(self) -> float:
+        """The generalised reliability index −Φ⁻¹(pf) (a result of ``limit_state=``).
+
+        Returns
+        -------
+        float
+            ``pf_table["beta"]``.
+
+        Raises
+        ------
+        StudyError
+            If the result was run with ``allowable=``.
+
+        Examples
+        --------
+        g = 2 − x of a standard normal x, so β = 2:
+
+        >>> from mechrel.uq import LimitState, Normal, UncertainInputs, linear_model
+        >>> r = monte_carlo(model=linear_model([2.0], [[-1.0]], ["x"]), n=4096, seed=2,
+        ...                 inputs=UncertainInputs.from_specs({"x": Normal(0.0, 1.0)}),
+        ...                 limit_state=LimitState.margin(), progress=False)
+        >>> bool(abs(r.beta - 2.0) < 0.15)   # the c.o.v. of pf is ≈ 0.1 at n p ≈ 90
+        True
+        """
+        return limit_state_value(self, "beta")
+
+    @property
+    def cov(self) -> float:
+        """The coefficient of variation of the estimate ``pf`` (a result of ``limit_state=``).
+
+        Returns
+        -------
+        float
+            √((1 − p)/(n p)) for the plain estimator (dimensionless).
+
+        Raises
+        ------
+        StudyError
+            If the result was run with ``allowable=``.
+
+        Examples
+        --------
+        >>> from mechrel.uq import FunctionModel, LimitState, Normal, UncertainInputs
+        >>> inputs = UncertainInputs.from_specs({"x": Normal(0.0, 1.0)})
+        >>> model = FunctionModel(lambda X: X[:, 0], ["x"], ["y"], vectorized=True)
+        >>> r = monte_carlo(model=model, inputs=inputs, n=1024, seed=2, progress=False,
+        ...                 limit_state=LimitState.exceedance(["y"], 1.0, kind="upper"))
+        >>> bool(np.isclose(r.cov, ((1 - r.pf) / (1024 * r.pf)) ** 0.5))
+        True
+        """
+        return limit_state_value(self, "cov")
 
     def allowable_draws(self) -> np.ndarray:
         """The allowable each sample was compared with: one draw per sample and quantity from
@@ -342,6 +440,8 @@ class MonteCarloResult(CountedByProvenance):
         >>> int(inside.sum()) == int(r.table["n_inside"].iloc[0])
         True
         """
+        self._views_frame()  # a limit-state result drew no allowables
+        assert self.evaluations is not None and self.allowable_mode is not None
         mu_I, sd_I, groups = resolve_allowables(self.evaluations.output_index, self.allowable)
         return _draw_allowables(self.evaluations.n, mu_I, sd_I, groups, self.allowable_mode,
                                 child_seed(as_seed_sequence(self.seed), 1))
@@ -377,7 +477,7 @@ def monte_carlo(
     cache: Any = None,
     progress: bool = True,
     chunk_size: int | None = None,
-) -> MonteCarloResult | MonteCarloPfResult:
+) -> MonteCarloResult:
     """Monte Carlo reliability of every output and of the whole cycle.
 
     Either ``model=`` + ``inputs=`` + ``n=`` (samples drawn by ``rule`` from ``seed``'s first
@@ -410,7 +510,7 @@ def monte_carlo(
     limit_state : LimitState, optional
         In place of ``allowable``/``event``: the probability of failure P(g ≤ 0) of this limit
         state (its random allowables sampled with the inputs by ``rule``), with its binomial
-        interval; returns a :class:`MonteCarloPfResult`. Needs ``model=`` and ``inputs=``.
+        interval, in the result's ``pf_table``. Needs ``model=`` and ``inputs=``.
     allowable_mode : {"sampled", "fixed"}, default "sampled"
         Draw one allowable per sample from N(mean, std²), or compare with the mean only.
     confidence_level : float in (0, 1), default 0.95
@@ -436,7 +536,8 @@ def monte_carlo(
     -------
     MonteCarloResult
         Per output and for the whole cycle: reliability with its interval, mean, std,
-        skewness, kurtosis; ``.to_frame()``, ``.evaluations``, ``.provenance``.
+        skewness, kurtosis; ``.to_frame()``, ``.evaluations``, ``.provenance``; on a limit
+        state its ``pf_table`` (``.pf``, ``.beta``, ``.cov``).
 
     Raises
     ------
@@ -456,6 +557,17 @@ def monte_carlo(
     >>> row = r.to_frame().iloc[0]
     >>> bool(row["reliability_lo"] < 0.9545 < row["reliability_hi"])
     True
+
+    P(x > 2) for x ~ N(0, 1) is Φ(−2) = 0.0228, in the same result type:
+
+    >>> from mechrel.uq import FunctionModel, LimitState
+    >>> inputs = UncertainInputs.from_specs({"x": Normal(0.0, 1.0)})
+    >>> model = FunctionModel(lambda X: X[:, 0], ["x"], ["y"], vectorized=True)
+    >>> r = monte_carlo(model=model, inputs=inputs, n=4096, seed=2, progress=False,
+    ...                 limit_state=LimitState.exceedance(["y"], 2.0, kind="upper"))
+    >>> row = r.to_frame().iloc[0]
+    >>> type(r).__name__, bool(row["pf_lo"] < 0.0228 < row["pf_hi"]), r.n_evaluations
+    ('MonteCarloResult', True, 4096)
     """
     t0 = time.perf_counter()
     exclusive_source(model, evaluations, what="monte_carlo")
@@ -512,7 +624,7 @@ def monte_carlo(
     )
     mom = sample_moments(ev.Y, rows=ev.ok, confidence_level=confidence_level)
     mom.index = ev.output_index
-    table = pd.concat([mom, point], axis=1)
+    table = ResultTable(pd.concat([mom, point], axis=1))
     prov = make_provenance(
         method="monte_carlo", seed=seed_record(ss), evaluations=[ev], inputs=inputs,
         wall_time=time.perf_counter() - t0,
@@ -563,67 +675,8 @@ def monte_carlo_design(inputs: Any, *, n: int, rule: str = "random", seed: Any =
     return inputs.sample(ARGS.sample_count("n", n), rule, child_seed(as_seed_sequence(seed), 0))
 
 
-@dataclass(frozen=True, eq=False)
-class MonteCarloPfResult(RareEventResult):
-    """Crude Monte Carlo on a limit state (frozen): what ``monte_carlo(limit_state=...)`` returns.
-
-    Parameters
-    ----------
-    table : DataFrame
-        One row (index: the limit state's name): ``pf`` = k/n, ``beta`` = −Φ⁻¹(pf), ``cov`` =
-        sqrt((1 − pf)/(n pf)), ``pf_lo``/``pf_hi`` (the binomial interval of the run's
-        ``ci_method``), ``n_samples``, ``n_failed_domain`` (k, samples with g ≤ 0),
-        ``n_failed_model`` and ``n_evaluations``.
-    evaluations : Evaluations or None
-        The model runs.
-    provenance : dict
-        How the result was made (with the limit state's description).
-    warnings : tuple of str, default ()
-        Caveats of the estimate.
-
-    Examples
-    --------
-    P(x > 2) for x ~ N(0, 1) is Φ(−2) = 0.0228:
-
-    >>> from mechrel.uq import FunctionModel, LimitState, Normal, UncertainInputs, monte_carlo
-    >>> inputs = UncertainInputs.from_specs({"x": Normal(0.0, 1.0)})
-    >>> model = FunctionModel(lambda X: X[:, 0], ["x"], ["y"], vectorized=True)
-    >>> r = monte_carlo(model=model, inputs=inputs, n=4096, seed=2, progress=False,
-    ...                 limit_state=LimitState.exceedance(["y"], 2.0, kind="upper"))
-    >>> row = r.to_frame().iloc[0]
-    >>> bool(row["pf_lo"] < 0.0228 < row["pf_hi"]), r.n_evaluations
-    (True, 4096)
-    """
-
-    table: pd.DataFrame
-    evaluations: Evaluations | None
-    provenance: dict = field(repr=False)
-    warnings: tuple[str, ...] = ()
-
-    @property
-    def cov(self) -> float:
-        """The coefficient of variation of the estimate ``pf``.
-
-        Returns
-        -------
-        float
-            √((1 − p)/(n p)) for the plain estimator (dimensionless).
-
-        Examples
-        --------
-        >>> from mechrel.uq import FunctionModel, LimitState, Normal, UncertainInputs
-        >>> inputs = UncertainInputs.from_specs({"x": Normal(0.0, 1.0)})
-        >>> model = FunctionModel(lambda X: X[:, 0], ["x"], ["y"], vectorized=True)
-        >>> r = monte_carlo(model=model, inputs=inputs, n=1024, seed=2, progress=False,
-        ...                 limit_state=LimitState.exceedance(["y"], 1.0, kind="upper"))
-        >>> bool(np.isclose(r.cov, ((1 - r.pf) / (1024 * r.pf)) ** 0.5))
-        True
-        """
-        return float(self.table["cov"].iloc[0])
-
-
 def _limit_state_monte_carlo(*, model, inputs, limit_state, n, rule, seed, confidence_level, ci_method,
-                             failures, max_failure_fraction, executor) -> MonteCarloPfResult:
+                             failures, max_failure_fraction, executor) -> MonteCarloResult:
     """P(g ≤ 0) by crude Monte Carlo: x (and the random allowables) drawn by ``rule`` from
     ``seed``'s first child stream, g through the model; binomial interval."""
     ARGS.choice("rule", rule, SAMPLING_RULES)
@@ -649,14 +702,16 @@ def _limit_state_monte_carlo(*, model, inputs, limit_state, n, rule, seed, confi
     k = int(inside[rows].sum())
     pf = k / m
     lo, hi = binomial_interval(np.array([k]), np.array([m]), confidence_level=confidence_level, method=ci_method)
-    table = pd.DataFrame({"pf": [pf], "beta": [float(-special.ndtri(pf))],
-                          "cov": [math.sqrt((1 - pf) / (m * pf)) if pf > 0 else np.inf],
-                          "pf_lo": [float(lo[0])], "pf_hi": [float(hi[0])], "n_samples": [n],
-                          "n_failed_domain": [k], "n_failed_model": [n_bad],
-                          "n_evaluations": [problem.n_evaluations]},
-                         index=pd.Index([problem.limit_state.name], name="limit_state"))
+    table = ResultTable({"pf": [pf], "beta": [float(-special.ndtri(pf))],
+                         "cov": [math.sqrt((1 - pf) / (m * pf)) if pf > 0 else np.inf],
+                         "pf_lo": [float(lo[0])], "pf_hi": [float(hi[0])], "n_samples": [n],
+                         "n_failed_domain": [k], "n_failed_model": [n_bad],
+                         "n_evaluations": [problem.n_evaluations]},
+                        index=pd.Index([problem.limit_state.name], name="limit_state"))
     prov = problem.provenance(method="monte_carlo", seed=seed_record(ss),
                               settings={"n": n, "rule": rule, "confidence_level": confidence_level,
                                         "ci_method": ci_method, "failures": failures,
                                         "max_failure_fraction": max_failure_fraction})
-    return MonteCarloPfResult(table, evaluations, prov)
+    counts = pd.Series([r for r in reasons if r is not None], dtype=object).value_counts().to_dict()
+    return MonteCarloResult(None, None, None, None, None, rule, confidence_level, ci_method, failures,
+                            n_bad, counts, evaluations, ss, prov, pf_table=table)

@@ -39,6 +39,7 @@ from .._common import (CountedByProvenance, _labels, emit_warnings, make_provena
 from .fosm import FOSMResult
 from .monte_carlo import MonteCarloResult, reliability_from_samples
 from ..problem.allowables import per_angle_mask
+from ..results import OutputViews, ResultTable
 
 __all__ = ["normality_check", "NormalityResult"]
 
@@ -62,13 +63,14 @@ def _ad_normal_pvalue(a2: float, n: int) -> float:
 
 
 @dataclass(frozen=True, eq=False)
-class NormalityResult(CountedByProvenance):
+class NormalityResult(OutputViews, CountedByProvenance):
     """Per-output normality diagnostics of FOSM against Monte Carlo (frozen).
 
     Parameters
     ----------
     table : DataFrame
-        Per output: FOSM's ``mu_i``, ``sigma_i`` against Monte Carlo's ``mc_mean``, ``mc_std``,
+        Per output (a :class:`~mechrel.uq.results.ResultTable`): FOSM's ``fosm_mean``,
+        ``fosm_std`` against Monte Carlo's ``mc_mean``, ``mc_std``,
         ``skewness``, ``excess_kurtosis``; the Kolmogorov–Smirnov and Anderson–Darling
         statistics and p-values (``ks_*``, ``ad_*``); ``R_fosm``, ``R_mc`` with its interval,
         their difference ``diff`` with its interval, and ``flag``/``flag_reason``.
@@ -183,11 +185,12 @@ class NormalityResult(CountedByProvenance):
         idx = self.table.index
         pos = resolve_outputs_safe(idx, output)
         ev = self.monte_carlo.evaluations
+        assert ev is not None  # normality_check takes per-output results only
         y = np.sort(ev.Y[ev.ok, pos])
         n = y.shape[0]
         p = (np.arange(1, n + 1) - 0.5) / n
         z = stats.norm.ppf(p)
-        mu, sd = self.table["mu_i"].iloc[pos], self.table["sigma_i"].iloc[pos]
+        mu, sd = self.table["fosm_mean"].iloc[pos], self.table["fosm_std"].iloc[pos]
         return pd.DataFrame({"probability": p, "standard_normal": z, "fosm_quantile": mu + sd * z, "mc_quantile": y})
 
 
@@ -241,6 +244,12 @@ def normality_check(
         raise StudyError(f"normality_check: fosm= must be a FOSMResult, got {type(fosm).__name__}")
     if not isinstance(monte_carlo, MonteCarloResult):
         raise StudyError(f"normality_check: monte_carlo= must be a MonteCarloResult, got {type(monte_carlo).__name__}")
+    for name, r in (("fosm", fosm), ("monte_carlo", monte_carlo)):
+        if r.table is None:
+            raise StudyError(f"normality_check: {name}= was run with limit_state= (one P_f, no "
+                             "per-output table); allowed: a result run with allowable=")
+    assert fosm.table is not None and fosm.evaluations is not None and fosm.event is not None
+    assert monte_carlo.table is not None and monte_carlo.evaluations is not None
     alpha = ARGS.fraction("alpha", alpha, open_lo=True, open_hi=True)
     ev = monte_carlo.evaluations
     if not ev.output_index.equals(fosm.table.index):
@@ -256,8 +265,8 @@ def normality_check(
         confidence_level=monte_carlo.confidence_level, ci_method=monte_carlo.ci_method, failures=monte_carlo.failures,
     )
     Y = ev.Y[ev.ok]
-    mu_i = fosm.table["mu_i"].to_numpy()
-    sd_i = fosm.table["sigma_i"].to_numpy()
+    mu_i = fosm.table["mean"].to_numpy()
+    sd_i = fosm.table["std"].to_numpy()
     rows = []
     for k in range(Y.shape[1]):
         y = Y[:, k]
@@ -290,8 +299,8 @@ def normality_check(
         parts = [s for s, f in (("KS rejects FOSM's normal", a), ("AD rejects normality", b),
                                 ("R_fosm outside MC interval", c)) if f]
         reasons.append("; ".join(parts))
-    table = pd.DataFrame(
-        {"mu_i": mu_i, "sigma_i": sd_i, "mc_mean": Y.mean(axis=0), "mc_std": Y.std(axis=0, ddof=1),
+    table = ResultTable(
+        {"fosm_mean": mu_i, "fosm_std": sd_i, "mc_mean": Y.mean(axis=0), "mc_std": Y.std(axis=0, ddof=1),
          "skewness": skew, "excess_kurtosis": kurt,
          "ks_stat": arr[:, 0], "ks_pvalue": arr[:, 1], "ad_stat": arr[:, 2], "ad_pvalue": arr[:, 3],
          "R_fosm": r_fosm, "R_mc": r_mc, "R_mc_lo": lo, "R_mc_hi": hi,

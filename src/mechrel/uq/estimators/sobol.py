@@ -51,6 +51,7 @@ from .._common import (
 from ..execution.executor import Evaluations
 from ..problem.inputs import UncertainInputs, as_seed_sequence, child_seed, seed_record
 from ..problem.model import check_model
+from ..results import OutputViews
 
 __all__ = ["sobol_design", "sobol_indices", "SobolResult", "peak_abs"]
 
@@ -163,7 +164,7 @@ def sobol_design(inputs: UncertainInputs, *, n: int, calc_second_order: bool = F
 
 
 @dataclass(frozen=True, eq=False)
-class SobolResult(CountedByProvenance):
+class SobolResult(OutputViews, CountedByProvenance):
     """Sobol' indices (frozen). DataFrames are outputs × inputs; ``*_conf`` are CI half-widths.
 
     Parameters

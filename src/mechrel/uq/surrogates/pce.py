@@ -66,6 +66,7 @@ from .._common import (
 from ..execution.executor import STATUS_OK, Evaluations
 from ..problem.inputs import SAMPLING_RULES, UncertainInputs, as_seed_sequence, child_seed, seed_record
 from ..problem.model import check_model
+from ..results import OutputViews
 
 __all__ = ["polynomial_chaos", "pce_design", "PCEResult", "multi_indices"]
 
@@ -419,7 +420,7 @@ def pce_design(
 
 
 @dataclass(frozen=True, eq=False)
-class PCEResult(CountedByProvenance):
+class PCEResult(OutputViews, CountedByProvenance):
     """A fitted polynomial chaos expansion (frozen).
 
     Parameters
