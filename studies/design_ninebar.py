@@ -47,6 +47,10 @@ COV = 0.15
 def run(args) -> int:
     import warnings
 
+    if args.replot:  # the figure again from OUT/grades.csv, nothing run
+        _figure(pd.read_csv(Path(args.out) / "grades.csv"), Path(args.out) / "design_ninebar.png")
+        return 0
+
     from mechrel.study.design import run_design
     from mechrel.study.study import load_study
 
@@ -108,6 +112,9 @@ def _figure(df: pd.DataFrame, path: Path) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
+    from matplotlib.ticker import NullFormatter
+
+    df = df.sort_values("viscosity_cP").reset_index(drop=True)
     fig, (a1, a2) = plt.subplots(1, 2, figsize=(9.5, 3.8), constrained_layout=True)
     a1.plot(df["viscosity_cP"], df["clearance_mm"], "o-", color="C0")
     for _, r in df.iterrows():
@@ -115,6 +122,7 @@ def _figure(df: pd.DataFrame, path: Path) -> None:
                     textcoords="offset points", xytext=(6, -12), fontsize=8)
     a1.set_xscale("log")
     a1.set_xticks(df["viscosity_cP"], [f"{v:g}" for v in df["viscosity_cP"]])
+    a1.xaxis.set_minor_formatter(NullFormatter())
     a1.set_xlabel("viscosity grade (mean), cP")
     a1.set_ylabel("largest nominal clearance C1 = C2, mm")
     a1.set_title("the clearance the target allows")
@@ -151,8 +159,10 @@ def main(argv=None) -> int:
     ap.add_argument("--chain", action="store_true",
                     help="start each grade's surrogates from the previous grades' simulations "
                          "(fewer simulations, but every prediction over the population costs "
-                         "with the training points: with 150 reused points, 41 iterations' "
-                         "simulations took the time 150 took without)")
+                         "with the training points: with 150 reused points, 41 simulations "
+                         "took the time 150 took without)")
+    ap.add_argument("--replot", action="store_true",
+                    help="only redraw OUT/design_ninebar.png from OUT/grades.csv")
     ap.add_argument("--jobs", type=int, default=2)
     ap.add_argument("--no-progress", action="store_true")
     args = ap.parse_args(argv)

@@ -101,8 +101,10 @@ def test_a_tolerance_allocation_with_a_known_optimum(method, kw):
     assert prov["n_evaluations"] == (prov["counts"]["design"]["n_evaluations"]
                                            + prov["counts"]["verification"]["n_evaluations"])
     assert prov["counts"]["verification"]["n_evaluations"] == 40_000
-    if method == "ak":  # the surrogate needs few runs of the model
+    if method == "ak":  # the surrogate needs few runs of the model, and never one twice
         assert r.converged and prov["counts"]["design"]["n_evaluations"] <= 40
+        X = np.asarray(r.evaluations.X)[: prov["counts"]["design"]["n_evaluations"]]
+        assert len(np.unique(X, axis=0)) == X.shape[0]
 
 
 @pytest.mark.parametrize("method,kw", [("mc", {"n": 1000}), ("ak", {"n_population": 20_000})])

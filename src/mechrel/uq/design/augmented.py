@@ -260,7 +260,8 @@ def _optimise(problem, est: SurrogateConstraints, rel, start, radius=0.25):
 
 
 def _select(est: SurrogateConstraints, d, MU, SD, k: int, exclude: list) -> tuple[np.ndarray, float]:
-    """The next ``k`` population points at design ``d`` (model inputs z) and the best score:
+    """The next ``k`` population points at design ``d`` (model inputs z), none of ``exclude``
+    (the points already run), and the best score:
     the largest probability of misclassification Φ(−|μ|/σ) of any constraint's governing
     unit, spread by the Kriging believer's update of the candidates' covariances."""
     sd = np.maximum(SD, 1e-300)
@@ -272,11 +273,13 @@ def _select(est: SurrogateConstraints, d, MU, SD, k: int, exclude: list) -> tupl
         govs.append(g)
         rows = np.arange(MU.shape[0])
         score = np.maximum(score, special.ndtr(-np.abs(MU[rows, g]) / sd[rows, g]))
-    Z = est.problem.space.physical(d, est.X0)
-    for x in exclude:
-        score[np.all(Z == x, axis=1)] = 0.0
+    Z = np.ascontiguousarray(est.problem.space.physical(d, est.X0))
+    # never a point already run (its Kriging σ is the nugget's, not 0, so a run point on the
+    # limit state can score high again: a repeat teaches nothing and spends the budget)
+    banned = {np.ascontiguousarray(x, dtype=float).tobytes() for x in exclude}
     m = min(MU.shape[0], max(200, 50 * k))
-    cand = np.argsort(-score, kind="stable")[:m]
+    order = np.argsort(-score, kind="stable")
+    cand = np.asarray([i for i in order[: m + len(banned)] if Z[i].tobytes() not in banned][:m])
     best = float(score[cand[0]])
     if k == 1:
         return Z[cand[:1]], best
@@ -503,7 +506,7 @@ def design_active_learning(*, problem, seed, confidence_level: float, failures: 
         if counts["n_evaluations"] >= max_evaluations:
             break
         k_batch = min(batch_size, max_evaluations - counts["n_evaluations"])
-        pts, best = _select(est, d, MU, SD, k_batch, failed)
+        pts, best = _select(est, d, MU, SD, k_batch, [*failed, *Zt])
         history[-1]["score"] = best
         run(pts)
         d_prev = d

@@ -685,7 +685,8 @@ def active_learning(
             break
         # ---- choose the next batch
         k = min(batch, budget - problem.n_evaluations)
-        pts, best = _select(sur, pop.U, MU, SD, w, frozen, learning, k, failed_u, problem.limit_state.system)
+        pts, best = _select(sur, pop.U, MU, SD, w, frozen, learning, k, [*failed_u, *Ut],
+                            problem.limit_state.system)
         history[-1]["score"] = best
         it += 1
         since_refresh += 1
@@ -716,21 +717,23 @@ def active_learning(
                     tuple(sur.gps), problem.all_evaluations(), prov, warnings_)
 
 
-def _select(sur, U, MU, SD, w, frozen, learning, k, failed_u, system_kind):
-    """The next k points (and the best score): the best weighted learning score, then the
-    believer's update of the candidates' covariances."""
+def _select(sur, U, MU, SD, w, frozen, learning, k, exclude, system_kind):
+    """The next k points (and the best score), none of ``exclude`` (the points already run):
+    the best weighted learning score, then the believer's update of the candidates'
+    covariances."""
     gov = np.argmin(MU, axis=1) if system_kind == "series" else np.argmax(MU, axis=1)
     rows = np.arange(U.shape[0])
     mu = MU[rows, gov]
     sd = np.maximum(SD[rows, gov], 1e-300)
     score = w * (special.ndtr(-np.abs(mu) / sd) if learning == "U" else _eff(mu, sd))
     score[frozen] = 0.0
-    if failed_u:
-        F = np.asarray(failed_u)
-        for f in F:
-            score[np.all(U == f, axis=1)] = 0.0
+    # never a point already run, failed or not (a run point's σ is the nugget's, not 0: on the
+    # limit state it can score high again, and a repeat teaches nothing)
+    banned = {np.ascontiguousarray(x, dtype=float).tobytes() for x in exclude}
     m = min(U.shape[0], max(200, 50 * k))
-    cand = np.argsort(-score, kind="stable")[:m]
+    order = np.argsort(-score, kind="stable")
+    cand = np.asarray([i for i in order[: m + len(banned)]
+                       if np.ascontiguousarray(U[i]).tobytes() not in banned][:m])
     best = float(score[cand[0]])
     if k == 1:
         return U[cand[:1]], best
