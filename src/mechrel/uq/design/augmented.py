@@ -65,7 +65,7 @@ from mechrel.errors import StudyError
 
 from .._common import SampleFailuresError, failure_message
 from ..estimators._problem import concat_evaluations
-from ..estimators.ak import LOO_LIMIT, _loo_near_zero, _Surrogates
+from ..estimators.ak import LOO_LIMIT, _candidates, _loo_near_zero, _Surrogates
 from ..execution.executor import evaluate
 from ..problem.inputs import child_seed
 from .core import DesignEstimate, optimise
@@ -273,13 +273,9 @@ def _select(est: SurrogateConstraints, d, MU, SD, k: int, exclude: list) -> tupl
         govs.append(g)
         rows = np.arange(MU.shape[0])
         score = np.maximum(score, special.ndtr(-np.abs(MU[rows, g]) / sd[rows, g]))
-    Z = np.ascontiguousarray(est.problem.space.physical(d, est.X0))
-    # never a point already run (its Kriging σ is the nugget's, not 0, so a run point on the
-    # limit state can score high again: a repeat teaches nothing and spends the budget)
-    banned = {np.ascontiguousarray(x, dtype=float).tobytes() for x in exclude}
+    Z = est.problem.space.physical(d, est.X0)
     m = min(MU.shape[0], max(200, 50 * k))
-    order = np.argsort(-score, kind="stable")
-    cand = np.asarray([i for i in order[: m + len(banned)] if Z[i].tobytes() not in banned][:m])
+    cand = _candidates(score, Z, exclude, m)
     best = float(score[cand[0]])
     if k == 1:
         return Z[cand[:1]], best

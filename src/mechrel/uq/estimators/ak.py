@@ -727,13 +727,8 @@ def _select(sur, U, MU, SD, w, frozen, learning, k, exclude, system_kind):
     sd = np.maximum(SD[rows, gov], 1e-300)
     score = w * (special.ndtr(-np.abs(mu) / sd) if learning == "U" else _eff(mu, sd))
     score[frozen] = 0.0
-    # never a point already run, failed or not (a run point's σ is the nugget's, not 0: on the
-    # limit state it can score high again, and a repeat teaches nothing)
-    banned = {np.ascontiguousarray(x, dtype=float).tobytes() for x in exclude}
     m = min(U.shape[0], max(200, 50 * k))
-    order = np.argsort(-score, kind="stable")
-    cand = np.asarray([i for i in order[: m + len(banned)]
-                       if np.ascontiguousarray(U[i]).tobytes() not in banned][:m])
+    cand = _candidates(score, U, exclude, m)
     best = float(score[cand[0]])
     if k == 1:
         return U[cand[:1]], best
@@ -760,6 +755,16 @@ def _select(sur, U, MU, SD, w, frozen, learning, k, exclude, system_kind):
             if denom > 0:
                 S -= np.outer(col, col) / denom
     return C[chosen], best
+
+
+def _candidates(score, U, exclude, m):
+    """The rows of the ``m`` best scores, none of them a point of ``exclude`` (the points
+    already run: a run point's Kriging σ is the nugget's, not 0, so on the limit state it can
+    score high again, and a repeat teaches nothing)."""
+    banned = {np.ascontiguousarray(x, dtype=float).tobytes() for x in exclude}
+    order = np.argsort(-score, kind="stable")
+    return np.asarray([i for i in order[: m + len(banned)]
+                       if np.ascontiguousarray(U[i], dtype=float).tobytes() not in banned][:m])
 
 
 def _unexplored(MU, w, Gt, system_kind, U, tries, pf, failed_u, max_tries=2):
