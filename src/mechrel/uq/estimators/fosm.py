@@ -38,6 +38,7 @@ import pandas as pd
 
 from mechrel.errors import StudyError
 
+from .._docs import fill_doc
 from .._common import (
     CountedByProvenance,
     _labels,
@@ -333,6 +334,7 @@ class FOSMResult(OutputViews, CountedByProvenance):
         return pd.DataFrame(share, index=self.gradient.index, columns=self.gradient.columns)
 
 
+@fill_doc
 def fosm(
     *,
     model: Any = None,
@@ -387,16 +389,7 @@ def fosm(
         ``noise`` (:func:`fd_steps`).
     noise : float, optional
         Relative noise of the outputs (dimensionless) for ``step="auto"``.
-    n_jobs : int, default 1
-        Parallel workers: an integer >= 1, or -1 for all cores (all Dask workers).
-    backend : {"loky", "dask", "sequential"}, default "loky"
-        Where the model runs (:func:`mechrel.uq.evaluate`); the numbers do not depend on it.
-    cache : path or None
-        SQLite cache of finished evaluations (an interrupted run resumes), or None.
-    progress : bool, default True
-        Show a progress bar.
-    chunk_size : int, optional
-        Samples per task (default: about 64 chunks; never depends on ``n_jobs``).
+    %(executor)s
 
     Returns
     -------

@@ -59,6 +59,7 @@ from scipy import special, stats
 
 from mechrel.errors import EstimateWarning, StudyError
 
+from .._docs import fill_doc
 from ..._checks import ARGS
 from .._common import (
     CountedByProvenance,
@@ -456,6 +457,7 @@ def _check_common(event, allowable_mode, confidence_level, ci_method, failures, 
     ARGS.fraction("max_failure_fraction", max_failure_fraction)
 
 
+@fill_doc
 def monte_carlo(
     *,
     model: Any = None,
@@ -521,16 +523,7 @@ def monte_carlo(
         Failed samples: left out (and counted) or counted as unsafe.
     max_failure_fraction : float in [0, 1], default 0.1
         Refuse (:class:`~mechrel.uq.SampleFailuresError`) above this fraction of failures.
-    n_jobs : int, default 1
-        Parallel workers: an integer >= 1, or -1 for all cores (all Dask workers).
-    backend : {"loky", "dask", "sequential"}, default "loky"
-        Where the model runs (:func:`mechrel.uq.evaluate`); the numbers do not depend on it.
-    cache : path or None
-        SQLite cache of finished evaluations (an interrupted run resumes), or None.
-    progress : bool, default True
-        Show a progress bar.
-    chunk_size : int, optional
-        Samples per task (default: about 64 chunks; never depends on ``n_jobs``).
+    %(executor)s
 
     Returns
     -------

@@ -35,6 +35,7 @@ import pandas as pd
 
 from mechrel.errors import StudyError
 
+from .._docs import fill_doc
 from ..._checks import ARGS
 from .._common import (
     CountedByProvenance,
@@ -260,6 +261,7 @@ def _check_saltelli(X: np.ndarray, d: int, step: int) -> None:
             )
 
 
+@fill_doc
 def sobol_indices(
     *,
     model: Any = None,
@@ -312,16 +314,7 @@ def sobol_indices(
         The study's seed.
     max_failure_fraction : float in [0, 1], default 0.05
         Refuse above this fraction of failed Saltelli blocks.
-    n_jobs : int, default 1
-        Parallel workers: an integer >= 1, or -1 for all cores (all Dask workers).
-    backend : {"loky", "dask", "sequential"}, default "loky"
-        Where the model runs (:func:`mechrel.uq.evaluate`); the numbers do not depend on it.
-    cache : path or None
-        SQLite cache of finished evaluations (an interrupted run resumes), or None.
-    progress : bool, default True
-        Show a progress bar.
-    chunk_size : int, optional
-        Samples per task (default: about 64 chunks; never depends on ``n_jobs``).
+    %(executor)s
 
     Returns
     -------

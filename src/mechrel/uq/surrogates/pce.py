@@ -50,6 +50,7 @@ import pandas as pd
 
 from mechrel.errors import StudyError
 
+from .._docs import fill_doc
 from ..._checks import ARGS
 from .._common import (
     CountedByProvenance,
@@ -652,6 +653,7 @@ class PCEResult(OutputViews, CountedByProvenance):
         return res
 
 
+@fill_doc
 def polynomial_chaos(
     *,
     model: Any = None,
@@ -713,16 +715,7 @@ def polynomial_chaos(
     max_evaluations : int or None, default MAX_EVALUATIONS
         Refuse, before any evaluation, a training design of more model evaluations (saying
         how many, and the largest order within the limit); None: no limit.
-    n_jobs : int, default 1
-        Parallel workers: an integer >= 1, or -1 for all cores (all Dask workers).
-    backend : {"loky", "dask", "sequential"}, default "loky"
-        Where the model runs (:func:`mechrel.uq.evaluate`); the numbers do not depend on it.
-    cache : path or None
-        SQLite cache of finished evaluations (an interrupted run resumes), or None.
-    progress : bool, default True
-        Show a progress bar.
-    chunk_size : int, optional
-        Samples per task (default: about 64 chunks; never depends on ``n_jobs``).
+    %(executor)s
 
     Returns
     -------
