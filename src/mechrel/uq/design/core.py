@@ -128,14 +128,7 @@ class DesignProblem:
 
         Examples
         --------
-        >>> from mechrel.uq import FunctionModel, Normal, UncertainInputs
-        >>> from mechrel.uq.design.space import DesignVariable, ReliabilityConstraint
-        >>> inputs = UncertainInputs.from_specs({"x": Normal(0.0, 1.0)})
-        >>> space = DesignSpace([DesignVariable("t", "std", "x", 0.1, 10.0)], inputs, ["x"])
-        >>> model = FunctionModel(lambda X: X, ["x"], ["e"], vectorized=True)
-        >>> p = DesignProblem(model, inputs, space, CostExpression("1/t", space.names), "minimize",
-        ...                   ConstraintScalars(model.output_index, "two-sided", {"all": 1.0},
-        ...                                     [ReliabilityConstraint(0.99)]), "two-sided")
+        >>> p = _demo_problem()   # the class's example: x ~ N(0, 1) scaled by t, cost 1/t
         >>> p.constraints[0].label
         'all (whole-cycle) R >= 0.99'
         """
@@ -151,14 +144,7 @@ class DesignProblem:
 
         Examples
         --------
-        >>> from mechrel.uq import FunctionModel, Normal, UncertainInputs
-        >>> from mechrel.uq.design.space import DesignVariable, ReliabilityConstraint
-        >>> inputs = UncertainInputs.from_specs({"x": Normal(0.0, 1.0)})
-        >>> space = DesignSpace([DesignVariable("t", "std", "x", 0.1, 10.0)], inputs, ["x"])
-        >>> model = FunctionModel(lambda X: X, ["x"], ["e"], vectorized=True)
-        >>> p = DesignProblem(model, inputs, space, CostExpression("1/t", space.names), "minimize",
-        ...                   ConstraintScalars(model.output_index, "two-sided", {"all": 1.0},
-        ...                                     [ReliabilityConstraint(0.99)]), "two-sided")
+        >>> p = _demo_problem()   # the class's example: x ~ N(0, 1) scaled by t, cost 1/t
         >>> p.reliabilities.tolist()
         [0.99]
         """
@@ -178,14 +164,7 @@ class DesignProblem:
 
         Examples
         --------
-        >>> from mechrel.uq import FunctionModel, Normal, UncertainInputs
-        >>> from mechrel.uq.design.space import DesignVariable, ReliabilityConstraint
-        >>> inputs = UncertainInputs.from_specs({"x": Normal(0.0, 1.0)})
-        >>> space = DesignSpace([DesignVariable("t", "std", "x", 0.1, 10.0)], inputs, ["x"])
-        >>> model = FunctionModel(lambda X: X, ["x"], ["e"], vectorized=True)
-        >>> p = DesignProblem(model, inputs, space, CostExpression("1/t", space.names), "minimize",
-        ...                   ConstraintScalars(model.output_index, "two-sided", {"all": 1.0},
-        ...                                     [ReliabilityConstraint(0.99)]), "two-sided")
+        >>> p = _demo_problem()   # the class's example: x ~ N(0, 1) scaled by t, cost 1/t
         >>> p.cost_at([0.25])
         4.0
         """
@@ -206,18 +185,27 @@ class DesignProblem:
 
         Examples
         --------
-        >>> from mechrel.uq import FunctionModel, Normal, UncertainInputs
-        >>> from mechrel.uq.design.space import DesignVariable, ReliabilityConstraint
-        >>> inputs = UncertainInputs.from_specs({"x": Normal(0.0, 1.0)})
-        >>> space = DesignSpace([DesignVariable("t", "std", "x", 0.1, 10.0)], inputs, ["x"])
-        >>> model = FunctionModel(lambda X: X, ["x"], ["e"], vectorized=True)
-        >>> p = DesignProblem(model, inputs, space, CostExpression("1/t", space.names), "minimize",
-        ...                   ConstraintScalars(model.output_index, "two-sided", {"all": 1.0},
-        ...                                     [ReliabilityConstraint(0.99)]), "two-sided")
+        >>> p = _demo_problem()   # the class's example: x ~ N(0, 1) scaled by t, cost 1/t
         >>> p.model_at([3.0]).evaluate(np.array([0.5])).tolist()   # x = 3 × 0.5
         [1.5]
         """
         return AtDesign(self.model, self.space, d)
+
+
+def _demo_problem() -> DesignProblem:
+    """The problem of :class:`DesignProblem`'s example (for the examples of its members): one
+    standard normal input x scaled by the design variable t (its std), the output x itself,
+    cost 1/t, whole-cycle R ≥ 0.99, two-sided."""
+    from ..problem.inputs import Normal, UncertainInputs
+    from ..problem.model import FunctionModel
+    from .space import DesignVariable, ReliabilityConstraint
+
+    inputs = UncertainInputs.from_specs({"x": Normal(0.0, 1.0)})
+    space = DesignSpace([DesignVariable("t", "std", "x", 0.1, 10.0)], inputs, ["x"])
+    model = FunctionModel(lambda X: X, ["x"], ["e"], vectorized=True)
+    return DesignProblem(model, inputs, space, CostExpression("1/t", space.names), "minimize",
+                         ConstraintScalars(model.output_index, "two-sided", {"all": 1.0},
+                                           [ReliabilityConstraint(0.99)]), "two-sided")
 
 
 @dataclass(frozen=True)
