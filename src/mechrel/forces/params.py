@@ -14,6 +14,7 @@ Defaults where the paper (Chen, Wang & Gao 2022) is silent are collected in :dat
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -118,12 +119,16 @@ def _in_range(x: float, gt=None, ge=None, lt=None, le=None, unit=None) -> bool:
 def _limited(field: str, value: Any) -> float:
     x = _real(field, value)
     spec = LIMITS[field]
-    _check(field, value, _in_range(x, **spec), describe_range(**spec))
+    _check(field, value, _in_range(x, **spec), lambda: describe_range(**spec))
     return x
 
 
-def _check(field: str, value: Any, ok: bool, allowed: str) -> None:
+def _check(field: str, value: Any, ok: bool, allowed: str | Callable[[], str]) -> None:
+    """Raise the force law's error for ``field`` unless ``ok``; ``allowed`` (or what it
+    returns: the text is worded only for a message) says what the field admits."""
     if not ok:
+        if callable(allowed):
+            allowed = allowed()
         err = SceneError(f"{field} = {value!r} is invalid: allowed {allowed}", path=field)
         err.value, err.allowed = value, allowed  # for the scene loader's message
         raise err
@@ -232,33 +237,33 @@ def pack_params(
     if row.has_film:
         _check("cavitation", params.get("cavitation", DEFAULTS["cavitation"]),
                ccode == CAVITATION_HALF_SOMMERFELD or bcode == BEARING_FINITE,
-               f"'half-sommerfeld' for bearing {bearing!r} (closed form); 'reynolds' needs "
+               lambda: f"'half-sommerfeld' for bearing {bearing!r} (closed form); 'reynolds' needs "
                "bearing 'finite'")
 
     c = _limited("clearance", clearance)
     RB = _real("bearing_radius", bearing_radius)
     _check("bearing_radius", bearing_radius, RB > c,
-           f"> clearance = {c!r} (the journal radius R_S = bearing_radius - clearance "
+           lambda: f"> clearance = {c!r} (the journal radius R_S = bearing_radius - clearance "
            "must be > 0, m)")
     RS = RB - c
     L = _limited("length", length)
     K = _limited("stiffness", stiffness)
     _check("v1", params.get("v1", DEFAULTS["v1"]), values["v1"] > values["v0"],
-           f"> v0 = {values['v0']!r} (m/s)")
+           lambda: f"> v0 = {values['v0']!r} (m/s)")
     if row.has_film:
         _check("viscosity", params.get("viscosity", DEFAULTS["viscosity"]),
-               values["viscosity"] > 0.0, f"> 0 (Pa s) for model {model!r}")
+               values["viscosity"] > 0.0, lambda: f"> 0 (Pa s) for model {model!r}")
     if row.has_film and bcode == BEARING_FINITE:
         from mechrel.forces.finite_film import TABLES_PRESENT
         cav = str(params.get("cavitation", DEFAULTS["cavitation"])).lower()
         _check("bearing", bearing, TABLES_PRESENT[cav],
-               f"a bearing for which a table is installed: the {cav} table of the finite film "
-               "is missing; build it with python -m mechrel.forces.finite_table")
+               lambda: f"a bearing for which a table is installed: the {cav} table of the finite "
+               "film is missing; build it with python -m mechrel.forces.finite_table")
         lo, hi = FINITE_LD_RANGE
         ld = L / (2.0 * RS)
         _check("length", length, lo * (1 - 1e-12) <= ld <= hi * (1 + 1e-12),
-               f"L/D = length / (2 journal radius) in [{lo:g}, {hi:g}] for bearing 'finite' "
-               f"(here L/D = {ld:.4g}); use bearing 'long' above, 'short' below")
+               lambda: f"L/D = length / (2 journal radius) in [{lo:g}, {hi:g}] for bearing "
+               f"'finite' (here L/D = {ld:.4g}); use bearing 'long' above, 'short' below")
 
     p = np.empty(N_PARAMS, dtype=np.float64)
     p[P_MODEL] = row.code

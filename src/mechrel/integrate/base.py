@@ -153,8 +153,12 @@ class SolverStats:
         >>> list(d)[:4], d["settings"], d["n_steps"], d["n_rhs"]   # 4 evaluations per step
         (['integrator', 'settings', 'n_steps', 'n_rhs'], {'step': 0.001}, 100, 401)
         """
-        from dataclasses import asdict
-        return asdict(self)
+        from dataclasses import fields
+        # shallow (``dataclasses.asdict`` deep-copies recursively): only ``settings`` holds
+        # a container, copied so that the dictionary does not alias the run's own
+        out = {f.name: getattr(self, f.name) for f in fields(self)}
+        out["settings"] = dict(self.settings)
+        return out
 
 
 @dataclass(frozen=True)

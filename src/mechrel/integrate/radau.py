@@ -1425,7 +1425,7 @@ def _advance_reduced(red, radau, t0, y0, hist, t_out, ctl, log_from, n_dense):
     :class:`~mechrel.integrate.base.Integrator` unchanged. The constraint violation reported
     is that of the first and last outputs, by the dense constraint functions (the
     construction satisfies the constraints to round-off at every instant)."""
-    from ..mechanics.constraints import constraints
+    from ..mechanics.constraints import violations_at
     from ..mechanics.reduced import expand_rows, make_reduced_work, reduced_coordinates
 
     system, con = red.sys, red.con
@@ -1436,17 +1436,14 @@ def _advance_reduced(red, radau, t0, y0, hist, t_out, ctl, log_from, n_dense):
         red, smooth, t0, yr0, hist, t_out, radau.step or 0.0, radau.rtol, radau.atol,
         radau.max_steps, radau.onset_tolerance, radau.fixed_step, ctl, log_from, n_dense)
     done = [k for k in (0, int(ctl[CTL_DONE]) - 1) if 0 <= k < Y.shape[0]]
-    for k in done:
-        if np.all(np.isfinite(Y[k])):
-            phi, phit, J = constraints(Y[k, :n], float(t_out[k]), system)
-            stats[S_VIOL_POS] = max(stats[S_VIOL_POS], float(np.max(np.abs(phi), initial=0.0)))
-            stats[S_VIOL_VEL] = max(stats[S_VIOL_VEL],
-                                    float(np.max(np.abs(J @ Y[k, n:2 * n] + phit), initial=0.0)))
+    pos, vel = violations_at(Y, t_out, np.array(done, dtype=np.int64), system)
+    stats[S_VIOL_POS] = max(stats[S_VIOL_POS], pos)
+    stats[S_VIOL_VEL] = max(stats[S_VIOL_VEL], vel)
     ny = 2 * n + 2
     ya, yda = np.empty((1, ny)), np.empty((1, ny))
     fr = np.zeros((1, y.shape[0]))  # the final state's z'' is not needed: q, q' only
     rw = make_reduced_work(system, con, red.q_ref)
-    if done and np.all(np.isfinite(Y[done[-1], :n])):  # angles continue the last output's
+    if done and np.isfinite(Y[done[-1], :n]).all():  # angles continue the last output's
         rw.th_ref[:] = Y[done[-1], 2:n:3]
     expand_rows(np.array([t]), y.reshape(1, -1), fr, system, con, rw, ya, yda)
     return Y, YD, hist, stats, t, ya[0], log, H

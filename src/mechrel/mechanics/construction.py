@@ -538,13 +538,15 @@ def construction(system) -> Construction | None:
      'POSE_ANGLE']
     """
     s = system
-    if np.any(s.rev_off != 0.0) or np.any(s.rev_offdot != 0.0):
+    if s.rev_off.any() or s.rev_offdot.any():  # a nonzero (or NaN) offset
         return None
     parts = (s.rev_i, s.rev_j, s.rev_si, s.rev_sj, s.tr_i, s.tr_si, s.tr_p0, s.tr_n,
              s.tr_angle, s.fa_i, s.fa_angle, s.ln_i, s.ln_si, s.ln_j, s.ln_sj, s.ln_n,
              s.ra_i, s.ra_j, s.ra_angle, s.dr_i, s.cl_b, s.cl_sb, s.cl_j, s.cl_sj)
-    key = (s.mass.shape[0],) + tuple((a.shape, np.ascontiguousarray(a).tobytes())
-                                     for a in parts)
+    # the plan is a function of these arrays' shapes and contents (one bytes string: hashed
+    # once, the key looked up on every run of a sample)
+    key = (s.mass.shape[0], tuple(a.shape for a in parts),
+           b"".join([a.tobytes() for a in parts]))
     if key not in _PLANS:
         if len(_PLANS) >= 256:
             _PLANS.clear()

@@ -24,7 +24,7 @@ import numpy as np
 from numba import njit
 
 from ..errors import AssemblyError
-from .constraints import constraint_terms, constraints
+from .constraints import constraint_terms, constraints, violations_at
 from .construction import _construct, construction
 from .dynamics import make_workspace
 
@@ -506,10 +506,9 @@ def kinematic_analysis(system, q_guess, times, *, tol=1e-12, max_iter=50, labels
     head = None  # the instants placed in closed form before Newton took over
     if plan is not None:  # closed form; Newton from the first instant it cannot build, if any
         Q, V, A, done = _construct(q_guess, times, system, plan)
-        viol = 0.0  # |Φ| of the first and last instant built (module construction's docstring)
-        for k in {0, done - 1} if done > 0 else ():
-            viol = max(viol, float(np.max(np.abs(constraints(Q[k], times[k], system)[0]),
-                                          initial=0.0)))
+        # |Φ| of the first and last instant built (module construction's docstring)
+        viol = violations_at(Q, times, np.array([0, done - 1] if done > 0 else [],
+                                                dtype=np.int64), system)[0]
         if viol <= tol:  # (a NaN fails too)
             if done == times.shape[0]:
                 return Q, V, A, viol

@@ -631,7 +631,7 @@ class MechanismModel:
         if getattr(self, "with_sectors", False):
             parts += [v for q in self.quantities for v in res.sector_extremes[self.output][q]]
         out = np.concatenate(parts)
-        if not np.all(np.isfinite(out)):
+        if not np.isfinite(out).all():
             raise ModelFailure("non-finite response error")
         return out
 
