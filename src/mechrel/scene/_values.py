@@ -13,8 +13,8 @@ values sit in, not on the whole scene:
 * a joint, a body or the ground points whose table holds a value is validated again by the
   builder's own method for one joint, one body or the ground (a joint's sub-tables that hold
   none of the values, its model unchanged, are the scene's: they passed the same checks with
-  the same content); a change of a joint or of the
-  points also runs the check of zero-length links, a change of a joint the outputs' (they
+  the same content); a change of the points or of a joint's type or connects
+  also runs the check of zero-length links, a change of a joint the outputs' (they
   name joints), a change of a driver the drivers' table and the analysis' (which reads the
   cycle driver's speed);
 * the tables that hold none of the values are taken from the scene as they are: they passed
@@ -179,6 +179,11 @@ class SceneValues:
         self.bodies = tuple(n for n in scene.bodies if ("body", n) in tables)
         self.ground = ("ground",) in tables
         self.drivers = ("drivers",) in tables
+        # the check of zero-length links reads the points and the joints' type and points:
+        # with none of them among the values it passes as it did for the scene
+        self._links = self.ground or bool(self.bodies) or any(
+            value_path(p).split(".")[2].split("[")[0] in ("type", "connects")
+            for p in paths if table_of(p) is not None and table_of(p)[0] == "joint")
 
     def __call__(self, values: Mapping[str, Any]) -> Scene:
         return self.validate(values)[0]
@@ -246,7 +251,7 @@ class SceneValues:
                 table[name] = freeze(joint_to_raw(joints[name]))
             joints = changed["joints"] = MappingProxyType(joints)
             new_raw["joints"] = MappingProxyType(table)
-        if self.joints or self.bodies or self.ground:
+        if self._links:
             b._zero_length_links(bodies, joints)
         drivers = scene.drivers
         if self.drivers:
