@@ -68,6 +68,7 @@ from ..estimators._problem import concat_evaluations
 from ..estimators.ak import LOO_LIMIT, _candidates, _loo_near_zero, _Surrogates
 from ..execution.executor import evaluate
 from ..problem.inputs import child_seed
+from ..surrogates.kriging import Believer, one_blas_thread
 from .core import DesignEstimate, optimise
 
 __all__ = ["design_active_learning", "N_TAIL"]
@@ -78,19 +79,6 @@ N ≥ N_TAIL/(1 − R_t): P̂_f's sampling c.o.v. ≤ 7 % there (and 22 % at the
 rarest point, a tenth of it)."""
 
 ACTIVE_FRACTION = 0.05
-
-_CONTROLLER: list = []
-
-
-def _one_blas_thread():
-    """A context of one BLAS thread (the Kriging predictions are then the same for any
-    machine's thread count); the library scan is done once per process, not per call (it cost
-    a sixth of the method's time)."""
-    if not _CONTROLLER:
-        from threadpoolctl import ThreadpoolController
-        _CONTROLLER.append(ThreadpoolController())
-    return _CONTROLLER[0].limit(limits=1, user_api="blas")
-
 
 class SurrogateConstraints:
     """The constraints' factors at any design from Kriging surrogates of the units' margins
@@ -142,7 +130,7 @@ class SurrogateConstraints:
         m = Zs.shape[0]
         mu = np.empty((m, len(self.gps)))
         sd = np.empty((m, len(self.gps))) if std else None
-        with _one_blas_thread():
+        with one_blas_thread():
             for c, gp in enumerate(self.gps):
                 if std:
                     mu[:, c], sd[:, c] = gp.predict(Zs, std=True)
@@ -279,27 +267,19 @@ def _select(est: SurrogateConstraints, d, MU, SD, k: int, exclude: list) -> tupl
     best = float(score[cand[0]])
     if k == 1:
         return Z[cand[:1]], best
-    Zs = (Z[cand] - est.centre) / est.width
-    with _one_blas_thread():
-        covs = [gp.posterior_cov(Zs) for gp in est.gps]
-    noise = [getattr(gp, "nugget", 0.0) * getattr(gp, "sigma2", 0.0) for gp in est.gps]
+    believer = Believer(est.gps, (Z[cand] - est.centre) / est.width)
     mu_c = MU[cand]
     chosen: list[int] = []
     for _ in range(k):
         sc = np.zeros(m)
         for g in govs:
             gc = g[cand]
-            var = np.array([covs[gc[i]][i, i] for i in range(m)])
-            s = np.sqrt(np.maximum(var, 1e-300))
+            s = believer.std(gc)
             sc = np.maximum(sc, special.ndtr(-np.abs(mu_c[np.arange(m), gc]) / s))
         sc[chosen] = -1.0
         j = int(np.argmax(sc))
         chosen.append(j)
-        for c, S in enumerate(covs):
-            col = S[:, j].copy()
-            denom = S[j, j] + noise[c]
-            if denom > 0:
-                S -= np.outer(col, col) / denom
+        believer.run(j)
     return Z[cand[chosen]], best
 
 

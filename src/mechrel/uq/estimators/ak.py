@@ -249,13 +249,11 @@ class _Surrogates:
         self.fits = 0
 
     def fit(self, U: np.ndarray, G: np.ndarray) -> None:
-        from threadpoolctl import threadpool_limits
-
-        from ..surrogates.kriging import fit_kriging
+        from ..surrogates.kriging import fit_kriging, one_blas_thread
 
         old = self.gps
         gps = []
-        with threadpool_limits(1, "blas"):
+        with one_blas_thread():
             for c in range(G.shape[1]):
                 y = G[:, c]
                 if np.ptp(y) == 0.0:
@@ -268,12 +266,12 @@ class _Surrogates:
 
     def predict(self, U: np.ndarray, std: bool = True):
         """μ (m, c) and σ (m, c) of every unit (σ None with ``std=False``)."""
-        from threadpoolctl import threadpool_limits
+        from ..surrogates.kriging import one_blas_thread
 
         m = U.shape[0]
         mu = np.empty((m, len(self.gps)))
         sd = np.empty((m, len(self.gps))) if std else None
-        with threadpool_limits(1, "blas"):
+        with one_blas_thread():
             for c, gp in enumerate(self.gps):
                 if std:
                     mu[:, c], sd[:, c] = gp.predict(U, std=True)
@@ -732,28 +730,21 @@ def _select(sur, U, MU, SD, w, frozen, learning, k, exclude, system_kind):
     best = float(score[cand[0]])
     if k == 1:
         return U[cand[:1]], best
-    from threadpoolctl import threadpool_limits
+    from ..surrogates.kriging import Believer
 
     C = U[cand]
-    with threadpool_limits(1, "blas"):
-        covs = [gp.posterior_cov(C) for gp in sur.gps]
-    noise = [getattr(gp, "nugget", 0.0) * getattr(gp, "sigma2", 0.0) for gp in sur.gps]
+    believer = Believer(sur.gps, C)
     g_c = gov[cand]
     mu_c = mu[cand]
     w_c = w[cand]
-    chosen = []
+    chosen: list[int] = []
     for _ in range(k):
-        var = np.array([covs[g_c[i]][i, i] for i in range(m)])
-        s = np.sqrt(np.maximum(var, 1e-300))
+        s = believer.std(g_c)
         sc = w_c * (special.ndtr(-np.abs(mu_c) / s) if learning == "U" else _eff(mu_c, s))
         sc[chosen] = -1.0
         j = int(np.argmax(sc))
         chosen.append(j)
-        for c, S in enumerate(covs):
-            col = S[:, j].copy()
-            denom = S[j, j] + noise[c]
-            if denom > 0:
-                S -= np.outer(col, col) / denom
+        believer.run(j)
     return C[chosen], best
 
 
