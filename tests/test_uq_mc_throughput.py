@@ -226,3 +226,23 @@ def test_tally_takes_an_output_on_its_allowable_as_inside_and_nan_as_outside():
     assert k.tolist() == [1, 3] and kg.tolist() == [1] and kj == 1
     k, kg, kj = tally(Y, ok, ok, mu, sd, None, np.zeros(2, int), False, member)
     assert k.tolist() == [1, 3] and kj == 1  # -1 <= 1 one-sided too
+
+
+def test_a_batch_row_whose_sum_overflows_is_ok_and_the_models_array_is_not_written():
+    # the failed rows are found by the rows' sums (a product with ones): an overflowing sum of
+    # finite entries is looked at entry by entry, and stays a success
+    given = np.array([[1e308, 1e308], [1.0, np.inf], [np.nan, np.nan], [2.0, 3.0]])
+    seen = []
+
+    def f(X):
+        Y = given[X[:, 0].astype(int)].copy()
+        seen.append(Y)
+        return Y
+
+    model = FunctionModel(f, ["i"], ["a", "b"], key="overflow", vectorized=True)
+    ev = evaluate(model, np.arange(4.0)[:, None], chunk_size=4, progress=False)
+    assert ev.ok.tolist() == [True, False, False, True]
+    assert ev.reasons == (None, "non-finite output (1 of 2 entries)",
+                          "non-finite output (2 of 2 entries)", None)
+    assert ev.Y[0].tolist() == [1e308, 1e308] and np.isnan(ev.Y[1:3]).all()
+    assert seen[0][1].tolist() == [1.0, np.inf]  # the model's array as it gave it
