@@ -84,10 +84,19 @@ def tally(Y: np.ndarray, rows: np.ndarray, ok: np.ndarray, mu: np.ndarray, sd: n
         The counted samples with every group's event.
     """
     spread = xi is not None
-    xi_ = np.ascontiguousarray(xi, dtype=float) if spread else np.zeros((1, 1))
-    col_ = np.asarray(col, dtype=np.int64) if spread else np.zeros(Y.shape[1], dtype=np.int64)
+    k = Y.shape[1]
+    xi = xi if spread else np.zeros((1, 1))
+    col = col if spread else np.zeros(k, dtype=np.int64)
     k_out, k_group, k_joint = _tally(
-        np.ascontiguousarray(Y, dtype=float), np.asarray(rows, dtype=np.bool_),
-        np.asarray(ok, dtype=np.bool_), np.asarray(mu, dtype=float), np.asarray(sd, dtype=float),
-        xi_, col_, spread, bool(two_sided), np.asarray(member, dtype=np.bool_).reshape(-1, Y.shape[1]))
+        _frozen(Y, float), _frozen(rows, np.bool_), _frozen(ok, np.bool_), _frozen(mu, float),
+        _frozen(sd, float), _frozen(xi, float), _frozen(col, np.int64), spread, bool(two_sided),
+        _frozen(np.reshape(member, (-1, k)), np.bool_))
     return k_out, k_group, int(k_joint)
+
+
+def _frozen(a, dtype) -> np.ndarray:
+    """A read-only C-ordered view of ``a`` (a copy only when its type or layout differ): one
+    compiled specialisation of :func:`_tally` for whatever arrays the callers hold."""
+    v = np.ascontiguousarray(a, dtype=dtype).view()
+    v.setflags(write=False)
+    return v
