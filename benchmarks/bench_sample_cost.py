@@ -33,8 +33,9 @@ Cases
     run's result released before the next as the NumPy yardstick's is, then with a fixed
     allowable and the results kept (``monte_carlo_kept``: each run takes 10⁸ bytes of fresh
     memory, whose kernel time, ``sys_*``, is large on a virtual machine), and the time it
-    takes to draw the samples. Every figure is given as wall time and as this process's CPU
-    time (``cpu_*``): on a shared machine the CPU time is what the work costs.
+    takes to draw the samples; and the run's phases one by one (``phase_*``, CPU). Every
+    figure is given as wall time and as this process's CPU time (``cpu_*``): on a shared
+    machine the CPU time is what the work costs.
 
 Run::
 
@@ -365,7 +366,38 @@ def case_vectorised() -> dict:
     for key in ("monte_carlo", "monte_carlo_sampled_I", "monte_carlo_kept"):
         for clock in ("", "cpu_"):
             out[clock + key + "_over_numpy"] = out[clock + key] / out[clock + "numpy"]
+    out.update(_monte_carlo_phases(inputs, model(slider_error, "ok"), n))
     return out
+
+
+def _monte_carlo_phases(inputs, model, n) -> dict:
+    """What a Monte Carlo run of the vectorised case is made of, phase by phase, as
+    ``monte_carlo`` calls them (median of 3, CPU seconds, ``phase_*``): drawing the inputs
+    (and ``ndtri`` of as many uniforms alone, the floor of a normal input's inverse CDF),
+    ``evaluate``, the counts inside a fixed and a sampled allowable, the moments."""
+    from scipy import special
+
+    from mechrel.uq import Allowable, evaluate
+    from mechrel.uq.estimators.monte_carlo import reliability_from_samples, sample_moments
+    from mechrel.uq.problem.inputs import as_seed_sequence, child_seed
+
+    ss = as_seed_sequence(1)
+    X = inputs.sample(n, "random", child_seed(ss, 0))
+    X.setflags(write=False)
+    ev = evaluate(model, X, progress=False)
+    U = np.random.default_rng(0).random((n, X.shape[1]))
+
+    def counts(sd):
+        return lambda: reliability_from_samples(
+            ev, allowable=Allowable(1e-4, sd), event="two-sided", allowable_mode="sampled",
+            seed=child_seed(ss, 1), confidence_level=0.95, ci_method="wilson",
+            failures="exclude")
+    phases = {"sampling": lambda: inputs.sample(n, "random", child_seed(ss, 0)),
+              "ndtri": lambda: special.ndtri(U),
+              "evaluate": lambda: evaluate(model, X, progress=False),
+              "counts_fixed": counts(0.0), "counts_sampled": counts(2e-5),
+              "moments": lambda: sample_moments(ev.Y, rows=ev.ok, confidence_level=0.95)}
+    return {"phase_" + k: _best_of(f, 3)[1] for k, f in phases.items()}
 
 
 def child(case: str) -> None:
