@@ -759,7 +759,7 @@ VECTORIZED_CHUNK = 8192
 def default_chunk_size(n: int, vectorized: bool = False) -> int:
     """About 64 chunks of the ``n`` samples, each of 1..1000 samples for a model evaluated row
     by row, of 1..:data:`VECTORIZED_CHUNK` rows for a vectorised one (one call per chunk: the
-    executor's own work, some 30 µs a chunk, stays a few per cent of a cheap model's); depends
+    executor's own work, tens of µs a chunk, stays a few per cent of a cheap model's); depends
     only on the number of samples and the kind of model, never on the workers."""
     cap = VECTORIZED_CHUNK if vectorized else 1000
     return int(min(cap, max(1, math.ceil(n / 64))))
