@@ -23,15 +23,19 @@ Cases
 ``vectorised``
     A vectorised ``FunctionModel`` (the slider-crank's closed-form slider position error at 8
     crank angles for three length tolerances, 10⁶ rows) through ``evaluate`` against the plain
-    NumPy expression on the same rows (whole, and in the executor's chunks: the faster is the
-    yardstick); then 1 % of the rows failing, reported by the model as NaN rows (a row mask),
-    by ``RowFailures`` (its failed rows' reasons as ``{row: reason}``, ``row_failures``, and
-    as a list with an entry per row, ``row_failures_list``), and by raising ``ModelFailure``
-    for the whole batch (on 2·10⁵ rows, as in the issue); then ``monte_carlo`` of the same
-    model at 10⁶ samples (after a first run at 10³ samples, timed on its own: what a process
-    pays once), with a fixed and with a sampled allowable, and the time it takes to draw the
-    samples. Every figure is given as wall time and as this process's CPU
-    time (``cpu_*``): on a shared machine the CPU time is what the work costs.
+    NumPy expression on the same rows (whole, and in chunks of 1000 and of 8192 rows: the
+    fastest is the yardstick); then 1 % of the rows failing, reported by the model as NaN
+    rows (a row mask), by ``RowFailures`` (its failed rows' reasons as ``{row: reason}``,
+    ``row_failures``, and as a list with an entry per row, ``row_failures_list``), and by
+    raising ``ModelFailure`` for the whole batch (on 2·10⁵ rows, as in the issue); then
+    ``monte_carlo`` of the same model at 10⁶ samples (after a first run at 10³ samples, timed
+    on its own: what a process pays once), with a fixed and with a sampled allowable, each
+    run's result released before the next as the NumPy yardstick's is, then with a fixed
+    allowable and the results kept (``monte_carlo_kept``: each run takes 10⁸ bytes of fresh
+    memory, whose kernel time, ``sys_*``, is large on a virtual machine), and the time it
+    takes to draw the samples; and the run's phases one by one (``phase_*``, CPU). Every
+    figure is given as wall time and as this process's CPU time (``cpu_*``): on a shared
+    machine the CPU time is what the work costs.
 
 Run::
 
@@ -54,6 +58,7 @@ for _v in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "NUMBA_
 import argparse  # noqa: E402
 import hashlib  # noqa: E402
 import json  # noqa: E402
+import resource  # noqa: E402
 import statistics  # noqa: E402
 import subprocess  # noqa: E402
 import sys  # noqa: E402
@@ -277,14 +282,21 @@ def case_vectorised() -> dict:
     def model(f, key):
         return FunctionModel(f, ["r", "l", "e"], labels, key=key, vectorized=True)
 
-    cs = default_chunk_size(n)
+    try:  # the tree's chunk of a vectorised model (since issue 35's third part)
+        cs = default_chunk_size(n, vectorized=True)
+    except TypeError:
+        cs = default_chunk_size(n)
     whole = _best_of(lambda: slider_error(X), 3)
-    chunks = _best_of(lambda: np.concatenate([slider_error(X[s:s + cs])
-                                              for s in range(0, n, cs)]), 3)
+    # in chunks of 1000 and of 8192 rows (the row-by-row and the vectorised default), the
+    # same for every tree: the yardstick does not depend on the tree's executor
+    chunks = [_best_of(lambda k=k: np.concatenate([slider_error(X[s:s + k])
+                                                   for s in range(0, n, k)]), 3)
+              for k in (1000, 8192)]
     out = {"n": n, "chunk_size": cs}
-    for i, clock in enumerate(("", "cpu_")):  # the NumPy yardstick: the faster way
-        out[clock + "numpy_whole"], out[clock + "numpy_chunks"] = whole[i], chunks[i]
-        out[clock + "numpy"] = min(whole[i], chunks[i])
+    for i, clock in enumerate(("", "cpu_")):  # the NumPy yardstick: the fastest way
+        out[clock + "numpy_whole"] = whole[i]
+        out[clock + "numpy_chunks"], out[clock + "numpy_chunks_8192"] = (c[i] for c in chunks)
+        out[clock + "numpy"] = min(whole[i], *(c[i] for c in chunks))
     ev = evaluate(model(slider_error, "ok"), X, progress=False)
     t = _best_of(lambda: evaluate(model(slider_error, "ok"), X, progress=False), 3)
     out["evaluate"], out["cpu_evaluate"] = t
@@ -317,26 +329,75 @@ def case_vectorised() -> dict:
         return monte_carlo(model=model(slider_error, "ok"), inputs=inputs, n=k, seed=1,
                            allowable=Allowable(1e-4, sd), progress=False)
 
+    def runs_of(key, sd, keep=False):
+        """Three runs at 10⁶ rows, medians; each run's result released before the next, as
+        the NumPy yardstick's output is (``keep``: kept, all three alive at the end). Also
+        the kernel's share of the CPU time, ``sys_*`` (a mean): what faulting in fresh memory
+        costs (a kept result makes the next run take its arrays from fresh memory)."""
+        runs = []
+
+        def one():
+            if not keep:
+                runs.clear()
+            runs.append(mc(n, sd))
+        s0 = resource.getrusage(resource.RUSAGE_SELF).ru_stime
+        out[key], out["cpu_" + key] = _best_of(one, 3)
+        out["sys_" + key] = (resource.getrusage(resource.RUSAGE_SELF).ru_stime - s0) / 3
+        return runs[-1]
+
     # what a run costs once per process (loading compiled code, reading package metadata),
     # then the run at 10⁶ rows, median of 3: the throughput. With a fixed allowable (σ_I = 0)
-    # and with a sampled one (σ_I = 20 µm: one N(0,1) draw per sample, scaled per output)
+    # and with a sampled one (σ_I = 20 µm: one N(0,1) draw per sample, scaled per output);
+    # then the fixed one again with each run's result kept alive
     c = _Clock()
     mc(1000, 0.0)
     out["monte_carlo_first_1e3"], out["cpu_monte_carlo_first_1e3"] = c.lap()
-    runs = []
-    out["monte_carlo"], out["cpu_monte_carlo"] = _best_of(lambda: runs.append(mc(n, 0.0)), 3)
-    r = runs[-1]
+    r = runs_of("monte_carlo", 0.0)
     out["monte_carlo_evaluate"] = float(r.evaluations.wall_time)
     out["monte_carlo_sampling"], out["cpu_monte_carlo_sampling"] = sampling
     out["digest_mc"] = _digest(r.to_frame().select_dtypes("number").to_numpy())
-    runs.clear()
-    out["monte_carlo_sampled_I"], out["cpu_monte_carlo_sampled_I"] = _best_of(
-        lambda: runs.append(mc(n, 2e-5)), 3)
-    out["digest_mc_sampled_I"] = _digest(runs[-1].to_frame().select_dtypes("number").to_numpy())
-    for key in ("monte_carlo", "monte_carlo_sampled_I"):
+    del r
+    r = runs_of("monte_carlo_sampled_I", 2e-5)
+    out["digest_mc_sampled_I"] = _digest(r.to_frame().select_dtypes("number").to_numpy())
+    del r
+    r = runs_of("monte_carlo_kept", 0.0, keep=True)
+    assert _digest(r.to_frame().select_dtypes("number").to_numpy()) == out["digest_mc"]
+    del r
+    for key in ("monte_carlo", "monte_carlo_sampled_I", "monte_carlo_kept"):
         for clock in ("", "cpu_"):
             out[clock + key + "_over_numpy"] = out[clock + key] / out[clock + "numpy"]
+    out.update(_monte_carlo_phases(inputs, model(slider_error, "ok"), n))
     return out
+
+
+def _monte_carlo_phases(inputs, model, n) -> dict:
+    """What a Monte Carlo run of the vectorised case is made of, phase by phase, as
+    ``monte_carlo`` calls them (median of 3, CPU seconds, ``phase_*``): drawing the inputs
+    (and ``ndtri`` of as many uniforms alone, the floor of a normal input's inverse CDF),
+    ``evaluate``, the counts inside a fixed and a sampled allowable, the moments."""
+    from scipy import special
+
+    from mechrel.uq import Allowable, evaluate
+    from mechrel.uq.estimators.monte_carlo import reliability_from_samples, sample_moments
+    from mechrel.uq.problem.inputs import as_seed_sequence, child_seed
+
+    ss = as_seed_sequence(1)
+    X = inputs.sample(n, "random", child_seed(ss, 0))
+    X.setflags(write=False)
+    ev = evaluate(model, X, progress=False)
+    U = np.random.default_rng(0).random((n, X.shape[1]))
+
+    def counts(sd):
+        return lambda: reliability_from_samples(
+            ev, allowable=Allowable(1e-4, sd), event="two-sided", allowable_mode="sampled",
+            seed=child_seed(ss, 1), confidence_level=0.95, ci_method="wilson",
+            failures="exclude")
+    phases = {"sampling": lambda: inputs.sample(n, "random", child_seed(ss, 0)),
+              "ndtri": lambda: special.ndtri(U),
+              "evaluate": lambda: evaluate(model, X, progress=False),
+              "counts_fixed": counts(0.0), "counts_sampled": counts(2e-5),
+              "moments": lambda: sample_moments(ev.Y, rows=ev.ok, confidence_level=0.95)}
+    return {"phase_" + k: _best_of(f, 3)[1] for k, f in phases.items()}
 
 
 def child(case: str) -> None:

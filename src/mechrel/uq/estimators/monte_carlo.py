@@ -81,6 +81,7 @@ from ..results import OutputViews, ResultTable, limit_state_value
 from ..problem.allowables import (binomial_interval, check_event, per_angle_mask, resolve_allowables,
                           whole_cycle_column)
 from ._moments import column_moments
+from ._tally import tally
 from ._problem import Problem
 
 __all__ = ["monte_carlo", "monte_carlo_design", "MonteCarloResult", "ALLOWABLE_MODES",
@@ -106,27 +107,16 @@ def _standard_draws(n: int, groups: np.ndarray, seed: np.random.SeedSequence):
     return xi, np.array([uniq.index(g) for g in groups])
 
 
-def _inside(Y: np.ndarray, mu_I: np.ndarray, sd_I: np.ndarray, groups: np.ndarray, mode: str,
-            seed: np.random.SeedSequence, event: str, block: int = 8192) -> np.ndarray:
-    """(n, n_out) bool: whether each output of each sample is inside its allowable (the
-    ``event``), the allowables of :func:`_draw_allowables`, compared a block of rows at a time
-    (the same numbers: each entry is the same expression of the same draw).
-
-    Where no output's allowable has a spread (``fixed``, or every ``sigma_I`` 0) the allowable
-    is its mean, bitwise (μ + 0·ξ = μ for a finite ξ), and nothing is drawn: the allowables'
-    stream is a child seed of its own, read by nothing else."""
-    n = Y.shape[0]
-    two_sided = event == "two-sided"
-    spread = mode != "fixed" and bool(np.any(sd_I))
-    if spread:
-        xi, col = _standard_draws(n, groups, seed)
-    inside = np.empty(Y.shape, dtype=bool)
-    with np.errstate(invalid="ignore"):
-        for s in range(0, n, block):  # no (n, n_out) temporaries
-            I = mu_I[None, :] + sd_I[None, :] * xi[s:s + block, col] if spread else mu_I
-            y = Y[s:s + block]
-            np.less_equal(np.abs(y) if two_sided else y, I, out=inside[s:s + block])
-    return inside
+def _allowable_draws(n: int, sd_I: np.ndarray, groups: np.ndarray, mode: str,
+                     seed: np.random.SeedSequence):
+    """The N(0,1) draws of the allowables and each output's column in them (those of
+    :func:`_draw_allowables`), or ``(None, None)`` where no output's allowable has a spread
+    (``fixed``, or every ``sigma_I`` 0): the allowable is then its mean, bitwise (μ + 0·ξ = μ
+    for a finite ξ), and nothing is drawn (the allowables' stream is a child seed of its own,
+    read by nothing else)."""
+    if mode == "fixed" or not np.any(sd_I):
+        return None, None
+    return _standard_draws(n, groups, seed)
 
 
 def reliability_from_samples(
@@ -140,45 +130,39 @@ def reliability_from_samples(
     ci_method: str,
     failures: str,
 ) -> tuple[pd.DataFrame, pd.DataFrame]:
-    """Point-in-time and whole-cycle reliability from evaluations (see module docstring)."""
+    """Point-in-time and whole-cycle reliability from evaluations (see module docstring); the
+    counts in one compiled pass over the outputs (:func:`~._tally.tally`)."""
     mu_I, sd_I, groups = resolve_allowables(ev.output_index, allowable)
-    inside = _inside(ev.Y, mu_I, sd_I, groups, allowable_mode, seed, event)
+    xi, col = _allowable_draws(ev.n, sd_I, groups, allowable_mode, seed)
     ok = ev.ok
-    all_ok = ev.n_failed == 0
-    if failures == "exclude":
-        rows = ok
-        if not all_ok:
-            inside = inside[rows]
-    else:
-        rows = np.ones(ev.n, dtype=bool)
-        if not all_ok:
-            inside &= ok[:, None]
+    rows = ok if failures == "exclude" else np.ones(ev.n, dtype=bool)
     n_eff = int(rows.sum())
-    k = inside.sum(axis=0)
+    # whole cycle: the event at the cycle extreme of each quantity when the model reports its
+    # cycle extremes (found on the integrator's solution), else at every analysis angle
+    angle = per_angle_mask(ev.output_index)
+    labels = list(dict.fromkeys(groups.tolist()))
+    member = np.zeros((len(labels), len(groups)), dtype=bool)
+    bases = []
+    for r, g in enumerate(labels):
+        c = whole_cycle_column(ev.output_index, g, event)
+        if c is not None:
+            member[r, c] = True
+            bases.append("cycle extreme")
+        else:
+            member[r] = (groups == g) & angle
+            bases.append("analysis angles")
+    k, k_group, k_joint = tally(ev.Y, rows, ok, mu_I, sd_I, xi, col, event == "two-sided",
+                                member)
     lo, hi = binomial_interval(k, n_eff, confidence_level=confidence_level, method=ci_method)
     point = pd.DataFrame(
         {"allowable_mean": mu_I, "allowable_std": sd_I, "n": n_eff, "n_inside": k,
          "reliability": k / n_eff if n_eff else np.nan, "reliability_lo": lo, "reliability_hi": hi},
         index=ev.output_index,
     )
-    # whole cycle: the event at the cycle extreme of each quantity when the model reports its
-    # cycle extremes (found on the integrator's solution), else at every analysis angle
-    angle = per_angle_mask(ev.output_index)
-    wc_rows = []
-    labels = list(dict.fromkeys(groups.tolist()))
-    joint = np.ones(inside.shape[0], dtype=bool)
-    bases = set()
-    for g in labels:
-        col = whole_cycle_column(ev.output_index, g, event)
-        if col is not None:
-            ok_g, basis = inside[:, col], "cycle extreme"
-        else:
-            ok_g, basis = np.all(inside[:, (groups == g) & angle], axis=1), "analysis angles"
-        joint &= ok_g
-        bases.add(basis)
-        wc_rows.append((g, int(((groups == g) & angle).sum()), int(ok_g.sum()), basis))
-    all_row = ("all", int(angle.sum()), int(joint.sum()),
-               bases.pop() if len(bases) == 1 else "mixed")
+    wc_rows = [(g, int(((groups == g) & angle).sum()), int(k_group[r]), bases[r])
+               for r, g in enumerate(labels)]
+    all_row = ("all", int(angle.sum()), k_joint,
+               bases[0] if len(set(bases)) == 1 else "mixed")
     if len(labels) == 1 and labels == ["all"]:
         wc_rows = []
     wc_rows.append(all_row)
@@ -592,6 +576,7 @@ def monte_carlo(
         with warnings.catch_warnings():  # the caveat, if any, is the result's: emitted below
             warnings.simplefilter("ignore", EstimateWarning)
             X = inputs.sample(n, rule, ss_x)
+        X.setflags(write=False)  # the design is ours: the evaluations keep it, not a copy
         notes = emit_warnings([f"monte_carlo: {note}"] if note else [])
         ev = run(model, X, executor_kwargs(n_jobs, backend, cache, progress, chunk_size))
     else:

@@ -220,8 +220,11 @@ class Evaluations:
         status = np.asarray(self.status)
         if status.dtype != np.dtype("<U6"):
             status = status.astype("<U6")
-        ok = status == STATUS_OK
-        if status.shape != (X.shape[0],) or not (ok.all() or np.all(ok | (status == STATUS_FAILED))):
+        if status.ndim == 1 and status.size > 1 and status.strides[0] == 0:
+            ok = np.full(status.shape, status[0] == STATUS_OK)  # one value n times: compared once
+        else:
+            ok = status == STATUS_OK
+        if status.shape != (X.shape[0],) or not (ok.all() or np.all(status[~ok] == STATUS_FAILED)):
             raise StudyError("evaluations.status: one of 'ok'/'failed' per row required")
         reasons = tuple(self.reasons)
         if len(reasons) != X.shape[0]:
@@ -232,12 +235,16 @@ class Evaluations:
         if failed.size and not np.all(np.isnan(Y[failed])):
             Y = np.array(Y)
             Y[failed] = np.nan
-        # the failed rows are NaN now: any other non-finite entry is in an ok row
-        if Y.size - np.count_nonzero(np.isfinite(Y)) != failed.size * Y.shape[1]:
+        # the failed rows are NaN now: any other non-finite entry is in an ok row (a finite
+        # sum of all the entries says that none is NaN or infinite, without a mask of them)
+        with np.errstate(over="ignore", invalid="ignore"):
+            sums_finite = not failed.size and np.isfinite(Y.sum())
+        if (not sums_finite
+                and Y.size - np.count_nonzero(np.isfinite(Y)) != failed.size * Y.shape[1]):
             raise StudyError(
                 "evaluations: rows marked 'ok' contain non-finite outputs; mark them 'failed' with a reason"
             )
-        missing = [i for i in failed if reasons[i] is None]
+        missing = [i for i in failed.tolist() if reasons[i] is None]
         if missing or reasons.count(None) != ok.sum() + len(missing):
             reasons = tuple(None if o else (r if r is not None else "unknown")
                             for o, r in zip(ok, reasons))
@@ -677,7 +684,13 @@ def _batch(model: Any, X: np.ndarray, n_out: int):
     fin = np.isfinite(Y)
     if given is None and fin.all():  # the usual chunk: one reduction, no per-row work
         return Y, np.ones(m, dtype=bool), ()
-    ok = fin.all(axis=1)
+    # the rows with a non-finite entry: those whose sum is not finite (a NaN or an infinity
+    # makes any sum so; a product with ones, which is fast, where a reduction along rows of a
+    # few outputs costs 30 ns a row), then entry by entry where a sum overflowed
+    with np.errstate(over="ignore", invalid="ignore"):
+        ok = np.isfinite(Y @ np.ones(n_out))
+    if not ok.all():
+        ok[~ok] = fin[~ok].all(axis=1)
     if given:
         ok[list(given)] = False
     bad = np.flatnonzero(~ok)
@@ -685,10 +698,11 @@ def _batch(model: Any, X: np.ndarray, n_out: int):
         return Y, ok, ()
     n_bad = n_out - np.count_nonzero(fin[bad], axis=1)  # non-finite entries per failed row
     given = given or {}
-    failed = tuple((i, given.get(i) or f"non-finite output ({int(k)} of {n_out} entries)")
-                   for i, k in zip(bad.tolist(), n_bad))
-    Y = np.array(Y)  # the model's array is not ours to write into
-    Y[bad] = np.nan
+    text = {k: f"non-finite output ({k} of {n_out} entries)" for k in set(n_bad.tolist())}
+    failed = tuple((i, given.get(i) or text[k]) for i, k in zip(bad.tolist(), n_bad.tolist()))
+    if (n_bad < n_out).any():  # a failed row with a finite entry: NaN, in a copy of our own
+        Y = np.array(Y)  # (the model's array is not ours to write into)
+        Y[bad] = np.nan
     return Y, ok, failed
 
 
@@ -738,9 +752,17 @@ def _consume(gen, collect) -> None:
         raise
 
 
-def default_chunk_size(n: int) -> int:
-    """About 64 chunks, 1..1000 samples each; depends only on the number of samples."""
-    return int(min(1000, max(1, math.ceil(n / 64))))
+VECTORIZED_CHUNK = 8192
+"""The most rows :func:`default_chunk_size` gives a vectorised model's chunk."""
+
+
+def default_chunk_size(n: int, vectorized: bool = False) -> int:
+    """About 64 chunks of the ``n`` samples, each of 1..1000 samples for a model evaluated row
+    by row, of 1..:data:`VECTORIZED_CHUNK` rows for a vectorised one (one call per chunk: the
+    executor's own work, tens of µs a chunk, stays a few per cent of a cheap model's); depends
+    only on the number of samples and the kind of model, never on the workers."""
+    cap = VECTORIZED_CHUNK if vectorized else 1000
+    return int(min(cap, max(1, math.ceil(n / 64))))
 
 
 def _check_backend(backend: str, n_jobs: Any) -> int:
@@ -785,7 +807,9 @@ def evaluate(
         What to evaluate (:class:`~mechrel.uq.Model`: e.g. a :class:`~mechrel.uq.FunctionModel`
         or a :class:`~mechrel.uq.MechanismModel`).
     X : array_like, shape (n, d)
-        The design, one row per sample, columns in the order of ``model.input_names``.
+        The design, one row per sample, columns in the order of ``model.input_names``. The
+        result keeps it read-only: a read-only float64 array as it is (its owner has frozen
+        it, e.g. the design an estimator drew), anything else as a copy.
     n_jobs
         Parallel workers (-1: all cores / all Dask workers). ``n_jobs=1`` runs in-process.
     backend
@@ -797,7 +821,8 @@ def evaluate(
     progress
         Show a tqdm progress bar over samples.
     chunk_size
-        Samples per task (default: about 64 chunks; never depends on ``n_jobs``).
+        Samples per task (default: about 64 chunks, at most 1000 samples each, or
+        :data:`VECTORIZED_CHUNK` for a vectorised model; never depends on ``n_jobs``).
     retry_failed
         Re-evaluate rows whose cached result is a failure.
     callback
@@ -828,10 +853,13 @@ def evaluate(
     t0 = time.perf_counter()
     input_names, output_index = check_model(model)
     n_out = len(output_index)
-    try:
-        X = np.array(X, dtype=float)
-    except (TypeError, ValueError):
-        raise StudyError("X: must be a numeric (n, d) array") from None
+    # the design is kept in the result, read-only: a read-only float array (frozen by its
+    # owner, e.g. the design an estimator drew) as it is, anything else as a copy of its own
+    if not (isinstance(X, np.ndarray) and X.dtype == np.float64 and not X.flags.writeable):
+        try:
+            X = np.array(X, dtype=float)
+        except (TypeError, ValueError):
+            raise StudyError("X: must be a numeric (n, d) array") from None
     if X.ndim == 1 and X.shape[0] == len(input_names):
         X = X[None, :]
     if X.ndim != 2 or X.shape[1] != len(input_names):
@@ -847,22 +875,24 @@ def evaluate(
         _check_picklable(model)
 
     n = X.shape[0]
-    Y = np.full((n, n_out), np.nan)
+    vectorized = bool(getattr(model, "vectorized", False))
+    Y = np.empty((n, n_out))  # every row is written: from the cache or by its chunk
     ok = np.zeros(n, dtype=bool)
-    reasons: list[str | None] = [None] * n
+    reasons: dict[int, str] = {}  # the failed rows' reasons (an ok row has none)
     done = np.zeros(n, dtype=bool)
     if cache is not None and n:
         found, Yc, okc, rc = cache.lookup(key, X, n_out)
         use = found & (okc | (not retry_failed))
         Y[use] = Yc[use]
         ok[use] = okc[use]
-        for i in np.flatnonzero(use & ~okc):  # a cached success has no reason
+        for i in np.flatnonzero(use & ~okc).tolist():  # a cached success has no reason
             reasons[i] = rc[i]
         done = use
     n_cached = int(done.sum())
     n_failed = int((done & ~ok).sum())
     todo = np.flatnonzero(~done)
-    cs = int(chunk_size) if chunk_size is not None else default_chunk_size(len(todo))
+    cs = (int(chunk_size) if chunk_size is not None
+          else default_chunk_size(len(todo), vectorized))
     chunks = [todo[s : s + cs] for s in range(0, len(todo), cs)]
     # a chunk of consecutive rows (all of them when nothing is cached) is read and written as a
     # slice: a block copy instead of a gather and a scatter by index
@@ -889,8 +919,12 @@ def evaluate(
         rows = chunks[cid]
         Y[spans[cid]] = Yk
         ok[spans[cid]] = okk
-        for i, r in failed:
-            reasons[rows[i]] = r
+        if failed:
+            span = spans[cid]
+            if isinstance(span, slice):
+                reasons.update((span.start + i, r) for i, r in failed)
+            else:
+                reasons.update(zip(rows[[i for i, _ in failed]].tolist(), (r for _, r in failed)))
         n_calls += ncalls
         n_done += len(rows)
         if cache is not None:
@@ -941,13 +975,25 @@ def evaluate(
     finally:
         bar.close()
 
-    # the arrays are this call's own: frozen in place, not copied again by Evaluations
+    # the arrays are this call's own: frozen in place, not copied again by Evaluations; the
+    # status of a run without failures is one "ok" seen n times (a read-only view, no memory)
+    if ok.all():
+        status = np.broadcast_to(np.array(STATUS_OK, dtype="<U6"), (n,))
+    else:
+        status = np.full(n, STATUS_OK, dtype="<U6")
+        status[~ok] = STATUS_FAILED
+        status.setflags(write=False)
     X.setflags(write=False)
     Y.setflags(write=False)
-    status = np.full(n, STATUS_OK, dtype="<U6")
-    status[~ok] = STATUS_FAILED
+    if reasons:
+        per_row: list[str | None] = [None] * n
+        for i, r in reasons.items():
+            per_row[i] = r
+        reasons_t = tuple(per_row)
+    else:
+        reasons_t = (None,) * n
     return Evaluations(
-        X, Y, status, tuple(reasons), input_names, output_index,
+        X, Y, status, reasons_t, input_names, output_index,
         cache_key=str(model.cache_key()), n_model_calls=n_calls, n_cached=n_cached,
         wall_time=time.perf_counter() - t0,
         settings={"n_jobs": n_jobs, "backend": backend if n_jobs != 1 else "sequential",

@@ -2112,18 +2112,29 @@ class UncertainInputs:
         >>> UncertainInputs.from_specs({"a": Uniform(0, 2)}).from_unit([[0.25]]).tolist()
         [[0.5]]
         """
-        u = np.clip(np.asarray(u, dtype=float), _U_EPS, 1.0 - _U_EPS)
+        u = np.asarray(u, dtype=float)
         if u.ndim != 2 or u.shape[1] != self.d:
             raise StudyError(f"from_unit: expected shape (n, {self.d}), got {u.shape}")
-        if self._chol is None:
-            out = np.empty_like(u)
-            for j, m in enumerate(self.marginals):
-                # a normal marginal: SciPy's norm.ppf is ndtri(u)·std + mean, the same bits as
-                # from_z(ndtri(u)) without its argument checks (a third of the sampling time)
-                out[:, j] = (m.from_z(special.ndtri(u[:, j])) if type(m) is Normal
-                             else m.scipy().ppf(u[:, j]))
-            return out
-        return self.from_standard_normal(special.ndtri(u))
+        return self._from_own_unit(np.clip(u, _U_EPS, 1.0 - _U_EPS))
+
+    def _from_own_unit(self, u: np.ndarray) -> np.ndarray:
+        """:meth:`from_unit` of points this object owns (an (n, d) float array, changed in
+        place): clipped, then mapped column by column into ``u`` itself, so that a sample of
+        10⁶ points allocates its own array and no temporaries of its size."""
+        np.clip(u, _U_EPS, 1.0 - _U_EPS, out=u)
+        if self._chol is not None:
+            return self.from_standard_normal(special.ndtri(u, out=u))
+        for j, m in enumerate(self.marginals):
+            col = u[:, j]
+            if type(m) is Normal:
+                # SciPy's norm.ppf is ndtri(u)·std + mean, the same bits as from_z(ndtri(u))
+                # (mean + std·z: IEEE sums and products commute) without its argument checks
+                special.ndtri(col, out=col)
+                np.multiply(col, m.std, out=col)
+                np.add(col, m.mean, out=col)
+            else:
+                col[...] = m.scipy().ppf(col)
+        return u
 
     def from_standard_normal(self, z: np.ndarray) -> np.ndarray:
         """Map iid standard-normal germ points to inputs (through R_z's Cholesky factor when correlated).
@@ -2268,4 +2279,4 @@ class UncertainInputs:
         >>> bool((u.sample(16, "sobol", seed=3) == u.sample(16, "sobol", seed=3)).all())
         True
         """
-        return self.from_unit(self.unit_sample(n, rule, seed))
+        return self._from_own_unit(self.unit_sample(n, rule, seed))

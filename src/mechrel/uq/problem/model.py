@@ -112,7 +112,8 @@ class RowFailures(ModelFailure):
             m = self.Y.shape[0] if self.Y.ndim else 0
             failed = {}
             for i, r in reasons.items():
-                if (isinstance(i, (bool, np.bool_)) or not isinstance(i, (int, np.integer))
+                if not (type(i) is int and 0 <= i < m) and (  # a row number: checked at once
+                        isinstance(i, (bool, np.bool_)) or not isinstance(i, (int, np.integer))
                         or not 0 <= i < m):
                     raise StudyError(f"RowFailures: {i!r} is not a row of the batch of {m} rows; "
                                      f"allowed: integers 0..{m - 1}")
