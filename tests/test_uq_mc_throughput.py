@@ -62,6 +62,20 @@ def test_default_chunk_size_depends_on_the_rows_and_the_kind_of_model_only():
     assert evaluate(_model(), X[:640], progress=False).settings["chunk_size"] == 10
 
 
+def test_a_model_caps_its_default_chunk_with_max_chunk_rows():
+    # a simulation model's rows cost milliseconds: its chunks stay at most 1 000 rows (the
+    # progress and resume steps), vectorised or not
+    from mechrel.uq.problem.mechanism import MechanismModel
+
+    assert MechanismModel.vectorized and MechanismModel.max_chunk_rows == 1000
+    assert default_chunk_size(10**6, True, MechanismModel.max_chunk_rows) == 1000
+    assert default_chunk_size(6_400, True, 50) == 50 and default_chunk_size(640, True, 50) == 10
+    model = _model()
+    model.max_chunk_rows = 700
+    X = INPUTS.sample(70_000, "random", 1)
+    assert evaluate(model, X, progress=False).settings["chunk_size"] == 700
+
+
 def test_monte_carlo_of_a_vectorised_model_is_the_same_for_any_chunk_size_and_worker_count():
     # 7·10⁴ samples: the default chunk of a vectorised model (1 094 rows) is not the 1 000 of
     # the row-wise rule; 1 % of the rows fail (NaN rows)

@@ -756,12 +756,14 @@ VECTORIZED_CHUNK = 8192
 """The most rows :func:`default_chunk_size` gives a vectorised model's chunk."""
 
 
-def default_chunk_size(n: int, vectorized: bool = False) -> int:
+def default_chunk_size(n: int, vectorized: bool = False, cap: int | None = None) -> int:
     """About 64 chunks of the ``n`` samples, each of 1..1000 samples for a model evaluated row
     by row, of 1..:data:`VECTORIZED_CHUNK` rows for a vectorised one (one call per chunk: the
-    executor's own work, tens of µs a chunk, stays a few per cent of a cheap model's); depends
-    only on the number of samples and the kind of model, never on the workers."""
-    cap = VECTORIZED_CHUNK if vectorized else 1000
+    executor's own work, tens of µs a chunk, stays a few per cent of a cheap model's), or of
+    1..``cap`` (a model's ``max_chunk_rows``); depends only on the number of samples and the
+    model, never on the workers."""
+    if cap is None:
+        cap = VECTORIZED_CHUNK if vectorized else 1000
     return int(min(cap, max(1, math.ceil(n / 64))))
 
 
@@ -822,7 +824,8 @@ def evaluate(
         Show a tqdm progress bar over samples.
     chunk_size
         Samples per task (default: about 64 chunks, at most 1000 samples each, or
-        :data:`VECTORIZED_CHUNK` for a vectorised model; never depends on ``n_jobs``).
+        :data:`VECTORIZED_CHUNK` for a vectorised model, or the model's ``max_chunk_rows``;
+        never depends on ``n_jobs``).
     retry_failed
         Re-evaluate rows whose cached result is a failure.
     callback
@@ -892,7 +895,8 @@ def evaluate(
     n_failed = int((done & ~ok).sum())
     todo = np.flatnonzero(~done)
     cs = (int(chunk_size) if chunk_size is not None
-          else default_chunk_size(len(todo), vectorized))
+          else default_chunk_size(len(todo), vectorized,
+                                  getattr(model, "max_chunk_rows", None)))
     chunks = [todo[s : s + cs] for s in range(0, len(todo), cs)]
     # a chunk of consecutive rows (all of them when nothing is cached) is read and written as a
     # slice: a block copy instead of a gather and a scatter by index

@@ -535,6 +535,11 @@ class MechanismModel:
     vectorized = True
     """The executor hands a chunk of samples to one :meth:`evaluate_batch` call."""
 
+    max_chunk_rows = 1000
+    """The most samples of the executor's default chunk: each row is a simulation
+    (milliseconds), so larger chunks would save nothing and coarsen the progress and what an
+    interrupted run loses."""
+
     def evaluate(self, x) -> np.ndarray:
         """The errors at the analysis crank angles of the last cycle, then the cycle extremes.
 

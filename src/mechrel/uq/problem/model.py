@@ -224,7 +224,10 @@ class Model(Protocol):
     # row's outputs and the failed rows' reasons ({row: reason}; see
     # :class:`mechrel.uq.problem.mechanism.MechanismModel`). A batch that loops over its rows
     # attaches the rows finished before an interrupt as ``KeyboardInterrupt.finished``;
-    # :func:`evaluate_rows` does both.
+    # :func:`evaluate_rows` does both. ``max_chunk_rows: int`` caps the executor's default
+    # chunk (a model whose rows are simulations, each of milliseconds, keeps chunks of at most
+    # 1000 rows: the progress and resume steps; a vectorised array expression takes up to
+    # :data:`~mechrel.uq.execution.executor.VECTORIZED_CHUNK`).
 
     def cache_key(self) -> str:
         """A stable hash of everything that determines the outputs except ``x``.
