@@ -206,3 +206,24 @@ def test_a_point_that_enters_the_arrays_as_a_copy_is_located():
         arr = getattr(getattr(compiled, s), f) if s else getattr(compiled, f)
         assert np.array_equal(arr[rows], np.tile(scene.bodies["crank"].points["A"],
                                                  (rows.size, 1)))
+
+
+def test_zero_length_links_checked_when_points_or_connections_change_only():
+    # the check reads the points and the joints' type and points: a point moved onto another
+    # joint's point fails as a full validation fails; values of force laws, drivers or a
+    # joint's clearance never run it (they cannot make a link of zero length)
+    scene = SCENES["slider-crank"]
+    values = {"bodies.rod.points.B": [-0.06, 0.0]}
+    with pytest.raises(SceneError) as want:
+        with_overrides(scene, values)
+    assert "zero-length link" in str(want.value)
+    at = SceneValues(scene, list(values))
+    assert at._links
+    with pytest.raises(SceneError) as got:
+        at(values)
+    assert str(got.value) == str(want.value)
+    nine = SCENES["nine-bar-lubricated"]
+    assert not SceneValues(nine, ["joints.C1.clearance", "joints.C2.lubricant.viscosity",
+                                  "drivers.crank1.speed"])._links
+    assert SceneValues(nine, ["joints.C1.clearance", "joints.C1.connects"])._links
+    assert SceneValues(nine, ["ground.points.H[0]"])._links
