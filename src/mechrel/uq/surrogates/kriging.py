@@ -498,6 +498,15 @@ class Believer:
         Returns
         -------
         ndarray, shape (m,)
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> X = np.linspace(-2.0, 2.0, 7)[:, None]
+        >>> b = Believer([fit_kriging(X, np.cos(X[:, 0]))], np.array([[-2.0], [0.3]]))
+        >>> s = b.std(np.zeros(2, dtype=int))
+        >>> bool(s[0] < 0.1 * s[1])  # a training point against a point between two
+        True
         """
         var = np.array([self.covs[gov[i]][i, i] for i in range(self.m)])
         return np.sqrt(np.maximum(var, 1e-300))
@@ -509,6 +518,16 @@ class Believer:
         ----------
         j : int
             The candidate's row.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> X = np.linspace(-2.0, 2.0, 7)[:, None]
+        >>> b = Believer([fit_kriging(X, np.cos(X[:, 0]))], np.array([[0.3], [0.35]]))
+        >>> before = b.std(np.zeros(2, dtype=int))
+        >>> b.run(1)
+        >>> bool(b.std(np.zeros(2, dtype=int))[0] < 0.2 * before[0])
+        True
         """
         for c, S in enumerate(self.covs):
             col = S[:, j].copy()
