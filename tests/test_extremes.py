@@ -4,6 +4,8 @@ import math
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from mechrel.errors import SimulationError
 from mechrel.scene import load_scene
@@ -157,3 +159,27 @@ def test_the_grid_misses_the_spike_that_the_solution_shows():
     wg = runs["grid"].whole_cycle
     assert wg.loc["acceleration", "basis"] == "analysis angles"
     assert wg.loc["acceleration", "reliability"] == 1.0
+
+
+@settings(max_examples=300, deadline=None)
+@given(steps=st.lists(st.sampled_from([0.1, 0.2, 0.25, 1e-9]), min_size=1, max_size=30),
+       picks=st.lists(st.integers(0, 29), max_size=30),
+       fresh=st.lists(st.floats(-1.0, 10.0), max_size=30),
+       lo=st.floats(0.0, 1.0), shuffled=st.booleans())
+def test_the_window_points_are_those_of_np_unique(steps, picks, fresh, lo, shuffled):
+    """The window's instants (the output instants merged with the log's, one pass when both
+    are sorted) are exactly ``np.unique``'s, with its index of the first of equal instants:
+    shared instants, repeats inside the log, an unsorted log (the general sort) and NaN."""
+    from mechrel.simulation.extremes import _window_points
+
+    times = np.cumsum(steps)
+    extra = np.array([times[p % times.size] for p in picks] + fresh, dtype=float)
+    extra = extra if shuffled else np.sort(extra)
+    if shuffled and extra.size:
+        extra[0] = np.nan
+    t_lo = lo * float(times[-1])
+    T, sel, first = _window_points(times, t_lo, extra)
+    keep = times >= t_lo - 1e-12 * max(float(times[-1]) - t_lo, 1.0)
+    T0, first0 = np.unique(np.concatenate([times[keep], extra]), return_index=True)
+    assert np.array_equal(sel, keep)
+    assert np.array_equal(T, T0, equal_nan=True) and np.array_equal(first, first0)

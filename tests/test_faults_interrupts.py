@@ -513,3 +513,87 @@ def test_sigterm_as_a_parallel_run_ends_leaves_no_leaked_resources(tmp_path):
                   signal.SIGTERM, tmp_path, group=True)
     assert rc == -signal.SIGTERM, err
     assert "leaked" not in err and "Traceback" not in err, err
+
+
+# ------------------------------------------------------- the signal watcher over a batch of runs
+def _main_thread_handler():
+    """SIGINT at Python's own handler for the test (a job runner may start the suite with
+    SIGINT ignored), restored after; skipped off the main thread (no handler can be set)."""
+    import threading
+
+    if threading.current_thread() is not threading.main_thread():
+        pytest.skip("signal handlers are set on the main thread only")
+    return signal.signal(signal.SIGINT, signal.default_int_handler)
+
+
+def _wakeup_fd() -> int:
+    fd = signal.set_wakeup_fd(-1)
+    signal.set_wakeup_fd(fd)
+    return fd
+
+
+def test_a_signal_session_installs_the_watcher_once_and_restores_what_it_replaced():
+    from mechrel.integrate.base import signal_session
+    from mechrel.scene import load_scene
+    from mechrel.simulation import simulate
+
+    old = _main_thread_handler()
+    try:
+        fd = _wakeup_fd()
+        with signal_session():
+            inside = signal.getsignal(signal.SIGINT), _wakeup_fd()
+            assert inside[0] is not signal.default_int_handler and inside[1] != fd
+            with signal_session():  # re-entrant: nothing installed again
+                assert (signal.getsignal(signal.SIGINT), _wakeup_fd()) == inside
+            for _ in range(2):  # the runs inside do not install their own
+                assert simulate(load_scene("slider-crank-lubricated")).stats["status"] == "ok"
+                assert (signal.getsignal(signal.SIGINT), _wakeup_fd()) == inside
+        assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+        assert _wakeup_fd() == fd
+    finally:
+        signal.signal(signal.SIGINT, old)
+
+
+def test_in_a_signal_session_a_signal_between_runs_raises_at_once():
+    from mechrel.integrate.base import signal_session
+
+    old = _main_thread_handler()
+    try:
+        start = time.perf_counter()
+        with pytest.raises(KeyboardInterrupt), signal_session():
+            os.kill(os.getpid(), signal.SIGINT)
+            time.sleep(5.0)  # no kernel runs: Python's handler raises during the sleep
+        assert time.perf_counter() - start < 2.0
+        assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+    finally:
+        signal.signal(signal.SIGINT, old)
+
+
+def test_in_a_signal_session_a_signal_during_a_run_stops_its_kernel_then_raises():
+    import math
+    import threading
+
+    from mechrel.integrate.base import signal_session
+    from mechrel.scene import load_scene, with_overrides
+    from mechrel.simulation import simulate
+
+    old = _main_thread_handler()
+    try:
+        base = load_scene("slider-crank-lubricated")
+        simulate(base)  # compiled before the clock starts
+        # ~3 s of kernel here, and few output instants, so that the kinematic analysis before
+        # it is over long before the signal comes
+        long = with_overrides(base, {"analysis.cycles": 400,
+                                     "analysis.sample_step_angle": math.pi / 2})
+        timer = threading.Timer(0.3, os.kill, (os.getpid(), signal.SIGINT))
+        start = time.perf_counter()
+        with pytest.raises(KeyboardInterrupt) as info, signal_session():
+            timer.start()
+            simulate(long)
+        took = time.perf_counter() - start
+        timer.join()
+        assert any("integration stopped after" in n for n in getattr(info.value, "__notes__", []))
+        assert took < 1.5, took  # stopped at its next step, not run to the end
+        assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+    finally:
+        signal.signal(signal.SIGINT, old)

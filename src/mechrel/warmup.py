@@ -396,13 +396,16 @@ def _compile_job(name: str, scene) -> None:
         # here would compile it in both processes (the helper's "rhs" job compiles it)
         rw = make_reduced_work.py_func(sys_, red.con, red.q_ref)
         ws = numba.typeof(rw)
-        if name == "expand":  # the final state's expansion after the kernel
-            from .mechanics.reduced import expand_rows
+        if name == "expand":  # the reduced state before the kernel, the expansion after it
+            from .integrate.radau import _finish_reduced
+            from .mechanics.reduced import _reduced_state
 
-            rows = numba.typeof(np.zeros((2, ny)))  # reduced rows in, absolute rows out
+            q = numba.typeof(compiled.q_guess)
             absolute = numba.typeof(np.zeros((2, 2 * compiled.q_guess.size + N_WORK)))
-            expand_rows.compile((numba.typeof(np.zeros(2)), rows, rows, sys_t,
-                                 numba.typeof(red.con), ws, absolute, absolute))
+            con = numba.typeof(red.con)
+            _reduced_state.compile((sys_t, con, q, q, f64, f64))
+            _finish_reduced.compile((absolute, numba.typeof(np.zeros(2)), numba.int64, f64,
+                                     vec, sys_t, con, numba.typeof(red.q_ref)))
             return
         if name == "clearance_jacobian":  # the reduced equations' own fast part
             from .mechanics.reduced import reduced_fast_jacobian

@@ -27,8 +27,10 @@ A subclass of :class:`Integrator`
   ``solve_ivp``);
 * may integrate other equations than the absolute ones, as long as what ``_advance`` returns
   is in the absolute layout (``radau`` integrates the clearance joints' eccentricities where
-  that applies and expands its outputs); it then overrides ``formulation_for(system)``, which
-  names the formulation in :class:`SolverStats`;
+  that applies and expands its outputs); it then records the formulation it ran in the
+  statistics vector (``stats[events.S_FORMULATION]``, an index in ``events.FORMULATION_TEXT``:
+  :class:`SolverStats` reports it) and overrides ``formulation_for(system)``, which answers the
+  same before a run;
 * locates contact onsets before capturing the impact speed (use
   :func:`~mechrel.integrate.events.onset_fraction` and
   :func:`~mechrel.integrate.events.update_history`), and never returns non-finite values
@@ -230,6 +232,7 @@ class _SignalWatcher:
         self._read, self._write = os.pipe()
         os.set_blocking(self._write, False)
         self.ctl = None  # the control vector of the kernel running now, if any
+        self._session = None  # (handlers replaced, signals recorded) while installed
         threading.Thread(target=self._watch, name="mechrel-signal-watch", daemon=True).start()
 
     def _watch(self):
@@ -243,34 +246,92 @@ class _SignalWatcher:
         handlers of SIGINT and SIGTERM (if Python-level) are replaced by one that only records
         the signal: run inside a callback of the compiled code (numba calls Python to unpickle
         constants), a raising handler made numba's dispatcher fail with ``SystemError``. The
-        recorded signal's own handler is called after the block (raising there)."""
+        recorded signal's own handler is called after the block (raising there). Inside
+        :meth:`session` nothing is installed again: the block only names its ``ctl``."""
+        if self._session is not None:
+            self.ctl = ctl
+            try:
+                yield
+            finally:
+                self.ctl = None
+            self._raise_pending()
+            return
+        with self.session():
+            self.ctl = ctl
+            try:
+                yield
+            finally:
+                self.ctl = None
+            self._raise_pending()
+
+    @contextlib.contextmanager
+    def session(self):
+        """For the ``with`` block: the handlers and the wakeup fd of :meth:`watching`,
+        installed once for the kernels run inside it (a batch of samples: installing them
+        costs ~0.1 ms a run). A signal while no kernel runs calls its own handler at once, as
+        outside the block; one during a kernel stops it and is raised when it returns.
+        Re-entrant; off the main thread it installs nothing."""
+        if self._session is not None:
+            yield
+            return
         try:
             old_fd = signal.set_wakeup_fd(self._write, warn_on_full_buffer=False)
         except ValueError:  # not the main thread of the main interpreter
             yield
             return
-        pending = []
+        saved: dict = {}
+        pending: list = []
 
         def defer(signum, frame):
+            if self.ctl is None:  # no kernel is running: the signal's own handler, now
+                saved[signum](signum, frame)
+                return
             pending.append(signum)
-            ctl[ev.CTL_STOP] = 1
+            self.ctl[ev.CTL_STOP] = 1
 
-        saved = {}
         for sig in (signal.SIGINT, signal.SIGTERM):
             handler = signal.getsignal(sig)
             if callable(handler):
                 saved[sig] = handler
                 signal.signal(sig, defer)
-        self.ctl = ctl
+        self._session = (saved, pending)
         try:
             yield
         finally:
+            self._session = None
             self.ctl = None
             for sig, handler in saved.items():
                 signal.signal(sig, handler)
             signal.set_wakeup_fd(old_fd)
+
+    def _raise_pending(self):
+        """The handler of a signal recorded during the kernel that just returned, called."""
+        if self._session is None:
+            return
+        saved, pending = self._session
         if pending:
-            saved[pending[0]](pending[0], None)
+            signum = pending[0]
+            pending.clear()
+            saved[signum](signum, None)
+
+
+def signal_session():
+    """A context manager under which the kernels run by :meth:`Integrator.integrate` on the
+    main thread share one installation of the signal watcher (its handlers and wakeup fd),
+    instead of one per run: for a loop of many short runs (a batch of samples). Ctrl-C and
+    SIGTERM behave as without it: a kernel stops at its next step and the signal's handler
+    raises after it, and between kernels the handler runs at once.
+
+    Examples
+    --------
+    >>> from mechrel.scene import load_scene
+    >>> from mechrel.simulation import simulate
+    >>> with signal_session():
+    ...     runs = [simulate(load_scene("slider-crank-lubricated")) for _ in range(2)]
+    >>> runs[0].stats["status"], bool((runs[0].q == runs[1].q).all())
+    ('ok', True)
+    """
+    return _signal_watcher().session()
 
 
 _WATCHER: _SignalWatcher | None = None
@@ -365,8 +426,9 @@ class Integrator:
         return {k: getattr(self, k) for k in keys}
 
     def formulation_for(self, system) -> str:
-        """The formulation ``_advance`` integrates ``system`` in (:class:`SolverStats`):
-        ``"absolute"`` unless a subclass integrates other equations.
+        """The formulation ``_advance`` will integrate ``system`` in, before a run (a run
+        reports the one it ran in :class:`SolverStats`): ``"absolute"`` unless a subclass
+        integrates other equations.
 
         Parameters
         ----------
@@ -550,7 +612,8 @@ class Integrator:
             n_lu=int(total[ev.S_LU]), n_newton_rejected=int(total[ev.S_NEWTON_REJECTED]),
             max_position_violation=float(total[ev.S_VIOL_POS]),
             max_velocity_violation=float(total[ev.S_VIOL_VEL]), wall_time=wall,
-            status=ev.STATUS_TEXT[status], formulation=self.formulation_for(system))
+            status=ev.STATUS_TEXT[status],
+            formulation=ev.FORMULATION_TEXT[int(total[ev.S_FORMULATION])])
         if status != ev.STATUS_OK or not np.all(np.isfinite(Y)):
             raise SimulationError(
                 f"integrator {self.name!r} stopped at t = {t:.6g} s: {ev.STATUS_TEXT[status]} "

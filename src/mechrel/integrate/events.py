@@ -24,10 +24,13 @@ from ..mechanics.joints import gaps, n_contacts
 
 # Layout of the float64 statistics vector every kernel returns.
 # S_NEWTON_REJECTED counts the part of S_REJECTED whose Newton iteration did not converge
-# (implicit kernels; the rest failed the error test).
+# (implicit kernels; the rest failed the error test). S_FORMULATION is the index in
+# FORMULATION_TEXT of the equations integrated: the kernels leave it 0 (absolute); a caller
+# that ran them on other equations records it (radau's reduced ones).
 S_STEPS, S_RHS, S_REJECTED, S_ONSET_REJECTED, S_IMPACTS, S_JAC, S_LU, S_VIOL_POS, S_VIOL_VEL, \
-    S_STATUS, S_NEWTON_REJECTED = range(11)
-N_STATS = 11
+    S_STATUS, S_NEWTON_REJECTED, S_FORMULATION = range(12)
+N_STATS = 12
+FORMULATION_TEXT = ("absolute", "reduced")
 STATUS_OK, STATUS_MAX_STEPS, STATUS_STEP_UNDERFLOW, STATUS_NONFINITE, STATUS_NEWTON, \
     STATUS_STOPPED = range(6)
 STATUS_TEXT = ("ok", "maximum number of steps reached", "step size underflow",

@@ -144,14 +144,16 @@ import numpy as np
 from numba import njit
 
 from ..mechanics.borrow import borrowed, keep_alive
+from ..mechanics.constraints import violations_at
 from ..mechanics.formulation import (evaluate, evaluate_inline, fast_jacobian, gaps,
                                      has_fast_part, n_coordinates, output_width,
                                      write_output)
+from ..mechanics.reduced import expand_rows, make_reduced_work
 from ..mechanics.system import without_clearance_forces
 from ..scene.model import FORMULATIONS
-from .events import (CTL_DONE, H_START_FLOOR, S_JAC, S_LU, S_NEWTON_REJECTED,
-                     S_ONSET_REJECTED, S_REJECTED, S_RHS, S_STATUS, S_STEPS, S_VIOL_POS,
-                     S_VIOL_VEL, STATUS_NEWTON,
+from .events import (CTL_DONE, FORMULATION_TEXT, H_START_FLOOR, S_FORMULATION, S_JAC, S_LU,
+                     S_NEWTON_REJECTED, S_ONSET_REJECTED, S_REJECTED, S_RHS, S_STATUS, S_STEPS,
+                     S_VIOL_POS, S_VIOL_VEL, STATUS_NEWTON,
                      STATUS_NONFINITE, all_finite, log_row, new_log, onset_fraction, out_of_budget,
                      record_violation, start, update_history_from)
 from .base import Integrator
@@ -1420,13 +1422,14 @@ def reduced_system(system, y0, *, required=False):
 def _advance_reduced(red, radau, t0, y0, hist, t_out, ctl, log_from, n_dense):
     """``Radau._advance`` on the reduced equations: the kernel integrates ``(z, ż, W)`` and
     writes its outputs and log in the absolute layout (from each output's own evaluation,
-    :func:`~mechrel.mechanics.reduced.output_row`); the final state is expanded here
+    :func:`~mechrel.mechanics.reduced.output_row`); the final state is expanded after it
     (:func:`~mechrel.mechanics.reduced.expand_rows`), so that a caller sees the contract of
     :class:`~mechrel.integrate.base.Integrator` unchanged. The constraint violation reported
     is that of the first and last outputs, by the dense constraint functions (the
-    construction satisfies the constraints to round-off at every instant)."""
-    from ..mechanics.constraints import violations_at
-    from ..mechanics.reduced import expand_rows, make_reduced_work, reduced_coordinates
+    construction satisfies the constraints to round-off at every instant). Around the kernel
+    there are two compiled calls, the reduced initial state and :func:`_finish_reduced`: each
+    compiled call with the mechanism's arrays costs its dispatch (~10 µs)."""
+    from ..mechanics.reduced import reduced_coordinates
 
     system, con = red.sys, red.con
     n = system.mass.shape[0]
@@ -1435,15 +1438,35 @@ def _advance_reduced(red, radau, t0, y0, hist, t_out, ctl, log_from, n_dense):
     Y, YD, hist, stats, t, y, log, H = radau5_kernel(
         red, smooth, t0, yr0, hist, t_out, radau.step or 0.0, radau.rtol, radau.atol,
         radau.max_steps, radau.onset_tolerance, radau.fixed_step, ctl, log_from, n_dense)
-    done = [k for k in (0, int(ctl[CTL_DONE]) - 1) if 0 <= k < Y.shape[0]]
-    pos, vel = violations_at(Y, t_out, np.array(done, dtype=np.int64), system)
+    pos, vel, ya = _finish_reduced(Y, t_out, int(ctl[CTL_DONE]), t, y, system, con, red.q_ref)
     stats[S_VIOL_POS] = max(stats[S_VIOL_POS], pos)
     stats[S_VIOL_VEL] = max(stats[S_VIOL_VEL], vel)
+    stats[S_FORMULATION] = FORMULATION_TEXT.index("reduced")
+    return Y, YD, hist, stats, t, ya, log, H
+
+
+@njit(cache=True, nogil=True)
+def _finish_reduced(Y, t_out, n_done, t, y, sys, con, q_ref):
+    """After the reduced kernel, in one compiled call: the constraint violation of the first
+    and last outputs stored (``n_done`` of the rows ``Y``, absolute layout;
+    :func:`~mechrel.mechanics.constraints.violations_at`), and the final reduced state ``y``
+    at ``t`` expanded to the absolute layout (:func:`~mechrel.mechanics.reduced.expand_rows`;
+    the angles continue the last output's). Returns ``(max |Φ|, max |Φ̇|, final row)``."""
+    n = sys.mass.shape[0]
+    rows = np.empty(2, dtype=np.int64)
+    m = 0
+    for k in (0, n_done - 1):
+        if 0 <= k < Y.shape[0]:
+            rows[m] = k
+            m += 1
+    pos, vel = violations_at(Y, t_out, rows[:m], sys)
+    rw = make_reduced_work(sys, con, q_ref)
+    if m > 0 and np.all(np.isfinite(Y[rows[m - 1], :n])):
+        rw.th_ref[:] = Y[rows[m - 1], 2:n:3]
     ny = 2 * n + 2
     ya, yda = np.empty((1, ny)), np.empty((1, ny))
     fr = np.zeros((1, y.shape[0]))  # the final state's z'' is not needed: q, q' only
-    rw = make_reduced_work(system, con, red.q_ref)
-    if done and np.isfinite(Y[done[-1], :n]).all():  # angles continue the last output's
-        rw.th_ref[:] = Y[done[-1], 2:n:3]
-    expand_rows(np.array([t]), y.reshape(1, -1), fr, system, con, rw, ya, yda)
-    return Y, YD, hist, stats, t, ya[0], log, H
+    T = np.empty(1)
+    T[0] = t
+    expand_rows(T, y.reshape(1, y.shape[0]), fr, sys, con, rw, ya, yda)
+    return pos, vel, ya[0]

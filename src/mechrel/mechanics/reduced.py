@@ -886,26 +886,38 @@ def reduced_coordinates(sys, con, q, v, work=(0.0, 0.0)):
     >>> reduced_coordinates(d.dynamic, construction(d.dynamic), q0, v0).tolist()
     [0.0, 0.0, 1.5, -0.5, 0.0, 0.0]
     """
+    return _reduced_state(sys, con, np.ascontiguousarray(q, dtype=float),
+                          np.ascontiguousarray(v, dtype=float), float(work[0]), float(work[1]))
+
+
+@njit(cache=True)
+def _reduced_state(sys, con, q, v, w_in, w_cl):
+    """:func:`reduced_coordinates` compiled (contiguous ``q``, ``v``; the two work integrals)."""
     nc = con.cl_nodes.shape[0]
     nz = n_reduced(con)
-    q = np.ascontiguousarray(q, dtype=float)
-    v = np.ascontiguousarray(v, dtype=float)
     cs, sn = np.empty(q.size // 3), np.empty(q.size // 3)
     body_trig(q, cs, sn)
     y = np.empty(2 * nz + 2)
-    y[2 * nz:] = work
+    y[2 * nz] = w_in
+    y[2 * nz + 1] = w_cl
     for k in range(nc):  # the relative state the force laws see
-        ex, ey, evx, evy = joint_state(q, v, sys.cl_b[k], sys.cl_j[k], *sys.cl_sb[k],
-                                       *sys.cl_sj[k], cs, sn)[:4]
-        y[2 * k:2 * k + 2] = ex, ey
-        y[nz + 2 * k:nz + 2 * k + 2] = evx, evy
-    for o in np.flatnonzero((con.op[:, 0] == POSE_ANGLE) & (con.op[:, 3] == ANGLE_FREE)):
-        b, f = con.op[o, 1], con.op[o, 5]  # a free angle is its body's angle
-        y[2 * nc + f] = q[3 * b + 2]
-        y[nz + 2 * nc + f] = v[3 * b + 2]
-    for o in np.flatnonzero(con.op[:, 0] == SLIDE):  # a free position: N = P0 + s u
-        k, f = con.op[o, 1], con.op[o, 5]
-        b, (sx, sy) = con.node_body[k], con.node_s[k]  # the node as a point of a body
+        ex, ey, evx, evy = joint_state(q, v, sys.cl_b[k], sys.cl_j[k], sys.cl_sb[k, 0],
+                                       sys.cl_sb[k, 1], sys.cl_sj[k, 0], sys.cl_sj[k, 1],
+                                       cs, sn)[:4]
+        y[2 * k] = ex
+        y[2 * k + 1] = ey
+        y[nz + 2 * k] = evx
+        y[nz + 2 * k + 1] = evy
+    for o in range(con.op.shape[0]):
+        if con.op[o, 0] == POSE_ANGLE and con.op[o, 3] == ANGLE_FREE:
+            b, f = con.op[o, 1], con.op[o, 5]  # a free angle is its body's angle
+            y[2 * nc + f] = q[3 * b + 2]
+            y[nz + 2 * nc + f] = v[3 * b + 2]
+    for o in range(con.op.shape[0]):
+        if con.op[o, 0] != SLIDE:
+            continue
+        k, f = con.op[o, 1], con.op[o, 5]  # a free position: N = P0 + s u
+        b, sx, sy = con.node_body[k], con.node_s[k, 0], con.node_s[k, 1]  # the node on a body
         px, py = cs[b] * sx - sn[b] * sy, sn[b] * sx + cs[b] * sy
         ux, uy = con.par[o, 2], con.par[o, 3]
         y[2 * nc + f] = (q[3 * b] + px - con.par[o, 0]) * ux + (q[3 * b + 1] + py

@@ -7,6 +7,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from numba import njit
 
 from ..errors import SimulationError
 from ..mechanics.system import CompiledScene
@@ -60,12 +61,46 @@ def analysis_window(compiled: CompiledScene, times: np.ndarray) -> float:
 def _window_points(times: np.ndarray, t_lo: float, extra_t: np.ndarray):
     """The output instants at or after ``t_lo`` merged with the instants ``extra_t``, sorted,
     duplicates dropped: ``(T, sel, first)`` with ``sel`` the mask of the output instants kept
-    and ``first`` the positions in ``concatenate([times[sel], extra_t])`` that make ``T``."""
+    and ``first`` the positions in ``concatenate([times[sel], extra_t])`` that make ``T``
+    (those of ``np.unique(..., return_index=True)``: of equal instants, the first)."""
     span = max(float(times[-1]) - t_lo, 1.0)
     sel = times >= t_lo - 1e-12 * span
-    T = np.concatenate([times[sel], extra_t])
-    T, first = np.unique(T, return_index=True)
+    kept = times[sel]
+    extra = np.ascontiguousarray(extra_t, dtype=float)
+    T, first, ok = _merge_sorted(kept, extra)
+    if not ok:  # not both sorted (or a NaN): the general sort
+        T, first = np.unique(np.concatenate([kept, extra]), return_index=True)
     return T, sel, first
+
+
+@njit(cache=True)
+def _merge_sorted(a, b):
+    """``np.unique(concatenate([a, b]), return_index=True)`` in one pass when ``a`` and ``b``
+    are each non-decreasing and finite (the output instants and an integrator's log);
+    ``ok`` False (and nothing else meaningful) otherwise."""
+    na, nb = a.shape[0], b.shape[0]
+    T = np.empty(na + nb)
+    first = np.empty(na + nb, dtype=np.int64)
+    for k in range(na):
+        if not math.isfinite(a[k]) or (k > 0 and a[k] < a[k - 1]):
+            return T[:0], first[:0], False
+    for k in range(nb):
+        if not math.isfinite(b[k]) or (k > 0 and b[k] < b[k - 1]):
+            return T[:0], first[:0], False
+    i = j = m = 0
+    while i < na or j < nb:
+        if j >= nb or (i < na and a[i] <= b[j]):  # of equal instants, a's come first
+            x, at = a[i], i
+        else:
+            x, at = b[j], na + j
+        T[m] = x
+        first[m] = at
+        m += 1
+        while i < na and a[i] == x:
+            i += 1
+        while j < nb and b[j] == x:
+            j += 1
+    return T[:m].copy(), first[:m].copy(), True
 
 
 def _extremes_of(scene, compiled, T, outputs, ideal, sectors=None):

@@ -612,7 +612,10 @@ class MechanismModel:
         if X.ndim != 2 or X.shape[1] != len(self.input_names):
             raise StudyError(f"X: expected shape (m, {len(self.input_names)}) for inputs "
                              f"{list(self.input_names)}, got {X.shape}")
-        Y, ok, reasons = evaluate_rows(self._evaluate, X, len(self.output_index))
+        from ...integrate.base import signal_session
+
+        with signal_session():  # the signal watcher installed once for the batch's runs
+            Y, ok, reasons = evaluate_rows(self._evaluate, X, len(self.output_index))
         if not ok.all():
             raise RowFailures(Y, reasons)
         return Y
