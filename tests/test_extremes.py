@@ -183,3 +183,34 @@ def test_the_window_points_are_those_of_np_unique(steps, picks, fresh, lo, shuff
     T0, first0 = np.unique(np.concatenate([times[keep], extra]), return_index=True)
     assert np.array_equal(sel, keep)
     assert np.array_equal(T, T0, equal_nan=True) and np.array_equal(first, first0)
+
+
+@pytest.mark.parametrize("name", ["slider-crank-dry", "slider-crank-lubricated"])
+def test_the_window_states_are_the_output_rows_and_log_rows_they_name(name):
+    """The states at the window points, gathered in one pass, are bitwise the rows of the
+    outputs and of the solution log that ``first`` names (history columns included: the dry
+    joint has one, the film none)."""
+    from mechrel.mechanics.kinematics import assemble
+    from mechrel.mechanics.system import compile_scene
+    from mechrel.simulation import make_integrator, output_times
+    from mechrel.simulation.extremes import _window_points, _window_states, analysis_window
+
+    scene = load_scene(name)
+    c = compile_scene(scene)
+    times = output_times(scene, c)
+    q0, _ = assemble(c.ideal, c.q_guess, 0.0)
+    qa, va = assemble(c.assembly, q0, 0.0)
+    t_lo = analysis_window(c, times)
+    res = make_integrator(scene).integrate(c.dynamic, np.concatenate([qa, va, np.zeros(2)]),
+                                           np.zeros(c.dynamic.n_contacts), times,
+                                           log_from=t_lo, dense_points=3)
+    Y, YD, H, log, n = res.y, res.ydot, res.hist_out, res.log, q0.size
+    ny = Y.shape[1]
+    T, sel, first = _window_points(times, t_lo, log[:, 0])
+    both = [(Y[sel, :n], log[:, 1:1 + n]), (Y[sel, n:2 * n], log[:, 1 + n:1 + 2 * n]),
+            (YD[sel, n:2 * n], log[:, 1 + ny + n:1 + ny + 2 * n]), (H[sel], log[:, 1 + 2 * ny:])]
+    got = _window_states(Y, YD, H, log, np.flatnonzero(sel), first, n)
+    assert T.size > times[sel].size  # log points inside the window
+    for (out_rows, log_rows), g in zip(both, got):
+        assert np.array_equal(g, np.concatenate([out_rows, log_rows])[first])
+    assert got[3].shape[1] == c.dynamic.n_contacts

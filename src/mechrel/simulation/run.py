@@ -30,7 +30,7 @@ from ..scene.model import Scene
 
 from .evaluators import values
 from .extremes import (DENSE_POINTS, KINEMATIC_POINTS, _extremes_of, _window_points,
-                       analysis_window)
+                       _window_states, analysis_window)
 from .reference import (ReferenceDesign, _check_reference, _ideal_at, _ideal_by_dynamics,
                         _reference_outputs)
 from .result import SimulationResult, _provenance
@@ -388,13 +388,9 @@ def _simulate(scene: Scene, *, reference: Scene | ReferenceDesign | None, method
     ext = sec = None
     if extremes:
         assert t_lo is not None  # set above when extremes
-        ny = Y.shape[1]
         log = res.log
         T, sel, first = _window_points(times, t_lo, log[:, 0])
-        Ql = np.concatenate([Y[sel, :n], log[:, 1:1 + n]])[first]
-        Vl = np.concatenate([Y[sel, n:2 * n], log[:, 1 + n:1 + 2 * n]])[first]
-        Al = np.concatenate([YD[sel, n:2 * n], log[:, 1 + ny + n:1 + ny + 2 * n]])[first]
-        Hl = np.concatenate([res.hist_out[sel], log[:, 1 + 2 * ny:]])[first]
+        Ql, Vl, Al, Hl = _window_states(Y, YD, res.hist_out, log, np.flatnonzero(sel), first, n)
         ext, sec = _extremes_of(scene, compiled, T,
                                 values(scene, compiled, T, Ql, Vl, Al, H=Hl,
                                          counterpart=reference),
