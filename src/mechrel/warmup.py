@@ -351,7 +351,7 @@ def _compile_job(name: str, scene) -> None:
     import numpy as np
 
     from .mechanics.dynamics import N_WORK, make_workspace
-    from .mechanics.kinematics import assemble, kinematic_analysis
+    from .mechanics.kinematics import assemble_positions, kinematic_analysis
     from .mechanics.system import compile_scene
 
     compiled = compile_scene(scene)
@@ -359,7 +359,7 @@ def _compile_job(name: str, scene) -> None:
         from .simulation import output_times
 
         tol = scene.solver.assembly_tolerance
-        q0, _ = assemble(compiled.ideal, compiled.q_guess, 0.0, tol=tol)
+        q0 = assemble_positions(compiled.ideal, compiled.q_guess, 0.0, tol=tol)
         kinematic_analysis(compiled.ideal, q0, output_times(scene, compiled)[:2], tol=tol)
         return
     sys_ = compiled.dynamic

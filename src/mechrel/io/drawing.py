@@ -70,12 +70,12 @@ def assembled_configuration(scene: Scene, t: float = 0.0) -> np.ndarray:
     >>> point_positions(load_scene("slider-crank"), q)["slider.B"].round(6).tolist()
     [0.17, 0.0]
     """
-    from ..mechanics.kinematics import assemble
+    from ..mechanics.kinematics import assemble_positions
     from ..mechanics.system import compile_scene
 
     compiled = compile_scene(scene)
-    q, _ = assemble(compiled.ideal, compiled.q_guess, float(t),
-                    tol=scene.solver.assembly_tolerance, labels=compiled.labels["ideal"])
+    q = assemble_positions(compiled.ideal, compiled.q_guess, float(t),
+                           tol=scene.solver.assembly_tolerance, labels=compiled.labels["ideal"])
     return q
 
 
@@ -386,7 +386,7 @@ def _finish_axes(ax, pos, extent, pad=0.12):
 
 def _ideal_coordinates(result) -> np.ndarray | None:
     """Coordinates of the ideal counterpart at the result's instants (driven scenes)."""
-    from ..mechanics.kinematics import assemble, kinematic_analysis
+    from ..mechanics.kinematics import assemble_positions, kinematic_analysis
     from ..mechanics.system import compile_scene
 
     scene = result.scene
@@ -394,7 +394,7 @@ def _ideal_coordinates(result) -> np.ndarray | None:
     if compiled.ideal.n_constraints != compiled.q_guess.size:
         return None  # not fully driven: its ideal counterpart is itself a dynamic simulation
     tol = scene.solver.assembly_tolerance
-    q0, _ = assemble(compiled.ideal, compiled.q_guess, 0.0, tol=tol)
+    q0 = assemble_positions(compiled.ideal, compiled.q_guess, 0.0, tol=tol)
     Q, _, _, _ = kinematic_analysis(compiled.ideal, q0, result.time, tol=tol)
     return Q
 

@@ -29,7 +29,7 @@ from .construction import _construct, construction
 from .dynamics import make_workspace
 
 # the public API; LUFactors and the _lu_* functions are the sparse solver behind it
-__all__ = ["assemble", "kinematic_analysis"]
+__all__ = ["assemble", "assemble_positions", "kinematic_analysis"]
 
 
 @njit(cache=True)
@@ -53,6 +53,55 @@ def _velocity(q, t, sys):
     if phit.shape[0] == 0:
         return np.zeros(q.shape[0])
     return J.T @ np.linalg.solve(J @ J.T, -phit)
+
+
+def assemble_positions(system, q_guess, t=0.0, *, tol=1e-12, max_iter=50, labels=None):
+    """Assemble positions at time ``t``: :func:`assemble` without the velocities (for a
+    caller that needs the configuration only; the same ``q``, bitwise).
+
+    Parameters
+    ----------
+    system, q_guess, t, tol, max_iter, labels
+        As for :func:`assemble`.
+
+    Returns
+    -------
+    q : ndarray
+        Assembled coordinates (m, rad).
+
+    Raises
+    ------
+    AssemblyError
+        Naming the constraints that stay violated and by how much.
+
+    Examples
+    --------
+    >>> from mechrel.mechanics.system import compile_scene
+    >>> from mechrel.scene import load_scene
+    >>> c = compile_scene(load_scene("slider-crank"))
+    >>> q = assemble_positions(c.ideal, c.q_guess, 0.0)
+    >>> bool((q == assemble(c.ideal, c.q_guess, 0.0)[0]).all())
+    True
+    """
+    q0 = np.asarray(q_guess, dtype=float)
+    try:
+        q, phi, it, ok = _newton(q0, float(t), system, float(tol), int(max_iter))
+    except np.linalg.LinAlgError:
+        phi, _, _ = constraints(q0, float(t), system)
+        q, ok = q0, False
+    if not ok or not np.all(np.isfinite(q)):
+        worst = np.argsort(-np.abs(phi))[:6]
+        parts = []
+        for r in worst:
+            if abs(phi[r]) > tol:
+                name = labels[r] if labels is not None else f"row {r}"
+                parts.append(f"{name}: |Φ| = {abs(phi[r]):.3g}")
+        raise AssemblyError(
+            f"the mechanism cannot be assembled at t = {t:g} s: constraints stay violated "
+            f"after Newton–Raphson (tolerance {tol:g}): " + "; ".join(parts)
+            + ". Check the geometry (link lengths, ground points) and the initial guesses "
+            "of body positions and angles.")
+    return q
 
 
 def assemble(system, q_guess, t=0.0, *, tol=1e-12, max_iter=50, labels=None):
@@ -96,24 +145,7 @@ def assemble(system, q_guess, t=0.0, *, tol=1e-12, max_iter=50, labels=None):
     >>> round(float(q[6]), 9), round(float(v[2]), 4)
     (0.17, 523.5988)
     """
-    q0 = np.asarray(q_guess, dtype=float)
-    try:
-        q, phi, it, ok = _newton(q0, float(t), system, float(tol), int(max_iter))
-    except np.linalg.LinAlgError:
-        phi, _, _ = constraints(q0, float(t), system)
-        q, ok = q0, False
-    if not ok or not np.all(np.isfinite(q)):
-        worst = np.argsort(-np.abs(phi))[:6]
-        parts = []
-        for r in worst:
-            if abs(phi[r]) > tol:
-                name = labels[r] if labels is not None else f"row {r}"
-                parts.append(f"{name}: |Φ| = {abs(phi[r]):.3g}")
-        raise AssemblyError(
-            f"the mechanism cannot be assembled at t = {t:g} s: constraints stay violated "
-            f"after Newton–Raphson (tolerance {tol:g}): " + "; ".join(parts)
-            + ". Check the geometry (link lengths, ground points) and the initial guesses "
-            "of body positions and angles.")
+    q = assemble_positions(system, q_guess, t, tol=tol, max_iter=max_iter, labels=labels)
     try:
         v = _velocity(q, float(t), system)
     except np.linalg.LinAlgError as exc:  # singular Φ_q: a locked or redundant configuration

@@ -270,7 +270,7 @@ def ideal_path(counterpart, ref) -> np.ndarray:
     (0.1, 0.0)
     """
     from ..errors import SimulationError
-    from ..mechanics.kinematics import assemble, kinematic_analysis
+    from ..mechanics.kinematics import assemble_positions, kinematic_analysis
     from ..mechanics.system import compile_scene
     from ..scene import scene_hash
 
@@ -283,8 +283,8 @@ def ideal_path(counterpart, ref) -> np.ndarray:
                               "analysis.cycle_driver (its ideal path is one cycle of it); "
                               "allowed: kind = 'point' on other scenes")
     tol = counterpart.solver.assembly_tolerance
-    q0, _ = assemble(compiled.ideal, compiled.q_guess, 0.0, tol=tol,
-                     labels=compiled.labels["ideal"])
+    q0 = assemble_positions(compiled.ideal, compiled.q_guess, 0.0, tol=tol,
+                            labels=compiled.labels["ideal"])
     T = np.linspace(0.0, compiled.period, PATH_POINTS + 1)
     Q, _, _, _ = kinematic_analysis(compiled.ideal, q0, T, tol=tol,
                                     labels=compiled.labels["ideal"])

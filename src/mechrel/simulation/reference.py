@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import SimulationError
-from ..mechanics.kinematics import assemble, kinematic_analysis
+from ..mechanics.kinematics import assemble, assemble_positions, kinematic_analysis
 from ..mechanics.system import CompiledScene, compile_scene
 from ..scene.model import Scene
 
@@ -89,8 +89,8 @@ class ReferenceDesign:
         got = self._kinematics.get(key)
         if got is None:
             if self._q0 is None:
-                self._q0, _ = assemble(compiled.ideal, compiled.q_guess, 0.0, tol=tol,
-                                       labels=compiled.labels["ideal"])
+                self._q0 = assemble_positions(compiled.ideal, compiled.q_guess, 0.0, tol=tol,
+                                              labels=compiled.labels["ideal"])
             Q, V, A, _ = kinematic_analysis(compiled.ideal, self._q0, times, tol=tol,
                                             labels=compiled.labels["ideal"])
             for a in (Q, V, A):
@@ -112,8 +112,8 @@ def _ideal_by_dynamics(source: Scene, solver, times: np.ndarray, actual: Scene):
     compiled = compile_scene(source)
     n = compiled.q_guess.size
     tol = source.solver.assembly_tolerance
-    q0, _ = assemble(compiled.ideal, compiled.q_guess, 0.0, tol=tol,
-                     labels=compiled.labels["ideal"])
+    q0 = assemble_positions(compiled.ideal, compiled.q_guess, 0.0, tol=tol,
+                            labels=compiled.labels["ideal"])
     qi, vi = assemble(compiled.ideal, q0, 0.0, tol=tol)
     resi = solver.integrate(compiled.ideal, np.concatenate([qi, vi, np.zeros(2)]),
                             np.zeros(0), times, t0=0.0)

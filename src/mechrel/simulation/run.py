@@ -23,7 +23,7 @@ from ..errors import AssemblyError, SimulationError
 from ..forces.models import MODELS
 from ..integrate import IntegrationResult
 from ..mechanics.dynamics import N_WORK
-from ..mechanics.kinematics import assemble, kinematic_analysis
+from ..mechanics.kinematics import assemble, assemble_positions, kinematic_analysis
 from ..mechanics.post import post_process
 from ..mechanics.system import CompiledScene, compile_scene
 from ..scene.model import Scene
@@ -319,8 +319,8 @@ def _simulate(scene: Scene, *, reference: Scene | ReferenceDesign | None, method
             or dense_points < 0:
         raise SimulationError(f"simulate: dense_points = {dense_points!r}: not an integer >= 0; "
                               "allowed: 0, 1, 2, ... points inside each integrator step")
-    q0, _ = assemble(compiled.ideal, compiled.q_guess, 0.0, tol=tol,
-                     labels=compiled.labels["ideal"])
+    q0 = assemble_positions(compiled.ideal, compiled.q_guess, 0.0, tol=tol,
+                            labels=compiled.labels["ideal"])
 
     ideal = None
     if driven and (has_clearance or method in ("auto", "kinematics")):
