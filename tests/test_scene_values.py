@@ -227,3 +227,24 @@ def test_zero_length_links_checked_when_points_or_connections_change_only():
                                   "drivers.crank1.speed"])._links
     assert SceneValues(nine, ["joints.C1.clearance", "joints.C1.connects"])._links
     assert SceneValues(nine, ["ground.points.H[0]"])._links
+
+
+def test_outputs_validated_again_only_when_what_they_read_of_a_joint_changes():
+    # an output of kind "joint" needs a revolute joint with a clearance: a clearance that
+    # stays > 0 keeps the scene's outputs (the same mapping); one set to 0 on an ideal joint
+    # an output names fails as a full validation fails
+    raw = thaw(SCENES["nine-bar-lubricated"].raw)
+    raw["outputs"]["film"] = {"kind": "joint", "joint": "C1"}
+    base = load_scene(raw)
+    at = SceneValues(base, ["joints.C1.clearance"])
+    assert at({"joints.C1.clearance": 4e-4}).outputs is base.outputs
+    ideal = with_overrides(base, {"joints.C1.model": "ideal"})
+    assert ideal.joints["C1"].clearance > 0 and "film" in ideal.outputs
+    values = {"joints.C1.clearance": 0.0}
+    with pytest.raises(SceneError) as want:
+        with_overrides(ideal, values)
+    assert "outputs.film.joint" in str(want.value) and "has no clearance" in str(want.value)
+    with pytest.raises(SceneError) as got:
+        SceneValues(ideal, list(values))(values)
+    assert str(got.value) == str(want.value)
+    _compare(ideal, values)

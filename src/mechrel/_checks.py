@@ -156,9 +156,10 @@ class Checker:
     source : str or None
         Where the values come from, the message's prefix (a file name, ``"<mapping>"``);
         None for a Python argument or a command-line option.
-    overridden : sequence of (str, str)
+    overridden : sequence of (str, object)
         ``(dotted path, override text)`` of the values set by overrides, named in the message
-        of a failure at (or next to) that path.
+        of a failure at (or next to) that path (the text is what ``str`` gives of the object:
+        it can be worded only when a message needs it).
     error : type of InputError, optional
         The exception raised (default: the class attribute, :class:`~mechrel.errors.SceneError`);
         it is called as ``error(message, source=..., path=...)``.
@@ -174,7 +175,7 @@ class Checker:
 
     error: type[InputError] = SceneError
 
-    def __init__(self, source: str | None = None, overridden: Sequence[tuple[str, str]] = (),
+    def __init__(self, source: str | None = None, overridden: Sequence[tuple[str, object]] = (),
                  *, error: type[InputError] | None = None):
         self.source = source
         self.overridden = tuple(overridden)  # (dotted path, override text)

@@ -279,8 +279,8 @@ class _SignalWatcher:
         except ValueError:  # not the main thread of the main interpreter
             yield
             return
-        saved: dict = {}
-        pending: list = []
+        saved = {}
+        pending = []  # the signals recorded during a kernel
 
         def defer(signum, frame):
             if self.ctl is None:  # no kernel is running: the signal's own handler, now

@@ -122,6 +122,24 @@ def _spine(raw: Mapping, path: str | tuple[str, ...]) -> dict:
     return top
 
 
+def _output_facts(joint) -> tuple[str, bool]:
+    """What the outputs' validation reads of a joint (besides its name): its type and whether
+    it has a clearance (an output of kind ``joint`` needs a revolute joint with one)."""
+    return joint.type, joint.type == "revolute" and joint.clearance > 0
+
+
+class _OverrideText:
+    """``PATH=VALUE`` of a value, worded only when a message names it (``str``)."""
+
+    __slots__ = ("path", "value")
+
+    def __init__(self, path, value):
+        self.path, self.value = path, value
+
+    def __str__(self) -> str:
+        return f"{self.path}={fmt_value(self.value)}"
+
+
 class SceneValues:
     """The scenes of ``scene`` with values at ``paths`` (see the module docstring).
 
@@ -214,7 +232,7 @@ class SceneValues:
         if not self.incremental:
             return with_overrides(scene, values), {}
         raw: Any = scene.raw
-        overrides = [(str(p), v, f"{p}={fmt_value(v)}") for p, v in values.items()]
+        overrides = [(str(p), v, _OverrideText(p, v)) for p, v in values.items()]
         for path, value, text in overrides:
             raw = _spine(raw, self._parts.get(path) or path)
             parts = self._leaves.get(path)
@@ -224,7 +242,7 @@ class SceneValues:
                     node = node[part]
                 node[parts[-1]] = value
             else:
-                apply_override(raw, path, value, text=text, source=self.label)
+                apply_override(raw, path, value, text=str(text), source=self.label)
         b = _Builder(self.label, [(p, t) for p, _, t in overrides])
         new_raw = dict(scene.raw)
         changed: dict[str, Any] = {}
@@ -258,7 +276,9 @@ class SceneValues:
             drivers = changed["drivers"] = MappingProxyType(
                 b._drivers(raw.get("drivers", {}), bodies))
             new_raw["drivers"] = freeze({n: driver_to_raw(d) for n, d in drivers.items()})
-        if self.joints:
+        # the outputs' rules read of a joint its name, its type and whether it has a
+        # clearance: with those unchanged the outputs are the scene's
+        if any(_output_facts(joints[n]) != _output_facts(scene.joints[n]) for n in self.joints):
             changed["outputs"] = MappingProxyType(
                 b._outputs(raw.get("outputs", {}), bodies, ground, joints))
         if self.drivers:
