@@ -322,6 +322,12 @@ def signal_session():
     SIGTERM behave as without it: a kernel stops at its next step and the signal's handler
     raises after it, and between kernels the handler runs at once.
 
+    Returns
+    -------
+    contextlib.AbstractContextManager
+        The session: installed on entering the ``with`` block (re-entrant; nothing off the
+        main thread), what it replaced restored on leaving it.
+
     Examples
     --------
     >>> from mechrel.scene import load_scene

@@ -16,11 +16,14 @@ solver choice: :func:`make_integrator`, :data:`DEFAULT_SOLVERS`),
 :mod:`~mechrel.simulation.evaluators` (the output kinds' values),
 :mod:`~mechrel.simulation.reference` (the ideal counterpart, :class:`ReferenceDesign`) and
 :mod:`~mechrel.simulation.prepared` (a scene compiled once for many samples,
-:class:`PreparedScene`). Import the public names from here.
+:class:`PreparedScene`). Import the public names from here; :func:`signal_session` (a batch
+of runs sharing one installation of the integrators' signal watcher) is
+:mod:`mechrel.integrate`'s, named here for the batches of samples that run through this package.
 """
 
 from __future__ import annotations
 
+from ..integrate.base import signal_session
 from .extremes import DENSE_POINTS, EXTREME_FIELDS, KINEMATIC_POINTS, analysis_window
 from .prepared import PreparedScene, locate_point
 from .reference import ReferenceDesign
@@ -32,4 +35,4 @@ from .times import output_times
 __all__ = ["simulate", "simulate_sample", "SimulationResult", "make_integrator", "scene_kind",
            "DEFAULT_SOLVERS", "output_times", "analysis_window", "DENSE_POINTS",
            "EXTREME_FIELDS", "KINEMATIC_POINTS", "extreme_values", "EXTREME_MAGNITUDE",
-           "ReferenceDesign", "PreparedScene", "locate_point"]
+           "ReferenceDesign", "PreparedScene", "locate_point", "signal_session"]

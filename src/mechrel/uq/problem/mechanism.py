@@ -612,7 +612,7 @@ class MechanismModel:
         if X.ndim != 2 or X.shape[1] != len(self.input_names):
             raise StudyError(f"X: expected shape (m, {len(self.input_names)}) for inputs "
                              f"{list(self.input_names)}, got {X.shape}")
-        from ...integrate.base import signal_session
+        from ...simulation import signal_session
 
         with signal_session():  # the signal watcher installed once for the batch's runs
             Y, ok, reasons = evaluate_rows(self._evaluate, X, len(self.output_index))
