@@ -248,15 +248,7 @@ class _SignalWatcher:
         constants), a raising handler made numba's dispatcher fail with ``SystemError``. The
         recorded signal's own handler is called after the block (raising there). Inside
         :meth:`session` nothing is installed again: the block only names its ``ctl``."""
-        if self._session is not None:
-            self.ctl = ctl
-            try:
-                yield
-            finally:
-                self.ctl = None
-            self._raise_pending()
-            return
-        with self.session():
+        with self.session():  # re-entrant: inside a session it installs nothing
             self.ctl = ctl
             try:
                 yield

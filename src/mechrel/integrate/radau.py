@@ -148,7 +148,7 @@ from ..mechanics.constraints import violations_at
 from ..mechanics.formulation import (evaluate, evaluate_inline, fast_jacobian, gaps,
                                      has_fast_part, n_coordinates, output_width,
                                      write_output)
-from ..mechanics.reduced import expand_rows, make_reduced_work
+from ..mechanics.reduced import expand_rows, make_reduced_work, reduced_coordinates
 from ..mechanics.system import without_clearance_forces
 from ..scene.model import FORMULATIONS
 from .events import (CTL_DONE, FORMULATION_TEXT, H_START_FLOOR, S_FORMULATION, S_JAC, S_LU,
@@ -1429,8 +1429,6 @@ def _advance_reduced(red, radau, t0, y0, hist, t_out, ctl, log_from, n_dense):
     construction satisfies the constraints to round-off at every instant). Around the kernel
     there are two compiled calls, the reduced initial state and :func:`_finish_reduced`: each
     compiled call with the mechanism's arrays costs its dispatch (~10 µs)."""
-    from ..mechanics.reduced import reduced_coordinates
-
     system, con = red.sys, red.con
     n = system.mass.shape[0]
     yr0 = reduced_coordinates(system, con, y0[:n], y0[n:2 * n], work=y0[2 * n:2 * n + 2])
