@@ -131,7 +131,8 @@ def assemble(system, q_guess, t=0.0, *, tol=1e-12, max_iter=50, labels=None):
     Raises
     ------
     AssemblyError
-        Naming the constraints that stay violated and by how much.
+        As :func:`assemble_positions`; or the constraint Jacobian is singular at ``q`` (a
+        locked or redundant configuration: no velocity solves Φ_q q̇ = −Φ_t).
 
     Examples
     --------
