@@ -112,6 +112,38 @@ def test_transition_runs_both_and_only_its_contact_joints_have_history():
         assert not np.all(np.isfinite(sample_forces(p, (0.5, 1.01))))
 
 
+def test_the_energy_bookkeeping_evaluates_force_laws_only_for_joints_that_can_touch():
+    # the elastic energy is metal contact's: where no joint can touch, post_process gives 0
+    # without a force law (the film's parameters poisoned: still 0, and T, V unchanged);
+    # with a joint that can touch it is the sum the force laws return, bit for bit
+    from mechrel.mechanics.applied import applied_forces
+    from mechrel.mechanics.post import post_process
+
+    for name, overrides, film_poisoned in (
+            ("nine-bar-lubricated", None, True),
+            ("nine-bar", {"joints.C1.model": "transition", "joints.C2.model": "lubricated"},
+             False)):
+        sc = load_scene(name, overrides={**(overrides or {}), "analysis.cycles": 0.1})
+        cs = compile_scene(sc)
+        sys = cs.dynamic
+        res = integrate(sc, cs)
+        Y = np.ascontiguousarray(res.y)
+        j = int(sys.cl_j[0] if sys.cl_j[0] >= 0 else sys.cl_b[0])
+        Y[-1, 3 * j] += 2.0 * sys.cl_p[0, P_C]  # a state beyond the wall too (|e| >= c)
+        *_, T, V, E = post_process(res.t, Y, sys)
+        n = sys.mass.size
+        expect = np.array([applied_forces(t, y[:n], y[n:2 * n], np.zeros(sys.n_contacts), sys,
+                                          np.zeros(n))[1] for t, y in zip(res.t, Y)])
+        assert np.array_equal(E, expect)
+        if film_poisoned:
+            assert sys.n_contacts == 0 and np.all(E == 0.0)
+            sys.cl_p[:, list(FILM)] = np.nan
+            *_, T2, V2, E2 = post_process(res.t, Y, sys)
+            assert np.all(E2 == 0.0) and np.array_equal(T2, T) and np.array_equal(V2, V)
+        else:
+            assert sys.n_contacts == 1 and E.max() > 0.0
+
+
 @pytest.mark.parametrize("scene", ["nine-bar", "slider-crank"])
 def test_ideal_driven_scene_is_kinematics_only(scene):
     cs = compile_scene(load_scene(scene))

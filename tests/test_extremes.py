@@ -185,6 +185,25 @@ def test_the_window_points_are_those_of_np_unique(steps, picks, fresh, lo, shuff
     assert np.array_equal(T, T0, equal_nan=True) and np.array_equal(first, first0)
 
 
+@settings(max_examples=300, deadline=None)
+@given(err=st.lists(st.sampled_from([0.0, -0.0, 1.5, -1.5, 2.0, -2.0, 1e-300, 7.0]) |
+                    st.floats(-1e3, 1e3), min_size=1, max_size=40),
+       bad=st.sampled_from([None, np.nan, np.inf, -np.inf]), at=st.integers(0, 39))
+def test_the_extremes_indices_are_numpys(err, bad, at):
+    """The cycle extremes' rows, found in one compiled pass, are ``np.argmax``'s and
+    ``np.argmin``'s (of equal values, the first: ties and signed zeros drawn on purpose), and
+    a non-finite error is reported, not ranked."""
+    from mechrel.simulation.extremes import _arg_extremes
+
+    e = np.array(err, dtype=float)
+    if bad is not None:
+        e[at % e.size] = bad
+    finite, imax, imin, iabs = _arg_extremes(e)
+    assert finite == bool(np.all(np.isfinite(e)))
+    if finite:
+        assert (imax, imin, iabs) == (np.argmax(e), np.argmin(e), np.argmax(np.abs(e)))
+
+
 @pytest.mark.parametrize("name", ["slider-crank-dry", "slider-crank-lubricated"])
 def test_the_window_states_are_the_output_rows_and_log_rows_they_name(name):
     """The states at the window points, gathered in one pass, are bitwise the rows of the

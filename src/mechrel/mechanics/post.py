@@ -105,7 +105,9 @@ def post_process(times, Y, sys):
     """Per output instant, the clearance joints' eccentricities and the energies.
 
     In one compiled call: the eccentricity (e_x, e_y) (m) of every clearance joint, kinetic
-    and gravitational energy and the elastic contact energy (J).
+    and gravitational energy and the elastic contact energy (J). The elastic energy is metal
+    contact's: where no clearance joint can touch (lubricated joints only) it is 0 and no force
+    law is evaluated for it.
 
     Parameters
     ----------
@@ -142,7 +144,8 @@ def post_process(times, Y, sys):
     T = np.empty(N)
     V = np.empty(N)
     E = np.empty(N)
-    no_hist = np.zeros(n_contacts(sys))  # the stored elastic energy does not depend on history
+    nh = n_contacts(sys)
+    no_hist = np.zeros(nh)  # the stored elastic energy does not depend on history
     cl_b = sys.cl_b
     cl_j = sys.cl_j
     cl_sb = sys.cl_sb
@@ -160,6 +163,9 @@ def post_process(times, Y, sys):
                 q, v, cl_b[k], cl_j[k], cl_sb[k, 0], cl_sb[k, 1], cl_sj[k, 0], cl_sj[k, 1],
                 cs, sn)
         T[r], V[r] = mechanical_energy(y, sys)
-        Q[:] = 0.0
-        _, E[r] = applied_forces(times[r], q, v, no_hist, sys, Q)
+        if nh == 0:  # no joint that can touch: every force law's elastic energy is 0.0
+            E[r] = 0.0
+        else:
+            Q[:] = 0.0
+            _, E[r] = applied_forces(times[r], q, v, no_hist, sys, Q)
     return EX, EY, T, V, E

@@ -79,6 +79,13 @@ _REQUIRED_HINTS = {
 }
 
 
+#: Per joint type, the hint an unknown field gets when it is another type's field.
+_JOINT_HINTS = {jtype: {k: f" ('{k}' belongs to "
+                           f"{' or '.join(t for t, ks in JOINT_KEYS_BY_TYPE.items() if k in ks)} "
+                           "joints)" for k in JOINT_KEYS if k not in own}
+                for jtype, own in JOINT_KEYS_BY_TYPE.items()}
+
+
 class _Builder(Checker):
     required_hints = _REQUIRED_HINTS
 
@@ -221,11 +228,8 @@ class _Builder(Checker):
                                            "fixed-angle": ("angle",)}.get(jtype, ())
         if jtype in _LINE_JOINTS:
             self._no_clearance(p, j, jtype)
-        hints = {k: f" ('{k}' belongs to "
-                    f"{' or '.join(t for t, ks in JOINT_KEYS_BY_TYPE.items() if k in ks)} "
-                    "joints)"
-                 for k in JOINT_KEYS if k not in JOINT_KEYS_BY_TYPE[jtype]}
-        self.keys(p, j, JOINT_KEYS_BY_TYPE[jtype], required=required, what=what, hints=hints)
+        self.keys(p, j, JOINT_KEYS_BY_TYPE[jtype], required=required, what=what,
+                  hints=_JOINT_HINTS[jtype])
         if jtype == "revolute":
             return self._revolute(p, name, j, bodies, ground, keep or {})
         if jtype in _LINE_JOINTS:

@@ -132,6 +132,26 @@ def _window_states(Y, YD, H, log, rows, first, n):
     return Q, V, A, HT
 
 
+@njit(cache=True)
+def _arg_extremes(err):
+    """``(finite, argmax, argmin, argmax of |err|)`` of a non-empty ``err`` in one pass: the
+    indices ``np.argmax``/``np.argmin`` give (of equal values, the first); ``finite`` False,
+    and the indices meaningless, when a value is not finite."""
+    imax = imin = iabs = 0
+    hi = lo = err[0]
+    big = abs(err[0])
+    for i in range(err.shape[0]):
+        x = err[i]
+        if not math.isfinite(x):
+            return False, 0, 0, 0
+        if x > hi:
+            hi, imax = x, i
+        if x < lo:
+            lo, imin = x, i
+        if abs(x) > big:
+            big, iabs = abs(x), i
+    return True, imax, imin, iabs
+
 def _extremes_of(scene, compiled, T, outputs, ideal, sectors=None):
     """``({output: {quantity: {field: value}}}, sector extremes or None)`` of the error
     ``outputs − ideal`` at ``T``; with ``sectors`` (degrees), per output and quantity the
@@ -144,12 +164,12 @@ def _extremes_of(scene, compiled, T, outputs, ideal, sectors=None):
         out[name] = {}
         for qty, values in quantities.items():
             err = values - ideal[name][qty]
-            if not np.all(np.isfinite(err)):
+            finite, imax, imin, iabs = _arg_extremes(err)
+            if not finite:
                 raise SimulationError(f"output {name}.{qty}: a non-finite error on the "
                                       "solution log (cycle extremes)")
             d = {}
-            for key, i in (("max", int(np.argmax(err))), ("min", int(np.argmin(err))),
-                           ("max_abs", int(np.argmax(np.abs(err))))):
+            for key, i in (("max", imax), ("min", imin), ("max_abs", iabs)):
                 d[key] = float(abs(err[i]) if key == "max_abs" else err[i])
                 d[f"{key}_time"] = float(T[i])
                 d[f"{key}_angle"] = float(angles[i]) if angles is not None else math.nan
