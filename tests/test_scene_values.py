@@ -142,6 +142,24 @@ def test_the_fast_path_is_taken_for_what_samples_set():
                                      "drivers.crank2.speed", "bodies.rod3.points.B[1]",
                                      "ground.points.H[0]", "bodies.crank1.length(O,A)"])
     assert prepared.values.incremental and prepared.patchable
+    # numbers at a joint's numeric fields: the rest of the joint (its points, model, other
+    # fields and parameters) kept as validated; an eccentricity component is not one of them
+    assert set(prepared.values._numeric) == {"C1", "C2"}
+    ecc = SceneValues(scene, ["joints.C1.clearance", "joints.C1.initial_eccentricity[0]"])
+    assert ecc.incremental and not ecc._numeric
+    # a value that is not a float at such a path: the joint validated as any other table,
+    # with the full validation's message
+    at = SceneValues(scene, ["joints.C1.clearance", "joints.C2.lubricant.viscosity"])
+    for bad in ("wide", True, [1e-4], 3):
+        values = {"joints.C1.clearance": 4e-4, "joints.C2.lubricant.viscosity": bad}
+        try:
+            want = with_overrides(scene, values)
+        except SceneError as exc:
+            with pytest.raises(SceneError) as got:
+                at(values)
+            assert str(got.value) == str(exc), bad
+        else:
+            assert at(values) == want and canonical_json(at(values)) == canonical_json(want)
     # a mass, a joint's model or its initial eccentricity, or the solver: compiled in full
     for path in ("bodies.rod3.mass", "joints.C1.initial_eccentricity[0]", "solver.rtol"):
         other = PreparedScene(scene, ["joints.C1.clearance", path])

@@ -79,6 +79,10 @@ _REQUIRED_HINTS = {
 }
 
 
+#: Per sub-table of a clearance joint, its parameters' declarations by key.
+_SUB_PARAMS = {sub: {prm.key: prm for prm in PARAMS.values() if prm.sub == sub}
+               for sub in SUBTABLE_CLASSES}
+
 #: Per joint type, the hint an unknown field gets when it is another type's field.
 _JOINT_HINTS = {jtype: {k: f" ('{k}' belongs to "
                            f"{' or '.join(t for t, ks in JOINT_KEYS_BY_TYPE.items() if k in ks)} "
@@ -213,10 +217,17 @@ class _Builder(Checker):
         return {name: self._joint(name, j, bodies, ground) for name, j in jt.items()}
 
     def _joint(self, name: str, j: Any, bodies: Mapping[str, Body], ground: Mapping,
-               keep: Mapping[str, Any] | None = None) -> Joint:
-        """One joint; ``keep``: sub-tables of a revolute joint validated before with the same
-        content and model, taken as they are (:class:`~mechrel.scene._values.SceneValues`)."""
+               keep: Mapping[Any, Any] | None = None) -> Joint:
+        """One joint; ``keep``: what of a revolute joint was validated before with the same
+        content and is taken as it is (:class:`~mechrel.scene._values.SceneValues`): its
+        sub-tables that hold no value (by name), the model unchanged; and, when the values are
+        numbers at its numeric fields only (its ``type`` kept: the table's shape is the one
+        validated), its other fields by name and, by ``("params", sub-table)``, the other
+        parameters of a sub-table that holds a value. The rules that read a changed value all
+        run, in their order."""
         p = join("joints", name)
+        if keep and "type" in keep:  # only numbers changed: type, fields and points as before
+            return self._revolute(p, name, j, bodies, ground, keep)
         self.name(p, name, "joint")
         self.table(p, j)
         if "type" not in j:
@@ -275,15 +286,20 @@ class _Builder(Checker):
                      direction=(d[0] / norm, d[1] / norm), angle=angle)
 
     def _revolute(self, p: str, name: str, j: Mapping, bodies, ground,
-                  keep: Mapping[str, Any]) -> Joint:
-        c = self._refs(p + ".connects", j["connects"], 2, "a revolute joint")
-        a = self._ref(p + ".connects[0]", c[0], bodies, ground)
-        b = self._ref(p + ".connects[1]", c[1], bodies, ground)
-        if a.body == b.body:
-            what = "the ground to itself" if a.body == GROUND else f"body '{a.body}' to itself"
-            self.fail(p + ".connects", c, f"the joint connects {what}",
-                      "two points on different bodies (or a body and the ground)")
-        model = self.choice(p + ".model", j.get("model", "ideal"), ("ideal", *MODELS))
+                  keep: Mapping[Any, Any]) -> Joint:
+        if "connects" in keep:
+            a, b = keep["connects"]
+        else:
+            c = self._refs(p + ".connects", j["connects"], 2, "a revolute joint")
+            a = self._ref(p + ".connects[0]", c[0], bodies, ground)
+            b = self._ref(p + ".connects[1]", c[1], bodies, ground)
+            if a.body == b.body:
+                what = ("the ground to itself" if a.body == GROUND
+                        else f"body '{a.body}' to itself")
+                self.fail(p + ".connects", c, f"the joint connects {what}",
+                          "two points on different bodies (or a body and the ground)")
+        model = keep["model"] if "model" in keep else self.choice(
+            p + ".model", j.get("model", "ideal"), ("ideal", *MODELS))
         ideal = model == "ideal"
         kind = f"a '{model}' clearance joint"
         if not ideal:
@@ -292,28 +308,32 @@ class _Builder(Checker):
                 if k not in j:
                     self.fail(p + "." + k, _MISSING, f"missing required field of {kind}",
                               f"a finite number ({unit})")
-        clearance = self.number(p + ".clearance", j.get("clearance", 0.0), ge=0, unit="m")
+        clearance = keep["clearance"] if "clearance" in keep else self.number(
+            p + ".clearance", j.get("clearance", 0.0), ge=0, unit="m")
         if not ideal and clearance <= 0:
             self.fail(p + ".clearance", j["clearance"], f"{kind} needs a clearance > 0",
                       describe_number(gt=0, unit="m"))
         bearing_radius = length = None
         if "bearing_radius" in j:
-            bearing_radius = self.number(p + ".bearing_radius", j["bearing_radius"], gt=0, unit="m")
+            bearing_radius = keep["bearing_radius"] if "bearing_radius" in keep else self.number(
+                p + ".bearing_radius", j["bearing_radius"], gt=0, unit="m")
             if clearance >= bearing_radius:
                 self.fail(p + ".clearance", j.get("clearance", 0.0),
                           f"the radial clearance must be smaller than bearing_radius = "
                           f"{fmt_value(bearing_radius)} (the journal radius is bearing_radius - "
                           f"clearance)", "0 < clearance < bearing_radius (m)")
         if "length" in j:
-            length = self.number(p + ".length", j["length"], gt=0, unit="m")
-        ecc = self.vec2(p + ".initial_eccentricity", j.get("initial_eccentricity", (0.0, 0.0)),
-                        unit="m")
+            length = keep["length"] if "length" in keep else self.number(
+                p + ".length", j["length"], gt=0, unit="m")
+        ecc = keep["initial_eccentricity"] if "initial_eccentricity" in keep else self.vec2(
+            p + ".initial_eccentricity", j.get("initial_eccentricity", (0.0, 0.0)), unit="m")
         if (not ideal or ecc != (0.0, 0.0)) and not math.hypot(*ecc) < clearance:
             self.fail(p + ".initial_eccentricity", j["initial_eccentricity"],
                       f"|e| = {math.hypot(*ecc):g} m is not inside the clearance circle "
                       f"(clearance = {clearance:g} m)", "|initial_eccentricity| < clearance")
-        ecc_rate = self.vec2(p + ".initial_eccentricity_rate",
-                             j.get("initial_eccentricity_rate", (0.0, 0.0)), unit="m/s")
+        ecc_rate = (keep["initial_eccentricity_rate"] if "initial_eccentricity_rate" in keep
+                    else self.vec2(p + ".initial_eccentricity_rate",
+                                   j.get("initial_eccentricity_rate", (0.0, 0.0)), unit="m/s"))
         # which sub-tables a model needs comes from its row in the table of models; a sub-table
         # given but not needed is validated too (and ignored by the force law)
         needs = () if ideal else MODELS[model].requires
@@ -322,7 +342,8 @@ class _Builder(Checker):
             if k in keep:  # its content passed these checks before (the model unchanged)
                 subs[k] = keep[k] if k in j or k in needs else None
             else:
-                subs[k] = (self._subtable(join(p, k), k, j.get(k, {}), model)
+                subs[k] = (self._subtable(join(p, k), k, j.get(k, {}), model,
+                                          keep.get(("params", k)))
                            if k in j or k in needs else None)
         joint = Joint(name=name, type="revolute", points=(a, b), model=model,
                       clearance=clearance, bearing_radius=bearing_radius, length=length,
@@ -351,17 +372,25 @@ class _Builder(Checker):
             self.fail(where.get(field, join(p, field)), err.value,
                       f"not allowed by the '{joint.model}' force law{derived}", err.allowed)
 
-    def _subtable(self, path: str, sub: str, v: Any, model: str) -> SubTable:
+    def _subtable(self, path: str, sub: str, v: Any, model: str,
+                  kept: Mapping[str, Any] | None = None) -> SubTable:
         """A clearance joint's sub-table, checked by the declarations of its parameters
         (:data:`mechrel.forces.models.PARAMS`: range, choices or true/false), then by the
-        cross-field rules the force law states with scene paths."""
-        t = self.table(path, v)
-        params = {prm.key: prm for prm in PARAMS.values() if prm.sub == sub}
-        self.keys(path, t, tuple(params), what=f"[{sub}]")
+        cross-field rules the force law states with scene paths. ``kept``: the parameters
+        validated before with the same content (only numbers changed in the table), taken as
+        they are."""
+        params = _SUB_PARAMS[sub]
+        if kept is None:
+            t = self.table(path, v)
+            self.keys(path, t, tuple(params), what=f"[{sub}]")
+        else:
+            t = v
         d: dict[str, Any] = {}
         for key, prm in params.items():
             val = t.get(key, prm.default)
-            if prm.choices is not None:
+            if kept is not None and key in kept:
+                d[key] = kept[key]
+            elif prm.choices is not None:
                 d[key] = self.choice(join(path, key), val, prm.choices)
             elif prm.boolean:
                 if not isinstance(val, bool):
@@ -674,8 +703,9 @@ def body_to_raw(b: Body) -> dict:
             "angle": b.angle, **table}
 
 
-def joint_to_raw(j: Joint) -> dict:
-    """One joint's table of :func:`scene_to_raw`."""
+def joint_to_raw(j: Joint, only: Sequence[str] | None = None) -> dict:
+    """One joint's table of :func:`scene_to_raw`; ``only``: just these of its fields (those
+    a sample's values changed, :class:`~mechrel.scene._values.SceneValues`)."""
     d: dict[str, Any] = {"type": j.type, "connects": [str(r) for r in j.points]}
     if j.type == "revolute":
         d["model"] = j.model
@@ -688,14 +718,14 @@ def joint_to_raw(j: Joint) -> dict:
         d["initial_eccentricity_rate"] = _pair(j.initial_eccentricity_rate)
         for k in SUBTABLE_CLASSES:
             sub = getattr(j, k)
-            if sub is not None:
+            if sub is not None and (only is None or k in only):
                 d[k] = _subtable_raw(k, sub)
     else:
         if j.direction is not None:
             d["direction"] = _pair(j.direction)
         if j.angle is not None:  # all but pin-in-slot joints hold an angle
             d["angle"] = float(j.angle)
-    return d
+    return d if only is None else {k: d[k] for k in only if k in d}
 
 
 def driver_to_raw(dr: Driver) -> dict:

@@ -122,6 +122,12 @@ def _spine(raw: Mapping, path: str | tuple[str, ...]) -> dict:
     return top
 
 
+#: A revolute joint's fields other than its type, points, model and sub-tables: kept as the
+#: scene's when the values change other fields of the joint only.
+_NUMERIC_KEPT = ("clearance", "bearing_radius", "length", "initial_eccentricity",
+                 "initial_eccentricity_rate")
+
+
 def _output_facts(joint) -> tuple[str, bool]:
     """What the outputs' validation reads of a joint (besides its name): its type and whether
     it has a clearance (an output of kind ``joint`` needs a revolute joint with one)."""
@@ -194,6 +200,31 @@ class SceneValues:
             if "model" not in fields and joint.type == "revolute":
                 self._keep[name] = {k: getattr(joint, k) for k in SUBTABLE_CLASSES
                                     if k not in fields}
+        # per joint whose values are numbers at its numeric fields only (plain paths to floats
+        # of the scene: its clearance, radius, length, sub-table parameters): with float values
+        # the rest of it is kept too (its type, points, model, other fields and parameters),
+        # and its raw table is the scene's with the changed fields written again
+        self._numeric: dict[str, tuple[dict, tuple[str, ...]]] = {}
+        self._joint_of = {p: t[1] for p, t in zip(paths, tables)
+                          if t is not None and t[0] == "joint"}
+        for name in self.joints:
+            joint = scene.joints[name]
+            mine = [p for p, n in self._joint_of.items() if n == name]
+            if joint.type != "revolute" or not all(p in self._leaves for p in mine) \
+                    or scene.raw["joints"][name] != freeze(joint_to_raw(joint)):
+                continue
+            fields = tuple(dict.fromkeys(self._leaves[p][2] for p in mine))
+            keep: dict[Any, Any] = {**self._keep.get(name, {}), "type": joint.type,
+                                    "connects": joint.points, "model": joint.model}
+            keep.update({f: getattr(joint, f) for f in _NUMERIC_KEPT if f not in fields})
+            for sub in SUBTABLE_CLASSES:
+                if sub in fields:
+                    changed = {self._leaves[p][3] for p in mine if self._leaves[p][2] == sub}
+                    table = getattr(joint, sub)
+                    keep["params", sub] = {f.name: getattr(table, f.name)
+                                           for f in dataclasses.fields(table)
+                                           if f.name not in changed}
+            self._numeric[name] = (keep, fields)
         self.bodies = tuple(n for n in scene.bodies if ("body", n) in tables)
         self.ground = ("ground",) in tables
         self.drivers = ("drivers",) in tables
@@ -263,10 +294,20 @@ class SceneValues:
         if self.joints:
             joints = dict(joints)
             table = dict(new_raw["joints"])
+            # a joint with a value that is not a float is validated as any other table
+            other = {self._joint_of[p] for p, v, _ in overrides
+                     if p in self._joint_of and not isinstance(v, float)}
             for name in self.joints:
-                joints[name] = b._joint(name, raw["joints"][name], bodies, ground,
-                                        self._keep.get(name))
-                table[name] = freeze(joint_to_raw(joints[name]))
+                numeric = self._numeric.get(name) if name not in other else None
+                if numeric is None:
+                    joints[name] = b._joint(name, raw["joints"][name], bodies, ground,
+                                            self._keep.get(name))
+                    table[name] = freeze(joint_to_raw(joints[name]))
+                else:
+                    keep, fields = numeric
+                    joints[name] = b._joint(name, raw["joints"][name], bodies, ground, keep)
+                    table[name] = MappingProxyType(
+                        {**table[name], **freeze(joint_to_raw(joints[name], fields))})
             joints = changed["joints"] = MappingProxyType(joints)
             new_raw["joints"] = MappingProxyType(table)
         if self._links:
