@@ -111,15 +111,17 @@ FINITE_LD_RANGE = (0.25, 4.0)
 """L/D = length / (2 R_S) range of the finite-length film's table (-)."""
 
 
-def _in_range(x: float, gt=None, ge=None, lt=None, le=None, unit=None) -> bool:
-    return ((gt is None or x > gt) and (ge is None or x >= ge)
-            and (lt is None or x < lt) and (le is None or x <= le))
+#: :data:`LIMITS` as ``(gt, ge, lt, le)`` per field (None: no such bound), for the check.
+_BOUNDS = {field: tuple(spec.get(k) for k in ("gt", "ge", "lt", "le"))
+           for field, spec in LIMITS.items()}
 
 
 def _limited(field: str, value: Any) -> float:
     x = _real(field, value)
-    spec = LIMITS[field]
-    _check(field, value, _in_range(x, **spec), lambda: describe_range(**spec))
+    gt, ge, lt, le = _BOUNDS[field]
+    if not ((gt is None or x > gt) and (ge is None or x >= ge)
+            and (lt is None or x < lt) and (le is None or x <= le)):
+        _check(field, value, False, describe_range(**LIMITS[field]))
     return x
 
 

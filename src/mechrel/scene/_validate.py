@@ -79,9 +79,16 @@ _REQUIRED_HINTS = {
 }
 
 
-#: Per sub-table of a clearance joint, its parameters' declarations by key.
-_SUB_PARAMS = {sub: {prm.key: prm for prm in PARAMS.values() if prm.sub == sub}
-               for sub in SUBTABLE_CLASSES}
+#: Per driver law, its required values besides body, law and angle0.
+_DRIVER_REQUIRED = {"constant-speed": ("speed",), "constant-acceleration": ("acceleration",),
+                    "harmonic": ("amplitude", "frequency"), "smooth-start": ("speed", "ramp_time")}
+#: Per driver law, the hint an unknown field gets when it is another law's field.
+_DRIVER_HINTS = {law: {k: f" (not used by law '{law}')" for k in DRIVER_KEYS}
+                 for law in DRIVER_KEYS_BY_LAW}
+#: A driver value's unit and lower bound (``ge``; None: none).
+_DRIVER_UNITS = {"speed": ("rad/s", None), "acceleration": ("rad/s^2", None),
+                 "amplitude": ("rad", None), "frequency": ("rad/s", 0), "phase": ("rad", None),
+                 "ramp_time": ("s", None)}
 
 #: Per joint type, the hint an unknown field gets when it is another type's field.
 _JOINT_HINTS = {jtype: {k: f" ('{k}' belongs to "
@@ -379,7 +386,7 @@ class _Builder(Checker):
         cross-field rules the force law states with scene paths. ``kept``: the parameters
         validated before with the same content (only numbers changed in the table), taken as
         they are."""
-        params = _SUB_PARAMS[sub]
+        params = {prm.key: prm for prm in PARAMS.values() if prm.sub == sub}
         if kept is None:
             t = self.table(path, v)
             self.keys(path, t, tuple(params), what=f"[{sub}]")
@@ -449,12 +456,9 @@ class _Builder(Checker):
             if "law" not in d:
                 self.fail(p + ".law", _MISSING, "missing required field", _one_of(DRIVER_LAWS))
             law = self.choice(p + ".law", d["law"], DRIVER_LAWS)
-            required = {"constant-speed": ("speed",), "constant-acceleration": ("acceleration",),
-                        "harmonic": ("amplitude", "frequency"),
-                        "smooth-start": ("speed", "ramp_time")}[law]
-            hints = {k: f" (not used by law '{law}')" for k in DRIVER_KEYS}
-            self.keys(p, d, DRIVER_KEYS_BY_LAW[law], required=("body", "law", "angle0") + required,
-                      what=f"a '{law}' driver", hints=hints)
+            self.keys(p, d, DRIVER_KEYS_BY_LAW[law],
+                      required=("body", "law", "angle0") + _DRIVER_REQUIRED[law],
+                      what=f"a '{law}' driver", hints=_DRIVER_HINTS[law])
             body = self.string(p + ".body", d["body"], "the name of a moving body")
             if body not in bodies:
                 self.fail(p + ".body", body, f"unknown body '{body}'{suggest(body, bodies)}",
@@ -465,12 +469,9 @@ class _Builder(Checker):
                           "at most one driver per body")
             driven[body] = name
             kw = dict(angle0=self.number(p + ".angle0", d["angle0"], unit="rad"))
-            units = {"speed": ("rad/s", None), "acceleration": ("rad/s^2", None),
-                     "amplitude": ("rad", None), "frequency": ("rad/s", 0), "phase": ("rad", None),
-                     "ramp_time": ("s", None)}
             for k in DRIVER_KEYS_BY_LAW[law][3:]:
                 if k in d:
-                    unit, ge = units[k]
+                    unit, ge = _DRIVER_UNITS[k]
                     if k == "ramp_time":
                         kw[k] = self.number(f"{p}.{k}", d[k], gt=0, unit=unit)
                     else:
