@@ -13,7 +13,10 @@ values sit in, not on the whole scene:
 * a joint, a body or the ground points whose table holds a value is validated again by the
   builder's own method for one joint, one body or the ground (a joint's sub-tables that hold
   none of the values, its model unchanged, are the scene's: they passed the same checks with
-  the same content); a change of the points or of a joint's type or connects
+  the same content; when the values are floats at a revolute joint's numeric fields, its
+  type, points, model, other fields and other parameters are the scene's too, every rule
+  that reads a changed value runs, and only the changed fields of its raw table are written
+  again); a change of the points or of a joint's type or connects
   also runs the check of zero-length links, a change of a joint the outputs' (they
   name joints), a change of a driver the drivers' table and the analysis' (which reads the
   cycle driver's speed);
