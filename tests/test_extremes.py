@@ -202,6 +202,8 @@ def test_the_extremes_indices_are_numpys(err, bad, at):
     assert finite == bool(np.all(np.isfinite(e)))
     if finite:
         assert (imax, imin, iabs) == (np.argmax(e), np.argmin(e), np.argmax(np.abs(e)))
+    with pytest.raises(ValueError, match="at no instant"):
+        _arg_extremes(e[:0])
 
 
 @pytest.mark.parametrize("name", ["slider-crank-dry", "slider-crank-lubricated"])

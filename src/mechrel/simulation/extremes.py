@@ -136,7 +136,10 @@ def _window_states(Y, YD, H, log, rows, first, n):
 def _arg_extremes(err):
     """``(finite, argmax, argmin, argmax of |err|)`` of a non-empty ``err`` in one pass: the
     indices ``np.argmax``/``np.argmin`` give (of equal values, the first); ``finite`` False,
-    and the indices meaningless, when a value is not finite."""
+    and the indices meaningless, when a value is not finite; ValueError for an empty ``err``
+    (as ``np.argmax``)."""
+    if err.shape[0] == 0:
+        raise ValueError("the cycle extremes of an error at no instant")
     imax = imin = iabs = 0
     hi = lo = err[0]
     big = abs(err[0])
