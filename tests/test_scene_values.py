@@ -266,3 +266,55 @@ def test_outputs_validated_again_only_when_what_they_read_of_a_joint_changes():
         SceneValues(ideal, list(values))(values)
     assert str(got.value) == str(want.value)
     _compare(ideal, values)
+
+
+def test_the_ideal_start_is_the_scenes_own_only_where_the_values_leave_it():
+    # the assembly at t = 0 reads the ideal mechanism's arrays and the drivers' angles at
+    # t = 0: a speed or a force-law value leaves it (the scene's positions, bitwise those a
+    # full compilation assembles); a driver's angle0 or a point moves it (None: the run
+    # assembles its own)
+    from mechrel.mechanics.kinematics import assemble_positions
+
+    scene = SCENES["nine-bar-lubricated"]
+    paths = ["joints.C1.clearance", "joints.C2.lubricant.viscosity", "drivers.crank1.speed",
+             "drivers.crank2.speed", "drivers.crank1.angle0"]
+    prepared = PreparedScene(scene, paths)
+    # with a point among the paths every run writes the points again: never the scene's start
+    moved = PreparedScene(scene, paths + ["bodies.crank1.length(O,A)"])
+    tol = scene.solver.assembly_tolerance
+    for values, same in (
+            ({"joints.C1.clearance": 4e-4, "drivers.crank1.speed": -9.0,
+              "drivers.crank2.speed": 9.9}, True),
+            ({"joints.C2.lubricant.viscosity": 0.2}, True),
+            ({"drivers.crank1.angle0": _value_at(scene, "drivers.crank1.angle0") + 0.1},
+             False),
+            ({"bodies.crank1.length(O,A)": _value_at(scene, "bodies.crank1.length(O,A)")
+              * 1.01}, False)):
+        at = moved if "bodies.crank1.length(O,A)" in values else prepared
+        got, compiled = at.at(values)
+        q0 = at.ideal_start(got, compiled)
+        assert (q0 is not None) == same, values
+        full = compile_scene(with_overrides(scene, values))
+        want = assemble_positions(full.ideal, full.q_guess, 0.0, tol=tol)
+        if same:
+            assert q0.tobytes() == want.tobytes(), values
+            q0[:] = np.nan  # a copy: the next run's start is untouched
+    # a scene that does not assemble: no start, the run reports its own failure
+    assert prepared.ideal_start(*prepared.at({"drivers.crank1.speed": -9.0})) is not None
+    wide = PreparedScene(scene, ["drivers.crank1.speed"])
+    wide._start = ()
+    assert wide.ideal_start(*wide.at({"drivers.crank1.speed": -9.0})) is None
+
+
+def test_a_batch_with_the_ideal_start_reused_is_bitwise_one_without(monkeypatch):
+    from mechrel.study.study import load_study
+
+    study = load_study("nine-bar-lubricated")
+    X = study.uncertain_inputs().sample(2, "sobol", 20221014)
+    Y = study.model().evaluate_batch(X)
+    reused = []
+    original = PreparedScene.ideal_start
+    monkeypatch.setattr(PreparedScene, "ideal_start",
+                        lambda self, s, c: reused.append(original(self, s, c)) or None)
+    assert np.array_equal(study.model().evaluate_batch(X), Y)
+    assert len(reused) == 2 and all(q is not None for q in reused)

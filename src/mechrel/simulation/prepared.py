@@ -11,7 +11,10 @@ from typing import Any
 
 import numpy as np
 
+from ..errors import AssemblyError
 from ..forces.models import SUBTABLES
+from ..mechanics.drivers import driver_law
+from ..mechanics.kinematics import assemble_positions
 from ..mechanics.system import CompiledScene, System, _driver_row, compile_scene
 from ..scene._values import SceneValues, table_of, value_path
 from ..scene.model import GROUND, Scene
@@ -208,6 +211,7 @@ class PreparedScene:
                 patchable = False
         self.patchable = patchable
         self._joints, self._drivers, self._points = joints, drivers, points
+        self._start: tuple | None = None  # (the drivers' angles at t = 0, positions) or ()
 
     def at(self, values: Mapping[str, Any]) -> tuple[Scene, CompiledScene]:
         """The scene with ``values`` set, and its compilation.
@@ -272,3 +276,71 @@ class PreparedScene:
                 systems[system] = systems[system]._replace(**fields)
         top: dict[str, Any] = {f: a for (s, f), a in own.items() if s == ""}
         return scene, c._replace(**systems, **top, period=period)
+
+    def ideal_start(self, scene: Scene, compiled: CompiledScene) -> np.ndarray | None:
+        """The positions at t = 0 of the ideal mechanism of ``(scene, compiled)`` (a result
+        of :meth:`at`) when they are the prepared scene's own, else None.
+
+        The assembly at t = 0 (:func:`~mechrel.mechanics.kinematics.assemble_positions` from
+        ``q_guess``, the first step of a run) reads the ideal mechanism's arrays and, of a
+        driver, only its angle at t = 0 (the constraints' driver rows, ``driver_law``; their
+        rates do not enter the positions). When :meth:`at` replaced none of those arrays but
+        the drivers' parameters, every driver's angle at t = 0 is bitwise the scene's (a
+        changed speed leaves it) and the assembly tolerance is the scene's, the scene's
+        positions are the sample's, bitwise: they are assembled once, at the first call.
+
+        Parameters
+        ----------
+        scene, compiled
+            What :meth:`at` returned.
+
+        Returns
+        -------
+        numpy.ndarray or None
+            The positions (m, rad), a copy, or None: the run assembles its own (also when the
+            scene's own assembly fails, so that the run reports it).
+
+        Examples
+        --------
+        A crank speed changes the run, not where the crank starts:
+
+        >>> from mechrel.mechanics.kinematics import assemble_positions
+        >>> from mechrel.scene import load_scene
+        >>> prepared = PreparedScene(load_scene("nine-bar-lubricated"),
+        ...                          ["drivers.crank1.speed", "drivers.crank1.angle0"])
+        >>> scene, c = prepared.at({"drivers.crank1.speed": -9.0})
+        >>> q0 = prepared.ideal_start(scene, c)
+        >>> bool((q0 == assemble_positions(c.ideal, c.q_guess, 0.0)).all())
+        True
+        >>> prepared.ideal_start(*prepared.at({"drivers.crank1.angle0": 0.1})) is None
+        True
+        """
+        base = self.compiled
+        tol = self.scene.solver.assembly_tolerance
+        if (compiled.q_guess is not base.q_guess or compiled.labels is not base.labels
+                or scene.solver.assembly_tolerance != tol):
+            return None
+        mine, theirs = compiled.ideal, base.ideal
+        if any(getattr(mine, f) is not getattr(theirs, f) for f in System._fields
+               if f != "dr_par"):
+            return None
+        if self._start is None:
+            try:
+                q0 = assemble_positions(theirs, base.q_guess, 0.0, tol=tol,
+                                        labels=base.labels["ideal"])
+            except AssemblyError:
+                self._start = ()
+            else:
+                self._start = (_angles_at_start(theirs), q0)
+        if not self._start:
+            return None
+        angles, q0 = self._start
+        if mine.dr_par is not theirs.dr_par and _angles_at_start(mine) != angles:
+            return None
+        return q0.copy()  # a run's own (the compiled code takes writable arrays)
+
+
+def _angles_at_start(system: System) -> bytes:
+    """The drivers' angles at t = 0 (the bytes of their float64 values: ±0.0 told apart)."""
+    return np.array([driver_law(system.dr_law[k], system.dr_par[k], 0.0)[0]
+                     for k in range(system.dr_i.shape[0])], dtype=float).tobytes()

@@ -205,7 +205,8 @@ def simulate(scene: Scene, *, reference: Scene | None = None, method: str = "aut
 
 def simulate_sample(scene: Scene, solver, *, reference: Scene | ReferenceDesign | None = None,
                     extremes: bool = False, sectors: float | None = None,
-                    compiled: CompiledScene | None = None) -> SimulationResult:
+                    compiled: CompiledScene | None = None,
+                    q0: np.ndarray | None = None) -> SimulationResult:
     """:func:`simulate` (``reference``, ``extremes``) with an integrator made beforehand and
     without the provenance record: the inner call of a batch of samples
     (:meth:`mechrel.uq.problem.mechanism.MechanismModel.evaluate_batch`), where the integrator
@@ -224,6 +225,10 @@ def simulate_sample(scene: Scene, solver, *, reference: Scene | ReferenceDesign 
     compiled : CompiledScene, optional
         ``compile_scene(scene)`` or equal arrays (a
         :class:`PreparedScene`'s); compiled here when not given.
+    q0 : numpy.ndarray, optional
+        The ideal mechanism's positions at t = 0 as ``assemble_positions(compiled.ideal,
+        compiled.q_guess, 0.0)`` gives them (:meth:`PreparedScene.ideal_start`); assembled
+        here when not given.
 
     Returns
     -------
@@ -245,7 +250,8 @@ def simulate_sample(scene: Scene, solver, *, reference: Scene | ReferenceDesign 
     """
     return _explained(scene, reference=reference, method="auto", integrator=None,
                       progress=False, extremes=extremes, dense_points=DENSE_POINTS,
-                      sectors=sectors, solver=solver, provenance=False, compiled=compiled)
+                      sectors=sectors, solver=solver, provenance=False, compiled=compiled,
+                      q0=q0)
 
 
 def _explained(scene, **kwargs) -> SimulationResult:
@@ -268,7 +274,8 @@ def _explained(scene, **kwargs) -> SimulationResult:
 def _simulate(scene: Scene, *, reference: Scene | ReferenceDesign | None, method: str,
               integrator: str | None, progress: bool, extremes: bool, dense_points: int,
               sectors: float | None = None, solver=None, provenance: bool = True,
-              solver_settings=None, compiled: CompiledScene | None = None) -> SimulationResult:
+              solver_settings=None, compiled: CompiledScene | None = None,
+              q0: np.ndarray | None = None) -> SimulationResult:
     start = time.perf_counter()
     if not isinstance(scene, Scene):
         raise TypeError(f"simulate: scene must be a Scene, got {type(scene).__name__} "
@@ -319,8 +326,9 @@ def _simulate(scene: Scene, *, reference: Scene | ReferenceDesign | None, method
             or dense_points < 0:
         raise SimulationError(f"simulate: dense_points = {dense_points!r}: not an integer >= 0; "
                               "allowed: 0, 1, 2, ... points inside each integrator step")
-    q0 = assemble_positions(compiled.ideal, compiled.q_guess, 0.0, tol=tol,
-                            labels=compiled.labels["ideal"])
+    if q0 is None:
+        q0 = assemble_positions(compiled.ideal, compiled.q_guess, 0.0, tol=tol,
+                                labels=compiled.labels["ideal"])
 
     ideal = None
     if driven and (has_clearance or method in ("auto", "kinematics")):

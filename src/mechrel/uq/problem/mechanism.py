@@ -654,7 +654,9 @@ class _Samples:
     sample's values are set in the compiled scene, validated by the scene's own rules on the
     tables they sit in), the integrators by solver table and scene kind, and the nominal
     reference design by the sample's non-geometric values (with geometric inputs only: one,
-    its ideal mechanism analysed once per set of output instants). A sample's numbers are
+    its ideal mechanism analysed once per set of output instants); the ideal mechanism's
+    positions at t = 0 are the scene's own when the values leave them (a speed, a clearance:
+    :meth:`~mechrel.simulation.PreparedScene.ideal_start`). A sample's numbers are
     those of :meth:`MechanismModel.simulate`, bitwise."""
 
     KEEP = 8  # reference designs kept (one per set of non-geometric values)
@@ -692,7 +694,8 @@ class _Samples:
             solver = self.solvers[key] = make_integrator(scene)
         sectors = model.angle_step if getattr(model, "with_sectors", False) else None
         return simulate_sample(scene, solver, reference=reference, extremes=model.with_extremes,
-                               sectors=sectors, compiled=compiled)
+                               sectors=sectors, compiled=compiled,
+                               q0=self.prepared.ideal_start(scene, compiled))
 
 
 _NUMBER = re.compile(r"(?<![\w.])[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?")
