@@ -9,7 +9,10 @@ from __future__ import annotations
 
 from typing import Any
 
+from ..errors import SceneError
+from .contact import contact_stiffness
 from .models import MODELS, PARAMS
+from .params import pack_params
 
 __all__ = ["pack_joint"]
 
@@ -49,10 +52,6 @@ def pack_joint(joint: Any) -> Any:
     >>> model_by_code(p[P_MODEL]).name, bool(p[P_C] == joint.clearance), bool(p[P_K] > 0)
     ('dry', True, True)
     """
-    from ..errors import SceneError
-    from .contact import contact_stiffness
-    from .params import pack_params
-
     model = MODELS[joint.model]
     path = f"joints.{joint.name}"
     if joint.bearing_radius is None or joint.length is None:

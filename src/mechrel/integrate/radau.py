@@ -143,12 +143,15 @@ import math
 import numpy as np
 from numba import njit
 
+from ..errors import SimulationError
 from ..mechanics.borrow import borrowed, keep_alive
+from ..mechanics.construction import construction
 from ..mechanics.constraints import violations_at
 from ..mechanics.formulation import (evaluate, evaluate_inline, fast_jacobian, gaps,
                                      has_fast_part, n_coordinates, output_width,
                                      write_output)
-from ..mechanics.reduced import expand_rows, make_reduced_work, reduced_coordinates
+from ..mechanics.reduced import (ReducedSystem, expand_rows, make_reduced_work, n_reduced,
+                                 reduced_coordinates)
 from ..mechanics.system import without_clearance_forces
 from ..scene.model import FORMULATIONS
 from .events import (CTL_DONE, FORMULATION_TEXT, H_START_FLOOR, S_FORMULATION, S_JAC, S_LU,
@@ -1261,7 +1264,6 @@ class Radau(Integrator):
 
     def __init__(self, *, fixed_step: bool = False, formulation: str = "auto", **kwargs):
         super().__init__(**kwargs)
-        from ..errors import SimulationError
         self.fixed_step = bool(fixed_step)
         if self.fixed_step and self.step is None:
             raise SimulationError("solver.step: the fixed-step mode of 'radau' needs a step (s)")
@@ -1393,10 +1395,6 @@ def reduced_system(system, y0, *, required=False):
     ...
     mechrel.errors.SimulationError: radau's formulation = 'reduced': the mechanism has no ...
     """
-    from ..errors import SimulationError
-    from ..mechanics.construction import construction
-    from ..mechanics.reduced import ReducedSystem, n_reduced
-
     why = None
     con = construction(system)
     if con is None:

@@ -21,6 +21,7 @@ import numpy as np
 
 from ..errors import AssemblyError, SimulationError
 from ..forces.models import MODELS
+from ..forces.params import P_C
 from ..integrate import IntegrationResult
 from ..mechanics.dynamics import N_WORK
 from ..mechanics.kinematics import assemble, assemble_positions, kinematic_analysis
@@ -39,8 +40,6 @@ from .times import _crank_angle, output_times
 
 def _orbits_and_energy(compiled: CompiledScene, res: IntegrationResult):
     """Journal orbits and the energy bookkeeping at the output instants (one compiled call)."""
-    from ..forces.params import P_C
-
     sys = compiled.dynamic
     n = sys.mass.shape[0]
     Y = np.ascontiguousarray(res.y)

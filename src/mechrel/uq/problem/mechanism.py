@@ -662,8 +662,9 @@ class _Samples:
     KEEP = 8  # reference designs kept (one per set of non-geometric values)
 
     def __init__(self, model: MechanismModel):
-        from ...simulation import PreparedScene
         from ...scene._values import SceneValues
+        from ...simulation import (PreparedScene, ReferenceDesign, make_integrator, scene_kind,
+                                   simulate_sample)
 
         self.model = model
         paths = list(model.scene_values(model.nominal))
@@ -671,10 +672,11 @@ class _Samples:
         self.solvers: dict = {}
         self.other = SceneValues(model.scene, [p for p in paths if not is_geometric(p)])
         self.references: dict = {}
+        # what a sample calls, looked up once (the simulation layer is imported lazily here)
+        self._simulation = (ReferenceDesign, make_integrator, scene_kind, simulate_sample)
 
     def simulate(self, values: dict):
-        from ...simulation import ReferenceDesign, make_integrator, scene_kind, simulate_sample
-
+        ReferenceDesign, make_integrator, scene_kind, simulate_sample = self._simulation
         model = self.model
         scene, compiled = self.prepared.at(values)
         reference = None
