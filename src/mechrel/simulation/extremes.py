@@ -155,6 +155,7 @@ def _arg_extremes(err):
             big, iabs = abs(x), i
     return True, imax, imin, iabs
 
+
 def _extremes_of(scene, compiled, T, outputs, ideal, sectors=None):
     """``({output: {quantity: {field: value}}}, sector extremes or None)`` of the error
     ``outputs − ideal`` at ``T``; with ``sectors`` (degrees), per output and quantity the

@@ -112,9 +112,8 @@ def _ideal_by_dynamics(source: Scene, solver, times: np.ndarray, actual: Scene):
     compiled = compile_scene(source)
     n = compiled.q_guess.size
     tol = source.solver.assembly_tolerance
-    q0 = assemble_positions(compiled.ideal, compiled.q_guess, 0.0, tol=tol,
-                            labels=compiled.labels["ideal"])
-    qi, vi = assemble(compiled.ideal, q0, 0.0, tol=tol)
+    qi, vi = assemble(compiled.ideal, compiled.q_guess, 0.0, tol=tol,
+                      labels=compiled.labels["ideal"])
     resi = solver.integrate(compiled.ideal, np.concatenate([qi, vi, np.zeros(2)]),
                             np.zeros(0), times, t0=0.0)
     return values(source, compiled, times, resi.y[:, :n], resi.y[:, n:2 * n],
