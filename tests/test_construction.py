@@ -196,9 +196,9 @@ def test_the_closed_form_does_not_depend_on_the_frame(name, phi, dx, dy):
     _, compiled, q0, times, tol = _FRAME[name]
     times = times[::20]
     system = compiled.ideal
-    Q, V, A, _ = _construct(q0, times, system, construction(system))
+    Q, V, A, _, _ = _construct(q0, times, system, construction(system))
     moved, q0m, R = _moved(system, q0, phi, np.array([dx, dy]))
-    Qm, Vm, Am, done = _construct(q0m, times, moved, construction(moved))
+    Qm, Vm, Am, done, _ = _construct(q0m, times, moved, construction(moved))
     assert done == times.size
     expect_q = Q.reshape(len(times), -1, 3).copy()
     expect_q[..., :2] = expect_q[..., :2] @ R.T + (dx, dy)
@@ -246,8 +246,8 @@ def test_newton_takes_over_at_the_first_instant_the_closed_form_cannot_build(mon
 
     def stops_at_100(q_guess, t, sys, plan):
         calls.append(t.size)
-        Q, V, A, _ = _construct(q_guess, t[:100], sys, plan)
-        return Q, V, A, 100
+        Q, V, A, _, viol = _construct(q_guess, t[:100], sys, plan)
+        return Q, V, A, 100, viol
 
     monkeypatch.setattr(kinematics, "_construct", stops_at_100)
     Q, V, A, viol = kinematic_analysis(system, q0, times, tol=tol)
@@ -282,7 +282,7 @@ def test_a_branch_that_ends_is_reported_by_newton():
     rev_sj[far, 0] = 0.25
     longer = system._replace(rev_sj=rev_sj)
     q1, _ = assemble(longer, q0, 0.0)
-    Q, V, A, done = _construct(q1, times, longer, construction(longer))
+    Q, V, A, done, _ = _construct(q1, times, longer, construction(longer))
     assert 0 < done < times.size
     A_pin = Q[-1, :2] + 0.025 * np.array([math.cos(Q[-1, 2]), math.sin(Q[-1, 2])])
     reach = math.hypot(*(A_pin - (0.25, 0.0)))  # the last instant built: just within reach
@@ -291,6 +291,30 @@ def test_a_branch_that_ends_is_reported_by_newton():
     with pytest.raises(AssemblyError,
                        match=f"cannot be assembled at t = {times[done]:g} s: constraints stay"):
         kinematic_analysis(longer, q1, times)
+
+
+def test_the_residual_returned_is_that_of_the_first_and_last_instant_built():
+    # _construct returns max |Φ| of the first and last instant it built (what
+    # kinematic_analysis compares with its tolerance): the constraint functions' own value
+    # there, bitwise, for a whole run and for one that stops early (the four-bar whose rocker
+    # pivot moved out of reach, as in the test above); and 0 when nothing was built.
+    scene = load_scene("four-bar")
+    compiled = compile_scene(scene)
+    system = compiled.ideal
+    q0, _ = assemble(system, compiled.q_guess, 0.0)
+    times = output_times(scene, compiled)
+    rev_sj = system.rev_sj.copy()
+    ground = np.flatnonzero(system.rev_j < 0)
+    rev_sj[ground[np.argmax(np.abs(rev_sj[ground, 0]))], 0] = 0.25
+    longer = system._replace(rev_sj=rev_sj)
+    q1, _ = assemble(longer, q0, 0.0)
+    for sys_, q in ((system, q0), (longer, q1)):
+        Q, V, A, done, viol = _construct(q, times, sys_, construction(sys_))
+        assert Q.shape[0] == done > 0
+        expect = max(float(np.max(np.abs(constraints(Q[k], times[k], sys_)[0])))
+                     for k in (0, done - 1))
+        assert viol == expect and viol <= 1e-12  # round-off of a construction (module doc)
+    assert _construct(q0, times[:0], system, construction(system))[3:] == (0, 0.0)
 
 
 def test_an_overflowing_instant_is_handed_over_not_passed_on():
@@ -303,8 +327,8 @@ def test_an_overflowing_instant_is_handed_over_not_passed_on():
     dr_par = system.dr_par.copy()
     dr_par[0, D_SPEED] = 1e300
     fast = system._replace(dr_par=dr_par)
-    Q, V, A, done = _construct(q0, times, fast, construction(fast))
-    assert done == 0 and Q.shape == (0, q0.size)
+    Q, V, A, done, viol = _construct(q0, times, fast, construction(fast))
+    assert done == 0 and Q.shape == (0, q0.size) and viol == 0.0  # no instant: no residual
     with pytest.raises(AssemblyError):
         kinematic_analysis(fast, q0, times, tol=tol)
 

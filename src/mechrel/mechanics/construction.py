@@ -68,8 +68,9 @@ i = 1, 2, and ``(N − N_i)·(N̈ − N̈_i) + |Ṅ − Ṅ_i|² = 0``; a body t
 :func:`_construct` reports an instant where a square root has no real value, two circles are
 tangent (a toggle) or a value overflowed (a driver speed of 1e300 rad/s) as not done, and
 :func:`~mechrel.mechanics.kinematics.kinematic_analysis` continues from there with
-Newton–Raphson; it also evaluates the constraint residual Φ of the first and the last instant
-built and solves every instant by Newton where that exceeds the tolerance. Each step satisfies
+Newton–Raphson; :func:`_construct` also returns the constraint residual Φ of the first and the
+last instant built, and the analysis solves every instant by Newton where that exceeds the
+tolerance. Each step satisfies
 the equations it uses to round-off, wherever it has a real solution, so a residual can only
 come from a construction that leaves some equation unused, which would show at any instant.
 """
@@ -83,6 +84,7 @@ import numpy as np
 from numba import njit
 
 from .borrow import borrowed
+from .constraints import violations_at
 from .drivers import driver_law
 
 __all__ = ["Construction", "construction"]
@@ -1012,10 +1014,13 @@ def _accelerations(con, drv, e, edot, dE, N, q, Nv, v, X, x):
 def _construct(q0, times, sys, con):
     """Positions, velocities and accelerations at ``times`` by the steps of ``con``.
 
-    Returns ``Q, V, A, done``: ``done < len(times)`` when the instant ``times[done]`` could
-    not be built (no real intersection, tangent circles, a velocity or acceleration that is
-    not finite); the arrays then hold the instants before it. The constraint residual is
-    not evaluated here (:func:`~mechrel.mechanics.kinematics.kinematic_analysis` does).
+    Returns ``Q, V, A, done, viol``: ``done < len(times)`` when the instant ``times[done]``
+    could not be built (no real intersection, tangent circles, a velocity or acceleration
+    that is not finite); the arrays then hold the instants before it. ``viol`` is max |Φ| of
+    the first and last instant built (0 with none; :func:`~mechrel.mechanics.constraints.
+    violations_at`), which :func:`~mechrel.mechanics.kinematics.kinematic_analysis` compares
+    with its tolerance (module docstring): computed here, it costs no compiled call of its
+    own.
     """
     nt = times.shape[0]
     n = q0.shape[0]
@@ -1044,17 +1049,27 @@ def _construct(q0, times, sys, con):
     for i in range(nt):
         t = times[i]
         if not _place(con, sign, sys, t, none, N, q, cs, sn, drv, th_prev):
-            return Q[:i], V[:i], A[:i], i
+            return _built(Q, V, A, times, i, sys)
         if not _velocities(con, drv, none, N, q, Vc, vc):
-            return Q[:i], V[:i], A[:i], i
+            return _built(Q, V, A, times, i, sys)
         _accelerations(con, drv, none, none, none, N, q, Nv, v, Na, a)
         fin = 0.0  # 0 unless a value overflowed (inf − inf is NaN)
         for j in range(n):
             fin += (q[j] - q[j]) + (v[j] - v[j]) + (a[j] - a[j])
         if fin != 0.0:
-            return Q[:i], V[:i], A[:i], i
+            return _built(Q, V, A, times, i, sys)
         for j in range(n):
             Q[i, j] = q[j]
             V[i, j] = v[j]
             A[i, j] = a[j]
-    return Q, V, A, nt
+    return _built(Q, V, A, times, nt, sys)
+
+
+@njit(cache=True)
+def _built(Q, V, A, times, done, sys):
+    """:func:`_construct`'s result: the ``done`` instants built, and max |Φ| of the first
+    and the last of them."""
+    rows = np.empty(2 if done > 0 else 0, dtype=np.int64)
+    if done > 0:
+        rows[0], rows[1] = 0, done - 1
+    return Q[:done], V[:done], A[:done], done, violations_at(Q[:done], times, rows, sys)[0]

@@ -24,7 +24,7 @@ import numpy as np
 from numba import njit
 
 from ..errors import AssemblyError
-from .constraints import constraint_terms, constraints, violations_at
+from .constraints import constraint_terms, constraints
 from .construction import _construct, construction
 from .dynamics import make_workspace
 
@@ -538,10 +538,8 @@ def kinematic_analysis(system, q_guess, times, *, tol=1e-12, max_iter=50, labels
         plan = None  # plan has as many free angles as degrees of freedom); the guard keeps it so
     head = None  # the instants placed in closed form before Newton took over
     if plan is not None:  # closed form; Newton from the first instant it cannot build, if any
-        Q, V, A, done = _construct(q_guess, times, system, plan)
-        # |Φ| of the first and last instant built (module construction's docstring)
-        viol = violations_at(Q, times, np.array([0, done - 1] if done > 0 else [],
-                                                dtype=np.int64), system)[0]
+        # with |Φ| of the first and last instant built (module construction's docstring)
+        Q, V, A, done, viol = _construct(q_guess, times, system, plan)
         if viol <= tol:  # (a NaN fails too)
             if done == times.shape[0]:
                 return Q, V, A, viol
