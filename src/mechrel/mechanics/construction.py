@@ -70,9 +70,9 @@ tangent (a toggle) or a value overflowed (a driver speed of 1e300 rad/s) as not 
 :func:`~mechrel.mechanics.kinematics.kinematic_analysis` continues from there with
 Newton–Raphson; :func:`_construct` also returns the constraint residual Φ of the first and the
 last instant built, and the analysis solves every instant by Newton where that exceeds the
-tolerance. Each step satisfies
-the equations it uses to round-off, wherever it has a real solution, so a residual can only
-come from a construction that leaves some equation unused, which would show at any instant.
+tolerance. Each step satisfies the equations it uses to round-off, wherever it has a real
+solution, so a residual can only come from a construction that leaves some equation unused,
+which would show at any instant.
 """
 
 from __future__ import annotations
@@ -1017,10 +1017,10 @@ def _construct(q0, times, sys, con):
     Returns ``Q, V, A, done, viol``: ``done < len(times)`` when the instant ``times[done]``
     could not be built (no real intersection, tangent circles, a velocity or acceleration
     that is not finite); the arrays then hold the instants before it. ``viol`` is max |Φ| of
-    the first and last instant built (0 with none; :func:`~mechrel.mechanics.constraints.
-    violations_at`), which :func:`~mechrel.mechanics.kinematics.kinematic_analysis` compares
-    with its tolerance (module docstring): computed here, it costs no compiled call of its
-    own.
+    the first and last instant built, 0 with none
+    (:func:`~mechrel.mechanics.constraints.violations_at`), which
+    :func:`~mechrel.mechanics.kinematics.kinematic_analysis` compares with its tolerance
+    (module docstring): computed here, it costs no compiled call of its own.
     """
     nt = times.shape[0]
     n = q0.shape[0]
