@@ -135,6 +135,10 @@ BENCHMARKS: dict[str, Benchmark] = {
         "bench_sample_cost.py", "what a sample costs around its physics, two trees compared",
         "docs/performance.md, A sample costs what its physics costs; docs/uq.md", "",
         ("--rounds", "1", "--cases", "vectorised"), json=True),
+    "dispatch": Benchmark(
+        "bench_dispatch.py", "what a compiled call taking the mechanism costs from Python",
+        "docs/performance.md, A sample costs what its physics costs", "",
+        ("--rounds", "1", "--calls", "2000")),
     "mc-throughput": Benchmark(
         "bench_mc_throughput.py", "Monte Carlo samples per second with 1 and 2 workers",
         "docs/performance.md, Workers and Dask", "2–3 min", ("--n", "8", "--rounds", "1"),
