@@ -57,7 +57,7 @@ import os
 import signal
 import threading
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 from typing import ClassVar
 
 import numpy as np
@@ -155,12 +155,14 @@ class SolverStats:
         >>> list(d)[:4], d["settings"], d["n_steps"], d["n_rhs"]   # 4 evaluations per step
         (['integrator', 'settings', 'n_steps', 'n_rhs'], {'step': 0.001}, 100, 401)
         """
-        from dataclasses import fields
         # shallow (``dataclasses.asdict`` deep-copies recursively): only ``settings`` holds
         # a container, copied so that the dictionary does not alias the run's own
-        out = {f.name: getattr(self, f.name) for f in fields(self)}
+        out = {name: getattr(self, name) for name in _STATS_FIELDS}
         out["settings"] = dict(self.settings)
         return out
+
+
+_STATS_FIELDS = tuple(f.name for f in fields(SolverStats))  # as_dict's keys
 
 
 @dataclass(frozen=True)
@@ -580,7 +582,7 @@ class Integrator:
             raise SimulationError(f"dense_points = {dense_points}: must be >= 0; allowed: an "
                                   "integer >= 0 (points logged inside each step)")
         t_out = np.ascontiguousarray(t_out, dtype=float)
-        if t_out.ndim != 1 or t_out.size == 0 or np.any(np.diff(t_out) <= 0):
+        if t_out.ndim != 1 or t_out.size == 0 or np.count_nonzero(t_out[1:] <= t_out[:-1]):
             raise SimulationError("output instants must be a non-empty increasing sequence")
         t = float(t_out[0] if t0 is None else t0)
         y = np.ascontiguousarray(y0, dtype=float).copy()

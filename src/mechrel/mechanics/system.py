@@ -219,7 +219,7 @@ class System(NamedTuple):
         >>> compile_scene(load_scene("slider-crank-lubricated")).dynamic.n_contacts
         0
         """
-        return int((self.cl_hist >= 0).sum())
+        return int(np.count_nonzero(self.cl_hist >= 0))  # a fifth of .sum()'s time
 
 
 class CompiledScene(NamedTuple):
