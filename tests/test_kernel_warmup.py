@@ -267,21 +267,3 @@ def test_the_kernel_checked_and_compiled_is_the_one_the_run_uses(monkeypatch, tm
 
     with pytest.raises(SimulationError, match=r"solver\.integrator: unknown integrator 'dopri'"):
         kc.warm_up(scene, integrator="dopri", progress=False, file=out)
-
-
-def test_the_suites_cold_cache_compile_covers_every_compiled_integrator():
-    # tests/conftest.py compiles each integrator's kernel once, before the workers start, when
-    # the cache is cold: a kernel (or formulation) missing from its list would again be
-    # compiled by both workers at once, each in its first test that runs it
-    import conftest
-    from mechrel.mechanics.system import compile_scene
-    from mechrel.simulation import make_integrator
-
-    covered = set()
-    for name, integrator, overrides in conftest._KERNELS:
-        scene = load_scene(name, overrides={
-            **overrides, **({"solver.integrator": integrator} if integrator else {})})
-        solver = make_integrator(scene)
-        covered.add((solver.name, solver.formulation_for(compile_scene(scene).dynamic)))
-    compiled = {e for e in kc._ENTRY_POINTS if not e.startswith("kinematics")}
-    assert covered == {(e, "absolute") for e in compiled} | {("radau", "reduced")}
