@@ -543,30 +543,33 @@ def construction(system) -> Construction | None:
     parts = (s.rev_i, s.rev_j, s.rev_si, s.rev_sj, s.tr_i, s.tr_si, s.tr_p0, s.tr_n,
              s.tr_angle, s.fa_i, s.fa_angle, s.ln_i, s.ln_si, s.ln_j, s.ln_sj, s.ln_n,
              s.ra_i, s.ra_j, s.ra_angle, s.dr_i, s.cl_b, s.cl_sb, s.cl_j, s.cl_sj)
-    # the plan is a function of these arrays' contents and of the offsets (the key is looked
-    # up on every run of a sample: the bytes of each array, whose length gives its shape, as
-    # each field has its own dtype and trailing dimensions; a tuple of them is hashed three
-    # times faster than their shapes and one joined string; the offsets are tested on a miss)
+    # the plan is a function of these arrays' contents and of the offsets, and the key is
+    # looked up on every run of a sample: a tuple of each array's bytes (whose length gives its
+    # shape, each field having its own dtype and trailing dimensions) hashes three times faster
+    # than their shapes with one joined string
     key = (s.mass.shape[0], *[a.tobytes() for a in parts], s.rev_off.tobytes(),
            s.rev_offdot.tobytes())
-    plan = _PLANS.get(key, _Refuse)  # one hash of the key (a tuple's is not kept)
-    if plan is _Refuse:
-        if len(_PLANS) >= 256:
-            _PLANS.clear()
-        try:
-            if s.rev_off.any() or s.rev_offdot.any():  # a nonzero (or NaN) offset
-                raise _Refuse
-            plan = _plan(s.mass.shape[0] // 3, *parts)
-        except _Refuse:
-            plan = None
-        # a plan that uses every constraint equation once leaves the mechanism's degrees of
-        # freedom n − m to the eccentricities and the free coordinates; anything else would be
-        # a constraint used twice or not at all (the steps are built so that it cannot be:
-        # this is the check that they were)
-        if plan is not None and (s.mass.shape[0] - s.n_constraints
-                                 != 2 * plan.cl_nodes.shape[0] + plan.n_free):
-            plan = None
-        _PLANS[key] = plan
+    try:
+        return _PLANS[key]
+    except KeyError:
+        pass
+    if len(_PLANS) >= 256:
+        _PLANS.clear()
+    plan: Construction | None
+    try:
+        if s.rev_off.any() or s.rev_offdot.any():  # a nonzero (or NaN) offset
+            raise _Refuse
+        plan = _plan(s.mass.shape[0] // 3, *parts)
+    except _Refuse:
+        plan = None
+    # a plan that uses every constraint equation once leaves the mechanism's degrees of
+    # freedom n − m to the eccentricities and the free coordinates; anything else would be
+    # a constraint used twice or not at all (the steps are built so that it cannot be:
+    # this is the check that they were)
+    if plan is not None and (s.mass.shape[0] - s.n_constraints
+                             != 2 * plan.cl_nodes.shape[0] + plan.n_free):
+        plan = None
+    _PLANS[key] = plan
     return plan
 
 
