@@ -194,7 +194,8 @@ def test_the_closed_form_does_not_depend_on_the_frame(name, phi, dx, dy):
     # whose amplification is bounded by cond(Φ_q) <= 80 (test above): 80 × 64 eps ≈ 1.1e-12
     # normwise per instant.
     _, compiled, q0, times, tol = _FRAME[name]
-    times = times[::20]
+    # contiguous, as kinematic_analysis passes them (a strided view compiles a second overload)
+    times = np.ascontiguousarray(times[::20])
     system = compiled.ideal
     Q, V, A, _, _ = _construct(q0, times, system, construction(system))
     moved, q0m, R = _moved(system, q0, phi, np.array([dx, dy]))
