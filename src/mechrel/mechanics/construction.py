@@ -555,13 +555,12 @@ def construction(system) -> Construction | None:
         pass
     if len(_PLANS) >= 256:
         _PLANS.clear()
-    plan: Construction | None
-    try:
-        if s.rev_off.any() or s.rev_offdot.any():  # a nonzero (or NaN) offset
-            raise _Refuse
-        plan = _plan(s.mass.shape[0] // 3, *parts)
-    except _Refuse:
-        plan = None
+    plan: Construction | None = None
+    if not (s.rev_off.any() or s.rev_offdot.any()):  # a nonzero (or NaN) offset: none
+        try:
+            plan = _plan(s.mass.shape[0] // 3, *parts)
+        except _Refuse:
+            pass
     # a plan that uses every constraint equation once leaves the mechanism's degrees of
     # freedom n − m to the eccentricities and the free coordinates; anything else would be
     # a constraint used twice or not at all (the steps are built so that it cannot be:
