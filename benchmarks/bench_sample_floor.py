@@ -28,13 +28,21 @@ Pieces (``--modes``; ``+`` joins pieces into one mode):
     the assembly of positions and velocities at t = 0 (two compiled calls).
 ``crank``
     the crank angle of the output instants (``_crank_angle``).
+``reduced``
+    Radau's Python around its kernel on the reduced equations: the reduced system
+    (``reduced_system``: the construction plan's lookup), the reduced state before the kernel
+    (``reduced_coordinates``), the mechanism without clearance forces
+    (``without_clearance_forces``) and the expansion after it (``_finish_reduced``): what one
+    compiled call for the state, the kernel and the expansion would leave of it (the kernel
+    still runs).
 
-``none`` is the run as it is; the default modes are ``none``, each piece alone, and all of
-them at once. Each mode runs in a fresh process (one batch recorded, then ``--batches``
-measured batches, medians), the modes interleaved round by round with the order reversed
-every other round; the figures are medians over the rounds. Like
-``bench_sample_cost.py`` it reports the Python per sample (CPU ms) and the Python as a share
-of the kernels' CPU time in the same run, steadier on a machine whose speed drifts.
+``none`` is the run as it is; the default modes are ``none``, each piece alone, the first six
+together (all of the sample's Python outside the integrator) and all seven. Each mode runs in a
+fresh process (one batch recorded, then ``--batches`` measured batches, medians), the modes
+interleaved round by round with the order reversed every other round; the figures are medians
+over the rounds. Like ``bench_sample_cost.py`` it reports the Python per sample (CPU ms) and
+the Python as a share of the kernels' CPU time in the same run, steadier on a machine whose
+speed drifts.
 
 Run::
 
@@ -64,13 +72,14 @@ from pathlib import Path  # noqa: E402
 import numpy as np  # noqa: E402
 
 HERE = Path(__file__).resolve()
-PIECES = ("at", "values", "extremes", "orbits", "assemble", "crank")
-MODES = ("none", *PIECES, "+".join(PIECES))
+PIECES = ("at", "values", "extremes", "orbits", "assemble", "crank", "reduced")
+MODES = ("none", *PIECES, "+".join(PIECES[:-1]), "+".join(PIECES))
 
 
 def _targets(piece: str):
     """``(owner, attribute)`` of the functions that make up ``piece``, where the sample's
     code looks them up."""
+    import mechrel.integrate.radau as radau
     import mechrel.simulation.prepared as prepared
     import mechrel.simulation.reference as reference
     import mechrel.simulation.run as run
@@ -81,7 +90,9 @@ def _targets(piece: str):
                          (run, "_window_states")],
             "orbits": [(run, "_orbits_and_energy"), (run, "_check_orbits")],
             "assemble": [(run, "assemble")],
-            "crank": [(run, "_crank_angle")]}[piece]
+            "crank": [(run, "_crank_angle")],
+            "reduced": [(radau, "reduced_system"), (radau, "reduced_coordinates"),
+                        (radau, "without_clearance_forces"), (radau, "_finish_reduced")]}[piece]
 
 
 class _Oracle:
