@@ -137,7 +137,7 @@ BENCHMARKS: dict[str, Benchmark] = {
         ("--rounds", "1", "--cases", "vectorised"), json=True),
     "sample-floor": Benchmark(
         "bench_sample_floor.py", "the Python around a lubricated sample's kernels, by ablation",
-        "docs/performance.md, A sample costs what its physics costs", "≈ 20 min",
+        "docs/performance.md, A sample costs what its physics costs", "10–20 min",
         ("--rounds", "1", "--batches", "1", "--modes", "none", "at"), json=True),
     "dispatch": Benchmark(
         "bench_dispatch.py", "what a compiled call taking the mechanism costs from Python",

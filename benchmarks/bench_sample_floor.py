@@ -48,7 +48,7 @@ Run::
 
     python benchmarks/bench_sample_floor.py --rounds 7 --json /tmp/bench_sample_floor.json
 
-(about 3 minutes a round on the two-core development machine).
+(10–20 minutes on the two-core development machine).
 
 The kernels must be in numba's cache (run any study once first): a cold cache compiles them
 in the first process.
