@@ -25,7 +25,7 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import MechrelError
+from ..errors import AssemblyError, MechrelError
 from ..scene.model import GROUND, Scene
 
 __all__ = ["ANIMATION_FORMATS", "animate", "animation_output", "assembled_configuration",
@@ -44,7 +44,11 @@ def assembled_configuration(scene: Scene, t: float = 0.0) -> np.ndarray:
     """Coordinates q (x, y, θ per body; m, rad) of the scene assembled at time ``t``.
 
     Clearance joints are closed (as ideal joints) and drivers set their bodies' angles at
-    ``t``, as in the start of a simulation.
+    ``t``, as in the start of a simulation. The mechanism is assembled at t = 0 and followed
+    to ``t`` in steps that turn no driver by more than :data:`FOLLOW_STEP` (rad), each
+    assembled from the last: the configuration a run reaches at ``t``. (Assembled at ``t``
+    directly from the scene's guesses, a crank one turn later would have to turn by 2π in one
+    linearised Newton step, which lands elsewhere or fails.)
 
     Parameters
     ----------
@@ -61,7 +65,9 @@ def assembled_configuration(scene: Scene, t: float = 0.0) -> np.ndarray:
     Raises
     ------
     mechrel.errors.AssemblyError
-        The constraints cannot be satisfied (the message names the violated joints).
+        The constraints cannot be satisfied at t = 0 or on the way to ``t`` (the message
+        names the violated joints), or the drivers turn too far by ``t`` to be followed in at
+        most :data:`FOLLOW_MAX_STEPS` steps.
 
     Examples
     --------
@@ -69,14 +75,48 @@ def assembled_configuration(scene: Scene, t: float = 0.0) -> np.ndarray:
     >>> q = assembled_configuration(load_scene("slider-crank"))
     >>> point_positions(load_scene("slider-crank"), q)["slider.B"].round(6).tolist()
     [0.17, 0.0]
+
+    One crank turn later (12 ms at 5000 rpm) the slider-crank is where it started:
+
+    >>> q1 = assembled_configuration(load_scene("slider-crank"), 0.012)
+    >>> point_positions(load_scene("slider-crank"), q1)["slider.B"].round(6).tolist()
+    [0.17, 0.0]
     """
+    from ..mechanics.drivers import driver_angles
     from ..mechanics.kinematics import assemble_positions
     from ..mechanics.system import compile_scene
 
     compiled = compile_scene(scene)
-    q = assemble_positions(compiled.ideal, compiled.q_guess, float(t),
-                           tol=scene.solver.assembly_tolerance, labels=compiled.labels["ideal"])
+    system, labels = compiled.ideal, compiled.labels["ideal"]
+    tol = scene.solver.assembly_tolerance
+    q = assemble_positions(system, compiled.q_guess, 0.0, tol=tol, labels=labels)
+    t = float(t)
+    if t == 0.0 or system.dr_law.shape[0] == 0:
+        return q  # without drivers nothing moves with t
+    # how far the drivers turn on the way (the sum of |Δθ| on a fine grid, so that a harmonic
+    # driver's swings count, not only where it ends)
+    grid = np.linspace(0.0, t, 1025)
+    turn = max(float(np.abs(np.diff(driver_angles(system.dr_law[k], system.dr_par[k],
+                                                  grid))).sum())
+               for k in range(system.dr_law.shape[0]))
+    steps = max(math.ceil(turn / FOLLOW_STEP), 1)
+    if not steps <= FOLLOW_MAX_STEPS:  # (a NaN or inf too)
+        raise AssemblyError(
+            f"t = {t:g} s: the drivers turn by {turn:.3g} rad from t = 0, {steps:.3g} steps of "
+            f"{math.degrees(FOLLOW_STEP):g} degrees to follow, more than {FOLLOW_MAX_STEPS}; "
+            f"allowed: |t| up to about {abs(t) * FOLLOW_MAX_STEPS / steps:.3g} s")
+    for s in np.linspace(0.0, t, steps + 1)[1:]:
+        q = assemble_positions(system, q, float(s), tol=tol, labels=labels)
     return q
+
+
+FOLLOW_STEP = math.radians(5.0)
+"""Largest driver rotation (rad) between two assemblies when :func:`assembled_configuration`
+follows a mechanism from t = 0 (Newton from the last configuration converges in a few
+iterations at this step)."""
+
+FOLLOW_MAX_STEPS = 100_000
+"""Most assemblies :func:`assembled_configuration` makes on the way to ``t`` (about 2–3 s)."""
 
 
 def point_positions(scene: Scene, q: np.ndarray) -> dict[str, np.ndarray]:
