@@ -7,6 +7,7 @@ import re
 import subprocess
 import sys
 import textwrap
+from pathlib import Path
 
 import pytest
 
@@ -18,6 +19,8 @@ from mechrel.simulation import simulate
 from mechrel.study.study import load_study
 from mechrel.uq import Normal, UncertainInputs, linear_model, monte_carlo, sobol_design
 from mechrel.uq._common import physical_memory
+
+ROOT = Path(__file__).resolve().parents[1]
 
 STUDY = """\
 scene = "{scene}"
@@ -482,3 +485,84 @@ def test_control_characters_reach_the_terminal_escaped(case, tmp_path, capsys):
     if case == "study name":
         summary = (tmp_path / "o" / "summary.json").read_text()
         assert "\x1b" not in summary and json.loads(summary)["study"] == "s" + ESCAPE + FORGED
+
+
+# ---------------------------------------------------------------- found by exploring bad input
+def test_the_analysis_is_not_an_uncertain_input():
+    # a sampled analysis.cycles moved the analysed cycle under the output's angles: one sample
+    # below half a cycle ended a whole Monte Carlo run with an IndexError
+    from mechrel.uq import MechanismModel
+
+    for path in ("analysis.cycles", "-analysis.sample_step_angle"):
+        with pytest.raises(StudyError, match=rf"^inputs\.x: '{path}': the analysis \(its "
+                           r"cycles, duration and sample step\) is the model's own, not an "
+                           r"uncertain input; allowed: a value of the mechanism, e\.g\. "):
+            MechanismModel("slider-crank-lubricated", {"x": [path]})
+
+
+def test_a_subnormal_sample_step_is_refused_by_the_memory_it_needs():
+    # 5e-324 rad divided by the crank speed is 0 s, and 2 s / 1e-310 s overflows: both used to
+    # end in a ZeroDivisionError or an OverflowError traceback
+    for scene, field, value in (("slider-crank-dry", "analysis.sample_step_angle", 5e-324),
+                                ("double-pendulum", "analysis.sample_step", 1e-310)):
+        with pytest.raises(SimulationError, match=rf"^embedded:{scene}: {field}: inf output "
+                           r"instants over [0-9.]+ s need about inf GiB, more than "):
+            simulate(load_scene(scene, overrides={field: value}))
+
+
+def test_a_correlation_given_for_both_orders_of_a_pair_is_refused(tmp_path):
+    study = tmp_path / "study.toml"
+    study.write_text(STUDY.format(scene="slider-crank-lubricated") + textwrap.dedent("""\
+        [inputs.viscosity]
+        paths = ["joints.C.lubricant.viscosity"]
+        distribution = "normal"
+        mean = 0.1
+        std = 0.01
+        [correlation]
+        "clearance,viscosity" = 0.5
+        "viscosity,clearance" = -0.5
+        """))
+    with pytest.raises(StudyError, match=rf'^{study}: correlation\."viscosity,clearance" = '
+                       r'-0\.5: the pair is given twice \(also as "clearance,viscosity" = 0\.5\); '
+                       r"allowed: each pair once$"):
+        load_study(study)
+
+
+def test_a_cost_too_deep_to_evaluate_is_refused_with_the_limit():
+    # a flat sum of 1000 terms is a syntax tree 1002 levels deep: it ended in a RecursionError
+    from mechrel.uq.design.expression import MAX_DEPTH, CostExpression
+
+    ok = CostExpression("+".join(["a"] * (MAX_DEPTH - 2)), ["a"])
+    assert ok({"a": 1.0}) == MAX_DEPTH - 2
+    with pytest.raises(StudyError, match=r"^cost = 'a\+a\+.*\.\.\.' \(1999 characters\): nested "
+                       r"1002 levels deep \(each term of a long sum or product is one level "
+                       r"more\); allowed: at most 200 levels, e\.g\. a sum of up to about 198 "
+                       r"terms$"):
+        CostExpression("+".join(["a"] * 1000), ["a"])
+
+
+def test_a_file_name_the_system_refuses_is_one_line(tmp_path, capsys):
+    # ENAMETOOLONG wherever the path is first touched: the scene read, a figure or an output
+    # folder written (each an OSError traceback before)
+    long = "a" * 300
+    assert main(["simulate", long + ".toml"]) == 2
+    err = capsys.readouterr().err
+    assert err == (f"mechrel: error: {long}.toml: cannot read the file: File name too long; "
+                   "allowed: a readable TOML file\n")
+    for argv in (["draw", "slider-crank", "--out", str(tmp_path / (long + ".png"))],
+                 ["reliability", "nine-bar-lubricated", "--n", "4", "--no-progress",
+                  "--out", str(tmp_path / long)]):
+        assert main(argv) == 2, argv
+        err = capsys.readouterr().err
+        assert err.startswith(f"mechrel: error: {tmp_path / long}") and err.endswith(
+            ": File name too long; allowed: a path this system can read or write\n"), err
+
+
+def test_the_summary_of_a_scene_without_a_cycle_driver_gives_the_time_not_nan(capsys):
+    # no cycle driver: the extremes cover the whole run, and their instant has no crank angle
+    scene = str(ROOT / "tests" / "data" / "scenes" / "cart-pendulum-lubricated.toml")
+    assert main(["simulate", scene]) == 0
+    out = capsys.readouterr().out
+    assert "nan" not in out
+    assert "error extremes over the run, on the solution:" in out
+    assert re.search(r"max \|error\| [-0-9.e+]+ mm at t = [0-9.e+-]+ s\n", out)

@@ -139,8 +139,9 @@ def _show_warning(message, category, filename, lineno, file=None, line=None):
 
 
 def main(argv=None) -> int:
-    """The command line. A :class:`~mechrel.errors.MechrelError` is one line on stderr and exit
-    code 2; Ctrl-C and SIGTERM stop the run promptly (running integrations at their next step,
+    """The command line. A :class:`~mechrel.errors.MechrelError`, or an ``OSError`` about a
+    file (a name too long, no permission, a full disk), is one line on stderr and exit code 2;
+    Ctrl-C and SIGTERM stop the run promptly (running integrations at their next step,
     worker processes at once) with one line, exit code 128 + the signal number (130, 143) —
     also while the arguments are parsed and the command's modules imported.
 
@@ -152,8 +153,8 @@ def main(argv=None) -> int:
     Returns
     -------
     int
-        The exit code: 0 on success, 2 after a ``MechrelError``, 128 + the signal number
-        after an interrupt.
+        The exit code: 0 on success, 2 after a ``MechrelError`` or a file's ``OSError``, 128 +
+        the signal number after an interrupt.
 
     Examples
     --------
@@ -196,6 +197,13 @@ def main(argv=None) -> int:
             import os
             os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())  # no error at exit
             return 128 + signal.SIGPIPE
+        if isinstance(exc, OSError) and exc.filename is not None:
+            # a path the system refuses wherever it is first touched (a name too long for the
+            # file system, a folder without permission, a full disk): one line, as a bad
+            # argument's
+            say(f"mechrel: error: {exc.filename}: {exc.strerror or exc}; allowed: a path this "
+                "system can read or write", file=sys.stderr)
+            return 2
         raise
     finally:
         # the command's worker pool ends with it, its resources unregistered (a signal now is

@@ -57,12 +57,18 @@ def _summary_lines(result) -> list[str]:
         if result.extremes is not None and name in result.extremes:
             # the output grid misses what happens between its instants (an impact): the
             # extremes over the analysed cycle found on the integrator's solution
-            lines.append("    error extremes over the last cycle, on the solution:")
+            # over the cycle driver's last cycle, or over the whole span without one (no
+            # crank angle then: the instant is given in seconds)
+            cyclic = result.crank_angle is not None
+            lines.append(f"    error extremes over the {'last cycle' if cyclic else 'run'}, on "
+                         "the solution:")
             for qty, d in result.extremes[name].items():
                 unit, scale = display(qty)
+                at = (f"{d['max_abs_angle']:.2f}°" if cyclic
+                      else f"t = {d['max_abs_time']:.6g} s")
                 lines.append(f"      {qty} error {d['min'] * scale:.4g} … "
                              f"{d['max'] * scale:.4g} {unit}, max |error| "
-                             f"{d['max_abs'] * scale:.4g} {unit} at {d['max_abs_angle']:.2f}°")
+                             f"{d['max_abs'] * scale:.4g} {unit} at {at}")
     for name, orb in result.orbits.items():
         lines.append(f"  joint {name}: max eccentricity ratio {orb['eps'].max():.4f}")
     if result.energy:

@@ -266,7 +266,12 @@ def _read_file(path: Path, *, hint: str = "", root: Path | None = None) -> _Doc:
     """The document of the file ``path``; ``root``: the folder its ``extends`` must stay in
     (default: its own folder — a file the caller named directly)."""
     label = str(path)
-    if not path.is_file():
+    try:
+        is_file = path.is_file()
+    except OSError as e:  # a name the file system refuses (too long: ENAMETOOLONG)
+        raise SceneError(f"cannot read the file: {e.strerror}; allowed: a readable TOML file",
+                         source=label) from None
+    if not is_file:
         names = embedded_names()
         raise SceneError(f"no such scene file '{path}'{hint}; allowed: an existing TOML file or "
                          f"an embedded scene name: {', '.join(names)}", source=None, path=None)

@@ -66,19 +66,23 @@ def output_times(scene: Scene, compiled: CompiledScene | None = None) -> np.ndar
         assert a.sample_step_angle is not None and a.cycle_driver is not None  # validated
         speed = abs(scene.drivers[a.cycle_driver].speed)
         step = a.sample_step_angle / speed
-    n = math.floor(duration / step * (1 + 1e-12)) + 1
+    # a subnormal step (5e-324 rad) makes the ratio overflow, or the step itself underflow
+    # to 0 once divided by the speed: as many instants as no memory holds
+    ratio = duration / step if step > 0.0 else math.inf
+    n = math.floor(ratio * (1 + 1e-12)) + 1 if ratio < math.inf else math.inf
     # the state and its derivative, positions, velocities, accelerations and point outputs
     # at every instant: about 8 arrays of the state's size, 8 bytes per value
     need = 8 * 8 * n * (2 * compiled.q_guess.size + 2)
     have = _physical_memory()
-    if have is not None and need > have:
+    if need == math.inf or (have is not None and need > have):
         field = "analysis.sample_step" if a.sample_step is not None else \
             "analysis.sample_step_angle"
+        memory = ("any machine's memory" if have is None else
+                  f"this machine's {have / 2**30:.3g} GiB")
         raise SimulationError(
             f"{scene.source or scene.name}: {field}: {n:.3g} output instants over "
-            f"{duration:.6g} s need about "
-            f"{need / 2**30:.3g} GiB, more than this machine's {have / 2**30:.3g} GiB; allowed: "
-            "a sample step that keeps the output within memory")
+            f"{duration:.6g} s need about {need / 2**30:.3g} GiB, more than {memory}; "
+            "allowed: a sample step that keeps the output within memory")
     return np.arange(n) * step
 
 

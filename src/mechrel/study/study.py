@@ -399,11 +399,17 @@ def _correlation(c: _Checker, table: Any, names) -> dict | None:
         return None
     allowed = f'"A,B" = Pearson correlation in [-1, 1], with A and B among {", ".join(names)}'
     table = c.table("correlation", table, "a table of " + allowed)
+    seen: dict[frozenset, str] = {}
     for key, rho in table.items():
         pair = key.split(",")
         if len(pair) != 2 or not all(n in names for n in pair) or pair[0] == pair[1]:
             c.fail(join("correlation", key), rho, "not a pair of two input names", allowed)
         c.number(join("correlation", key), rho, ge=-1, le=1)
+        other = seen.setdefault(frozenset(pair), key)
+        if other != key:  # "A,B" and "B,A": one correlation given twice
+            c.fail(join("correlation", key), rho,
+                   f'the pair is given twice (also as "{other}" = {table[other]!r})',
+                   "each pair once")
     return dict(table)
 
 

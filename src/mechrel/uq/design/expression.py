@@ -53,6 +53,21 @@ _ALLOWED = ("numbers, the design variables {names}, + - * / ** (or ^), unary -, 
             "and the functions " + ", ".join(f"{f}()" for f in FUNCTIONS))
 
 
+MAX_DEPTH = 200
+"""Deepest syntax tree a cost may have (levels): its tree is compiled and evaluated
+recursively, within Python's recursion limit (1000)."""
+
+
+def _depth(node: ast.AST) -> int:
+    """Levels of the syntax tree under ``node`` (walked without recursion)."""
+    deepest, stack = 0, [(node, 1)]
+    while stack:
+        n, d = stack.pop()
+        deepest = max(deepest, d)
+        stack.extend((child, d + 1) for child in ast.iter_child_nodes(n))
+    return deepest
+
+
 def _fail(where: str, text: str, problem: str, names: Sequence[str]) -> StudyError:
     return StudyError(f"{where} = {text!r}: {problem}; allowed: "
                       + _ALLOWED.format(names="(" + ", ".join(names) + ")"))
@@ -189,6 +204,13 @@ class CostExpression:
             node = ast.parse(text.strip().replace("^", "**"), mode="eval")
         except SyntaxError as exc:
             raise _fail(where, text, f"not an expression ({exc.msg})", names) from None
+        depth = _depth(node)
+        if depth > MAX_DEPTH:  # the tree is compiled and evaluated recursively
+            shown = text if len(text) <= 60 else text[:57] + "..."
+            raise StudyError(
+                f"{where} = {shown!r} ({len(text)} characters): nested {depth} levels deep "
+                "(each term of a long sum or product is one level more); allowed: at most "
+                f"{MAX_DEPTH} levels, e.g. a sum of up to about {MAX_DEPTH - 2} terms")
         object.__setattr__(self, "text", text)
         object.__setattr__(self, "names", names)
         object.__setattr__(self, "where", where)

@@ -218,6 +218,15 @@ class MechanismModel:
             if not paths:
                 raise StudyError(f"inputs.{name}: names no scene path")
             for path in paths:
+                if path.lstrip("-").split(".")[0] == "analysis":
+                    # the model sets the analysis itself (whole cycles, its angle step); a
+                    # sampled one would move the analysed cycle under the output's angles
+                    raise StudyError(
+                        f"inputs.{name}: {path!r}: the analysis (its cycles, duration and "
+                        "sample step) is the model's own, not an uncertain input; allowed: a "
+                        "value of the mechanism, e.g. 'joints.C1.clearance', "
+                        "'drivers.crank1.speed' or 'bodies.crank.length(O,A)' (the model's "
+                        "cycles and angle_step set the analysis)")
                 value = _lookup(base.raw, path.lstrip("-"))
                 if is_geometric(path) and path.startswith("-"):
                     raise StudyError(f"inputs.{name}: {path!r}: a geometric path cannot be "
