@@ -135,6 +135,11 @@ def test_invalid_study_fields_are_named(raw, message):
     ({"angle_step": math.inf}, r"angle_step = inf: not a finite number; allowed: a finite "
                                r"number > 0 \(degrees\)"),
     ({"angle_step": 7}, r"angle_step = 7: does not divide 360 degrees; allowed: a divisor of 360"),
+    # every float quotient that large is a whole number: 1e-300 "divided" 360, then the
+    # model's 3.6e302 angles ended in NumPy's "Maximum allowed size exceeded"
+    ({"angle_step": 1e-300}, r"angle_step = 1e-300: 3\.6e\+302 angles a cycle; allowed: a "
+                             r"divisor of 360 \(degrees\) >= 0\.001 \(at most 360000 angles a "
+                             r"cycle\), e\.g\. 18, 10 or 5$"),
     ({"cycles": 1.5}, r"cycles = 1\.5: expected an integer, got a number; allowed: an integer "
                       r">= 1"),
     ({"correlation": {"clearance,speed": 0.5}},

@@ -357,13 +357,22 @@ class Checker:
         return int(v)
 
     def angle_step(self, path: str, v: Any) -> float:
-        """A crank-angle step (degrees): a number > 0 that divides 360."""
+        """A crank-angle step (degrees): a number > 0 that divides 360, at least
+        :data:`MIN_ANGLE_STEP` (the outputs have 360 / step + 1 angles per quantity; below it
+        every float quotient is a whole number, so 1e-300 "divided" 360)."""
         x = self.number(path, v, gt=0, unit="degrees")
+        if x < MIN_ANGLE_STEP:
+            self.fail(path, v, f"{360.0 / x:.3g} angles a cycle",
+                      f"a divisor of 360 (degrees) >= {MIN_ANGLE_STEP:g} (at most "
+                      f"{round(360 / MIN_ANGLE_STEP)} angles a cycle), e.g. 18, 10 or 5")
         if 360.0 / x != round(360.0 / x):
             self.fail(path, v, "does not divide 360 degrees",
                       "a divisor of 360 (degrees), e.g. 18, 10 or 5")
         return x
 
+
+MIN_ANGLE_STEP = 1e-3
+"""Smallest crank-angle step (degrees) :meth:`Checker.angle_step` accepts."""
 
 ARGS = Checker(error=StudyError)
 """The checker of the estimators' and models' Python arguments (:mod:`mechrel.uq`): no source,
