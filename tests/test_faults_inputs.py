@@ -9,6 +9,7 @@ import sys
 import textwrap
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from mechrel.cli.main import main
@@ -566,3 +567,25 @@ def test_the_summary_of_a_scene_without_a_cycle_driver_gives_the_time_not_nan(ca
     assert "nan" not in out
     assert "error extremes over the run, on the solution:" in out
     assert re.search(r"max \|error\| [-0-9.e+]+ mm at t = [0-9.e+-]+ s\n", out)
+
+
+@pytest.mark.parametrize("spec, ratio", [
+    ({"distribution": "lognormal", "mean": 0.4, "std": 1e160}, "2.5e+160"),
+    ({"distribution": "lognormal", "mean": 1.0, "std": 1e-170}, "1e-170"),
+    ({"distribution": "gamma", "mean": 0.4, "std": 1e-200}, "2.5e-200"),
+    ({"distribution": "gamma", "mean": 1.0, "std": 1e160}, "1e+160"),
+])
+def test_distribution_parameters_that_overflow_float64_are_refused(spec, ratio):
+    # the lognormal's ln(1 + (std/mean)^2) and the gamma's (mean/std)^2 ended in an
+    # OverflowError traceback, or reached SciPy as an infinite or zero parameter
+    kind = spec["distribution"]
+    mean, std = (re.escape(repr(spec[k])) for k in ("mean", "std"))
+    with pytest.raises(StudyError, match=rf"^inputs\.x: a {kind} of mean = {mean} and "
+                       rf"std = {std}: its parameters overflow or underflow float64 "
+                       rf"\(std / mean = {re.escape(ratio)}\); allowed: std / mean between "
+                       r"1e-150 and 1e150$"):
+        UncertainInputs.from_specs({"x": spec})
+    # the widest ratios allowed work
+    for r in (1e-150, 1e150):
+        u = UncertainInputs.from_specs({"x": {**spec, "mean": 1.0, "std": r}})
+        assert np.isfinite(u.marginals[0].scipy().ppf([0.1, 0.5, 0.9])).all()

@@ -139,6 +139,25 @@ def _finite(name: str, field_: str, value: Any, *, positive: bool = False) -> fl
     return v
 
 
+def _representable(name: str, marginal, params, positive: tuple[int, ...]) -> None:
+    """Refuse a marginal whose parameters overflow or underflow float64 (``params``: a
+    callable giving them, those at the indices ``positive`` > 0; a lognormal's
+    ln(1 + (std/mean)²) of std/mean = 1e160, a gamma's (mean/std)² of std/mean = 1e-200):
+    SciPy would get an infinite or zero parameter."""
+    try:
+        values = params()
+        ok = all(math.isfinite(p) and (k not in positive or p > 0)
+                 for k, p in enumerate(values))
+    except (OverflowError, ZeroDivisionError):
+        ok = False
+    if not ok:
+        raise StudyError(f"inputs.{name}: a {marginal.kind} of mean = {marginal.mean!r} and "
+                         f"std = {marginal.std!r}: its parameters overflow or underflow float64 "
+                         "(std / mean = "
+                         f"{marginal.std / marginal.mean:.3g}); allowed: std / mean between "
+                         "1e-150 and 1e150")
+
+
 @dataclass(frozen=True)
 class Normal:
     """X ~ N(mean, std²).
@@ -568,16 +587,18 @@ class LogNormal:
         Raises
         ------
         StudyError
-            If the mean or the standard deviation is not a finite number > 0.
+            If the mean or the standard deviation is not a finite number > 0, or std / mean
+            makes the distribution's parameters overflow or underflow float64.
 
         Examples
         --------
         >>> LogNormal(1, 1).validated("x")
         LogNormal(mean=1.0, std=1.0)
         """
-        return LogNormal(
-            _finite(name, "mean", self.mean, positive=True), _finite(name, "std", self.std, positive=True)
-        )
+        out = LogNormal(_finite(name, "mean", self.mean, positive=True),
+                        _finite(name, "std", self.std, positive=True))
+        _representable(name, out, lambda: out.log_params, positive=(1,))
+        return out
 
     @property
     def log_params(self) -> tuple[float, float]:
@@ -1053,15 +1074,18 @@ class Gamma:
         Raises
         ------
         StudyError
-            If the mean or the standard deviation is not a finite number > 0.
+            If the mean or the standard deviation is not a finite number > 0, or std / mean
+            makes the distribution's parameters overflow or underflow float64.
 
         Examples
         --------
         >>> Gamma(2, 1).validated("x")
         Gamma(mean=2.0, std=1.0)
         """
-        return Gamma(_finite(name, "mean", self.mean, positive=True),
-                     _finite(name, "std", self.std, positive=True))
+        out = Gamma(_finite(name, "mean", self.mean, positive=True),
+                    _finite(name, "std", self.std, positive=True))
+        _representable(name, out, lambda: out.params, positive=(0, 1))
+        return out
 
     @property
     def params(self) -> tuple[float, float]:
