@@ -352,3 +352,30 @@ def test_killed_process_resumes_from_cache(tmp_path):
         assert con.execute("SELECT COUNT(*) FROM evaluations WHERE ok = 1").fetchone()[0] == 60
     X = UncertainInputs.from_specs({"a": Normal(0, 1), "b": Normal(0, 1)}).sample(60, seed=1)
     np.testing.assert_array_equal(res["Y"], X[:, 0] + X[:, 1])
+
+
+def test_a_local_pool_has_at_most_a_worker_per_chunk_and_per_core(monkeypatch):
+    # --jobs 100000 on two cores started a process per chunk (180 and more) that shared the
+    # cores for minutes; the numbers never depend on the workers
+    import joblib
+
+    from mechrel.uq.execution.executor import local_workers
+
+    cores = os.cpu_count() or 1
+    assert local_workers(1, 50) == 1 and local_workers(-1, 50) == -1
+    assert local_workers(100000, 16) == max(2, min(16, cores))
+    assert local_workers(100000, 1) == 2 and local_workers(3, 100) == min(3, max(2, cores))
+    sizes = []
+    real = joblib.Parallel
+
+    def recording(*a, **kw):
+        sizes.append(kw.get("n_jobs"))
+        return real(*a, **kw)
+
+    monkeypatch.setattr(joblib, "Parallel", recording)
+    X = INPUTS.sample(40, seed=3)
+    m = FunctionModel(_mixed, INPUTS.names, ["a", "b"])
+    many = evaluate(m, X, n_jobs=100000, chunk_size=10, progress=False)
+    assert sizes == [max(2, min(4, cores))]
+    one = evaluate(m, X, n_jobs=1, chunk_size=10, progress=False)
+    assert np.array_equal(many.Y, one.Y, equal_nan=True)

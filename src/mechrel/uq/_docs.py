@@ -13,7 +13,8 @@ import re
 BLOCKS = {
     "executor": """\
 n_jobs : int, default 1
-    Parallel workers: an integer >= 1, or -1 for all cores (all Dask workers).
+    Parallel workers: an integer >= 1, or -1 for all cores (all Dask workers); a local pool
+    has at most one worker per core and per chunk of samples.
 backend : {"loky", "dask", "sequential"}, default "loky"
     Where the model runs (:func:`mechrel.uq.evaluate`); the numbers do not depend on it.
 cache : path or None

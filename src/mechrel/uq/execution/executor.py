@@ -23,6 +23,7 @@ Guarantees
 from __future__ import annotations
 
 import math
+import os
 import time
 import warnings
 from collections import Counter
@@ -767,6 +768,29 @@ def default_chunk_size(n: int, vectorized: bool = False, cap: int | None = None)
     return int(min(cap, max(1, math.ceil(n / 64))))
 
 
+def local_workers(n_jobs: int, n_tasks: int) -> int:
+    """The processes of a local pool for ``n_jobs`` (-1: all cores) and ``n_tasks`` chunks: at
+    most one per chunk and one per core, but two whenever more than one was asked for (so that
+    the model still runs in a worker, as with two). ``--jobs 100000`` on two cores used to
+    start a process per chunk (180 and more), which then shared the cores for minutes.
+
+    Parameters
+    ----------
+    n_jobs : int
+        The workers asked for (>= 1, or -1).
+    n_tasks : int
+        The chunks to evaluate.
+
+    Returns
+    -------
+    int
+        The pool's size (-1 left to joblib: all cores).
+    """
+    if n_jobs <= 1:
+        return n_jobs
+    return min(n_jobs, max(2, min(n_tasks, os.cpu_count() or 1)))
+
+
 def _check_backend(backend: str, n_jobs: Any) -> int:
     if backend not in BACKENDS:
         raise StudyError(f"backend: got {backend!r}; allowed: {list(BACKENDS)}")
@@ -813,7 +837,8 @@ def evaluate(
         result keeps it read-only: a read-only float64 array as it is (its owner has frozen
         it, e.g. the design an estimator drew), anything else as a copy.
     n_jobs
-        Parallel workers (-1: all cores / all Dask workers). ``n_jobs=1`` runs in-process.
+        Parallel workers (-1: all cores / all Dask workers). ``n_jobs=1`` runs in-process. A
+        local pool has at most one worker per chunk and per core (:func:`local_workers`).
     backend
         ``"loky"`` (joblib's process pool, default), ``"dask"`` (joblib's Dask backend; needs an
         active ``dask.distributed.Client``) or ``"sequential"`` (in-process loop).
@@ -969,7 +994,8 @@ def evaluate(
                     from joblib.externals.loky.process_executor import TerminatedWorkerError
 
                     with safe_path_environment(), chunk_ledger() as ledger:
-                        gen = joblib.Parallel(n_jobs=n_jobs, backend=register_backend(),
+                        gen = joblib.Parallel(n_jobs=local_workers(n_jobs, len(chunks)),
+                                              backend=register_backend(),
                                               return_as="generator_unordered")(tasks)
                         try:
                             _consume(gen, ledger.collecting(_collect))
