@@ -74,7 +74,7 @@ def output_times(scene: Scene, compiled: CompiledScene | None = None) -> np.ndar
     # at every instant: about 8 arrays of the state's size, 8 bytes per value
     need = 8 * 8 * n * (2 * compiled.q_guess.size + 2)
     have = _physical_memory()
-    if need == math.inf or (have is not None and need > have):
+    if n == math.inf or (have is not None and need > have):
         field = "analysis.sample_step" if a.sample_step is not None else \
             "analysis.sample_step_angle"
         memory = ("any machine's memory" if have is None else

@@ -151,11 +151,11 @@ def _representable(name: str, marginal, params, positive: tuple[int, ...]) -> No
     except (OverflowError, ZeroDivisionError):
         ok = False
     if not ok:
+        ratio = marginal.std / marginal.mean
         raise StudyError(f"inputs.{name}: a {marginal.kind} of mean = {marginal.mean!r} and "
                          f"std = {marginal.std!r}: its parameters overflow or underflow float64 "
-                         "(std / mean = "
-                         f"{marginal.std / marginal.mean:.3g}); allowed: std / mean between "
-                         "1e-150 and 1e150")
+                         f"(std / mean = {ratio:.3g}); allowed: std / mean between 1e-150 and "
+                         "1e150")
 
 
 @dataclass(frozen=True)
