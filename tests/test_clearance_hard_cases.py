@@ -315,6 +315,24 @@ def test_nine_bar_clearance_of_ten_micrometres():
     assert res.stats["max_position_violation"] < 1e-3 * c
 
 
+# ----------------------------------------------------------------- clearance 0.1 µm ---
+
+def test_lubricated_clearance_of_a_tenth_of_a_micrometre():
+    # c = 0.1 µm at the gudgeon pin C (lubricated): the film is (R/c)^3 stiffer than at the
+    # scene's 0.5 mm, so Radau's Newton needs many halvings of its first step; it stopped at
+    # t = 0 after 10 of them. The journal stays near the centre (the film carries the load at
+    # a tiny ε), and the slider's position error is the pin's eccentricity e carried through
+    # the rod: e_x + e_y tan φ, at most |e| / cos φ <= ε c l / sqrt(l^2 - r^2) = 1.1 ε c for
+    # the crank r = 0.05 m and rod l = 0.12 m (first order in e; e^2 / l ~ 1e-22 m).
+    c = 1e-7
+    res = run("slider-crank-lubricated", {"joints.C.clearance": c})
+    check_run(res)
+    eps = res.orbits["C"]["eps"].max()
+    assert 0 < eps < 1e-2
+    lever = 0.12 / math.sqrt(0.12**2 - 0.05**2)
+    assert np.abs(res.error("slider", "displacement")).max() <= lever * eps * c
+
+
 # ------------------------------------------------------------------ transition, μ → 0 ---
 
 def test_transition_with_vanishing_viscosity_behaves_like_dry():
