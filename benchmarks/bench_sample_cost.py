@@ -199,8 +199,8 @@ def case_lubricated() -> dict:
     for name, obj, attr in (("radau", radau, "radau5_kernel"),
                             ("kinematics", kinematics, "_kinematics"),
                             ("kinematics", kinematics, "_construct")):
-        setattr(obj, attr, timed(_cpu_timed(getattr(obj, attr), spent, name + "_cpu"), spent,
-                                 name))
+        cpu = timed(getattr(obj, attr), spent, name + "_cpu", time.process_time)
+        setattr(obj, attr, timed(cpu, spent, name))
     rounds = []
     for _ in range(3):
         spent.update(radau=0.0, kinematics=0.0, radau_cpu=0.0, kinematics_cpu=0.0)
@@ -226,7 +226,8 @@ def case_lubricated() -> dict:
     def replay(*a):
         return tuple(x.copy() if isinstance(x, np.ndarray) else x for x in next(calls))
 
-    radau.radau5_kernel = timed(_cpu_timed(replay, spent, "radau_cpu"), spent, "radau")
+    radau.radau5_kernel = timed(timed(replay, spent, "radau_cpu", time.process_time), spent,
+                                 "radau")
     warm = []
     for _ in range(5):
         calls = iter(recorded)
@@ -242,17 +243,6 @@ def case_lubricated() -> dict:
             "cpu_kinematic_analysis": med[5], "cpu_python_around_kernel": rest_cpu,
             "cpu_python_per_kernel": share, "cpu_python_kernel_replayed": statistics.median(warm),
             "digest": _digest(Y)}
-
-
-def _cpu_timed(fn, spent, key):
-    """``fn`` wrapped to add the CPU seconds of each call to ``spent[key]``."""
-    def run(*a, **kw):
-        t0 = time.process_time()
-        try:
-            return fn(*a, **kw)
-        finally:
-            spent[key] += time.process_time() - t0
-    return run
 
 
 TH = np.radians(np.arange(0.0, 360.0, 45.0))

@@ -71,6 +71,8 @@ from pathlib import Path  # noqa: E402
 
 import numpy as np  # noqa: E402
 
+from _common import timed  # noqa: E402  (benchmarks/ is sys.path[0])
+
 HERE = Path(__file__).resolve()
 PIECES = ("at", "values", "extremes", "orbits", "assemble", "crank", "reduced")
 MODES = ("none", *PIECES, "+".join(PIECES[:-1]), "+".join(PIECES))
@@ -115,16 +117,6 @@ class _Oracle:
         self.call = call
 
 
-def _cpu_timed(fn, spent: dict):
-    def run(*a, **kw):
-        t0 = time.process_time()
-        try:
-            return fn(*a, **kw)
-        finally:
-            spent["kernels"] += time.process_time() - t0
-    return run
-
-
 def child(mode: str, batches: int) -> dict:
     import mechrel.integrate.radau as radau
     from mechrel.mechanics import kinematics
@@ -146,7 +138,7 @@ def child(mode: str, batches: int) -> dict:
     spent = {"kernels": 0.0}
     for owner, attr in ((radau, "radau5_kernel"), (kinematics, "_kinematics"),
                         (kinematics, "_construct")):
-        setattr(owner, attr, _cpu_timed(getattr(owner, attr), spent))
+        setattr(owner, attr, timed(getattr(owner, attr), spent, "kernels", time.process_time))
     python, share = [], []
     n = X.shape[0]
     for _ in range(batches):
