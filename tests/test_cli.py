@@ -22,6 +22,21 @@ def test_simulate_writes_table_figure_and_provenance(tmp_path, capsys):
     assert out.with_suffix(".png").is_file()
     meta = json.loads(out.with_suffix(".json").read_text())
     assert meta["provenance"]["scene"] == "slider-crank" and "scene_hash" in meta["provenance"]
+    assert meta["warnings"] == []
+
+
+def test_simulate_names_the_drift_of_the_ideal_joints_in_one_line(tmp_path, capsys):
+    # a run whose ideal joints drift by clearances (DOPRI5 at rtol 1e-3) is printed and
+    # written, with the warning once on stderr and in the provenance file
+    out = tmp_path / "drift.csv"
+    assert main(["simulate", "slider-crank-dry", "--set", "solver.rtol=1e-3", "--set",
+                 "analysis.cycles=1", "--out", str(out), "--no-progress"]) == 0
+    err = capsys.readouterr().err
+    lines = [line for line in err.splitlines() if line]
+    assert len(lines) == 1 and lines[0].startswith(
+        "mechrel: warning: embedded:slider-crank-dry: the ideal joints drifted apart by ")
+    meta = json.loads(out.with_suffix(".json").read_text())
+    assert meta["warnings"] == [lines[0].removeprefix("mechrel: warning: ")]
 
 
 def test_simulate_clearance_scene_with_overrides_and_parquet(tmp_path, capsys):

@@ -184,3 +184,102 @@ def test_over_constrained_mechanism_is_named(name):
                        r"has 10 constraint equations for 9 coordinates \(3 bodies\): joints\.O "
                        r"\(x\), .*drivers\.crank, drivers\.r; allowed: at most one equation"):
         simulate(load_scene(raw))
+
+
+# ---- drift of the ideal joints: a result wrong by more than the effect it resolves says so
+# Runs on the absolute equations hold the ideal joints by Baumgarte stabilisation only: with
+# loose tolerances they drift apart, and the mechanism (and every output error) moves by the
+# drift. The errors a run reports are of the clearance's size, so a drift of DRIFT_LIMIT
+# (a tenth) of the smallest clearance is a tenth of the answer: the result carries a warning.
+
+def _drifting(cycles=1.0):
+    # DOPRI5 at rtol 1e-3 on the dry slider-crank drifts by 2.2 clearances over one turn
+    # (8.3 over the scene's two), against 9e-8 at the scene's own rtol 1e-8
+    return load_scene("slider-crank-dry", overrides={"solver.rtol": 1e-3,
+                                                     "analysis.cycles": cycles})
+
+
+def test_drift_of_the_ideal_joints_is_a_warning_with_the_result():
+    from mechrel.errors import SimulationWarning
+    from mechrel.simulation.run import DRIFT_LIMIT
+
+    with pytest.warns(SimulationWarning) as caught:
+        res = simulate(_drifting())
+    drift = res.stats["max_position_violation"]
+    assert drift >= DRIFT_LIMIT * 5e-4                      # the clearance of joint C
+    assert len(res.warnings) == 1 and [str(w.message) for w in caught] == list(res.warnings)
+    text = res.warnings[0]
+    assert text.startswith("embedded:slider-crank-dry: the ideal joints drifted apart by ")
+    # the ratio stated is the run's own drift over the clearance, to the 3 digits printed
+    assert f"{drift / 5e-4:.3g} times the smallest clearance (0.0005 m, joint C)" in text
+    assert "allowed: less than 0.1 of the clearance" in text
+    assert "tighten solver.rtol and solver.atol (now dopri5 with rtol 0.001, atol 1e-11)" in text
+    assert "formulation" not in text                         # DOPRI5 has no reduced equations
+    assert res.to_frame().attrs["warnings"] == [text]
+
+
+@pytest.mark.parametrize("name", ["slider-crank-dry", "slider-crank-lubricated",
+                                  "nine-bar-lubricated"])
+def test_sound_runs_carry_no_warning(name):
+    import warnings
+
+    from mechrel.errors import SimulationWarning
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", SimulationWarning)
+        res = simulate(load_scene(name, overrides={"analysis.cycles": 0.5}))
+    c = min(j.clearance for j in res.scene.joints.values() if j.is_clearance)
+    # the scenes' own settings drift by at most 1e-5 of the clearance, four decades below the
+    # limit (measured: 9e-8 c dry with DOPRI5; ~1e-13 c on the reduced equations that the
+    # lubricated scenes run; 4e-6 c even when forced onto the absolute ones)
+    assert res.warnings == () and res.stats["max_position_violation"] < 1e-5 * c
+
+
+def test_absolute_equations_cannot_resolve_a_tenth_of_a_micrometre_and_say_so():
+    # The finding behind the check: at 0.1 µm of clearance the absolute equations' tolerance
+    # on 0.1 m positions cannot resolve the gap (drift ~566 c, slider error 5.7e-5 m, 500
+    # clearances); the reduced equations hold the ideal joints exactly and run clean
+    # (test_clearance_hard_cases.py::test_lubricated_clearance_of_a_tenth_of_a_micrometre).
+    from mechrel.errors import SimulationWarning
+
+    scene = load_scene("slider-crank-lubricated", overrides={
+        "joints.C.clearance": 1e-7, "solver.formulation": "absolute", "analysis.cycles": 0.5})
+    with pytest.warns(SimulationWarning, match=r"times the smallest clearance \(1e-07 m, joint "
+                      r"C\).*or, for a driven mechanism, use solver\.formulation = 'reduced'"):
+        res = simulate(scene)
+    assert res.stats["formulation"] == "absolute" and res.warnings
+
+
+@pytest.mark.parametrize("ratio, warns", [(0.0, False), (0.0999, False), (0.1, True),
+                                          (1e3, True), (float("nan"), True)])
+def test_drift_limit_is_a_tenth_of_the_smallest_clearance(ratio, warns):
+    # the smallest of two clearances is the scale; a NaN drift (an undefined run) warns
+    from mechrel.mechanics.system import compile_scene
+    from mechrel.simulation.run import _drift_caveats
+
+    scene = load_scene("four-bar")                       # A lubricated 0.1 mm, B dry 0.2 mm
+    got = _drift_caveats(scene, compile_scene(scene), ratio * 1e-4,
+                         {"integrator": "radau", "formulation": "reduced"})
+    assert bool(got) is warns
+    if warns:
+        assert "clearance (0.0001 m, joint A)" in got[0] and "formulation" not in got[0]
+
+
+def test_a_drifting_sample_fails_its_row_with_the_reason():
+    # A study's number must not carry the integrator's drift: the sample fails, and the
+    # executor records and counts the reason (numbers replaced by '#', one reason for all)
+    import numpy as np
+
+    from mechrel.uq import ModelFailure, RowFailures
+    from mechrel.uq.problem.mechanism import MechanismModel
+
+    m = MechanismModel("slider-crank-dry", ["joints.C.clearance"], quantities=["displacement"],
+                       angle_step=90.0, cycles=1, overrides={"solver.rtol": 1e-3})
+    with pytest.raises(RowFailures) as info:
+        m.evaluate_batch([m.nominal, m.nominal * 1.01])
+    reasons = info.value.reasons
+    assert len(reasons) == 2 and len(set(reasons)) == 1
+    assert reasons[0].startswith("SimulationError: slider-crank-dry: the ideal joints drifted "
+                                 "apart by # (max |Φ|, m or rad), # times the smallest clearance")
+    with pytest.raises(ModelFailure, match="drifted apart"):
+        m.evaluate(np.asarray(m.nominal))

@@ -118,7 +118,7 @@ def _cmd_simulate(args) -> int:
             write_table(result.to_frame(), stage / out.name)
             plot_simulation(result, stage / png.name)
             meta = {"provenance": dict(result.provenance), "stats": dict(result.stats),
-                    "overrides": list(args.overrides)}
+                    "overrides": list(args.overrides), "warnings": list(result.warnings)}
             if result.extremes is not None:
                 meta["extremes"] = {o: {qty: dict(d) for qty, d in qs.items()}
                                     for o, qs in result.extremes.items()}

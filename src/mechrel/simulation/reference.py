@@ -108,7 +108,8 @@ def _reference_outputs(reference: ReferenceDesign, times: np.ndarray, actual: Sc
 
 
 def _ideal_by_dynamics(source: Scene, solver, times: np.ndarray, actual: Scene):
-    """The outputs of ``source``'s ideal mechanism by forward dynamics (undriven scenes)."""
+    """The outputs of ``source``'s ideal mechanism by forward dynamics (undriven scenes), and
+    the run's max |Φ| (m or rad: its joints' drift)."""
     compiled = compile_scene(source)
     n = compiled.q_guess.size
     tol = source.solver.assembly_tolerance
@@ -117,8 +118,8 @@ def _ideal_by_dynamics(source: Scene, solver, times: np.ndarray, actual: Scene):
     resi = solver.integrate(compiled.ideal, np.concatenate([qi, vi, np.zeros(2)]),
                             np.zeros(0), times, t0=0.0)
     return values(source, compiled, times, resi.y[:, :n], resi.y[:, n:2 * n],
-                    resi.ydot[:, n:2 * n],
-                    ideal=True, actual=actual)
+                  resi.ydot[:, n:2 * n], ideal=True,
+                  actual=actual), resi.stats.max_position_violation
 
 
 def _check_reference(scene: Scene, reference: Scene) -> None:
@@ -161,12 +162,12 @@ def _ideal_at(scene, compiled, reference, q0, solver, T, lead):
     if reference is not None:
         got = _reference_outputs(reference, TT, scene)
         if got is None:
-            return _ideal_by_dynamics(reference.scene, solver, T, scene)
+            return _ideal_by_dynamics(reference.scene, solver, T, scene)[0]
     elif compiled.ideal.n_constraints == compiled.q_guess.size:
         Qi, Vi, Ai, _ = kinematic_analysis(compiled.ideal, q0, TT,
                                            tol=scene.solver.assembly_tolerance,
                                            labels=compiled.labels["ideal"])
         got = values(scene, compiled, TT, Qi, Vi, Ai, ideal=True)
     else:
-        return _ideal_by_dynamics(scene, solver, T, scene)
+        return _ideal_by_dynamics(scene, solver, T, scene)[0]
     return {name: {qty: v[m:] for qty, v in d.items()} for name, d in got.items()}

@@ -64,6 +64,11 @@ class SimulationResult:
         sector [k·step, (k + 1)·step] of the analysed cycle's crank angle (degrees from its
         start), found on the same points as the cycle extremes: the members of the whole cycle's
         series system (docs/uq.md, "The whole cycle as a series system").
+    warnings : tuple of str
+        Why the numbers may be wrong without the run having failed, each also issued by
+        :func:`simulate` as a :class:`~mechrel.errors.SimulationWarning`: the ideal joints
+        drifted apart by at least :data:`~mechrel.simulation.run.DRIFT_LIMIT` of the smallest
+        clearance (docs/mechanics.md, "Drift of the ideal joints"). Empty for a sound run.
 
     See Also
     --------
@@ -95,6 +100,7 @@ class SimulationResult:
     energy: Mapping[str, np.ndarray] = field(default_factory=dict)
     extremes: Mapping[str, Mapping[str, Mapping[str, float]]] | None = None
     sector_extremes: Mapping[str, Mapping[str, tuple]] | None = None
+    warnings: tuple[str, ...] = ()
 
     def extremes_frame(self):
         """The cycle extremes as a :class:`pandas.DataFrame`: one row per ``(output,
@@ -182,7 +188,8 @@ class SimulationResult:
         -------
         pandas.DataFrame
             One row per output instant (SI units; ``crank_angle`` in degrees), with the
-            provenance in ``frame.attrs["provenance"]``.
+            provenance in ``frame.attrs["provenance"]`` and the result's ``warnings`` in
+            ``frame.attrs["warnings"]``.
 
         Examples
         --------
@@ -207,6 +214,7 @@ class SimulationResult:
                     cols[f"{name}.{qty}.error"] = quantities[qty] - self.ideal[name][qty]
         frame = pd.DataFrame(cols)
         frame.attrs["provenance"] = dict(self.provenance)
+        frame.attrs["warnings"] = list(self.warnings)
         return frame
 
     def orbits_frame(self):

@@ -15,11 +15,12 @@ penetration beyond the clearance) raises :class:`~mechrel.errors.SimulationError
 from __future__ import annotations
 
 import time
+import warnings
 from collections.abc import Mapping
 
 import numpy as np
 
-from ..errors import AssemblyError, SimulationError
+from ..errors import AssemblyError, SimulationError, SimulationWarning
 from ..forces.models import MODELS
 from ..forces.params import P_C
 from ..integrate import IntegrationResult
@@ -81,6 +82,38 @@ def _check_orbits(scene: Scene, times: np.ndarray, orbits) -> None:
                 f"{times[i]:.6g} s exceeds the clearance ({joint.clearance:g} m): the contact "
                 "law (small deformations) does not apply; check the contact's Young's moduli "
                 "and the load")
+
+
+#: The ideal joints' drift (max |Φ| over the run, m or rad), as a fraction of the smallest
+#: clearance, from which a run's numbers carry a warning (docs/mechanics.md, "Drift of the
+#: ideal joints"): the errors a run reports are of the clearance's size, and a drift of the
+#: ideal joints moves the mechanism by its own size, so from a tenth of the clearance on the
+#: integrator's drift is a tenth of the answer. Sound runs drift by 1e-12 … 1e-3 of it.
+DRIFT_LIMIT = 0.1
+
+
+def _drift_caveats(scene: Scene, compiled: CompiledScene, drift: float,
+                   stats: Mapping) -> tuple[str, ...]:
+    """The warning of a run whose ideal joints drifted by ``drift`` (max |Φ|, m or rad), when
+    that is at least :data:`DRIFT_LIMIT` of the smallest clearance (none without clearance
+    joints: there the errors have no clearance to be measured against)."""
+    if not compiled.clearance_names:
+        return ()
+    name = min(compiled.clearance_names, key=lambda n: scene.joints[n].clearance)
+    c = scene.joints[name].clearance
+    if drift < DRIFT_LIMIT * c:  # (a NaN drift warns)
+        return ()
+    advice = "tighten solver.rtol and solver.atol"
+    if stats.get("integrator") == "radau" and stats.get("formulation") == "absolute":
+        advice += (" or, for a driven mechanism, use solver.formulation = 'reduced' (its ideal "
+                   "joints held exactly)")
+    now = ", ".join(f"{k} {v:g}" for k, v in stats.get("settings", {}).items()
+                    if isinstance(v, float))
+    return (f"{scene.source or scene.name}: the ideal joints drifted apart by {drift:.3g} (max "
+            f"|Φ|, m or rad), {drift / c:.3g} times the smallest clearance ({c:g} m, joint "
+            f"{name}): the run's errors are partly the integrator's (allowed: less than "
+            f"{DRIFT_LIMIT:g} of the clearance); {advice}"
+            + (f" (now {stats.get('integrator')} with {now})" if now else ""),)
 
 
 # Magnitudes (SI) beyond which a scene value is named when a run fails: no quantity of a
@@ -182,6 +215,13 @@ def simulate(scene: Scene, *, reference: Scene | None = None, method: str = "aut
     TypeError
         ``scene`` is not a :class:`~mechrel.scene.model.Scene`.
 
+    Warns
+    -----
+    mechrel.errors.SimulationWarning
+        The ideal joints drifted apart by at least :data:`DRIFT_LIMIT` of the smallest
+        clearance (loose tolerances on the absolute equations): the same text is in the
+        result's ``warnings``.
+
     Examples
     --------
     The slider-crank with ideal joints is fully driven: kinematic analysis over one crank
@@ -197,9 +237,12 @@ def simulate(scene: Scene, *, reference: Scene | None = None, method: str = "aut
     """
     # the settings as one mapping: a setting named like a parameter of the private path
     # (solver=, provenance=) is then refused by name with the allowed ones, not taken for it
-    return _explained(scene, reference=reference, method=method, integrator=integrator,
-                      progress=progress, extremes=extremes, dense_points=dense_points,
-                      sectors=sectors, solver_settings=solver_settings)
+    result = _explained(scene, reference=reference, method=method, integrator=integrator,
+                        progress=progress, extremes=extremes, dense_points=dense_points,
+                        sectors=sectors, solver_settings=solver_settings)
+    for text in result.warnings:
+        warnings.warn(text, SimulationWarning, stacklevel=2)
+    return result
 
 
 def simulate_sample(scene: Scene, solver, *, reference: Scene | ReferenceDesign | None = None,
@@ -234,6 +277,12 @@ def simulate_sample(scene: Scene, solver, *, reference: Scene | ReferenceDesign 
     SimulationResult
         As :func:`simulate`'s, with an empty ``provenance``.
 
+    Raises
+    ------
+    mechrel.errors.SimulationError
+        As :func:`simulate`, and where :func:`simulate` warns of the ideal joints' drift
+        (the warning's text): a sample's numbers must not carry it.
+
     Examples
     --------
     Bitwise the numbers of :func:`simulate`, without the provenance record:
@@ -247,10 +296,13 @@ def simulate_sample(scene: Scene, solver, *, reference: Scene | ReferenceDesign 
     >>> bool((e == simulate(scene).error("slider", "velocity")).all()), r.provenance
     (True, {})
     """
-    return _explained(scene, reference=reference, method="auto", integrator=None,
-                      progress=False, extremes=extremes, dense_points=DENSE_POINTS,
-                      sectors=sectors, solver=solver, provenance=False, compiled=compiled,
-                      q0=q0)
+    result = _explained(scene, reference=reference, method="auto", integrator=None,
+                        progress=False, extremes=extremes, dense_points=DENSE_POINTS,
+                        sectors=sectors, solver=solver, provenance=False, compiled=compiled,
+                        q0=q0)
+    if result.warnings:  # a study's number must not carry the integrator's drift
+        raise SimulationError(result.warnings[0])
+    return result
 
 
 def _explained(scene, **kwargs) -> SimulationResult:
@@ -387,9 +439,11 @@ def _simulate(scene: Scene, *, reference: Scene | ReferenceDesign | None, method
     Y, YD = res.y, res.ydot
     Q, V, A = Y[:, :n], Y[:, n:2 * n], YD[:, n:2 * n]
     outputs = values(scene, compiled, times, Q, V, A, H=res.hist_out, counterpart=reference)
+    drift = res.stats.max_position_violation
     if counterpart is None and (has_clearance or reference is not None):
         # undriven mechanism: ideal counterpart by dynamics
-        counterpart = _ideal_by_dynamics(reference or scene, solver, times, scene)
+        counterpart, drift_i = _ideal_by_dynamics(reference or scene, solver, times, scene)
+        drift = max(drift, drift_i)
     orbits, energy = _orbits_and_energy(compiled, res)
     _check_orbits(scene, times, orbits)
     ext = sec = None
@@ -416,4 +470,5 @@ def _simulate(scene: Scene, *, reference: Scene | ReferenceDesign | None, method
                             q=Q, v=V, a=A, method="dynamics", stats=stats,
                             provenance=_provenance(scene, wall, reference)
                             if provenance else {},
-                            orbits=orbits, energy=energy, extremes=ext, sector_extremes=sec)
+                            orbits=orbits, energy=energy, extremes=ext, sector_extremes=sec,
+                            warnings=_drift_caveats(scene, compiled, drift, stats))
