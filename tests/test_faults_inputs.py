@@ -19,7 +19,7 @@ from mechrel.scene.loader import MAX_DEPTH, list_scenes
 from mechrel.simulation import simulate
 from mechrel.study.study import load_study
 from mechrel.uq import Normal, UncertainInputs, linear_model, monte_carlo, sobol_design
-from mechrel.uq._common import physical_memory
+from mechrel._machine import physical_memory
 
 ROOT = Path(__file__).resolve().parents[1]
 

@@ -4,22 +4,14 @@ rotation at them (degrees)."""
 from __future__ import annotations
 
 import math
-import os
 
 import numpy as np
 
+from .._machine import physical_memory
 from ..errors import SimulationError
 from ..mechanics.drivers import driver_angles, driver_law
 from ..mechanics.system import CompiledScene, compile_scene
 from ..scene.model import Scene
-
-
-def _physical_memory() -> int | None:
-    """The machine's physical memory (bytes), or None where the OS does not say (Windows)."""
-    try:
-        return os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
-    except (AttributeError, ValueError, OSError):
-        return None
 
 
 def output_times(scene: Scene, compiled: CompiledScene | None = None) -> np.ndarray:
@@ -73,7 +65,7 @@ def output_times(scene: Scene, compiled: CompiledScene | None = None) -> np.ndar
     # the state and its derivative, positions, velocities, accelerations and point outputs
     # at every instant: about 8 arrays of the state's size, 8 bytes per value
     need = 8 * 8 * n * (2 * compiled.q_guess.size + 2)
-    have = _physical_memory()
+    have = physical_memory()
     if n == math.inf or (have is not None and need > have):
         field = "analysis.sample_step" if a.sample_step is not None else \
             "analysis.sample_step_angle"

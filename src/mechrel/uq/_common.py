@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import datetime as _dt
 import functools
-import os
 import platform
 from importlib.metadata import PackageNotFoundError, version
 from typing import Any
@@ -12,6 +11,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from mechrel._machine import physical_memory
 from mechrel.errors import StudyError
 
 from .execution.executor import EvaluationCount, Evaluations, evaluate
@@ -135,21 +135,13 @@ def exclusive_source(model: Any, evaluations: Any, *, what: str) -> None:
 MEMORY_COPIES = 3
 
 
-def physical_memory() -> int:
-    """Bytes of physical memory of this machine (2**40 where the OS does not say)."""
-    try:
-        return int(os.sysconf("SC_PHYS_PAGES")) * int(os.sysconf("SC_PAGE_SIZE"))
-    except (AttributeError, ValueError, OSError):  # pragma: no cover - not POSIX
-        return 2**40
-
-
 def check_memory(n_rows: int, n_cols: int, what: str, value: Any) -> None:
     """Refuse, before anything is evaluated, a run whose design and outputs (``n_rows`` rows of
     ``n_cols`` float64, held :data:`MEMORY_COPIES` times) need more than the machine's physical
     memory; ``what = value`` is the argument that sets ``n_rows``."""
     row_bytes = MEMORY_COPIES * 8 * max(int(n_cols), 1)
     need, have = row_bytes * int(n_rows), physical_memory()
-    if need > have:
+    if have is not None and need > have:  # (None: the OS does not say)
         rows_per_unit = int(n_rows) / int(value)  # e.g. d + 2 model runs per Saltelli sample
         raise StudyError(
             f"{what} = {value!r}: {int(n_rows):.3g} model runs of {n_cols} inputs and outputs "
