@@ -136,6 +136,19 @@ def test_a_wrong_out_fails_before_the_simulation(tmp_path, monkeypatch, capsys):
     assert "allowed: .csv, .parquet" in capsys.readouterr().err
 
 
+@pytest.mark.parametrize("target, problem", [("0", "must be > 0"),
+                                             ("nan", "not a finite number")])
+def test_accuracy_target_is_refused_by_the_parser(target, problem, capsys):
+    # it reached the report as "mechrel: error: target: 0.0 is not a positive relative
+    # error", not in argparse's form that every other option's refusal has
+    with pytest.raises(SystemExit) as info:
+        main(["accuracy", "slider-crank-dry", "--target", target])
+    assert info.value.code == 2
+    assert capsys.readouterr().err.splitlines()[-1] == (
+        f"mechrel accuracy: error: argument --target: {target}: {problem}; allowed: a finite "
+        "number > 0")
+
+
 # --------------------------------------------------------------------------- the CLI package
 
 def test_python_dash_m_mechrel_is_the_command():

@@ -215,3 +215,21 @@ def test_a_time_too_far_to_follow_is_refused_with_the_limit():
                        r"from t = 0, 6e\+08 steps of 5 degrees to follow, more than 100000; "
                        r"allowed: \|t\| up to about 167 s$"):
         drawing.assembled_configuration(scene, 1e6)
+
+
+def test_a_magnification_wider_than_the_mechanism_is_refused(tmp_path, capsys):
+    # --magnify 1e300 drew a clearance circle of 5e296 m: matplotlib's layout collapsed with a
+    # UserWarning naming its source; the limit is the mechanism's size over the clearance
+    res = simulate(load_scene("slider-crank-lubricated", overrides={"analysis.cycles": 0.25}))
+    extent = drawing._extent(drawing.point_positions(res.scene, res.q))
+    limit = extent / 0.5e-3
+    with pytest.raises(MechrelError, match=rf"^animate: magnify = 1e\+300: the clearance circle "
+                       rf"of radius 0\.0005 m would be drawn with a radius of 5e\+296 m, more "
+                       rf"than the mechanism's size \({extent:.3g} m\), and the drawing "
+                       rf"collapses; allowed: magnify <= {limit:.4g} for this scene$"):
+        drawing.animate(res, frames=2, magnify=1e300)
+    _done(drawing.animate(res, frames=2, magnify=limit))  # at the limit: drawn
+    assert main(["animate", "slider-crank-lubricated", *SHORT, "--frames", "2", "--magnify",
+                 "1e300", "--out", str(tmp_path / "never.gif")]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and err.startswith("mechrel: error: animate: magnify = ")

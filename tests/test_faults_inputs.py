@@ -589,3 +589,33 @@ def test_distribution_parameters_that_overflow_float64_are_refused(spec, ratio):
     for r in (1e-150, 1e150):
         u = UncertainInputs.from_specs({"x": {**spec, "mean": 1.0, "std": r}})
         assert np.isfinite(u.marginals[0].scipy().ppf([0.1, 0.5, 0.9])).all()
+
+
+@pytest.mark.parametrize("spec, where", [
+    ({"distribution": "normal", "mean": 1e308, "std": 1e308}, "from -inf to inf"),
+    ({"distribution": "gumbel", "mean": 0.4, "std": 1e308}, "from -inf to nan"),
+    ({"distribution": "normal", "mean": 0.0, "std": 1e307}, "from -inf to inf"),
+])
+def test_a_distribution_whose_values_overflow_where_methods_reach_is_refused(spec, where):
+    # they were drawn and reached the model as "X: all inputs must be finite" (no input
+    # named), with SciPy's overflow warnings on stderr; std 1e307 is finite, but 37.5 of them
+    # (the farthest z any map reaches) are not
+    kind = spec["distribution"]
+    with pytest.raises(StudyError, match=rf"^inputs\.x: this {kind} distribution's values "
+                       rf"overflow float64 within 37\.5 standard deviations of its "
+                       rf"standard-normal image \(x {re.escape(where)};"):
+        UncertainInputs.from_specs({"x": spec})
+    # wide but finite there: taken, and sampled finite
+    u = UncertainInputs.from_specs({"x": {**spec, "mean": 0.0, "std": 1e300}})
+    assert np.isfinite(u.sample(64, "sobol", 0)).all()
+
+
+def test_non_finite_inputs_of_an_evaluation_are_named():
+    from mechrel.uq import evaluate
+
+    model = linear_model([0.0], [[1.0, 2.0]], ["a", "b"])
+    X = np.array([[1.0, 2.0], [np.inf, 1.0], [3.0, np.nan]])
+    with pytest.raises(StudyError, match=r"^X: inputs \['a', 'b'\] are not finite in 2 of 3 "
+                       r"rows \(first: row 1, \{'a': inf, 'b': 1\.0\}\); allowed: finite "
+                       r"inputs$"):
+        evaluate(model, X, progress=False)

@@ -154,3 +154,15 @@ BAD = [
 def test_a_wrong_design_field_is_one_error_naming_it(raw, message):
     with pytest.raises(StudyError, match=message):
         load_study(raw)
+
+
+def test_an_empty_design_table_is_named_as_empty_not_as_missing():
+    # `[design]` with nothing under it was read as no [design] section at all, and
+    # `mechrel design` then said "the study has no [design] section"
+    raw = {**copy.deepcopy(STUDY), "design": {}}
+    with pytest.raises(StudyError, match=r"^<mapping>: design = \{\}: an empty \[design\] "
+                       r"table; allowed: a \[design\] table with variables, cost and "
+                       r"constraints \(docs/studies\.md, 'Design for reliability'\), or none$"):
+        load_study(raw)
+    no_design = {k: v for k, v in STUDY.items() if k != "design"}
+    assert load_study(no_design).design is None

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from .args import add_set_option, seed
+from .args import add_set_option, positive, seed
 from .terminal import say
 
 
@@ -45,7 +45,7 @@ def register(sub) -> None:
                     "meets the target — or says that the target is below the floor at this R.")
     p.add_argument("scene", metavar="SCENE", help="embedded scene name or .toml path")
     add_set_option(p, "override a scene value (repeatable)")
-    p.add_argument("--target", type=float, default=0.01,
+    p.add_argument("--target", type=positive, default=0.01,
                    help="relative error to meet (default 0.01)")
     p.add_argument("--quick", action="store_true", help="fewer settings")
     p.add_argument("--ensemble", type=int, metavar="R",

@@ -468,7 +468,8 @@ def animate(result, *, output: str | None = None, quantity: str | None = None,
     Raises
     ------
     mechrel.errors.MechrelError
-        An unknown output or quantity, or fewer than 2 frames.
+        An unknown output or quantity, fewer than 2 frames, or a ``magnify`` that draws a
+        clearance circle wider than the mechanism.
 
     Examples
     --------
@@ -496,6 +497,14 @@ def animate(result, *, output: str | None = None, quantity: str | None = None,
                                   gridspec_kw={"width_ratios": [1.25, 1]})
     pos_all = point_positions(scene, Q)
     extent = _extent(pos_all)
+    widest = max((scene.joints[name].clearance for name in result.orbits), default=0.0)
+    if magnify is not None and magnify * widest > extent:
+        plt.close(fig)
+        raise MechrelError(
+            f"animate: magnify = {magnify:g}: the clearance circle of radius {widest:g} m would "
+            f"be drawn with a radius of {magnify * widest:.3g} m, more than the mechanism's "
+            f"size ({extent:.3g} m), and the drawing collapses; allowed: magnify <= "
+            f"{extent / widest:.4g} for this scene")
     _ground_and_guides(ax, scene, pos_all, extent)
     ghost = (_Painter(ax, scene, Qi[idx[0]], ghost=True, extent=extent, travel=Qi)
              if Qi is not None else None)

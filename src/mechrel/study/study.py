@@ -577,8 +577,11 @@ def _design(c: _Checker, table: Any, inputs: Mapping, quantities: tuple[str, ...
     from ..uq.design.space import (BASES, KINDS, SENSES, DesignSpace, as_constraints,
                                    as_variables)
 
-    if table is None or (isinstance(table, Mapping) and not table):
+    if table is None:
         return None
+    if isinstance(table, Mapping) and not table:  # was read as "no [design] section"
+        c.fail("design", table, "an empty [design] table", "a [design] table with variables, "
+               "cost and constraints (docs/studies.md, 'Design for reliability'), or none")
     loaded: list = []  # the scene, loaded for the first scene variable (None: it does not load)
     base: dict[str, float] = {}  # the scene variables' values in the scene
     t = c.table("design", table, "a table with variables, cost and constraints")

@@ -893,7 +893,13 @@ def evaluate(
     if X.ndim != 2 or X.shape[1] != len(input_names):
         raise StudyError(f"X: expected shape (n, {len(input_names)}) for inputs {list(input_names)}, got {X.shape}")
     if not np.all(np.isfinite(X)):
-        raise StudyError("X: all inputs must be finite")
+        bad = ~np.isfinite(X)
+        rows, cols = np.flatnonzero(bad.any(axis=1)), np.flatnonzero(bad.any(axis=0))
+        i = int(rows[0])
+        raise StudyError(
+            f"X: inputs {[input_names[k] for k in cols]} are not finite in {rows.size} of "
+            f"{X.shape[0]} rows (first: row {i}, {dict(zip(input_names, X[i].tolist()))}); "
+            "allowed: finite inputs")
     n_jobs = _check_backend(backend, n_jobs)
     if chunk_size is not None and (isinstance(chunk_size, bool) or not isinstance(chunk_size, (int, np.integer)) or chunk_size < 1):
         raise StudyError(f"chunk_size: must be a positive integer or None, got {chunk_size!r}")

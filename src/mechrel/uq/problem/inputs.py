@@ -1578,6 +1578,38 @@ def _scipy_spec(name: str, kind: str, spec: dict) -> ScipyMarginal:
 
 
 def _parse_marginal(name: str, spec: Any) -> Marginal:
+    marginal = _marginal_of(name, spec)
+    _within_float64(name, marginal)
+    return marginal
+
+
+def _within_float64(name: str, marginal: Marginal) -> None:
+    """Refuse a marginal whose values overflow float64 where the methods reach: at
+    z = ±:data:`_Z_MAX` of its standard-normal image (the farthest any map goes), or in its
+    mean and standard deviation (FOSM's point and steps). Such a distribution (a normal of
+    mean 1e308 and std 1e308, a Gumbel of std 1e308) used to be drawn and reach the model as
+    ``X: all inputs must be finite``, with SciPy's overflow warnings and no input named."""
+    with np.errstate(all="ignore"), warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        ends = np.asarray(marginal.from_z(np.array([-_Z_MAX, _Z_MAX])), dtype=float)
+        # the declared moments where the kind has them (SciPy's lognormal std overflows
+        # for std / mean = 1e150, which is representable)
+        if hasattr(marginal, "mean") and hasattr(marginal, "std"):
+            moments = np.array([marginal.mean, marginal.std], dtype=float)
+        else:
+            dist = marginal.scipy()
+            moments = np.array([dist.mean(), dist.std()], dtype=float)
+    if not (np.isfinite(ends).all() and np.isfinite(moments).all()
+            and math.isfinite(abs(moments[0]) + _Z_MAX * moments[1])):
+        raise StudyError(
+            f"inputs.{name}: this {marginal.kind} distribution's values overflow float64 within "
+            f"{_Z_MAX:g} standard deviations of its standard-normal image (x from {ends[0]:.3g} "
+            f"to {ends[1]:.3g}; mean {moments[0]:.3g}, std {moments[1]:.3g}), where sampling and "
+            "the reliability methods reach; allowed: a distribution of physical magnitude, "
+            "finite there")
+
+
+def _marginal_of(name: str, spec: Any) -> Marginal:
     if isinstance(spec, MARGINAL_TYPES):
         return spec.validated(name)
     if not isinstance(spec, Mapping):
