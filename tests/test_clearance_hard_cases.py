@@ -333,6 +333,31 @@ def test_lubricated_clearance_of_a_tenth_of_a_micrometre():
     assert np.abs(res.error("slider", "displacement")).max() <= lever * eps * c
 
 
+def test_ten_nanometres_of_clearance_keep_the_journal_at_the_kink_of_the_film_law():
+    # c = 10 nm: the film keeps the journal within ε ~ 1e-8 … 1e-5 of its bearing centre,
+    # where the film force's direction is undefined and the correction (ε/ε0)^λ makes it
+    # continuous (λ = 1) but not smooth: Radau's error estimate loses its order there (err ∝ h
+    # measured, against h^4) and with atol 1e-12 the step collapsed at t = 2e-11 s, blamed on
+    # "ε → 1". The failure now says where the journal is and what helps; a correction smooth
+    # at the centre (λ = 3: C² in e) runs the same settings through (measured: 3734 steps,
+    # ε ≤ 1.5e-3, the lever bound of the 0.1 µm test above).
+    from mechrel.errors import SimulationError
+
+    tiny = {"joints.C.clearance": 1e-8, "analysis.cycles": 0.5}
+    with pytest.raises(SimulationError, match=(
+            r"step size underflow .*; the journal of the clearance joint of c = 1e-08 m is at "
+            r"its bearing centre \(ε = [0-9.e-]+, far below ε0 = 0\.1\), where the film force "
+            r"is not smooth .* λ = 1 makes it continuous, not smooth\), .*: loosen solver\.atol "
+            r"\(now 1e-12\), or set the joint's lubricant\.lam = 3")):
+        run("slider-crank-lubricated", tiny, atol=1e-12)
+    res = run("slider-crank-lubricated", {**tiny, "joints.C.lubricant.lam": 3.0}, atol=1e-12)
+    check_run(res)
+    eps = res.orbits["C"]["eps"].max()
+    assert 0 < eps < 1e-2
+    lever = 0.12 / math.sqrt(0.12**2 - 0.05**2)
+    assert np.abs(res.error("slider", "displacement")).max() <= lever * eps * 1e-8
+
+
 # ------------------------------------------------------------------ transition, μ → 0 ---
 
 def test_transition_with_vanishing_viscosity_behaves_like_dry():

@@ -217,6 +217,36 @@ def _film_only_models(system) -> list:
     return [m for m in MODELS.values() if m.film_only and m.code in codes]
 
 
+#: A film joint's journal nearer its bearing centre than this fraction of ε0 (its
+#: small-eccentricity correction's threshold) is *at* the centre for a failed run's advice:
+#: there the film force's direction is undefined and, with λ < 2, the force not smooth.
+CENTRE_FRACTION = 1e-3
+
+
+def _journal_at_centre(system, t, y):
+    """``(c, ε, ε0, λ)`` of a film joint whose journal is at its bearing centre in the state
+    ``y`` at ``t`` (ε < :data:`CENTRE_FRACTION` ε0) with a correction exponent λ < 2, the
+    one of smallest ε; None if there is none (or no finite state)."""
+    from ..forces.models import MODELS
+    from ..forces.params import P_C, P_EPS0, P_LAMBDA, P_MODEL
+    from ..mechanics.post import post_process
+
+    if t is None or y is None or not np.all(np.isfinite(y)):
+        return None
+    EX, EY, _, _, _ = post_process(np.array([float(t)]), np.ascontiguousarray(y)[None, :],
+                                   system)
+    film = {m.code for m in MODELS.values() if m.has_film}
+    found = None
+    for k in range(system.cl_p.shape[0]):
+        p = system.cl_p[k]
+        if int(p[P_MODEL]) not in film or not p[P_LAMBDA] < 2.0:
+            continue
+        eps = math.hypot(EX[0, k], EY[0, k]) / p[P_C]
+        if eps < CENTRE_FRACTION * p[P_EPS0] and (found is None or eps < found[1]):
+            found = (float(p[P_C]), eps, float(p[P_EPS0]), float(p[P_LAMBDA]))
+    return found
+
+
 class _SignalWatcher:
     """Stops the running kernel when a signal arrives while it runs on the main thread.
 
@@ -453,9 +483,22 @@ class Integrator:
                  n_dense=0):  # pragma: no cover - abstract
         raise NotImplementedError
 
-    def _advice(self, status, system) -> str:
-        """What to try after a failed run, by its status and the scene's effects."""
+    def _advice(self, status, system, t=None, y=None) -> str:
+        """What to try after a failed run, by its status, the scene's effects and the state
+        ``y`` at ``t`` where it stopped (absolute layout)."""
         film_only = _film_only_models(system)
+        centre = _journal_at_centre(system, t, y)
+        if centre is not None:
+            c, eps, eps0, lam = centre
+            how = "leaves it discontinuous" if lam == 0 else "makes it continuous, not smooth"
+            atol = getattr(self, "atol", None)
+            return (f"the journal of the clearance joint of c = {c:g} m is at its bearing centre "
+                    f"(ε = {eps:.2g}, far below ε0 = {eps0:g}), where the film force is not "
+                    f"smooth (its direction is undefined there; the correction (ε/ε0)^λ with "
+                    f"λ = {lam:g} {how}), and the tolerance cannot be met across it: "
+                    + (f"loosen solver.atol (now {atol:g}), or " if isinstance(atol, float)
+                       else "")
+                    + "set the joint's lubricant.lam = 3 (a correction smooth at the centre)")
         if film_only:
             from ..forces.models import MODELS
             contact = ", ".join(f"'{m.name}'" for m in MODELS.values()
@@ -618,7 +661,7 @@ class Integrator:
             raise SimulationError(
                 f"integrator {self.name!r} stopped at t = {t:.6g} s: {ev.STATUS_TEXT[status]} "
                 f"after {result_stats.n_steps} steps ({self.settings}); "
-                + self._advice(status, system))
+                + self._advice(status, system, t, y))
         return IntegrationResult(t=t_out, y=Y, ydot=YD, hist=hist, stats=result_stats,
                                  log=log if math.isfinite(log_from) else None, hist_out=H)
 
