@@ -265,6 +265,28 @@ def test_drift_limit_is_a_tenth_of_the_smallest_clearance(ratio, warns):
         assert "clearance (0.0001 m, joint A)" in got[0] and "formulation" not in got[0]
 
 
+def test_drift_advice_follows_the_integrator():
+    # adaptive: its tolerances, with their values; Radau on the absolute equations: also the
+    # reduced ones; a fixed step (RK4): a smaller step, not tolerances it does not have
+    from mechrel.mechanics.system import compile_scene
+    from mechrel.simulation.run import _drift_caveats
+
+    scene = load_scene("slider-crank-dry")
+    c = compile_scene(scene)
+
+    def text(stats):
+        return _drift_caveats(scene, c, 1e-3, stats)[0]
+
+    assert text({"integrator": "rk4", "settings": {"step": 2.5e-5}}).endswith(
+        "allowed: less than 0.1 of the clearance); use a smaller solver.step (now rk4 with "
+        "step 2.5e-05)")
+    assert text({"integrator": "radau", "formulation": "absolute",
+                 "settings": {"rtol": 1e-6, "atol": 1e-9}}).endswith(
+        "tighten solver.rtol and solver.atol or, for a driven mechanism, use "
+        "solver.formulation = 'reduced' (its ideal joints held exactly) (now radau with rtol "
+        "1e-06, atol 1e-09)")
+
+
 def test_a_drifting_sample_fails_its_row_with_the_reason():
     # A study's number must not carry the integrator's drift: the sample fails, and the
     # executor records and counts the reason (numbers replaced by '#', one reason for all)

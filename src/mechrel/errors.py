@@ -249,7 +249,7 @@ class EstimateWarning(MechrelWarning):
 
 class SimulationWarning(MechrelWarning):
     """A simulation result whose numbers may be wrong by more than the effect it resolves:
-    the run's ideal joints drifted apart by a sizeable fraction of the smallest clearance
+    the run's ideal joints drifted apart by a tenth of the smallest clearance or more
     (:data:`mechrel.simulation.run.DRIFT_LIMIT`), so its errors are partly the integrator's.
     :func:`mechrel.simulation.simulate` issues it and the result carries the same text in its
     ``warnings`` field; a sample of a study (``simulate_sample``) with such a run fails with

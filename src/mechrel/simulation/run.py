@@ -88,7 +88,7 @@ def _check_orbits(scene: Scene, times: np.ndarray, orbits) -> None:
 #: clearance, from which a run's numbers carry a warning (docs/mechanics.md, "Drift of the
 #: ideal joints"): the errors a run reports are of the clearance's size, and a drift of the
 #: ideal joints moves the mechanism by its own size, so from a tenth of the clearance on the
-#: integrator's drift is a tenth of the answer. Sound runs drift by 1e-12 … 1e-3 of it.
+#: integrator's drift is a tenth of the answer. Sound runs drift by at most ~1e-3 of it.
 DRIFT_LIMIT = 0.1
 
 
@@ -103,12 +103,13 @@ def _drift_caveats(scene: Scene, compiled: CompiledScene, drift: float,
     c = scene.joints[name].clearance
     if drift < DRIFT_LIMIT * c:  # (a NaN drift warns)
         return ()
-    advice = "tighten solver.rtol and solver.atol"
+    settings = stats.get("settings", {})
+    advice = ("tighten solver.rtol and solver.atol" if "rtol" in settings
+              else "use a smaller solver.step")
     if stats.get("integrator") == "radau" and stats.get("formulation") == "absolute":
         advice += (" or, for a driven mechanism, use solver.formulation = 'reduced' (its ideal "
                    "joints held exactly)")
-    now = ", ".join(f"{k} {v:g}" for k, v in stats.get("settings", {}).items()
-                    if isinstance(v, float))
+    now = ", ".join(f"{k} {v:g}" for k, v in settings.items() if isinstance(v, float))
     return (f"{scene.source or scene.name}: the ideal joints drifted apart by {drift:.3g} (max "
             f"|Φ|, m or rad), {drift / c:.3g} times the smallest clearance ({c:g} m, joint "
             f"{name}): the run's errors are partly the integrator's (allowed: less than "
