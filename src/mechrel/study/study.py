@@ -579,7 +579,7 @@ def _design(c: _Checker, table: Any, inputs: Mapping, quantities: tuple[str, ...
 
     if table is None:
         return None
-    if isinstance(table, Mapping) and not table:  # was read as "no [design] section"
+    if isinstance(table, Mapping) and not table:  # an unfinished section, not "no design"
         c.fail("design", table, "an empty [design] table", "a [design] table with variables, "
                "cost and constraints (docs/studies.md, 'Design for reliability'), or none")
     loaded: list = []  # the scene, loaded for the first scene variable (None: it does not load)

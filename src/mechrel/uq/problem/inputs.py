@@ -1586,9 +1586,8 @@ def _parse_marginal(name: str, spec: Any) -> Marginal:
 def _within_float64(name: str, marginal: Marginal) -> None:
     """Refuse a marginal whose values overflow float64 where the methods reach: at
     z = ±:data:`_Z_MAX` of its standard-normal image (the farthest any map goes), or in its
-    mean and standard deviation (FOSM's point and steps). Such a distribution (a normal of
-    mean 1e308 and std 1e308, a Gumbel of std 1e308) used to be drawn and reach the model as
-    ``X: all inputs must be finite``, with SciPy's overflow warnings and no input named."""
+    mean and standard deviation (FOSM's point and steps): e.g. a normal of mean and std
+    1e308, a Gumbel of std 1e308."""
     with np.errstate(all="ignore"), warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)
         ends = np.asarray(marginal.from_z(np.array([-_Z_MAX, _Z_MAX])), dtype=float)
