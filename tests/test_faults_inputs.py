@@ -603,11 +603,26 @@ def test_a_distribution_whose_values_overflow_where_methods_reach_is_refused(spe
     kind = spec["distribution"]
     with pytest.raises(StudyError, match=rf"^inputs\.x: this {kind} distribution's values "
                        rf"overflow float64 within 37\.5 standard deviations of its "
-                       rf"standard-normal image \(x {re.escape(where)};"):
+                       rf"standard-normal image \(x {re.escape(where)}\), where sampling and "
+                       r"the reliability methods reach; allowed: a distribution of physical "
+                       r"magnitude, finite there$"):
         UncertainInputs.from_specs({"x": spec})
     # wide but finite there: taken, and sampled finite
     u = UncertainInputs.from_specs({"x": {**spec, "mean": 0.0, "std": 1e300}})
     assert np.isfinite(u.sample(64, "sobol", 0)).all()
+
+
+def test_a_distribution_whose_moments_overflow_is_refused():
+    # representable draws, but a standard deviation SciPy computes as inf (the width squared
+    # overflows): FOSM and the reported moments would read it
+    spec = {"distribution": "uniform", "lower": -1e307, "upper": 1e307}
+    with pytest.raises(StudyError, match=r"^inputs\.x: this uniform distribution's mean or "
+                       r"standard deviation overflows float64 \(mean 0, std inf\), which FOSM "
+                       r"and the reported moments use; allowed: a distribution of physical "
+                       r"magnitude, finite there$"):
+        UncertainInputs.from_specs({"x": spec})
+    u = UncertainInputs.from_specs({"x": {**spec, "lower": -1e150, "upper": 1e150}})
+    assert np.isfinite(u.std).all() and np.isfinite(u.sample(16, "sobol", 0)).all()
 
 
 def test_non_finite_inputs_of_an_evaluation_are_named():

@@ -1598,14 +1598,17 @@ def _within_float64(name: str, marginal: Marginal) -> None:
         else:
             dist = marginal.scipy()
             moments = np.array([dist.mean(), dist.std()], dtype=float)
-    if not (np.isfinite(ends).all() and np.isfinite(moments).all()
-            and math.isfinite(abs(moments[0]) + _Z_MAX * moments[1])):
-        raise StudyError(
-            f"inputs.{name}: this {marginal.kind} distribution's values overflow float64 within "
-            f"{_Z_MAX:g} standard deviations of its standard-normal image (x from {ends[0]:.3g} "
-            f"to {ends[1]:.3g}; mean {moments[0]:.3g}, std {moments[1]:.3g}), where sampling and "
-            "the reliability methods reach; allowed: a distribution of physical magnitude, "
-            "finite there")
+    if not np.isfinite(ends).all():
+        what = (f"values overflow float64 within {_Z_MAX:g} standard deviations of its "
+                f"standard-normal image (x from {ends[0]:.3g} to {ends[1]:.3g}), where sampling "
+                "and the reliability methods reach")
+    elif not np.isfinite(moments).all():
+        what = (f"mean or standard deviation overflows float64 (mean {moments[0]:.3g}, std "
+                f"{moments[1]:.3g}), which FOSM and the reported moments use")
+    else:
+        return
+    raise StudyError(f"inputs.{name}: this {marginal.kind} distribution's {what}; allowed: a "
+                     "distribution of physical magnitude, finite there")
 
 
 def _marginal_of(name: str, spec: Any) -> Marginal:
