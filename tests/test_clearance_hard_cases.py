@@ -327,6 +327,12 @@ def test_lubricated_clearance_of_a_tenth_of_a_micrometre():
     c = 1e-7
     res = run("slider-crank-lubricated", {"joints.C.clearance": c})
     check_run(res)
+    _check_pin_eccentricity_carried_to_the_slider(res, c)
+
+
+def _check_pin_eccentricity_carried_to_the_slider(res, c):
+    """The journal near its centre (0 < max ε < 0.01) and the slider's position error within
+    ε c l / sqrt(l^2 - r^2) (crank r = 0.05 m, rod l = 0.12 m): the bound reasoned above."""
     eps = res.orbits["C"]["eps"].max()
     assert 0 < eps < 1e-2
     lever = 0.12 / math.sqrt(0.12**2 - 0.05**2)
@@ -352,10 +358,7 @@ def test_ten_nanometres_of_clearance_keep_the_journal_at_the_kink_of_the_film_la
         run("slider-crank-lubricated", tiny, atol=1e-12)
     res = run("slider-crank-lubricated", {**tiny, "joints.C.lubricant.lam": 3.0}, atol=1e-12)
     check_run(res)
-    eps = res.orbits["C"]["eps"].max()
-    assert 0 < eps < 1e-2
-    lever = 0.12 / math.sqrt(0.12**2 - 0.05**2)
-    assert np.abs(res.error("slider", "displacement")).max() <= lever * eps * 1e-8
+    _check_pin_eccentricity_carried_to_the_slider(res, 1e-8)
 
 
 # ------------------------------------------------------------------ transition, μ → 0 ---
