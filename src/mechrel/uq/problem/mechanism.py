@@ -587,8 +587,9 @@ class MechanismModel:
         """:meth:`evaluate` at each row of ``X`` in one call.
 
         What does not depend on the sample (the integrator) is made once for the batch, and no
-        provenance is recorded per sample; the rows' numbers are those of :meth:`evaluate`,
-        bitwise, for any batch.
+        provenance is recorded per sample; the rows' scenes are set and validated first, then
+        the rows are run. The rows' numbers, and the reasons of failed rows, are those of
+        :meth:`evaluate`, bitwise, for any batch.
 
         Parameters
         ----------
@@ -623,17 +624,26 @@ class MechanismModel:
                              f"{list(self.input_names)}, got {X.shape}")
         from ...simulation import signal_session
 
+        if self._samples is None:
+            self._samples = _Samples(self)
+        # every row's scene first, then the runs: the same calls as row by row, but the
+        # validation's Python runs back to back rather than once between two kernels, whose
+        # runs evict it from the processor's caches (docs/dev/performance-log.md, 2026-11-29)
+        ready = iter([self._samples.prepare(self.scene_values(x)) for x in X])
         with signal_session():  # the signal watcher installed once for the batch's runs
-            Y, ok, reasons = evaluate_rows(self._evaluate, X, len(self.output_index))
+            # evaluate_rows calls its function once per row, in order
+            Y, ok, reasons = evaluate_rows(lambda x: self._evaluate(x, next(ready)), X,
+                                           len(self.output_index))
         if not ok.all():
             raise RowFailures(Y, reasons)
         return Y
 
-    def _evaluate(self, x) -> np.ndarray:
+    def _evaluate(self, x, ready=None) -> np.ndarray:
+        """The outputs at ``x``; ``ready``: what :meth:`_Samples.prepare` gave for it."""
         if self._samples is None:
             self._samples = _Samples(self)
         try:
-            res = self._samples.simulate(self.scene_values(x))
+            res = self._samples.simulate(ready or self._samples.prepare(self.scene_values(x)))
         except StudyError:
             raise
         except MechrelError as exc:
@@ -684,10 +694,25 @@ class _Samples:
         # what a sample calls, looked up once (the simulation layer is imported lazily here)
         self._simulation = (ReferenceDesign, make_integrator, scene_kind, simulate_sample)
 
-    def simulate(self, values: dict):
+    def prepare(self, values: dict):
+        """``(values, scene, compiled, q0)`` of a sample (:meth:`PreparedScene.at
+        <mechrel.simulation.PreparedScene.at>` and
+        :meth:`~mechrel.simulation.PreparedScene.ideal_start`), or the
+        :class:`~mechrel.errors.MechrelError` with which the scene refuses the values (raised
+        by :meth:`simulate`)."""
+        try:
+            scene, compiled = self.prepared.at(values)
+        except MechrelError as exc:
+            return exc
+        return values, scene, compiled, self.prepared.ideal_start(scene, compiled)
+
+    def simulate(self, ready):
+        """The sample's run from what :meth:`prepare` gave for it."""
+        if isinstance(ready, MechrelError):
+            raise ready
         ReferenceDesign, make_integrator, scene_kind, simulate_sample = self._simulation
         model = self.model
-        scene, compiled = self.prepared.at(values)
+        values, scene, compiled, q0 = ready
         reference = None
         if model.nominal_reference:
             # the nominal geometry with the sample's other values (a speed, a clearance)
@@ -705,8 +730,7 @@ class _Samples:
             solver = self.solvers[key] = make_integrator(scene)
         sectors = model.angle_step if getattr(model, "with_sectors", False) else None
         return simulate_sample(scene, solver, reference=reference, extremes=model.with_extremes,
-                               sectors=sectors, compiled=compiled,
-                               q0=self.prepared.ideal_start(scene, compiled))
+                               sectors=sectors, compiled=compiled, q0=q0)
 
 
 _NUMBER = re.compile(r"(?<![\w.])[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?")
