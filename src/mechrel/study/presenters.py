@@ -29,6 +29,7 @@ from __future__ import annotations
 
 import inspect
 
+import numpy as np
 import pandas as pd
 
 from ..errors import StudyError
@@ -459,7 +460,8 @@ class FOSM(Presenter):
         nonsmooth = getattr(ctx.model, "nonsmooth", None)
         return (f"    {quantity}: FOSM only, unchecked (no Monte Carlo run): "
                 + (f"not applicable ({nonsmooth}); run Monte Carlo" if nonsmooth else
-                   "a first-order, normal model of the error; run --method mc to check it"))
+                   "a first-order, normal model of the error; run --method mc to check it")
+                + "".join(f"; {r}" for r in reasons))
 
 
 class MonteCarlo(Presenter):
@@ -580,9 +582,10 @@ class PolynomialChaos(Presenter):
         worst = self._loo_worst(ctx, quantity)
         if worst <= LOO_THRESHOLD:
             return (f"    {quantity}: the PCE surrogate (leave-one-out error ≤ {worst:.3g}); "
-                    "not checked against Monte Carlo")
+                    "not checked against Monte Carlo" + "".join(f"; {r}" for r in reasons))
         return (f"    {quantity}: no estimate to trust: the PCE's leave-one-out error is "
-                f"{worst:.3g} > {LOO_THRESHOLD:g} and there is no Monte Carlo run")
+                f"{worst:.3g} > {LOO_THRESHOLD:g} and there is no Monte Carlo run"
+                + "".join(f"; {r}" for r in reasons))
 
 
 class Normality(Presenter):
@@ -870,7 +873,41 @@ class Inverse(Presenter):
                 "inverse": inverse.record(self._results(ctx))}
 
 
-COMBINED: tuple[type[Presenter], ...] = (Normality, WholeCycle, Inverse)
+class CycleClosure(Presenter):
+    """Whether the analysed cycle closes on itself in every sample the run evaluated
+    (:meth:`~mechrel.uq.MechanismModel.cycle_closure`): a check of the model that every
+    estimate shares, so it is no method of its own (the runner adds it after the methods'
+    presenters). Where a quantity's cycle does not close, its warning joins the summary's and
+    its verdict line says so."""
+
+    def finish(self, ctx):
+        from ..uq.problem.mechanism import CLOSURE_LIMIT
+
+        self.worst: dict[str, float] = {}
+        model = ctx.model
+        if not hasattr(model, "cycle_closure"):
+            return  # a model without an analysed cycle
+        # every evaluation of this model the run made (a method's samples, FORM's steps, ...)
+        Ys = [ev.Y for ev in ctx.evaluations.values() if ev.output_index.equals(model.output_index)]
+        if not Ys:
+            return
+        Y = np.concatenate(Ys)
+        worst = model.cycle_closure(Y).max()  # failed rows (NaN) skipped
+        self.worst = {q: float(w) for q, w in worst.items() if w > CLOSURE_LIMIT}
+        ctx.notes += model.closure_warnings(Y)
+
+    def verdict_reason(self, ctx, quantity):
+        w = getattr(self, "worst", {}).get(quantity)
+        if w is None:
+            return None
+        return (f"the analysed cycle does not close (by up to {100 * w:.2g} % of the error's "
+                "span; see the warning)")
+
+    def record(self, ctx):
+        return {"cycle_closure": getattr(self, "worst", {})}
+
+
+COMBINED: tuple[type[Presenter], ...] = (Normality, WholeCycle, Inverse, CycleClosure)
 """Presenters of estimates that combine methods; the runner adds them after the methods'."""
 
 

@@ -485,7 +485,10 @@ def run_sensitivity(study, *, n=None, n_jobs=1, seed=None, out=None, progress=Tr
                            f"S1={r['S1']:.3f}" for _, r in grp.iterrows())
         lines.append(f"  {out_name}: {ranked}")
     lines += _failure_lines(evaluations, out / "sensitivity_failures.csv" if out else None)
-    lines += [f"  warning: {w}" for w in res.warnings]
+    # the model's own check, which the indices share: does the analysed cycle close?
+    notes = list(res.warnings) + (model.closure_warnings(res.evaluations.Y)
+                                  if hasattr(model, "closure_warnings") else [])
+    lines += [f"  warning: {w}" for w in notes]
     wall = time.perf_counter() - start
     count = res.evaluations.count
     lines.append(f"  {count.text()} in {wall:.1f} s (n_jobs = {n_jobs})")
@@ -503,7 +506,7 @@ def run_sensitivity(study, *, n=None, n_jobs=1, seed=None, out=None, progress=Tr
             _write_failures(evaluations, stage / "sensitivity_failures.csv")
             write_json({**record, "wall_time": wall, "failures": _failure_counts(evaluations),
                         "evaluations": {"sobol": count.as_dict(), "total": count.as_dict()},
-                        "provenance": dict(res.provenance), "warnings": list(res.warnings),
+                        "provenance": dict(res.provenance), "warnings": notes,
                         "summary": lines}, stage / "sensitivity.json", relative_to=out)
         lines.append(f"  wrote {out}/sensitivity.csv, sensitivity.png, "
                      "sensitivity_failures.csv, sensitivity.json")
