@@ -179,3 +179,29 @@ def test_a_sensitivity_study_of_the_start_warns(tmp_path):
                for w in lines)
     saved = json.loads((tmp_path / "s" / "sensitivity.json").read_text())["warnings"]
     assert any("the analysed cycle does not close" in w for w in saved)
+
+
+def test_a_design_study_of_the_start_warns(tmp_path):
+    # the toy design of run_design's example (Monte Carlo, 10 samples per design, 2 designs)
+    # on the acceleration of the first cycle
+    import warnings
+
+    from mechrel.study.design import run_design
+    from mechrel.study.study import load_study
+
+    study = load_study({
+        "scene": "slider-crank-lubricated", "quantities": ["acceleration"], "angle_step": 90.0,
+        "cycles": 1, "allowable": {"acceleration": {"mean": 3000.0}},
+        "inputs": {"c": {"paths": ["joints.C.clearance"], "distribution": "normal",
+                         "mean": 0.3e-3, "std": 2e-5}},
+        "design": {"cost": "c", "sense": "maximize", "constraints": 0.9, "method": "mc",
+                   "mc": {"n": 10, "max_designs": 2}, "verify": "none", "tradeoff": 0,
+                   "seed": 1, "variables": {"c": {"kind": "mean", "input": "c",
+                                                  "lower": 0.2e-3, "upper": 0.4e-3}}}})
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        lines, _ = run_design(study, progress=False, out=tmp_path / "d")
+    assert any(w.startswith("  warning: acceleration: the analysed cycle does not close")
+               for w in lines)
+    saved = json.loads((tmp_path / "d" / "design.json").read_text())["warnings"]
+    assert any("the analysed cycle does not close" in w for w in saved)

@@ -229,7 +229,10 @@ def run_design(study: Study, *, method: str | None = None, n_jobs: int = 1,
                          f"[{row['whole_cycle_pf_lo']:.3g}, {row['whole_cycle_pf_hi']:.3g}]")
     evaluations = {"design": res.evaluations} if res.evaluations is not None else {}
     lines += _failure_lines(evaluations, out / "design_failures.csv" if out else None)
-    lines += [f"  warning: {w}" for w in res.warnings]
+    # the model's own check, which every design shares: does the analysed cycle close?
+    notes = list(res.warnings) + (model.closure_warnings(res.evaluations.Y)
+                                  if res.evaluations is not None else [])
+    lines += [f"  warning: {w}" for w in notes]
     wall = time.perf_counter() - start
     lines.append(f"  wall time {wall:.1f} s (n_jobs = {n_jobs})")
     if out:
@@ -249,7 +252,7 @@ def run_design(study: Study, *, method: str | None = None, n_jobs: int = 1,
                 _write_failures(evaluations, stage / "design_failures.csv")
             write_json({**record, "wall_time": wall, "failures": _failure_counts(evaluations),
                         "cost": res.cost, "optimum": res.design, "active": res.active,
-                        "provenance": dict(prov), "warnings": list(res.warnings),
+                        "provenance": dict(prov), "warnings": notes,
                         "summary": lines}, stage / "design.json", relative_to=out)
         lines.append(f"  wrote {out}/design.csv, design_constraints.csv, design_tradeoff.csv, "
                      "design_tradeoff.png, design_history.csv, design.json")
