@@ -230,8 +230,9 @@ def run_design(study: Study, *, method: str | None = None, n_jobs: int = 1,
     evaluations = {"design": res.evaluations} if res.evaluations is not None else {}
     lines += _failure_lines(evaluations, out / "design_failures.csv" if out else None)
     # the model's own check, which every design shares: does the analysed cycle close?
-    notes = list(res.warnings) + (model.closure_warnings(res.evaluations.Y)
-                                  if res.evaluations is not None else [])
+    ev = res.evaluations
+    notes = list(res.warnings) + (model.closure_warnings(ev.Y) if ev is not None
+                                  and ev.output_index.equals(model.output_index) else [])
     lines += [f"  warning: {w}" for w in notes]
     wall = time.perf_counter() - start
     lines.append(f"  wall time {wall:.1f} s (n_jobs = {n_jobs})")
