@@ -27,6 +27,7 @@ def _summary_lines(result) -> list[str]:
     import numpy as np
 
     from ..outputs import display
+    from ..simulation.extremes import CLOSURE_LIMIT
 
     st = result.stats
     lines = [f"scene {result.scene.name} ({result.method}): {result.time.size} samples over "
@@ -69,6 +70,15 @@ def _summary_lines(result) -> list[str]:
                 lines.append(f"      {qty} error {d['min'] * scale:.4g} … "
                              f"{d['max'] * scale:.4g} {unit}, max |error| "
                              f"{d['max_abs'] * scale:.4g} {unit} at {at}")
+                if d["closure"] > CLOSURE_LIMIT:  # (NaN: not a window of one whole cycle)
+                    lines.append(
+                        f"        the cycle does not close: its error at the end differs from "
+                        f"that at the start by {100 * d['closure']:.2g} % of its span, so these "
+                        "extremes include the start transient"
+                        + (f" (analysis.cycles = {result.scene.analysis.cycles:g}; more "
+                           "cycles settle it, e.g. --set analysis.cycles=2)"
+                           if result.scene.analysis.cycles == 1 else
+                           " or a response that does not repeat (more cycles tell which)"))
     for name, orb in result.orbits.items():
         lines.append(f"  joint {name}: max eccentricity ratio {orb['eps'].max():.4f}")
     if result.energy:

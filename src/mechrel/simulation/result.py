@@ -57,7 +57,11 @@ class SimulationResult:
         the cycle driver's rotation since t = 0 (``*_angle``, degrees; NaN without a cycle
         driver) where it occurs. Found on the integrator's solution (every accepted step's end
         and ``dense_points`` points of its continuous extension inside it, plus the output
-        instants), not on the output grid (docs/mechanics.md, "Cycle extremes").
+        instants), not on the output grid (docs/mechanics.md, "Cycle extremes"). And
+        ``closure``: |error at the window's end − error at its start| over the error's span
+        in the window when the window is one whole cycle (NaN otherwise); above
+        :data:`~mechrel.simulation.extremes.CLOSURE_LIMIT` the cycle does not repeat (the
+        start transient, or a response that is not periodic).
     sector_extremes : dict or None
         With ``simulate(..., extremes=True, sectors=step)``: ``sector_extremes[output][quantity]``
         = ``(max, min)``, arrays of the largest and smallest signed error over each closed

@@ -881,7 +881,7 @@ class CycleClosure(Presenter):
     its verdict line says so."""
 
     def finish(self, ctx):
-        from ..uq.problem.mechanism import CLOSURE_LIMIT
+        from ..simulation.extremes import CLOSURE_LIMIT
 
         self.worst: dict[str, float] = {}
         model = ctx.model
