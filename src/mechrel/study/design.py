@@ -30,7 +30,7 @@ from typing import TYPE_CHECKING, Any
 from ..errors import StudyError
 from ..io import write_json, write_table
 from ..uq._common import SampleFailuresError
-from .presenters import _agg, _save
+from .presenters import _agg, _save, cycle_closure
 from .runner import (_check_run, _failure_counts, _failure_lines, _holds_output_folder,
                      _refusal, _write_failures, warm_up)
 from .study import _design_variables
@@ -230,9 +230,7 @@ def run_design(study: Study, *, method: str | None = None, n_jobs: int = 1,
     evaluations = {"design": res.evaluations} if res.evaluations is not None else {}
     lines += _failure_lines(evaluations, out / "design_failures.csv" if out else None)
     # the model's own check, which every design shares: does the analysed cycle close?
-    ev = res.evaluations
-    notes = list(res.warnings) + (model.closure_warnings(ev.Y) if ev is not None
-                                  and ev.output_index.equals(model.output_index) else [])
+    notes = list(res.warnings) + cycle_closure(model, evaluations.values())[1]
     lines += [f"  warning: {w}" for w in notes]
     wall = time.perf_counter() - start
     lines.append(f"  wall time {wall:.1f} s (n_jobs = {n_jobs})")

@@ -873,28 +873,48 @@ class Inverse(Presenter):
                 "inverse": inverse.record(self._results(ctx))}
 
 
+def cycle_closure(model, evaluations) -> tuple[dict[str, float], list[str]]:
+    """Whether the analysed cycle closes in the evaluations a run made of ``model``.
+
+    Parameters
+    ----------
+    model : Model
+        The run's model; one without :meth:`~mechrel.uq.MechanismModel.cycle_closure` (no
+        analysed cycle) has nothing to check.
+    evaluations : iterable of Evaluations
+        The run's evaluations; those of other outputs than ``model``'s are left out.
+
+    Returns
+    -------
+    worst : dict
+        ``{quantity: largest closure}`` of the quantities above
+        :data:`~mechrel.simulation.extremes.CLOSURE_LIMIT`.
+    lines : list of str
+        Their warnings (:meth:`~mechrel.uq.MechanismModel.closure_warnings`).
+    """
+    from ..simulation.extremes import CLOSURE_LIMIT
+
+    if not hasattr(model, "cycle_closure"):
+        return {}, []
+    Ys = [ev.Y for ev in evaluations if ev.output_index.equals(model.output_index)]
+    if not Ys:
+        return {}, []
+    Y = np.concatenate(Ys)
+    worst = model.cycle_closure(Y).max()  # failed rows (NaN) skipped
+    return ({q: float(w) for q, w in worst.items() if w > CLOSURE_LIMIT},
+            model.closure_warnings(Y))
+
+
 class CycleClosure(Presenter):
     """Whether the analysed cycle closes on itself in every sample the run evaluated
-    (:meth:`~mechrel.uq.MechanismModel.cycle_closure`): a check of the model that every
-    estimate shares, so it is no method of its own (the runner adds it after the methods'
-    presenters). Where a quantity's cycle does not close, its warning joins the summary's and
-    its verdict line says so."""
+    (:func:`cycle_closure`: a method's samples, FORM's steps, the inverse question's ...): a
+    check of the model that every estimate shares, so it is no method of its own (the runner
+    adds it after the methods' presenters). Where a quantity's cycle does not close, its
+    warning joins the summary's and its verdict line says so."""
 
     def finish(self, ctx):
-        from ..simulation.extremes import CLOSURE_LIMIT
-
-        self.worst: dict[str, float] = {}
-        model = ctx.model
-        if not hasattr(model, "cycle_closure"):
-            return  # a model without an analysed cycle
-        # every evaluation of this model the run made (a method's samples, FORM's steps, ...)
-        Ys = [ev.Y for ev in ctx.evaluations.values() if ev.output_index.equals(model.output_index)]
-        if not Ys:
-            return
-        Y = np.concatenate(Ys)
-        worst = model.cycle_closure(Y).max()  # failed rows (NaN) skipped
-        self.worst = {q: float(w) for q, w in worst.items() if w > CLOSURE_LIMIT}
-        ctx.notes += model.closure_warnings(Y)
+        self.worst, lines = cycle_closure(ctx.model, ctx.evaluations.values())
+        ctx.notes += lines
 
     def verdict_reason(self, ctx, quantity):
         w = getattr(self, "worst", {}).get(quantity)

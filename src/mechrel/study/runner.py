@@ -485,9 +485,10 @@ def run_sensitivity(study, *, n=None, n_jobs=1, seed=None, out=None, progress=Tr
                            f"S1={r['S1']:.3f}" for _, r in grp.iterrows())
         lines.append(f"  {out_name}: {ranked}")
     lines += _failure_lines(evaluations, out / "sensitivity_failures.csv" if out else None)
+    from .presenters import cycle_closure
+
     # the model's own check, which the indices share: does the analysed cycle close?
-    notes = list(res.warnings) + (model.closure_warnings(res.evaluations.Y)
-                                  if hasattr(model, "closure_warnings") else [])
+    notes = list(res.warnings) + cycle_closure(model, [res.evaluations])[1]
     lines += [f"  warning: {w}" for w in notes]
     wall = time.perf_counter() - start
     count = res.evaluations.count
