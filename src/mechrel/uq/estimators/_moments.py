@@ -174,6 +174,14 @@ def _closing(n, mean, m2, m3, m4s):
     return skew, kurt
 
 
+def _pow4(c):
+    """``pow(c, 4.0)`` of the C library entry by entry (:func:`_pow4_into`), in ``c``'s memory
+    layout (NumPy then sums it as it sums ``c**4``)."""
+    out = np.empty_like(c)  # contiguous in c's order: its K-order ravel is a view of it
+    _pow4_into(np.ascontiguousarray(c.ravel(order="K")), out.ravel(order="K"))
+    return out
+
+
 def _numpy_moments(Y):
     """The formulas on whole arrays with NumPy (its own summation order for the layout)."""
     n = Y.shape[0]
@@ -182,7 +190,7 @@ def _numpy_moments(Y):
         c = Y - mean
         c2 = c**2
         ss = c2.sum(axis=0)
-        p4 = (c**4).mean(axis=0)
+        p4 = _pow4(c).mean(axis=0)
         skew, kurt = _closing(n, mean, ss / n, (c2 * c).mean(axis=0), (c2 * c2).mean(axis=0))
     return mean, ss, p4, skew, kurt
 
@@ -194,7 +202,7 @@ def _scipy_moments(Y):
         mean = Y.mean(axis=0)
         c = Y - mean
         ss = (c**2).sum(axis=0)
-        p4 = (c**4).mean(axis=0)
+        p4 = _pow4(c).mean(axis=0)
         skew = stats.skew(Y, axis=0, bias=False) if n > 2 else np.full(Y.shape[1], np.nan)
         kurt = (stats.kurtosis(Y, axis=0, fisher=True, bias=False) if n > 3
                 else np.full(Y.shape[1], np.nan))
