@@ -377,3 +377,38 @@ def test_the_nominal_reference_of_geometric_samples_is_analysed_once(monkeypatch
     assert n_ref == 2
     for i in range(4):
         assert Y[i].tobytes() == _reference_row(model, X[i]).tobytes(), i
+
+
+def test_rows_that_fail_at_each_step_of_a_batch_keep_their_reasons():
+    # evaluate_batch runs its rows' runs step by step for a few rows at a time
+    # (MechanismModel.STEP_ROWS): their scenes, then the integrations, then the checks after
+    # them. A row failing at each of those steps fails alone, with the reason row-by-row
+    # evaluation gives, and the other rows are bitwise theirs, for any grouping of the rows.
+    model = MechanismModel("slider-crank-lubricated",
+                           ["joints.C.lubricant.viscosity", "solver.rtol"], angle_step=30.0,
+                           overrides={"solver.rtol": 1e-5, "solver.atol": 1e-8,
+                                      "solver.formulation": "absolute"})
+    X = np.array([[0.4, 1e-5],
+                  [1e-6, 1e-5],   # the integration fails (the film cannot carry the load)
+                  [0.3, 1e-5],
+                  [0.4, 1e-2],    # after the integration: the ideal joints drift apart
+                  [-1.0, 1e-5],   # the scene refuses it (before any step runs)
+                  [0.5, 1e-5]])
+    expected = []
+    for x in X:
+        try:
+            expected.append(model.evaluate(x))
+        except ModelFailure as exc:
+            expected.append(exc.reason)
+    assert "step size underflow" in expected[1] and "drifted apart" in expected[3]
+    assert "viscosity" in expected[4]
+    for rows in (1, 2, 4, 8):
+        model.STEP_ROWS = rows
+        with pytest.raises(RowFailures) as info:
+            model.evaluate_batch(X)
+        got = info.value
+        for i, want in enumerate(expected):
+            if isinstance(want, str):
+                assert got.reasons[i] == want, (rows, i)
+            else:
+                assert got.reasons[i] is None and np.array_equal(got.Y[i], want), (rows, i)

@@ -28,7 +28,7 @@ import statistics
 import time
 
 DEFAULT = (
-    "mechrel.uq.problem.mechanism:_Samples.simulate",
+    "mechrel.uq.problem.mechanism:MechanismModel._in_steps",
     "mechrel.simulation.prepared:PreparedScene.at",
     "mechrel.scene._values:SceneValues.validate",
     "mechrel.simulation.run:_simulate",

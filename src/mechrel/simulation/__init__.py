@@ -9,8 +9,10 @@ What runs depends only on what the scene declares:
 * undriven (free) mechanisms → forward dynamics.
 
 The package's modules, one job each: :mod:`~mechrel.simulation.run` (:func:`simulate`,
-:func:`simulate_sample`: the run and its checks), :mod:`~mechrel.simulation.solver` (the
-solver choice: :func:`make_integrator`, :data:`DEFAULT_SOLVERS`),
+:func:`simulate_sample`: the run and its checks; :func:`sample_steps` and :func:`run_steps`:
+a sample's run as steps, for a batch that runs each step for several samples in turn),
+:mod:`~mechrel.simulation.solver` (the solver choice: :func:`make_integrator`,
+:data:`DEFAULT_SOLVERS`),
 :mod:`~mechrel.simulation.times` (the output instants), :mod:`~mechrel.simulation.result`
 (:class:`SimulationResult`), :mod:`~mechrel.simulation.extremes` (the cycle extremes),
 :mod:`~mechrel.simulation.evaluators` (the output kinds' values),
@@ -28,11 +30,13 @@ from .extremes import DENSE_POINTS, EXTREME_FIELDS, KINEMATIC_POINTS, analysis_w
 from .prepared import PreparedScene, locate_point
 from .reference import ReferenceDesign
 from .result import SimulationResult
-from .run import EXTREME_MAGNITUDE, extreme_values, simulate, simulate_sample
+from .run import (EXTREME_MAGNITUDE, extreme_values, run_steps, sample_steps, simulate,
+                  simulate_sample)
 from .solver import DEFAULT_SOLVERS, make_integrator, scene_kind
 from .times import output_times
 
-__all__ = ["simulate", "simulate_sample", "SimulationResult", "make_integrator", "scene_kind",
-           "DEFAULT_SOLVERS", "output_times", "analysis_window", "DENSE_POINTS",
-           "EXTREME_FIELDS", "KINEMATIC_POINTS", "extreme_values", "EXTREME_MAGNITUDE",
-           "ReferenceDesign", "PreparedScene", "locate_point", "signal_session"]
+__all__ = ["simulate", "simulate_sample", "sample_steps", "run_steps", "SimulationResult",
+           "make_integrator", "scene_kind", "DEFAULT_SOLVERS", "output_times",
+           "analysis_window", "DENSE_POINTS", "EXTREME_FIELDS", "KINEMATIC_POINTS",
+           "extreme_values", "EXTREME_MAGNITUDE", "ReferenceDesign", "PreparedScene",
+           "locate_point", "signal_session"]

@@ -16,7 +16,9 @@ from __future__ import annotations
 
 import time
 import warnings
-from collections.abc import Mapping
+from collections.abc import Callable, Generator, Mapping
+from functools import partial
+from typing import Any
 
 import numpy as np
 
@@ -38,6 +40,13 @@ from .reference import (ReferenceDesign, _check_reference, _ideal_at, _ideal_by_
 from .result import SimulationResult, _provenance
 from .solver import _check_step_budget, make_integrator
 from .times import _crank_angle, output_times
+
+def _timed(fn, *args, **kwargs):
+    """``(fn(*args, **kwargs), its wall time in s)``."""
+    t0 = time.perf_counter()
+    out = fn(*args, **kwargs)
+    return out, time.perf_counter() - t0
+
 
 def _orbits_and_energy(compiled: CompiledScene, res: IntegrationResult):
     """Journal orbits and the energy bookkeeping at the output instants (one compiled call)."""
@@ -238,9 +247,10 @@ def simulate(scene: Scene, *, reference: Scene | None = None, method: str = "aut
     """
     # the settings as one mapping: a setting named like a parameter of the private path
     # (solver=, provenance=) is then refused by name with the allowed ones, not taken for it
-    result = _explained(scene, reference=reference, method=method, integrator=integrator,
-                        progress=progress, extremes=extremes, dense_points=dense_points,
-                        sectors=sectors, solver_settings=solver_settings)
+    result = run_steps(_explained(scene, reference=reference, method=method,
+                                  integrator=integrator, progress=progress, extremes=extremes,
+                                  dense_points=dense_points, sectors=sectors,
+                                  solver_settings=solver_settings))
     for text in result.warnings:
         warnings.warn(text, SimulationWarning, stacklevel=2)
     return result
@@ -297,20 +307,111 @@ def simulate_sample(scene: Scene, solver, *, reference: Scene | ReferenceDesign 
     >>> bool((e == simulate(scene).error("slider", "velocity")).all()), r.provenance
     (True, {})
     """
-    result = _explained(scene, reference=reference, method="auto", integrator=None,
-                        progress=False, extremes=extremes, dense_points=DENSE_POINTS,
-                        sectors=sectors, solver=solver, provenance=False, compiled=compiled,
-                        q0=q0)
+    return run_steps(sample_steps(scene, solver, reference=reference, extremes=extremes,
+                                  sectors=sectors, compiled=compiled, q0=q0))
+
+
+def sample_steps(scene: Scene, solver, *, reference: Scene | ReferenceDesign | None = None,
+                 extremes: bool = False, sectors: float | None = None,
+                 compiled: CompiledScene | None = None, q0: np.ndarray | None = None
+                 ) -> Generator[Callable[[], Any], Any, SimulationResult]:
+    """:func:`simulate_sample` as its steps: a generator that pauses where the integrator runs,
+    so that a batch of samples can run each step for all its samples in turn.
+
+    The generator yields a callable without arguments, the integrator's run (the
+    mechanism's compiled kernel and the Python around it): its caller calls it and sends its
+    result back (or throws in what it raised), and the generator goes on with the run's
+    checks and outputs; it returns the :class:`SimulationResult`. A run without integration
+    (kinematic analysis) returns without yielding. :func:`run_steps` runs the steps of one
+    sample; :meth:`~mechrel.uq.problem.mechanism.MechanismModel.evaluate_batch` runs, for a
+    few samples at a time, the steps before every sample's integration, then the
+    integrations, then the steps after them: each step's Python then runs back to back,
+    while its code is in the processor's caches, not once after each 20 ms kernel, which
+    evicts it (docs/dev/performance-log.md, 2026-11-29). The numbers are those of
+    :func:`simulate_sample`, bitwise, whatever the order the steps of several samples run in.
+
+    Parameters
+    ----------
+    scene, solver, reference, extremes, sectors, compiled, q0
+        As for :func:`simulate_sample`.
+
+    Returns
+    -------
+    generator
+        Yields the integrator's run (a callable without arguments); returns the
+        :class:`SimulationResult`.
+
+    Raises
+    ------
+    mechrel.errors.SimulationError, mechrel.errors.AssemblyError
+        From the step that finds the failure, as :func:`simulate_sample` raises them.
+
+    Examples
+    --------
+    The two steps of a lubricated slider-crank's run, driven by hand:
+
+    >>> import math
+    >>> from mechrel.scene import load_scene, with_overrides
+    >>> scene = with_overrides(load_scene("slider-crank-lubricated"),
+    ...                        {"analysis.cycles": 1, "analysis.sample_step_angle": math.pi / 2})
+    >>> steps = sample_steps(scene, make_integrator(scene))
+    >>> integrate = next(steps)  # everything before the integration has run
+    >>> try:
+    ...     steps.send(integrate())
+    ... except StopIteration as done:
+    ...     r = done.value
+    >>> bool((r.time == simulate_sample(scene, make_integrator(scene)).time).all())
+    True
+    """
+    result = yield from _explained(scene, reference=reference, method="auto", integrator=None,
+                                   progress=False, extremes=extremes,
+                                   dense_points=DENSE_POINTS, sectors=sectors, solver=solver,
+                                   provenance=False, compiled=compiled, q0=q0)
     if result.warnings:  # a study's number must not carry the integrator's drift
         raise SimulationError(result.warnings[0])
     return result
 
 
-def _explained(scene, **kwargs) -> SimulationResult:
-    """``_simulate(scene, **kwargs)``, a failure of a scene with values of extreme magnitude
-    explained by them."""
+def run_steps(steps: Generator[Callable[[], Any], Any, Any]):
+    """Run the steps of one simulation (:func:`sample_steps`) in order: each callable it
+    yields is called and its result sent back, or what it raised thrown in.
+
+    Parameters
+    ----------
+    steps : generator
+        From :func:`sample_steps` (or any generator of that protocol).
+
+    Returns
+    -------
+    object
+        What the generator returns (a :class:`SimulationResult`).
+
+    Examples
+    --------
+    >>> def steps():
+    ...     x = yield lambda: 2
+    ...     return 10 * x
+    >>> run_steps(steps())
+    20
+    """
     try:
-        return _simulate(scene, **kwargs)
+        work = steps.send(None)
+        while True:
+            try:
+                out = work()
+            except BaseException as exc:  # an interrupt too: the run's own handlers see it
+                work = steps.throw(exc)
+            else:
+                work = steps.send(out)
+    except StopIteration as done:
+        return done.value
+
+
+def _explained(scene, **kwargs) -> Generator[Callable[[], Any], Any, SimulationResult]:
+    """The steps of ``_simulate(scene, **kwargs)``, a failure of a scene with values of
+    extreme magnitude explained by them."""
+    try:
+        return (yield from _simulate(scene, **kwargs))
     except (AssemblyError, SimulationError) as exc:
         extreme = extreme_values(scene) if isinstance(scene, Scene) else []
         if not extreme:
@@ -327,7 +428,9 @@ def _simulate(scene: Scene, *, reference: Scene | ReferenceDesign | None, method
               integrator: str | None, progress: bool, extremes: bool, dense_points: int,
               sectors: float | None = None, solver=None, provenance: bool = True,
               solver_settings=None, compiled: CompiledScene | None = None,
-              q0: np.ndarray | None = None) -> SimulationResult:
+              q0: np.ndarray | None = None
+              ) -> Generator[Callable[[], Any], Any, SimulationResult]:
+    """The run's steps (:func:`sample_steps`): one pause, where the integrator runs."""
     start = time.perf_counter()
     if not isinstance(scene, Scene):
         raise TypeError(f"simulate: scene must be a Scene, got {type(scene).__name__} "
@@ -432,8 +535,10 @@ def _simulate(scene: Scene, *, reference: Scene | ReferenceDesign | None, method
         bar = tqdm(total=times.size, desc=f"simulate {scene.name}", unit="sample", leave=False)
     t_lo = analysis_window(compiled, times) if extremes else None
     try:
-        res = solver.integrate(sys, y0, hist0, times, progress=bar, log_from=t_lo,
-                               dense_points=dense_points)
+        paused = time.perf_counter()
+        res, took = yield partial(_timed, solver.integrate, sys, y0, hist0, times,
+                                  progress=bar, log_from=t_lo, dense_points=dense_points)
+        start += time.perf_counter() - paused - took  # not the other samples' steps' time
     finally:
         if bar is not None:
             bar.close()

@@ -735,21 +735,77 @@ class MechanismModel:
         # every row's scene first, then the runs: the same calls as row by row, but the
         # validation's Python runs back to back rather than once between two kernels, whose
         # runs evict it from the processor's caches (docs/dev/performance-log.md, 2026-11-29)
-        ready = iter([self._samples.prepare(self.scene_values(x)) for x in X])
+        ready = [self._samples.prepare(self.scene_values(x)) for x in X]
+        outcomes: dict[int, object] = {}
+        rows = iter(range(X.shape[0]))
+
+        def row(_x):
+            i = next(rows)  # evaluate_rows calls once per row, in order
+            if i not in outcomes:  # the steps of this row and the next few, each in turn
+                outcomes.update(self._in_steps(range(i, min(i + self.STEP_ROWS, len(ready))),
+                                               ready))
+            out = outcomes.pop(i)
+            if isinstance(out, Exception):
+                raise out
+            return out
+
         with signal_session():  # the signal watcher installed once for the batch's runs
-            # evaluate_rows calls its function once per row, in order
-            Y, ok, reasons = evaluate_rows(lambda x: self._evaluate(x, next(ready)), X,
-                                           len(self.output_index))
+            Y, ok, reasons = evaluate_rows(row, X, len(self.output_index))
         if not ok.all():
             raise RowFailures(Y, reasons)
         return Y
 
+    #: Rows of a batch whose runs go step by step together (:meth:`_in_steps`): each holds
+    #: its integration's outputs (0.75 MB for the main study, mostly the log of its last
+    #: cycle for the extremes) until its last step has run.
+    STEP_ROWS = 8
+
+    def _in_steps(self, rows, ready) -> dict:
+        """The outputs of ``rows`` (or what each raised), their runs' steps
+        (:func:`~mechrel.simulation.sample_steps`) taken for all of them in turn: every
+        row's steps up to its integration, the integrations, then every row's last steps.
+        What a row's step raises is that row's (an ``Exception``; an interrupt ends the
+        batch)."""
+        done: dict[int, object] = {}
+        running = {}
+        for i in rows:
+            steps = self._steps(ready[i])
+            try:
+                running[i] = (steps, steps.send(None))
+            except StopIteration as stop:
+                done[i] = stop.value
+            except Exception as exc:  # noqa: BLE001 - the row's failure (evaluate_rows sorts)
+                done[i] = exc
+        while running:
+            sent = {}
+            for i, (steps, work) in running.items():  # the integrations, back to back
+                try:
+                    sent[i] = (steps, steps.send, work())
+                except Exception as exc:  # noqa: BLE001 - thrown into the row's steps
+                    sent[i] = (steps, steps.throw, exc)
+            running = {}
+            for i, (steps, resume, value) in sent.items():
+                try:
+                    running[i] = (steps, resume(value))
+                except StopIteration as stop:
+                    done[i] = stop.value
+                except Exception as exc:  # noqa: BLE001
+                    done[i] = exc
+        return done
+
     def _evaluate(self, x, ready=None) -> np.ndarray:
         """The outputs at ``x``; ``ready``: what :meth:`_Samples.prepare` gave for it."""
+        from ...simulation import run_steps
+
         if self._samples is None:
             self._samples = _Samples(self)
+        return run_steps(self._steps(ready or self._samples.prepare(self.scene_values(x))))
+
+    def _steps(self, ready):
+        """The steps of a sample's evaluation from what :meth:`_Samples.prepare` gave for it
+        (:func:`~mechrel.simulation.sample_steps`; returns the outputs)."""
         try:
-            res = self._samples.simulate(ready or self._samples.prepare(self.scene_values(x)))
+            res = yield from self._samples.steps(ready)
         except StudyError:
             raise
         except MechrelError as exc:
@@ -788,8 +844,8 @@ class _Samples:
 
     def __init__(self, model: MechanismModel):
         from ...scene._values import SceneValues
-        from ...simulation import (PreparedScene, ReferenceDesign, make_integrator, scene_kind,
-                                   simulate_sample)
+        from ...simulation import (PreparedScene, ReferenceDesign, make_integrator, sample_steps,
+                                   scene_kind)
 
         self.model = model
         paths = list(model.scene_values(model.nominal))
@@ -798,7 +854,7 @@ class _Samples:
         self.other = SceneValues(model.scene, [p for p in paths if not is_geometric(p)])
         self.references: dict = {}
         # what a sample calls, looked up once (the simulation layer is imported lazily here)
-        self._simulation = (ReferenceDesign, make_integrator, scene_kind, simulate_sample)
+        self._simulation = (ReferenceDesign, make_integrator, scene_kind, sample_steps)
 
     def prepare(self, values: dict):
         """``(values, scene, compiled, q0)`` of a sample (:meth:`PreparedScene.at
@@ -812,11 +868,12 @@ class _Samples:
             return exc
         return values, scene, compiled, self.prepared.ideal_start(scene, compiled)
 
-    def simulate(self, ready):
-        """The sample's run from what :meth:`prepare` gave for it."""
+    def steps(self, ready):
+        """The steps of the sample's run (:func:`~mechrel.simulation.sample_steps`) from what
+        :meth:`prepare` gave for it."""
         if isinstance(ready, MechrelError):
             raise ready
-        ReferenceDesign, make_integrator, scene_kind, simulate_sample = self._simulation
+        ReferenceDesign, make_integrator, scene_kind, sample_steps = self._simulation
         model = self.model
         values, scene, compiled, q0 = ready
         reference = None
@@ -835,8 +892,9 @@ class _Samples:
         if solver is None:
             solver = self.solvers[key] = make_integrator(scene)
         sectors = model.angle_step if getattr(model, "with_sectors", False) else None
-        return simulate_sample(scene, solver, reference=reference, extremes=model.with_extremes,
-                               sectors=sectors, compiled=compiled, q0=q0)
+        return (yield from sample_steps(scene, solver, reference=reference,
+                                        extremes=model.with_extremes, sectors=sectors,
+                                        compiled=compiled, q0=q0))
 
 
 _NUMBER = re.compile(r"(?<![\w.])[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?")
