@@ -41,11 +41,19 @@ from .result import SimulationResult, _provenance
 from .solver import _check_step_budget, make_integrator
 from .times import _crank_angle, output_times
 
-def _timed(fn, *args, **kwargs):
-    """``(fn(*args, **kwargs), its wall time in s)``."""
+def _integration(integrate, sys, y0, hist0, times, *, n, t_lo, **kwargs):
+    """``integrate``'s run (:meth:`~mechrel.integrate.Integrator.integrate`, ``log_from`` the
+    extremes' window start ``t_lo`` or None), its wall time (s), and with ``t_lo`` the window's
+    instants and the states there (:func:`_window_points`, :func:`_window_states`), read from
+    the run's log (0.7 MB for the main study) while it is still in the processor's caches."""
     t0 = time.perf_counter()
-    out = fn(*args, **kwargs)
-    return out, time.perf_counter() - t0
+    res = integrate(sys, y0, hist0, times, log_from=t_lo, **kwargs)
+    window = None
+    if t_lo is not None:
+        T, sel, first = _window_points(times, t_lo, res.log[:, 0])
+        window = (T, sel, _window_states(res.y, res.ydot, res.hist_out, res.log,
+                                         np.flatnonzero(sel), first, n))
+    return res, window, time.perf_counter() - t0
 
 
 def _orbits_and_energy(compiled: CompiledScene, res: IntegrationResult):
@@ -536,8 +544,9 @@ def _simulate(scene: Scene, *, reference: Scene | ReferenceDesign | None, method
     t_lo = analysis_window(compiled, times) if extremes else None
     try:
         paused = time.perf_counter()
-        res, took = yield partial(_timed, solver.integrate, sys, y0, hist0, times,
-                                  progress=bar, log_from=t_lo, dense_points=dense_points)
+        res, window, took = yield partial(_integration, solver.integrate, sys, y0, hist0,
+                                          times, n=n, t_lo=t_lo, progress=bar,
+                                          dense_points=dense_points)
         start += time.perf_counter() - paused - took  # not the other samples' steps' time
     finally:
         if bar is not None:
@@ -554,10 +563,8 @@ def _simulate(scene: Scene, *, reference: Scene | ReferenceDesign | None, method
     _check_orbits(scene, times, orbits)
     ext = sec = None
     if extremes:
-        assert t_lo is not None  # set above when extremes
-        log = res.log
-        T, sel, first = _window_points(times, t_lo, log[:, 0])
-        Ql, Vl, Al, Hl = _window_states(Y, YD, res.hist_out, log, np.flatnonzero(sel), first, n)
+        assert window is not None  # read with the run when extremes
+        T, sel, (Ql, Vl, Al, Hl) = window
         ext, sec = _extremes_of(scene, compiled, T,
                                 values(scene, compiled, T, Ql, Vl, Al, H=Hl,
                                          counterpart=reference),
