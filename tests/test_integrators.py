@@ -368,3 +368,86 @@ def test_ctrl_c_stops_the_integration_where_it_is(monkeypatch, name, settings):
     done, total = map(int, re.search(r"after (\d+) of (\d+) output", note).groups())
     assert note.startswith(f"{settings.get('integrator', 'dopri5')}: integration stopped")
     assert 0 < done < total == 20 * 360 + 1
+
+
+def _steps_result(steps, pause=0.0):
+    """Drive an integration's steps by hand, waiting ``pause`` s between them."""
+    import time
+
+    kernel = next(steps)
+    time.sleep(pause)
+    out = kernel()
+    time.sleep(pause)
+    try:
+        steps.send(out)
+    except StopIteration as done:
+        return done.value
+    raise AssertionError("integrate_steps paused more than once")
+
+
+@pytest.mark.parametrize("formulation", ["reduced", "absolute"])
+def test_integrate_steps_interleaved_are_integrate_bitwise_and_time_their_own_steps(formulation):
+    # Radau's run as its steps (the Python before its kernel, the kernel, the Python after
+    # it): two runs of different mechanisms taken step by step in turn, with 0.3 s spent
+    # elsewhere between the steps, give integrate()'s numbers bitwise, and each run's wall
+    # time is its own (the two pauses, 0.6 s, are not in it; a run here takes milliseconds)
+    from mechrel.mechanics.kinematics import assemble
+    from mechrel.mechanics.system import compile_scene
+
+    runs = []
+    for clearance in (2e-4, 3e-4):
+        scene = load_scene("slider-crank-lubricated",
+                           overrides={"joints.C.clearance": clearance})
+        c = compile_scene(scene)
+        q, v = assemble(c.assembly, c.q_guess, 0.0)
+        y0 = np.concatenate([q, v, np.zeros(2)])
+        t = np.linspace(0.0, 0.004, 9)
+        radau = Radau(rtol=1e-6, atol=1e-9, formulation=formulation)
+        runs.append((radau, c.dynamic, y0, t))
+    whole = [r.integrate(s, y0, np.zeros(s.n_contacts), t, log_from=0.002, dense_points=2)
+             for r, s, y0, t in runs]
+    steps = [r.integrate_steps(s, y0, np.zeros(s.n_contacts), t, log_from=0.002,
+                               dense_points=2) for r, s, y0, t in runs]
+    kernels = [next(g) for g in steps]  # both runs' Python before their kernels
+    outs = [k() for k in kernels]  # then both kernels
+    import time
+    time.sleep(0.3)
+    got = []
+    for g, out in zip(steps, outs):
+        try:
+            g.send(out)
+        except StopIteration as done:
+            got.append(done.value)
+    for a, b in zip(got, whole):
+        assert a.stats.formulation == formulation
+        for field in ("y", "ydot", "hist", "log", "hist_out"):
+            assert np.array_equal(getattr(a, field), getattr(b, field)), field
+        assert a.stats.n_steps == b.stats.n_steps
+    one = _steps_result(runs[0][0].integrate_steps(runs[0][1], runs[0][2], np.zeros(1),
+                                                   runs[0][3]), pause=0.3)
+    assert one.stats.wall_time < 0.3, one.stats.wall_time
+    assert got[0].stats.wall_time < 0.3, got[0].stats.wall_time
+
+
+def test_an_integrator_without_before_and_after_keeps_its_advance_signature():
+    # the subclass contract's _before/_after are optional: an _advance written before them
+    # (no prep argument) is called as it always was
+    from mechrel.integrate.base import DOPRI5
+
+    calls = []
+
+    class Plain(DOPRI5):
+        def _advance(self, system, t0, y0, hist, t_out, ctl, log_from, n_dense):
+            calls.append(n_dense)
+            return super()._advance(system, t0, y0, hist, t_out, ctl, log_from, n_dense)
+
+    scene = load_scene("double-pendulum")
+    res = simulate(scene, integrator="dopri5")
+    from mechrel.mechanics.kinematics import assemble
+    from mechrel.mechanics.system import compile_scene
+    c = compile_scene(scene)
+    q, v = assemble(c.assembly, c.q_guess)
+    y0 = np.concatenate([q, v, np.zeros(2)])
+    got = Plain().integrate(c.dynamic, y0, np.zeros(0), res.time, dense_points=3)
+    ref = DOPRI5().integrate(c.dynamic, y0, np.zeros(0), res.time, dense_points=3)
+    assert calls == [3] and np.array_equal(got.y, ref.y)

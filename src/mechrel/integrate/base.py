@@ -25,6 +25,13 @@ A subclass of :class:`Integrator`
   (so a wrapped library solver must be stepped by the subclass, as
   :mod:`mechrel.integrate.scipy_ivp` does, not run to the end by a driver such as
   ``solve_ivp``);
+* may split the Python around its kernel off ``_advance``: ``_before(system, t0, y0, hist,
+  t_out) -> prep`` (the base's returns None) runs before it and its result, when not None, is
+  passed to ``_advance(..., prep=prep)``, and ``_after(prep, out, t_out, ctl) -> out`` (the
+  base's returns ``out``) runs after it, on what ``_advance`` returned:
+  :meth:`Integrator.integrate_steps` runs them as steps of their own, so that a batch of runs
+  can take each step for all its runs in turn (``radau`` prepares and expands its reduced
+  equations there);
 * may integrate other equations than the absolute ones, as long as what ``_advance`` returns
   is in the absolute layout (``radau`` integrates the clearance joints' eccentricities where
   that applies and expands its outputs); it then records the formulation it ran in the
@@ -36,7 +43,9 @@ A subclass of :class:`Integrator`
   :func:`~mechrel.integrate.events.update_history`), and never returns non-finite values
   silently: it stops with a status code instead.
 
-:meth:`Integrator.integrate` calls ``_advance`` once over the whole output grid and raises
+:meth:`Integrator.integrate` calls ``_advance`` once over the whole output grid (as the one
+pause of :meth:`Integrator.integrate_steps`, a generator of the integration's steps that
+:func:`run_steps` runs in order) and raises
 :class:`~mechrel.errors.SimulationError` for a failed status. With a progress bar it runs
 ``_advance`` in a worker thread and advances the bar from ``ctl[CTL_DONE]`` every 0.1 s: the
 compiled kernels release the GIL, so the display costs the integration nothing and, unlike
@@ -57,14 +66,59 @@ import os
 import signal
 import threading
 import time
+from collections.abc import Callable, Generator
 from dataclasses import dataclass, fields
-from typing import ClassVar
+from functools import partial
+from typing import Any, ClassVar
 
 import numpy as np
 
 from ..errors import SimulationError
 from ..scene.model import MAX_STEPS_LIMIT
 from . import events as ev
+
+
+def run_steps(steps: Generator[Callable[[], Any], Any, Any]):
+    """Run the steps of one computation in order (:meth:`Integrator.integrate_steps`,
+    :func:`mechrel.simulation.sample_steps`): each callable the generator yields is called and
+    its result sent back, or what it raised thrown in.
+
+    Parameters
+    ----------
+    steps : generator
+        Yields callables without arguments; returns the result.
+
+    Returns
+    -------
+    object
+        What the generator returns.
+
+    Examples
+    --------
+    >>> def steps():
+    ...     x = yield lambda: 2
+    ...     return 10 * x
+    >>> run_steps(steps())
+    20
+    """
+    try:
+        work = steps.send(None)
+        while True:
+            try:
+                out = work()
+            except BaseException as exc:  # an interrupt too: the steps' own handlers see it
+                work = steps.throw(exc)
+            else:
+                work = steps.send(out)
+    except StopIteration as done:
+        return done.value
+
+
+def _timed(fn, *args, **kwargs):
+    """``(fn(*args, **kwargs), its wall time in s)``."""
+    t0 = time.perf_counter()
+    out = fn(*args, **kwargs)
+    return out, time.perf_counter() - t0
 
 
 @dataclass(frozen=True)
@@ -479,9 +533,19 @@ class Integrator:
         """
         return "absolute"
 
+    def _before(self, system, t0, y0, hist, t_out):
+        """What ``_advance`` is given as ``prep`` (the Python before the kernel; module
+        docstring): nothing here."""
+        return None
+
     def _advance(self, system, t0, y0, hist, t_out, ctl, log_from=math.inf,
                  n_dense=0):  # pragma: no cover - abstract
         raise NotImplementedError
+
+    def _after(self, prep, out, t_out, ctl):
+        """What ``_advance`` returned, completed by the Python after the kernel (module
+        docstring): as it is here."""
+        return out
 
     def _advice(self, status, system, t=None, y=None) -> str:
         """What to try after a failed run, by its status, the scene's effects and the state
@@ -515,20 +579,21 @@ class Integrator:
                 + ("" if self.stiff else
                    ", or a stiff integrator (solver.integrator = 'radau')"))
 
-    def _run(self, system, t, y, hist, t_out, progress, log_from, n_dense):
+    def _run(self, system, t, y, hist, t_out, progress, log_from, n_dense, ctl, prep):
         """``_advance`` over ``t_out``. With a progress bar, in a worker thread while this one
         feeds the bar from the control vector and passes Ctrl-C on as a stop request. Without
         one, on this thread; on the main thread under :class:`_SignalWatcher`, so that Ctrl-C
         and SIGTERM stop the kernel at its next step (a compiled kernel does not look at
         Python's signals: before, it ran to its end first)."""
-        ctl = np.zeros(2, dtype=np.int64)
+        extra = {} if prep is None else {"prep": prep}  # an _advance without _before: none
         if progress is None:
             if threading.current_thread() is not threading.main_thread():
                 # no signal is handled on this thread: nothing to watch
-                return self._advance(system, t, y, hist, t_out, ctl, log_from, n_dense)
+                return self._advance(system, t, y, hist, t_out, ctl, log_from, n_dense, **extra)
             try:
                 with _signal_watcher().watching(ctl):
-                    return self._advance(system, t, y, hist, t_out, ctl, log_from, n_dense)
+                    return self._advance(system, t, y, hist, t_out, ctl, log_from, n_dense,
+                                         **extra)
             except KeyboardInterrupt as exc:  # Ctrl-C, or SIGTERM (mechrel.errors.Interrupted)
                 exc.add_note(f"{self.name}: integration stopped after "
                              f"{int(ctl[ev.CTL_DONE])} of {t_out.size} output instants")
@@ -537,7 +602,8 @@ class Integrator:
 
         def work():
             try:
-                box["out"] = self._advance(system, t, y, hist, t_out, ctl, log_from, n_dense)
+                box["out"] = self._advance(system, t, y, hist, t_out, ctl, log_from, n_dense,
+                                           **extra)
             except BaseException as exc:  # handed to the caller's thread below
                 box["exc"] = exc
 
@@ -618,6 +684,60 @@ class Integrator:
         ...
         mechrel.errors.SimulationError: output instants must be a non-empty increasing sequence
         """
+        return run_steps(self.integrate_steps(system, y0, hist0, t_out, t0=t0,
+                                              progress=progress, log_from=log_from,
+                                              dense_points=dense_points))
+
+    def integrate_steps(self, system, y0, hist0, t_out, *, t0=None, progress=None,
+                        log_from=None, dense_points=0
+                        ) -> Generator[Callable[[], Any], Any, IntegrationResult]:
+        """:meth:`integrate` as its steps: a generator that pauses where the kernel runs.
+
+        It yields once a callable without arguments, the kernel's run (``_advance``: the
+        compiled kernel, on a worker thread with a progress bar), after the checks and
+        the Python before it (``_before``); its caller calls it and sends back what it
+        returned (or throws in what it raised), and the generator goes on with the Python
+        after it (``_after``), the statistics and the status's checks. :func:`run_steps`
+        runs the steps of one integration (that is :meth:`integrate`); a batch of samples runs
+        each step for several samples in turn, so that the Python of each step runs back to
+        back and not once after each kernel, which evicts it from the processor's caches
+        (:meth:`mechrel.uq.problem.mechanism.MechanismModel.evaluate_batch`). The result is
+        :meth:`integrate`'s, bitwise, in any order of the steps of several integrations; its
+        ``wall_time`` is this integration's own steps' time.
+
+        Parameters
+        ----------
+        system, y0, hist0, t_out, t0, progress, log_from, dense_points
+            As for :meth:`integrate`.
+
+        Returns
+        -------
+        generator
+            Yields the kernel's run; returns the :class:`IntegrationResult`.
+
+        Raises
+        ------
+        mechrel.errors.SimulationError
+            As :meth:`integrate`, from the step that finds it.
+
+        Examples
+        --------
+        >>> from mechrel.mechanics.kinematics import assemble
+        >>> from mechrel.mechanics.system import compile_scene
+        >>> from mechrel.scene import load_scene
+        >>> c = compile_scene(load_scene("double-pendulum"))
+        >>> q, v = assemble(c.assembly, c.q_guess)
+        >>> y0 = np.concatenate([q, v, np.zeros(2)])
+        >>> steps = DOPRI5(rtol=1e-10, atol=1e-12).integrate_steps(c.dynamic, y0, np.zeros(0),
+        ...                                                        [0.0, 0.1])
+        >>> kernel = next(steps)  # the checks have run
+        >>> try:
+        ...     steps.send(kernel())
+        ... except StopIteration as done:
+        ...     res = done.value
+        >>> res.stats.n_steps, round(math.hypot(*res.y[-1, :2]), 9)
+        (38, 0.25)
+        """
         if log_from is None:
             log_from = math.inf
         dense_points = int(dense_points)
@@ -631,9 +751,14 @@ class Integrator:
         y = np.ascontiguousarray(y0, dtype=float).copy()
         hist = np.ascontiguousarray(hist0, dtype=float).copy()
         start = time.perf_counter()
+        ctl = np.zeros(2, dtype=np.int64)
         try:
-            Y, YD, hist, total, t, y, log, H = self._run(system, t, y, hist, t_out, progress,
-                                                      float(log_from), dense_points)
+            prep = self._before(system, t, y, hist, t_out)
+            paused = time.perf_counter()
+            out, took = yield partial(_timed, self._run, system, t, y, hist, t_out, progress,
+                                      float(log_from), dense_points, ctl, prep)
+            start += time.perf_counter() - paused - took  # not other runs' steps' time
+            Y, YD, hist, total, t, y, log, H = self._after(prep, out, t_out, ctl)
         except (np.linalg.LinAlgError, ZeroDivisionError) as exc:
             # the compiled Cholesky of the Schur complement raises LinAlgError when the state
             # has diverged (e.g. RK4 with too large a step through dry impacts), and numba's

@@ -1334,14 +1334,28 @@ class Radau(Integrator):
         return "absolute" if reduced_system(
             system, None, required=self.formulation == "reduced") is None else "reduced"
 
-    def _advance(self, system, t0, y0, hist, t_out, ctl, log_from=math.inf, n_dense=0):
+    def _before(self, system, t0, y0, hist, t_out):
+        """``(reduced system or None, what the kernel integrates, its smooth part, its initial
+        state)``: the reduced equations where they apply (:func:`reduced_system`, the
+        reduced initial state), else the absolute ones."""
         reduced = None if self.formulation == "absolute" else reduced_system(
             system, y0, required=self.formulation == "reduced")
         if reduced is None:
-            return radau5_kernel(system, without_clearance_forces(system), t0, y0, hist, t_out,
-                                 self.step or 0.0, self.rtol, self.atol, self.max_steps,
-                                 self.onset_tolerance, self.fixed_step, ctl, log_from, n_dense)
-        return _advance_reduced(reduced, self, t0, y0, hist, t_out, ctl, log_from, n_dense)
+            return None, system, without_clearance_forces(system), y0
+        return (reduced, reduced, *_reduced_start(reduced, y0))
+
+    def _advance(self, system, t0, y0, hist, t_out, ctl, log_from=math.inf, n_dense=0,
+                 prep=None):
+        _, equations, smooth, start = prep or self._before(system, t0, y0, hist, t_out)
+        return radau5_kernel(equations, smooth, t0, start, hist, t_out, self.step or 0.0,
+                             self.rtol, self.atol, self.max_steps, self.onset_tolerance,
+                             self.fixed_step, ctl, log_from, n_dense)
+
+    def _after(self, prep, out, t_out, ctl):
+        """On the reduced equations, their outputs completed in the absolute layout
+        (:func:`_finish_reduced`)."""
+        reduced = prep[0]
+        return out if reduced is None else _reduced_outputs(reduced, out, t_out, ctl)
 
 
 def reduced_system(system, y0, *, required=False):
@@ -1422,24 +1436,30 @@ def reduced_system(system, y0, *, required=False):
     return None
 
 
-def _advance_reduced(red, radau, t0, y0, hist, t_out, ctl, log_from, n_dense):
-    """``Radau._advance`` on the reduced equations: the kernel integrates ``(z, ż, W)`` and
-    writes its outputs and log in the absolute layout (from each output's own evaluation,
-    :func:`~mechrel.mechanics.reduced.output_row`); the final state is expanded after it
-    (:func:`~mechrel.mechanics.reduced.expand_rows`), so that a caller sees the contract of
-    :class:`~mechrel.integrate.base.Integrator` unchanged. The constraint violation reported
-    is that of the first and last outputs, by the dense constraint functions (the
-    construction satisfies the constraints to round-off at every instant). Around the kernel
-    there are two compiled calls, the reduced initial state and :func:`_finish_reduced`: each
-    compiled call with the mechanism's arrays costs its dispatch (~10 µs)."""
+def _reduced_start(red, y0):
+    """``(the reduced system without clearance forces, the reduced initial state)``: what
+    :class:`Radau` integrates the reduced equations from (``(z, ż, W)``,
+    :func:`~mechrel.mechanics.reduced.reduced_coordinates`). The kernel writes its outputs and
+    log in the absolute layout (from each output's own evaluation,
+    :func:`~mechrel.mechanics.reduced.output_row`); :func:`_reduced_outputs` expands the final
+    state after it, so that a caller sees the contract of
+    :class:`~mechrel.integrate.base.Integrator` unchanged. Around the kernel there are two
+    compiled calls, the reduced initial state and :func:`_finish_reduced`: each compiled call
+    with the mechanism's arrays costs its dispatch (~10 µs)."""
     system, con = red.sys, red.con
     n = system.mass.shape[0]
     yr0 = reduced_coordinates(system, con, y0[:n], y0[n:2 * n], work=y0[2 * n:2 * n + 2])
-    smooth = red._replace(sys=without_clearance_forces(system))
-    Y, YD, hist, stats, t, y, log, H = radau5_kernel(
-        red, smooth, t0, yr0, hist, t_out, radau.step or 0.0, radau.rtol, radau.atol,
-        radau.max_steps, radau.onset_tolerance, radau.fixed_step, ctl, log_from, n_dense)
-    pos, vel, ya = _finish_reduced(Y, t_out, int(ctl[CTL_DONE]), t, y, system, con, red.q_ref)
+    return red._replace(sys=without_clearance_forces(system)), yr0
+
+
+def _reduced_outputs(red, out, t_out, ctl):
+    """What the kernel returned on the reduced equations ``red``, in the absolute layout:
+    the final state expanded and the constraint violation reported, that of the first and
+    last outputs, by the dense constraint functions (the construction satisfies the
+    constraints to round-off at every instant)."""
+    Y, YD, hist, stats, t, y, log, H = out
+    pos, vel, ya = _finish_reduced(Y, t_out, int(ctl[CTL_DONE]), t, y, red.sys, red.con,
+                                   red.q_ref)
     stats[S_VIOL_POS] = max(stats[S_VIOL_POS], pos)
     stats[S_VIOL_VEL] = max(stats[S_VIOL_VEL], vel)
     stats[S_FORMULATION] = FORMULATION_TEXT.index("reduced")

@@ -17,7 +17,6 @@ from __future__ import annotations
 import time
 import warnings
 from collections.abc import Callable, Generator, Mapping
-from functools import partial
 from typing import Any
 
 import numpy as np
@@ -26,6 +25,7 @@ from ..errors import AssemblyError, SimulationError, SimulationWarning
 from ..forces.models import MODELS
 from ..forces.params import P_C
 from ..integrate import IntegrationResult
+from ..integrate.base import run_steps
 from ..mechanics.dynamics import N_WORK
 from ..mechanics.kinematics import assemble, assemble_positions, kinematic_analysis
 from ..mechanics.post import post_process
@@ -40,21 +40,6 @@ from .reference import (ReferenceDesign, _check_reference, _ideal_at, _ideal_by_
 from .result import SimulationResult, _provenance
 from .solver import _check_step_budget, make_integrator
 from .times import _crank_angle, output_times
-
-def _integration(integrate, sys, y0, hist0, times, *, n, t_lo, **kwargs):
-    """``integrate``'s run (:meth:`~mechrel.integrate.Integrator.integrate`, ``log_from`` the
-    extremes' window start ``t_lo`` or None), its wall time (s), and with ``t_lo`` the window's
-    instants and the states there (:func:`_window_points`, :func:`_window_states`), read from
-    the run's log (0.7 MB for the main study) while it is still in the processor's caches."""
-    t0 = time.perf_counter()
-    res = integrate(sys, y0, hist0, times, log_from=t_lo, **kwargs)
-    window = None
-    if t_lo is not None:
-        T, sel, first = _window_points(times, t_lo, res.log[:, 0])
-        window = (T, sel, _window_states(res.y, res.ydot, res.hist_out, res.log,
-                                         np.flatnonzero(sel), first, n))
-    return res, window, time.perf_counter() - t0
-
 
 def _orbits_and_energy(compiled: CompiledScene, res: IntegrationResult):
     """Journal orbits and the energy bookkeeping at the output instants (one compiled call)."""
@@ -326,17 +311,19 @@ def sample_steps(scene: Scene, solver, *, reference: Scene | ReferenceDesign | N
     """:func:`simulate_sample` as its steps: a generator that pauses where the integrator runs,
     so that a batch of samples can run each step for all its samples in turn.
 
-    The generator yields a callable without arguments, the integrator's run (the
-    mechanism's compiled kernel and the Python around it): its caller calls it and sends its
-    result back (or throws in what it raised), and the generator goes on with the run's
-    checks and outputs; it returns the :class:`SimulationResult`. A run without integration
-    (kinematic analysis) returns without yielding. :func:`run_steps` runs the steps of one
-    sample; :meth:`~mechrel.uq.problem.mechanism.MechanismModel.evaluate_batch` runs, for a
-    few samples at a time, the steps before every sample's integration, then the
-    integrations, then the steps after them: each step's Python then runs back to back,
-    while its code is in the processor's caches, not once after each 20 ms kernel, which
-    evicts it (docs/dev/performance-log.md, 2026-11-29). The numbers are those of
-    :func:`simulate_sample`, bitwise, whatever the order the steps of several samples run in.
+    The generator yields a callable without arguments, the integrator's compiled kernel
+    (:meth:`~mechrel.integrate.Integrator.integrate_steps`): its caller calls it and sends its
+    result back (or throws in what it raised), and the generator goes on with the Python
+    after the kernel, the run's checks and outputs; it returns the :class:`SimulationResult`.
+    A run without integration (kinematic analysis) returns without yielding.
+    :func:`~mechrel.integrate.base.run_steps` runs the steps of one sample;
+    :meth:`~mechrel.uq.problem.mechanism.MechanismModel.evaluate_batch` runs, for a few
+    samples at a time, the steps before every sample's kernel, then the kernels, then the
+    steps after them: each step's Python then runs back to back, while its code is in the
+    processor's caches, not once after each 20 ms kernel, which evicts it
+    (docs/dev/performance-log.md, 2026-11-29). The numbers are those of
+    :func:`simulate_sample`, bitwise, whatever the order the steps of several samples run
+    in.
 
     Parameters
     ----------
@@ -363,9 +350,9 @@ def sample_steps(scene: Scene, solver, *, reference: Scene | ReferenceDesign | N
     >>> scene = with_overrides(load_scene("slider-crank-lubricated"),
     ...                        {"analysis.cycles": 1, "analysis.sample_step_angle": math.pi / 2})
     >>> steps = sample_steps(scene, make_integrator(scene))
-    >>> integrate = next(steps)  # everything before the integration has run
+    >>> kernel = next(steps)  # everything before the integrator's kernel has run
     >>> try:
-    ...     steps.send(integrate())
+    ...     steps.send(kernel())
     ... except StopIteration as done:
     ...     r = done.value
     >>> bool((r.time == simulate_sample(scene, make_integrator(scene)).time).all())
@@ -378,41 +365,6 @@ def sample_steps(scene: Scene, solver, *, reference: Scene | ReferenceDesign | N
     if result.warnings:  # a study's number must not carry the integrator's drift
         raise SimulationError(result.warnings[0])
     return result
-
-
-def run_steps(steps: Generator[Callable[[], Any], Any, Any]):
-    """Run the steps of one simulation (:func:`sample_steps`) in order: each callable it
-    yields is called and its result sent back, or what it raised thrown in.
-
-    Parameters
-    ----------
-    steps : generator
-        From :func:`sample_steps` (or any generator of that protocol).
-
-    Returns
-    -------
-    object
-        What the generator returns (a :class:`SimulationResult`).
-
-    Examples
-    --------
-    >>> def steps():
-    ...     x = yield lambda: 2
-    ...     return 10 * x
-    >>> run_steps(steps())
-    20
-    """
-    try:
-        work = steps.send(None)
-        while True:
-            try:
-                out = work()
-            except BaseException as exc:  # an interrupt too: the run's own handlers see it
-                work = steps.throw(exc)
-            else:
-                work = steps.send(out)
-    except StopIteration as done:
-        return done.value
 
 
 def _explained(scene, **kwargs) -> Generator[Callable[[], Any], Any, SimulationResult]:
@@ -544,10 +496,10 @@ def _simulate(scene: Scene, *, reference: Scene | ReferenceDesign | None, method
     t_lo = analysis_window(compiled, times) if extremes else None
     try:
         paused = time.perf_counter()
-        res, window, took = yield partial(_integration, solver.integrate, sys, y0, hist0,
-                                          times, n=n, t_lo=t_lo, progress=bar,
-                                          dense_points=dense_points)
-        start += time.perf_counter() - paused - took  # not the other samples' steps' time
+        res = yield from solver.integrate_steps(sys, y0, hist0, times, progress=bar,
+                                                log_from=t_lo, dense_points=dense_points)
+        # not the other samples' steps' time (the integration's own is its wall time)
+        start += time.perf_counter() - paused - res.stats.wall_time
     finally:
         if bar is not None:
             bar.close()
@@ -563,8 +515,10 @@ def _simulate(scene: Scene, *, reference: Scene | ReferenceDesign | None, method
     _check_orbits(scene, times, orbits)
     ext = sec = None
     if extremes:
-        assert window is not None  # read with the run when extremes
-        T, sel, (Ql, Vl, Al, Hl) = window
+        assert t_lo is not None  # set above when extremes
+        log = res.log
+        T, sel, first = _window_points(times, t_lo, log[:, 0])
+        Ql, Vl, Al, Hl = _window_states(Y, YD, res.hist_out, log, np.flatnonzero(sel), first, n)
         ext, sec = _extremes_of(scene, compiled, T,
                                 values(scene, compiled, T, Ql, Vl, Al, H=Hl,
                                          counterpart=reference),
