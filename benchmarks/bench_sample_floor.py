@@ -20,8 +20,8 @@ Pieces (``--modes``; ``+`` joins pieces into one mode):
     ``evaluators.values`` wherever the run and the reference call it: the output values of
     the run, of its extremes' window and of the ideal counterpart.
 ``extremes``
-    the extremes' window (``_window_points``, ``_window_states``) and the extremes themselves
-    (``_extremes_of``).
+    the extremes' window (``_window_points``, ``_window_values``: the outputs at its points)
+    and the extremes themselves (``_extremes_of``).
 ``orbits``
     the joints' orbits and the energy after the run (``_orbits_and_energy``, their check).
 ``assemble``
@@ -89,7 +89,7 @@ def _targets(piece: str):
     return {"at": [(prepared.PreparedScene, "at")],
             "values": [(run, "values"), (reference, "values")],
             "extremes": [(run, "_extremes_of"), (run, "_window_points"),
-                         (run, "_window_states")],
+                         (run, "_window_values")],
             "orbits": [(run, "_orbits_and_energy"), (run, "_check_orbits")],
             "assemble": [(run, "assemble")],
             "crank": [(run, "_crank_angle")],

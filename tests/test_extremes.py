@@ -206,17 +206,30 @@ def test_the_extremes_indices_are_numpys(err, bad, at):
         _arg_extremes(e[:0])
 
 
-@pytest.mark.parametrize("name", ["slider-crank-dry", "slider-crank-lubricated"])
-def test_the_window_states_are_the_output_rows_and_log_rows_they_name(name):
-    """The states at the window points, gathered in one pass, are bitwise the rows of the
-    outputs and of the solution log that ``first`` names (history columns included: the dry
-    joint has one, the film none)."""
+# the four-bar with every output kind: body and point (its own), a film and a dry joint (the
+# dry one's force reads the history state), a coupler point's path
+EVERY_KIND = {"bodies.coupler.points.M": [0.0, 0.03],
+              "outputs.curve": {"kind": "path", "point": "coupler.M"},
+              "outputs.film": {"kind": "joint", "joint": "A"},
+              "outputs.pin_b": {"kind": "joint", "joint": "B"}}
+
+
+@pytest.mark.parametrize("name, overrides", [("slider-crank-dry", {}),
+                                             ("slider-crank-lubricated", {}),
+                                             ("four-bar", EVERY_KIND)])
+def test_the_window_values_are_the_outputs_of_the_states_they_name(name, overrides):
+    """The outputs at the window points, taken from those at the output instants and those of
+    the solution log's rows, are bitwise the outputs of the window's states gathered in order
+    (the rows of the outputs and of the log that ``first`` names; history columns included:
+    the dry joint has one, the film none), for every output kind the scene has."""
     from mechrel.mechanics.kinematics import assemble
     from mechrel.mechanics.system import compile_scene
     from mechrel.simulation import make_integrator, output_times
-    from mechrel.simulation.extremes import _window_points, _window_states, analysis_window
+    from mechrel.simulation.evaluators import values
+    from mechrel.simulation.extremes import _window_points, analysis_window
+    from mechrel.simulation.run import _window_values
 
-    scene = load_scene(name)
+    scene = load_scene(name, overrides=overrides)
     c = compile_scene(scene)
     times = output_times(scene, c)
     q0, _ = assemble(c.ideal, c.q_guess, 0.0)
@@ -228,10 +241,18 @@ def test_the_window_states_are_the_output_rows_and_log_rows_they_name(name):
     Y, YD, H, log, n = res.y, res.ydot, res.hist_out, res.log, q0.size
     ny = Y.shape[1]
     T, sel, first = _window_points(times, t_lo, log[:, 0])
+    assert T.size > times[sel].size  # log points inside the window
     both = [(Y[sel, :n], log[:, 1:1 + n]), (Y[sel, n:2 * n], log[:, 1 + n:1 + 2 * n]),
             (YD[sel, n:2 * n], log[:, 1 + ny + n:1 + ny + 2 * n]), (H[sel], log[:, 1 + 2 * ny:])]
-    got = _window_states(Y, YD, H, log, np.flatnonzero(sel), first, n)
-    assert T.size > times[sel].size  # log points inside the window
-    for (out_rows, log_rows), g in zip(both, got):
-        assert np.array_equal(g, np.concatenate([out_rows, log_rows])[first])
-    assert got[3].shape[1] == c.dynamic.n_contacts
+    Qw, Vw, Aw, Hw = (np.concatenate([a, b])[first] for a, b in both)
+    assert Hw.shape[1] == c.dynamic.n_contacts
+    want = values(scene, c, T, Qw, Vw, Aw, H=Hw)
+    outputs = values(scene, c, times, Y[:, :n], Y[:, n:2 * n], YD[:, n:2 * n], H=H)
+    got = _window_values(scene, c, outputs, sel, first, log, n, None)
+    kinds = {o.kind for o in scene.outputs.values()}
+    assert kinds == ({"point", "body", "joint", "path"} if overrides else {"point"})
+    assert got.keys() == want.keys()
+    for out, quantities in want.items():
+        assert quantities.keys() == got[out].keys()
+        for q, v in quantities.items():
+            assert np.array_equal(got[out][q], v), (out, q)

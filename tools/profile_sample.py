@@ -45,7 +45,7 @@ DEFAULT = (
     "mechrel.simulation.reference:values",
     "mechrel.simulation.run:_extremes_of",
     "mechrel.simulation.run:_window_points",
-    "mechrel.simulation.run:_window_states",
+    "mechrel.simulation.run:_window_values",
     "mechrel.simulation.run:_orbits_and_energy",
 )
 

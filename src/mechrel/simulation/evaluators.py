@@ -11,7 +11,10 @@ every kind of the catalogue has exactly one evaluator).
 Every evaluator ``f(scene, compiled, output, st, ideal, actual, counterpart)`` gets the
 states :class:`States` (instants ``T``, coordinates ``Q`` (m, rad), their rates ``V`` and
 accelerations ``A``, one row per instant, and the history state ``H`` of the contact joints or
-None) and returns ``{quantity: array}`` in SI units; ``ideal`` says whether the state
+None) and returns ``{quantity: array}`` in SI units, the value at each row a function of that
+row's state alone (the cycle extremes take the values at the output instants from the run's
+outputs and compute only those at the solution log's rows; ``tests/test_output_kinds.py``
+checks every kind on a subset of rows); ``ideal`` says whether the state
 is the ideal mechanism's (for kinds whose ideal value is not the same formula on the ideal
 state), ``actual`` is the simulated scene (``scene`` may be a reference design) and
 ``counterpart`` the scene whose ideal mechanism the errors are measured against.

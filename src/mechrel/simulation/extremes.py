@@ -115,35 +115,6 @@ def _merge_sorted(a, b):
 
 
 @njit(cache=True)
-def _window_states(Y, YD, H, log, rows, first, n):
-    """The states at the window points ``T`` of :func:`_window_points` (``first`` into the
-    output rows ``rows`` of ``Y``, ``YD``, ``H``, then the integrator's log rows
-    ``[t, y, ẏ, hist]``): ``(Q, V, A, H)`` at ``T``, copied in one pass (no concatenated
-    intermediate)."""
-    ny, nh, ns, M = Y.shape[1], H.shape[1], rows.shape[0], first.shape[0]
-    Q, V, A, HT = np.empty((M, n)), np.empty((M, n)), np.empty((M, n)), np.empty((M, nh))
-    for m in range(M):
-        k = first[m]
-        if k < ns:
-            r = rows[k]
-            for i in range(n):
-                Q[m, i] = Y[r, i]
-                V[m, i] = Y[r, n + i]
-                A[m, i] = YD[r, n + i]
-            for i in range(nh):
-                HT[m, i] = H[r, i]
-        else:
-            r = k - ns
-            for i in range(n):
-                Q[m, i] = log[r, 1 + i]
-                V[m, i] = log[r, 1 + n + i]
-                A[m, i] = log[r, 1 + ny + n + i]
-            for i in range(nh):
-                HT[m, i] = log[r, 1 + 2 * ny + i]
-    return Q, V, A, HT
-
-
-@njit(cache=True)
 def _arg_extremes(err):
     """``(finite, argmax, argmin, argmax of |err|)`` of a non-empty ``err`` in one pass: the
     indices ``np.argmax``/``np.argmin`` give (of equal values, the first); ``finite`` False,

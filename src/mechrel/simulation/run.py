@@ -34,12 +34,28 @@ from ..scene.model import Scene
 
 from .evaluators import values
 from .extremes import (DENSE_POINTS, KINEMATIC_POINTS, _extremes_of, _window_points,
-                       _window_states, analysis_window)
+                       analysis_window)
 from .reference import (ReferenceDesign, _check_reference, _ideal_at, _ideal_by_dynamics,
                         _reference_outputs)
 from .result import SimulationResult, _provenance
 from .solver import _check_step_budget, make_integrator
 from .times import _crank_angle, output_times
+
+def _window_values(scene, compiled, outputs, sel, first, log, n, reference):
+    """The outputs at the extremes' window points (:func:`_window_points`: ``first`` into the
+    output instants ``sel`` and the log's rows): those at the output instants already
+    computed (``outputs``), those at the log's rows computed on the log's columns where they
+    are (views: of each row only the columns the outputs read leave memory), then both put in
+    the window's order. An output's value at a state depends on that state alone (every
+    evaluator's is row by row), so these are the values of the window's states, bitwise."""
+    ny = 2 * n + N_WORK
+    at_log = values(scene, compiled, log[:, 0], log[:, 1:1 + n], log[:, 1 + n:1 + 2 * n],
+                    log[:, 1 + ny + n:1 + ny + 2 * n], H=log[:, 1 + 2 * ny:],
+                    counterpart=reference)
+    return {name: {q: np.concatenate([v[sel], at_log[name][q]])[first]
+                   for q, v in quantities.items()}
+            for name, quantities in outputs.items()}
+
 
 def _orbits_and_energy(compiled: CompiledScene, res: IntegrationResult):
     """Journal orbits and the energy bookkeeping at the output instants (one compiled call)."""
@@ -518,10 +534,9 @@ def _simulate(scene: Scene, *, reference: Scene | ReferenceDesign | None, method
         assert t_lo is not None  # set above when extremes
         log = res.log
         T, sel, first = _window_points(times, t_lo, log[:, 0])
-        Ql, Vl, Al, Hl = _window_states(Y, YD, res.hist_out, log, np.flatnonzero(sel), first, n)
         ext, sec = _extremes_of(scene, compiled, T,
-                                values(scene, compiled, T, Ql, Vl, Al, H=Hl,
-                                         counterpart=reference),
+                                _window_values(scene, compiled, outputs, sel, first, log, n,
+                                               reference),
                                 _ideal_at(scene, compiled, ref, q0, solver, T, times[~sel]),
                                 sectors)
     wall = time.perf_counter() - start
