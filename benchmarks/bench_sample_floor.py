@@ -97,17 +97,28 @@ def _targets(piece: str):
                         (radau, "without_clearance_forces"), (radau, "_finish_reduced")]}[piece]
 
 
+_RECORDING = [0]  # oracle calls under way in the recording batch
+
+
 class _Oracle:
     """``fn`` recording its results in call order, then (``replaying``) returning them in the
     same order without running; :attr:`call` is the function put in ``fn``'s place (a plain
-    function, so that a method replaced by it is still bound to its instance)."""
+    function, so that a method replaced by it is still bound to its instance). A call made
+    inside another oracle's call (``values`` inside ``_window_values``) is neither recorded
+    nor replayed: it runs where its caller runs, and its caller's replay skips it."""
 
     def __init__(self, fn):
         self.fn, self.results, self.next, self.replaying = fn, [], 0, False
 
         def call(*a, **kw):
+            if _RECORDING[0]:
+                return self.fn(*a, **kw)
             if not self.replaying:
-                out = self.fn(*a, **kw)
+                _RECORDING[0] += 1
+                try:
+                    out = self.fn(*a, **kw)
+                finally:
+                    _RECORDING[0] -= 1
                 self.results.append(out)
                 return out
             out = self.results[self.next]
