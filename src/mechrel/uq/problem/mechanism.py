@@ -757,8 +757,10 @@ class MechanismModel:
 
     #: Rows of a batch whose runs go step by step together (:meth:`_in_steps`): each holds
     #: its integration's outputs (0.75 MB for the main study, mostly the log of its last
-    #: cycle for the extremes) until its last step has run.
-    STEP_ROWS = 8
+    #: cycle for the extremes) until its last step has run. The first row of a group runs
+    #: each step with cold caches: 16 rows gave 0.79 ms of Python a sample, 8 rows 0.85 ms,
+    #: 4 rows 0.92 ms (docs/dev/performance-log.md, 2026-11-29 evening).
+    STEP_ROWS = 16
 
     def _in_steps(self, rows, ready) -> dict:
         """The outputs of ``rows`` (or what each raised), their runs' steps
