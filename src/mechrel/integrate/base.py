@@ -722,12 +722,12 @@ class Integrator:
 
         Examples
         --------
-        >>> from mechrel.mechanics.kinematics import assemble
-        >>> from mechrel.mechanics.system import compile_scene
+        The double pendulum of :meth:`integrate`'s example, its kernel run by hand:
+
+        >>> from mechrel.mechanics import kinematics, system
         >>> from mechrel.scene import load_scene
-        >>> c = compile_scene(load_scene("double-pendulum"))
-        >>> q, v = assemble(c.assembly, c.q_guess)
-        >>> y0 = np.concatenate([q, v, np.zeros(2)])
+        >>> c = system.compile_scene(load_scene("double-pendulum"))
+        >>> y0 = np.concatenate([*kinematics.assemble(c.assembly, c.q_guess), np.zeros(2)])
         >>> steps = DOPRI5(rtol=1e-10, atol=1e-12).integrate_steps(c.dynamic, y0, np.zeros(0),
         ...                                                        [0.0, 0.1])
         >>> kernel = next(steps)  # the checks have run
