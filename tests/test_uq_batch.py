@@ -438,3 +438,41 @@ def test_a_sample_run_in_steps_is_simulate_sample_and_times_its_own_steps():
     assert np.array_equal(got.error("slider", "acceleration"), ref.error("slider", "acceleration"))
     assert got.extremes == ref.extremes
     assert got.stats["total_wall_time"] < 0.3, got.stats["total_wall_time"]
+
+
+@pytest.mark.parametrize("how", ["ctrl-c", "inside a compiled callback"])
+def test_an_interrupt_in_a_step_group_stops_the_batch_at_once(monkeypatch, how):
+    # an interrupt during the second row's kernel of a group of four: no other kernel runs
+    # after it, and the interrupt carries the rows finished before the group (the executor
+    # caches those and re-runs the rest on resume)
+    import signal
+
+    import mechrel.integrate.radau as radau
+    from mechrel.errors import Interrupted
+
+    model = MechanismModel("slider-crank-lubricated", ["joints.C.clearance"],
+                           quantities=["velocity"], angle_step=90.0, cycles=1)
+    model.STEP_ROWS = 4
+    X = np.linspace(3e-4, 5e-4, 7)[:, None]
+    kernel, calls = radau.radau5_kernel, []
+
+    def interrupted(*a):
+        calls.append(1)
+        if len(calls) == 6:  # the second row of the second group (rows 4-6)
+            if how == "ctrl-c":
+                raise KeyboardInterrupt
+            try:
+                raise Interrupted(signal.SIGTERM)
+            except Interrupted as exc:
+                raise SystemError("<function _numba_unpickle> returned a result with an "
+                                  "exception set") from exc
+        return kernel(*a)
+
+    monkeypatch.setattr(radau, "radau5_kernel", interrupted)
+    with pytest.raises(KeyboardInterrupt) as info:
+        model.evaluate_batch(X)
+    assert len(calls) == 6  # the group's last two kernels did not run
+    n, Y, ok, reasons = info.value.finished
+    assert n == 4 and ok.all() and Y.shape[0] == 4
+    monkeypatch.setattr(radau, "radau5_kernel", kernel)
+    assert np.array_equal(Y, model.evaluate_batch(X[:4]))

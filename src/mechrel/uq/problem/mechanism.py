@@ -43,7 +43,7 @@ import numpy as np
 import pandas as pd
 
 from ..._checks import ARGS
-from ...errors import MechrelError, SceneError, StudyError
+from ...errors import MechrelError, SceneError, StudyError, interrupt_of
 from ...forces.models import MODELS
 from ...outputs import quantities_of
 from .model import ModelFailure, RowFailures, evaluate_rows
@@ -766,8 +766,8 @@ class MechanismModel:
         """The outputs of ``rows`` (or what each raised), their runs' steps
         (:func:`~mechrel.simulation.sample_steps`) taken for all of them in turn: every
         row's steps up to its integration, the integrations, then every row's last steps.
-        What a row's step raises is that row's (an ``Exception``; an interrupt ends the
-        batch)."""
+        What a row's step raises is that row's (an ``Exception``, raised when the row's turn
+        comes; an interrupt, also one inside a compiled callback, ends the group at once)."""
         done: dict[int, object] = {}
         running = {}
         for i in rows:
@@ -777,14 +777,14 @@ class MechanismModel:
             except StopIteration as stop:
                 done[i] = stop.value
             except Exception as exc:  # noqa: BLE001 - the row's failure (evaluate_rows sorts)
-                done[i] = exc
+                done[i] = _unless_interrupt(exc)
         while running:
             sent = {}
             for i, (steps, work) in running.items():  # the integrations, back to back
                 try:
                     sent[i] = (steps, steps.send, work())
                 except Exception as exc:  # noqa: BLE001 - thrown into the row's steps
-                    sent[i] = (steps, steps.throw, exc)
+                    sent[i] = (steps, steps.throw, _unless_interrupt(exc))
             running = {}
             for i, (steps, resume, value) in sent.items():
                 try:
@@ -792,7 +792,7 @@ class MechanismModel:
                 except StopIteration as stop:
                     done[i] = stop.value
                 except Exception as exc:  # noqa: BLE001
-                    done[i] = exc
+                    done[i] = _unless_interrupt(exc)
         return done
 
     def _evaluate(self, x, ready=None) -> np.ndarray:
@@ -897,6 +897,14 @@ class _Samples:
         return (yield from sample_steps(scene, solver, reference=reference,
                                         extremes=model.with_extremes, sectors=sectors,
                                         compiled=compiled, q0=q0))
+
+
+def _unless_interrupt(exc: Exception) -> Exception:
+    """``exc``, raised again when it is an interrupt inside a compiled callback
+    (:func:`~mechrel.errors.interrupt_of`): the batch stops there, as row by row."""
+    if isinstance(exc, SystemError) and interrupt_of(exc) is not None:
+        raise exc
+    return exc
 
 
 _NUMBER = re.compile(r"(?<![\w.])[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?")
