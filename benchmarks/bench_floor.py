@@ -63,6 +63,7 @@ from _common import git_state, radau_copy  # noqa: E402
 import mechrel.integrate.radau as radau  # noqa: E402
 from mechrel.integrate.events import (N_STATS, S_JAC, S_LU, S_REJECTED, S_RHS, S_STEPS,  # noqa: E402
                                      new_log, start)
+from mechrel.integrate.base import Integrator  # noqa: E402
 from mechrel.integrate.radau import reduced_system  # noqa: E402
 from mechrel.mechanics.borrow import borrowed, keep_alive  # noqa: E402
 from mechrel.mechanics.dynamics import N_WORK, make_workspace, rhs_into  # noqa: E402
@@ -314,6 +315,7 @@ def radau_variant(edits, name, formulations=False):
     if formulations:
         advance = mod.Radau._advance
         advance.module = mod
+        advance.around = (mod.Radau._before, mod.Radau._after)  # its Python around the kernel
         return advance
 
     def advance(self, system, t0, y0, hist, t_out, ctl, log_from=math.inf, n_dense=0):
@@ -334,17 +336,21 @@ def peak_dev(r, e_ref):
 
 
 class _Swap:
-    """Run ``simulate`` with another ``Radau._advance`` (the variant kernel or RODAS)."""
+    """Run ``simulate`` with another ``Radau._advance`` (the variant kernel or RODAS), and the
+    Python around it that goes with it (``advance.around``: ``(_before, _after)``; none, the
+    base ``Integrator``'s, for an ``_advance`` that integrates the absolute equations itself)."""
 
     def __init__(self, advance):
         self.advance, self.saved = advance, None
+        self.around = getattr(advance, "around", (Integrator._before, Integrator._after))
 
     def __enter__(self):
-        self.saved = radau.Radau._advance
+        self.saved = (radau.Radau._before, radau.Radau._advance, radau.Radau._after)
+        radau.Radau._before, radau.Radau._after = self.around
         radau.Radau._advance = self.advance
 
     def __exit__(self, *exc):
-        radau.Radau._advance = self.saved
+        radau.Radau._before, radau.Radau._advance, radau.Radau._after = self.saved
 
 
 def rhs_cost(scene, res, formulation):

@@ -37,24 +37,27 @@ def main(argv=None) -> None:
     solver = make_integrator(scene)
     real = type(solver)._run
 
-    def capture(self, system, t, y, hist, t_out, progress):
-        captured["args"] = (system, t, y.copy(), hist.copy(), t_out)
-        return real(self, system, t, y, hist, t_out, progress)
+    def capture(self, system, t, y, hist, t_out, progress, log_from, n_dense, ctl, prep):
+        captured["args"] = (system, t, y.copy(), hist.copy(), t_out, log_from, n_dense, prep)
+        return real(self, system, t, y, hist, t_out, progress, log_from, n_dense, ctl, prep)
 
     type(solver)._run = capture
     try:
         simulate(scene)
     finally:
         type(solver)._run = real
-    system, t, y, hist, t_out = captured["args"]
+    system, t, y, hist, t_out, log_from, n_dense, prep = captured["args"]
+    extra = {} if prep is None else {"prep": prep}  # what _run passes (_before's result)
     ctl = np.zeros(2, dtype=np.int64)
     a_times, b_times = [], []
     for _ in range(args.reps):
         t0 = time.perf_counter()
-        ra = solver._run(system, t, y.copy(), hist.copy(), t_out, None)
+        ra = solver._run(system, t, y.copy(), hist.copy(), t_out, None, log_from, n_dense,
+                         ctl.copy(), prep)
         a_times.append(time.perf_counter() - t0)
         t0 = time.perf_counter()
-        rb = solver._advance(system, t, y.copy(), hist.copy(), t_out, ctl.copy())
+        rb = solver._advance(system, t, y.copy(), hist.copy(), t_out, ctl.copy(), log_from,
+                             n_dense, **extra)
         b_times.append(time.perf_counter() - t0)
         assert all(np.array_equal(p, q) for p, q in zip(ra[:3], rb[:3]))
     ma, mb = statistics.median(a_times), statistics.median(b_times)
