@@ -12,7 +12,7 @@ Usage::
 
     python tools/profile_sample.py                 # the default list below
     python tools/profile_sample.py --rounds 5 \\
-        mechrel.simulation.run:_simulate mechrel.integrate.radau:radau5_kernel
+        mechrel.simulation.run:_window_values mechrel.integrate.radau:radau5_kernel
 
 A name is ``module:attribute`` (``Class.method`` allowed), the module being the one whose
 global the caller looks up (``mechrel.simulation.run:assemble_positions``, not
@@ -31,8 +31,9 @@ DEFAULT = (
     "mechrel.uq.problem.mechanism:MechanismModel._in_steps",
     "mechrel.simulation.prepared:PreparedScene.at",
     "mechrel.scene._values:SceneValues.validate",
-    "mechrel.simulation.run:_simulate",
-    "mechrel.integrate.base:Integrator.integrate",
+    "mechrel.integrate.base:Integrator._run",
+    "mechrel.integrate.radau:Radau._before",
+    "mechrel.integrate.radau:Radau._after",
     "mechrel.integrate.radau:radau5_kernel",
     "mechrel.integrate.radau:reduced_system",
     "mechrel.integrate.radau:_finish_reduced",
