@@ -476,3 +476,40 @@ def test_an_interrupt_in_a_step_group_stops_the_batch_at_once(monkeypatch, how):
     assert n == 4 and ok.all() and Y.shape[0] == 4
     monkeypatch.setattr(radau, "radau5_kernel", kernel)
     assert np.array_equal(Y, model.evaluate_batch(X[:4]))
+
+
+def test_a_step_group_holds_at_most_step_bytes_of_kernel_outputs(monkeypatch):
+    # the kernels of a group run back to back until their outputs (the solution logs) pass
+    # STEP_BYTES; then those rows take their last steps before the next kernels run. With room
+    # for all, four kernels then four last steps; with room for none, kernel and last steps
+    # row by row (a dry nine-bar's log is 60 MB); the numbers are the same
+    import mechrel.integrate.radau as radau
+    import mechrel.simulation.run as run
+
+    model = MechanismModel("slider-crank-lubricated", ["joints.C.clearance"],
+                           quantities=["velocity"], angle_step=90.0, cycles=1)
+    model.STEP_ROWS = 4
+    X = np.linspace(3e-4, 5e-4, 4)[:, None]
+    kernel, last = radau.radau5_kernel, run._window_values
+    order = []
+
+    def kernel_logged(*a):
+        order.append("kernel")
+        return kernel(*a)
+
+    def last_logged(*a):
+        order.append("last")
+        return last(*a)
+
+    monkeypatch.setattr(radau, "radau5_kernel", kernel_logged)
+    monkeypatch.setattr(run, "_window_values", last_logged)
+    got = {}
+    for budget in (2**40, 0):
+        model.STEP_BYTES = budget
+        order.clear()
+        got[budget] = model.evaluate_batch(X)
+        if budget:
+            assert order == ["kernel"] * 4 + ["last"] * 4
+        else:
+            assert order == ["kernel", "last"] * 4
+    assert np.array_equal(got[0], got[2**40])

@@ -755,40 +755,48 @@ class MechanismModel:
             raise RowFailures(Y, reasons)
         return Y
 
-    #: Rows of a batch whose runs go step by step together (:meth:`_in_steps`): each holds
-    #: its integration's outputs (0.75 MB for the main study, mostly the log of its last
-    #: cycle for the extremes) until its last step has run. The first row of a group runs
-    #: each step with cold caches: 16 rows gave 0.79 ms of Python a sample, 8 rows 0.85 ms,
-    #: 4 rows 0.92 ms (docs/dev/performance-log.md, 2026-11-29 evening).
+    #: Rows of a batch whose runs go step by step together (:meth:`_in_steps`). The first row
+    #: of a group runs each step with cold caches: 16 rows gave 0.79 ms of Python a sample,
+    #: 8 rows 0.85 ms, 4 rows 0.92 ms (docs/dev/performance-log.md, 2026-11-29 evening).
     STEP_ROWS = 16
+    #: Bytes of the kernels' outputs a group holds at most (plus one row's) before the rows
+    #: whose kernels have run take their last steps: a row holds its run's outputs and
+    #: solution log until then, 0.75 MB for the main study (16 rows: 12 MB) but 60 MB for the
+    #: dry nine-bar's two cycles, whose rows then run one by one.
+    STEP_BYTES = 32 * 2**20
 
     def _in_steps(self, rows, ready) -> dict:
         """The outputs of ``rows`` (or what each raised), their runs' steps
         (:func:`~mechrel.simulation.sample_steps`) taken for all of them in turn: every
-        row's steps up to its integration, the integrations, then every row's last steps.
-        What a row's step raises is that row's (an ``Exception``, raised when the row's turn
-        comes; an interrupt, also one inside a compiled callback, ends the group at once)."""
+        row's steps up to its kernel, the kernels back to back, then every row's last steps
+        (the kernels in turns of at most :attr:`STEP_BYTES` of outputs, each turn's rows
+        finished before the next). What a row's step raises is that row's (an
+        ``Exception``, raised when the row's turn comes; an interrupt, also one inside a
+        compiled callback, ends the group at once)."""
         done: dict[int, object] = {}
-        running = {}
+        paused = []  # (row, its steps, its kernel)
         for i in rows:
             steps = self._steps(ready[i])
             try:
-                running[i] = (steps, steps.send(None))
+                paused.append((i, steps, steps.send(None)))
             except StopIteration as stop:
                 done[i] = stop.value
             except Exception as exc:  # noqa: BLE001 - the row's failure (evaluate_rows sorts)
                 done[i] = _unless_interrupt(exc)
-        while running:
-            sent = {}
-            for i, (steps, work) in running.items():  # the integrations, back to back
+        while paused:
+            ran, held = [], 0
+            while paused and held <= self.STEP_BYTES:  # kernels back to back
+                i, steps, work = paused.pop(0)
                 try:
-                    sent[i] = (steps, steps.send, work())
+                    value = work()
                 except Exception as exc:  # noqa: BLE001 - thrown into the row's steps
-                    sent[i] = (steps, steps.throw, _unless_interrupt(exc))
-            running = {}
-            for i, (steps, resume, value) in sent.items():
+                    ran.append((i, steps, steps.throw, _unless_interrupt(exc)))
+                else:
+                    ran.append((i, steps, steps.send, value))
+                    held += _nbytes(value)
+            for i, steps, resume, value in ran:  # then their rows' next steps
                 try:
-                    running[i] = (steps, resume(value))
+                    paused.append((i, steps, resume(value)))
                 except StopIteration as stop:
                     done[i] = stop.value
                 except Exception as exc:  # noqa: BLE001
@@ -897,6 +905,15 @@ class _Samples:
         return (yield from sample_steps(scene, solver, reference=reference,
                                         extremes=model.with_extremes, sectors=sectors,
                                         compiled=compiled, q0=q0))
+
+
+def _nbytes(value) -> int:
+    """Bytes of the arrays in ``value`` (nested tuples and lists of them)."""
+    if isinstance(value, np.ndarray):
+        return value.nbytes
+    if isinstance(value, (tuple, list)):
+        return sum(_nbytes(v) for v in value)
+    return 0
 
 
 def _unless_interrupt(exc: Exception) -> Exception:
