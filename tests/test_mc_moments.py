@@ -27,8 +27,8 @@ from mechrel.uq.estimators.monte_carlo import sample_moments
 
 def _c_pow4(x):
     """``pow(x, 4.0)`` of the C library, entry by entry (Python's ``math.pow`` calls it):
-    NumPy's ``x**4`` was this until NumPy 2.3, and is not in every build since (NumPy 2.4.6 on
-    an AVX-512 machine differs by one ulp at 2.7 % of the entries)."""
+    NumPy's ``x**4`` was this where the moments were written, and is not in every build (NumPy
+    2.4.6 on an AVX-512 machine differs by one ulp at 2.7 % of the entries)."""
     def pow4(v):
         try:
             return math.pow(v, 4.0)

@@ -3,9 +3,9 @@ formulas Monte Carlo has always used.
 
 :func:`column_moments` returns, per column of ``Y`` (rows: samples), the mean, the unbiased
 variance, the fourth central moment ``mean((y − ȳ)**4)`` (the power being the C library's
-``pow``, which NumPy's ``power`` was until NumPy 2.3; see below), and the bias-corrected skewness and excess kurtosis of
-``scipy.stats.skew(Y, bias=False)`` and ``scipy.stats.kurtosis(Y, bias=False)``. The numbers
-are those bits, not approximations of them: SciPy computes each moment on its own (it centres
+``pow``, which NumPy's ``power`` was where these formulas were written; see below), and the
+bias-corrected skewness and excess kurtosis of ``scipy.stats.skew(Y, bias=False)`` and
+``scipy.stats.kurtosis(Y, bias=False)``. The numbers are those bits, not approximations of them: SciPy computes each moment on its own (it centres
 the array four times and raises it to powers again, a second per 10⁶×8 array); here the
 centred value of each entry is formed once and every sum taken from it, in the order NumPy
 and SciPy sum (see below), and the closing formulas are SciPy's, operation by operation
